@@ -1,0 +1,387 @@
+//! A scene evaluated at one time: world-space triangles, lights and camera.
+//!
+//! Renderers never walk the hierarchy themselves; they ask [`Scene::evaluate`] for a
+//! [`SceneFrame`] and trace against its flat triangle list.
+
+use glam::{Mat4, Quat, Vec2, Vec3, Vec3A};
+use obvhs::triangle::Triangle;
+
+use crate::model::{
+    Animation, CameraPath, Channel, ChannelValues, Interpolation, LightKind, Scene, Sky,
+};
+
+/// Shading attributes of one world-space triangle (index-aligned with
+/// [`SceneFrame::triangles`]).
+#[derive(Clone, Copy, Debug)]
+pub struct TriangleAttributes {
+    /// World-space vertex normals (unit length).
+    pub normals: [Vec3; 3],
+    pub uvs: [Vec2; 3],
+    pub material: u32,
+    /// Node that instanced this triangle's mesh.
+    pub node: u32,
+}
+
+/// A punctual light in world space.
+#[derive(Clone, Copy, Debug)]
+pub struct WorldLight {
+    pub kind: LightKind,
+    pub position: Vec3,
+    /// Unit direction the light shines along (the node's -Z axis).
+    pub direction: Vec3,
+    /// `color * intensity`: W/sr for point and spot, W/m^2 for directional.
+    pub intensity: Vec3,
+    pub range: Option<f32>,
+}
+
+impl WorldLight {
+    /// Radiance-like contribution arriving at `point`, without visibility or cosine: returns
+    /// the unit direction from `point` towards the light, the distance (infinite for
+    /// directional lights) and the irradiance on a surface facing the light.
+    /// Falloff and spot cone follow the glTF KHR_lights_punctual recommendations.
+    pub fn incident(&self, point: Vec3) -> (Vec3, f32, Vec3) {
+        match self.kind {
+            LightKind::Directional => (-self.direction, f32::INFINITY, self.intensity),
+            LightKind::Point | LightKind::Spot { .. } => {
+                let to_light = self.position - point;
+                let distance_sq = to_light.length_squared().max(1e-8);
+                let distance = distance_sq.sqrt();
+                let wi = to_light / distance;
+                let mut falloff = 1.0 / distance_sq;
+                if let Some(range) = self.range {
+                    let ratio = distance / range;
+                    falloff *= (1.0 - ratio.powi(4)).clamp(0.0, 1.0).powi(2);
+                }
+                if let LightKind::Spot {
+                    inner_cone_angle,
+                    outer_cone_angle,
+                } = self.kind
+                {
+                    let cos_outer = outer_cone_angle.cos();
+                    let scale = 1.0 / (inner_cone_angle.cos() - cos_outer).max(1e-3);
+                    let cd = self.direction.dot(-wi);
+                    falloff *= ((cd - cos_outer) * scale).clamp(0.0, 1.0).powi(2);
+                }
+                (wi, distance, self.intensity * falloff)
+            }
+        }
+    }
+}
+
+/// A pinhole camera in world space.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct CameraView {
+    pub position: Vec3,
+    /// Unit view axes in world space: right (+X), up (+Y), forward (-Z of the camera).
+    pub right: Vec3,
+    pub up: Vec3,
+    pub forward: Vec3,
+    /// Vertical field of view in radians.
+    pub yfov: f32,
+}
+
+impl CameraView {
+    /// A camera at `position` looking at `target` with world +Y as up (falls back to +Z when
+    /// looking straight up or down).
+    pub fn look_at(position: Vec3, target: Vec3, yfov: f32) -> Self {
+        let forward = (target - position).normalize_or(Vec3::NEG_Z);
+        let up_hint = if forward.cross(Vec3::Y).length_squared() < 1e-8 {
+            Vec3::Z
+        } else {
+            Vec3::Y
+        };
+        let right = forward.cross(up_hint).normalize();
+        let up = right.cross(forward);
+        Self {
+            position,
+            right,
+            up,
+            forward,
+            yfov,
+        }
+    }
+
+    /// From a node's world transform (camera looks down its -Z axis).
+    pub fn from_world_transform(world_from_camera: &Mat4, yfov: f32) -> Self {
+        let (_, rotation, position) = world_from_camera.to_scale_rotation_translation();
+        Self {
+            position,
+            right: (rotation * Vec3::X).normalize(),
+            up: (rotation * Vec3::Y).normalize(),
+            forward: (rotation * Vec3::NEG_Z).normalize(),
+            yfov,
+        }
+    }
+
+    /// Unit world direction through the film point `(u, v)` in [0,1]^2, u to the right and
+    /// v downwards (pixel (x, y) center is `((x + 0.5) / w, (y + 0.5) / h)`).
+    pub fn ray_direction(&self, u: f32, v: f32, aspect: f32) -> Vec3 {
+        let tan_half = (self.yfov * 0.5).tan();
+        let x = (2.0 * u - 1.0) * tan_half * aspect;
+        let y = (1.0 - 2.0 * v) * tan_half;
+        (self.forward + x * self.right + y * self.up).normalize()
+    }
+}
+
+/// The scene at one instant, flattened to world space.
+#[derive(Clone, Debug)]
+pub struct SceneFrame {
+    pub time_s: f32,
+    /// World-space triangles (the BVH primitives).
+    pub triangles: Vec<Triangle>,
+    pub attributes: Vec<TriangleAttributes>,
+    pub lights: Vec<WorldLight>,
+    pub camera: CameraView,
+    pub sky: Sky,
+    pub exposure: f32,
+    /// World transform of every node at this time.
+    pub world_from_node: Vec<Mat4>,
+}
+
+impl Scene {
+    /// Time of frame `index` when a render advances time.
+    pub fn frame_time(&self, index: u32) -> f32 {
+        index as f32 * self.frame_time_s
+    }
+
+    /// Local transforms of every node at `time_s`, with animations applied (each animation
+    /// loops over its own duration).
+    pub fn local_transforms(&self, time_s: f32) -> Vec<(Vec3, Quat, Vec3)> {
+        let mut trs: Vec<_> = self
+            .nodes
+            .iter()
+            .map(|n| (n.translation, n.rotation, n.scale))
+            .collect();
+        for animation in &self.animations {
+            let duration = animation_duration(animation);
+            let t = if duration > 0.0 {
+                time_s.rem_euclid(duration)
+            } else {
+                0.0
+            };
+            for channel in &animation.channels {
+                if let Some(slot) = trs.get_mut(channel.node) {
+                    apply_channel(channel, t, slot);
+                }
+            }
+        }
+        trs
+    }
+
+    /// World transform of every node at `time_s`.
+    pub fn world_transforms(&self, time_s: f32) -> Vec<Mat4> {
+        let local = self.local_transforms(time_s);
+        let mut world: Vec<Option<Mat4>> = vec![None; self.nodes.len()];
+        for index in 0..self.nodes.len() {
+            resolve_world(self, &local, &mut world, index, 0);
+        }
+        world.into_iter().map(|m| m.unwrap_or(Mat4::IDENTITY)).collect()
+    }
+
+    /// True when anything in the scene moves over time.
+    pub fn is_animated(&self) -> bool {
+        self.animations.iter().any(|a| !a.channels.is_empty())
+    }
+
+    /// The default camera at `time_s`: the default camera node if any, else a view of the
+    /// whole scene's bounds from the +Z side.
+    pub fn default_view(&self, time_s: f32) -> CameraView {
+        let world = self.world_transforms(time_s);
+        self.default_view_with(&world)
+    }
+
+    fn default_view_with(&self, world: &[Mat4]) -> CameraView {
+        if let Some(node) = self.default_camera_node
+            && let Some(camera) = self.nodes.get(node).and_then(|n| n.camera)
+            && let Some(camera) = self.cameras.get(camera)
+        {
+            return CameraView::from_world_transform(&world[node], camera.yfov);
+        }
+        self.fallback_view(world)
+    }
+
+    /// A view framing the scene's bounding box, used when the scene has no camera.
+    pub fn fallback_view(&self, world: &[Mat4]) -> CameraView {
+        let (mut min, mut max) = (Vec3::splat(f32::MAX), Vec3::splat(f32::MIN));
+        for (node, world_from_node) in self.nodes.iter().zip(world) {
+            let Some(mesh) = node.mesh.and_then(|m| self.meshes.get(m)) else {
+                continue;
+            };
+            for p in mesh.primitives.iter().flat_map(|p| &p.positions) {
+                let wp = world_from_node.transform_point3(*p);
+                min = min.min(wp);
+                max = max.max(wp);
+            }
+        }
+        if min.x > max.x {
+            return CameraView::look_at(Vec3::new(0.0, 0.0, 5.0), Vec3::ZERO, 0.8);
+        }
+        let center = (min + max) * 0.5;
+        let radius = ((max - min).length() * 0.5).max(1e-3);
+        let yfov = 0.8f32;
+        let distance = radius / (yfov * 0.5).sin();
+        CameraView::look_at(center + Vec3::new(0.0, 0.0, distance), center, yfov)
+    }
+
+    /// The camera of the scene's camera path at `time_s`, or the default view if it has none.
+    pub fn path_view(&self, time_s: f32) -> CameraView {
+        match &self.camera_path {
+            Some(path) if !path.keys.is_empty() => path.view(time_s),
+            _ => self.default_view(time_s),
+        }
+    }
+
+    /// Flatten the scene at `time_s` into world space, viewed through `camera`
+    /// (`None`: the default camera).
+    pub fn evaluate(&self, time_s: f32, camera: Option<CameraView>) -> SceneFrame {
+        let world_from_node = self.world_transforms(time_s);
+        let mut triangles = Vec::new();
+        let mut attributes = Vec::new();
+        for (node_index, node) in self.nodes.iter().enumerate() {
+            let Some(mesh) = node.mesh.and_then(|m| self.meshes.get(m)) else {
+                continue;
+            };
+            let world = world_from_node[node_index];
+            let normal_matrix = world.inverse().transpose();
+            // A mirroring transform flips the winding; keep geometric normals facing the same
+            // side as the authored ones.
+            let flips = world.determinant() < 0.0;
+            for primitive in &mesh.primitives {
+                let positions: Vec<Vec3> = primitive
+                    .positions
+                    .iter()
+                    .map(|p| world.transform_point3(*p))
+                    .collect();
+                let normals: Vec<Vec3> = primitive
+                    .normals
+                    .iter()
+                    .map(|n| normal_matrix.transform_vector3(*n).normalize_or(Vec3::Y))
+                    .collect();
+                for tri in primitive.indices.chunks_exact(3) {
+                    let mut idx = [tri[0] as usize, tri[1] as usize, tri[2] as usize];
+                    if flips {
+                        idx.swap(1, 2);
+                    }
+                    let [a, b, c] = idx.map(|i| positions[i]);
+                    triangles.push(Triangle {
+                        v0: Vec3A::from(a),
+                        v1: Vec3A::from(b),
+                        v2: Vec3A::from(c),
+                    });
+                    let uv = |i: usize| primitive.uvs.get(i).copied().unwrap_or(Vec2::ZERO);
+                    attributes.push(TriangleAttributes {
+                        normals: idx.map(|i| normals[i]),
+                        uvs: idx.map(uv),
+                        material: primitive.material as u32,
+                        node: node_index as u32,
+                    });
+                }
+            }
+        }
+        let lights = self
+            .nodes
+            .iter()
+            .enumerate()
+            .filter_map(|(i, node)| {
+                let light = self.lights.get(node.light?)?;
+                let world = world_from_node[i];
+                Some(WorldLight {
+                    kind: light.kind,
+                    position: world.transform_point3(Vec3::ZERO),
+                    direction: world.transform_vector3(Vec3::NEG_Z).normalize_or(Vec3::NEG_Y),
+                    intensity: light.color * light.intensity,
+                    range: light.range,
+                })
+            })
+            .collect();
+        let camera = camera.unwrap_or_else(|| self.default_view_with(&world_from_node));
+        SceneFrame {
+            time_s,
+            triangles,
+            attributes,
+            lights,
+            camera,
+            sky: self.sky,
+            exposure: self.exposure,
+            world_from_node,
+        }
+    }
+}
+
+impl CameraPath {
+    /// The interpolated view at `time_s` (held at the first and last key).
+    pub fn view(&self, time_s: f32) -> CameraView {
+        let keys = &self.keys;
+        let index = keys.partition_point(|k| k.time_s <= time_s);
+        let (position, target) = if index == 0 {
+            (keys[0].position, keys[0].target)
+        } else if index >= keys.len() {
+            let last = keys[keys.len() - 1];
+            (last.position, last.target)
+        } else {
+            let (a, b) = (keys[index - 1], keys[index]);
+            let f = ((time_s - a.time_s) / (b.time_s - a.time_s).max(1e-6)).clamp(0.0, 1.0);
+            (a.position.lerp(b.position, f), a.target.lerp(b.target, f))
+        };
+        CameraView::look_at(position, target, self.yfov)
+    }
+}
+
+fn animation_duration(animation: &Animation) -> f32 {
+    animation
+        .channels
+        .iter()
+        .filter_map(|c| c.times.last().copied())
+        .fold(0.0, f32::max)
+}
+
+fn apply_channel(channel: &Channel, t: f32, slot: &mut (Vec3, Quat, Vec3)) {
+    let times = &channel.times;
+    if times.is_empty() {
+        return;
+    }
+    // Key interval [i, i + 1] containing t, and the blend factor inside it.
+    let next = times.partition_point(|&k| k <= t);
+    let (i, j, f) = if next == 0 {
+        (0, 0, 0.0)
+    } else if next >= times.len() {
+        (times.len() - 1, times.len() - 1, 0.0)
+    } else {
+        let (a, b) = (times[next - 1], times[next]);
+        let f = match channel.interpolation {
+            Interpolation::Step => 0.0,
+            Interpolation::Linear => ((t - a) / (b - a).max(1e-9)).clamp(0.0, 1.0),
+        };
+        (next - 1, next, f)
+    };
+    match &channel.values {
+        ChannelValues::Translation(v) if j < v.len() => slot.0 = v[i].lerp(v[j], f),
+        ChannelValues::Rotation(v) if j < v.len() => slot.1 = v[i].slerp(v[j], f).normalize(),
+        ChannelValues::Scale(v) if j < v.len() => slot.2 = v[i].lerp(v[j], f),
+        _ => {}
+    }
+}
+
+/// Computes node `index`'s world transform; `depth` guards against parent cycles, which the
+/// importer rejects but hand-built scenes could contain.
+fn resolve_world(
+    scene: &Scene,
+    local: &[(Vec3, Quat, Vec3)],
+    world: &mut [Option<Mat4>],
+    index: usize,
+    depth: usize,
+) -> Mat4 {
+    if let Some(m) = world[index] {
+        return m;
+    }
+    let (t, r, s) = local[index];
+    let local_matrix = Mat4::from_scale_rotation_translation(s, r, t);
+    let matrix = match scene.nodes[index].parent {
+        Some(parent) if parent < scene.nodes.len() && depth < scene.nodes.len() => {
+            resolve_world(scene, local, world, parent, depth + 1) * local_matrix
+        }
+        _ => local_matrix,
+    };
+    world[index] = Some(matrix);
+    matrix
+}

@@ -1,0 +1,24 @@
+//! Scene model, glTF import and export, the bundled scene generators, and the BVH.
+//!
+//! Load a scene by bundled name or path with [`load`], evaluate it at a time with
+//! [`Scene::evaluate`], and trace rays against the result with [`SceneBvh`].
+
+mod bundled;
+mod bvh;
+mod error;
+mod export;
+mod frame;
+pub mod generate;
+mod import;
+mod model;
+
+pub use bundled::{BUNDLED_SCENES, bundled_scene_dir, load, resolve};
+pub use bvh::{Hit, SceneBvh};
+pub use error::SceneError;
+pub use export::write_gltf;
+pub use frame::{CameraView, SceneFrame, TriangleAttributes, WorldLight};
+pub use import::{ImportWarning, import_gltf, import_gltf_slice};
+pub use model::*;
+
+/// Re-exported so callers can name BVH primitives without depending on obvhs directly.
+pub use obvhs::triangle::Triangle;
