@@ -175,7 +175,10 @@ impl Scene {
         for index in 0..self.nodes.len() {
             resolve_world(self, &local, &mut world, index, 0);
         }
-        world.into_iter().map(|m| m.unwrap_or(Mat4::IDENTITY)).collect()
+        world
+            .into_iter()
+            .map(|m| m.unwrap_or(Mat4::IDENTITY))
+            .collect()
     }
 
     /// True when anything in the scene moves over time.
@@ -288,7 +291,9 @@ impl Scene {
                 Some(WorldLight {
                     kind: light.kind,
                     position: world.transform_point3(Vec3::ZERO),
-                    direction: world.transform_vector3(Vec3::NEG_Z).normalize_or(Vec3::NEG_Y),
+                    direction: world
+                        .transform_vector3(Vec3::NEG_Z)
+                        .normalize_or(Vec3::NEG_Y),
                     intensity: light.color * light.intensity,
                     range: light.range,
                 })

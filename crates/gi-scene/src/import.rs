@@ -1,7 +1,27 @@
-//! glTF 2.0 import (.gltf and .glb). (Being written.)
+//! glTF 2.0 import (.gltf with external or embedded data, and .glb).
+//!
+//! The gltf crate parses and validates the JSON. The importer then reads the validated JSON
+//! directly instead of going through the crate's convenience wrappers and accessor iterators:
+//! those unwrap values that validation does not fully cover (camera projections, image sources,
+//! accessor ranges), and no input file may panic the product. Everything the scene model cannot
+//! represent is either converted (strips, fans, cubic splines, missing normals) or skipped with
+//! an [`ImportWarning`].
+
+mod animation;
+mod buffers;
+mod extras;
+mod material;
+mod mesh;
+mod nodes;
+
+use std::collections::HashSet;
 use std::path::Path;
 
-use crate::{Scene, SceneError};
+use gltf::json;
+use gltf::json::validation::{Checked, Validate};
+
+use crate::{Animation, Scene, SceneError};
+use buffers::Buffers;
 
 /// A non-fatal problem found while importing (an unsupported feature that was ignored).
 #[derive(Clone, Debug, PartialEq, Eq)]
@@ -13,17 +33,302 @@ impl std::fmt::Display for ImportWarning {
     }
 }
 
-/// Imports a `.gltf` or `.glb` file.
-pub fn import_gltf(path: &Path) -> Result<(Scene, Vec<ImportWarning>), SceneError> {
-    let _ = path;
-    todo!()
+/// Imports a `.gltf` or `.glb` file; relative URIs resolve against the file's folder.
+pub fn import_gltf(path: &Path) -> std::result::Result<(Scene, Vec<ImportWarning>), SceneError> {
+    let bytes = std::fs::read(path).map_err(|source| SceneError::Io {
+        path: path.to_path_buf(),
+        source,
+    })?;
+    import_gltf_slice(&bytes, path)
 }
 
 /// Imports glTF or GLB bytes; `base` names the file in errors and resolves relative URIs.
 pub fn import_gltf_slice(
     bytes: &[u8],
     base: &Path,
-) -> Result<(Scene, Vec<ImportWarning>), SceneError> {
-    let _ = (bytes, base);
-    todo!()
+) -> std::result::Result<(Scene, Vec<ImportWarning>), SceneError> {
+    let mut warnings = Warnings::default();
+    match import(bytes, base, &mut warnings) {
+        Ok(scene) => Ok((scene, warnings.list)),
+        Err(Failure::Malformed(message)) => Err(SceneError::Gltf {
+            path: base.to_path_buf(),
+            message,
+        }),
+        Err(Failure::Unusable(message)) => Err(SceneError::Invalid {
+            path: base.to_path_buf(),
+            message,
+        }),
+    }
+}
+
+/// Why an import failed, before the file name is attached.
+enum Failure {
+    /// Not valid glTF: becomes [`SceneError::Gltf`].
+    Malformed(String),
+    /// Valid glTF the product cannot use: becomes [`SceneError::Invalid`].
+    Unusable(String),
+}
+
+type Result<T> = std::result::Result<T, Failure>;
+
+fn malformed(message: impl Into<String>) -> Failure {
+    Failure::Malformed(message.into())
+}
+
+fn unusable(message: impl Into<String>) -> Failure {
+    Failure::Unusable(message.into())
+}
+
+/// Collects warnings, reporting each unsupported feature once per file.
+#[derive(Default)]
+struct Warnings {
+    list: Vec<ImportWarning>,
+    seen: HashSet<String>,
+}
+
+impl Warnings {
+    /// Records `message()` unless a warning with the same `key` was recorded before.
+    fn once(&mut self, key: &str, message: impl FnOnce() -> String) {
+        if self.seen.insert(key.to_string()) {
+            self.list.push(ImportWarning(message()));
+        }
+    }
+}
+
+/// The parsed document, its loaded buffers and the folder its relative URIs start from.
+struct Source<'a> {
+    root: &'a json::Root,
+    buffers: Buffers<'a>,
+    dir: &'a Path,
+}
+
+/// Extensions the importer implements; a file may require only these.
+const SUPPORTED_EXTENSIONS: &[&str] = &[
+    "KHR_lights_punctual",
+    "KHR_materials_emissive_strength",
+    "KHR_mesh_quantization",
+];
+
+fn import(bytes: &[u8], base: &Path, warnings: &mut Warnings) -> Result<Scene> {
+    let gltf::Gltf { document, blob } = parse(bytes)?;
+    let root = document.as_json();
+    warn_ignored_extensions(root, warnings);
+    let dir = base.parent().unwrap_or(Path::new(""));
+    let source = Source {
+        root,
+        buffers: Buffers::load(root, blob, dir)?,
+        dir,
+    };
+
+    let scene_json = match root.scene {
+        Some(index) => Some(
+            root.scenes
+                .get(index.value())
+                .ok_or_else(|| malformed(format!("scene {} does not exist", index.value())))?,
+        ),
+        None => root.scenes.first(),
+    };
+    let roots = match scene_json {
+        Some(scene) => scene.nodes.iter().map(|n| n.value()).collect(),
+        None => nodes::parentless_nodes(root),
+    };
+    let settings = extras::scene_settings(scene_json.map(|s| &s.extras), warnings)?;
+
+    let mut scene = Scene {
+        name: base
+            .file_stem()
+            .map(|s| s.to_string_lossy().into_owned())
+            .unwrap_or_default(),
+        sky: settings.sky,
+        exposure: settings.exposure,
+        frame_time_s: settings.frame_time_s,
+        camera_path: settings.camera_path,
+        ..Scene::default()
+    };
+    let camera_map = nodes::import_cameras(root, &mut scene, warnings)?;
+    let light_map = nodes::import_lights(root, &mut scene, warnings)?;
+
+    // Nodes in depth-first order; `node_map[file index]` is the model index.
+    let order = nodes::depth_first(root, &roots)?;
+    let mut node_map = vec![None; root.nodes.len()];
+    for (model_index, &(file_index, _)) in order.iter().enumerate() {
+        node_map[file_index] = Some(model_index);
+    }
+    let mut mesh_map = vec![None; root.meshes.len()];
+    let mut materials = material::Materials::new(root.materials.len());
+    for &(file_index, parent) in &order {
+        let json_node = &root.nodes[file_index];
+        let mut node = nodes::import_node(json_node, file_index)?;
+        node.parent = parent.and_then(|p| node_map[p]);
+        node.camera = match json_node.camera {
+            Some(c) => *camera_map.get(c.value()).ok_or_else(|| {
+                malformed(format!("nodes[{file_index}]: no camera {}", c.value()))
+            })?,
+            None => None,
+        };
+        if let Some(ext) = json_node
+            .extensions
+            .as_ref()
+            .and_then(|e| e.khr_lights_punctual.as_ref())
+        {
+            let light = ext.light.value();
+            node.light = Some(
+                *light_map
+                    .get(light)
+                    .ok_or_else(|| malformed(format!("nodes[{file_index}]: no light {light}")))?,
+            );
+        }
+        if let Some(mesh) = json_node.mesh {
+            let slot = mesh_map.get_mut(mesh.value()).ok_or_else(|| {
+                malformed(format!("nodes[{file_index}]: no mesh {}", mesh.value()))
+            })?;
+            if slot.is_none() {
+                let imported =
+                    mesh::import_mesh(&source, mesh.value(), &mut materials, &mut scene, warnings)?;
+                scene.meshes.push(imported);
+                *slot = Some(scene.meshes.len() - 1);
+            }
+            node.mesh = *slot;
+        }
+        if json_node.skin.is_some() {
+            warnings.once("skin", || {
+                "skinning is not supported; skinned meshes are drawn in their bind pose".into()
+            });
+        }
+        scene.nodes.push(node);
+    }
+
+    scene.animations = animation::import_animations(&source, &node_map, warnings)?;
+    for (model_index, &(file_index, _)) in order.iter().enumerate() {
+        let node = &scene.nodes[model_index];
+        let label = if node.name.is_empty() {
+            format!("node {file_index}")
+        } else {
+            node.name.clone()
+        };
+        if let Some(path) = extras::node_path(
+            &root.nodes[file_index].extras,
+            &label,
+            model_index,
+            warnings,
+        )? {
+            scene.animations.push(Animation {
+                name: label,
+                channels: vec![path],
+            });
+        }
+    }
+
+    scene.default_camera_node = match &settings.camera {
+        Some(name) => Some(
+            scene
+                .nodes
+                .iter()
+                .position(|n| &n.name == name && n.camera.is_some())
+                .ok_or_else(|| {
+                    unusable(format!(
+                        "scene extras: gi.camera names \"{name}\", which is not a node with a perspective camera in the scene"
+                    ))
+                })?,
+        ),
+        None => scene.nodes.iter().position(|n| n.camera.is_some()),
+    };
+
+    let triangles: usize = scene
+        .nodes
+        .iter()
+        .filter_map(|n| n.mesh)
+        .flat_map(|m| &scene.meshes[m].primitives)
+        .map(|p| p.indices.len() / 3)
+        .sum();
+    if triangles == 0 {
+        return Err(unusable("the scene has no triangles"));
+    }
+    Ok(scene)
+}
+
+/// Parses and validates the document, turning every problem into an error.
+fn parse(bytes: &[u8]) -> Result<gltf::Gltf> {
+    // Checked here because the gltf crate subtracts the header size from the declared length
+    // without a bound check, and reports truncation without numbers.
+    if bytes.starts_with(b"glTF") && bytes.len() >= 12 {
+        let length = u32::from_le_bytes([bytes[8], bytes[9], bytes[10], bytes[11]]);
+        if length < 12 {
+            return Err(malformed(format!(
+                "GLB header declares an impossible length of {length} bytes"
+            )));
+        }
+        if length as usize > bytes.len() {
+            return Err(malformed(format!(
+                "GLB is truncated: its header declares a length of {length} bytes, the data has {}",
+                bytes.len()
+            )));
+        }
+    }
+    let gltf =
+        gltf::Gltf::from_slice_without_validation(bytes).map_err(|e| malformed(e.to_string()))?;
+    let root = gltf.document.as_json();
+
+    // The crate's validation looks up each POSITION accessor without a bounds check.
+    for (m, mesh) in root.meshes.iter().enumerate() {
+        for (p, primitive) in mesh.primitives.iter().enumerate() {
+            if let Some(index) = primitive
+                .attributes
+                .get(&Checked::Valid(json::mesh::Semantic::Positions))
+                && index.value() >= root.accessors.len()
+            {
+                return Err(malformed(format!(
+                    "meshes[{m}].primitives[{p}].attributes.POSITION: accessor {} does not exist",
+                    index.value()
+                )));
+            }
+        }
+    }
+
+    let mut problems = Vec::new();
+    root.validate(root, json::Path::new, &mut |path, error| {
+        let path = path();
+        // Required extensions are checked below against what this importer supports.
+        if !path.as_str().starts_with("extensionsRequired") {
+            problems.push(format!("{path}: {error}"));
+        }
+    });
+    if !problems.is_empty() {
+        let shown = problems.len().min(5);
+        let more = if problems.len() > shown {
+            format!(" (and {} more)", problems.len() - shown)
+        } else {
+            String::new()
+        };
+        return Err(malformed(format!("{}{more}", problems[..shown].join("; "))));
+    }
+    if let Some(ext) = root
+        .extensions_required
+        .iter()
+        .find(|e| !SUPPORTED_EXTENSIONS.contains(&e.as_str()))
+    {
+        return Err(unusable(format!(
+            "the file requires extension {ext}, which is not supported"
+        )));
+    }
+    Ok(gltf)
+}
+
+/// One warning per used extension the importer ignores.
+fn warn_ignored_extensions(root: &json::Root, warnings: &mut Warnings) {
+    for ext in &root.extensions_used {
+        if SUPPORTED_EXTENSIONS.contains(&ext.as_str()) {
+            continue;
+        }
+        let message = if ext == "KHR_texture_transform" {
+            "texture transforms (KHR_texture_transform) are not supported; textures are sampled untransformed".to_string()
+        } else if ext.starts_with("KHR_materials_") {
+            format!(
+                "material extension {ext} is not supported; materials use the metallic-roughness core and emissive strength only"
+            )
+        } else {
+            format!("extension {ext} is not supported and is ignored")
+        };
+        warnings.once(ext, || message);
+    }
 }

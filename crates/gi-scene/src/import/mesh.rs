@@ -1,0 +1,230 @@
+//! Mesh primitives: triangle lists, strips and fans become indexed triangle lists with one
+//! unit normal per vertex.
+
+use glam::Vec3;
+use gltf::json;
+use gltf::json::mesh::{Mode, Semantic};
+use gltf::json::validation::Checked;
+
+use super::material::Materials;
+use super::{Result, Source, Warnings, malformed, unusable};
+use crate::{Mesh, Primitive, Scene};
+
+/// Imports file mesh `index` (its materials go through `materials`). Point and line
+/// primitives are skipped with a warning.
+pub(super) fn import_mesh(
+    source: &Source,
+    index: usize,
+    materials: &mut Materials,
+    scene: &mut Scene,
+    warnings: &mut Warnings,
+) -> Result<Mesh> {
+    let json = &source.root.meshes[index];
+    let mut mesh = Mesh {
+        name: json.name.clone().unwrap_or_else(|| format!("mesh {index}")),
+        primitives: Vec::new(),
+    };
+    for (p, primitive) in json.primitives.iter().enumerate() {
+        let label = format!("meshes[{index}].primitives[{p}]");
+        let Some(mut imported) = import_primitive(source, primitive, &label, warnings)? else {
+            continue;
+        };
+        let material = primitive.material.map(|m| m.value());
+        imported.material = materials.resolve(source, material, scene, warnings)?;
+        let m = &scene.materials[imported.material];
+        let textured = m.base_color_texture.is_some()
+            || m.metallic_roughness_texture.is_some()
+            || m.emissive_texture.is_some();
+        if textured && imported.uvs.is_empty() {
+            warnings.once("missing-uvs", || {
+                format!("{label}: textured material but no TEXCOORD_0; textures sample one texel")
+            });
+        }
+        mesh.primitives.push(imported);
+    }
+    Ok(mesh)
+}
+
+/// One primitive as an indexed triangle list, or `None` when it has no triangles.
+fn import_primitive(
+    source: &Source,
+    primitive: &json::mesh::Primitive,
+    label: &str,
+    warnings: &mut Warnings,
+) -> Result<Option<Primitive>> {
+    let mode = match primitive.mode {
+        Checked::Valid(mode) => mode,
+        Checked::Invalid => return Err(malformed(format!("{label} has an invalid mode"))),
+    };
+    if matches!(
+        mode,
+        Mode::Points | Mode::Lines | Mode::LineLoop | Mode::LineStrip
+    ) {
+        warnings.once("points-lines", || {
+            format!("{label}: point and line primitives are not supported; skipped")
+        });
+        return Ok(None);
+    }
+    let attribute = |semantic: Semantic| {
+        primitive
+            .attributes
+            .get(&Checked::Valid(semantic))
+            .map(|a| a.value())
+    };
+    let buffers = &source.buffers;
+    let position_label = format!("{label}.attributes.POSITION");
+    let position_accessor = attribute(Semantic::Positions)
+        .ok_or_else(|| malformed(format!("{position_label} is missing")))?;
+    let mut positions = buffers.vec3s(position_accessor, &position_label)?;
+    let vertex_count = positions.len();
+    if vertex_count == 0 {
+        return Ok(None);
+    }
+    let per_vertex = |what: &str, count: usize| {
+        if count == vertex_count {
+            Ok(())
+        } else {
+            Err(malformed(format!(
+                "{label}.attributes.{what} has {count} entries for {vertex_count} positions"
+            )))
+        }
+    };
+    let normals = match attribute(Semantic::Normals) {
+        Some(a) => Some(buffers.vec3s(a, &format!("{label}.attributes.NORMAL"))?),
+        None => None,
+    };
+    if let Some(n) = &normals {
+        per_vertex("NORMAL", n.len())?;
+    }
+    let mut uvs = match attribute(Semantic::TexCoords(0)) {
+        Some(a) => buffers.vec2s(a, &format!("{label}.attributes.TEXCOORD_0"))?,
+        None => Vec::new(),
+    };
+    if !uvs.is_empty() {
+        per_vertex("TEXCOORD_0", uvs.len())?;
+    }
+    if attribute(Semantic::Colors(0)).is_some() {
+        warnings.once("vertex-colors", || {
+            format!("{label}: vertex colors (COLOR_0) are not supported; ignored")
+        });
+    }
+    if primitive.targets.as_ref().is_some_and(|t| !t.is_empty()) {
+        warnings.once("morph-targets", || {
+            format!("{label}: morph targets are not supported; the base shape is used")
+        });
+    }
+
+    let vertices = match primitive.indices {
+        Some(accessor) => {
+            let indices_label = format!("{label}.indices");
+            let indices = buffers.indices(accessor.value(), &indices_label)?;
+            if let Some(bad) = indices.iter().find(|&&i| i as usize >= vertex_count) {
+                return Err(malformed(format!(
+                    "{indices_label}: index {bad} is out of range ({vertex_count} vertices)"
+                )));
+            }
+            indices
+        }
+        None => {
+            let count = u32::try_from(vertex_count)
+                .map_err(|_| unusable(format!("{label} has too many vertices")))?;
+            (0..count).collect()
+        }
+    };
+    let mut indices = triangle_list(mode, &vertices)
+        .ok_or_else(|| malformed(format!("{label}: index count is not a multiple of 3")))?;
+    if indices.is_empty() {
+        return Ok(None);
+    }
+
+    // Without an index buffer the file has no notion of shared vertices, so missing normals are
+    // flat: give every triangle its own corners first.
+    if normals.is_none() && primitive.indices.is_none() {
+        positions = indices.iter().map(|&i| positions[i as usize]).collect();
+        if !uvs.is_empty() {
+            uvs = indices.iter().map(|&i| uvs[i as usize]).collect();
+        }
+        let corners = u32::try_from(indices.len())
+            .map_err(|_| unusable(format!("{label} has too many vertices")))?;
+        indices = (0..corners).collect();
+    }
+    let geometric = vertex_normals(&positions, &indices);
+    let normals = match normals {
+        Some(file) => file
+            .iter()
+            .zip(&geometric)
+            .map(|(n, g)| n.try_normalize().unwrap_or(*g))
+            .collect(),
+        None => geometric,
+    };
+    Ok(Some(Primitive {
+        positions,
+        normals,
+        uvs,
+        indices,
+        material: 0,
+    }))
+}
+
+/// Converts a primitive's vertex sequence to a triangle list. Strips and fans drop the
+/// degenerate triangles (repeated vertices) that tools insert to join strips. `None` when a
+/// triangle list's length is not a multiple of 3.
+fn triangle_list(mode: Mode, vertices: &[u32]) -> Option<Vec<u32>> {
+    let triangles: Vec<[u32; 3]> = match mode {
+        Mode::Triangles => {
+            if !vertices.len().is_multiple_of(3) {
+                return None;
+            }
+            return Some(vertices.to_vec());
+        }
+        // glTF: triangle i is (v[i], v[i + 1 + i % 2], v[i + 2 - i % 2]), keeping the winding.
+        Mode::TriangleStrip => vertices
+            .windows(3)
+            .enumerate()
+            .map(|(i, w)| {
+                if i % 2 == 0 {
+                    [w[0], w[1], w[2]]
+                } else {
+                    [w[0], w[2], w[1]]
+                }
+            })
+            .collect(),
+        // glTF: triangle i is (v[i + 1], v[i + 2], v[0]).
+        Mode::TriangleFan => match vertices.split_first() {
+            Some((&center, rest)) => rest.windows(2).map(|w| [w[0], w[1], center]).collect(),
+            None => Vec::new(),
+        },
+        Mode::Points | Mode::Lines | Mode::LineLoop | Mode::LineStrip => Vec::new(),
+    };
+    Some(
+        triangles
+            .into_iter()
+            .filter(|[a, b, c]| a != b && b != c && a != c)
+            .flatten()
+            .collect(),
+    )
+}
+
+/// Smooth vertex normals: the area-weighted average of the normals of the triangles sharing
+/// each vertex. A vertex whose neighbours cancel out takes one neighbour's normal; a vertex in
+/// no proper triangle gets +Y.
+fn vertex_normals(positions: &[Vec3], indices: &[u32]) -> Vec<Vec3> {
+    let mut sums = vec![Vec3::ZERO; positions.len()];
+    let mut fallback = vec![None; positions.len()];
+    for triangle in indices.chunks_exact(3) {
+        let [a, b, c] = [0, 1, 2].map(|k| triangle[k] as usize);
+        // The cross product's length is twice the triangle's area: the weighting comes free.
+        let face = (positions[b] - positions[a]).cross(positions[c] - positions[a]);
+        let Some(unit) = face.try_normalize() else {
+            continue;
+        };
+        for v in [a, b, c] {
+            sums[v] += face;
+            fallback[v].get_or_insert(unit);
+        }
+    }
+    sums.iter()
+        .zip(fallback)
+        .map(|(sum, fallback)| sum.try_normalize().or(fallback).unwrap_or(Vec3::Y))
+        .collect()
+}
