@@ -1,1 +1,200 @@
-fn main() {}
+//! `gi`: render glTF scenes at a global-illumination tier, compare tiers against a path-traced
+//! reference, and manage the bundled scenes.
+
+mod cache;
+mod compare;
+mod render;
+mod tiers;
+
+use std::{path::PathBuf, process::ExitCode};
+
+use clap::{Args, Parser, Subcommand};
+use tiers::{CameraChoice, RenderRequest, Tier};
+
+/// Real-time global illumination tiers, measured against a path-traced reference.
+#[derive(Parser, Debug)]
+#[command(name = "gi", version, about, long_about = None)]
+struct Cli {
+    /// Log more (-v: info, -vv: debug). RUST_LOG overrides.
+    #[arg(short, long, global = true, action = clap::ArgAction::Count)]
+    verbose: u8,
+    #[command(subcommand)]
+    command: Command,
+}
+
+#[derive(Subcommand, Debug)]
+enum Command {
+    /// Render one image of a scene at one tier.
+    Render(render::RenderArgs),
+    /// Render several tiers and report their error against a cached path-traced reference.
+    Compare(compare::CompareArgs),
+    /// List the bundled scenes.
+    Scenes,
+    /// Load a scene and report its content and BVH build time.
+    Info {
+        /// Bundled scene name or path to a .gltf/.glb file.
+        scene: String,
+    },
+    /// Write the bundled scenes as glTF (.gltf + .bin) into a folder.
+    GenerateScenes {
+        /// Destination folder (default: the bundled scene folder, `scenes/`).
+        #[arg(long)]
+        out: Option<PathBuf>,
+    },
+}
+
+/// Options shared by every command that renders.
+#[derive(Args, Debug, Clone)]
+pub struct ViewArgs {
+    /// Image width in pixels (1..=16384).
+    #[arg(long, default_value_t = 320)]
+    width: u32,
+    /// Image height in pixels (1..=16384).
+    #[arg(long, default_value_t = 240)]
+    height: u32,
+    /// Frames to simulate; the last one is measured and written. Scene time advances by the
+    /// scene's `frame_time_s` per frame.
+    #[arg(long, default_value_t = 1)]
+    frames: u32,
+    /// Which camera to look through.
+    #[arg(long, value_enum, default_value_t = CameraChoice::Default)]
+    camera: CameraChoice,
+    /// Random seed; the same seed gives the same image.
+    #[arg(long, default_value_t = 1)]
+    seed: u64,
+}
+
+/// Largest accepted image side, and largest pixel count (a 16K x 4K image).
+const MAX_SIDE: u32 = 16384;
+const MAX_PIXELS: u64 = 1 << 26;
+const MAX_SPP: u32 = 1 << 20;
+const MAX_FRAMES: u32 = 1_000_000;
+
+impl ViewArgs {
+    /// Checks sizes and builds the request; errors read as one line.
+    fn request(&self, spp: u32) -> anyhow::Result<RenderRequest> {
+        for (name, value) in [("width", self.width), ("height", self.height)] {
+            anyhow::ensure!(
+                (1..=MAX_SIDE).contains(&value),
+                "--{name} {value} is out of range (1..={MAX_SIDE})"
+            );
+        }
+        let pixels = u64::from(self.width) * u64::from(self.height);
+        anyhow::ensure!(
+            pixels <= MAX_PIXELS,
+            "{}x{} is {pixels} pixels, more than the {MAX_PIXELS} allowed",
+            self.width,
+            self.height
+        );
+        anyhow::ensure!(
+            (1..=MAX_SPP).contains(&spp),
+            "--spp {spp} is out of range (1..={MAX_SPP})"
+        );
+        anyhow::ensure!(
+            (1..=MAX_FRAMES).contains(&self.frames),
+            "--frames {} is out of range (1..={MAX_FRAMES})",
+            self.frames
+        );
+        Ok(RenderRequest {
+            width: self.width,
+            height: self.height,
+            spp,
+            frames: self.frames,
+            seed: self.seed,
+            camera: self.camera,
+        })
+    }
+}
+
+fn parse_tier(s: &str) -> Result<Tier, String> {
+    s.parse()
+}
+
+fn init_logging(verbose: u8) {
+    let default = match verbose {
+        0 => "warn",
+        1 => "info",
+        _ => "debug",
+    };
+    let filter = tracing_subscriber::EnvFilter::try_from_default_env()
+        .unwrap_or_else(|_| tracing_subscriber::EnvFilter::new(default));
+    tracing_subscriber::fmt()
+        .with_env_filter(filter)
+        .with_writer(std::io::stderr)
+        .with_target(false)
+        .init();
+}
+
+fn run(cli: Cli) -> anyhow::Result<()> {
+    match cli.command {
+        Command::Render(args) => render::run(&args),
+        Command::Compare(args) => compare::run(&args),
+        Command::Scenes => {
+            let dir = gi_scene::bundled_scene_dir();
+            for (name, description) in gi_scene::BUNDLED_SCENES {
+                println!("{name:<12} {description}");
+            }
+            match dir {
+                Some(dir) => println!("\nscene files: {}", dir.display()),
+                None => println!("\nscene files: not found (scenes are generated in memory)"),
+            }
+            Ok(())
+        }
+        Command::Info { scene } => info(&scene),
+        Command::GenerateScenes { out } => {
+            let dir = out
+                .or_else(gi_scene::bundled_scene_dir)
+                .unwrap_or_else(|| PathBuf::from("scenes"));
+            for path in gi_scene::generate::write_all(&dir)? {
+                println!("wrote {}", path.display());
+            }
+            Ok(())
+        }
+    }
+}
+
+/// `gi info`: what the renderers will see of a scene at time zero.
+fn info(name: &str) -> anyhow::Result<()> {
+    let scene = gi_scene::load(name)?;
+    let frame = scene.evaluate(0.0, None);
+    let bvh = gi_scene::SceneBvh::build(&frame.triangles);
+    let emissive = scene
+        .materials
+        .iter()
+        .filter(|m| m.emissive != glam::Vec3::ZERO)
+        .count();
+    println!("scene        {}", scene.name);
+    println!("nodes        {}", scene.nodes.len());
+    println!("triangles    {}", frame.triangles.len());
+    println!(
+        "materials    {} ({emissive} emissive)",
+        scene.materials.len()
+    );
+    println!("textures     {}", scene.textures.len());
+    println!("lights       {} punctual", frame.lights.len());
+    println!("cameras      {}", scene.cameras.len());
+    println!("animated     {}", scene.is_animated());
+    println!("camera path  {}", scene.camera_path.is_some());
+    println!("sky          {:?}", scene.sky);
+    println!("exposure     {}", scene.exposure);
+    println!(
+        "bvh          CWBVH, {} nodes, built in {:.2} ms",
+        bvh.node_count(),
+        bvh.build_time.as_secs_f64() * 1e3
+    );
+    Ok(())
+}
+
+fn main() -> ExitCode {
+    let cli = Cli::parse();
+    init_logging(cli.verbose);
+    match run(cli) {
+        Ok(()) => ExitCode::SUCCESS,
+        Err(error) => {
+            // One line: the error and its causes, outermost first.
+            let causes: Vec<String> = error.chain().map(|c| c.to_string()).collect();
+            eprintln!("error: {}", causes.join(": "));
+            ExitCode::FAILURE
+        }
+    }
+}

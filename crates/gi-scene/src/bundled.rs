@@ -42,7 +42,11 @@ pub fn bundled_scene_dir() -> Option<PathBuf> {
         Some(Path::new(env!("CARGO_MANIFEST_DIR")).join("../../scenes")),
         Some(PathBuf::from("scenes")),
     ];
-    candidates.into_iter().flatten().find(|dir| dir.is_dir())
+    candidates
+        .into_iter()
+        .flatten()
+        .find(|dir| dir.is_dir())
+        .map(|dir| dir.canonicalize().unwrap_or(dir))
 }
 
 /// Where `name_or_path` points: an existing file, or the glTF file of a bundled scene.

@@ -21,6 +21,25 @@ pub struct Hit {
     pub barycentrics: Vec2,
 }
 
+/// Barycentric weights of v1 and v2 where the ray's line crosses the triangle's plane
+/// (Moller-Trumbore in f64, so thin triangles far from the origin stay accurate). obvhs'
+/// own `compute_barycentric` normalizes the face normal and so scales the weights by twice
+/// the triangle's area.
+fn barycentrics(tri: &Triangle, origin: Vec3, dir: Vec3) -> Vec2 {
+    let [v0, v1, v2] = [tri.v0, tri.v1, tri.v2].map(|v| Vec3::from(v).as_dvec3());
+    let (o, d) = (origin.as_dvec3(), dir.as_dvec3());
+    let (e1, e2) = (v1 - v0, v2 - v0);
+    let p = d.cross(e2);
+    let det = e1.dot(p);
+    if det.abs() < 1e-300 {
+        return Vec2::ZERO;
+    }
+    let s = o - v0;
+    let u = s.dot(p) / det;
+    let v = d.dot(s.cross(e1)) / det;
+    Vec2::new(u as f32, v as f32)
+}
+
 /// A CWBVH over world-space triangles, with the time its build took.
 pub struct SceneBvh {
     pub bvh: CwBvh,
@@ -69,8 +88,7 @@ impl SceneBvh {
             return None;
         }
         let triangle = indices[hit.primitive_id as usize];
-        let hit_ray = Ray::new(Vec3A::from(origin), Vec3A::from(dir), t_min, hit.t);
-        let barycentrics = triangles[triangle as usize].compute_barycentric(&hit_ray);
+        let barycentrics = barycentrics(&triangles[triangle as usize], origin, dir);
         Some(Hit {
             t: hit.t,
             triangle,
@@ -100,5 +118,47 @@ impl SceneBvh {
     /// Number of nodes (for reports).
     pub fn node_count(&self) -> usize {
         self.bvh.nodes.len()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A large right triangle (area 8): the weights must not scale with its area, and the hit
+    /// must be the nearer of two stacked triangles.
+    #[test]
+    fn closest_hit_reports_true_barycentrics_and_nearest_triangle() {
+        let tri = |z: f32| Triangle {
+            v0: Vec3A::new(0.0, 0.0, z),
+            v1: Vec3A::new(4.0, 0.0, z),
+            v2: Vec3A::new(0.0, 4.0, z),
+        };
+        let triangles = vec![tri(-5.0), tri(-2.0)];
+        let bvh = SceneBvh::build(&triangles);
+        let hit = bvh
+            .closest_hit(
+                &triangles,
+                Vec3::new(1.0, 2.0, 0.0),
+                Vec3::NEG_Z,
+                0.0,
+                100.0,
+            )
+            .expect("the ray crosses both triangles");
+        assert_eq!(hit.triangle, 1);
+        assert!((hit.t - 2.0).abs() < 1e-5);
+        assert!((hit.barycentrics - Vec2::new(0.25, 0.5)).length() < 1e-5);
+        assert!(bvh.occluded(&triangles, Vec3::new(1.0, 2.0, 0.0), Vec3::NEG_Z, 0.0, 3.0));
+        assert!(!bvh.occluded(&triangles, Vec3::new(1.0, 2.0, 0.0), Vec3::NEG_Z, 0.0, 1.5));
+        assert!(
+            bvh.closest_hit(
+                &triangles,
+                Vec3::new(3.5, 3.5, 0.0),
+                Vec3::NEG_Z,
+                0.0,
+                100.0
+            )
+            .is_none()
+        );
     }
 }

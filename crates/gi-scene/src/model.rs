@@ -219,7 +219,7 @@ pub struct Animation {
 #[derive(Clone, Debug)]
 pub struct Channel {
     pub node: usize,
-    /// Strictly increasing key times in seconds.
+    /// Non-decreasing key times in seconds (a repeated time makes a jump).
     pub times: Vec<f32>,
     pub values: ChannelValues,
     pub interpolation: Interpolation,

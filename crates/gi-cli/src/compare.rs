@@ -1,0 +1,246 @@
+//! `gi compare`: render tiers, measure them against a path-traced reference, print a table.
+
+use std::{collections::BTreeMap, path::PathBuf, time::Instant};
+
+use anyhow::{Context, Result};
+use clap::Args;
+use gi_image::Image;
+use serde::Serialize;
+
+use crate::{
+    ViewArgs, cache, parse_tier,
+    render::progress_bar,
+    tiers::{Tier, render_tier},
+};
+
+#[derive(Args, Debug)]
+pub struct CompareArgs {
+    /// Bundled scene name (see `gi scenes`) or path to a .gltf/.glb file.
+    #[arg(default_value = "cornell-box")]
+    scene: String,
+    /// Comma-separated tiers to compare (default: every tier).
+    #[arg(long, value_delimiter = ',', value_parser = parse_tier)]
+    tiers: Vec<Tier>,
+    #[command(flatten)]
+    view: ViewArgs,
+    /// Samples per pixel of each tier's render.
+    #[arg(long, default_value_t = 16)]
+    spp: u32,
+    /// Samples per pixel of the reference.
+    #[arg(long, default_value_t = 1024)]
+    reference_spp: u32,
+    /// Seed of the reference render (kept apart from `--seed` so a tier's noise is never
+    /// correlated with the reference's).
+    #[arg(long, default_value_t = 0x5eed_0f_7e7e)]
+    reference_seed: u64,
+    /// Folder for the images (default: out/<scene>).
+    #[arg(long)]
+    out_dir: Option<PathBuf>,
+    /// Write the table as JSON here (default: <out-dir>/compare.json).
+    #[arg(long)]
+    json: Option<PathBuf>,
+    /// Reference cache folder (default: $GI_CACHE_DIR, $XDG_CACHE_HOME/gi or ~/.cache/gi).
+    #[arg(long)]
+    cache_dir: Option<PathBuf>,
+    /// Render the reference even when a cached one exists.
+    #[arg(long)]
+    no_cache: bool,
+}
+
+#[derive(Serialize)]
+struct ReferenceReport {
+    spp: u32,
+    seconds: f64,
+    cached: bool,
+}
+
+#[derive(Serialize)]
+struct TierReport {
+    tier: Tier,
+    rmse_srgb8: f64,
+    rmse_linear: f64,
+    rel_mse: f64,
+    gain_vs_direct: Option<f64>,
+    ms_per_frame: f64,
+    passes: BTreeMap<String, f64>,
+    memory_bytes: u64,
+    samples_per_second: f64,
+    rays_per_second: f64,
+}
+
+#[derive(Serialize)]
+struct CompareReport {
+    scene: String,
+    width: u32,
+    height: u32,
+    spp: u32,
+    frames: u32,
+    reference: ReferenceReport,
+    tiers: Vec<TierReport>,
+}
+
+/// The reference image: from the cache when an identical render exists, else rendered now.
+fn reference_image(args: &CompareArgs, scene: &gi_scene::Scene) -> Result<(Image, f64, bool)> {
+    let mut request = args.view.request(args.reference_spp)?;
+    request.seed = args.reference_seed;
+    let key = cache::ReferenceKey::new(
+        scene,
+        &request.view(scene),
+        request.time_s(scene),
+        (request.width, request.height),
+        request.spp,
+        request.seed,
+    );
+    let dir = args.cache_dir.clone().unwrap_or_else(cache::default_dir);
+    if !args.no_cache
+        && let Some(hit) = cache::load(&dir, &key)
+    {
+        return Ok((hit.image, hit.seconds, true));
+    }
+    let bar = progress_bar(request.spp, "reference");
+    let started = Instant::now();
+    let render = render_tier(scene, Tier::Reference, &request, &|done| {
+        bar.set_position(u64::from(done))
+    })?;
+    bar.finish_and_clear();
+    let seconds = started.elapsed().as_secs_f64();
+    if let Err(error) = cache::store(&dir, &key, &render.image, seconds) {
+        tracing::warn!("reference not cached: {error:#}");
+    }
+    Ok((render.image, seconds, false))
+}
+
+pub fn run(args: &CompareArgs) -> Result<()> {
+    let request = args.view.request(args.spp)?;
+    args.view.request(args.reference_spp)?;
+    let tiers = if args.tiers.is_empty() {
+        Tier::ALL.to_vec()
+    } else {
+        args.tiers.clone()
+    };
+    let scene = gi_scene::load(&args.scene)?;
+    let out_dir = args
+        .out_dir
+        .clone()
+        .unwrap_or_else(|| PathBuf::from("out").join(&scene.name));
+    std::fs::create_dir_all(&out_dir).with_context(|| format!("creating {}", out_dir.display()))?;
+
+    let (reference, reference_seconds, cached) = reference_image(args, &scene)?;
+    // Named apart from the `reference` tier's own (low-spp) render.
+    let truth = format!("reference_{}spp", args.reference_spp);
+    gi_image::save(&reference, out_dir.join(format!("{truth}.exr")), 1.0)?;
+    gi_image::save(
+        &reference,
+        out_dir.join(format!("{truth}.png")),
+        scene.exposure,
+    )?;
+
+    // gain_vs_direct needs the direct-only error even when `direct` is not in the list.
+    let mut renders = Vec::new();
+    for &tier in &tiers {
+        let bar = progress_bar(request.spp, tier.name());
+        let render = render_tier(&scene, tier, &request, &|done| {
+            bar.set_position(u64::from(done))
+        })?;
+        bar.finish_and_clear();
+        renders.push((tier, render));
+    }
+    let direct_rmse = match renders.iter().find(|(t, _)| *t == Tier::Direct) {
+        Some((_, render)) => gi_image::rmse_srgb8(&render.image, &reference, scene.exposure)?,
+        None => {
+            let render = render_tier(&scene, Tier::Direct, &request, &|_| {})?;
+            gi_image::rmse_srgb8(&render.image, &reference, scene.exposure)?
+        }
+    };
+
+    let mut reports = Vec::new();
+    for (tier, render) in &renders {
+        let rmse_srgb8 = gi_image::rmse_srgb8(&render.image, &reference, scene.exposure)?;
+        let name = tier.name();
+        gi_image::save(
+            &render.image,
+            out_dir.join(format!("{name}.png")),
+            scene.exposure,
+        )?;
+        gi_image::save(
+            &render.image,
+            out_dir.join(format!("{name}.exr")),
+            scene.exposure,
+        )?;
+        gi_image::write_error_heatmap(
+            &render.image,
+            &reference,
+            scene.exposure,
+            out_dir.join(format!("{name}_error.png")),
+        )?;
+        reports.push(TierReport {
+            tier: *tier,
+            rmse_srgb8,
+            rmse_linear: gi_image::rmse_linear(&render.image, &reference)?,
+            rel_mse: gi_image::rel_mse(&render.image, &reference)?,
+            gain_vs_direct: gi_image::gain_vs_direct(rmse_srgb8, direct_rmse),
+            ms_per_frame: render.ms_per_frame,
+            passes: render.passes.clone(),
+            memory_bytes: render.memory_bytes,
+            samples_per_second: render.stats.samples_per_second,
+            rays_per_second: render.stats.rays_per_second,
+        });
+    }
+    let report = CompareReport {
+        scene: scene.name.clone(),
+        width: request.width,
+        height: request.height,
+        spp: request.spp,
+        frames: request.frames,
+        reference: ReferenceReport {
+            spp: args.reference_spp,
+            seconds: reference_seconds,
+            cached,
+        },
+        tiers: reports,
+    };
+    print_table(&report);
+    let json = args
+        .json
+        .clone()
+        .unwrap_or_else(|| out_dir.join("compare.json"));
+    std::fs::write(&json, serde_json::to_string_pretty(&report)?)
+        .with_context(|| format!("writing {}", json.display()))?;
+    println!("images and JSON: {}", out_dir.display());
+    Ok(())
+}
+
+fn print_table(report: &CompareReport) {
+    println!(
+        "{} {}x{}, {} spp per tier; reference {} spp ({:.1} s{})",
+        report.scene,
+        report.width,
+        report.height,
+        report.spp,
+        report.reference.spp,
+        report.reference.seconds,
+        if report.reference.cached {
+            ", cached"
+        } else {
+            ""
+        }
+    );
+    println!(
+        "{:<10} {:>10} {:>11} {:>14} {:>11} {:>10}",
+        "tier", "rmse_srgb8", "rmse_linear", "gain_vs_direct", "ms/frame", "memory_MB"
+    );
+    for tier in &report.tiers {
+        let gain = tier
+            .gain_vs_direct
+            .map_or("-".to_string(), |g| format!("{g:.3}"));
+        println!(
+            "{:<10} {:>10.2} {:>11.4} {:>14} {:>11.1} {:>10.2}",
+            tier.tier.name(),
+            tier.rmse_srgb8,
+            tier.rmse_linear,
+            gain,
+            tier.ms_per_frame,
+            tier.memory_bytes as f64 / (1 << 20) as f64
+        );
+    }
+}

@@ -1,0 +1,129 @@
+//! `gi render`: one image of a scene at one tier.
+
+use std::path::PathBuf;
+
+use anyhow::{Context, Result};
+use clap::Args;
+use indicatif::{ProgressBar, ProgressStyle};
+use serde::Serialize;
+
+use crate::{
+    ViewArgs, parse_tier,
+    tiers::{Tier, render_tier},
+};
+
+#[derive(Args, Debug)]
+pub struct RenderArgs {
+    /// Bundled scene name (see `gi scenes`) or path to a .gltf/.glb file.
+    scene: String,
+    /// Tier to render with: reference, direct.
+    #[arg(long, value_parser = parse_tier, default_value = "reference")]
+    tier: Tier,
+    #[command(flatten)]
+    view: ViewArgs,
+    /// Samples per pixel.
+    #[arg(long, default_value_t = 64)]
+    spp: u32,
+    /// Output image: .png (tonemapped with the scene's exposure) or .exr (linear HDR).
+    #[arg(long)]
+    out: PathBuf,
+    /// Also write render statistics as JSON.
+    #[arg(long)]
+    stats: Option<PathBuf>,
+}
+
+/// The `--stats` JSON.
+#[derive(Serialize)]
+pub struct RenderReport {
+    pub scene: String,
+    pub tier: Tier,
+    pub width: u32,
+    pub height: u32,
+    pub spp: u32,
+    pub frames: u32,
+    pub time_s: f32,
+    pub triangles: usize,
+    pub ms_per_frame: f64,
+    pub passes: std::collections::BTreeMap<String, f64>,
+    pub memory_bytes: u64,
+    pub samples_per_second: f64,
+    pub rays_per_second: f64,
+    pub bvh_build_ms: f64,
+}
+
+/// A progress bar over samples per pixel; indicatif hides it when stderr is not a terminal.
+pub fn progress_bar(total_spp: u32, label: &str) -> ProgressBar {
+    let bar = ProgressBar::new(u64::from(total_spp));
+    let style = ProgressStyle::with_template(
+        "{prefix:>10} [{bar:30}] {pos}/{len} spp  {elapsed_precise} (eta {eta})",
+    )
+    .expect("the template is valid")
+    .progress_chars("=> ");
+    bar.set_style(style);
+    bar.set_prefix(label.to_string());
+    bar
+}
+
+fn check_output_extension(path: &std::path::Path) -> Result<()> {
+    let ext = path
+        .extension()
+        .and_then(|e| e.to_str())
+        .map(str::to_ascii_lowercase);
+    match ext.as_deref() {
+        Some("png" | "exr") => Ok(()),
+        _ => anyhow::bail!(
+            "--out {}: unsupported image format (use .png or .exr)",
+            path.display()
+        ),
+    }
+}
+
+pub fn run(args: &RenderArgs) -> Result<()> {
+    let request = args.view.request(args.spp)?;
+    // Check the output before spending time on the render.
+    check_output_extension(&args.out)?;
+    let scene = gi_scene::load(&args.scene)?;
+    let bar = progress_bar(request.spp, args.tier.name());
+    let result = render_tier(&scene, args.tier, &request, &|done| {
+        bar.set_position(u64::from(done))
+    })?;
+    bar.finish_and_clear();
+    if let Some(parent) = args.out.parent().filter(|p| !p.as_os_str().is_empty()) {
+        std::fs::create_dir_all(parent)
+            .with_context(|| format!("creating {}", parent.display()))?;
+    }
+    gi_image::save(&result.image, &args.out, scene.exposure)?;
+    let report = RenderReport {
+        scene: scene.name.clone(),
+        tier: args.tier,
+        width: request.width,
+        height: request.height,
+        spp: request.spp,
+        frames: request.frames,
+        time_s: request.time_s(&scene),
+        triangles: result.triangles,
+        ms_per_frame: result.ms_per_frame,
+        passes: result.passes.clone(),
+        memory_bytes: result.memory_bytes,
+        samples_per_second: result.stats.samples_per_second,
+        rays_per_second: result.stats.rays_per_second,
+        bvh_build_ms: result.stats.bvh_build_seconds * 1e3,
+    };
+    println!(
+        "{} {} {}x{} {} spp: {:.1} ms, {:.3} Msamples/s, {:.2} Mrays/s -> {}",
+        report.scene,
+        report.tier,
+        report.width,
+        report.height,
+        report.spp,
+        report.ms_per_frame,
+        report.samples_per_second / 1e6,
+        report.rays_per_second / 1e6,
+        args.out.display()
+    );
+    if let Some(path) = &args.stats {
+        std::fs::write(path, serde_json::to_string_pretty(&report)?)
+            .with_context(|| format!("writing {}", path.display()))?;
+    }
+    Ok(())
+}

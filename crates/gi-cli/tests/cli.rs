@@ -1,0 +1,216 @@
+//! End-to-end tests of the `gi` command: real renders at small sizes, and bad input that must
+//! exit non-zero with a clear one-line error.
+
+use std::{path::Path, process::Command};
+
+fn gi(args: &[&str], cwd: &Path) -> std::process::Output {
+    Command::new(env!("CARGO_BIN_EXE_gi"))
+        .args(args)
+        .current_dir(cwd)
+        // Keep the reference cache inside the test's folder.
+        .env("GI_CACHE_DIR", cwd.join("cache"))
+        .env_remove("RUST_LOG")
+        .output()
+        .expect("gi runs")
+}
+
+fn stderr(output: &std::process::Output) -> String {
+    String::from_utf8_lossy(&output.stderr).into_owned()
+}
+
+/// Asserts a failure whose message is one `error:` line containing `needle`.
+fn assert_fails_with(output: &std::process::Output, needle: &str) {
+    let err = stderr(output);
+    assert!(!output.status.success(), "expected failure, got success");
+    let lines: Vec<&str> = err.lines().filter(|l| !l.trim().is_empty()).collect();
+    assert_eq!(lines.len(), 1, "expected one line, got:\n{err}");
+    assert!(lines[0].starts_with("error"), "not an error line: {err}");
+    assert!(
+        lines[0].contains(needle),
+        "error does not mention '{needle}': {err}"
+    );
+}
+
+#[test]
+fn scenes_lists_every_bundled_scene() {
+    let dir = tempfile::tempdir().unwrap();
+    let output = gi(&["scenes"], dir.path());
+    assert!(output.status.success(), "{}", stderr(&output));
+    let text = String::from_utf8_lossy(&output.stdout);
+    for (name, _) in gi_scene::BUNDLED_SCENES {
+        assert!(text.contains(name), "{name} missing from:\n{text}");
+    }
+}
+
+#[test]
+fn render_writes_png_exr_and_stats() {
+    let dir = tempfile::tempdir().unwrap();
+    for (tier, file) in [("reference", "ref.exr"), ("direct", "direct.png")] {
+        let output = gi(
+            &[
+                "render",
+                "cornell-box",
+                "--tier",
+                tier,
+                "--width",
+                "24",
+                "--height",
+                "16",
+                "--spp",
+                "2",
+                "--out",
+                file,
+                "--stats",
+                "stats.json",
+            ],
+            dir.path(),
+        );
+        assert!(output.status.success(), "{}", stderr(&output));
+        let image = gi_image::load(dir.path().join(file)).unwrap();
+        assert_eq!((image.width, image.height), (24, 16));
+        let stats: serde_json::Value =
+            serde_json::from_slice(&std::fs::read(dir.path().join("stats.json")).unwrap()).unwrap();
+        assert_eq!(stats["tier"], tier);
+        assert_eq!(stats["spp"], 2);
+        assert!(stats["samples_per_second"].as_f64().unwrap() > 0.0);
+        assert!(stats["rays_per_second"].as_f64().unwrap() > 0.0);
+    }
+}
+
+#[test]
+fn compare_writes_table_json_and_reuses_cached_reference() {
+    let dir = tempfile::tempdir().unwrap();
+    let args = [
+        "compare",
+        "cornell-box",
+        "--tiers",
+        "direct,reference",
+        "--width",
+        "16",
+        "--height",
+        "12",
+        "--spp",
+        "4",
+        "--reference-spp",
+        "16",
+        "--out-dir",
+        "cmp",
+    ];
+    let first = gi(&args, dir.path());
+    assert!(first.status.success(), "{}", stderr(&first));
+    let table = String::from_utf8_lossy(&first.stdout);
+    assert!(table.contains("rmse_srgb8") && table.contains("gain_vs_direct"));
+    let json: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(dir.path().join("cmp/compare.json")).unwrap())
+            .unwrap();
+    assert_eq!(json["scene"], "cornell-box");
+    assert_eq!(json["reference"]["spp"], 16);
+    assert_eq!(json["reference"]["cached"], false);
+    let tiers = json["tiers"].as_array().unwrap();
+    assert_eq!(tiers.len(), 2);
+    let direct = &tiers[0];
+    assert_eq!(direct["tier"], "direct");
+    // The direct tier is its own baseline.
+    assert!((direct["gain_vs_direct"].as_f64().unwrap() - 1.0).abs() < 1e-12);
+    for tier in tiers {
+        for field in ["rmse_srgb8", "rmse_linear", "ms_per_frame", "memory_bytes"] {
+            assert!(tier[field].is_number(), "{field} missing in {tier}");
+        }
+        assert!(tier["passes"].is_object());
+    }
+    for file in [
+        "reference_16spp.exr",
+        "reference_16spp.png",
+        "reference.png",
+        "direct.png",
+        "reference_error.png",
+    ] {
+        assert!(dir.path().join("cmp").join(file).is_file(), "{file}");
+    }
+    // In the Cornell box all light on the walls is indirect: the path tracer must be much
+    // closer to the reference than direct lighting is.
+    assert!(tiers[1]["gain_vs_direct"].as_f64().unwrap() < 1.0);
+
+    let second = gi(&args, dir.path());
+    assert!(second.status.success(), "{}", stderr(&second));
+    let json: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(dir.path().join("cmp/compare.json")).unwrap())
+            .unwrap();
+    assert_eq!(json["reference"]["cached"], true);
+}
+
+#[test]
+fn missing_scene_file_is_a_clear_error() {
+    let dir = tempfile::tempdir().unwrap();
+    let output = gi(
+        &["render", "nowhere/scene.gltf", "--out", "a.png"],
+        dir.path(),
+    );
+    assert_fails_with(&output, "nowhere/scene.gltf");
+}
+
+#[test]
+fn unknown_scene_name_lists_the_bundled_ones() {
+    let dir = tempfile::tempdir().unwrap();
+    let output = gi(&["render", "no-such-scene", "--out", "a.png"], dir.path());
+    assert_fails_with(&output, "cornell-box");
+}
+
+#[test]
+fn malformed_gltf_names_the_file() {
+    let dir = tempfile::tempdir().unwrap();
+    std::fs::write(dir.path().join("broken.gltf"), "{ this is not json").unwrap();
+    let output = gi(&["render", "broken.gltf", "--out", "a.png"], dir.path());
+    assert_fails_with(&output, "broken.gltf");
+}
+
+#[test]
+fn unknown_tier_lists_the_available_ones() {
+    let dir = tempfile::tempdir().unwrap();
+    let output = gi(
+        &["render", "cornell-box", "--tier", "ultra", "--out", "a.png"],
+        dir.path(),
+    );
+    let err = stderr(&output);
+    assert!(!output.status.success());
+    assert!(err.contains("ultra") && err.contains("reference"), "{err}");
+}
+
+#[test]
+fn zero_and_huge_sizes_are_rejected() {
+    let dir = tempfile::tempdir().unwrap();
+    for (flag, value, needle) in [
+        ("--width", "0", "--width 0"),
+        ("--height", "100000", "--height 100000"),
+        ("--spp", "0", "--spp 0"),
+        ("--frames", "0", "--frames 0"),
+    ] {
+        let output = gi(
+            &["render", "cornell-box", flag, value, "--out", "a.png"],
+            dir.path(),
+        );
+        assert_fails_with(&output, needle);
+    }
+    let output = gi(
+        &[
+            "render",
+            "cornell-box",
+            "--width",
+            "16384",
+            "--height",
+            "16384",
+            "--out",
+            "a.png",
+        ],
+        dir.path(),
+    );
+    assert_fails_with(&output, "pixels");
+    assert!(!dir.path().join("a.png").exists());
+}
+
+#[test]
+fn unsupported_output_format_is_rejected_before_rendering() {
+    let dir = tempfile::tempdir().unwrap();
+    let output = gi(&["render", "cornell-box", "--out", "a.bmp"], dir.path());
+    assert_fails_with(&output, "a.bmp");
+}

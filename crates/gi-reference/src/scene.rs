@@ -1,0 +1,307 @@
+//! The [`Reference`]: a scene frame prepared for path tracing, and what a ray finds when it hits
+//! it (position, normals, BRDF, emission).
+
+use gi_scene::{Hit, Material, Scene, SceneBvh, SceneFrame, Texture, Triangle};
+use glam::{DVec3, Vec2, Vec3, Vec4};
+
+use crate::brdf::Brdf;
+use crate::lights::EmitterTable;
+use crate::sampling::Frame;
+
+/// A scene frame ready to be rendered: the flattened triangles, their BVH, the materials and
+/// textures, and the power table of emissive triangles. Build one per frame and render it as
+/// often as needed; it is immutable and shared by all render threads.
+pub struct Reference {
+    pub(crate) frame: SceneFrame,
+    pub(crate) bvh: SceneBvh,
+    pub(crate) materials: Vec<Material>,
+    pub(crate) textures: Vec<Texture>,
+    pub(crate) emitters: EmitterTable,
+    /// Used for triangles whose material index is out of range (hand-built scenes).
+    default_material: Material,
+}
+
+/// What a path sees at a surface hit, in the conventions of the crate docs: both normals face
+/// the side the ray came from, and the shading frame never puts `wo` below its horizon.
+pub(crate) struct Surface {
+    pub(crate) p: Vec3,
+    /// Geometric normal, on the side of `wo`.
+    pub(crate) ng: Vec3,
+    /// Shading frame: Z is the interpolated vertex normal on the side of `ng`, or `ng` when
+    /// `wo` is below the interpolated normal's horizon.
+    pub(crate) frame: Frame,
+    /// Direction towards the previous vertex, local to `frame`.
+    pub(crate) wo: Vec3,
+    pub(crate) brdf: Brdf,
+    /// Radiance emitted towards the previous vertex (zero on the back of single-sided
+    /// emitters).
+    pub(crate) emitted: Vec3,
+}
+
+impl Reference {
+    /// Prepares `frame` (an evaluation of `scene`, whose materials and textures it indexes)
+    /// and builds its BVH.
+    pub fn new(scene: &Scene, frame: SceneFrame) -> Self {
+        let bvh = SceneBvh::build(&frame.triangles);
+        let materials = scene.materials.clone();
+        let textures = scene.textures.clone();
+        let emitters = EmitterTable::build(&frame, &materials, &textures);
+        tracing::debug!(
+            triangles = frame.triangles.len(),
+            emissive_triangles = emitters.len(),
+            punctual_lights = frame.lights.len(),
+            bvh_build_seconds = bvh.build_time.as_secs_f64(),
+            "reference scene prepared"
+        );
+        Self {
+            frame,
+            bvh,
+            materials,
+            textures,
+            emitters,
+            default_material: Material::default(),
+        }
+    }
+
+    /// The frame being rendered (triangles, lights, camera, sky).
+    pub fn frame(&self) -> &SceneFrame {
+        &self.frame
+    }
+
+    /// Wall time of the BVH build, in seconds.
+    pub fn bvh_build_seconds(&self) -> f64 {
+        self.bvh.build_time.as_secs_f64()
+    }
+
+    /// Number of triangles in the emitter table (emissive triangles with non-zero power).
+    pub fn emissive_triangle_count(&self) -> usize {
+        self.emitters.len()
+    }
+
+    /// Bytes of the data this reference holds for rendering: triangles, their attributes,
+    /// the BVH, the emitter table and the textures (the accumulation buffer is the caller's).
+    pub fn memory_bytes(&self) -> u64 {
+        use std::mem::size_of_val;
+        let frame = &self.frame;
+        let bvh = &self.bvh.bvh;
+        let emitters = &self.emitters;
+        let bytes = size_of_val(frame.triangles.as_slice())
+            + size_of_val(frame.attributes.as_slice())
+            + size_of_val(bvh.nodes.as_slice())
+            + size_of_val(bvh.primitive_indices.as_slice())
+            + size_of_val(emitters.triangles.as_slice())
+            + size_of_val(emitters.cdf.as_slice())
+            + size_of_val(emitters.selection.as_slice())
+            + self
+                .textures
+                .iter()
+                .map(|t| size_of_val(t.texels.as_slice()))
+                .sum::<usize>();
+        bytes as u64
+    }
+
+    pub(crate) fn material(&self, triangle: u32) -> &Material {
+        let index = self.frame.attributes[triangle as usize].material as usize;
+        self.materials.get(index).unwrap_or(&self.default_material)
+    }
+
+    pub(crate) fn texture(&self, index: Option<usize>) -> Option<&Texture> {
+        index
+            .and_then(|i| self.textures.get(i))
+            .filter(|t| t.width > 0 && t.height > 0 && !t.texels.is_empty())
+    }
+
+    fn sample_texture(&self, index: Option<usize>, uv: Vec2) -> Vec4 {
+        self.texture(index)
+            .map_or(Vec4::ONE, |texture| texture.sample_bilinear(uv))
+    }
+
+    /// Emissive radiance of `material` at texture coordinate `uv` (either side).
+    pub(crate) fn emission(&self, material: &Material, uv: Vec2) -> Vec3 {
+        if material.emissive == Vec3::ZERO {
+            return Vec3::ZERO;
+        }
+        material.emissive
+            * self
+                .sample_texture(material.emissive_texture, uv)
+                .truncate()
+    }
+
+    /// The surface a ray from `origin` along unit `dir` found at `hit`.
+    pub(crate) fn surface(&self, origin: Vec3, dir: Vec3, hit: &Hit) -> Surface {
+        let tri = &self.frame.triangles[hit.triangle as usize];
+        let attributes = &self.frame.attributes[hit.triangle as usize];
+        let [b1, b2] = barycentrics(tri, origin, dir);
+        let b0 = 1.0 - b1 - b2;
+        let (v0, v1, v2) = (
+            DVec3::from(Vec3::from(tri.v0)),
+            DVec3::from(Vec3::from(tri.v1)),
+            DVec3::from(Vec3::from(tri.v2)),
+        );
+        // Interpolating the vertices keeps the point on the triangle's plane, which the ray
+        // offsets rely on; origin + t * dir drifts off it by t's rounding.
+        let p = (v0 + (v1 - v0) * b1 + (v2 - v0) * b2).as_vec3();
+        let (b0, b1, b2) = (b0 as f32, b1 as f32, b2 as f32);
+
+        let wo = -dir;
+        let ng_front = geometric_normal(tri);
+        let ng_front = if ng_front == Vec3::ZERO { wo } else { ng_front };
+        let front_facing = ng_front.dot(wo) >= 0.0;
+        let ng = if front_facing { ng_front } else { -ng_front };
+        let [n0, n1, n2] = attributes.normals;
+        let mut ns = (n0 * b0 + n1 * b1 + n2 * b2).normalize_or(ng);
+        if ns.dot(ng) < 0.0 {
+            ns = -ns;
+        }
+        if ns.dot(wo) <= 1e-6 {
+            ns = ng;
+        }
+        let frame = Frame::from_normal(ns);
+        let [t0, t1, t2] = attributes.uvs;
+        let uv = t0 * b0 + t1 * b1 + t2 * b2;
+
+        let material = self.material(hit.triangle);
+        let base = material.base_color.truncate()
+            * self
+                .sample_texture(material.base_color_texture, uv)
+                .truncate();
+        let mr = self.sample_texture(material.metallic_roughness_texture, uv);
+        let brdf = Brdf::new(base, material.metallic * mr.z, material.roughness * mr.y);
+        let emitted = if front_facing || material.double_sided {
+            self.emission(material, uv)
+        } else {
+            Vec3::ZERO
+        };
+        Surface {
+            p,
+            ng,
+            frame,
+            wo: frame.to_local(wo),
+            brdf,
+            emitted,
+        }
+    }
+}
+
+/// Unit normal on the triangle's front side, `(v1 - v0) x (v2 - v0)`: the side from which the
+/// vertices appear counter-clockwise (glTF's front face). Zero for degenerate triangles.
+pub(crate) fn geometric_normal(tri: &Triangle) -> Vec3 {
+    Vec3::from((tri.v1 - tri.v0).cross(tri.v2 - tri.v0)).normalize_or_zero()
+}
+
+/// Barycentric weights of v1 and v2 where the ray crosses the triangle's plane, in f64
+/// (Möller-Trumbore), clamped onto the triangle. Computed here rather than taken from the BVH
+/// hit so the hit point is accurate for triangles of any size.
+fn barycentrics(tri: &Triangle, origin: Vec3, dir: Vec3) -> [f64; 2] {
+    let v0 = DVec3::from(Vec3::from(tri.v0));
+    let e1 = DVec3::from(Vec3::from(tri.v1)) - v0;
+    let e2 = DVec3::from(Vec3::from(tri.v2)) - v0;
+    let d = DVec3::from(dir);
+    let pvec = d.cross(e2);
+    let det = e1.dot(pvec);
+    if det.abs() < 1e-30 {
+        return [1.0 / 3.0; 2];
+    }
+    let tvec = DVec3::from(origin) - v0;
+    let b1 = tvec.dot(pvec) / det;
+    let b2 = d.dot(tvec.cross(e1)) / det;
+    let (b1, b2) = (b1.clamp(0.0, 1.0), b2.clamp(0.0, 1.0));
+    let excess = (b1 + b2 - 1.0).max(0.0) * 0.5;
+    [b1 - excess, b2 - excess]
+}
+
+/// Offset of a ray origin from its surface along the geometric normal: large enough to escape
+/// the f32 rounding of the intersection test for scenes up to about 10^4 units across, small
+/// enough not to leak light through contacts.
+pub(crate) fn ray_epsilon(p: Vec3) -> f32 {
+    1e-4 * (1.0 + p.abs().max_element())
+}
+
+/// `p` pushed off its surface along unit `n` (the side the new ray leaves towards).
+pub(crate) fn offset_origin(p: Vec3, n: Vec3) -> Vec3 {
+    p + n * ray_epsilon(p)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use gi_scene::{CameraView, Mesh, Node, Primitive};
+    use glam::Vec3A;
+
+    #[test]
+    fn barycentrics_locate_the_crossing_on_large_triangles() {
+        let tri = Triangle {
+            v0: Vec3A::new(0.0, 0.0, 0.0),
+            v1: Vec3A::new(4.0, 0.0, 0.0),
+            v2: Vec3A::new(0.0, 4.0, 0.0),
+        };
+        let [b1, b2] = barycentrics(&tri, Vec3::new(1.0, 2.0, 5.0), Vec3::NEG_Z);
+        assert!((b1 - 0.25).abs() < 1e-12 && (b2 - 0.5).abs() < 1e-12);
+    }
+
+    /// One triangle in the plane y = 0, counter-clockwise seen from above (front +Y), with
+    /// vertex normals tilted towards +X, and a single-sided emissive material.
+    fn tilted_triangle() -> (Reference, Vec3) {
+        let tilted = Vec3::new(0.5, 1.0, 0.0).normalize();
+        let scene = Scene {
+            meshes: vec![Mesh {
+                name: String::new(),
+                primitives: vec![Primitive {
+                    positions: vec![
+                        Vec3::ZERO,
+                        Vec3::new(0.0, 0.0, 4.0),
+                        Vec3::new(4.0, 0.0, 0.0),
+                    ],
+                    normals: vec![tilted; 3],
+                    uvs: Vec::new(),
+                    indices: vec![0, 1, 2],
+                    material: 0,
+                }],
+            }],
+            materials: vec![Material {
+                emissive: Vec3::ONE,
+                ..Material::default()
+            }],
+            nodes: vec![Node {
+                mesh: Some(0),
+                ..Node::default()
+            }],
+            ..Scene::default()
+        };
+        let camera = CameraView::look_at(Vec3::Y, Vec3::ZERO, 1.0);
+        (
+            Reference::new(&scene, scene.evaluate(0.0, Some(camera))),
+            tilted,
+        )
+    }
+
+    fn hit_from(reference: &Reference, origin: Vec3, dir: Vec3) -> Surface {
+        let hit = reference
+            .bvh
+            .closest_hit(&reference.frame.triangles, origin, dir, 0.0, f32::INFINITY)
+            .expect("the ray hits the triangle");
+        reference.surface(origin, dir, &hit)
+    }
+
+    #[test]
+    fn normals_face_the_viewer_and_emission_only_the_front() {
+        let (reference, tilted) = tilted_triangle();
+        let above = hit_from(&reference, Vec3::new(1.0, 1.0, 1.0), Vec3::NEG_Y);
+        assert_eq!(above.ng, Vec3::Y);
+        assert!((above.frame.z - tilted).length() < 1e-6);
+        assert!((above.p - Vec3::new(1.0, 0.0, 1.0)).length() < 1e-6);
+        assert_eq!(above.emitted, Vec3::ONE);
+
+        let below = hit_from(&reference, Vec3::new(1.0, -1.0, 1.0), Vec3::Y);
+        assert_eq!(below.ng, Vec3::NEG_Y);
+        assert!((below.frame.z + tilted).length() < 1e-6);
+        assert_eq!(below.emitted, Vec3::ZERO);
+
+        // Seen from above but below the tilted normal's horizon: the geometric normal shades.
+        let origin = Vec3::new(1.0, 0.0, 1.0) + Vec3::new(-1.0, 0.2, 0.0) * 2.0;
+        let grazing = hit_from(&reference, origin, Vec3::new(1.0, -0.2, 0.0).normalize());
+        assert_eq!(grazing.ng, Vec3::Y);
+        assert_eq!(grazing.frame.z, Vec3::Y);
+        assert!(grazing.wo.z > 0.0);
+    }
+}
