@@ -7,11 +7,9 @@ use clap::Args;
 use gi_image::Image;
 use serde::Serialize;
 
-use crate::{
-    ViewArgs, cache, parse_tier,
-    render::progress_bar,
-    tiers::{Tier, render_tier},
-};
+use gi_tiers::TierKind;
+
+use crate::{ViewArgs, cache, parse_tier, render::progress_bar, tiers::render_tier};
 
 #[derive(Args, Debug)]
 pub struct CompareArgs {
@@ -20,7 +18,7 @@ pub struct CompareArgs {
     scene: String,
     /// Comma-separated tiers to compare (default: every tier).
     #[arg(long, value_delimiter = ',', value_parser = parse_tier)]
-    tiers: Vec<Tier>,
+    tiers: Vec<TierKind>,
     #[command(flatten)]
     view: ViewArgs,
     /// Samples per pixel of each tier's render.
@@ -56,7 +54,7 @@ struct ReferenceReport {
 
 #[derive(Serialize)]
 struct TierReport {
-    tier: Tier,
+    tier: &'static str,
     rmse_srgb8: f64,
     rmse_linear: f64,
     rel_mse: f64,
@@ -64,8 +62,9 @@ struct TierReport {
     ms_per_frame: f64,
     passes: BTreeMap<String, f64>,
     memory_bytes: u64,
-    samples_per_second: f64,
-    rays_per_second: f64,
+    /// Path-tracing throughput; null for tiers that don't trace paths on the CPU.
+    samples_per_second: Option<f64>,
+    rays_per_second: Option<f64>,
 }
 
 #[derive(Serialize)]
@@ -99,7 +98,7 @@ fn reference_image(args: &CompareArgs, scene: &gi_scene::Scene) -> Result<(Image
     }
     let bar = progress_bar(request.spp, "reference");
     let started = Instant::now();
-    let render = render_tier(scene, Tier::Reference, &request, &|done| {
+    let render = render_tier(scene, TierKind::Reference, &request, &|done| {
         bar.set_position(u64::from(done))
     })?;
     bar.finish_and_clear();
@@ -114,7 +113,7 @@ pub fn run(args: &CompareArgs) -> Result<()> {
     let request = args.view.request(args.spp)?;
     args.view.request(args.reference_spp)?;
     let tiers = if args.tiers.is_empty() {
-        Tier::ALL.to_vec()
+        TierKind::ALL.to_vec()
     } else {
         args.tiers.clone()
     };
@@ -145,10 +144,10 @@ pub fn run(args: &CompareArgs) -> Result<()> {
         bar.finish_and_clear();
         renders.push((tier, render));
     }
-    let direct_rmse = match renders.iter().find(|(t, _)| *t == Tier::Direct) {
+    let direct_rmse = match renders.iter().find(|(t, _)| *t == TierKind::Direct) {
         Some((_, render)) => gi_image::rmse_srgb8(&render.image, &reference, scene.exposure)?,
         None => {
-            let render = render_tier(&scene, Tier::Direct, &request, &|_| {})?;
+            let render = render_tier(&scene, TierKind::Direct, &request, &|_| {})?;
             gi_image::rmse_srgb8(&render.image, &reference, scene.exposure)?
         }
     };
@@ -174,7 +173,7 @@ pub fn run(args: &CompareArgs) -> Result<()> {
             out_dir.join(format!("{name}_error.png")),
         )?;
         reports.push(TierReport {
-            tier: *tier,
+            tier: tier.name(),
             rmse_srgb8,
             rmse_linear: gi_image::rmse_linear(&render.image, &reference)?,
             rel_mse: gi_image::rel_mse(&render.image, &reference)?,
@@ -182,8 +181,8 @@ pub fn run(args: &CompareArgs) -> Result<()> {
             ms_per_frame: render.ms_per_frame,
             passes: render.passes.clone(),
             memory_bytes: render.memory_bytes,
-            samples_per_second: render.stats.samples_per_second,
-            rays_per_second: render.stats.rays_per_second,
+            samples_per_second: render.stats.as_ref().map(|s| s.samples_per_second),
+            rays_per_second: render.stats.as_ref().map(|s| s.rays_per_second),
         });
     }
     let report = CompareReport {
@@ -235,7 +234,7 @@ fn print_table(report: &CompareReport) {
             .map_or("-".to_string(), |g| format!("{g:.3}"));
         println!(
             "{:<10} {:>10.2} {:>11.4} {:>14} {:>11.1} {:>10.2}",
-            tier.tier.name(),
+            tier.tier,
             tier.rmse_srgb8,
             tier.rmse_linear,
             gain,

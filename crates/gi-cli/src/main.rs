@@ -9,7 +9,8 @@ mod tiers;
 use std::{path::PathBuf, process::ExitCode};
 
 use clap::{Args, Parser, Subcommand};
-use tiers::{CameraChoice, RenderRequest, Tier};
+use gi_tiers::TierKind;
+use tiers::{CameraChoice, RenderRequest};
 
 /// Real-time global illumination tiers, measured against a path-traced reference.
 #[derive(Parser, Debug)]
@@ -106,8 +107,8 @@ impl ViewArgs {
     }
 }
 
-fn parse_tier(s: &str) -> Result<Tier, String> {
-    s.parse()
+fn parse_tier(s: &str) -> Result<TierKind, String> {
+    s.parse().map_err(|e: gi_tiers::TierError| e.to_string())
 }
 
 fn init_logging(verbose: u8) {

@@ -7,10 +7,9 @@ use clap::Args;
 use indicatif::{ProgressBar, ProgressStyle};
 use serde::Serialize;
 
-use crate::{
-    ViewArgs, parse_tier,
-    tiers::{Tier, render_tier},
-};
+use gi_tiers::TierKind;
+
+use crate::{ViewArgs, parse_tier, tiers::render_tier};
 
 #[derive(Args, Debug)]
 pub struct RenderArgs {
@@ -18,7 +17,7 @@ pub struct RenderArgs {
     scene: String,
     /// Tier to render with: reference, direct.
     #[arg(long, value_parser = parse_tier, default_value = "reference")]
-    tier: Tier,
+    tier: TierKind,
     #[command(flatten)]
     view: ViewArgs,
     /// Samples per pixel.
@@ -36,7 +35,7 @@ pub struct RenderArgs {
 #[derive(Serialize)]
 pub struct RenderReport {
     pub scene: String,
-    pub tier: Tier,
+    pub tier: &'static str,
     pub width: u32,
     pub height: u32,
     pub spp: u32,
@@ -46,9 +45,10 @@ pub struct RenderReport {
     pub ms_per_frame: f64,
     pub passes: std::collections::BTreeMap<String, f64>,
     pub memory_bytes: u64,
-    pub samples_per_second: f64,
-    pub rays_per_second: f64,
-    pub bvh_build_ms: f64,
+    /// Path-tracing throughput; null for tiers that don't trace paths on the CPU.
+    pub samples_per_second: Option<f64>,
+    pub rays_per_second: Option<f64>,
+    pub bvh_build_ms: Option<f64>,
 }
 
 /// A progress bar over samples per pixel; indicatif hides it when stderr is not a terminal.
@@ -95,30 +95,41 @@ pub fn run(args: &RenderArgs) -> Result<()> {
     gi_image::save(&result.image, &args.out, scene.exposure)?;
     let report = RenderReport {
         scene: scene.name.clone(),
-        tier: args.tier,
+        tier: args.tier.name(),
         width: request.width,
         height: request.height,
         spp: request.spp,
         frames: request.frames,
         time_s: request.time_s(&scene),
-        triangles: result.triangles,
+        triangles: scene
+            .evaluate(request.time_s(&scene), Some(request.view(&scene)))
+            .triangles
+            .len(),
         ms_per_frame: result.ms_per_frame,
         passes: result.passes.clone(),
         memory_bytes: result.memory_bytes,
-        samples_per_second: result.stats.samples_per_second,
-        rays_per_second: result.stats.rays_per_second,
-        bvh_build_ms: result.stats.bvh_build_seconds * 1e3,
+        samples_per_second: result.stats.as_ref().map(|s| s.samples_per_second),
+        rays_per_second: result.stats.as_ref().map(|s| s.rays_per_second),
+        bvh_build_ms: result.stats.as_ref().map(|s| s.bvh_build_seconds * 1e3),
+    };
+    let throughput = match (report.samples_per_second, report.rays_per_second) {
+        (Some(samples), Some(rays)) => {
+            format!(
+                ", {:.3} Msamples/s, {:.2} Mrays/s",
+                samples / 1e6,
+                rays / 1e6
+            )
+        }
+        _ => String::new(),
     };
     println!(
-        "{} {} {}x{} {} spp: {:.1} ms, {:.3} Msamples/s, {:.2} Mrays/s -> {}",
+        "{} {} {}x{} {} spp: {:.1} ms{throughput} -> {}",
         report.scene,
         report.tier,
         report.width,
         report.height,
         report.spp,
         report.ms_per_frame,
-        report.samples_per_second / 1e6,
-        report.rays_per_second / 1e6,
         args.out.display()
     );
     if let Some(path) = &args.stats {

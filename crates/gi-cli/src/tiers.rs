@@ -1,54 +1,13 @@
-//! The tiers the `gi` command can run, and how one render of a tier is carried out.
+//! How the `gi` command runs one render of a tier through the gi-tiers [`Renderer`].
 
-use std::{collections::BTreeMap, fmt, str::FromStr, time::Instant};
+use std::collections::BTreeMap;
 
 use anyhow::Result;
 use gi_image::Image;
-use gi_reference::{Mode, Reference, RenderSettings, RenderStats, Strategy};
-use gi_scene::{CameraView, Scene, SceneFrame};
+use gi_reference::RenderStats;
+use gi_scene::{CameraView, Scene};
+use gi_tiers::{CameraMode, Renderer, TierChoice, TierKind, TierSettings};
 use serde::Serialize;
-
-/// A tier selectable with `--tier`.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, Serialize)]
-#[serde(rename_all = "kebab-case")]
-pub enum Tier {
-    /// The CPU path tracer: full light transport, the ground truth.
-    Reference,
-    /// Direct lighting only (the "None" baseline): punctual lights with shadows, plus
-    /// emitters and sky seen directly by the camera.
-    Direct,
-}
-
-impl Tier {
-    pub const ALL: [Tier; 2] = [Tier::Reference, Tier::Direct];
-
-    pub fn name(self) -> &'static str {
-        match self {
-            Tier::Reference => "reference",
-            Tier::Direct => "direct",
-        }
-    }
-}
-
-impl fmt::Display for Tier {
-    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        f.write_str(self.name())
-    }
-}
-
-impl FromStr for Tier {
-    type Err = String;
-
-    fn from_str(s: &str) -> Result<Self, Self::Err> {
-        Tier::ALL
-            .into_iter()
-            .find(|t| t.name() == s)
-            .ok_or_else(|| {
-                let names: Vec<_> = Tier::ALL.iter().map(|t| t.name()).collect();
-                format!("unknown tier '{s}' (available: {})", names.join(", "))
-            })
-    }
-}
 
 /// Which camera a render looks through.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum, Serialize)]
@@ -58,6 +17,15 @@ pub enum CameraChoice {
     Default,
     /// The scene's camera path from its extras, at the frame's time.
     Path,
+}
+
+impl From<CameraChoice> for CameraMode {
+    fn from(choice: CameraChoice) -> Self {
+        match choice {
+            CameraChoice::Default => CameraMode::Default,
+            CameraChoice::Path => CameraMode::Path,
+        }
+    }
 }
 
 /// What a render asks of a tier.
@@ -79,6 +47,7 @@ impl RenderRequest {
         scene.frame_time(self.frames.saturating_sub(1))
     }
 
+    /// Camera of the measured (last) frame.
     pub fn view(&self, scene: &Scene) -> CameraView {
         let time = self.time_s(scene);
         match self.camera {
@@ -86,62 +55,45 @@ impl RenderRequest {
             CameraChoice::Path => scene.path_view(time),
         }
     }
-
-    pub fn evaluate(&self, scene: &Scene) -> SceneFrame {
-        scene.evaluate(self.time_s(scene), Some(self.view(scene)))
-    }
 }
 
 /// The result of one tier render.
 pub struct TierRender {
     pub image: Image,
-    /// Wall time of the measured frame in milliseconds.
+    /// Time of the measured frame in milliseconds (the sum of its passes).
     pub ms_per_frame: f64,
-    /// Named passes of the frame and their time in milliseconds.
+    /// Named passes of the measured frame and their time in milliseconds.
     pub passes: BTreeMap<String, f64>,
-    /// Bytes of acceleration structures, scene data and image buffers the tier holds.
+    /// Bytes the tier owns after the measured frame.
     pub memory_bytes: u64,
-    pub stats: RenderStats,
-    pub triangles: usize,
+    pub stats: Option<RenderStats>,
 }
 
-/// Renders the last frame of `request` with `tier`. The CPU tiers keep no history between
-/// frames, so only the measured frame is rendered; temporal tiers will run every frame.
+/// Renders `request.frames` frames of `scene` with `tier` and returns the last.
 pub fn render_tier(
     scene: &Scene,
-    tier: Tier,
+    tier: TierKind,
     request: &RenderRequest,
     progress: &(dyn Fn(u32) + Sync),
 ) -> Result<TierRender> {
-    let frame = request.evaluate(scene);
-    let triangles = frame.triangles.len();
-    let started = Instant::now();
-    let reference = Reference::new(scene, frame);
-    let setup_ms = started.elapsed().as_secs_f64() * 1e3;
-    let settings = RenderSettings {
+    let settings = TierSettings {
         width: request.width,
         height: request.height,
         spp: request.spp,
         seed: request.seed,
-        mode: match tier {
-            Tier::Reference => Mode::Full,
-            Tier::Direct => Mode::Direct,
-        },
-        strategy: Strategy::Mis,
-        ..RenderSettings::default()
     };
-    let output = reference.render(&settings, progress)?;
-    let render_ms = output.stats.seconds * 1e3;
-    let mut passes = BTreeMap::new();
-    passes.insert("scene/bvh_build".to_string(), setup_ms);
-    passes.insert(format!("{}/trace", tier.name()), render_ms);
+    let mut renderer = Renderer::new(
+        scene.clone(),
+        TierChoice::Tier(tier),
+        settings,
+        request.camera.into(),
+    )?;
+    let frame = renderer.render_frames(request.frames, Some(progress))?;
     Ok(TierRender {
-        ms_per_frame: setup_ms + render_ms,
-        passes,
-        memory_bytes: reference.memory_bytes()
-            + u64::from(request.width) * u64::from(request.height) * 12,
-        image: output.image,
-        stats: output.stats,
-        triangles,
+        ms_per_frame: frame.ms_total(),
+        passes: frame.passes.iter().cloned().collect(),
+        memory_bytes: renderer.memory_bytes(),
+        image: frame.image,
+        stats: frame.stats,
     })
 }

@@ -1,0 +1,57 @@
+//! `gi-bench`: the product's benchmarks. Each subcommand prints a table and can write JSON.
+//!
+//! ```text
+//! gi-bench rays --scene open-world --rays 1048576 --json rays.json
+//! ```
+
+mod rays;
+
+use std::path::PathBuf;
+
+use clap::{Parser, Subcommand};
+
+#[derive(Parser)]
+#[command(name = "gi-bench", version, about = "Benchmarks of the GI product")]
+struct Cli {
+    #[command(subcommand)]
+    command: Command,
+}
+
+#[derive(Subcommand)]
+enum Command {
+    /// Ray tracing throughput of the GPU BVH traversal against the CPU's (obvhs, all cores):
+    /// primary (camera), shadow (towards lights) and incoherent (diffuse bounce) rays.
+    Rays {
+        /// Bundled scene name or glTF path.
+        #[arg(long, default_value = "cornell-box")]
+        scene: String,
+        /// Rays per kind. More rays fill a large GPU better; lavapipe wants few.
+        #[arg(long, default_value_t = 1 << 20)]
+        rays: usize,
+        /// Timed repetitions (after one warm-up); the median is reported.
+        #[arg(long, default_value_t = 5)]
+        repeats: usize,
+        /// Also write the results as JSON to this file.
+        #[arg(long)]
+        json: Option<PathBuf>,
+    },
+}
+
+fn main() -> anyhow::Result<()> {
+    match Cli::parse().command {
+        Command::Rays {
+            scene,
+            rays,
+            repeats,
+            json,
+        } => {
+            let report = rays::run(&scene, rays, repeats.max(1))?;
+            print!("{}", report.table());
+            if let Some(path) = json {
+                std::fs::write(&path, serde_json::to_string_pretty(&report.json())?)?;
+                println!("wrote {}", path.display());
+            }
+            Ok(())
+        }
+    }
+}

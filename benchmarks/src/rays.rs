@@ -1,0 +1,340 @@
+//! `gi-bench rays`: rays per second of the GPU CWBVH traversal (`gi::bvh`) and of the CPU's
+//! (obvhs with rayon) on the same rays, in one run.
+//!
+//! Three kinds of rays, `count` of each:
+//! - primary: camera rays over a pixel grid (coherent; closest hit),
+//! - shadow: from the primary hits towards the scene's lights, or towards random points in the
+//!   scene bounds when it has no punctual lights (any hit, finite segments),
+//! - incoherent: cosine-distributed bounces off the primary hits (closest hit).
+//!
+//! GPU times are the median of `repeats` dispatches measured with timestamp queries (CPU
+//! wall-clock around each pass when the adapter has none); CPU times are the median wall-clock
+//! of `repeats` parallel runs over all cores.
+
+use std::time::Instant;
+
+use anyhow::{Context, bail};
+use gi_gpu::bvh::{BvhTracer, GpuBvh, GpuRay, TraceTimings};
+use gi_gpu::{GpuContext, ShaderLibrary, TimerMode};
+use gi_scene::{SceneBvh, SceneFrame};
+use glam::Vec3;
+use rayon::prelude::*;
+
+/// Offset of secondary ray origins along the surface normal, in meters.
+const SURFACE_OFFSET_M: f32 = 1e-3;
+
+/// Timings of one kind of ray.
+pub struct KindResult {
+    /// `primary`, `shadow` or `incoherent`.
+    pub kind: &'static str,
+    /// `closest` or `occluded`: the query timed.
+    pub query: &'static str,
+    pub rays: usize,
+    pub gpu_ms: f64,
+    pub cpu_ms: f64,
+}
+
+impl KindResult {
+    fn gpu_mrays_per_s(&self) -> f64 {
+        self.rays as f64 / (self.gpu_ms * 1e3)
+    }
+
+    fn cpu_mrays_per_s(&self) -> f64 {
+        self.rays as f64 / (self.cpu_ms * 1e3)
+    }
+}
+
+/// Everything `gi-bench rays` measured.
+pub struct RaysReport {
+    pub scene: String,
+    pub triangles: usize,
+    pub bvh_nodes: u32,
+    pub bvh_depth: u32,
+    pub bvh_build_ms: f64,
+    pub adapter: String,
+    pub timer_mode: TimerMode,
+    pub cpu_threads: usize,
+    pub repeats: usize,
+    pub kinds: Vec<KindResult>,
+}
+
+/// Loads `scene`, builds and uploads its BVH, and times `count` rays of each kind.
+pub fn run(scene_name: &str, count: usize, repeats: usize) -> anyhow::Result<RaysReport> {
+    if count == 0 {
+        bail!("--rays must be at least 1");
+    }
+    let scene = gi_scene::load(scene_name).with_context(|| format!("loading {scene_name}"))?;
+    let frame = scene.evaluate(0.0, None);
+    let cpu_bvh = SceneBvh::build(&frame.triangles);
+    let ctx = GpuContext::new()?;
+    let gpu_bvh = GpuBvh::upload(&ctx, &cpu_bvh.bvh, &frame.triangles)?;
+    let tracer = BvhTracer::new(&ctx, &ShaderLibrary::new())?;
+
+    let primary = primary_rays(&frame, count);
+    let surfaces = surfaces(&frame, &cpu_bvh, &primary);
+    let mut kinds = Vec::new();
+    let mut timer_mode = TimerMode::Gpu;
+    for (kind, rays) in [
+        ("primary", primary),
+        ("shadow", shadow_rays(&frame, &surfaces, count)),
+        ("incoherent", bounce_rays(&surfaces, count)),
+    ] {
+        let query = if kind == "shadow" {
+            "occluded"
+        } else {
+            "closest"
+        };
+        let gpu: TraceTimings = tracer.time(&ctx, &gpu_bvh, &rays, repeats);
+        timer_mode = gpu.mode;
+        let gpu_ms = if query == "occluded" {
+            gpu.occluded_ms
+        } else {
+            gpu.closest_ms
+        };
+        let cpu_ms = cpu_time_ms(&frame, &cpu_bvh, &rays, query, repeats);
+        kinds.push(KindResult {
+            kind,
+            query,
+            rays: rays.len(),
+            gpu_ms,
+            cpu_ms,
+        });
+    }
+    let report = RaysReport {
+        scene: scene.name.clone(),
+        triangles: frame.triangles.len(),
+        bvh_nodes: gpu_bvh.node_count,
+        bvh_depth: gpu_bvh.depth,
+        bvh_build_ms: cpu_bvh.build_time.as_secs_f64() * 1e3,
+        adapter: ctx.adapter_info.name.clone(),
+        timer_mode,
+        cpu_threads: rayon::current_num_threads(),
+        repeats,
+        kinds,
+    };
+    gpu_bvh.release(&ctx);
+    Ok(report)
+}
+
+/// Camera rays through the pixel centers of a 4:3 grid of about `count` pixels, row by row.
+fn primary_rays(frame: &SceneFrame, count: usize) -> Vec<GpuRay> {
+    let aspect = 4.0 / 3.0;
+    let width = ((count as f32 * aspect).sqrt().ceil() as usize).max(1);
+    let height = count.div_ceil(width);
+    (0..count)
+        .map(|i| {
+            let (x, y) = (i % width, i / width);
+            let u = (x as f32 + 0.5) / width as f32;
+            let v = (y as f32 + 0.5) / height as f32;
+            let dir = frame.camera.ray_direction(u, v, aspect);
+            GpuRay::new(frame.camera.position, dir, 0.0, f32::INFINITY)
+        })
+        .collect()
+}
+
+/// A point just off a surface the camera sees, and the surface normal facing the camera.
+#[derive(Clone, Copy)]
+struct Surface {
+    point: Vec3,
+    normal: Vec3,
+}
+
+fn surfaces(frame: &SceneFrame, bvh: &SceneBvh, primary: &[GpuRay]) -> Vec<Surface> {
+    let found: Vec<Surface> = primary
+        .par_iter()
+        .filter_map(|ray| {
+            let (origin, dir) = (Vec3::from(ray.origin), Vec3::from(ray.dir));
+            let hit = bvh.closest_hit(&frame.triangles, origin, dir, 0.0, f32::INFINITY)?;
+            let normal = Vec3::from(frame.triangles[hit.triangle as usize].compute_normal());
+            let normal = if normal.dot(dir) > 0.0 {
+                -normal
+            } else {
+                normal
+            };
+            let point = origin + dir * hit.t + normal * SURFACE_OFFSET_M;
+            Some(Surface { point, normal })
+        })
+        .collect();
+    if found.is_empty() {
+        // The camera sees only sky: secondary rays leave the camera position instead.
+        vec![Surface {
+            point: frame.camera.position,
+            normal: frame.camera.forward,
+        }]
+    } else {
+        found
+    }
+}
+
+/// SplitMix64 hash of `(index, salt)` to a float in `[0, 1)`: deterministic per ray, and free
+/// of shared state so rays can be made in any order.
+fn random(index: usize, salt: u64) -> f32 {
+    let mut z = (index as u64 ^ salt.rotate_left(32)).wrapping_add(0x9e37_79b9_7f4a_7c15);
+    z = (z ^ (z >> 30)).wrapping_mul(0xbf58_476d_1ce4_e5b9);
+    z = (z ^ (z >> 27)).wrapping_mul(0x94d0_49bb_1331_11eb);
+    ((z ^ (z >> 31)) >> 40) as f32 / (1u64 << 24) as f32
+}
+
+fn shadow_rays(frame: &SceneFrame, surfaces: &[Surface], count: usize) -> Vec<GpuRay> {
+    let (min, max) = bounds(frame);
+    (0..count)
+        .map(|i| {
+            let surface = surfaces[i % surfaces.len()];
+            let (wi, distance) = if frame.lights.is_empty() {
+                let target =
+                    min + (max - min) * Vec3::new(random(i, 1), random(i, 2), random(i, 3));
+                let to_target = target - surface.point;
+                (to_target.normalize_or(surface.normal), to_target.length())
+            } else {
+                let (wi, distance, _) =
+                    frame.lights[i % frame.lights.len()].incident(surface.point);
+                (wi, distance)
+            };
+            // Stop just short of the light so a light inside geometry's plane does not block.
+            let t_max = if distance.is_finite() {
+                distance * 0.999
+            } else {
+                f32::INFINITY
+            };
+            GpuRay::new(surface.point, wi, 0.0, t_max)
+        })
+        .collect()
+}
+
+/// Cosine-distributed directions about each surface normal (a diffuse bounce).
+fn bounce_rays(surfaces: &[Surface], count: usize) -> Vec<GpuRay> {
+    (0..count)
+        .map(|i| {
+            let surface = surfaces[i % surfaces.len()];
+            let (r, phi) = (random(i, 4).sqrt(), std::f32::consts::TAU * random(i, 5));
+            let (tangent, bitangent) = surface.normal.any_orthonormal_pair();
+            let local_z = (1.0 - r * r).max(0.0).sqrt();
+            let dir =
+                tangent * (r * phi.cos()) + bitangent * (r * phi.sin()) + surface.normal * local_z;
+            GpuRay::new(
+                surface.point,
+                dir.normalize_or(surface.normal),
+                0.0,
+                f32::INFINITY,
+            )
+        })
+        .collect()
+}
+
+fn bounds(frame: &SceneFrame) -> (Vec3, Vec3) {
+    frame.triangles.iter().fold(
+        (Vec3::splat(f32::MAX), Vec3::splat(f32::MIN)),
+        |(min, max), tri| {
+            let lo = Vec3::from(tri.v0.min(tri.v1).min(tri.v2));
+            let hi = Vec3::from(tri.v0.max(tri.v1).max(tri.v2));
+            (min.min(lo), max.max(hi))
+        },
+    )
+}
+
+/// Median wall-clock milliseconds of tracing `rays` on all cores, after one warm-up run.
+fn cpu_time_ms(
+    frame: &SceneFrame,
+    bvh: &SceneBvh,
+    rays: &[GpuRay],
+    query: &str,
+    repeats: usize,
+) -> f64 {
+    let triangles = &frame.triangles;
+    let trace = || {
+        let start = Instant::now();
+        let hits: usize = rays
+            .par_iter()
+            .map(|ray| {
+                let (origin, dir) = (Vec3::from(ray.origin), Vec3::from(ray.dir));
+                let hit = if query == "occluded" {
+                    bvh.occluded(triangles, origin, dir, ray.t_min, ray.t_max)
+                } else {
+                    bvh.closest_hit(triangles, origin, dir, ray.t_min, ray.t_max)
+                        .is_some()
+                };
+                hit as usize
+            })
+            .sum();
+        // Using the count keeps the traversal from being optimized away.
+        std::hint::black_box(hits);
+        start.elapsed().as_secs_f64() * 1e3
+    };
+    trace();
+    let mut samples: Vec<f64> = (0..repeats).map(|_| trace()).collect();
+    samples.sort_by(f64::total_cmp);
+    samples[samples.len() / 2]
+}
+
+impl RaysReport {
+    /// A markdown table, one row per ray kind, with a header naming scene, BVH and devices.
+    pub fn table(&self) -> String {
+        let mut out = format!(
+            "scene {}: {} triangles, BVH {} nodes, depth {}, build {:.1} ms\n\
+             GPU: {} ({}), CPU: {} threads, median of {} runs\n\n",
+            self.scene,
+            self.triangles,
+            self.bvh_nodes,
+            self.bvh_depth,
+            self.bvh_build_ms,
+            self.adapter,
+            match self.timer_mode {
+                TimerMode::Gpu => "GPU timestamps",
+                TimerMode::Cpu => "CPU wall-clock per pass",
+            },
+            self.cpu_threads,
+            self.repeats
+        );
+        out.push_str(
+            "| rays | query | count | GPU ms | GPU Mrays/s | CPU ms | CPU Mrays/s | GPU/CPU |\n",
+        );
+        out.push_str("|---|---|---:|---:|---:|---:|---:|---:|\n");
+        for k in &self.kinds {
+            out.push_str(&format!(
+                "| {} | {} | {} | {:.3} | {:.2} | {:.3} | {:.2} | {:.2} |\n",
+                k.kind,
+                k.query,
+                k.rays,
+                k.gpu_ms,
+                k.gpu_mrays_per_s(),
+                k.cpu_ms,
+                k.cpu_mrays_per_s(),
+                k.cpu_ms / k.gpu_ms
+            ));
+        }
+        out
+    }
+
+    /// The same figures as JSON (rates in millions of rays per second).
+    pub fn json(&self) -> serde_json::Value {
+        let kinds: Vec<_> = self
+            .kinds
+            .iter()
+            .map(|k| {
+                serde_json::json!({
+                    "kind": k.kind,
+                    "query": k.query,
+                    "rays": k.rays,
+                    "gpu_ms": k.gpu_ms,
+                    "gpu_mrays_per_s": k.gpu_mrays_per_s(),
+                    "cpu_ms": k.cpu_ms,
+                    "cpu_mrays_per_s": k.cpu_mrays_per_s(),
+                    "gpu_over_cpu": k.cpu_ms / k.gpu_ms,
+                })
+            })
+            .collect();
+        serde_json::json!({
+            "benchmark": "rays",
+            "scene": self.scene,
+            "triangles": self.triangles,
+            "bvh_nodes": self.bvh_nodes,
+            "bvh_depth": self.bvh_depth,
+            "bvh_build_ms": self.bvh_build_ms,
+            "adapter": self.adapter,
+            "gpu_timer": format!("{:?}", self.timer_mode),
+            "cpu_threads": self.cpu_threads,
+            "repeats": self.repeats,
+            "kinds": kinds,
+        })
+    }
+}

@@ -1,0 +1,282 @@
+//! GPU BVH traversal against the CPU's: every ray's nearest triangle, distance and
+//! barycentrics, and every shadow ray's occlusion, on bundled scenes (lavapipe in CI).
+//!
+//! Camera rays, random rays from in and around the scene bounds (some with a finite `t_max`),
+//! shadow rays from camera hits towards the lights, and diffuse-like rays leaving those hits.
+//! The only accepted disagreements are ties: rays the CPU finds at (nearly) the same distance
+//! on two triangles (a shared edge, overlapping faces), where either answer is right. Their
+//! count is reported and must stay rare.
+
+use gi_gpu::GpuContext;
+use gi_gpu::ShaderLibrary;
+use gi_gpu::bvh::{BvhTracer, GpuBvh, GpuRay};
+use gi_scene::{SceneBvh, SceneFrame, Triangle};
+use glam::{Vec2, Vec3, Vec3A};
+
+/// Relative tolerance on hit distances: the GPU repeats the CPU's f32 operations, but may
+/// fuse multiply-adds differently.
+const T_REL: f32 = 1e-4;
+
+/// Largest share of rays allowed to be ties (two triangles at the same distance): they are
+/// rays through shared edges and vertices, a measure-zero set that rounding makes a little
+/// larger.
+const MAX_TIE_SHARE: f64 = 0.005;
+
+/// A small seeded generator (SplitMix64) so the rays are the same on every run and machine.
+struct Rng(u64);
+
+impl Rng {
+    fn next_f32(&mut self) -> f32 {
+        self.0 = self.0.wrapping_add(0x9e37_79b9_7f4a_7c15);
+        let mut z = self.0;
+        z = (z ^ (z >> 30)).wrapping_mul(0xbf58_476d_1ce4_e5b9);
+        z = (z ^ (z >> 27)).wrapping_mul(0x94d0_49bb_1331_11eb);
+        ((z ^ (z >> 31)) >> 40) as f32 / (1u64 << 24) as f32
+    }
+
+    fn unit_vector(&mut self) -> Vec3 {
+        let z = 2.0 * self.next_f32() - 1.0;
+        let phi = std::f32::consts::TAU * self.next_f32();
+        let r = (1.0 - z * z).max(0.0).sqrt();
+        Vec3::new(r * phi.cos(), r * phi.sin(), z)
+    }
+
+    fn in_box(&mut self, min: Vec3, max: Vec3) -> Vec3 {
+        let t = Vec3::new(self.next_f32(), self.next_f32(), self.next_f32());
+        min + (max - min) * t
+    }
+}
+
+fn ray(origin: Vec3, dir: Vec3, t_min: f32, t_max: f32) -> GpuRay {
+    GpuRay {
+        origin: origin.to_array(),
+        t_min,
+        dir: dir.to_array(),
+        t_max,
+    }
+}
+
+/// Camera rays over a grid, random rays (some of them segments), and for camera hits a shadow ray to each light (or a
+/// random point for lights at infinity) and a bounce ray in a random direction.
+fn test_rays(frame: &SceneFrame, bvh: &SceneBvh, seed: u64) -> Vec<GpuRay> {
+    let mut rng = Rng(seed);
+    let (mut min, mut max) = (Vec3::splat(f32::MAX), Vec3::splat(f32::MIN));
+    for tri in &frame.triangles {
+        for v in [tri.v0, tri.v1, tri.v2] {
+            min = min.min(v.into());
+            max = max.max(v.into());
+        }
+    }
+    let margin = (max - min) * 0.1;
+    let (min, max) = (min - margin, max + margin);
+
+    let mut rays = Vec::new();
+    let camera = frame.camera;
+    let grid = 32;
+    for y in 0..grid {
+        for x in 0..grid {
+            let (u, v) = (
+                (x as f32 + 0.5) / grid as f32,
+                (y as f32 + 0.5) / grid as f32,
+            );
+            let dir = camera.ray_direction(u, v, 4.0 / 3.0);
+            rays.push(ray(camera.position, dir, 0.0, f32::INFINITY));
+        }
+    }
+    for i in 0..1500 {
+        let t_max = if i % 2 == 0 {
+            f32::INFINITY
+        } else {
+            rng.next_f32() * (max - min).length()
+        };
+        // Some segments start past their origin, to test `t_min` too.
+        let t_min = if i % 4 == 1 { 0.25 * t_max } else { 0.0 };
+        rays.push(ray(rng.in_box(min, max), rng.unit_vector(), t_min, t_max));
+    }
+    let primary: Vec<GpuRay> = rays[..grid * grid].to_vec();
+    for primary in primary {
+        let (origin, dir) = (Vec3::from(primary.origin), Vec3::from(primary.dir));
+        let Some(hit) = bvh.closest_hit(&frame.triangles, origin, dir, 0.0, f32::INFINITY) else {
+            continue;
+        };
+        let point = origin + dir * hit.t;
+        let normal = Vec3::from(frame.triangles[hit.triangle as usize].compute_normal());
+        let normal = if normal.dot(dir) > 0.0 {
+            -normal
+        } else {
+            normal
+        };
+        let surface = point + normal * 1e-3;
+        for light in &frame.lights {
+            let (wi, distance, _) = light.incident(surface);
+            let t_max = if distance.is_finite() {
+                distance * 0.999
+            } else {
+                f32::INFINITY
+            };
+            rays.push(ray(surface, wi, 0.0, t_max));
+        }
+        let target = rng.in_box(min, max);
+        rays.push(ray(
+            surface,
+            (target - surface).normalize(),
+            0.0,
+            (target - surface).length(),
+        ));
+        let bounce = (normal + rng.unit_vector()).normalize_or(normal);
+        rays.push(ray(surface, bounce, 0.0, f32::INFINITY));
+    }
+    rays
+}
+
+/// How one scene's rays compared.
+#[derive(Debug, Default)]
+struct Agreement {
+    rays: usize,
+    hits: usize,
+    occluded: usize,
+    ties: usize,
+}
+
+fn compare_scene(ctx: &GpuContext, tracer: &BvhTracer, name: &str, seed: u64) -> Agreement {
+    let scene = gi_scene::load(name).unwrap_or_else(|e| panic!("{name}: {e}"));
+    let frame = scene.evaluate(0.0, None);
+    let cpu = SceneBvh::build(&frame.triangles);
+    let gpu = GpuBvh::upload(ctx, &cpu.bvh, &frame.triangles).expect("BVH uploads");
+    let rays = test_rays(&frame, &cpu, seed);
+    let results = tracer.trace(ctx, &gpu, &rays);
+    assert_eq!(results.hits.len(), rays.len());
+    gpu.release(ctx);
+
+    let triangles = &frame.triangles;
+    let mut agreement = Agreement {
+        rays: rays.len(),
+        ..Default::default()
+    };
+    for (i, (r, gpu_hit)) in rays.iter().zip(&results.hits).enumerate() {
+        let (origin, dir) = (Vec3::from(r.origin), Vec3::from(r.dir));
+        let cpu_hit = cpu.closest_hit(triangles, origin, dir, r.t_min, r.t_max);
+        let cpu_occluded = cpu.occluded(triangles, origin, dir, r.t_min, r.t_max);
+        assert_eq!(
+            results.occluded[i], cpu_occluded,
+            "{name} ray {i} {r:?}: GPU occluded {} but CPU {cpu_occluded}",
+            results.occluded[i]
+        );
+        agreement.occluded += cpu_occluded as usize;
+        match (cpu_hit, gpu_hit.triangle()) {
+            (None, None) => {}
+            (Some(c), Some(g)) if c.triangle == g => {
+                agreement.hits += 1;
+                assert!(
+                    (gpu_hit.t - c.t).abs() <= T_REL * c.t.max(1e-3),
+                    "{name} ray {i}: t GPU {} CPU {}",
+                    gpu_hit.t,
+                    c.t
+                );
+                let bary = Vec2::from(gpu_hit.barycentrics);
+                assert!(
+                    (bary - c.barycentrics).abs().max_element() < 1e-3,
+                    "{name} ray {i}: barycentrics GPU {bary} CPU {}",
+                    c.barycentrics
+                );
+            }
+            (Some(c), Some(g)) if same_distance(&triangles[g as usize], r, c.t) => {
+                agreement.hits += 1;
+                agreement.ties += 1;
+            }
+            (c, g) => {
+                panic!("{name} ray {i} {r:?}: CPU hit {c:?}, GPU hit {gpu_hit:?} (triangle {g:?})")
+            }
+        }
+    }
+    agreement
+}
+
+/// Whether `tri` is hit by the ray at (nearly) `t` too: then the CPU's choice was a tie.
+fn same_distance(tri: &Triangle, r: &GpuRay, t: f32) -> bool {
+    let ray = obvhs::ray::Ray::new(
+        Vec3A::from_array(r.origin),
+        Vec3A::from_array(r.dir),
+        r.t_min,
+        r.t_max,
+    );
+    let t_other = tri.intersect(&ray);
+    (t_other - t).abs() <= T_REL * t.max(1e-3)
+}
+
+#[test]
+fn gpu_traversal_matches_cpu_on_bundled_scenes() {
+    let Some(ctx) = GpuContext::new_or_skip("gpu_traversal_matches_cpu_on_bundled_scenes") else {
+        return;
+    };
+    let tracer = BvhTracer::new(&ctx, &ShaderLibrary::new()).expect("trace shader composes");
+    for (seed, name) in ["cornell-box", "atrium", "glossy", "open-world"]
+        .into_iter()
+        .enumerate()
+    {
+        let agreement = compare_scene(&ctx, &tracer, name, seed as u64 + 1);
+        eprintln!("{name}: {agreement:?}");
+        assert!(
+            agreement.hits > agreement.rays / 4,
+            "{name}: too few hits to mean anything"
+        );
+        assert!(
+            agreement.ties as f64 <= MAX_TIE_SHARE * agreement.rays as f64,
+            "{name}: {} ties in {} rays",
+            agreement.ties,
+            agreement.rays
+        );
+    }
+    assert_eq!(
+        ctx.memory().bytes_with_prefix("bvh."),
+        0,
+        "every BVH buffer released"
+    );
+}
+
+/// Two stacked triangles: the nearer one is the closest hit, a segment ending between them is
+/// blocked only by the nearer one, and a ray beside them misses.
+#[test]
+fn known_answers_on_two_triangles() {
+    let Some(ctx) = GpuContext::new_or_skip("known_answers_on_two_triangles") else {
+        return;
+    };
+    let tri = |z: f32| Triangle {
+        v0: Vec3A::new(0.0, 0.0, z),
+        v1: Vec3A::new(4.0, 0.0, z),
+        v2: Vec3A::new(0.0, 4.0, z),
+    };
+    let triangles = [tri(-5.0), tri(-2.0)];
+    let cpu = SceneBvh::build(&triangles);
+    let gpu = GpuBvh::upload(&ctx, &cpu.bvh, &triangles).expect("BVH uploads");
+    let tracer = BvhTracer::new(&ctx, &ShaderLibrary::new()).expect("trace shader composes");
+    let origin = Vec3::new(1.0, 2.0, 0.0);
+    let rays = [
+        ray(origin, Vec3::NEG_Z, 0.0, 100.0),
+        ray(origin, Vec3::NEG_Z, 0.0, 1.5),
+        ray(Vec3::new(3.5, 3.5, 0.0), Vec3::NEG_Z, 0.0, 100.0),
+    ];
+    let results = tracer.trace(&ctx, &gpu, &rays);
+    assert_eq!(results.hits[0].triangle(), Some(1));
+    assert!((results.hits[0].t - 2.0).abs() < 1e-5);
+    let bary = Vec2::from(results.hits[0].barycentrics);
+    assert!((bary - Vec2::new(0.25, 0.5)).length() < 1e-5, "{bary}");
+    assert_eq!(results.occluded, [true, false, false]);
+    assert_eq!(results.hits[1].triangle(), None);
+    assert_eq!(results.hits[2].triangle(), None);
+}
+
+/// A scene without triangles uploads a childless root: every ray misses.
+#[test]
+fn empty_bvh_misses_everything() {
+    let Some(ctx) = GpuContext::new_or_skip("empty_bvh_misses_everything") else {
+        return;
+    };
+    let cpu = SceneBvh::build(&[]);
+    let gpu = GpuBvh::upload(&ctx, &cpu.bvh, &[]).expect("empty BVH uploads");
+    let tracer = BvhTracer::new(&ctx, &ShaderLibrary::new()).expect("trace shader composes");
+    let rays = [ray(Vec3::ZERO, Vec3::X, 0.0, f32::INFINITY)];
+    let results = tracer.trace(&ctx, &gpu, &rays);
+    assert_eq!(results.hits[0].triangle(), None);
+    assert_eq!(results.occluded, [false]);
+}

@@ -1,0 +1,315 @@
+//! Tests of the GPU context, read-back, timers and memory accounting on a real adapter
+//! (lavapipe in CI). Without an adapter they skip loudly, or fail when `GI_REQUIRE_GPU` is set.
+
+use gi_gpu::{GpuContext, GpuError, GpuOptions, GpuTimer, ShaderLibrary, TimerMode};
+
+/// An odd count, so the last workgroup is partial and the shader's bounds check matters.
+const COUNT: usize = 1000;
+const WORKGROUP_SIZE: usize = 64;
+
+/// The `test/double` kernel bound to a fresh buffer of `0, 1, 2, ...`.
+struct Doubler {
+    pipeline: wgpu::ComputePipeline,
+    bind_group: wgpu::BindGroup,
+    values: wgpu::Buffer,
+}
+
+impl Doubler {
+    fn new(ctx: &GpuContext) -> Self {
+        let module = ShaderLibrary::new()
+            .create_module(ctx, "test/double.wgsl", &[])
+            .unwrap();
+        let pipeline = ctx.create_compute_pipeline("test/double", &module, "double_values");
+        let initial: Vec<f32> = (0..COUNT).map(|i| i as f32).collect();
+        let values = ctx.create_buffer_init(
+            "test.values",
+            bytemuck::cast_slice(&initial),
+            wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC,
+        );
+        let bind_group = ctx.device.create_bind_group(&wgpu::BindGroupDescriptor {
+            label: Some("test/double"),
+            layout: &pipeline.get_bind_group_layout(0),
+            entries: &[wgpu::BindGroupEntry {
+                binding: 0,
+                resource: values.as_entire_binding(),
+            }],
+        });
+        Self {
+            pipeline,
+            bind_group,
+            values,
+        }
+    }
+
+    fn record(&self, pass: &mut wgpu::ComputePass<'_>) {
+        pass.set_pipeline(&self.pipeline);
+        pass.set_bind_group(0, &self.bind_group, &[]);
+        pass.dispatch_workgroups(COUNT.div_ceil(WORKGROUP_SIZE) as u32, 1, 1);
+    }
+
+    fn expected(factor: f32) -> Vec<f32> {
+        (0..COUNT).map(|i| factor * i as f32).collect()
+    }
+}
+
+#[test]
+fn a_compute_shader_doubles_a_buffer() {
+    let Some(ctx) = GpuContext::new_or_skip("a_compute_shader_doubles_a_buffer") else {
+        return;
+    };
+    eprintln!(
+        "adapter: {} ({:?})",
+        ctx.adapter_info.name, ctx.adapter_info.device_type
+    );
+    let doubler = Doubler::new(&ctx);
+    let mut encoder = ctx.create_encoder("test/double");
+    {
+        let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
+            label: Some("test/double"),
+            timestamp_writes: None,
+        });
+        doubler.record(&mut pass);
+    }
+    ctx.submit_and_wait(encoder);
+    assert_eq!(
+        ctx.read_buffer::<f32>(&doubler.values),
+        Doubler::expected(2.0)
+    );
+}
+
+#[test]
+fn the_timer_reports_each_named_pass() {
+    let Some(ctx) = GpuContext::new_or_skip("the_timer_reports_each_named_pass") else {
+        return;
+    };
+    for mode in [TimerMode::Gpu, TimerMode::Cpu] {
+        let doubler = Doubler::new(&ctx);
+        let mut timer = GpuTimer::with_mode(&ctx, "test.timer", 4, mode);
+        if mode == TimerMode::Gpu {
+            assert_eq!(
+                timer.mode(),
+                TimerMode::Gpu,
+                "lavapipe and real GPUs have timestamps"
+            );
+        }
+        let mut encoder = ctx.create_encoder("test/frame");
+        timer.compute_pass(&ctx, &mut encoder, "test/double", |pass| {
+            doubler.record(pass)
+        });
+        timer.compute_pass(&ctx, &mut encoder, "test/double_again", |pass| {
+            doubler.record(pass)
+        });
+        let timings = timer.finish(&ctx, encoder);
+        eprintln!("{mode:?} timings:\n{timings}");
+
+        let names: Vec<&str> = timings.0.iter().map(|(n, _)| n.as_str()).collect();
+        assert_eq!(names, ["test/double", "test/double_again"], "{mode:?}");
+        for (name, ms) in &timings.0 {
+            assert!(ms.is_finite() && *ms >= 0.0, "{mode:?} {name}: {ms} ms");
+        }
+        assert!(timings.to_string().contains("test/double_again"));
+        // Both passes ran, in order, in either mode.
+        assert_eq!(
+            ctx.read_buffer::<f32>(&doubler.values),
+            Doubler::expected(4.0)
+        );
+
+        // The timer is reusable: the next frame starts empty.
+        let empty = timer.finish(&ctx, ctx.create_encoder("test/frame"));
+        assert!(empty.0.is_empty());
+    }
+}
+
+#[test]
+fn the_memory_report_counts_bytes_by_label() {
+    let Some(ctx) = GpuContext::new_or_skip("the_memory_report_counts_bytes_by_label") else {
+        return;
+    };
+    let usage = wgpu::BufferUsages::STORAGE;
+    let a = ctx.create_buffer("test.a", 1024, usage);
+    let _b1 = ctx.create_buffer("test.b", 256, usage);
+    let _b2 = ctx.create_buffer_init("test.b", &[7u8; 256], usage);
+    let _texture = ctx.create_texture(&wgpu::TextureDescriptor {
+        label: Some("test.texture"),
+        size: wgpu::Extent3d {
+            width: 16,
+            height: 16,
+            depth_or_array_layers: 1,
+        },
+        mip_level_count: 2,
+        sample_count: 1,
+        dimension: wgpu::TextureDimension::D2,
+        format: wgpu::TextureFormat::Rgba16Float,
+        usage: wgpu::TextureUsages::STORAGE_BINDING,
+        view_formats: &[],
+    });
+    let report = ctx.memory();
+    eprintln!("{report}");
+    assert_eq!(report.bytes("test.a"), 1024);
+    assert_eq!(report.bytes("test.b"), 512);
+    // 16x16 + 8x8 texels of 8 bytes.
+    assert_eq!(report.bytes("test.texture"), (256 + 64) * 8);
+    assert_eq!(report.total_bytes(), 1024 + 512 + 2560);
+    assert_eq!(report.bytes_with_prefix("test.b"), 512);
+
+    assert!(ctx.release_buffer(&a));
+    assert!(
+        !ctx.release_buffer(&a),
+        "a released buffer is no longer tracked"
+    );
+    assert_eq!(ctx.memory().bytes("test.a"), 0);
+
+    {
+        let _timer = GpuTimer::new(&ctx, "test.timer", 8);
+        let with_timer = ctx.memory().bytes("test.timer.timestamps");
+        assert!(ctx.supports_timestamps() == (with_timer == 8 * 2 * 8));
+    }
+    assert_eq!(
+        ctx.memory().bytes("test.timer.timestamps"),
+        0,
+        "the timer releases its own"
+    );
+
+    assert_eq!(ctx.release_labeled("test."), 3);
+    assert_eq!(ctx.memory().total_bytes(), 0);
+}
+
+#[test]
+fn reading_a_buffer_without_copy_src_is_an_error() {
+    let Some(ctx) = GpuContext::new_or_skip("reading_a_buffer_without_copy_src_is_an_error") else {
+        return;
+    };
+    let buffer = ctx.create_buffer("test.no_copy", 64, wgpu::BufferUsages::STORAGE);
+    let err = ctx.try_read_buffer::<u32>(&buffer).unwrap_err();
+    assert!(matches!(err, GpuError::Readback(_)), "{err}");
+}
+
+#[test]
+fn options_reject_unknown_adapters_and_unmet_limits() {
+    let err = GpuContext::with_options(&GpuOptions {
+        adapter_name: Some("no such adapter".into()),
+        ..GpuOptions::default()
+    })
+    .err()
+    .expect("no adapter is called that");
+    assert!(matches!(err, GpuError::NoAdapter { .. }), "{err}");
+    assert!(err.to_string().contains("mesa-vulkan-drivers"), "{err}");
+
+    if GpuContext::new_or_skip("options_reject_unknown_adapters_and_unmet_limits").is_none() {
+        return;
+    }
+    let err = GpuContext::with_options(&GpuOptions {
+        required_limits: wgpu::Limits {
+            max_storage_buffer_binding_size: u64::MAX,
+            ..wgpu::Limits::default()
+        },
+        ..GpuOptions::default()
+    })
+    .err()
+    .expect("no adapter binds 16 EiB");
+    assert!(
+        matches!(
+            err,
+            GpuError::LimitTooSmall {
+                limit: "max_storage_buffer_binding_size",
+                needed: u64::MAX,
+                ..
+            }
+        ),
+        "{err}"
+    );
+}
+
+#[test]
+fn shared_packing_and_basis_functions_are_accurate() {
+    let Some(ctx) = GpuContext::new_or_skip("shared_packing_and_basis_functions_are_accurate")
+    else {
+        return;
+    };
+    // A fixed pseudo-random batch: unit vectors in every octant (and the poles), colors over
+    // nine orders of magnitude.
+    let mut state = 0x2545_f491_u32;
+    let mut next = move || {
+        state = state.wrapping_mul(1_664_525).wrapping_add(1_013_904_223);
+        (state >> 8) as f32 / (1 << 24) as f32
+    };
+    let mut inputs: Vec<[f32; 4]> = vec![
+        [0.0, 0.0, 1.0, 0.0],
+        [1.0; 4],
+        [0.0, 0.0, -1.0, 0.0],
+        [0.5; 4],
+    ];
+    for i in 0..254 {
+        let v = [2.0 * next() - 1.0, 2.0 * next() - 1.0, 2.0 * next() - 1.0];
+        let length = (v[0] * v[0] + v[1] * v[1] + v[2] * v[2]).sqrt().max(1e-3);
+        inputs.push([v[0] / length, v[1] / length, v[2] / length, 0.0]);
+        let scale = 10f32.powi(i % 9 - 4);
+        inputs.push([next() * scale, next() * scale, next() * scale, 0.0]);
+    }
+    let count = inputs.len() / 2;
+    let usage = wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC;
+    let input_buffer = ctx.create_buffer_init("test.inputs", bytemuck::cast_slice(&inputs), usage);
+    let output_buffer = ctx.create_buffer("test.outputs", (count * 3 * 16) as u64, usage);
+    let module = ShaderLibrary::new()
+        .create_module(&ctx, "test/common_functions.wgsl", &[])
+        .unwrap();
+    let pipeline =
+        ctx.create_compute_pipeline("test/common_functions", &module, "common_functions");
+    let bind_group = ctx.device.create_bind_group(&wgpu::BindGroupDescriptor {
+        label: Some("test/common_functions"),
+        layout: &pipeline.get_bind_group_layout(0),
+        entries: &[
+            wgpu::BindGroupEntry {
+                binding: 0,
+                resource: input_buffer.as_entire_binding(),
+            },
+            wgpu::BindGroupEntry {
+                binding: 1,
+                resource: output_buffer.as_entire_binding(),
+            },
+        ],
+    });
+    let mut encoder = ctx.create_encoder("test/common_functions");
+    {
+        let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
+            label: Some("test/common_functions"),
+            timestamp_writes: None,
+        });
+        pass.set_pipeline(&pipeline);
+        pass.set_bind_group(0, &bind_group, &[]);
+        pass.dispatch_workgroups(count.div_ceil(64) as u32, 1, 1);
+    }
+    ctx.submit_and_wait(encoder);
+    let outputs: Vec<[f32; 4]> = ctx.read_buffer(&output_buffer);
+
+    let mut worst_normal = 0f32;
+    let mut worst_color = 0f32;
+    for i in 0..count {
+        let (n, color) = (inputs[2 * i], inputs[2 * i + 1]);
+        let [n_out, color_out, basis] = [outputs[3 * i], outputs[3 * i + 1], outputs[3 * i + 2]];
+        let normal_error = (0..3)
+            .map(|k| (n[k] - n_out[k]).powi(2))
+            .sum::<f32>()
+            .sqrt();
+        worst_normal = worst_normal.max(normal_error);
+        let max_channel = color[0].max(color[1]).max(color[2]);
+        for k in 0..3 {
+            // Nine mantissa bits relative to the largest channel, after rounding.
+            let relative = (color[k] - color_out[k]).abs() / max_channel;
+            worst_color = worst_color.max(relative);
+        }
+        for (k, value) in basis[..3].iter().enumerate() {
+            assert!(value.abs() < 1e-5, "input {i}: basis dot {k} = {value}");
+        }
+        assert!(
+            (basis[3] - 1.0).abs() < 1e-5,
+            "input {i}: basis determinant {}",
+            basis[3]
+        );
+    }
+    eprintln!(
+        "worst unit-vector error {worst_normal:e}, worst relative color error {worst_color:e}"
+    );
+    assert!(worst_normal < 1e-4, "unit vectors: {worst_normal}");
+    assert!(worst_color <= 1.0 / 512.0, "colors: {worst_color}");
+}

@@ -1,0 +1,132 @@
+//! What every tier is: created from a scene and settings, renders frames, reports its passes'
+//! timings and its memory.
+
+use std::{fmt, str::FromStr};
+
+use gi_image::Image;
+use gi_reference::RenderStats;
+use gi_scene::{Scene, SceneFrame};
+
+/// The tiers this build can run.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub enum TierKind {
+    /// The CPU path tracer: full light transport, the ground truth and the no-GPU fallback.
+    Reference,
+    /// Direct lighting only (the "None" baseline): punctual lights with exact shadows, plus
+    /// emitters and sky seen directly by the camera.
+    Direct,
+}
+
+impl TierKind {
+    /// Every tier, in the order tables list them.
+    pub const ALL: [TierKind; 2] = [TierKind::Reference, TierKind::Direct];
+
+    /// The name used on the command line, in JSON and in pass names.
+    pub fn name(self) -> &'static str {
+        match self {
+            TierKind::Reference => "reference",
+            TierKind::Direct => "direct",
+        }
+    }
+}
+
+impl fmt::Display for TierKind {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.write_str(self.name())
+    }
+}
+
+impl FromStr for TierKind {
+    type Err = TierError;
+
+    fn from_str(s: &str) -> Result<Self, Self::Err> {
+        TierKind::ALL
+            .into_iter()
+            .find(|t| t.name() == s)
+            .ok_or_else(|| TierError::UnknownTier {
+                name: s.to_string(),
+                available: TierKind::ALL.map(TierKind::name).join(", "),
+            })
+    }
+}
+
+/// What a caller asks [`crate::Renderer::new`] for.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum TierChoice {
+    /// The best tier the machine runs: today the CPU reference, the fallback without a GPU.
+    Auto,
+    /// The mobile tier (surfel brick cache, probe volume, screen probes). Not built yet.
+    Mobile,
+    /// The PC tier (BVH ray tracing, ReSTIR GI, SVGF). Not built yet.
+    Pc,
+    /// The GPU path tracer. Not built yet.
+    Path,
+    /// One tier by kind.
+    Tier(TierKind),
+}
+
+/// Settings shared by every tier.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct TierSettings {
+    pub width: u32,
+    pub height: u32,
+    /// Samples per pixel per frame: path samples for the path tracers, anti-aliasing samples
+    /// for `direct`. More samples cost time linearly and reduce noise as 1/sqrt(spp).
+    pub spp: u32,
+    /// Seed of every random decision; the same seed gives the same image.
+    pub seed: u64,
+}
+
+/// One frame handed to a tier.
+pub struct FrameInput<'a> {
+    pub scene: &'a Scene,
+    /// The scene evaluated at this frame's time, seen through this frame's camera.
+    pub frame: &'a SceneFrame,
+    /// Frames rendered before this one since the tier was created.
+    pub index: u32,
+    /// Called with the samples per pixel done so far, for progress bars.
+    pub progress: Option<&'a (dyn Fn(u32) + Sync)>,
+}
+
+/// What a tier returns for a frame.
+pub struct FrameOutput {
+    /// Linear HDR radiance.
+    pub image: Image,
+    /// Named passes (`"reference/trace"`) and their time in milliseconds, in execution order.
+    pub passes: Vec<(String, f64)>,
+    /// Path-tracing throughput, for tiers that trace paths on the CPU.
+    pub stats: Option<RenderStats>,
+}
+
+impl FrameOutput {
+    /// The frame's total time: the sum of its passes.
+    pub fn ms_total(&self) -> f64 {
+        self.passes.iter().map(|(_, ms)| ms).sum()
+    }
+}
+
+/// A GI technique that renders frames of a scene, possibly reusing history between them.
+pub trait Tier: Send {
+    fn kind(&self) -> TierKind;
+
+    /// True when the tier reuses history, so every frame must be rendered in order. Tiers
+    /// without history render only the frames that are asked for.
+    fn is_temporal(&self) -> bool;
+
+    /// Renders one frame.
+    fn render(&mut self, input: &FrameInput) -> Result<FrameOutput, TierError>;
+
+    /// Bytes of every buffer, texture and acceleration structure the tier owns now.
+    fn memory_bytes(&self) -> u64;
+}
+
+/// Why a tier could not be created or could not render.
+#[derive(Debug, thiserror::Error)]
+pub enum TierError {
+    #[error("unknown tier '{name}' (available: {available})")]
+    UnknownTier { name: String, available: String },
+    #[error("the {tier} tier is not available: {reason}")]
+    Unavailable { tier: &'static str, reason: String },
+    #[error(transparent)]
+    Render(#[from] gi_reference::RenderError),
+}

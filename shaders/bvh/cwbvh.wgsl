@@ -1,0 +1,274 @@
+// Closest-hit and any-hit ray traversal of a compressed wide BVH (8-wide, quantized child boxes).
+//
+// Ylitie, Karras, Laine, "Efficient Incoherent Ray Traversal on GPUs Through Compressed Wide
+// BVHs", HPG 2017: node groups (a node's child base index plus a hit mask) on a short per-thread
+// stack, children ordered by the ray octant through the node's per-child meta bytes, and the
+// ray transformed into each node's quantized grid instead of decoding the child boxes.
+//
+// Nodes are obvhs `CwBvhNode`s uploaded byte for byte, and the node and triangle tests follow
+// obvhs's CPU traversal operation for operation, so a GPU hit and a CPU hit of the same ray
+// agree on the triangle and on `t` up to rounding.
+//
+// Bind group 1 (`GpuBvh::bind_group_layout`), read-only storage, any stage that traces:
+//   binding 0: `bvh_nodes`     array<CwBvhNode>, 80 bytes each, the root at index 0
+//   binding 1: `bvh_triangles` array<BvhTriangle>, 48 bytes each, in leaf order
+
+#define_import_path gi::bvh
+
+/// A ray `origin + t * dir` for `t` in `[t_min, t_max]`. `dir` need not be unit length; `t`
+/// is measured in units of `dir`.
+struct Ray {
+    origin: vec3<f32>,
+    t_min: f32,
+    dir: vec3<f32>,
+    t_max: f32,
+}
+
+/// Result of `trace_closest`. `triangle` indexes the frame's triangle list, `BVH_MISS` when
+/// nothing was hit. `barycentrics` are the weights of v1 and v2 (v0's is `1 - x - y`).
+struct Hit {
+    t: f32,
+    triangle: u32,
+    barycentrics: vec2<f32>,
+}
+
+/// obvhs `CwBvhNode`, 80 bytes. Byte arrays are read as little-endian words: `e_imask` holds
+/// the three extent exponents in bytes 0..2 and the internal-child mask in byte 3; each
+/// `vec2<u32>` holds the eight per-child bytes of one field, child `i` in byte `i % 4` of
+/// component `i / 4`.
+struct CwBvhNode {
+    p: vec3<f32>,
+    e_imask: u32,
+    child_base_idx: u32,
+    primitive_base_idx: u32,
+    child_meta: vec2<u32>,
+    child_min_x: vec2<u32>,
+    child_max_x: vec2<u32>,
+    child_min_y: vec2<u32>,
+    child_max_y: vec2<u32>,
+    child_min_z: vec2<u32>,
+    child_max_z: vec2<u32>,
+}
+
+/// A world-space triangle in leaf order (the BVH's primitive `i` is `bvh_triangles[i]`), with
+/// the index of the frame triangle it came from. `a`, `b`, `c` are its v0, v1, v2 (names of
+/// an import module cannot end in a digit). Vertices rather than edges, so the GPU test
+/// performs the same operations as the CPU one.
+struct BvhTriangle {
+    a: vec3<f32>,
+    triangle: u32,
+    b: vec3<f32>,
+    pad_b: u32,
+    c: vec3<f32>,
+    pad_c: u32,
+}
+
+/// `Hit::triangle` of a ray that hit nothing.
+const BVH_MISS: u32 = 0xffffffffu;
+
+/// Entries of the per-thread traversal stack. One group is pushed per level descended, so the
+/// stack holds at most the BVH depth; `GpuBvh` refuses to upload a deeper BVH, so the stack
+/// can never overflow.
+const BVH_STACK_SIZE: u32 = 32u;
+
+/// Boxes are entered no closer than this, as obvhs does; it keeps CPU and GPU traversal equal.
+const BVH_NODE_EPSILON: f32 = 0.0001;
+
+@group(1) @binding(0) var<storage, read> bvh_nodes: array<CwBvhNode>;
+@group(1) @binding(1) var<storage, read> bvh_triangles: array<BvhTriangle>;
+
+/// Per-ray values reused by every node test.
+struct RayState {
+    origin: vec3<f32>,
+    dir: vec3<f32>,
+    inv_dir: vec3<f32>,
+    /// 1 per axis where the direction is negative (then a child's max plane is its entry).
+    negative: vec3<bool>,
+    /// Inverse ray octant (bit 2: x >= 0, bit 1: y >= 0, bit 0: z >= 0), XORed into the slot
+    /// index of internal children so the nearest-first order falls out of a find-MSB.
+    oct_inv: u32,
+}
+
+/// Reciprocal that stays finite for (near-)zero components, as obvhs's `safe_inverse`.
+fn safe_inverse(x: f32) -> f32 {
+    if abs(x) <= 1.1920929e-7 {
+        let sign = select(1.0, -1.0, (bitcast<u32>(x) & 0x80000000u) != 0u);
+        return sign / 1.1920929e-7;
+    }
+    return 1.0 / x;
+}
+
+fn ray_state(ray: Ray) -> RayState {
+    var state: RayState;
+    state.origin = ray.origin;
+    state.dir = ray.dir;
+    state.inv_dir = vec3(safe_inverse(ray.dir.x), safe_inverse(ray.dir.y), safe_inverse(ray.dir.z));
+    state.negative = ray.dir < vec3(0.0);
+    state.oct_inv = select(4u, 0u, state.negative.x) | select(2u, 0u, state.negative.y)
+        | select(1u, 0u, state.negative.z);
+    return state;
+}
+
+fn byte_of(word: vec2<u32>, child: u32) -> u32 {
+    return (word[child >> 2u] >> ((child & 3u) * 8u)) & 0xffu;
+}
+
+/// Tests the ray against the eight quantized child boxes of `node` over `[ε, t_max]` and
+/// returns the hit mask: internal children as bit `24 + (slot ^ oct_inv)` (so the highest set
+/// bit is the nearest in octant order), leaf children as their unary primitive count shifted to
+/// their first primitive's offset from `primitive_base_idx` (bits 0..23).
+fn intersect_node(node: CwBvhNode, ray: RayState, t_max: f32) -> u32 {
+    let e = vec3(node.e_imask & 0xffu, (node.e_imask >> 8u) & 0xffu, (node.e_imask >> 16u) & 0xffu);
+    let extent = bitcast<vec3<f32>>(e << vec3(23u));
+    let adjusted_dir_inv = extent * ray.inv_dir;
+    let adjusted_origin = (node.p - ray.origin) * ray.inv_dir;
+    var hit_mask = 0u;
+    for (var child = 0u; child < 8u; child++) {
+        let info = byte_of(node.child_meta, child);
+        if info == 0u {
+            continue;
+        }
+        let lo = vec3(f32(byte_of(node.child_min_x, child)), f32(byte_of(node.child_min_y, child)),
+            f32(byte_of(node.child_min_z, child)));
+        let hi = vec3(f32(byte_of(node.child_max_x, child)), f32(byte_of(node.child_max_y, child)),
+            f32(byte_of(node.child_max_z, child)));
+        let t_lo = select(lo, hi, ray.negative) * adjusted_dir_inv + adjusted_origin;
+        let t_hi = select(hi, lo, ray.negative) * adjusted_dir_inv + adjusted_origin;
+        let t_enter = max(max(max(t_lo.x, t_lo.y), t_lo.z), BVH_NODE_EPSILON);
+        let t_exit = min(min(min(t_hi.x, t_hi.y), t_hi.z), t_max);
+        if t_enter <= t_exit {
+            // Internal children have meta 24 + slot (bits 3 and 4 both set); leaves never do.
+            let inner = (info & (info << 1u) & 0x10u) != 0u;
+            let bit_index = (info ^ select(0u, ray.oct_inv, inner)) & 0x1fu;
+            hit_mask |= (info >> 5u) << bit_index;
+        }
+    }
+    return hit_mask;
+}
+
+/// Möller-Trumbore in the form obvhs uses (same edges, same sign-bit inside test, so rays
+/// through shared edges resolve as on the CPU). Returns `(t, u, v)` with `t` infinite on a miss.
+fn intersect_triangle(tri: BvhTriangle, ray: RayState, t_min: f32, t_max: f32) -> vec3<f32> {
+    let e1 = tri.a - tri.b;
+    let e2 = tri.c - tri.a;
+    let n = cross(e1, e2);
+    let c = tri.a - ray.origin;
+    let r = cross(ray.dir, c);
+    let inv_det = 1.0 / dot(n, ray.dir);
+    let u = dot(r, e2) * inv_det;
+    let v = dot(r, e1) * inv_det;
+    let w = 1.0 - u - v;
+    // A sign bit on any weight, -0.0 included, is outside: the same rule as the CPU.
+    let outside = ((bitcast<u32>(u) | bitcast<u32>(v) | bitcast<u32>(w)) & 0x80000000u) != 0u;
+    if !outside && inv_det != 0.0 {
+        let t = dot(n, c) * inv_det;
+        if t >= t_min && t <= t_max {
+            return vec3(t, u, v);
+        }
+    }
+    return vec3(bitcast<f32>(0x7f800000u), 0.0, 0.0);
+}
+
+/// Child node index of the highest set bit of the group's hit mask: the group's base plus the
+/// number of internal children in lower slots.
+fn group_child(group: vec2<u32>, bit: u32, oct_inv: u32) -> u32 {
+    let slot = (bit - 24u) ^ oct_inv;
+    let lower_slots = ~(0xffffffffu << slot);
+    return group.x + countOneBits(group.y & lower_slots);
+}
+
+/// Nearest hit in `[ray.t_min, ray.t_max]`. Cost: one 80-byte node load and eight box tests per
+/// visited node, one 48-byte load per tested triangle.
+fn trace_closest(ray: Ray) -> Hit {
+    let state = ray_state(ray);
+    var hit = Hit(ray.t_max, BVH_MISS, vec2(0.0));
+    var t_max = ray.t_max;
+    var stack: array<vec2<u32>, BVH_STACK_SIZE>;
+    var stack_len = 0u;
+    // (child_base_idx, hit bits << 24 | imask) of internal children still to visit; the root
+    // is the single child of a virtual group.
+    var node_group = vec2(0u, 0x80000000u);
+    // (primitive_base_idx, hit bits of primitives still to test).
+    var triangle_group = vec2(0u, 0u);
+    loop {
+        while triangle_group.y != 0u {
+            let bit = firstLeadingBit(triangle_group.y);
+            triangle_group.y &= ~(1u << bit);
+            let tri = bvh_triangles[triangle_group.x + bit];
+            let tuv = intersect_triangle(tri, state, ray.t_min, t_max);
+            if tuv.x < t_max {
+                t_max = tuv.x;
+                hit = Hit(tuv.x, tri.triangle, tuv.yz);
+            }
+        }
+        if (node_group.y & 0xff000000u) != 0u {
+            let bit = firstLeadingBit(node_group.y);
+            let child = group_child(node_group, bit, state.oct_inv);
+            node_group.y &= ~(1u << bit);
+            if (node_group.y & 0xff000000u) != 0u {
+                stack[stack_len] = node_group;
+                stack_len += 1u;
+            }
+            let node = bvh_nodes[child];
+            let hit_mask = intersect_node(node, state, t_max);
+            let imask = node.e_imask >> 24u;
+            node_group = vec2(node.child_base_idx, (hit_mask & 0xff000000u) | imask);
+            triangle_group = vec2(node.primitive_base_idx, hit_mask & 0x00ffffffu);
+        }
+        if triangle_group.y == 0u && (node_group.y & 0xff000000u) == 0u {
+            if stack_len == 0u {
+                break;
+            }
+            stack_len -= 1u;
+            node_group = stack[stack_len];
+        }
+    }
+    return hit;
+}
+
+/// True when any triangle blocks the ray in `[ray.t_min, ray.t_max)`: a shadow ray. Stops at
+/// the first blocker found, in the same order as `trace_closest`.
+fn trace_any(ray: Ray) -> bool {
+    let state = ray_state(ray);
+    var stack: array<vec2<u32>, BVH_STACK_SIZE>;
+    var stack_len = 0u;
+    var node_group = vec2(0u, 0x80000000u);
+    var triangle_group = vec2(0u, 0u);
+    var occluded = false;
+    loop {
+        while triangle_group.y != 0u {
+            let bit = firstLeadingBit(triangle_group.y);
+            triangle_group.y &= ~(1u << bit);
+            let tri = bvh_triangles[triangle_group.x + bit];
+            if intersect_triangle(tri, state, ray.t_min, ray.t_max).x < ray.t_max {
+                occluded = true;
+                break;
+            }
+        }
+        if occluded {
+            break;
+        }
+        if (node_group.y & 0xff000000u) != 0u {
+            let bit = firstLeadingBit(node_group.y);
+            let child = group_child(node_group, bit, state.oct_inv);
+            node_group.y &= ~(1u << bit);
+            if (node_group.y & 0xff000000u) != 0u {
+                stack[stack_len] = node_group;
+                stack_len += 1u;
+            }
+            let node = bvh_nodes[child];
+            let hit_mask = intersect_node(node, state, ray.t_max);
+            let imask = node.e_imask >> 24u;
+            node_group = vec2(node.child_base_idx, (hit_mask & 0xff000000u) | imask);
+            triangle_group = vec2(node.primitive_base_idx, hit_mask & 0x00ffffffu);
+        }
+        if triangle_group.y == 0u && (node_group.y & 0xff000000u) == 0u {
+            if stack_len == 0u {
+                break;
+            }
+            stack_len -= 1u;
+            node_group = stack[stack_len];
+        }
+    }
+    return occluded;
+}

@@ -1,0 +1,30 @@
+// Test kernel of the shared-module tests: runs `gi::packing` round trips and the
+// `gi::math` orthonormal basis on a batch of inputs so the CPU can check every result.
+// For input i (a unit vector n and a color c packed in two vec4s), writes three vec4s:
+// the unit-vector round trip, the RGB9E5 round trip of c, and basis checks
+// (x.y, x.n, y.n, det(basis)).
+
+#import gi::math::world_from_tangent
+#import gi::packing::{pack_unit_vector, unpack_unit_vector, pack_rgb9e5, unpack_rgb9e5}
+
+@group(0) @binding(0) var<storage, read> inputs: array<vec4<f32>>;
+@group(0) @binding(1) var<storage, read_write> outputs: array<vec4<f32>>;
+
+@compute @workgroup_size(64)
+fn common_functions(@builtin(global_invocation_id) id: vec3<u32>) {
+    let i = id.x;
+    if i >= arrayLength(&inputs) / 2u {
+        return;
+    }
+    let n = inputs[2u * i].xyz;
+    let color = inputs[2u * i + 1u].xyz;
+    outputs[3u * i] = vec4<f32>(unpack_unit_vector(pack_unit_vector(n)), 0.0);
+    outputs[3u * i + 1u] = vec4<f32>(unpack_rgb9e5(pack_rgb9e5(color)), 0.0);
+    let basis = world_from_tangent(n);
+    outputs[3u * i + 2u] = vec4<f32>(
+        dot(basis[0], basis[1]),
+        dot(basis[0], n),
+        dot(basis[1], n),
+        determinant(basis),
+    );
+}
