@@ -25,13 +25,13 @@ fn safe_normalize(v: vec3<f32>) -> vec3<f32> {
     return vec3<f32>(0.0);
 }
 
-// Columns x, y, z of an orthonormal basis whose z axis is the unit vector `n`:
-// `world_from_tangent(n) * v_local` turns a local direction into world space, and
-// `transpose(world_from_tangent(n)) * v_world` goes back. Branchless; the sign test counts
-// -0.0 as positive where the reference's `copysign` does not, which only flips the tangent
-// axes of a normal exactly along -0.0 z.
+// Columns x, y, z of an orthonormal basis whose z axis is the unit vector `n` (Duff et al.
+// 2017, branchless): `world_from_tangent(n) * v_local` turns a local direction into world
+// space, and `transpose(world_from_tangent(n)) * v_world` goes back. The sign is read from the
+// sign bit, as the reference's `copysign` does, so a normal with z = -0.0 (common on
+// axis-aligned walls) gets the same tangents on the CPU and the GPU.
 fn world_from_tangent(n: vec3<f32>) -> mat3x3<f32> {
-    let sign = select(-1.0, 1.0, n.z >= 0.0);
+    let sign = select(1.0, -1.0, (bitcast<u32>(n.z) & 0x80000000u) != 0u);
     let a = -1.0 / (sign + n.z);
     let b = n.x * n.y * a;
     let x = vec3<f32>(1.0 + sign * n.x * n.x * a, sign * b, -sign * n.x);

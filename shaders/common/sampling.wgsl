@@ -14,7 +14,7 @@
 // - Orthonormal frame: Duff et al. 2017, "Building an Orthonormal Basis, Revisited" (JCGT 6(1)).
 #define_import_path gi::sampling
 
-#import gi::math::PI
+#import gi::math::{PI, world_from_tangent}
 
 // ---------------------------------------------------------------------------------------------
 // 64-bit words as two u32 halves.
@@ -183,19 +183,12 @@ struct Frame {
     z: vec3<f32>,
 }
 
-// Duff et al.'s branchless basis with the reference's exact sign rule: the sign of `n.z` is
-// read from its sign bit, as `copysign` does, so a normal with z = -0.0 (common on axis-aligned
-// walls, whose normals come from cross products) gets the reference's tangents rather than
-// tangents rotated half a turn, and local samples map to the same world directions.
+// The reference's shading frame: `gi::math::world_from_tangent`'s columns (Duff et al.'s
+// branchless basis with the reference's sign-bit rule, so local samples map to the same world
+// directions on the CPU and the GPU).
 fn frame_from_normal(n: vec3<f32>) -> Frame {
-    let sign = select(1.0, -1.0, (bitcast<u32>(n.z) & 0x80000000u) != 0u);
-    let a = -1.0 / (sign + n.z);
-    let b = n.x * n.y * a;
-    return Frame(
-        vec3<f32>(1.0 + sign * n.x * n.x * a, sign * b, -sign * n.x),
-        vec3<f32>(b, sign + n.y * n.y * a, -n.y),
-        n,
-    );
+    let basis = world_from_tangent(n);
+    return Frame(basis[0], basis[1], basis[2]);
 }
 
 // World-space `v` in the frame's coordinates.

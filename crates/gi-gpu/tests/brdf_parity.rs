@@ -40,13 +40,9 @@ use glam::{Vec2, Vec3};
 use rand::{Rng, RngExt, SeedableRng};
 use rand_pcg::Pcg32;
 
-/// The reference's sampling module, compiled from its own source: gi-reference keeps it
-/// private to the crate, and compiling the very file rather than a copy means these tests
-/// follow any change to it (its unit tests come along and run here too).
-#[path = "../../gi-reference/src/sampling.rs"]
-mod reference_sampling;
-
-use reference_sampling::{Frame, Sampler, cosine_hemisphere, power_heuristic, uniform_triangle};
+use gi_reference::sampling::{
+    Frame, Sampler, cosine_hemisphere, power_heuristic, uniform_triangle,
+};
 
 const SHADER: &str = "test/brdf_parity.wgsl";
 const WORKGROUP_SIZE: usize = 64;

@@ -87,7 +87,7 @@ mod accumulate;
 pub mod brdf;
 mod integrator;
 mod lights;
-mod sampling;
+pub mod sampling;
 mod scene;
 mod settings;
 

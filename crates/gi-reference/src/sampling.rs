@@ -11,12 +11,13 @@ use rand_pcg::Pcg32;
 /// Each path gets its own generator seeded from (render seed, pixel index, sample index), so
 /// the image never depends on which thread ran which pixel, nor on how the samples were split
 /// into passes.
-pub(crate) struct Sampler {
+pub struct Sampler {
     rng: Pcg32,
 }
 
 impl Sampler {
-    pub(crate) fn new(seed: u64, pixel: u64, sample: u64) -> Self {
+    /// The generator of sample `sample` of pixel `pixel` in a render seeded with `seed`.
+    pub fn new(seed: u64, pixel: u64, sample: u64) -> Self {
         // PCG streams with nearby parameters are correlated, so both state and stream come
         // from a full avalanche of all three inputs rather than from the raw indices.
         let h = splitmix64(splitmix64(splitmix64(seed) ^ pixel) ^ sample.rotate_left(32));
@@ -27,11 +28,12 @@ impl Sampler {
     }
 
     /// Uniform in `[0, 1)`, with 24 bits so every value is exactly representable.
-    pub(crate) fn next_f32(&mut self) -> f32 {
+    pub fn next_f32(&mut self) -> f32 {
         (self.rng.next_u32() >> 8) as f32 * (1.0 / 16_777_216.0)
     }
 
-    pub(crate) fn next_2d(&mut self) -> Vec2 {
+    /// Two uniform numbers in `[0, 1)`, drawn in order x then y.
+    pub fn next_2d(&mut self) -> Vec2 {
         let x = self.next_f32();
         Vec2::new(x, self.next_f32())
     }
@@ -47,7 +49,7 @@ fn splitmix64(x: u64) -> u64 {
 
 /// Cosine-weighted direction about +Z (pdf `z / pi`), through Shirley's concentric disk map so
 /// strata of the square stay compact on the hemisphere.
-pub(crate) fn cosine_hemisphere(u: Vec2) -> Vec3 {
+pub fn cosine_hemisphere(u: Vec2) -> Vec3 {
     let d = concentric_disk(u);
     let z = (1.0 - d.length_squared()).max(0.0).sqrt();
     Vec3::new(d.x, d.y, z)
@@ -67,14 +69,14 @@ fn concentric_disk(u: Vec2) -> Vec2 {
 }
 
 /// Barycentric weights `(b1, b2)` of a uniformly distributed point on a triangle.
-pub(crate) fn uniform_triangle(u: Vec2) -> Vec2 {
+pub fn uniform_triangle(u: Vec2) -> Vec2 {
     let su = u.x.sqrt();
     Vec2::new(1.0 - su, u.y * su)
 }
 
 /// Veach's power heuristic (exponent 2) for the strategy with pdf `a` against one with pdf `b`,
 /// written as `1 / (1 + (b/a)^2)` so huge near-mirror pdfs cannot overflow to `inf / inf`.
-pub(crate) fn power_heuristic(a: f32, b: f32) -> f32 {
+pub fn power_heuristic(a: f32, b: f32) -> f32 {
     if a <= 0.0 {
         return 0.0;
     }
@@ -84,14 +86,19 @@ pub(crate) fn power_heuristic(a: f32, b: f32) -> f32 {
 
 /// An orthonormal basis whose Z axis is a given unit normal (Duff et al. 2017, branchless).
 #[derive(Clone, Copy, Debug)]
-pub(crate) struct Frame {
-    pub(crate) x: Vec3,
-    pub(crate) y: Vec3,
-    pub(crate) z: Vec3,
+pub struct Frame {
+    /// Local +X (tangent) in world space.
+    pub x: Vec3,
+    /// Local +Y (bitangent) in world space.
+    pub y: Vec3,
+    /// Local +Z: the normal.
+    pub z: Vec3,
 }
 
 impl Frame {
-    pub(crate) fn from_normal(n: Vec3) -> Self {
+    /// The frame whose Z axis is the unit normal `n`; the sign of `n.z` is taken from its
+    /// sign bit (`copysign`), which the GPU port reproduces.
+    pub fn from_normal(n: Vec3) -> Self {
         let sign = 1.0f32.copysign(n.z);
         let a = -1.0 / (sign + n.z);
         let b = n.x * n.y * a;
@@ -102,11 +109,13 @@ impl Frame {
         }
     }
 
-    pub(crate) fn to_local(self, v: Vec3) -> Vec3 {
+    /// World-space `v` in the frame's coordinates.
+    pub fn to_local(self, v: Vec3) -> Vec3 {
         Vec3::new(v.dot(self.x), v.dot(self.y), v.dot(self.z))
     }
 
-    pub(crate) fn to_world(self, v: Vec3) -> Vec3 {
+    /// Local-frame `v` in world space.
+    pub fn to_world(self, v: Vec3) -> Vec3 {
         self.x * v.x + self.y * v.y + self.z * v.z
     }
 }
