@@ -1,0 +1,286 @@
+//! The glTF JSON of each part of a scene: meshes, animations, nodes, lights, textures,
+//! materials and the product settings in `extras.gi`.
+
+use glam::{Quat, Vec2, Vec3, Vec4};
+use serde_json::{Value, json};
+
+use crate::Texture;
+use crate::model::{ChannelValues, Interpolation, LightKind, Material, Scene, Sky};
+
+use super::{
+    ARRAY_BUFFER, ELEMENT_ARRAY_BUFFER, EMISSIVE_STRENGTH, LIGHTS_PUNCTUAL, UNSIGNED_INT, Writer,
+    num, unit, unit_quat, vec_json,
+};
+
+pub(super) fn mesh_json(mesh: &crate::model::Mesh, writer: &mut Writer) -> Value {
+    let primitives: Vec<Value> = mesh
+        .primitives
+        .iter()
+        .map(|p| {
+            let positions: Vec<[f32; 3]> = p.positions.iter().map(|v| v.to_array()).collect();
+            let normals: Vec<[f32; 3]> = p.normals.iter().map(|n| unit(*n).to_array()).collect();
+            let mut attributes = json!({
+                "POSITION": writer.floats_bounded(&positions, "VEC3", Some(ARRAY_BUFFER)),
+                "NORMAL": writer.floats(&normals, "VEC3", Some(ARRAY_BUFFER)),
+            });
+            if !p.uvs.is_empty() {
+                let uvs: Vec<[f32; 2]> = p.uvs.iter().map(Vec2::to_array).collect();
+                attributes["TEXCOORD_0"] = json!(writer.floats(&uvs, "VEC2", Some(ARRAY_BUFFER)));
+            }
+            let indices = p.indices.iter().map(|i| i.to_le_bytes());
+            let indices = writer.accessor(indices, p.indices.len(), "SCALAR", UNSIGNED_INT, Some(ELEMENT_ARRAY_BUFFER));
+            json!({ "attributes": attributes, "indices": indices, "material": p.material, "mode": 4 })
+        })
+        .collect();
+    json!({ "name": mesh.name, "primitives": primitives })
+}
+
+pub(super) fn animation_json(animation: &crate::model::Animation, writer: &mut Writer) -> Value {
+    let mut samplers = Vec::new();
+    let mut channels = Vec::new();
+    for channel in &animation.channels {
+        let times: Vec<[f32; 1]> = channel.times.iter().map(|t| [*t]).collect();
+        let input = writer.floats_bounded(&times, "SCALAR", None);
+        let (path, output) = match &channel.values {
+            ChannelValues::Translation(v) => {
+                let data: Vec<[f32; 3]> = v.iter().map(Vec3::to_array).collect();
+                ("translation", writer.floats(&data, "VEC3", None))
+            }
+            ChannelValues::Rotation(v) => {
+                let data: Vec<[f32; 4]> = v.iter().map(|q| unit_quat(*q).to_array()).collect();
+                ("rotation", writer.floats(&data, "VEC4", None))
+            }
+            ChannelValues::Scale(v) => {
+                let data: Vec<[f32; 3]> = v.iter().map(Vec3::to_array).collect();
+                ("scale", writer.floats(&data, "VEC3", None))
+            }
+        };
+        let interpolation = match channel.interpolation {
+            Interpolation::Linear => "LINEAR",
+            Interpolation::Step => "STEP",
+        };
+        samplers.push(json!({ "input": input, "output": output, "interpolation": interpolation }));
+        channels.push(json!({
+            "sampler": samplers.len() - 1,
+            "target": { "node": channel.node, "path": path },
+        }));
+    }
+    json!({ "name": animation.name, "samplers": samplers, "channels": channels })
+}
+
+pub(super) fn node_json(scene: &Scene, index: usize, name: &str) -> Value {
+    let node = &scene.nodes[index];
+    let mut value = json!({ "name": name });
+    if node.translation != Vec3::ZERO {
+        value["translation"] = vec_json(node.translation.to_array());
+    }
+    let rotation = unit_quat(node.rotation);
+    if rotation != Quat::IDENTITY {
+        value["rotation"] = vec_json(rotation.to_array());
+    }
+    if node.scale != Vec3::ONE {
+        value["scale"] = vec_json(node.scale.to_array());
+    }
+    let children: Vec<usize> = (0..scene.nodes.len())
+        .filter(|&i| scene.nodes[i].parent == Some(index))
+        .collect();
+    if !children.is_empty() {
+        value["children"] = json!(children);
+    }
+    if let Some(mesh) = node.mesh {
+        value["mesh"] = json!(mesh);
+    }
+    if let Some(camera) = node.camera {
+        value["camera"] = json!(camera);
+    }
+    if let Some(light) = node.light {
+        value["extensions"] = json!({ LIGHTS_PUNCTUAL: { "light": light } });
+    }
+    value
+}
+
+/// Node names made unique (the scene extras name the default camera's node): empty names
+/// become `node<index>`, repeats get a `.<index>` suffix.
+pub(super) fn unique_names(scene: &Scene) -> Vec<String> {
+    let mut taken = std::collections::BTreeSet::new();
+    let mut names = Vec::with_capacity(scene.nodes.len());
+    for (index, node) in scene.nodes.iter().enumerate() {
+        let mut name = if node.name.is_empty() {
+            format!("node{index}")
+        } else {
+            node.name.clone()
+        };
+        while taken.contains(&name) {
+            name = format!("{name}.{index}");
+        }
+        taken.insert(name.clone());
+        names.push(name);
+    }
+    names
+}
+
+pub(super) fn light_json(light: &crate::model::Light) -> Value {
+    let mut value = json!({
+        "name": light.name,
+        "color": vec_json(light.color.to_array()),
+        "intensity": num(light.intensity),
+    });
+    if let Some(range) = light.range {
+        value["range"] = num(range);
+    }
+    match light.kind {
+        LightKind::Directional => value["type"] = json!("directional"),
+        LightKind::Point => value["type"] = json!("point"),
+        LightKind::Spot {
+            inner_cone_angle,
+            outer_cone_angle,
+        } => {
+            value["type"] = json!("spot");
+            value["spot"] = json!({
+                "innerConeAngle": num(inner_cone_angle),
+                "outerConeAngle": num(outer_cone_angle),
+            });
+        }
+    }
+    value
+}
+
+/// The glTF texture index of each model texture in each color space, and the PNG images to
+/// write: base color and emissive textures are stored sRGB-encoded, metallic-roughness ones
+/// linear, as glTF specifies.
+pub(super) struct Images {
+    srgb: Vec<Option<usize>>,
+    linear: Vec<Option<usize>>,
+}
+
+pub(super) fn texture_images(
+    scene: &Scene,
+    stem: &str,
+) -> (Images, Vec<(String, image::RgbaImage)>) {
+    let count = scene.textures.len();
+    let (mut srgb_used, mut linear_used) = (vec![false; count], vec![false; count]);
+    for m in &scene.materials {
+        for t in [m.base_color_texture, m.emissive_texture]
+            .into_iter()
+            .flatten()
+        {
+            srgb_used[t] = true;
+        }
+        if let Some(t) = m.metallic_roughness_texture {
+            linear_used[t] = true;
+        }
+    }
+    let mut images = Images {
+        srgb: vec![None; count],
+        linear: vec![None; count],
+    };
+    let mut pngs = Vec::new();
+    // Model texture i becomes image i in its color space of use; a texture used in both
+    // spaces gets a second, linear image after all the others.
+    for (i, texture) in scene.textures.iter().enumerate() {
+        let srgb = srgb_used[i] || !linear_used[i];
+        pngs.push((format!("{stem}_{i}.png"), encode(texture, srgb)));
+        if srgb {
+            images.srgb[i] = Some(i);
+        } else {
+            images.linear[i] = Some(i);
+        }
+    }
+    for (i, texture) in scene.textures.iter().enumerate() {
+        if srgb_used[i] && linear_used[i] {
+            images.linear[i] = Some(pngs.len());
+            pngs.push((format!("{stem}_{i}_linear.png"), encode(texture, false)));
+        }
+    }
+    (images, pngs)
+}
+
+/// 8-bit RGBA; alpha is always linear.
+pub(super) fn encode(texture: &Texture, srgb: bool) -> image::RgbaImage {
+    let quantize = |v: f32| (v.clamp(0.0, 1.0) * 255.0 + 0.5) as u8;
+    let color = |v: f32| {
+        let v = v.clamp(0.0, 1.0);
+        if !srgb {
+            v
+        } else if v <= 0.003_130_8 {
+            v * 12.92
+        } else {
+            1.055 * v.powf(1.0 / 2.4) - 0.055
+        }
+    };
+    let data = texture
+        .texels
+        .iter()
+        .flat_map(|t: &Vec4| [color(t.x), color(t.y), color(t.z), t.w].map(quantize))
+        .collect();
+    image::RgbaImage::from_raw(texture.width, texture.height, data).expect("validated texel count")
+}
+
+pub(super) fn material_json(material: &Material, images: &Images) -> Value {
+    let mut pbr = json!({
+        "baseColorFactor": vec_json(material.base_color.to_array()),
+        "metallicFactor": num(material.metallic),
+        "roughnessFactor": num(material.roughness),
+    });
+    if let Some(t) = material.base_color_texture {
+        pbr["baseColorTexture"] = json!({ "index": images.srgb[t] });
+    }
+    if let Some(t) = material.metallic_roughness_texture {
+        pbr["metallicRoughnessTexture"] = json!({ "index": images.linear[t] });
+    }
+    let mut value = json!({ "name": material.name, "pbrMetallicRoughness": pbr });
+    let strength = material.emissive.max_element();
+    if strength > 1.0 {
+        // glTF caps emissiveFactor at 1: the rest goes into the emissive strength extension.
+        value["emissiveFactor"] = vec_json((material.emissive / strength).to_array());
+        value["extensions"] = json!({ EMISSIVE_STRENGTH: { "emissiveStrength": num(strength) } });
+    } else if strength > 0.0 {
+        value["emissiveFactor"] = vec_json(material.emissive.to_array());
+    }
+    if let Some(t) = material.emissive_texture {
+        value["emissiveTexture"] = json!({ "index": images.srgb[t] });
+    }
+    if material.double_sided {
+        value["doubleSided"] = json!(true);
+    }
+    value
+}
+
+/// The `extras.gi` object of the glTF scene.
+pub(super) fn settings_json(scene: &Scene, names: &[String]) -> Value {
+    let sky = match scene.sky {
+        Sky::Constant { radiance } => json!({ "constant": vec_json(radiance.to_array()) }),
+        Sky::Gradient {
+            zenith,
+            horizon,
+            ground,
+        } => json!({ "gradient": {
+            "zenith": vec_json(zenith.to_array()),
+            "horizon": vec_json(horizon.to_array()),
+            "ground": vec_json(ground.to_array()),
+        } }),
+    };
+    let mut gi = json!({
+        "sky": sky,
+        "exposure": num(scene.exposure),
+        "frame_time_s": num(scene.frame_time_s),
+    });
+    if let Some(node) = scene.default_camera_node {
+        gi["camera"] = json!(names[node]);
+    }
+    if let Some(path) = &scene.camera_path {
+        let keys: Vec<Value> = path
+            .keys
+            .iter()
+            .map(|k| {
+                json!({
+                    "time_s": num(k.time_s),
+                    "position": vec_json(k.position.to_array()),
+                    "target": vec_json(k.target.to_array()),
+                })
+            })
+            .collect();
+        gi["camera_path"] = json!({ "yfov": num(path.yfov), "keys": keys });
+    }
+    gi
+}

@@ -1,0 +1,146 @@
+//! What glTF requires and the scene model does not guarantee.
+
+use crate::model::{ChannelValues, Scene, Sky};
+
+/// Checks what glTF requires and the model does not guarantee; the message names the part
+/// at fault.
+pub(super) fn validate(scene: &Scene) -> Result<(), String> {
+    fn ensure(ok: bool, message: impl FnOnce() -> String) -> Result<(), String> {
+        if ok { Ok(()) } else { Err(message()) }
+    }
+    let finite = |values: &[f32]| values.iter().all(|v| v.is_finite());
+    let n = scene.nodes.len();
+    for (i, mesh) in scene.meshes.iter().enumerate() {
+        ensure(!mesh.primitives.is_empty(), || {
+            format!("mesh {i} has no primitives")
+        })?;
+        for p in &mesh.primitives {
+            let count = p.positions.len();
+            let ok = count > 0
+                && !p.indices.is_empty()
+                && p.indices.len() % 3 == 0
+                && p.indices.iter().all(|&k| (k as usize) < count)
+                && p.normals.len() == count
+                && (p.uvs.is_empty() || p.uvs.len() == count)
+                && p.material < scene.materials.len()
+                && p.positions.iter().chain(&p.normals).all(|v| v.is_finite())
+                && p.uvs.iter().all(|v| v.is_finite());
+            ensure(ok, || {
+                format!(
+                    "mesh {i} '{}': a primitive has no triangles, an index, normal or uv count \
+                     that does not match its positions, a bad material or a non-finite value",
+                    mesh.name
+                )
+            })?;
+        }
+    }
+    for (i, m) in scene.materials.iter().enumerate() {
+        let textures = [
+            m.base_color_texture,
+            m.metallic_roughness_texture,
+            m.emissive_texture,
+        ];
+        let ok = m.base_color.is_finite()
+            && m.emissive.is_finite()
+            && m.emissive.min_element() >= 0.0
+            && finite(&[m.metallic, m.roughness])
+            && textures
+                .into_iter()
+                .flatten()
+                .all(|t| t < scene.textures.len());
+        ensure(ok, || {
+            format!(
+                "material {i} '{}': non-finite value, negative emission or bad texture",
+                m.name
+            )
+        })?;
+    }
+    for (i, t) in scene.textures.iter().enumerate() {
+        let ok = t.width > 0 && t.height > 0 && t.texels.len() == (t.width * t.height) as usize;
+        ensure(ok, || {
+            format!(
+                "texture {i} '{}': texel count does not match its size",
+                t.name
+            )
+        })?;
+    }
+    for (i, node) in scene.nodes.iter().enumerate() {
+        // Walking up must reach a root within n steps, otherwise the parents form a cycle.
+        let mut ancestor = node.parent;
+        for _ in 0..=n {
+            ancestor = ancestor.and_then(|p| scene.nodes.get(p).and_then(|p| p.parent));
+        }
+        let ok = node.translation.is_finite()
+            && node.scale.is_finite()
+            && node.rotation.is_finite()
+            && node.rotation.length() > 1e-6
+            && node.parent.is_none_or(|p| p < n)
+            && ancestor.is_none()
+            && node.mesh.is_none_or(|m| m < scene.meshes.len())
+            && node.light.is_none_or(|l| l < scene.lights.len())
+            && node.camera.is_none_or(|c| c < scene.cameras.len());
+        ensure(ok, || {
+            format!(
+                "node {i} '{}': bad transform, reference or parent cycle",
+                node.name
+            )
+        })?;
+    }
+    for light in &scene.lights {
+        let ok = light.color.is_finite() && finite(&[light.intensity, light.range.unwrap_or(1.0)]);
+        ensure(ok, || format!("light '{}': non-finite value", light.name))?;
+    }
+    for camera in &scene.cameras {
+        let ok =
+            camera.yfov > 0.0 && camera.znear > 0.0 && camera.aspect_ratio.is_none_or(|a| a > 0.0);
+        ensure(ok, || {
+            format!(
+                "camera '{}': yfov, znear and aspect ratio must be positive",
+                camera.name
+            )
+        })?;
+    }
+    for animation in &scene.animations {
+        for channel in &animation.channels {
+            let (count, ok_values) = match &channel.values {
+                ChannelValues::Translation(v) | ChannelValues::Scale(v) => {
+                    (v.len(), v.iter().all(|v| v.is_finite()))
+                }
+                ChannelValues::Rotation(v) => (v.len(), v.iter().all(|q| q.is_finite())),
+            };
+            let ok = channel.node < n
+                && !channel.times.is_empty()
+                && count == channel.times.len()
+                && ok_values
+                && finite(&channel.times)
+                && channel.times.windows(2).all(|w| w[0] < w[1]);
+            ensure(ok, || {
+                format!(
+                    "animation '{}': a channel has a bad node, key times that are not increasing, \
+                     a value count that differs from the key count or a non-finite value",
+                    animation.name
+                )
+            })?;
+        }
+    }
+    let sky = match scene.sky {
+        Sky::Constant { radiance } => radiance.is_finite(),
+        Sky::Gradient {
+            zenith,
+            horizon,
+            ground,
+        } => zenith.is_finite() && horizon.is_finite() && ground.is_finite(),
+    };
+    let path = scene.camera_path.as_ref().is_none_or(|path| {
+        path.yfov.is_finite()
+            && (path.keys.iter())
+                .all(|k| k.time_s.is_finite() && k.position.is_finite() && k.target.is_finite())
+    });
+    let ok = sky
+        && path
+        && finite(&[scene.exposure, scene.frame_time_s])
+        && scene.default_camera_node.is_none_or(|c| c < n);
+    ensure(ok, || {
+        "scene settings: non-finite value or bad default camera node".into()
+    })
+}
