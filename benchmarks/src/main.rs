@@ -2,8 +2,10 @@
 //!
 //! ```text
 //! gi-bench rays --scene open-world --rays 1048576 --json rays.json
+//! gi-bench path --scene atrium --width 1920 --height 1080 --spp 4 --json path.json
 //! ```
 
+mod path;
 mod rays;
 
 use std::path::PathBuf;
@@ -35,6 +37,26 @@ enum Command {
         #[arg(long)]
         json: Option<PathBuf>,
     },
+    /// Samples per second of the GPU path tracer: median `path/trace` time over still frames.
+    Path {
+        /// Bundled scene name or glTF path.
+        #[arg(long, default_value = "cornell-box")]
+        scene: String,
+        #[arg(long, default_value_t = 1920)]
+        width: u32,
+        #[arg(long, default_value_t = 1080)]
+        height: u32,
+        /// Samples per pixel per frame. More samples per dispatch amortize launch overhead but
+        /// lengthen each frame; lavapipe wants a tiny image and 1.
+        #[arg(long, default_value_t = 1)]
+        spp: u32,
+        /// Timed frames (after one warm-up); the median is reported.
+        #[arg(long, default_value_t = 5)]
+        frames: u32,
+        /// Also write the results as JSON to this file.
+        #[arg(long)]
+        json: Option<PathBuf>,
+    },
 }
 
 fn main() -> anyhow::Result<()> {
@@ -47,11 +69,27 @@ fn main() -> anyhow::Result<()> {
         } => {
             let report = rays::run(&scene, rays, repeats.max(1))?;
             print!("{}", report.table());
-            if let Some(path) = json {
-                std::fs::write(&path, serde_json::to_string_pretty(&report.json())?)?;
-                println!("wrote {}", path.display());
-            }
-            Ok(())
+            write_json(json, &report.json())
+        }
+        Command::Path {
+            scene,
+            width,
+            height,
+            spp,
+            frames,
+            json,
+        } => {
+            let report = path::run(&scene, (width, height), spp, frames)?;
+            print!("{}", report.table());
+            write_json(json, &report.json())
         }
     }
+}
+
+fn write_json(path: Option<PathBuf>, value: &serde_json::Value) -> anyhow::Result<()> {
+    if let Some(path) = path {
+        std::fs::write(&path, serde_json::to_string_pretty(value)?)?;
+        println!("wrote {}", path.display());
+    }
+    Ok(())
 }

@@ -78,6 +78,43 @@ fn render_writes_png_exr_and_stats() {
 }
 
 #[test]
+fn render_with_the_gpu_path_tier_reports_its_passes() {
+    if gi_gpu::GpuContext::new_or_skip("render_with_the_gpu_path_tier").is_none() {
+        return;
+    }
+    let dir = tempfile::tempdir().unwrap();
+    let output = gi(
+        &[
+            "render",
+            "cornell-box",
+            "--tier",
+            "path",
+            "--width",
+            "24",
+            "--height",
+            "16",
+            "--spp",
+            "2",
+            "--out",
+            "path.png",
+            "--stats",
+            "stats.json",
+        ],
+        dir.path(),
+    );
+    assert!(output.status.success(), "{}", stderr(&output));
+    let image = gi_image::load(dir.path().join("path.png")).unwrap();
+    assert_eq!((image.width, image.height), (24, 16));
+    let stats: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(dir.path().join("stats.json")).unwrap()).unwrap();
+    assert_eq!(stats["tier"], "path");
+    assert!(stats["passes"]["path/trace"].is_number(), "{stats}");
+    assert!(stats["samples_per_second"].as_f64().unwrap() > 0.0);
+    assert!(stats["rays_per_second"].as_f64().unwrap() > 0.0);
+    assert!(stats["memory_bytes"].as_u64().unwrap() > 0);
+}
+
+#[test]
 fn compare_writes_table_json_and_reuses_cached_reference() {
     let dir = tempfile::tempdir().unwrap();
     let args = [

@@ -47,6 +47,7 @@ mod error;
 mod frame;
 mod layout;
 mod memory;
+mod scene;
 mod shaders;
 mod timer;
 
@@ -55,6 +56,10 @@ pub use error::GpuError;
 pub use frame::FrameUniforms;
 pub use layout::{StructLayout, wgsl_struct_layout};
 pub use memory::MemoryReport;
+pub use scene::{
+    EmitterTable, GpuEmitter, GpuLight, GpuMaterial, GpuScene, GpuTextureInfo, GpuTriangleShading,
+    NO_TEXTURE,
+};
 pub use shaders::{SHADER_CAPABILITIES, SHADER_DIR_ENV, ShaderDefValue, ShaderLibrary};
 pub use timer::{GpuTimer, PassTimings, TimerMode};
 

@@ -25,6 +25,12 @@ struct Prepared {
 impl CpuTier {
     /// A CPU tier of `kind` (`Reference` or `Direct`).
     pub fn new(kind: TierKind, settings: TierSettings) -> Result<Self, TierError> {
+        if kind == TierKind::Path {
+            return Err(TierError::Unavailable {
+                tier: kind.name(),
+                reason: "the path tier runs on the GPU only".to_string(),
+            });
+        }
         render_settings(kind, &settings).validate()?;
         Ok(Self {
             kind,
@@ -34,15 +40,17 @@ impl CpuTier {
     }
 }
 
-fn render_settings(kind: TierKind, settings: &TierSettings) -> RenderSettings {
+/// The reference's settings for a CPU render of `kind`'s transport (`Direct`: Mode::Direct,
+/// anything else: full transport).
+pub(crate) fn render_settings(kind: TierKind, settings: &TierSettings) -> RenderSettings {
     RenderSettings {
         width: settings.width,
         height: settings.height,
         spp: settings.spp,
         seed: settings.seed,
         mode: match kind {
-            TierKind::Reference => Mode::Full,
             TierKind::Direct => Mode::Direct,
+            TierKind::Reference | TierKind::Path => Mode::Full,
         },
         strategy: Strategy::Mis,
         ..RenderSettings::default()

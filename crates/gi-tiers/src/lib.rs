@@ -14,9 +14,11 @@
 //! ```
 
 mod cpu;
+mod path;
 mod renderer;
 mod tier;
 
 pub use cpu::CpuTier;
+pub use path::{GpuPathTier, Moments, PathUniforms};
 pub use renderer::{CameraMode, Renderer};
 pub use tier::{FrameInput, FrameOutput, Tier, TierChoice, TierError, TierKind, TierSettings};

@@ -2,8 +2,11 @@
 
 use gi_scene::{CameraView, Scene};
 
+use gi_gpu::{GpuContext, wgpu};
+
 use crate::{
     cpu::CpuTier,
+    path::GpuPathTier,
     tier::{FrameInput, FrameOutput, Tier, TierChoice, TierError, TierKind, TierSettings},
 };
 
@@ -33,14 +36,22 @@ impl Renderer {
         settings: TierSettings,
         camera: CameraMode,
     ) -> Result<Self, TierError> {
-        let kind = match choice {
-            TierChoice::Auto => TierKind::Reference,
-            TierChoice::Tier(kind) => kind,
+        let tier: Box<dyn Tier> = match choice {
             TierChoice::Mobile => return Err(not_built("mobile")),
             TierChoice::Pc => return Err(not_built("pc")),
-            TierChoice::Path => return Err(not_built("path")),
+            TierChoice::Path | TierChoice::Tier(TierKind::Path) => {
+                Box::new(GpuPathTier::open(TierKind::Path, settings)?)
+            }
+            TierChoice::Auto => match hardware_gpu() {
+                Some(ctx) => Box::new(GpuPathTier::new(TierKind::Path, settings, ctx)?),
+                None => Box::new(CpuTier::new(TierKind::Reference, settings)?),
+            },
+            TierChoice::Tier(TierKind::Direct) => match hardware_gpu() {
+                Some(ctx) => Box::new(GpuPathTier::new(TierKind::Direct, settings, ctx)?),
+                None => Box::new(CpuTier::new(TierKind::Direct, settings)?),
+            },
+            TierChoice::Tier(kind) => Box::new(CpuTier::new(kind, settings)?),
         };
-        let tier: Box<dyn Tier> = Box::new(CpuTier::new(kind, settings)?);
         Ok(Self {
             scene,
             tier,
@@ -117,6 +128,14 @@ impl Renderer {
     pub fn memory_bytes(&self) -> u64 {
         self.tier.memory_bytes()
     }
+}
+
+/// A context on a hardware GPU, or `None` when there is no adapter or only a software one
+/// (which runs the GPU tiers slower than the CPU runs the reference).
+fn hardware_gpu() -> Option<GpuContext> {
+    GpuContext::new()
+        .ok()
+        .filter(|ctx| ctx.adapter_info.device_type != wgpu::DeviceType::Cpu)
 }
 
 fn not_built(tier: &'static str) -> TierError {

@@ -13,19 +13,25 @@ pub enum TierKind {
     /// The CPU path tracer: full light transport, the ground truth and the no-GPU fallback.
     Reference,
     /// Direct lighting only (the "None" baseline): punctual lights with exact shadows, plus
-    /// emitters and sky seen directly by the camera.
+    /// emitters and sky seen directly by the camera. Runs on a hardware GPU when there is one
+    /// and on the CPU otherwise, with the same image.
     Direct,
+    /// The GPU path tracer: the reference's full transport in a compute shader, the same image
+    /// as `reference` for the same seed and samples. Progressive: each frame adds its samples
+    /// to those of the frames before it while the camera and scene stay still.
+    Path,
 }
 
 impl TierKind {
     /// Every tier, in the order tables list them.
-    pub const ALL: [TierKind; 2] = [TierKind::Reference, TierKind::Direct];
+    pub const ALL: [TierKind; 3] = [TierKind::Reference, TierKind::Direct, TierKind::Path];
 
     /// The name used on the command line, in JSON and in pass names.
     pub fn name(self) -> &'static str {
         match self {
             TierKind::Reference => "reference",
             TierKind::Direct => "direct",
+            TierKind::Path => "path",
         }
     }
 }
@@ -53,13 +59,14 @@ impl FromStr for TierKind {
 /// What a caller asks [`crate::Renderer::new`] for.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum TierChoice {
-    /// The best tier the machine runs: today the CPU reference, the fallback without a GPU.
+    /// The best tier the machine runs: the GPU path tracer on a hardware GPU, else the CPU
+    /// reference (a software Vulkan adapter is slower than the CPU reference itself).
     Auto,
     /// The mobile tier (surfel brick cache, probe volume, screen probes). Not built yet.
     Mobile,
     /// The PC tier (BVH ray tracing, ReSTIR GI, SVGF). Not built yet.
     Pc,
-    /// The GPU path tracer. Not built yet.
+    /// The GPU path tracer; `Unavailable` without a Vulkan adapter.
     Path,
     /// One tier by kind.
     Tier(TierKind),
@@ -94,7 +101,7 @@ pub struct FrameOutput {
     pub image: Image,
     /// Named passes (`"reference/trace"`) and their time in milliseconds, in execution order.
     pub passes: Vec<(String, f64)>,
-    /// Path-tracing throughput, for tiers that trace paths on the CPU.
+    /// Path-tracing throughput of the frame, for tiers that trace paths (on the CPU or GPU).
     pub stats: Option<RenderStats>,
 }
 

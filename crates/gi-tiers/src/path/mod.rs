@@ -1,0 +1,246 @@
+//! The GPU path tracer tier (`path`) and the GPU direct-light tier (`direct` on a GPU): the
+//! reference's light transport in a compute shader, accumulated progressively while nothing
+//! moves.
+//!
+//! Both follow gi-reference's transport contract and draw the reference's random numbers, so a
+//! GPU render equals the CPU render of the same seed and sample count up to f32 rounding.
+
+mod tracer;
+
+pub use tracer::PathUniforms;
+
+use gi_gpu::{GpuContext, GpuScene, GpuTimer};
+use gi_image::Image;
+use gi_reference::RenderStats;
+use gi_scene::CameraView;
+use glam::Vec3;
+
+use crate::tier::{FrameInput, FrameOutput, Tier, TierError, TierKind, TierSettings};
+use tracer::{Accumulation, PathPipelines};
+
+/// Passes per frame the timer has room for (`<tier>/trace`, `<tier>/resolve`).
+const TIMER_SCOPES: u32 = 4;
+
+/// A GPU tier: [`TierKind::Path`] (full transport) or [`TierKind::Direct`] (the direct-only
+/// baseline). Each frame adds [`TierSettings::spp`] samples per pixel to a running
+/// accumulation and returns the mean so far; the accumulation restarts when the camera moves
+/// or an animated scene advances, so a still view converges like one long render.
+pub struct GpuPathTier {
+    kind: TierKind,
+    settings: TierSettings,
+    ctx: GpuContext,
+    pipelines: PathPipelines,
+    timer: GpuTimer,
+    prepared: Option<Prepared>,
+}
+
+/// The uploaded scene and its accumulation, with what they were made for.
+struct Prepared {
+    time_s: f32,
+    camera: CameraView,
+    scene: GpuScene,
+    accumulation: Accumulation,
+    /// Non-finite samples counted by earlier frames, so each frame reports its own.
+    nonfinite_before: u64,
+}
+
+/// Per-pixel statistics of the accumulation so far, read back from the GPU.
+#[derive(Clone, Debug)]
+pub struct Moments {
+    /// Samples per pixel accumulated.
+    pub samples: u32,
+    /// Mean radiance per pixel.
+    pub mean: Image,
+    /// Per pixel and channel, `sqrt(sample variance / samples)` (zero below two samples).
+    pub standard_error: Image,
+    /// Samples that came out non-finite and were counted as black (zero unless broken).
+    pub nonfinite_samples: u64,
+}
+
+impl GpuPathTier {
+    /// A GPU tier of `kind` (`Path` or `Direct`) on `ctx`. Fails when the shaders do not
+    /// compile on the device or the kind has no GPU version.
+    pub fn new(kind: TierKind, settings: TierSettings, ctx: GpuContext) -> Result<Self, TierError> {
+        let unavailable = |reason: String| TierError::Unavailable {
+            tier: kind.name(),
+            reason,
+        };
+        if !matches!(kind, TierKind::Path | TierKind::Direct) {
+            return Err(unavailable("it has no GPU version".to_string()));
+        }
+        crate::cpu::render_settings(TierKind::Reference, &settings).validate()?;
+        // Each accumulation buffer holds one vec4 per pixel in a single storage binding.
+        let buffer_bytes = u64::from(settings.width) * u64::from(settings.height) * 16;
+        let limit = ctx.limits.max_storage_buffer_binding_size;
+        if buffer_bytes > limit {
+            return Err(unavailable(format!(
+                "{}x{} needs {buffer_bytes} bytes per accumulation buffer, over the device's \
+                 {limit}-byte storage binding limit",
+                settings.width, settings.height
+            )));
+        }
+        let pipelines =
+            PathPipelines::new(&ctx, kind.name()).map_err(|e| unavailable(e.to_string()))?;
+        let timer = GpuTimer::new(&ctx, kind.name(), TIMER_SCOPES);
+        Ok(Self {
+            kind,
+            settings,
+            ctx,
+            pipelines,
+            timer,
+            prepared: None,
+        })
+    }
+
+    /// Opens the default GPU context and makes a tier of `kind` on it; `Unavailable` with the
+    /// GPU error when there is no adapter.
+    pub fn open(kind: TierKind, settings: TierSettings) -> Result<Self, TierError> {
+        let ctx = GpuContext::new().map_err(|e| TierError::Unavailable {
+            tier: kind.name(),
+            reason: e.to_string(),
+        })?;
+        Self::new(kind, settings, ctx)
+    }
+
+    /// The GPU context the tier renders with.
+    pub fn context(&self) -> &GpuContext {
+        &self.ctx
+    }
+
+    /// Reads the accumulation back: mean, standard error and non-finite count per pixel.
+    /// `None` before the first frame. Stalls the GPU; for tests and tools.
+    pub fn moments(&self) -> Option<Moments> {
+        let prepared = self.prepared.as_ref()?;
+        let accumulation = &prepared.accumulation;
+        let sum: Vec<[f32; 4]> = self.ctx.read_buffer(&accumulation.sum);
+        let sum_sq: Vec<[f32; 4]> = self.ctx.read_buffer(&accumulation.sum_sq);
+        let n = f64::from(accumulation.samples);
+        let image = |pixels| Image {
+            width: accumulation.size.0,
+            height: accumulation.size.1,
+            pixels,
+        };
+        let mean = sum
+            .iter()
+            .map(|s| (Vec3::from_slice(s).as_dvec3() / n.max(1.0)).as_vec3())
+            .collect();
+        let standard_error = sum
+            .iter()
+            .zip(&sum_sq)
+            .map(|(s, sq)| {
+                if n < 2.0 {
+                    return Vec3::ZERO;
+                }
+                let s = Vec3::from_slice(s).as_dvec3();
+                let sq = Vec3::from_slice(sq).as_dvec3();
+                let variance = ((sq - s * (s / n)) / (n - 1.0)).max(glam::DVec3::ZERO);
+                (variance / n).map(f64::sqrt).as_vec3()
+            })
+            .collect();
+        Some(Moments {
+            samples: accumulation.samples,
+            mean: image(mean),
+            standard_error: image(standard_error),
+            nonfinite_samples: sum.iter().map(|s| s[3] as u64).sum(),
+        })
+    }
+
+    fn prepare(&mut self, input: &FrameInput) -> Result<(), TierError> {
+        let frame = input.frame;
+        let reusable = self.prepared.as_ref().is_some_and(|p| {
+            p.camera == frame.camera && (p.time_s == frame.time_s || !input.scene.is_animated())
+        });
+        if reusable {
+            return Ok(());
+        }
+        if let Some(old) = self.prepared.take() {
+            old.accumulation.release(&self.ctx);
+            old.scene.release(&self.ctx);
+        }
+        let scene = GpuScene::upload(&self.ctx, input.scene, frame).map_err(|e| {
+            TierError::Unavailable {
+                tier: self.kind.name(),
+                reason: e.to_string(),
+            }
+        })?;
+        let size = (self.settings.width, self.settings.height);
+        let uniforms = PathUniforms::new(frame, &scene, size, self.settings.seed);
+        let accumulation = Accumulation::new(&self.ctx, &self.pipelines, &scene, uniforms);
+        self.prepared = Some(Prepared {
+            time_s: frame.time_s,
+            camera: frame.camera,
+            scene,
+            accumulation,
+            nonfinite_before: 0,
+        });
+        Ok(())
+    }
+}
+
+impl Tier for GpuPathTier {
+    fn kind(&self) -> TierKind {
+        self.kind
+    }
+
+    /// Temporal: every frame continues the accumulation of the frames before it.
+    fn is_temporal(&self) -> bool {
+        true
+    }
+
+    fn render(&mut self, input: &FrameInput) -> Result<FrameOutput, TierError> {
+        self.prepare(input)?;
+        let prepared = self.prepared.as_mut().expect("prepared above");
+        let timings = prepared.accumulation.add_samples(
+            &self.ctx,
+            &self.pipelines,
+            &prepared.scene,
+            &mut self.timer,
+            self.settings.spp,
+        );
+        let accumulation = &prepared.accumulation;
+        if let Some(progress) = input.progress {
+            progress(accumulation.samples);
+        }
+        let mean: Vec<[f32; 4]> = self.ctx.read_buffer(&accumulation.mean);
+        let image = Image {
+            width: accumulation.size.0,
+            height: accumulation.size.1,
+            pixels: mean.iter().map(|m| Vec3::from_slice(m)).collect(),
+        };
+        // The resolve carries each pixel's count of non-finite samples so far in w.
+        let nonfinite_total: u64 = mean.iter().map(|m| m[3] as u64).sum();
+        let nonfinite_samples = nonfinite_total - prepared.nonfinite_before;
+        prepared.nonfinite_before = nonfinite_total;
+        let seconds = timings.get(&format!("{}/trace", self.kind)).unwrap_or(0.0) * 1e-3;
+        let pixels = u64::from(self.settings.width) * u64::from(self.settings.height);
+        let samples = pixels * u64::from(self.settings.spp);
+        let rays = accumulation.rays_traced(&self.ctx);
+        let per_second = |count: u64| {
+            if seconds > 0.0 {
+                count as f64 / seconds
+            } else {
+                0.0
+            }
+        };
+        let stats = RenderStats {
+            samples,
+            rays,
+            seconds,
+            samples_per_second: per_second(samples),
+            rays_per_second: per_second(rays),
+            bvh_build_seconds: prepared.scene.bvh_build_seconds,
+            nonfinite_samples,
+        };
+        // Seconds are the trace pass's alone: GPU time when the adapter has timestamps.
+        Ok(FrameOutput {
+            image,
+            passes: timings.0,
+            stats: Some(stats),
+        })
+    }
+
+    /// Everything counted by the tier's own context: scene, BVH, accumulation and timer.
+    fn memory_bytes(&self) -> u64 {
+        self.ctx.memory().total_bytes()
+    }
+}

@@ -1,0 +1,400 @@
+//! The GPU tiers against the CPU reference: the same seed draws the same random numbers, so
+//! the GPU must reproduce the reference's samples up to f32 rounding.
+
+use gi_gpu::GpuContext;
+use gi_image::Image;
+use gi_reference::{Mode, Reference, RenderSettings};
+use gi_scene::{
+    CameraView, Light, LightKind, Material, Mesh, Node, Primitive, Scene, SceneFrame, Sky, Texture,
+};
+use gi_tiers::{
+    CameraMode, FrameInput, GpuPathTier, Moments, Renderer, Tier, TierChoice, TierError, TierKind,
+    TierSettings,
+};
+use glam::{Quat, Vec2, Vec3, Vec4};
+
+const WIDTH: u32 = 24;
+const HEIGHT: u32 = 16;
+
+fn settings(spp: u32) -> TierSettings {
+    TierSettings {
+        width: WIDTH,
+        height: HEIGHT,
+        spp,
+        seed: 11,
+    }
+}
+
+/// A scene and the camera it is seen through (`None`: its default camera).
+struct Case {
+    scene: Scene,
+    camera: Option<CameraView>,
+}
+
+impl Case {
+    fn bundled(name: &str) -> Self {
+        Self {
+            scene: gi_scene::load(name).unwrap(),
+            camera: None,
+        }
+    }
+
+    fn frame(&self) -> SceneFrame {
+        self.scene.evaluate(0.0, self.camera)
+    }
+}
+
+/// Renders `frames` frames of `scene` on the GPU and returns the accumulation's moments and
+/// the rays the frames traced.
+fn gpu_render(
+    ctx: GpuContext,
+    case: &Case,
+    kind: TierKind,
+    spp: u32,
+    frames: u32,
+) -> (Moments, u64) {
+    let mut tier = GpuPathTier::new(kind, settings(spp), ctx).unwrap();
+    let (scene, frame) = (&case.scene, case.frame());
+    let mut rays = 0;
+    for index in 0..frames {
+        let output = tier
+            .render(&FrameInput {
+                scene,
+                frame: &frame,
+                index,
+                progress: None,
+            })
+            .unwrap();
+        let trace = format!("{kind}/trace");
+        assert!(output.passes.iter().any(|(name, _)| *name == trace));
+        let stats = output.stats.expect("GPU tiers report their throughput");
+        rays += stats.rays;
+        assert_eq!(stats.samples, u64::from(WIDTH * HEIGHT * spp));
+        assert_eq!(stats.nonfinite_samples, 0);
+    }
+    assert!(tier.memory_bytes() > 0);
+    (tier.moments().unwrap(), rays)
+}
+
+/// The reference's mean image, standard error and ray count for the same settings.
+fn cpu_render(case: &Case, mode: Mode, spp: u32) -> (Image, Image, u64) {
+    let reference = Reference::new(&case.scene, case.frame());
+    let settings = RenderSettings {
+        width: WIDTH,
+        height: HEIGHT,
+        spp,
+        seed: settings(spp).seed,
+        mode,
+        ..RenderSettings::default()
+    };
+    let mut accumulator = reference.accumulator(&settings).unwrap();
+    accumulator.add_samples(spp);
+    (
+        accumulator.image(),
+        accumulator.standard_error(),
+        accumulator.stats().rays,
+    )
+}
+
+fn close(a: Vec3, b: Vec3, relative: f32) -> bool {
+    (a - b).abs().max_element() <= relative * a.abs().max(b.abs()).max_element().max(1e-3)
+}
+
+#[test]
+fn direct_on_the_gpu_matches_the_reference_pixel_by_pixel() {
+    let Some(ctx) = GpuContext::new_or_skip("direct_on_the_gpu_matches_the_reference") else {
+        return;
+    };
+    direct_matches_reference(ctx, &Case::bundled("atrium"));
+    direct_matches_reference(GpuContext::new().unwrap(), &textured());
+}
+
+fn direct_matches_reference(ctx: GpuContext, case: &Case) {
+    let (gpu, gpu_rays) = gpu_render(ctx, case, TierKind::Direct, 4, 1);
+    let (cpu, _, cpu_rays) = cpu_render(case, Mode::Direct, 4);
+    // Same rays, same hits: the same camera and shadow rays are traced.
+    assert_eq!(gpu_rays, cpu_rays);
+    // Both draw the same jitter, so each camera ray is the same to the last bit. What remains
+    // is f32 rounding: the GPU interpolates the hit point from its f32 barycentrics where the
+    // reference uses f64, and about a hundred operations later (normals, texture, GGX, light
+    // falloff) each carry half an ulp, about 1e-5 relative in all, with transcendental ulps
+    // on top. 1e-3 leaves a wide margin. A ray that grazes an edge between two triangles may
+    // hit the other one on the other processor; such pixels are rare and may differ fully.
+    let agreeing = gpu
+        .mean
+        .pixels
+        .iter()
+        .zip(&cpu.pixels)
+        .filter(|&(g, c)| close(*g, *c, 1e-3))
+        .count();
+    let total = cpu.pixels.len();
+    eprintln!("direct: {agreeing} of {total} pixels agree to rounding");
+    assert!(
+        agreeing * 100 >= total * 97,
+        "only {agreeing} of {total} pixels agree"
+    );
+    assert_eq!(gpu.nonfinite_samples, 0);
+}
+
+/// Checks a GPU path render against the reference's render of the same seed and sample count.
+fn path_matches_reference(scene_name: &str, case: Case, spp: u32) {
+    let Some(ctx) = GpuContext::new_or_skip(&format!("path_matches_reference({scene_name})"))
+    else {
+        return;
+    };
+    let (gpu, gpu_rays) = gpu_render(ctx, &case, TierKind::Path, spp, 1);
+    let (cpu, cpu_error, cpu_rays) = cpu_render(&case, Mode::Full, spp);
+    // The ray counts differ only by the paths that diverged.
+    let relative = (gpu_rays as f64 / cpu_rays as f64 - 1.0).abs();
+    assert!(
+        relative < 0.01,
+        "{scene_name}: {gpu_rays} GPU rays, {cpu_rays} CPU rays"
+    );
+    assert_eq!(gpu.nonfinite_samples, 0);
+
+    // Identical random numbers make most paths identical up to rounding; a path that crosses
+    // a threshold (Russian roulette, a lobe choice, an edge) on one side only diverges into an
+    // independent sample. So most pixels agree tightly...
+    let agreeing = gpu
+        .mean
+        .pixels
+        .iter()
+        .zip(&cpu.pixels)
+        .filter(|&(g, c)| close(*g, *c, 1e-3))
+        .count();
+    let total = cpu.pixels.len();
+    eprintln!("{scene_name}: {agreeing} of {total} pixels agree to rounding");
+    assert!(
+        agreeing * 100 >= total * 90,
+        "{scene_name}: only {agreeing} of {total} pixels agree to rounding"
+    );
+    // ...and where they do not, both are unbiased estimates of the same pixel. Over 4x4
+    // blocks the difference of the means has a standard deviation of at most
+    // sqrt(se_gpu^2 + se_cpu^2) (less, since the renders are positively correlated), with the
+    // standard errors measured from each render's own per-pixel variance; 5 of them bound a
+    // false alarm over the 24 blocks and 3 channels at about 4e-5.
+    let block = 4;
+    for by in 0..HEIGHT / block {
+        for bx in 0..WIDTH / block {
+            let (mut g, mut c, mut variance) = (Vec3::ZERO, Vec3::ZERO, Vec3::ZERO);
+            for y in by * block..(by + 1) * block {
+                for x in bx * block..(bx + 1) * block {
+                    let i = (y * WIDTH + x) as usize;
+                    g += gpu.mean.pixels[i];
+                    c += cpu.pixels[i];
+                    let (eg, ec) = (gpu.standard_error.pixels[i], cpu_error.pixels[i]);
+                    variance += eg * eg + ec * ec;
+                }
+            }
+            let n = (block * block) as f32;
+            let bound = 5.0 * variance.map(f32::sqrt) / n + Vec3::splat(1e-4);
+            let difference = ((g - c) / n).abs();
+            assert!(
+                difference.cmple(bound).all(),
+                "{scene_name}: block ({bx}, {by}) differs by {difference} (bound {bound})"
+            );
+        }
+    }
+    let mean = |image: &Image| image.pixels.iter().sum::<Vec3>() / total as f32;
+    let image_error = cpu_error
+        .pixels
+        .iter()
+        .zip(&gpu.standard_error.pixels)
+        .map(|(a, b)| *a * *a + *b * *b)
+        .sum::<Vec3>()
+        .map(f32::sqrt)
+        / total as f32;
+    let difference = (mean(&gpu.mean) - mean(&cpu)).abs();
+    eprintln!(
+        "{scene_name}: image mean {} (GPU) vs {} (CPU)",
+        mean(&gpu.mean),
+        mean(&cpu)
+    );
+    assert!(
+        difference
+            .cmple(5.0 * image_error + Vec3::splat(1e-4))
+            .all(),
+        "{scene_name}: image means differ by {difference} (standard error {image_error})"
+    );
+}
+
+#[test]
+fn path_on_the_gpu_matches_the_reference_in_the_cornell_box() {
+    path_matches_reference("cornell-box", Case::bundled("cornell-box"), 8);
+}
+
+#[test]
+fn path_on_the_gpu_matches_the_reference_under_sky_and_sun() {
+    path_matches_reference("atrium", Case::bundled("atrium"), 8);
+}
+
+#[test]
+fn path_on_the_gpu_matches_the_reference_with_textures_and_spot_lights() {
+    path_matches_reference("textured", textured(), 8);
+}
+
+#[test]
+fn two_progressive_frames_equal_one_render_of_twice_the_samples() {
+    let Some(ctx) = GpuContext::new_or_skip("two_progressive_frames") else {
+        return;
+    };
+    let case = Case::bundled("cornell-box");
+    let (progressive, progressive_rays) = gpu_render(ctx, &case, TierKind::Path, 3, 2);
+    let ctx = GpuContext::new().unwrap();
+    let (single, single_rays) = gpu_render(ctx, &case, TierKind::Path, 6, 1);
+    assert_eq!(progressive_rays, single_rays);
+    assert_eq!(progressive.samples, 6);
+    // Every pixel adds the same samples in the same order either way: bit for bit equal.
+    assert_eq!(progressive.mean.pixels, single.mean.pixels);
+    assert_eq!(
+        progressive.standard_error.pixels,
+        single.standard_error.pixels
+    );
+}
+
+#[test]
+fn path_is_unavailable_for_cpu_kinds_and_auto_prefers_a_hardware_gpu() {
+    let Some(ctx) = GpuContext::new_or_skip("path_tier_choice") else {
+        return;
+    };
+    let hardware = ctx.adapter_info.device_type != gi_gpu::wgpu::DeviceType::Cpu;
+    let err = GpuPathTier::new(TierKind::Reference, settings(1), ctx).err();
+    assert!(
+        matches!(err, Some(TierError::Unavailable { .. })),
+        "{err:?}"
+    );
+
+    let scene = || gi_scene::load("cornell-box").unwrap();
+    let auto = Renderer::new(scene(), TierChoice::Auto, settings(1), CameraMode::Default).unwrap();
+    let expected = if hardware {
+        TierKind::Path
+    } else {
+        TierKind::Reference
+    };
+    assert_eq!(auto.tier(), expected);
+
+    let mut path =
+        Renderer::new(scene(), TierChoice::Path, settings(1), CameraMode::Default).unwrap();
+    assert_eq!(path.tier(), TierKind::Path);
+    let first = path.render_frame(None).unwrap();
+    assert!(first.passes.iter().any(|(name, _)| name == "path/resolve"));
+    assert_eq!("path".parse::<TierKind>().unwrap(), TierKind::Path);
+}
+
+/// A hand-built scene for what the bundled ones lack: base-color, metallic-roughness and
+/// emissive textures (with uvs beyond [0, 1], so wrapping counts), a double-sided textured
+/// emitter, a ranged point light, a spot light and a gradient sky.
+fn textured() -> Case {
+    let texture = |width: u32, height: u32, seed: u32| Texture {
+        name: String::new(),
+        width,
+        height,
+        texels: (0..width * height)
+            .map(|i| {
+                let c = |k: u32| ((i * 7 + seed * k) % 11) as f32 / 10.0;
+                Vec4::new(c(1), c(3), c(5), 1.0)
+            })
+            .collect(),
+    };
+    let floor = Primitive {
+        positions: vec![
+            Vec3::new(-2.0, 0.0, -2.0),
+            Vec3::new(-2.0, 0.0, 2.0),
+            Vec3::new(2.0, 0.0, 2.0),
+            Vec3::new(2.0, 0.0, -2.0),
+        ],
+        normals: vec![Vec3::Y; 4],
+        uvs: vec![
+            Vec2::new(-0.3, -0.2),
+            Vec2::new(-0.3, 1.7),
+            Vec2::new(2.1, 1.7),
+            Vec2::new(2.1, -0.2),
+        ],
+        indices: vec![0, 1, 2, 0, 2, 3],
+        material: 0,
+    };
+    // Counter-clockwise seen from below: its front faces the floor.
+    let emitter = Primitive {
+        positions: vec![
+            Vec3::new(-0.5, 1.5, -0.5),
+            Vec3::new(0.5, 1.5, -0.5),
+            Vec3::new(0.0, 1.5, 0.5),
+        ],
+        normals: vec![Vec3::NEG_Y; 3],
+        uvs: vec![Vec2::ZERO, Vec2::new(1.0, 0.2), Vec2::new(0.4, 0.9)],
+        indices: vec![0, 1, 2],
+        material: 1,
+    };
+    let light = |kind, intensity, range| Light {
+        name: String::new(),
+        kind,
+        color: Vec3::new(1.0, 0.9, 0.8),
+        intensity,
+        range,
+    };
+    let scene = Scene {
+        meshes: vec![Mesh {
+            name: String::new(),
+            primitives: vec![floor, emitter],
+        }],
+        materials: vec![
+            Material {
+                base_color_texture: Some(0),
+                metallic: 0.7,
+                roughness: 0.6,
+                metallic_roughness_texture: Some(1),
+                ..Material::default()
+            },
+            Material {
+                emissive: Vec3::new(3.0, 2.0, 1.0),
+                emissive_texture: Some(0),
+                double_sided: true,
+                ..Material::default()
+            },
+        ],
+        textures: vec![texture(4, 3, 1), texture(3, 2, 2)],
+        lights: vec![
+            light(LightKind::Point, 6.0, Some(5.0)),
+            light(
+                LightKind::Spot {
+                    inner_cone_angle: 0.3,
+                    outer_cone_angle: 0.6,
+                },
+                20.0,
+                None,
+            ),
+        ],
+        nodes: vec![
+            Node {
+                mesh: Some(0),
+                ..Node::default()
+            },
+            Node {
+                light: Some(0),
+                translation: Vec3::new(1.0, 1.0, 1.0),
+                ..Node::default()
+            },
+            // Lights shine down their -Z axis: turned to point straight down.
+            Node {
+                light: Some(1),
+                translation: Vec3::new(-1.0, 2.0, 0.0),
+                rotation: Quat::from_rotation_x(-std::f32::consts::FRAC_PI_2),
+                ..Node::default()
+            },
+        ],
+        sky: Sky::Gradient {
+            zenith: Vec3::new(0.3, 0.4, 0.8),
+            horizon: Vec3::new(0.6, 0.6, 0.5),
+            ground: Vec3::new(0.1, 0.1, 0.1),
+        },
+        ..Scene::default()
+    };
+    Case {
+        scene,
+        camera: Some(CameraView::look_at(
+            Vec3::new(0.0, 2.5, 4.0),
+            Vec3::new(0.0, 0.3, 0.0),
+            0.9,
+        )),
+    }
+}

@@ -1,0 +1,428 @@
+// The GPU path tracer: implements gi-reference's light transport contract (the crate docs of
+// gi-reference, "The light transport contract") operation for operation, and draws its random
+// numbers in the reference's order from the same per-path PCG32, so a GPU sample equals the
+// CPU's sample up to f32 rounding.
+//
+// - Unidirectional path tracing with next-event estimation and multiple importance sampling
+//   (Veach 1997, ch. 9, power heuristic), Russian roulette after RUSSIAN_ROULETTE_START
+//   scatterings.
+// - With the shader def DIRECT_ONLY: the reference's Mode::Direct (camera-ray emission or sky
+//   plus every punctual light at the first hit).
+//
+// Each invocation adds `spp` samples to one pixel's running sums, starting at sample index
+// `sample_offset`, so progressive frames add up to exactly one long render.
+//
+// Bind group 0: uniforms, the scene (`gi_gpu::GpuScene`, declared in `path/scene.wgsl`), the
+// accumulation buffers.
+// Bind group 1: the BVH (`gi_gpu::bvh::GpuBvh`).
+
+#import gi::math::PI
+#import gi::sampling::{Sampler, sampler_new, sampler_next_f32, sampler_next_2d, cosine_hemisphere, uniform_triangle, power_heuristic, Frame, frame_from_normal, frame_to_local, frame_to_world}
+#import gi::brdf::{Brdf, brdf_new, brdf_eval, brdf_pdf, brdf_sample, is_finite}
+#import gi::bvh::{Ray, Hit, trace_closest, trace_any, BVH_MISS}
+#import gi::scene::{TriangleShading, Material, triangles, materials, emitters, selection, lights, lerp_rgb, sample_texture, emission, geometric_normal, triangle_uv}
+
+const RUSSIAN_ROULETTE_START: u32 = 3u;
+const RUSSIAN_ROULETTE_MAX_SURVIVAL: f32 = 0.95;
+// Shadow rays stop short of a light at distance d by this relative margin (the reference's
+// `shadow_distance`).
+const SHADOW_MARGIN: f32 = 1e-4;
+const FAR: f32 = 3.40282347e38;
+
+// Mirror of `gi_tiers::path::PathUniforms`.
+struct PathUniforms {
+    camera_position: vec3<f32>,
+    // tan(yfov / 2), computed on the CPU as the reference does.
+    tan_half_fov: f32,
+    camera_right: vec3<f32>,
+    // width / height.
+    aspect: f32,
+    camera_up: vec3<f32>,
+    // 0 constant sky (`sky_zenith` is its radiance), 1 gradient.
+    sky_kind: u32,
+    camera_forward: vec3<f32>,
+    max_depth: u32,
+    sky_zenith: vec4<f32>,
+    sky_horizon: vec4<f32>,
+    sky_ground: vec4<f32>,
+    size_px: vec2<u32>,
+    sample_offset: u32,
+    spp: u32,
+    // Render seed, low then high 32 bits.
+    seed: vec2<u32>,
+    emitter_count: u32,
+    light_count: u32,
+    // 1 when the sky emits anything.
+    sky_emits: u32,
+    default_material: u32,
+    pad_a: u32,
+    pad_b: u32,
+}
+
+@group(0) @binding(0) var<uniform> uniforms: PathUniforms;
+// Per pixel: sum of samples (rgb) and count of non-finite samples (w).
+@group(0) @binding(8) var<storage, read_write> accum_sum: array<vec4<f32>>;
+// Per pixel: sum of squared samples, per channel.
+@group(0) @binding(9) var<storage, read_write> accum_sum_sq: array<vec4<f32>>;
+// Rays traced by the dispatch (closest-hit and shadow rays), a u64 as (low, high) words.
+@group(0) @binding(10) var<storage, read_write> ray_count: array<atomic<u32>, 2>;
+
+// Rays this invocation traced, added to `ray_count` once at its end.
+var<private> rays_traced: u32;
+
+// What a path sees at a surface hit (the reference's `Surface`).
+struct Surface {
+    p: vec3<f32>,
+    ng: vec3<f32>,
+    frame: Frame,
+    wo: vec3<f32>,
+    brdf: Brdf,
+    emitted: vec3<f32>,
+}
+
+fn sky_radiance(dir: vec3<f32>) -> vec3<f32> {
+    if uniforms.sky_kind == 0u {
+        return uniforms.sky_zenith.xyz;
+    }
+    let y = clamp(dir.y, -1.0, 1.0);
+    if y >= 0.0 {
+        return lerp_rgb(uniforms.sky_horizon.xyz, uniforms.sky_zenith.xyz, y);
+    }
+    return lerp_rgb(uniforms.sky_horizon.xyz, uniforms.sky_ground.xyz, -y);
+}
+
+fn material_of(triangle: u32) -> Material {
+    let index = triangles[triangle].material;
+    return materials[select(uniforms.default_material, index, index < uniforms.default_material)];
+}
+
+// The reference's `Reference::surface` for a hit with barycentrics `b` of v1 and v2.
+fn surface_at(dir: vec3<f32>, triangle: u32, b: vec2<f32>) -> Surface {
+    let tri = triangles[triangle];
+    let b1 = b.x;
+    let b2 = b.y;
+    let b0 = 1.0 - b1 - b2;
+    var s: Surface;
+    s.p = tri.pa.xyz + (tri.pb.xyz - tri.pa.xyz) * b1 + (tri.pc.xyz - tri.pa.xyz) * b2;
+    let wo = -dir;
+    var ng_front = geometric_normal(tri);
+    if all(ng_front == vec3<f32>(0.0)) {
+        ng_front = wo;
+    }
+    let front_facing = dot(ng_front, wo) >= 0.0;
+    s.ng = select(-ng_front, ng_front, front_facing);
+    let n = tri.na.xyz * b0 + tri.nb.xyz * b1 + tri.nc.xyz * b2;
+    let n_len = sqrt(dot(n, n));
+    var ns = s.ng;
+    if n_len > 0.0 && is_finite(1.0 / n_len) {
+        ns = n * (1.0 / n_len);
+    }
+    if dot(ns, s.ng) < 0.0 {
+        ns = -ns;
+    }
+    if dot(ns, wo) <= 1e-6 {
+        ns = s.ng;
+    }
+    s.frame = frame_from_normal(ns);
+    let uv = triangle_uv(tri, b0, b1, b2);
+    let material = material_of(triangle);
+    let base = material.base_color.xyz * sample_texture(material.base_color_texture, uv).xyz;
+    let mr = sample_texture(material.metallic_roughness_texture, uv);
+    s.brdf = brdf_new(base, material.metallic * mr.z, material.roughness * mr.y);
+    s.emitted = vec3<f32>(0.0);
+    if front_facing || material.double_sided != 0u {
+        s.emitted = emission(material, uv);
+    }
+    s.wo = frame_to_local(s.frame, wo);
+    return s;
+}
+
+// The reference's `offset_origin`: `p` pushed off its surface along `n`.
+fn offset_origin(p: vec3<f32>, n: vec3<f32>) -> vec3<f32> {
+    let a = abs(p);
+    return p + n * (1e-4 * (1.0 + max(max(a.x, a.y), a.z)));
+}
+
+fn occluded(origin: vec3<f32>, dir: vec3<f32>, t_max: f32) -> bool {
+    rays_traced += 1u;
+    return trace_any(Ray(origin, 0.0, dir, t_max));
+}
+
+fn closest(origin: vec3<f32>, dir: vec3<f32>) -> Hit {
+    rays_traced += 1u;
+    return trace_closest(Ray(origin, 0.0, dir, FAR));
+}
+
+// Every punctual light through `WorldLight::incident`, with one shadow ray each.
+fn punctual_lights(s: Surface, x: vec3<f32>) -> vec3<f32> {
+    var sum = vec3<f32>(0.0);
+    for (var i = 0u; i < uniforms.light_count; i++) {
+        let light = lights[i];
+        var wi = -light.direction;
+        var dist = FAR;
+        var irradiance = light.intensity;
+        if light.kind != 0u {
+            let to_light = light.position - s.p;
+            let distance_sq = max(dot(to_light, to_light), 1e-8);
+            dist = sqrt(distance_sq);
+            wi = to_light / dist;
+            var falloff = 1.0 / distance_sq;
+            if light.has_range != 0u {
+                let ratio = dist / light.range;
+                let r2 = ratio * ratio;
+                let window = clamp(1.0 - r2 * r2, 0.0, 1.0);
+                falloff *= window * window;
+            }
+            if light.kind == 2u {
+                let cd = dot(light.direction, -wi);
+                let cone = clamp((cd - light.cos_outer) * light.spot_scale, 0.0, 1.0);
+                falloff *= cone * cone;
+            }
+            irradiance = light.intensity * falloff;
+        }
+        if dot(wi, s.ng) <= 0.0 {
+            continue;
+        }
+        let wi_local = frame_to_local(s.frame, wi);
+        let contribution = brdf_eval(s.brdf, s.wo, wi_local) * wi_local.z * irradiance;
+        if all(contribution == vec3<f32>(0.0)) {
+            continue;
+        }
+        var t_max = FAR;
+        if light.kind != 0u {
+            t_max = dist * (1.0 - SHADOW_MARGIN);
+        }
+        if !occluded(x, wi, t_max) {
+            sum += contribution;
+        }
+    }
+    return sum;
+}
+
+// The solid-angle pdf of next-event estimation for a point a ray found on `triangle` at `t`.
+fn emitter_pdf(triangle: u32, t: f32, dir: vec3<f32>) -> f32 {
+    let p_select = selection[triangle];
+    if p_select <= 0.0 {
+        return 0.0;
+    }
+    let tri = triangles[triangle];
+    let c = cross(tri.pb.xyz - tri.pa.xyz, tri.pc.xyz - tri.pa.xyz);
+    let len = sqrt(dot(c, c));
+    let area = 0.5 * len;
+    var cos_light = 0.0;
+    if len > 0.0 {
+        cos_light = abs(dot(c * (1.0 / len), dir));
+    }
+    if area <= 0.0 || cos_light <= 0.0 {
+        return 0.0;
+    }
+    return p_select * t * t / (area * cos_light);
+}
+
+// The entry `partition_point(cdf <= u)` of the reference's table, from integer thresholds.
+fn pick_emitter(u: f32) -> u32 {
+    let k = u32(u * 16777216.0);
+    var lo = 0u;
+    var hi = uniforms.emitter_count;
+    while lo < hi {
+        let mid = (lo + hi) / 2u;
+        if emitters[mid].threshold <= k {
+            lo = mid + 1u;
+        } else {
+            hi = mid;
+        }
+    }
+    return emitters[min(lo, uniforms.emitter_count - 1u)].triangle;
+}
+
+// One next-event sample of the emissive triangles, MIS-weighted against BRDF sampling.
+fn sample_emitters(s: Surface, x: vec3<f32>, sampler: ptr<function, Sampler>) -> vec3<f32> {
+    let u_select = sampler_next_f32(sampler);
+    let u_point = sampler_next_2d(sampler);
+    let triangle = pick_emitter(u_select);
+    let p_select = selection[triangle];
+    let tri = triangles[triangle];
+    let b = uniform_triangle(u_point);
+    let e1 = tri.pb.xyz - tri.pa.xyz;
+    let e2 = tri.pc.xyz - tri.pa.xyz;
+    let y = tri.pa.xyz + e1 * b.x + e2 * b.y;
+    let c = cross(e1, e2);
+    let area = 0.5 * sqrt(dot(c, c));
+    let n_light = geometric_normal(tri);
+    let to_light = y - x;
+    let distance_sq = dot(to_light, to_light);
+    if area <= 0.0 || distance_sq <= 0.0 {
+        return vec3<f32>(0.0);
+    }
+    let dist = sqrt(distance_sq);
+    let wi = to_light / dist;
+    let cos_light = -dot(n_light, wi);
+    let material = material_of(triangle);
+    if cos_light == 0.0 || (cos_light < 0.0 && material.double_sided == 0u) {
+        return vec3<f32>(0.0);
+    }
+    let uv = triangle_uv(tri, 1.0 - b.x - b.y, b.x, b.y);
+    let radiance = emission(material, uv);
+    let pdf = p_select * distance_sq / (area * abs(cos_light));
+    if !(pdf > 0.0 && is_finite(pdf)) {
+        return vec3<f32>(0.0);
+    }
+    if dot(wi, s.ng) <= 0.0 {
+        return vec3<f32>(0.0);
+    }
+    let wi_local = frame_to_local(s.frame, wi);
+    let contribution = brdf_eval(s.brdf, s.wo, wi_local) * wi_local.z * radiance;
+    if all(contribution == vec3<f32>(0.0)) {
+        return vec3<f32>(0.0);
+    }
+    let w = power_heuristic(pdf, brdf_pdf(s.brdf, s.wo, wi_local));
+    if occluded(x, wi, dist * (1.0 - SHADOW_MARGIN)) {
+        return vec3<f32>(0.0);
+    }
+    return contribution * (w / pdf);
+}
+
+// One cosine-weighted next-event sample of the sky, MIS-weighted against BRDF sampling.
+fn sample_sky(s: Surface, x: vec3<f32>, sampler: ptr<function, Sampler>) -> vec3<f32> {
+    let wi = cosine_hemisphere(sampler_next_2d(sampler));
+    let pdf = wi.z / PI;
+    if pdf <= 0.0 {
+        return vec3<f32>(0.0);
+    }
+    let wi_world = frame_to_world(s.frame, wi);
+    if dot(wi_world, s.ng) <= 0.0 {
+        return vec3<f32>(0.0);
+    }
+    let contribution = brdf_eval(s.brdf, s.wo, wi) * wi.z * sky_radiance(wi_world);
+    if all(contribution == vec3<f32>(0.0)) {
+        return vec3<f32>(0.0);
+    }
+    let w = power_heuristic(pdf, brdf_pdf(s.brdf, s.wo, wi));
+    if occluded(x, wi_world, FAR) {
+        return vec3<f32>(0.0);
+    }
+    return contribution * (w / pdf);
+}
+
+// Radiance along one camera ray, as the reference's `direct_radiance` or `path_radiance`.
+fn radiance(camera_origin: vec3<f32>, camera_dir: vec3<f32>, sampler: ptr<function, Sampler>) -> vec3<f32> {
+#ifdef DIRECT_ONLY
+    let hit = closest(camera_origin, camera_dir);
+    if hit.triangle == BVH_MISS {
+        return sky_radiance(camera_dir);
+    }
+    let s = surface_at(camera_dir, hit.triangle, hit.barycentrics);
+    return s.emitted + punctual_lights(s, offset_origin(s.p, s.ng));
+#else
+    let sky_emits = uniforms.sky_emits != 0u;
+    var origin = camera_origin;
+    var dir = camera_dir;
+    var l = vec3<f32>(0.0);
+    var beta = vec3<f32>(1.0);
+    // The BRDF-sampled pdf of the current ray and the sky's next-event pdf for it; camera rays
+    // (depth 0) weigh emission with 1.
+    var last_brdf_pdf = 0.0;
+    var last_sky_pdf = 0.0;
+    var depth = 0u;
+    loop {
+        let hit = closest(origin, dir);
+        if hit.triangle == BVH_MISS {
+            if sky_emits {
+                var w = 1.0;
+                if depth > 0u {
+                    w = power_heuristic(last_brdf_pdf, last_sky_pdf);
+                }
+                l += beta * sky_radiance(dir) * w;
+            }
+            break;
+        }
+        let s = surface_at(dir, hit.triangle, hit.barycentrics);
+        if any(s.emitted != vec3<f32>(0.0)) {
+            var w = 1.0;
+            if depth > 0u {
+                w = power_heuristic(last_brdf_pdf, emitter_pdf(hit.triangle, hit.t, dir));
+            }
+            l += beta * s.emitted * w;
+        }
+        if depth == uniforms.max_depth {
+            break;
+        }
+        depth += 1u;
+
+        let x = offset_origin(s.p, s.ng);
+        var direct = punctual_lights(s, x);
+        if uniforms.emitter_count > 0u {
+            direct += sample_emitters(s, x, sampler);
+        }
+        if sky_emits {
+            direct += sample_sky(s, x, sampler);
+        }
+        l += beta * direct;
+
+        let u_lobe = sampler_next_f32(sampler);
+        let bs = brdf_sample(s.brdf, s.wo, u_lobe, sampler_next_2d(sampler));
+        if !bs.valid {
+            break;
+        }
+        let wi = frame_to_world(s.frame, bs.wi);
+        // Directions below the geometric surface would leak through it.
+        if dot(wi, s.ng) <= 0.0 {
+            break;
+        }
+        beta *= bs.f * (bs.wi.z / bs.pdf);
+        last_brdf_pdf = bs.pdf;
+        last_sky_pdf = bs.wi.z / PI;
+        origin = x;
+        dir = wi;
+
+        if depth >= RUSSIAN_ROULETTE_START {
+            let survival = min(max(max(beta.x, beta.y), beta.z), RUSSIAN_ROULETTE_MAX_SURVIVAL);
+            if sampler_next_f32(sampler) >= survival {
+                break;
+            }
+            beta /= survival;
+        }
+    }
+    return l;
+#endif
+}
+
+@compute @workgroup_size(8, 8)
+fn trace(@builtin(global_invocation_id) id: vec3<u32>) {
+    let size = uniforms.size_px;
+    if id.x >= size.x || id.y >= size.y {
+        return;
+    }
+    let pixel = id.y * size.x + id.x;
+    // Sums continue from the buffer sample by sample, so splitting samples into frames
+    // changes neither the values nor the order in which they are added.
+    var sum = accum_sum[pixel];
+    var sum_sq = accum_sum_sq[pixel];
+    let width = f32(size.x);
+    let height = f32(size.y);
+    for (var i = 0u; i < uniforms.spp; i++) {
+        var sampler = sampler_new(uniforms.seed, pixel, uniforms.sample_offset + i);
+        let jitter = sampler_next_2d(&sampler);
+        let u = (f32(id.x) + jitter.x) / width;
+        let v = (f32(id.y) + jitter.y) / height;
+        // `CameraView::ray_direction`.
+        let fx = (2.0 * u - 1.0) * uniforms.tan_half_fov * uniforms.aspect;
+        let fy = (1.0 - 2.0 * v) * uniforms.tan_half_fov;
+        let d = uniforms.camera_forward + fx * uniforms.camera_right + fy * uniforms.camera_up;
+        let dir = d * (1.0 / sqrt(dot(d, d)));
+        let value = radiance(uniforms.camera_position, dir, &sampler);
+        if is_finite(value.x) && is_finite(value.y) && is_finite(value.z) {
+            sum += vec4<f32>(value, 0.0);
+            sum_sq += vec4<f32>(value * value, 0.0);
+        } else {
+            sum.w += 1.0;
+        }
+    }
+    accum_sum[pixel] = sum;
+    accum_sum_sq[pixel] = sum_sq;
+    // A carry out of the low word (the old value plus ours wrapped) goes to the high word.
+    let before = atomicAdd(&ray_count[0], rays_traced);
+    if before + rays_traced < before {
+        atomicAdd(&ray_count[1], 1u);
+    }
+}
