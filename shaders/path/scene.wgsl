@@ -5,6 +5,8 @@
 // checks the struct layouts.
 #define_import_path gi::scene
 
+#import gi::brdf::is_finite
+
 // Texture index meaning "none" (`gi_gpu::NO_TEXTURE`): samples as white.
 const NO_TEXTURE: u32 = 0xffffffffu;
 
@@ -129,4 +131,29 @@ fn triangle_uv(tri: TriangleShading, b0: f32, b1: f32, b2: f32) -> vec2<f32> {
     let u = tri.na.w * b0 + tri.nb.w * b1 + tri.nc.w * b2;
     let v = tri.v.x * b0 + tri.v.y * b1 + tri.v.z * b2;
     return vec2<f32>(u, v);
+}
+
+// The material of `triangle`; indices at or past `default_material` (the index of the
+// appended glTF default material) fall back to it, as the reference does.
+fn material_of(triangle: u32, default_material: u32) -> Material {
+    let index = triangles[triangle].material;
+    return materials[select(default_material, index, index < default_material)];
+}
+
+// The reference's shading normal: the interpolated vertex normal `n` flipped to the side of
+// the camera-facing geometric normal `ng`, or `ng` itself where `n` is degenerate or where the
+// viewer direction `wo` is below its horizon.
+fn shading_normal(ng: vec3<f32>, n: vec3<f32>, wo: vec3<f32>) -> vec3<f32> {
+    let n_len = sqrt(dot(n, n));
+    var ns = ng;
+    if n_len > 0.0 && is_finite(1.0 / n_len) {
+        ns = n * (1.0 / n_len);
+    }
+    if dot(ns, ng) < 0.0 {
+        ns = -ns;
+    }
+    if dot(ns, wo) <= 1e-6 {
+        ns = ng;
+    }
+    return ns;
 }

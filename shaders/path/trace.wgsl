@@ -20,7 +20,7 @@
 #import gi::sampling::{Sampler, sampler_new, sampler_next_f32, sampler_next_2d, cosine_hemisphere, uniform_triangle, power_heuristic, Frame, frame_from_normal, frame_to_local, frame_to_world}
 #import gi::brdf::{Brdf, brdf_new, brdf_eval, brdf_pdf, brdf_sample, is_finite}
 #import gi::bvh::{Ray, Hit, trace_closest, trace_any, BVH_MISS}
-#import gi::scene::{TriangleShading, Material, triangles, materials, emitters, selection, lights, lerp_rgb, sample_texture, emission, geometric_normal, triangle_uv}
+#import gi::scene::{TriangleShading, Material, triangles, materials, emitters, selection, lights, lerp_rgb, sample_texture, emission, geometric_normal, triangle_uv, material_of, shading_normal}
 
 const RUSSIAN_ROULETTE_START: u32 = 3u;
 const RUSSIAN_ROULETTE_MAX_SURVIVAL: f32 = 0.95;
@@ -91,11 +91,6 @@ fn sky_radiance(dir: vec3<f32>) -> vec3<f32> {
     return lerp_rgb(uniforms.sky_horizon.xyz, uniforms.sky_ground.xyz, -y);
 }
 
-fn material_of(triangle: u32) -> Material {
-    let index = triangles[triangle].material;
-    return materials[select(uniforms.default_material, index, index < uniforms.default_material)];
-}
-
 // The reference's `Reference::surface` for a hit with barycentrics `b` of v1 and v2.
 fn surface_at(dir: vec3<f32>, triangle: u32, b: vec2<f32>) -> Surface {
     let tri = triangles[triangle];
@@ -112,20 +107,10 @@ fn surface_at(dir: vec3<f32>, triangle: u32, b: vec2<f32>) -> Surface {
     let front_facing = dot(ng_front, wo) >= 0.0;
     s.ng = select(-ng_front, ng_front, front_facing);
     let n = tri.na.xyz * b0 + tri.nb.xyz * b1 + tri.nc.xyz * b2;
-    let n_len = sqrt(dot(n, n));
-    var ns = s.ng;
-    if n_len > 0.0 && is_finite(1.0 / n_len) {
-        ns = n * (1.0 / n_len);
-    }
-    if dot(ns, s.ng) < 0.0 {
-        ns = -ns;
-    }
-    if dot(ns, wo) <= 1e-6 {
-        ns = s.ng;
-    }
+    let ns = shading_normal(s.ng, n, wo);
     s.frame = frame_from_normal(ns);
     let uv = triangle_uv(tri, b0, b1, b2);
-    let material = material_of(triangle);
+    let material = material_of(triangle, uniforms.default_material);
     let base = material.base_color.xyz * sample_texture(material.base_color_texture, uv).xyz;
     let mr = sample_texture(material.metallic_roughness_texture, uv);
     s.brdf = brdf_new(base, material.metallic * mr.z, material.roughness * mr.y);
@@ -257,7 +242,7 @@ fn sample_emitters(s: Surface, x: vec3<f32>, sampler: ptr<function, Sampler>) ->
     let dist = sqrt(distance_sq);
     let wi = to_light / dist;
     let cos_light = -dot(n_light, wi);
-    let material = material_of(triangle);
+    let material = material_of(triangle, uniforms.default_material);
     if cos_light == 0.0 || (cos_light < 0.0 && material.double_sided == 0u) {
         return vec3<f32>(0.0);
     }

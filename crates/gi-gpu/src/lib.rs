@@ -45,6 +45,7 @@ pub mod bvh;
 mod context;
 mod error;
 mod frame;
+pub mod gbuffer;
 mod layout;
 mod memory;
 mod scene;
@@ -54,6 +55,7 @@ mod timer;
 pub use context::{ADAPTER_ENV, GpuContext, GpuOptions, REQUIRE_GPU_ENV};
 pub use error::GpuError;
 pub use frame::FrameUniforms;
+pub use gbuffer::{GBuffer, GBufferData, GBufferInputs};
 pub use layout::{StructLayout, wgsl_struct_layout};
 pub use memory::MemoryReport;
 pub use scene::{

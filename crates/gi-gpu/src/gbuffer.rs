@@ -1,0 +1,354 @@
+//! The ray-cast G-buffer: pass `gbuffer/primary` (`shaders/gbuffer/primary.wgsl`) traces one
+//! closest-hit ray per pixel through the pixel center and stores what the path tier sees at
+//! that first hit.
+//!
+//! Why ray casting rather than rasterization: the rays are the reference's
+//! (`CameraView::ray_direction` through pixel centers) and the hits come from the same CWBVH
+//! traversal and the same surface rules (shading normal, textured material, front-face
+//! emission) as the path tier, so the G-buffer agrees exactly with the CPU reference's and the
+//! path tier's primary hits. It is one code path over the [`GpuScene`] and [`GpuBvh`] already
+//! uploaded: no vertex pipeline and no second copy of the geometry. The cost is one
+//! closest-hit ray per pixel.
+//!
+//! Outputs, one storage buffer each, `size` = width x height entries in row-major order, all
+//! counted by the context under `gbuffer.*`:
+//!
+//! | label | per pixel | sky |
+//! |---|---|---|
+//! | `gbuffer.depth` | `f32` distance `t` along the unit camera ray | `+inf` |
+//! | `gbuffer.normal` | `u32` octahedral world shading normal facing the camera (`gi::packing`) | 0 |
+//! | `gbuffer.base_color` | `[f32; 4]` textured linear base color, w = 1 | 0 |
+//! | `gbuffer.metallic_roughness` | `[f32; 2]` textured metallic, perceptual roughness | 0 |
+//! | `gbuffer.emissive` | `[f32; 4]` radiance toward the camera (0 behind single-sided emitters), w = 0 | 0 |
+//! | `gbuffer.triangle` | `u32` frame triangle index | [`GBUFFER_MISS`] |
+//! | `gbuffer.motion` | `[f32; 2]` previous pixel position minus this pixel's center, pixels, +y down | camera rotation only |
+//!
+//! Motion is 0 where the surface point was behind the previous camera.
+
+use bytemuck::{Pod, Zeroable};
+use gi_scene::{CameraView, SceneFrame};
+
+use crate::bvh::{BVH_MISS, GpuBvh};
+use crate::{GpuContext, GpuError, GpuScene, GpuTimer, ShaderLibrary};
+
+/// Triangle id of a sky pixel in `gbuffer.triangle` (the BVH's miss value).
+pub const GBUFFER_MISS: u32 = BVH_MISS;
+
+/// Pixels per side of a `gbuffer/primary` workgroup (`@workgroup_size(8, 8)`).
+const TILE: u32 = 8;
+
+/// A pinhole camera with the values the reference derives from it, 64 bytes
+/// (`GBufferCamera` in WGSL).
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
+pub struct GBufferCamera {
+    /// Pinhole position, world space.
+    pub position: [f32; 3],
+    /// `tan(yfov / 2)`.
+    pub tan_half_fov: f32,
+    /// Unit camera axes in world space.
+    pub right: [f32; 3],
+    /// Image width over height.
+    pub aspect: f32,
+    pub up: [f32; 3],
+    pub pad_a: f32,
+    pub forward: [f32; 3],
+    pub pad_b: f32,
+}
+
+impl GBufferCamera {
+    /// `camera` for an image of `size` pixels, computed as the reference computes it (so GPU
+    /// and CPU rays agree bit for bit).
+    pub fn new(camera: &CameraView, size: (u32, u32)) -> Self {
+        Self {
+            position: camera.position.to_array(),
+            tan_half_fov: (camera.yfov * 0.5).tan(),
+            right: camera.right.to_array(),
+            aspect: size.0 as f32 / size.1 as f32,
+            up: camera.up.to_array(),
+            pad_a: 0.0,
+            forward: camera.forward.to_array(),
+            pad_b: 0.0,
+        }
+    }
+}
+
+/// Uniforms of `gbuffer/primary`, 144 bytes (`GBufferUniforms` in WGSL).
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
+pub struct GBufferUniforms {
+    /// This frame's camera, which casts the rays.
+    pub camera: GBufferCamera,
+    /// The previous frame's camera, which motion vectors project with.
+    pub previous_camera: GBufferCamera,
+    /// Image size in pixels.
+    pub size_px: [u32; 2],
+    /// Index of the default material, used for out-of-range material indices.
+    pub default_material: u32,
+    /// 1 when `gbuffer.previous_positions` holds the previous frame's triangles.
+    pub has_previous_positions: u32,
+}
+
+/// The inputs of one G-buffer frame.
+pub struct GBufferInputs<'a> {
+    /// This frame (its camera casts the rays).
+    pub frame: &'a SceneFrame,
+    /// This frame uploaded: attributes, materials and the BVH.
+    pub scene: &'a GpuScene,
+    /// The scene evaluated at the previous frame's time (same triangle order), with the
+    /// previous camera. A frame with a different triangle count has no usable history: motion
+    /// then comes from the camera alone, as if the geometry had not moved.
+    pub previous: &'a SceneFrame,
+}
+
+/// The G-buffer read back to the CPU, one entry per pixel in row-major order (see the module
+/// docs for each field's meaning and sky value).
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct GBufferData {
+    /// `gbuffer.depth`: distance along the unit camera ray; `+inf` for sky.
+    pub depth: Vec<f32>,
+    /// `gbuffer.normal`: octahedral-packed world shading normal (`gi::packing`).
+    pub normal: Vec<u32>,
+    /// `gbuffer.base_color`: textured linear base color (rgb; w 1 on hits).
+    pub base_color: Vec<[f32; 4]>,
+    /// `gbuffer.metallic_roughness`: textured metallic and perceptual roughness.
+    pub metallic_roughness: Vec<[f32; 2]>,
+    /// `gbuffer.emissive`: radiance emitted toward the camera (rgb).
+    pub emissive: Vec<[f32; 4]>,
+    /// `gbuffer.triangle`: frame triangle index, [`GBUFFER_MISS`] for sky.
+    pub triangle: Vec<u32>,
+    /// `gbuffer.motion`: previous pixel position minus this pixel's center, in pixels.
+    pub motion: Vec<[f32; 2]>,
+}
+
+/// The G-buffer technique: its pipeline, its output buffers and the previous frame's triangle
+/// positions. Memory: 60 bytes per pixel plus 48 bytes per triangle.
+pub struct GBuffer {
+    /// Image size in pixels.
+    pub size: (u32, u32),
+    /// Entry point `primary` of `gbuffer/primary.wgsl`.
+    primary: wgpu::ComputePipeline,
+    frame_layout: wgpu::BindGroupLayout,
+    uniforms: wgpu::Buffer,
+    /// `gbuffer.previous_positions`: three `[f32; 4]` per triangle; grows with the scene.
+    previous_positions: wgpu::Buffer,
+    /// The outputs in binding order (bindings 9..=15).
+    outputs: [wgpu::Buffer; 7],
+}
+
+/// Output labels and bytes per pixel, in binding order from binding 9.
+const OUTPUTS: [(&str, u64); 7] = [
+    ("gbuffer.depth", 4),
+    ("gbuffer.normal", 4),
+    ("gbuffer.base_color", 16),
+    ("gbuffer.metallic_roughness", 8),
+    ("gbuffer.emissive", 16),
+    ("gbuffer.triangle", 4),
+    ("gbuffer.motion", 8),
+];
+
+impl GBuffer {
+    /// Compiles `gbuffer/primary` and allocates the outputs for `width` x `height` pixels.
+    pub fn new(
+        ctx: &GpuContext,
+        shaders: &ShaderLibrary,
+        width: u32,
+        height: u32,
+    ) -> Result<Self, GpuError> {
+        let module = shaders.create_module(ctx, "gbuffer/primary.wgsl", &[])?;
+        let entry = |binding, ty| wgpu::BindGroupLayoutEntry {
+            binding,
+            visibility: wgpu::ShaderStages::COMPUTE,
+            ty: wgpu::BindingType::Buffer {
+                ty,
+                has_dynamic_offset: false,
+                min_binding_size: None,
+            },
+            count: None,
+        };
+        // An explicit layout: the BVH's bind group is made with `GpuBvh::bind_group_layout`,
+        // and the pass leaves some scene bindings unused, which an automatic layout would drop.
+        let read = wgpu::BufferBindingType::Storage { read_only: true };
+        let write = wgpu::BufferBindingType::Storage { read_only: false };
+        let mut entries = vec![entry(0, wgpu::BufferBindingType::Uniform)];
+        entries.extend((1..=8).map(|binding| entry(binding, read)));
+        entries.extend((9..=15).map(|binding| entry(binding, write)));
+        let frame_layout = ctx
+            .device
+            .create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+                label: Some("gbuffer/primary.frame_layout"),
+                entries: &entries,
+            });
+        let bvh_layout = GpuBvh::bind_group_layout(ctx);
+        let layout = ctx
+            .device
+            .create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
+                label: Some("gbuffer/primary.layout"),
+                bind_group_layouts: &[Some(&frame_layout), Some(&bvh_layout)],
+                immediate_size: 0,
+            });
+        let primary = ctx
+            .device
+            .create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
+                label: Some("gbuffer/primary"),
+                layout: Some(&layout),
+                module: &module,
+                entry_point: Some("primary"),
+                compilation_options: Default::default(),
+                cache: None,
+            });
+        let pixels = u64::from(width) * u64::from(height);
+        let outputs = OUTPUTS.map(|(label, bytes)| {
+            ctx.create_buffer(
+                label,
+                (pixels * bytes).max(bytes),
+                wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC,
+            )
+        });
+        Ok(Self {
+            size: (width, height),
+            primary,
+            frame_layout,
+            uniforms: ctx.create_buffer(
+                "gbuffer.uniforms",
+                size_of::<GBufferUniforms>() as u64,
+                wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
+            ),
+            previous_positions: Self::positions_buffer(ctx, 1),
+            outputs,
+        })
+    }
+
+    fn positions_buffer(ctx: &GpuContext, triangles: u64) -> wgpu::Buffer {
+        ctx.create_buffer(
+            "gbuffer.previous_positions",
+            triangles.max(1) * 48,
+            wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_DST,
+        )
+    }
+
+    /// Records `gbuffer/primary` into `encoder`, timed by `timer` under that name. Uploads the
+    /// uniforms and the previous frame's triangle positions (48 bytes per triangle) through the
+    /// queue, so record one G-buffer frame per submission.
+    pub fn record(
+        &mut self,
+        ctx: &GpuContext,
+        encoder: &mut wgpu::CommandEncoder,
+        timer: &mut GpuTimer,
+        inputs: &GBufferInputs<'_>,
+    ) {
+        let (width, height) = self.size;
+        let has_previous = inputs.previous.triangles.len() == inputs.frame.triangles.len();
+        if has_previous {
+            let positions: Vec<[f32; 4]> = inputs
+                .previous
+                .triangles
+                .iter()
+                .flat_map(|t| [t.v0, t.v1, t.v2].map(|v| [v.x, v.y, v.z, 0.0]))
+                .collect();
+            let bytes: &[u8] = bytemuck::cast_slice(&positions);
+            if (bytes.len() as u64) > self.previous_positions.size() {
+                ctx.release_buffer(&self.previous_positions);
+                self.previous_positions = Self::positions_buffer(ctx, positions.len() as u64 / 3);
+            }
+            if !bytes.is_empty() {
+                ctx.queue.write_buffer(&self.previous_positions, 0, bytes);
+            }
+        }
+        let uniforms = GBufferUniforms {
+            camera: GBufferCamera::new(&inputs.frame.camera, self.size),
+            previous_camera: GBufferCamera::new(&inputs.previous.camera, self.size),
+            size_px: [width, height],
+            default_material: inputs.scene.default_material,
+            has_previous_positions: u32::from(has_previous),
+        };
+        ctx.queue
+            .write_buffer(&self.uniforms, 0, bytemuck::bytes_of(&uniforms));
+
+        let mut entries = vec![wgpu::BindGroupEntry {
+            binding: 0,
+            resource: self.uniforms.as_entire_binding(),
+        }];
+        let scene_buffers = inputs.scene.buffers().into_iter();
+        let inputs_and_outputs = scene_buffers
+            .chain([&self.previous_positions])
+            .chain(&self.outputs);
+        entries.extend(
+            inputs_and_outputs
+                .zip(1..)
+                .map(|(buffer, binding)| wgpu::BindGroupEntry {
+                    binding,
+                    resource: buffer.as_entire_binding(),
+                }),
+        );
+        let frame_group = ctx.device.create_bind_group(&wgpu::BindGroupDescriptor {
+            label: Some("gbuffer/primary.frame"),
+            layout: &self.frame_layout,
+            entries: &entries,
+        });
+        timer.compute_pass(ctx, encoder, "gbuffer/primary", |pass| {
+            pass.set_pipeline(&self.primary);
+            pass.set_bind_group(0, &frame_group, &[]);
+            pass.set_bind_group(
+                crate::bvh::BVH_BIND_GROUP,
+                &inputs.scene.bvh.bind_group,
+                &[],
+            );
+            pass.dispatch_workgroups(width.div_ceil(TILE), height.div_ceil(TILE), 1);
+        });
+    }
+
+    /// Reads every output back (stalls the GPU; for tests and tools).
+    pub fn read(&self, ctx: &GpuContext) -> GBufferData {
+        let pixels = (self.size.0 * self.size.1) as usize;
+        let [
+            depth,
+            normal,
+            base_color,
+            metallic_roughness,
+            emissive,
+            triangle,
+            motion,
+        ] = &self.outputs;
+        let read = |buffer| {
+            let mut values: Vec<u32> = ctx.read_buffer(buffer);
+            values.truncate(pixels);
+            values
+        };
+        let floats =
+            |buffer| -> Vec<f32> { read(buffer).into_iter().map(f32::from_bits).collect() };
+        let vec2 = |buffer: &wgpu::Buffer| -> Vec<[f32; 2]> {
+            let mut values: Vec<[f32; 2]> = ctx.read_buffer(buffer);
+            values.truncate(pixels);
+            values
+        };
+        let vec4 = |buffer: &wgpu::Buffer| -> Vec<[f32; 4]> {
+            let mut values: Vec<[f32; 4]> = ctx.read_buffer(buffer);
+            values.truncate(pixels);
+            values
+        };
+        GBufferData {
+            depth: floats(depth),
+            normal: read(normal),
+            base_color: vec4(base_color),
+            metallic_roughness: vec2(metallic_roughness),
+            emissive: vec4(emissive),
+            triangle: read(triangle),
+            motion: vec2(motion),
+        }
+    }
+
+    /// The output buffers with their labels, in binding order (for passes that read them).
+    pub fn outputs(&self) -> impl Iterator<Item = (&'static str, &wgpu::Buffer)> {
+        OUTPUTS.iter().map(|(label, _)| *label).zip(&self.outputs)
+    }
+
+    /// Stops counting and destroys every buffer.
+    pub fn release(self, ctx: &GpuContext) {
+        ctx.release_buffer(&self.uniforms);
+        ctx.release_buffer(&self.previous_positions);
+        for buffer in &self.outputs {
+            ctx.release_buffer(buffer);
+        }
+    }
+}
