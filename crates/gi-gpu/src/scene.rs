@@ -6,11 +6,8 @@
 //! The WGSL side of these layouts is declared in `shaders/path/scene.wgsl` (`gi::scene`);
 //! a test checks every struct's size and member offsets against these Rust mirrors.
 
-use std::f32::consts::PI;
-
 use bytemuck::{Pod, Zeroable};
-use gi_scene::{LightKind, Scene, SceneBvh, SceneFrame};
-use glam::Vec3;
+use gi_scene::{EmitterDistribution, LightKind, Scene, SceneBvh, SceneFrame};
 
 use crate::GpuContext;
 use crate::bvh::{BvhError, GpuBvh};
@@ -111,8 +108,9 @@ pub struct GpuLight {
     pub pad: [u32; 2],
 }
 
-/// The emitter table and per-triangle selection probabilities, computed with the reference's
-/// formula: power `area * luminance(average emission) * pi`, doubled when double-sided.
+/// The emitter table and per-triangle selection probabilities: the reference's
+/// [`EmitterDistribution`], with each cdf entry stored as the integer `ceil(cdf * 2^24)` so the
+/// GPU's pick equals the CPU's f64 search bit for bit.
 #[derive(Clone, Debug, Default, PartialEq)]
 pub struct EmitterTable {
     /// The table in the reference's order (frame triangle order).
@@ -124,59 +122,21 @@ pub struct EmitterTable {
 impl EmitterTable {
     /// Builds the table of `frame` (an evaluation of `scene`).
     pub fn build(scene: &Scene, frame: &SceneFrame) -> Self {
-        let average: Vec<f32> = scene
-            .materials
+        let distribution = EmitterDistribution::build(frame, &scene.materials, &scene.textures);
+        let entries = distribution
+            .triangles
             .iter()
-            .map(|m| {
-                let texture = m
-                    .emissive_texture
-                    .and_then(|i| scene.textures.get(i))
-                    .filter(|t| !t.texels.is_empty());
-                let emission = m.emissive * texture.map_or(Vec3::ONE, |t| t.average().truncate());
-                let sides = if m.double_sided { 2.0 } else { 1.0 };
-                luminance(emission).max(0.0) * PI * sides
+            .zip(&distribution.cdf)
+            .map(|(&triangle, &cdf)| GpuEmitter {
+                triangle,
+                threshold: (cdf * 16_777_216.0).ceil() as u32,
             })
             .collect();
-        let mut triangles = Vec::new();
-        let mut power = Vec::new();
-        for (index, (tri, attributes)) in frame.triangles.iter().zip(&frame.attributes).enumerate()
-        {
-            let Some(&exitance) = average.get(attributes.material as usize) else {
-                continue;
-            };
-            let area = 0.5 * (tri.v1 - tri.v0).cross(tri.v2 - tri.v0).length();
-            let p = f64::from(area) * f64::from(exitance);
-            if p > 0.0 && p.is_finite() {
-                triangles.push(index as u32);
-                power.push(p);
-            }
+        Self {
+            entries,
+            selection: distribution.selection,
         }
-        let total: f64 = power.iter().sum();
-        let mut selection = vec![0.0f32; frame.triangles.len()];
-        let mut running = 0.0;
-        let count = triangles.len();
-        let entries = triangles
-            .iter()
-            .zip(&power)
-            .enumerate()
-            .map(|(i, (&triangle, p))| {
-                running += p / total;
-                selection[triangle as usize] = (p / total) as f32;
-                // The last entry's cdf is exactly 1, as in the reference.
-                let cdf = if i + 1 == count { 1.0 } else { running };
-                GpuEmitter {
-                    triangle,
-                    threshold: (cdf * 16_777_216.0).ceil() as u32,
-                }
-            })
-            .collect();
-        Self { entries, selection }
     }
-}
-
-/// Rec. 709 luminance, as the reference's BRDF module computes it.
-fn luminance(c: Vec3) -> f32 {
-    c.dot(Vec3::new(0.2126, 0.7152, 0.0722))
 }
 
 /// One scene frame on the GPU. Buffers are labeled `scene.*` and counted by the context until

@@ -29,11 +29,9 @@ pub const MIN_ALPHA: f32 = 1e-3;
 /// black: neither lobe is ever starved, which bounds the weight of either technique.
 const SPECULAR_PICK_RANGE: (f32, f32) = (0.1, 0.9);
 
-/// Rec. 709 relative luminance of linear RGB; the product's scalar measure of color (lobe
-/// selection, emitter power, Russian roulette uses the max component instead).
-pub fn luminance(c: Vec3) -> f32 {
-    c.dot(Vec3::new(0.2126, 0.7152, 0.0722))
-}
+/// Rec. 709 relative luminance: the product's scalar measure of color (lobe selection,
+/// emitter power; Russian roulette uses the max component instead).
+pub use gi_scene::luminance;
 
 /// The BRDF at one surface point, after textures were applied.
 #[derive(Clone, Copy, Debug, PartialEq)]

@@ -1,26 +1,17 @@
 //! Sampling emissive triangles: a power table over them and uniform points on each.
 
-use std::f32::consts::PI;
-
-use gi_scene::{Material, SceneFrame, Texture};
+use gi_scene::{EmitterDistribution, Material, SceneFrame, Texture};
 use glam::{Vec2, Vec3};
 
-use crate::brdf::luminance;
 use crate::sampling::uniform_triangle;
 use crate::scene::{Reference, geometric_normal};
 
-/// Emissive triangles with a discrete distribution proportional to their power,
-/// `area * luminance(emission) * pi`, doubled for double-sided emitters. Textured emission uses
-/// the texture's average, so the table is exact for untextured emitters and a good guess
-/// otherwise (the estimate stays unbiased either way: only noise depends on the table).
+/// Emissive triangles with a discrete distribution proportional to their power
+/// ([`EmitterDistribution`], shared with the GPU tiers). Textured emission uses the texture's
+/// average, so the table is exact for untextured emitters and a good guess otherwise (the
+/// estimate stays unbiased either way: only noise depends on the table).
 pub(crate) struct EmitterTable {
-    /// Scene triangle index of each entry.
-    pub(crate) triangles: Vec<u32>,
-    /// Inclusive cumulative probabilities; the last is exactly 1.
-    pub(crate) cdf: Vec<f64>,
-    /// Probability of picking each scene triangle (zero for non-emitters), indexed like the
-    /// frame's triangles so a BRDF-sampled hit finds its light pdf in O(1).
-    pub(crate) selection: Vec<f32>,
+    pub(crate) distribution: EmitterDistribution,
 }
 
 /// A point drawn on an emitter for next-event estimation, seen from the shading point.
@@ -37,62 +28,23 @@ pub(crate) struct EmitterSample {
 
 impl EmitterTable {
     pub(crate) fn build(frame: &SceneFrame, materials: &[Material], textures: &[Texture]) -> Self {
-        let average: Vec<f32> = materials
-            .iter()
-            .map(|m| {
-                let texture = m
-                    .emissive_texture
-                    .and_then(|i| textures.get(i))
-                    .filter(|t| !t.texels.is_empty());
-                let emission = m.emissive * texture.map_or(Vec3::ONE, |t| t.average().truncate());
-                let sides = if m.double_sided { 2.0 } else { 1.0 };
-                luminance(emission).max(0.0) * PI * sides
-            })
-            .collect();
-        let mut triangles = Vec::new();
-        let mut power = Vec::new();
-        for (index, (tri, attributes)) in frame.triangles.iter().zip(&frame.attributes).enumerate()
-        {
-            let Some(&radiant_exitance) = average.get(attributes.material as usize) else {
-                continue;
-            };
-            let area = 0.5 * (tri.v1 - tri.v0).cross(tri.v2 - tri.v0).length();
-            let p = f64::from(area) * f64::from(radiant_exitance);
-            if p > 0.0 && p.is_finite() {
-                triangles.push(index as u32);
-                power.push(p);
-            }
-        }
-        let total: f64 = power.iter().sum();
-        let mut cdf = Vec::with_capacity(power.len());
-        let mut selection = vec![0.0f32; frame.triangles.len()];
-        let mut running = 0.0;
-        for (&triangle, p) in triangles.iter().zip(&power) {
-            running += p / total;
-            cdf.push(running);
-            selection[triangle as usize] = (p / total) as f32;
-        }
-        if let Some(last) = cdf.last_mut() {
-            *last = 1.0;
-        }
         Self {
-            triangles,
-            cdf,
-            selection,
+            distribution: EmitterDistribution::build(frame, materials, textures),
         }
     }
 
     pub(crate) fn len(&self) -> usize {
-        self.triangles.len()
+        self.distribution.len()
     }
 
     pub(crate) fn is_empty(&self) -> bool {
-        self.triangles.is_empty()
+        self.distribution.is_empty()
     }
 
     /// Probability that [`EmitterTable::pick`] returns scene triangle `triangle`.
     pub(crate) fn selection_probability(&self, triangle: u32) -> f32 {
-        self.selection
+        self.distribution
+            .selection
             .get(triangle as usize)
             .copied()
             .unwrap_or(0.0)
@@ -101,12 +53,13 @@ impl EmitterTable {
     /// A scene triangle index drawn proportionally to power, with its probability.
     fn pick(&self, u: f32) -> (u32, f32) {
         let u = f64::from(u);
-        let entry = self
+        let table = &self.distribution;
+        let entry = table
             .cdf
             .partition_point(|&c| c <= u)
-            .min(self.cdf.len() - 1);
-        let triangle = self.triangles[entry];
-        (triangle, self.selection[triangle as usize])
+            .min(table.cdf.len() - 1);
+        let triangle = table.triangles[entry];
+        (triangle, table.selection[triangle as usize])
     }
 }
 

@@ -84,7 +84,7 @@ impl Reference {
         use std::mem::size_of_val;
         let frame = &self.frame;
         let bvh = &self.bvh.bvh;
-        let emitters = &self.emitters;
+        let emitters = &self.emitters.distribution;
         let bytes = size_of_val(frame.triangles.as_slice())
             + size_of_val(frame.attributes.as_slice())
             + size_of_val(bvh.nodes.as_slice())

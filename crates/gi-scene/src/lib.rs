@@ -5,6 +5,7 @@
 
 mod bundled;
 mod bvh;
+mod emitters;
 mod error;
 mod export;
 mod frame;
@@ -14,6 +15,7 @@ mod model;
 
 pub use bundled::{BUNDLED_SCENES, bundled_scene_dir, load, resolve};
 pub use bvh::{Hit, SceneBvh};
+pub use emitters::{EmitterDistribution, luminance};
 pub use error::SceneError;
 pub use export::write_gltf;
 pub use frame::{CameraView, SceneFrame, TriangleAttributes, WorldLight};
