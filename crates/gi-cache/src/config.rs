@@ -1,0 +1,256 @@
+//! The cache's configuration: voxel size, levels, window and pool sizes, update budgets.
+//!
+//! Every number that shapes the cache lives here, with its default justified against the two
+//! seeds (HSGI, GDC 2023 "Radiance Cache"; SmartGI, SIGGRAPH 2024 "Bricklizer"). The
+//! structural constants that the 64-bit masks impose (4 voxels per brick edge, 4 bricks per
+//! group edge) are in [`crate::layout`].
+
+use crate::layout::{BRICK_VOXELS, FACE_COUNT, GROUP_BRICKS, MAX_LEVELS, VOXELS_PER_BRICK};
+
+/// How the cache is shaped and how much work it does per frame.
+///
+/// Defaults: 7 levels of 32 x 16 x 32 bricks (128 x 64 x 128 voxels) each, finest voxels of
+/// 6.25 cm doubling per level, so level 0 covers 8 x 4 x 8 m around the camera and level 6
+/// (4 m voxels) covers 512 x 256 x 512 m: the 512 x 512 x 128 m of SmartGI's table with the
+/// detail of HSGI's clipmap near the camera (SmartGI's single level of 0.5 m voxels cannot
+/// hold a 5 cm wall or a 2 m room). A pool of 6144 bricks keeps the whole cache near 25 MB,
+/// under SmartGI's 28 MB.
+#[derive(Clone, Debug, PartialEq)]
+pub struct CacheConfig {
+    /// Edge of a level-0 voxel in meters; level `k` voxels are `2^k` times larger. Smaller
+    /// voxels hold thinner geometry and sharper lighting at the cost of coverage per level.
+    pub voxel_size_m: f32,
+    /// Number of clipmap levels (1 to [`MAX_LEVELS`]). Each level doubles the covered extent;
+    /// more levels reach further at the cost of one link grid and more bricks each.
+    pub levels: u32,
+    /// Bricks per level along x, y, z (each a multiple of [`GROUP_BRICKS`]). The window of
+    /// every level is this many bricks, centered on the camera; y is world up. Larger windows
+    /// keep finer voxels further out at the cost of link-grid memory and more bricks.
+    pub level_bricks: [u32; 3],
+    /// Bricks the pool can hold (brick IDs `1..=pool_bricks`; 0 means "no brick"). Each costs
+    /// [`CacheConfig::bytes_per_brick`] bytes. When the pool runs out, the farthest levels are
+    /// left unfilled first.
+    pub pool_bricks: u32,
+    /// Bricks voxelized per frame at most (the rest wait in a queue, nearest first).
+    /// Higher values fill a new view faster at the cost of frame time spikes.
+    pub voxelize_bricks_per_frame: u32,
+    /// Bricks whose lighting (direct and indirect) is updated per frame. The near field
+    /// (levels below [`CacheConfig::near_levels`]) gets its share first; HSGI refreshes its
+    /// near field every 9 frames and its far field every 121.
+    pub light_bricks_per_frame: u32,
+    /// Levels counted as near field for the update schedule.
+    pub near_levels: u32,
+    /// Hemisphere rays per voxel face per indirect update. More rays lower the noise of each
+    /// update at a proportional cost; temporal accumulation does the rest.
+    pub gather_rays_per_face: u32,
+    /// Cap of the temporal accumulation weight `1 / min(age, max_age)`: higher values converge
+    /// to a smoother result but follow lighting changes more slowly.
+    pub max_age: u32,
+}
+
+impl Default for CacheConfig {
+    fn default() -> Self {
+        Self {
+            voxel_size_m: 0.0625,
+            levels: 7,
+            level_bricks: [32, 16, 32],
+            pool_bricks: 6144,
+            voxelize_bricks_per_frame: 512,
+            light_bricks_per_frame: 512,
+            near_levels: 3,
+            gather_rays_per_face: 4,
+            max_age: 32,
+        }
+    }
+}
+
+/// A configuration the cache cannot run with.
+#[derive(Debug, thiserror::Error, PartialEq)]
+pub enum ConfigError {
+    #[error("cache setting `{field}` = {value}: {reason}")]
+    Invalid {
+        field: &'static str,
+        value: String,
+        reason: String,
+    },
+}
+
+impl CacheConfig {
+    /// Checks every field; the cache refuses a configuration that fails.
+    pub fn validate(&self) -> Result<(), ConfigError> {
+        let invalid = |field, value: String, reason: &str| {
+            Err(ConfigError::Invalid {
+                field,
+                value,
+                reason: reason.to_string(),
+            })
+        };
+        if !(self.voxel_size_m.is_finite() && self.voxel_size_m > 1e-4 && self.voxel_size_m < 1e3) {
+            return invalid(
+                "voxel_size_m",
+                self.voxel_size_m.to_string(),
+                "must be between 0.1 mm and 1 km",
+            );
+        }
+        if self.levels == 0 || self.levels > MAX_LEVELS {
+            return invalid(
+                "levels",
+                self.levels.to_string(),
+                &format!("must be 1 to {MAX_LEVELS}"),
+            );
+        }
+        for (axis, &b) in self.level_bricks.iter().enumerate() {
+            if b == 0 || b % GROUP_BRICKS != 0 || b > 256 {
+                return invalid(
+                    "level_bricks",
+                    format!("{:?} (axis {axis})", self.level_bricks),
+                    &format!(
+                        "each must be a multiple of {GROUP_BRICKS} between {GROUP_BRICKS} and 256"
+                    ),
+                );
+            }
+        }
+        if self.pool_bricks == 0 || self.pool_bricks > (1 << 22) {
+            return invalid(
+                "pool_bricks",
+                self.pool_bricks.to_string(),
+                "must be 1 to 4194304",
+            );
+        }
+        for (field, value) in [
+            ("voxelize_bricks_per_frame", self.voxelize_bricks_per_frame),
+            ("light_bricks_per_frame", self.light_bricks_per_frame),
+            ("gather_rays_per_face", self.gather_rays_per_face),
+            ("max_age", self.max_age),
+        ] {
+            if value == 0 {
+                return invalid(field, value.to_string(), "must be at least 1");
+            }
+        }
+        if self.max_age > 255 {
+            return invalid(
+                "max_age",
+                self.max_age.to_string(),
+                "must fit the 8-bit age",
+            );
+        }
+        if self.near_levels > self.levels {
+            return invalid(
+                "near_levels",
+                self.near_levels.to_string(),
+                "cannot exceed `levels`",
+            );
+        }
+        Ok(())
+    }
+
+    /// Edge of a voxel of `level` in meters.
+    pub fn voxel_size_at(&self, level: u32) -> f32 {
+        self.voxel_size_m * (1u32 << level) as f32
+    }
+
+    /// Edge of a brick of `level` in meters.
+    pub fn brick_size_at(&self, level: u32) -> f32 {
+        self.voxel_size_at(level) * BRICK_VOXELS as f32
+    }
+
+    /// Edge of a brick group of `level` in meters (the unit a level's window moves by).
+    pub fn group_size_at(&self, level: u32) -> f32 {
+        self.brick_size_at(level) * GROUP_BRICKS as f32
+    }
+
+    /// Extent in meters (x, y, z) that `level` covers around the camera.
+    pub fn level_extent_m(&self, level: u32) -> [f32; 3] {
+        self.level_bricks
+            .map(|b| b as f32 * self.brick_size_at(level))
+    }
+
+    /// Extent in meters of the coarsest level: the cache's coverage.
+    pub fn coverage_m(&self) -> [f32; 3] {
+        self.level_extent_m(self.levels - 1)
+    }
+
+    /// Brick slots of one level's link grid.
+    pub fn bricks_per_level(&self) -> u32 {
+        self.level_bricks.iter().product()
+    }
+
+    /// Brick groups of one level.
+    pub fn groups_per_level(&self) -> u32 {
+        self.level_bricks.iter().map(|b| b / GROUP_BRICKS).product()
+    }
+
+    /// Bytes one pooled brick costs: its 64-bit occupancy mask, 16 bytes of surface per voxel
+    /// and two RGB9E5 irradiances (direct, indirect) per voxel face.
+    pub fn bytes_per_brick() -> u64 {
+        8 + VOXELS_PER_BRICK as u64 * (16 + 2 * 4 * FACE_COUNT as u64)
+    }
+
+    /// Bytes of everything the cache allocates on the GPU for this configuration: the pool
+    /// (including the unused brick 0), the link grids and the group masks.
+    pub fn gpu_bytes(&self) -> u64 {
+        let pool = (u64::from(self.pool_bricks) + 1) * Self::bytes_per_brick();
+        let link = u64::from(self.levels) * u64::from(self.bricks_per_level()) * 4;
+        let groups = u64::from(self.levels) * u64::from(self.groups_per_level()) * 8;
+        pool + link + groups
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn default_covers_the_smartgi_volume_within_its_memory() {
+        let config = CacheConfig::default();
+        config.validate().unwrap();
+        let [x, y, z] = config.coverage_m();
+        assert!(
+            x >= 512.0 && z >= 512.0 && y >= 128.0,
+            "coverage {x} x {y} x {z} m"
+        );
+        assert!(
+            config.gpu_bytes() <= 28 * 1024 * 1024,
+            "{} bytes",
+            config.gpu_bytes()
+        );
+        assert_eq!(config.level_extent_m(0), [8.0, 4.0, 8.0]);
+    }
+
+    #[test]
+    fn invalid_settings_name_the_field() {
+        let bad = [
+            CacheConfig {
+                voxel_size_m: 0.0,
+                ..Default::default()
+            },
+            CacheConfig {
+                levels: MAX_LEVELS + 1,
+                ..Default::default()
+            },
+            CacheConfig {
+                level_bricks: [30, 16, 32],
+                ..Default::default()
+            },
+            CacheConfig {
+                pool_bricks: 0,
+                ..Default::default()
+            },
+            CacheConfig {
+                max_age: 300,
+                ..Default::default()
+            },
+        ];
+        let fields = [
+            "voxel_size_m",
+            "levels",
+            "level_bricks",
+            "pool_bricks",
+            "max_age",
+        ];
+        for (config, field) in bad.iter().zip(fields) {
+            let err = config.validate().unwrap_err().to_string();
+            assert!(err.contains(field), "{err}");
+        }
+    }
+}

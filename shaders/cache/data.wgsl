@@ -1,0 +1,194 @@
+// The surfel brick radiance cache's data and addressing (HSGI, GDC 2023, "Radiance Cache":
+// bricks of 4^3 surfel voxels, a brick-ID pool, a dense hierarchy link, clipmap levels with
+// toroidal addressing; SmartGI, SIGGRAPH 2024, "Bricklizer": 64-bit brick and group masks for
+// a two-level HDDA, radiance per visible voxel face).
+//
+// Mirrors `gi_cache::layout` (the Rust side documents the structure in full); tests check the
+// struct layouts and the addressing functions against it.
+//
+// Bind group 2 (`gi_cache::CacheBuffers::bind_group_layout`), compute stages:
+//   binding 0: `cache` uniform CacheUniforms
+//   binding 1: `cache_link` array<u32>, per level then per brick slot: brick ID, 0 = empty
+//   binding 2: `cache_group_masks` array<vec2<u32>>, per level then per group slot
+//   binding 3: `cache_brick_masks` array<vec2<u32>>, per brick ID: voxel occupancy
+//   binding 4: `cache_voxels` array<VoxelSurface>, per brick ID * 64 + voxel bit
+//   binding 5: `cache_direct` array<u32>, per voxel index * 6 + face: RGB9E5 direct irradiance
+//   binding 6: `cache_indirect` array<u32>, same indexing: RGB9E5 indirect irradiance
+// The storage buffers are read_write so update passes and queries share one module and one
+// layout; queries only read them.
+#define_import_path gi::cache::data
+
+#import gi::packing::{unpack_rgb9e5, unpack_unit_vector}
+
+const CACHE_MAX_LEVELS: u32 = 8u;
+const CACHE_NO_BRICK: u32 = 0u;
+const CACHE_FACE_COUNT: u32 = 6u;
+const CACHE_STATE_DYNAMIC: u32 = 256u;
+const CACHE_INV_PI: f32 = 0.3183098861837907;
+
+// One level's window: world brick coordinate of its lowest corner and its voxel edge.
+struct CacheLevel {
+    origin_brick: vec3<i32>,
+    voxel_size_m: f32,
+}
+
+// Mirror of `gi_cache::GpuCacheUniforms`.
+struct CacheUniforms {
+    levels: array<CacheLevel, 8>,
+    level_bricks: vec3<u32>,
+    level_count: u32,
+    bricks_per_level: u32,
+    groups_per_level: u32,
+    pool_bricks: u32,
+    frame_index: u32,
+}
+
+// Mirror of `gi_cache::VoxelSurface`: albedo rgb + coverage a (unorm8), packed unit normal,
+// RGB9E5 emission, state (bits 0-7 age, bit 8 dynamic).
+struct VoxelSurface {
+    albedo: u32,
+    normal: u32,
+    emission: u32,
+    state: u32,
+}
+
+// A voxel found in the cache: the pooled brick holding it (0: none) and its bit in the brick.
+struct VoxelRef {
+    brick_id: u32,
+    bit: u32,
+}
+
+@group(2) @binding(0) var<uniform> cache: CacheUniforms;
+@group(2) @binding(1) var<storage, read_write> cache_link: array<u32>;
+@group(2) @binding(2) var<storage, read_write> cache_group_masks: array<vec2<u32>>;
+@group(2) @binding(3) var<storage, read_write> cache_brick_masks: array<vec2<u32>>;
+@group(2) @binding(4) var<storage, read_write> cache_voxels: array<VoxelSurface>;
+@group(2) @binding(5) var<storage, read_write> cache_direct: array<u32>;
+@group(2) @binding(6) var<storage, read_write> cache_indirect: array<u32>;
+
+// Bit of cell `c` (each component 0..3) in a 64-bit brick or group mask.
+fn cache_mask_bit(c: vec3<u32>) -> u32 {
+    return c.x + 4u * c.y + 16u * c.z;
+}
+
+// Cell of bit `bit` of a 64-bit mask.
+fn cache_mask_cell(bit: u32) -> vec3<u32> {
+    return vec3(bit & 3u, (bit >> 2u) & 3u, bit >> 4u);
+}
+
+// True when bit `bit` (0..63) of the 64-bit mask `m` ([low, high]) is set.
+fn cache_mask_test(m: vec2<u32>, bit: u32) -> bool {
+    return ((m[bit >> 5u] >> (bit & 31u)) & 1u) != 0u;
+}
+
+// Face index of the side with outward normal along `axis` in direction `positive`
+// (0 +x, 1 -x, 2 +y, 3 -y, 4 +z, 5 -z).
+fn cache_face_index(axis: u32, positive: bool) -> u32 {
+    return axis * 2u + select(1u, 0u, positive);
+}
+
+// Outward normal of face `face`.
+fn cache_face_direction(face: u32) -> vec3<f32> {
+    var d = vec3(0.0);
+    d[face >> 1u] = select(1.0, -1.0, (face & 1u) != 0u);
+    return d;
+}
+
+// World voxel coordinate of `p` at `level`.
+fn cache_voxel_of_point(p: vec3<f32>, level: u32) -> vec3<i32> {
+    return vec3<i32>(floor(p / cache.levels[level].voxel_size_m));
+}
+
+// True when world brick `brick` is inside `level`'s window.
+fn cache_in_window(level: u32, brick: vec3<i32>) -> bool {
+    let local = brick - cache.levels[level].origin_brick;
+    return all(local >= vec3(0)) && all(local < vec3<i32>(cache.level_bricks));
+}
+
+// Finest level whose window holds `p`, or `cache.level_count` when none does.
+fn cache_level_of_point(p: vec3<f32>) -> u32 {
+    for (var level = 0u; level < cache.level_count; level++) {
+        if cache_in_window(level, cache_voxel_of_point(p, level) >> vec3(2u)) {
+            return level;
+        }
+    }
+    return cache.level_count;
+}
+
+// Toroidal link-grid index (level-major) of world brick `brick`.
+fn cache_link_index(level: u32, brick: vec3<i32>) -> u32 {
+    let dims = vec3<i32>(cache.level_bricks);
+    let p = vec3<u32>(((brick % dims) + dims) % dims);
+    return level * cache.bricks_per_level + p.x + cache.level_bricks.x * (p.y + cache.level_bricks.y * p.z);
+}
+
+// Toroidal group-mask index (level-major) of world group `group`.
+fn cache_group_index(level: u32, group: vec3<i32>) -> u32 {
+    let dims_u = cache.level_bricks / 4u;
+    let dims = vec3<i32>(dims_u);
+    let p = vec3<u32>(((group % dims) + dims) % dims);
+    return level * cache.groups_per_level + p.x + dims_u.x * (p.y + dims_u.y * p.z);
+}
+
+// Pooled brick ID of world brick `brick` at `level`; CACHE_NO_BRICK outside the window or
+// where the brick is empty.
+fn cache_brick_id(level: u32, brick: vec3<i32>) -> u32 {
+    if !cache_in_window(level, brick) {
+        return CACHE_NO_BRICK;
+    }
+    return cache_link[cache_link_index(level, brick)];
+}
+
+// The occupied voxel at world voxel coordinate `voxel` of `level`; brick_id 0 when the voxel
+// is empty or outside the window.
+fn cache_voxel_at(level: u32, voxel: vec3<i32>) -> VoxelRef {
+    let brick_id = cache_brick_id(level, voxel >> vec3(2u));
+    let bit = cache_mask_bit(vec3<u32>(voxel & vec3(3)));
+    if brick_id == CACHE_NO_BRICK || !cache_mask_test(cache_brick_masks[brick_id], bit) {
+        return VoxelRef(CACHE_NO_BRICK, bit);
+    }
+    return VoxelRef(brick_id, bit);
+}
+
+// Index of a voxel in `cache_voxels`.
+fn cache_voxel_index(v: VoxelRef) -> u32 {
+    return v.brick_id * 64u + v.bit;
+}
+
+// Index of a voxel face in `cache_direct` / `cache_indirect`.
+fn cache_face_slot(v: VoxelRef, face: u32) -> u32 {
+    return cache_voxel_index(v) * CACHE_FACE_COUNT + face;
+}
+
+fn cache_voxel_albedo(s: VoxelSurface) -> vec3<f32> {
+    return unpack4x8unorm(s.albedo).rgb;
+}
+
+fn cache_voxel_normal(s: VoxelSurface) -> vec3<f32> {
+    return unpack_unit_vector(s.normal);
+}
+
+fn cache_voxel_emission(s: VoxelSurface) -> vec3<f32> {
+    return unpack_rgb9e5(s.emission);
+}
+
+fn cache_voxel_age(s: VoxelSurface) -> u32 {
+    return s.state & 0xffu;
+}
+
+// Irradiance (direct + indirect) that face `face` of voxel `v` receives.
+fn cache_face_irradiance(v: VoxelRef, face: u32) -> vec3<f32> {
+    let slot = cache_face_slot(v, face);
+    return unpack_rgb9e5(cache_direct[slot]) + unpack_rgb9e5(cache_indirect[slot]);
+}
+
+// Outgoing radiance of face `face` of voxel `v` (a Lambertian surface of the voxel's diffuse
+// albedo), plus the voxel's emission when `with_emission`.
+fn cache_face_radiance(v: VoxelRef, face: u32, with_emission: bool) -> vec3<f32> {
+    let s = cache_voxels[cache_voxel_index(v)];
+    var radiance = cache_voxel_albedo(s) * CACHE_INV_PI * cache_face_irradiance(v, face);
+    if with_emission {
+        radiance += cache_voxel_emission(s);
+    }
+    return radiance;
+}
