@@ -1,17 +1,24 @@
-// Closest-hit and any-hit ray traversal of a compressed wide BVH (8-wide, quantized child boxes).
+// Closest-hit and any-hit ray traversal of a two-level compressed wide BVH (8-wide, quantized
+// child boxes).
 //
 // Ylitie, Karras, Laine, "Efficient Incoherent Ray Traversal on GPUs Through Compressed Wide
 // BVHs", HPG 2017: node groups (a node's child base index plus a hit mask) on a short per-thread
 // stack, children ordered by the ray octant through the node's per-child meta bytes, and the
-// ray transformed into each node's quantized grid instead of decoding the child boxes.
+// ray transformed into each node's quantized grid instead of decoding the child boxes. Two
+// levels share the one stack as in their instancing scheme (and obvhs's
+// `ray_traverse_tlas_blas`): a top-level leaf names an instance; entering it pushes the rest of
+// the top-level work, transforms the ray into the instance's object space and continues at its
+// bottom level's root; when the stack drops back to where it was, the world ray is restored.
 //
 // Nodes are obvhs `CwBvhNode`s uploaded byte for byte, and the node and triangle tests follow
 // obvhs's CPU traversal operation for operation, so a GPU hit and a CPU hit of the same ray
-// agree on the triangle and on `t` up to rounding.
+// agree on the triangle and on `t` up to rounding (exactly, for the world-space static level).
 //
 // Bind group 1 (`GpuBvh::bind_group_layout`), read-only storage, any stage that traces:
-//   binding 0: `bvh_nodes`     array<CwBvhNode>, 80 bytes each, the root at index 0
-//   binding 1: `bvh_triangles` array<BvhTriangle>, 48 bytes each, in leaf order
+//   binding 0: `bvh_nodes`      array<CwBvhNode>, every bottom level, 80 bytes each
+//   binding 1: `bvh_triangles`  array<BvhTriangle>, every bottom level's primitives, 48 bytes
+//   binding 2: `bvh_top_nodes`  array<CwBvhNode>, the top level, root at index 0
+//   binding 3: `bvh_instances`  array<BvhInstance>, 64 bytes each, in top-level leaf order
 
 #define_import_path gi::bvh
 
@@ -50,8 +57,9 @@ struct CwBvhNode {
     child_max_z: vec2<u32>,
 }
 
-/// A world-space triangle in leaf order (the BVH's primitive `i` is `bvh_triangles[i]`), with
-/// the index of the frame triangle it came from. `a`, `b`, `c` are its v0, v1, v2 (names of
+/// A bottom-level triangle in leaf order, with its index: the frame triangle index in the
+/// world-space static level, the index within its node's triangle range in an object-space one
+/// (the instance adds its `triangle_base`). `a`, `b`, `c` are its v0, v1, v2 (names of
 /// an import module cannot end in a digit). Vertices rather than edges, so the GPU test
 /// performs the same operations as the CPU one.
 struct BvhTriangle {
@@ -63,12 +71,28 @@ struct BvhTriangle {
     pad_c: u32,
 }
 
+/// A bottom level placed in the world (`gi_gpu::bvh::GpuBvhInstance`). The object-space ray is
+/// `vec4(origin, 1) * object_from_world` and `vec4(dir, 0) * object_from_world`, unnormalized,
+/// so `t` along it is `t` along the world ray.
+struct BvhInstance {
+    object_from_world: mat3x4<f32>,
+    blas_root: u32,
+    triangle_base: u32,
+    flags: u32,
+    pad: u32,
+}
+
+/// `BvhInstance::flags`: trace the world ray unchanged (the static level).
+const BVH_INSTANCE_IDENTITY: u32 = 1u;
+/// `BvhInstance::flags`: the transform mirrors; the frame triangle has v1 and v2 swapped.
+const BVH_INSTANCE_MIRRORED: u32 = 2u;
+
 /// `Hit::triangle` of a ray that hit nothing.
 const BVH_MISS: u32 = 0xffffffffu;
 
-/// Entries of the per-thread traversal stack. One group is pushed per level descended, so the
-/// stack holds at most the BVH depth; `GpuBvh` refuses to upload a deeper BVH, so the stack
-/// can never overflow.
+/// Entries of the per-thread traversal stack. One group is pushed per level descended, plus two
+/// on entering an instance, so the stack holds at most top depth + 2 + bottom depth; `GpuBvh`
+/// refuses a deeper pair of levels, so the stack can never overflow.
 const BVH_STACK_SIZE: u32 = 32u;
 
 /// Boxes are entered no closer than this, as obvhs does; it keeps CPU and GPU traversal equal.
@@ -76,6 +100,11 @@ const BVH_NODE_EPSILON: f32 = 0.0001;
 
 @group(1) @binding(0) var<storage, read> bvh_nodes: array<CwBvhNode>;
 @group(1) @binding(1) var<storage, read> bvh_triangles: array<BvhTriangle>;
+@group(1) @binding(2) var<storage, read> bvh_top_nodes: array<CwBvhNode>;
+@group(1) @binding(3) var<storage, read> bvh_instances: array<BvhInstance>;
+
+/// `traverse`'s marker for "in the top level" (no instance entered).
+const BVH_IN_TOP: u32 = 0xffffffffu;
 
 /// Per-ray values reused by every node test.
 struct RayState {
@@ -98,12 +127,12 @@ fn safe_inverse(x: f32) -> f32 {
     return 1.0 / x;
 }
 
-fn ray_state(ray: Ray) -> RayState {
+fn ray_state(origin: vec3<f32>, dir: vec3<f32>) -> RayState {
     var state: RayState;
-    state.origin = ray.origin;
-    state.dir = ray.dir;
-    state.inv_dir = vec3(safe_inverse(ray.dir.x), safe_inverse(ray.dir.y), safe_inverse(ray.dir.z));
-    state.negative = ray.dir < vec3(0.0);
+    state.origin = origin;
+    state.dir = dir;
+    state.inv_dir = vec3(safe_inverse(dir.x), safe_inverse(dir.y), safe_inverse(dir.z));
+    state.negative = dir < vec3(0.0);
     state.oct_inv = select(4u, 0u, state.negative.x) | select(2u, 0u, state.negative.y)
         | select(1u, 0u, state.negative.z);
     return state;
@@ -177,28 +206,65 @@ fn group_child(group: vec2<u32>, bit: u32, oct_inv: u32) -> u32 {
     return group.x + countOneBits(group.y & lower_slots);
 }
 
-/// Nearest hit in `[ray.t_min, ray.t_max]`. Cost: one 80-byte node load and eight box tests per
-/// visited node, one 48-byte load per tested triangle.
-fn trace_closest(ray: Ray) -> Hit {
-    let state = ray_state(ray);
+/// Both queries: the nearest hit in `[ray.t_min, ray.t_max]`, or with `any_hit` the first hit
+/// found. Cost: one 80-byte node load and eight box tests per visited node, one 48-byte load per
+/// tested triangle, and a 64-byte load plus a ray transform per entered instance.
+fn traverse(ray: Ray, any_hit: bool) -> Hit {
+    let world = ray_state(ray.origin, ray.dir);
+    var state = world;
     var hit = Hit(ray.t_max, BVH_MISS, vec2(0.0));
     var t_max = ray.t_max;
     var stack: array<vec2<u32>, BVH_STACK_SIZE>;
     var stack_len = 0u;
+    // Stack length when the current instance was entered; BVH_IN_TOP in the top level.
+    var instance_stack_len = BVH_IN_TOP;
+    var triangle_base = 0u;
+    var mirrored = false;
     // (child_base_idx, hit bits << 24 | imask) of internal children still to visit; the root
     // is the single child of a virtual group.
     var node_group = vec2(0u, 0x80000000u);
-    // (primitive_base_idx, hit bits of primitives still to test).
-    var triangle_group = vec2(0u, 0u);
+    // (primitive_base_idx, hit bits of leaf primitives still to test): triangles in a bottom
+    // level, instances in the top level.
+    var leaf_group = vec2(0u, 0u);
     loop {
-        while triangle_group.y != 0u {
-            let bit = firstLeadingBit(triangle_group.y);
-            triangle_group.y &= ~(1u << bit);
-            let tri = bvh_triangles[triangle_group.x + bit];
-            let tuv = intersect_triangle(tri, state, ray.t_min, t_max);
-            if tuv.x < t_max {
-                t_max = tuv.x;
-                hit = Hit(tuv.x, tri.triangle, tuv.yz);
+        if instance_stack_len == BVH_IN_TOP {
+            if leaf_group.y != 0u {
+                let bit = firstLeadingBit(leaf_group.y);
+                leaf_group.y &= ~(1u << bit);
+                let instance = bvh_instances[leaf_group.x + bit];
+                // The rest of this top-level node's work resumes when the instance is done.
+                // Leaf groups have no bits in 24..31, which tells them apart when popped.
+                if leaf_group.y != 0u {
+                    stack[stack_len] = leaf_group;
+                    stack_len += 1u;
+                }
+                if (node_group.y & 0xff000000u) != 0u {
+                    stack[stack_len] = node_group;
+                    stack_len += 1u;
+                }
+                instance_stack_len = stack_len;
+                triangle_base = instance.triangle_base;
+                mirrored = (instance.flags & BVH_INSTANCE_MIRRORED) != 0u;
+                if (instance.flags & BVH_INSTANCE_IDENTITY) == 0u {
+                    let m = instance.object_from_world;
+                    state = ray_state(vec4(world.origin, 1.0) * m, vec4(world.dir, 0.0) * m);
+                }
+                node_group = vec2(instance.blas_root, 0x80000000u);
+                leaf_group = vec2(0u, 0u);
+            }
+        } else {
+            while leaf_group.y != 0u {
+                let bit = firstLeadingBit(leaf_group.y);
+                leaf_group.y &= ~(1u << bit);
+                let tri = bvh_triangles[leaf_group.x + bit];
+                let tuv = intersect_triangle(tri, state, ray.t_min, t_max);
+                if tuv.x < t_max {
+                    t_max = tuv.x;
+                    hit = Hit(tuv.x, triangle_base + tri.triangle, select(tuv.yz, tuv.zy, mirrored));
+                    if any_hit {
+                        return hit;
+                    }
+                }
             }
         }
         if (node_group.y & 0xff000000u) != 0u {
@@ -209,66 +275,45 @@ fn trace_closest(ray: Ray) -> Hit {
                 stack[stack_len] = node_group;
                 stack_len += 1u;
             }
-            let node = bvh_nodes[child];
+            var node: CwBvhNode;
+            if instance_stack_len == BVH_IN_TOP {
+                node = bvh_top_nodes[child];
+            } else {
+                node = bvh_nodes[child];
+            }
             let hit_mask = intersect_node(node, state, t_max);
             let imask = node.e_imask >> 24u;
             node_group = vec2(node.child_base_idx, (hit_mask & 0xff000000u) | imask);
-            triangle_group = vec2(node.primitive_base_idx, hit_mask & 0x00ffffffu);
+            leaf_group = vec2(node.primitive_base_idx, hit_mask & 0x00ffffffu);
         }
-        if triangle_group.y == 0u && (node_group.y & 0xff000000u) == 0u {
+        if leaf_group.y == 0u && (node_group.y & 0xff000000u) == 0u {
+            if stack_len == instance_stack_len {
+                // The instance is done: back to the world ray in the top level.
+                instance_stack_len = BVH_IN_TOP;
+                state = world;
+            }
             if stack_len == 0u {
                 break;
             }
             stack_len -= 1u;
-            node_group = stack[stack_len];
+            let group = stack[stack_len];
+            if (group.y & 0xff000000u) != 0u {
+                node_group = group;
+            } else {
+                leaf_group = group;
+            }
         }
     }
     return hit;
 }
 
+/// Nearest hit in `[ray.t_min, ray.t_max]`.
+fn trace_closest(ray: Ray) -> Hit {
+    return traverse(ray, false);
+}
+
 /// True when any triangle blocks the ray in `[ray.t_min, ray.t_max)`: a shadow ray. Stops at
 /// the first blocker found, in the same order as `trace_closest`.
 fn trace_any(ray: Ray) -> bool {
-    let state = ray_state(ray);
-    var stack: array<vec2<u32>, BVH_STACK_SIZE>;
-    var stack_len = 0u;
-    var node_group = vec2(0u, 0x80000000u);
-    var triangle_group = vec2(0u, 0u);
-    var occluded = false;
-    loop {
-        while triangle_group.y != 0u {
-            let bit = firstLeadingBit(triangle_group.y);
-            triangle_group.y &= ~(1u << bit);
-            let tri = bvh_triangles[triangle_group.x + bit];
-            if intersect_triangle(tri, state, ray.t_min, ray.t_max).x < ray.t_max {
-                occluded = true;
-                break;
-            }
-        }
-        if occluded {
-            break;
-        }
-        if (node_group.y & 0xff000000u) != 0u {
-            let bit = firstLeadingBit(node_group.y);
-            let child = group_child(node_group, bit, state.oct_inv);
-            node_group.y &= ~(1u << bit);
-            if (node_group.y & 0xff000000u) != 0u {
-                stack[stack_len] = node_group;
-                stack_len += 1u;
-            }
-            let node = bvh_nodes[child];
-            let hit_mask = intersect_node(node, state, ray.t_max);
-            let imask = node.e_imask >> 24u;
-            node_group = vec2(node.child_base_idx, (hit_mask & 0xff000000u) | imask);
-            triangle_group = vec2(node.primitive_base_idx, hit_mask & 0x00ffffffu);
-        }
-        if triangle_group.y == 0u && (node_group.y & 0xff000000u) == 0u {
-            if stack_len == 0u {
-                break;
-            }
-            stack_len -= 1u;
-            node_group = stack[stack_len];
-        }
-    }
-    return occluded;
+    return traverse(ray, true).triangle != BVH_MISS;
 }

@@ -75,6 +75,33 @@ pub struct GpuBvhTriangle {
     pub pad_c: u32,
 }
 
+/// [`GpuBvhInstance::flags`] bit: the instance is the world-space static level, and the
+/// shader traces the world ray unchanged (no transform, so no rounding).
+pub const BVH_INSTANCE_IDENTITY: u32 = 1;
+
+/// [`GpuBvhInstance::flags`] bit: the instance's transform mirrors (negative determinant).
+/// `Scene::evaluate` then swaps v1 and v2 of its world triangles to keep the winding, so the
+/// shader swaps the object-space barycentrics to name the frame triangle's vertices.
+pub const BVH_INSTANCE_MIRRORED: u32 = 2;
+
+/// One top-level primitive (64 bytes, `BvhInstance` in WGSL): a bottom level placed in the
+/// world. The shader transforms the world ray into object space as
+/// `vec4(p, 1) * object_from_world` (rows of the affine inverse), keeping the direction
+/// unnormalized so distances `t` stay those of the world ray.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
+pub struct GpuBvhInstance {
+    /// The three rows of the affine map from world to object space.
+    pub object_from_world: [[f32; 4]; 3],
+    /// Index of the bottom level's root in `bvh.nodes`.
+    pub blas_root: u32,
+    /// Added to the bottom level's primitive index to give the frame triangle index.
+    pub triangle_base: u32,
+    /// [`BVH_INSTANCE_IDENTITY`] | [`BVH_INSTANCE_MIRRORED`].
+    pub flags: u32,
+    pub pad: u32,
+}
+
 /// WGSL `Ray` (32 bytes): `origin + t * dir` for `t` in `[t_min, t_max]`.
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
@@ -189,7 +216,7 @@ impl PackedBvh {
 
 /// Depth of the deepest internal node, walking child links from the root (an explicit stack, so
 /// a degenerate BVH cannot overflow the host's).
-fn max_depth(bvh: &CwBvh) -> u32 {
+pub(super) fn max_depth(bvh: &CwBvh) -> u32 {
     let mut deepest = 0;
     let mut pending = vec![(0usize, 0u32)];
     while let Some((index, depth)) = pending.pop() {
@@ -288,6 +315,24 @@ mod tests {
             child_min_z,
             child_max_z
         );
+    }
+
+    #[test]
+    fn instance_matches_wgsl() {
+        let (size, wgsl) = wgsl_layout("BvhInstance");
+        assert_eq!(size as usize, size_of::<GpuBvhInstance>());
+        assert_eq!(size, 64);
+        for (member, rust) in [
+            (
+                "object_from_world",
+                offset_of!(GpuBvhInstance, object_from_world),
+            ),
+            ("blas_root", offset_of!(GpuBvhInstance, blas_root)),
+            ("triangle_base", offset_of!(GpuBvhInstance, triangle_base)),
+            ("flags", offset_of!(GpuBvhInstance, flags)),
+        ] {
+            assert_eq!(offset(&wgsl, member), rust, "{member}");
+        }
     }
 
     #[test]

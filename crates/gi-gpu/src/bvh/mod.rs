@@ -1,25 +1,38 @@
-//! BVH ray tracing on the GPU: an obvhs compressed wide BVH (CWBVH) uploaded as-is and
-//! traversed in WGSL (`shaders/bvh/cwbvh.wgsl`, import path `gi::bvh`), standing in for
-//! hardware ray tracing.
+//! BVH ray tracing on the GPU: a two-level obvhs compressed wide BVH (CWBVH) traversed in
+//! WGSL (`shaders/bvh/cwbvh.wgsl`, import path `gi::bvh`), standing in for hardware ray
+//! tracing.
+//!
+//! Bottom levels are built once per scene ([`BottomLevels`]: one world-space level over the
+//! static geometry, one object-space level per mesh of a moving node); a small top level over
+//! their instances is rebuilt every frame ([`GpuBvh::update`]), so moving objects never force a
+//! rebuild of their triangles.
 //!
 //! A pass that traces rays imports `gi::bvh::{Ray, Hit, trace_closest, trace_any}` and binds a
 //! [`GpuBvh`] as bind group 1 (layout from [`GpuBvh::bind_group_layout`]):
 //!
 //! | binding | resource | contents |
 //! |---|---|---|
-//! | 0 | `bvh.nodes`, read-only storage | [`GpuCwBvhNode`], 80 bytes each, root first |
-//! | 1 | `bvh.triangles`, read-only storage | [`GpuBvhTriangle`], 48 bytes each, in leaf order |
+//! | 0 | `bvh.nodes`, read-only storage | [`GpuCwBvhNode`] of every bottom level, 80 bytes each |
+//! | 1 | `bvh.triangles`, read-only storage | [`GpuBvhTriangle`] of every bottom level, 48 bytes each, in leaf order |
+//! | 2 | `bvh.top_nodes`, read-only storage | the top level's [`GpuCwBvhNode`]s, root first |
+//! | 3 | `bvh.instances`, read-only storage | [`GpuBvhInstance`], 64 bytes each, in top-level leaf order |
 //!
 //! [`BvhTracer`] runs batches of rays through it, for tests and benchmarks.
 
 mod layout;
+mod levels;
 mod tracer;
 
 pub use layout::{
-    BVH_MISS, BVH_STACK_SIZE, BvhError, GpuBvhTriangle, GpuCwBvhNode, GpuHit, GpuRay, PackedBvh,
+    BVH_INSTANCE_IDENTITY, BVH_INSTANCE_MIRRORED, BVH_MISS, BVH_STACK_SIZE, BvhError,
+    GpuBvhInstance, GpuBvhTriangle, GpuCwBvhNode, GpuHit, GpuRay, PackedBvh,
 };
+pub use levels::{BottomLevels, TopLevel, moving_nodes};
 pub use tracer::{BvhTracer, TraceResults, TraceTimings};
 
+use std::time::Instant;
+
+use gi_scene::{Scene, SceneFrame};
 use obvhs::{cwbvh::CwBvh, triangle::Triangle};
 
 use crate::GpuContext;
@@ -27,26 +40,44 @@ use crate::GpuContext;
 /// Bind group index that `gi::bvh` declares its buffers in.
 pub const BVH_BIND_GROUP: u32 = 1;
 
-/// A CWBVH and its triangles in GPU storage buffers, with the bind group that exposes them to
-/// `gi::bvh`. Memory: 80 bytes per node plus 48 per primitive (a primitive is a triangle as
-/// the BVH leaves reference it; spatial splits may reference one triangle from several leaves).
+/// A two-level CWBVH in GPU storage buffers, with the bind group that exposes it to
+/// `gi::bvh`. Memory: 80 bytes per bottom-level node plus 48 per primitive (spatial splits may
+/// reference one triangle from several leaves), plus 80 per top-level node and 64 per instance.
 pub struct GpuBvh {
-    /// `bvh.nodes`: the nodes, root at index 0.
+    /// `bvh.nodes`: every bottom level's nodes. Written once, at upload.
     pub nodes: wgpu::Buffer,
-    /// `bvh.triangles`: triangle vertices and frame indices in leaf order.
+    /// `bvh.triangles`: every bottom level's primitives in leaf order. Written once.
     pub triangles: wgpu::Buffer,
-    /// `bvh.bind_group`: both buffers, for [`BVH_BIND_GROUP`].
+    /// `bvh.top_nodes`: the top level, root at index 0; rewritten by [`GpuBvh::update`].
+    pub top_nodes: wgpu::Buffer,
+    /// `bvh.instances`: the instances in top-level leaf order; rewritten by every update.
+    pub instances: wgpu::Buffer,
+    /// `bvh.bind_group`: the four buffers, for [`BVH_BIND_GROUP`]. Made again only when an
+    /// update's top level outgrows `bvh.top_nodes`.
     pub bind_group: wgpu::BindGroup,
-    /// Number of nodes uploaded (1 for an empty BVH, which has a single childless root).
+    /// Bottom-level nodes uploaded (1 for an empty scene: a single childless root).
     pub node_count: u32,
-    /// Number of primitives uploaded.
+    /// Bottom-level primitives uploaded.
     pub primitive_count: u32,
-    /// Levels below the root of the deepest node; at most [`BVH_STACK_SIZE`].
+    /// Levels below the root of the deepest bottom level.
     pub depth: u32,
+    /// Nodes of the current top level.
+    pub top_node_count: u32,
+    /// Levels below the root of the current top level.
+    pub top_depth: u32,
+    /// Instances (the static level is one).
+    pub instance_count: u32,
+    /// Seconds of the CPU builds of every bottom level and their packing.
+    pub build_seconds: f64,
+    /// Seconds of the last top level: build on the CPU plus queueing its upload.
+    pub update_seconds: f64,
+    /// Top levels built so far (the upload's is the first).
+    pub update_count: u32,
+    levels: BottomLevels,
 }
 
 impl GpuBvh {
-    /// The layout of bind group [`BVH_BIND_GROUP`]: two read-only storage buffers visible to
+    /// The layout of bind group [`BVH_BIND_GROUP`]: four read-only storage buffers visible to
     /// compute shaders. Layouts with equal entries are interchangeable, so pipelines made with
     /// one from this function accept the bind group of any `GpuBvh`.
     pub fn bind_group_layout(ctx: &GpuContext) -> wgpu::BindGroupLayout {
@@ -63,74 +94,190 @@ impl GpuBvh {
         ctx.device
             .create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
                 label: Some("bvh.bind_group_layout"),
-                entries: &[storage(0), storage(1)],
+                entries: &[storage(0), storage(1), storage(2), storage(3)],
             })
     }
 
-    /// Packs `bvh`, built over `frame_triangles`, and uploads it. Cost: a copy of the nodes
+    /// Builds every bottom level of `scene` (static geometry in world space, each moving
+    /// node's mesh in object space) and the top level of `frame`, and uploads both. Cost: the
+    /// triangle builds, once; later frames call [`GpuBvh::update`].
+    pub fn from_scene(
+        ctx: &GpuContext,
+        scene: &Scene,
+        frame: &SceneFrame,
+    ) -> Result<Self, BvhError> {
+        let levels = BottomLevels::from_scene(scene, frame)?;
+        Self::upload_levels(ctx, levels, &frame.world_from_node)
+    }
+
+    /// Uploads `bvh`, built over `frame_triangles`, as the only (static, world-space) bottom
+    /// level: the plain single-BVH path, for tests and benchmarks. Cost: a copy of the nodes
     /// and one of the triangles in leaf order; no GPU work.
     ///
-    /// Fails when the BVH is deeper than the traversal stack or larger than the device's
-    /// storage binding limit (128 MiB on the software adapter: about 1.6 M nodes or 2.8 M
-    /// primitives).
+    /// Fails when the BVH is deeper than the traversal stack allows or larger than the
+    /// device's storage binding limit (128 MiB on the software adapter: about 1.6 M nodes or
+    /// 2.8 M primitives).
     pub fn upload(
         ctx: &GpuContext,
         bvh: &CwBvh,
         frame_triangles: &[Triangle],
     ) -> Result<Self, BvhError> {
-        let packed = PackedBvh::new(bvh, frame_triangles)?;
-        Self::upload_packed(ctx, &packed)
+        Self::upload_levels(ctx, BottomLevels::single(bvh, frame_triangles)?, &[])
     }
 
-    /// Uploads an already packed BVH (see [`GpuBvh::upload`]).
-    pub fn upload_packed(ctx: &GpuContext, packed: &PackedBvh) -> Result<Self, BvhError> {
+    /// Uploads built bottom levels and a top level placed with `world_from_node`.
+    pub fn upload_levels(
+        ctx: &GpuContext,
+        levels: BottomLevels,
+        world_from_node: &[glam::Mat4],
+    ) -> Result<Self, BvhError> {
+        let start = Instant::now();
+        let top = levels.top_level(world_from_node)?;
+        let node_bytes: &[u8] = bytemuck::cast_slice(&levels.nodes);
+        let triangle_bytes: &[u8] = bytemuck::cast_slice(&levels.triangles);
         let limit = ctx.limits.max_storage_buffer_binding_size;
-        let node_bytes: &[u8] = bytemuck::cast_slice(&packed.nodes);
-        let triangle_bytes: &[u8] = bytemuck::cast_slice(&packed.triangles);
         for (label, bytes) in [("bvh.nodes", node_bytes), ("bvh.triangles", triangle_bytes)] {
-            if bytes.len() as u64 > limit {
-                return Err(BvhError::TooLarge {
-                    label,
-                    bytes: bytes.len() as u64,
-                    limit,
-                });
-            }
+            check_size(label, bytes.len() as u64, limit)?;
         }
         let usage = wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_DST;
         let nodes = ctx.create_buffer_init("bvh.nodes", node_bytes, usage);
         let triangles = ctx.create_buffer_init("bvh.triangles", triangle_bytes, usage);
-        let bind_group = ctx.device.create_bind_group(&wgpu::BindGroupDescriptor {
-            label: Some("bvh.bind_group"),
-            layout: &Self::bind_group_layout(ctx),
-            entries: &[
-                wgpu::BindGroupEntry {
-                    binding: 0,
-                    resource: nodes.as_entire_binding(),
-                },
-                wgpu::BindGroupEntry {
-                    binding: 1,
-                    resource: triangles.as_entire_binding(),
-                },
-            ],
-        });
-        Ok(Self {
+        // A CWBVH has fewer internal nodes than leaves, so one node per instance always fits
+        // the top level: the buffer never has to grow for a fixed set of instances.
+        let top_capacity = top.nodes.len().max(levels.instance_count()).max(1) as u64;
+        let top_nodes = Self::top_nodes_buffer(ctx, top_capacity);
+        let instances = ctx.create_buffer(
+            "bvh.instances",
+            top.instances.len() as u64 * size_of::<GpuBvhInstance>() as u64,
+            usage,
+        );
+        let bind_group = Self::bind_group(ctx, [&nodes, &triangles, &top_nodes, &instances]);
+        let build_seconds = levels.build_time.as_secs_f64() + start.elapsed().as_secs_f64();
+        let mut bvh = Self {
             nodes,
             triangles,
+            top_nodes,
+            instances,
             bind_group,
-            node_count: packed.nodes.len() as u32,
-            primitive_count: packed.triangles.len() as u32,
-            depth: packed.depth,
+            node_count: levels.nodes.len() as u32,
+            primitive_count: levels.triangles.len() as u32,
+            depth: levels.depth,
+            top_node_count: 0,
+            top_depth: 0,
+            instance_count: levels.instance_count() as u32,
+            build_seconds,
+            update_seconds: 0.0,
+            update_count: 0,
+            levels,
+        };
+        bvh.write_top(ctx, top)?;
+        Ok(bvh)
+    }
+
+    /// Places the instances at `frame`'s transforms: rebuilds the top level and uploads it with
+    /// the new instance transforms. Bottom levels are not touched. Cost: a CWBVH build over one
+    /// box per instance and a write of 80 bytes per top-level node plus 64 per instance.
+    /// `frame` must come from the scene the BVH was built for.
+    pub fn update(&mut self, ctx: &GpuContext, frame: &SceneFrame) -> Result<(), BvhError> {
+        let top = self.levels.top_level(&frame.world_from_node)?;
+        self.write_top(ctx, top)
+    }
+
+    fn write_top(&mut self, ctx: &GpuContext, top: TopLevel) -> Result<(), BvhError> {
+        let start = Instant::now();
+        let node_bytes: &[u8] = bytemuck::cast_slice(&top.nodes);
+        if node_bytes.len() as u64 > self.top_nodes.size() {
+            check_size(
+                "bvh.top_nodes",
+                node_bytes.len() as u64,
+                ctx.limits.max_storage_buffer_binding_size,
+            )?;
+            ctx.release_buffer(&self.top_nodes);
+            self.top_nodes = Self::top_nodes_buffer(ctx, top.nodes.len() as u64);
+            self.bind_group = Self::bind_group(
+                ctx,
+                [
+                    &self.nodes,
+                    &self.triangles,
+                    &self.top_nodes,
+                    &self.instances,
+                ],
+            );
+        }
+        ctx.queue.write_buffer(&self.top_nodes, 0, node_bytes);
+        ctx.queue
+            .write_buffer(&self.instances, 0, bytemuck::cast_slice(&top.instances));
+        self.top_node_count = top.nodes.len() as u32;
+        self.top_depth = top.depth;
+        self.update_seconds = (top.build_time + start.elapsed()).as_secs_f64();
+        self.update_count += 1;
+        Ok(())
+    }
+
+    fn top_nodes_buffer(ctx: &GpuContext, nodes: u64) -> wgpu::Buffer {
+        ctx.create_buffer(
+            "bvh.top_nodes",
+            nodes.max(1) * size_of::<GpuCwBvhNode>() as u64,
+            wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_DST,
+        )
+    }
+
+    fn bind_group(ctx: &GpuContext, buffers: [&wgpu::Buffer; 4]) -> wgpu::BindGroup {
+        let entries: Vec<_> = buffers
+            .iter()
+            .zip(0..)
+            .map(|(buffer, binding)| wgpu::BindGroupEntry {
+                binding,
+                resource: buffer.as_entire_binding(),
+            })
+            .collect();
+        ctx.device.create_bind_group(&wgpu::BindGroupDescriptor {
+            label: Some("bvh.bind_group"),
+            layout: &Self::bind_group_layout(ctx),
+            entries: &entries,
         })
     }
 
-    /// Bytes of both buffers.
-    pub fn bytes(&self) -> u64 {
+    /// The bottom levels on the CPU (node and primitive lists, instance count).
+    pub fn bottom_levels(&self) -> &BottomLevels {
+        &self.levels
+    }
+
+    /// Bytes of the bottom levels (written once).
+    pub fn bottom_bytes(&self) -> u64 {
         self.nodes.size() + self.triangles.size()
     }
 
-    /// Stops counting and destroys both buffers (for a BVH replaced by a rebuild).
-    pub fn release(self, ctx: &GpuContext) {
-        ctx.release_buffer(&self.nodes);
-        ctx.release_buffer(&self.triangles);
+    /// Bytes of the top level and instances (rewritten every frame).
+    pub fn top_bytes(&self) -> u64 {
+        self.top_nodes.size() + self.instances.size()
     }
+
+    /// Bytes of all four buffers.
+    pub fn bytes(&self) -> u64 {
+        self.bottom_bytes() + self.top_bytes()
+    }
+
+    /// Stops counting and destroys the buffers (for a BVH replaced by a rebuild).
+    pub fn release(self, ctx: &GpuContext) {
+        for buffer in [
+            &self.nodes,
+            &self.triangles,
+            &self.top_nodes,
+            &self.instances,
+        ] {
+            ctx.release_buffer(buffer);
+        }
+    }
+}
+
+fn check_size(label: &'static str, bytes: u64, limit: u64) -> Result<(), BvhError> {
+    if bytes > limit {
+        return Err(BvhError::TooLarge {
+            label,
+            bytes,
+            limit,
+        });
+    }
+    Ok(())
 }

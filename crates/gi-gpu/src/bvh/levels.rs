@@ -1,0 +1,405 @@
+//! The CPU side of the two-level BVH: bottom levels built once per scene, and the small top
+//! level over their instances rebuilt every frame.
+//!
+//! Static geometry (mesh nodes whose world transform never changes: neither they nor an
+//! ancestor have an animation channel) goes into one world-space bottom level, built with
+//! obvhs's `medium_build` for the best traversal quality; its primitives carry their frame
+//! triangle index and its instance has the identity transform. Each mesh used by a moving node
+//! gets one bottom level in the mesh's object space, shared by every moving node that uses it;
+//! an instance per moving node carries its `object_from_world` and the first index of its
+//! triangle range in the frame. The top level is an obvhs CWBVH over the instances' world
+//! boxes: hundreds of moving objects stay logarithmic to traverse, and rebuilding it is a PLOC
+//! build over that many boxes, far cheaper than the triangles.
+
+use std::time::{Duration, Instant};
+
+use gi_scene::{Scene, SceneFrame};
+use glam::{Mat4, Vec3A};
+use obvhs::{
+    BvhBuildParams,
+    aabb::Aabb,
+    cwbvh::{CwBvh, builder::build_cwbvh, builder::build_cwbvh_from_tris},
+    triangle::Triangle,
+};
+
+use super::layout::{
+    BVH_INSTANCE_IDENTITY, BVH_INSTANCE_MIRRORED, BVH_STACK_SIZE, BvhError, GpuBvhInstance,
+    GpuBvhTriangle, GpuCwBvhNode, PackedBvh,
+};
+
+/// One bottom level's place in the concatenated buffers.
+#[derive(Clone, Copy, Debug)]
+struct Blas {
+    /// Index of its root in the concatenated node list.
+    root: u32,
+    /// Bounds of its primitives in its own space.
+    bounds: Aabb,
+}
+
+/// Where an instance's transform comes from.
+#[derive(Clone, Copy, Debug)]
+enum Placement {
+    /// The world-space static bottom level: identity, every frame.
+    Static,
+    /// A moving mesh node: `frame.world_from_node[node]`.
+    Node(usize),
+}
+
+#[derive(Clone, Copy, Debug)]
+struct Instance {
+    blas: usize,
+    placement: Placement,
+    /// Frame index of the instance's first triangle (0 for the static level, whose primitives
+    /// carry frame indices).
+    triangle_base: u32,
+}
+
+/// Every bottom level packed into one node list and one primitive list (child and primitive
+/// indices rebased to the concatenation), and the instances that place them.
+#[derive(Clone, Debug)]
+pub struct BottomLevels {
+    /// All bottom-level nodes; each level's root at [`Blas::root`].
+    pub nodes: Vec<GpuCwBvhNode>,
+    /// All bottom-level primitives in leaf order.
+    pub triangles: Vec<GpuBvhTriangle>,
+    /// Levels below the root of the deepest bottom level.
+    pub depth: u32,
+    /// Wall time of the CPU builds (all bottom levels) and their packing.
+    pub build_time: Duration,
+    blases: Vec<Blas>,
+    instances: Vec<Instance>,
+}
+
+/// A top level built for one frame: nodes, and the instances in its leaf order.
+#[derive(Clone, Debug)]
+pub struct TopLevel {
+    /// Root first; one childless root when there are no instances.
+    pub nodes: Vec<GpuCwBvhNode>,
+    /// `instances[i]` is the top level's primitive `i`.
+    pub instances: Vec<GpuBvhInstance>,
+    /// Levels below the root of the deepest top-level node.
+    pub depth: u32,
+    /// Wall time of this build (boxes, PLOC, packing).
+    pub build_time: Duration,
+}
+
+impl BottomLevels {
+    /// Builds the static level over the frame's static triangles and one object-space level
+    /// per mesh of a moving node. `frame` must be an evaluation of `scene` (any time: static
+    /// triangles are the same at every time).
+    pub fn from_scene(scene: &Scene, frame: &SceneFrame) -> Result<Self, BvhError> {
+        let start = Instant::now();
+        let moving = moving_nodes(scene);
+        let mut levels = Self::empty();
+        let mut static_indices = Vec::new();
+        let mut first_triangle: Vec<Option<u32>> = vec![None; scene.nodes.len()];
+        for (index, attributes) in frame.attributes.iter().enumerate() {
+            let node = attributes.node as usize;
+            if moving.get(node).copied().unwrap_or(false) {
+                first_triangle[node].get_or_insert(index as u32);
+            } else {
+                static_indices.push(index as u32);
+            }
+        }
+        let static_triangles: Vec<Triangle> = static_indices
+            .iter()
+            .map(|&i| frame.triangles[i as usize])
+            .collect();
+        if let Some(blas) = levels.add_blas(&static_triangles, Some(&static_indices))? {
+            levels.instances.push(Instance {
+                blas,
+                placement: Placement::Static,
+                triangle_base: 0,
+            });
+        }
+        // One level per mesh, shared by the moving nodes that instance it.
+        let mut mesh_blas: Vec<Option<Option<usize>>> = vec![None; scene.meshes.len()];
+        for (node_index, node) in scene.nodes.iter().enumerate() {
+            let (Some(mesh), Some(base)) = (node.mesh, first_triangle[node_index]) else {
+                continue;
+            };
+            let blas = match mesh_blas.get(mesh).copied().flatten() {
+                Some(blas) => blas,
+                None => {
+                    let blas = levels.add_blas(&object_triangles(scene, mesh), None)?;
+                    if let Some(slot) = mesh_blas.get_mut(mesh) {
+                        *slot = Some(blas);
+                    }
+                    blas
+                }
+            };
+            if let Some(blas) = blas {
+                levels.instances.push(Instance {
+                    blas,
+                    placement: Placement::Node(node_index),
+                    triangle_base: base,
+                });
+            }
+        }
+        levels.finish();
+        levels.build_time = start.elapsed();
+        Ok(levels)
+    }
+
+    /// One world-space level from an already built CWBVH over `frame_triangles`, placed with
+    /// the identity: the plain single-BVH case, for tests and benchmarks of traversal alone.
+    pub fn single(bvh: &CwBvh, frame_triangles: &[Triangle]) -> Result<Self, BvhError> {
+        let start = Instant::now();
+        let mut levels = Self::empty();
+        if !bvh.nodes.is_empty() {
+            let packed = PackedBvh::new(bvh, frame_triangles)?;
+            let blas = levels.append(packed, compute_bounds(frame_triangles));
+            levels.instances.push(Instance {
+                blas,
+                placement: Placement::Static,
+                triangle_base: 0,
+            });
+        }
+        levels.finish();
+        levels.build_time = start.elapsed();
+        Ok(levels)
+    }
+
+    fn empty() -> Self {
+        Self {
+            nodes: Vec::new(),
+            triangles: Vec::new(),
+            depth: 0,
+            build_time: Duration::ZERO,
+            blases: Vec::new(),
+            instances: Vec::new(),
+        }
+    }
+
+    /// Builds and appends a level over `triangles`; `frame_indices[i]` replaces primitive
+    /// `i`'s stored index when given. `None` for an empty list.
+    fn add_blas(
+        &mut self,
+        triangles: &[Triangle],
+        frame_indices: Option<&[u32]>,
+    ) -> Result<Option<usize>, BvhError> {
+        if triangles.is_empty() {
+            return Ok(None);
+        }
+        let bvh = build_cwbvh_from_tris(
+            triangles,
+            BvhBuildParams::medium_build(),
+            &mut Duration::default(),
+        );
+        let mut packed = PackedBvh::new(&bvh, triangles)?;
+        if let Some(map) = frame_indices {
+            for tri in &mut packed.triangles {
+                tri.triangle = map[tri.triangle as usize];
+            }
+        }
+        Ok(Some(self.append(packed, compute_bounds(triangles))))
+    }
+
+    fn append(&mut self, packed: PackedBvh, bounds: Aabb) -> usize {
+        let node_base = self.nodes.len() as u32;
+        let primitive_base = self.triangles.len() as u32;
+        self.nodes.extend(packed.nodes.into_iter().map(|mut node| {
+            node.child_base_idx += node_base;
+            node.primitive_base_idx += primitive_base;
+            node
+        }));
+        self.triangles.extend(packed.triangles);
+        self.depth = self.depth.max(packed.depth);
+        self.blases.push(Blas {
+            root: node_base,
+            bounds,
+        });
+        self.blases.len() - 1
+    }
+
+    /// Storage bindings may not be empty: a scene without triangles keeps one childless node
+    /// and one unread primitive.
+    fn finish(&mut self) {
+        if self.nodes.is_empty() {
+            self.nodes.push(GpuCwBvhNode::default());
+            self.triangles.push(GpuBvhTriangle::default());
+        }
+    }
+
+    /// Number of instances (the static level counts as one).
+    pub fn instance_count(&self) -> usize {
+        self.instances.len()
+    }
+
+    /// Number of bottom levels.
+    pub fn blas_count(&self) -> usize {
+        self.blases.len()
+    }
+
+    /// Builds the top level over the instances placed with `world_from_node` (a frame's
+    /// transforms; ignored by static instances). Fails when the two levels together could
+    /// overflow the traversal stack.
+    pub fn top_level(&self, world_from_node: &[Mat4]) -> Result<TopLevel, BvhError> {
+        let start = Instant::now();
+        let mut boxes = Vec::with_capacity(self.instances.len());
+        let mut gpu_instances = Vec::with_capacity(self.instances.len());
+        for instance in &self.instances {
+            let blas = self.blases[instance.blas];
+            let world_from_object = match instance.placement {
+                Placement::Static => None,
+                Placement::Node(node) => {
+                    Some(world_from_node.get(node).copied().unwrap_or(Mat4::IDENTITY))
+                }
+            };
+            boxes.push(match world_from_object {
+                None => blas.bounds,
+                Some(m) => padded(transform_bounds(&blas.bounds, &m)),
+            });
+            gpu_instances.push(gpu_instance(
+                blas.root,
+                instance.triangle_base,
+                world_from_object,
+            ));
+        }
+        let (nodes, instances, depth) = if boxes.is_empty() {
+            (
+                vec![GpuCwBvhNode::default()],
+                vec![GpuBvhInstance::default()],
+                0,
+            )
+        } else {
+            let params = BvhBuildParams {
+                // Each instance entered costs a ray transform: one per leaf keeps culling exact.
+                max_prims_per_leaf: 1,
+                ..BvhBuildParams::fast_build()
+            };
+            let bvh = build_cwbvh(&boxes, params, &mut Duration::default());
+            let depth = super::layout::max_depth(&bvh);
+            let nodes = bvh.nodes.iter().map(GpuCwBvhNode::from).collect();
+            let instances = bvh
+                .primitive_indices
+                .iter()
+                .map(|&i| gpu_instances[i as usize])
+                .collect();
+            (nodes, instances, depth)
+        };
+        // Top-level groups, then the leaf and node group pushed on entering an instance, then
+        // the bottom level's own groups.
+        let combined = depth + 2 + self.depth;
+        if combined > BVH_STACK_SIZE {
+            return Err(BvhError::TooDeep { depth: combined });
+        }
+        Ok(TopLevel {
+            nodes,
+            instances,
+            depth,
+            build_time: start.elapsed(),
+        })
+    }
+}
+
+/// Nodes whose world transform changes over time: animated, or below an animated ancestor.
+pub fn moving_nodes(scene: &Scene) -> Vec<bool> {
+    let mut animated = vec![false; scene.nodes.len()];
+    for channel in scene.animations.iter().flat_map(|a| &a.channels) {
+        if let Some(flag) = animated.get_mut(channel.node) {
+            *flag = true;
+        }
+    }
+    (0..scene.nodes.len())
+        .map(|node| {
+            // Bounded walk up the parents, so a cyclic hand-built hierarchy cannot hang.
+            let mut current = Some(node);
+            for _ in 0..=scene.nodes.len() {
+                let Some(index) = current.filter(|&i| i < scene.nodes.len()) else {
+                    return false;
+                };
+                if animated[index] {
+                    return true;
+                }
+                current = scene.nodes[index].parent;
+            }
+            false
+        })
+        .collect()
+}
+
+/// The triangles of mesh `mesh` in object space, in the order `Scene::evaluate` emits them
+/// (winding as authored: a mirroring instance swaps barycentrics instead).
+fn object_triangles(scene: &Scene, mesh: usize) -> Vec<Triangle> {
+    let Some(mesh) = scene.meshes.get(mesh) else {
+        return Vec::new();
+    };
+    mesh.primitives
+        .iter()
+        .flat_map(|primitive| {
+            primitive.indices.chunks_exact(3).map(|tri| {
+                let [a, b, c] = [tri[0], tri[1], tri[2]].map(|i| primitive.positions[i as usize]);
+                Triangle {
+                    v0: a.into(),
+                    v1: b.into(),
+                    v2: c.into(),
+                }
+            })
+        })
+        .collect()
+}
+
+fn gpu_instance(
+    blas_root: u32,
+    triangle_base: u32,
+    world_from_object: Option<Mat4>,
+) -> GpuBvhInstance {
+    let Some(world_from_object) = world_from_object else {
+        return GpuBvhInstance {
+            object_from_world: [
+                [1.0, 0.0, 0.0, 0.0],
+                [0.0, 1.0, 0.0, 0.0],
+                [0.0, 0.0, 1.0, 0.0],
+            ],
+            blas_root,
+            triangle_base,
+            flags: BVH_INSTANCE_IDENTITY,
+            pad: 0,
+        };
+    };
+    // Rows of the affine part: the shader computes `vec4(p, 1) * object_from_world`.
+    let rows = world_from_object.inverse().transpose();
+    let mirrored = world_from_object.determinant() < 0.0;
+    GpuBvhInstance {
+        object_from_world: [rows.x_axis, rows.y_axis, rows.z_axis].map(|r| r.to_array()),
+        blas_root,
+        triangle_base,
+        flags: if mirrored { BVH_INSTANCE_MIRRORED } else { 0 },
+        pad: 0,
+    }
+}
+
+fn compute_bounds(triangles: &[Triangle]) -> Aabb {
+    let mut bounds = Aabb::empty();
+    for tri in triangles {
+        bounds = bounds.union(&tri.aabb());
+    }
+    bounds
+}
+
+/// World box of an object-space box: its eight corners transformed.
+fn transform_bounds(bounds: &Aabb, world_from_object: &Mat4) -> Aabb {
+    let mut world = Aabb::empty();
+    for corner in 0..8 {
+        let pick = |bit: usize, axis: usize| {
+            if corner & bit == 0 {
+                bounds.min[axis]
+            } else {
+                bounds.max[axis]
+            }
+        };
+        let p = glam::Vec3::new(pick(1, 0), pick(2, 1), pick(4, 2));
+        world.extend(Vec3A::from(world_from_object.transform_point3(p)));
+    }
+    world
+}
+
+/// Grows a transformed box by a few ulps of its size and position: the corners went through
+/// f32 rounding, and a box a hair too small would cull rays that graze the instance.
+fn padded(bounds: Aabb) -> Aabb {
+    let scale =
+        bounds.max.abs().max(bounds.min.abs()).max_element() + bounds.diagonal().max_element();
+    let pad = Vec3A::splat(scale * 1e-5 + f32::MIN_POSITIVE);
+    Aabb::new(bounds.min - pad, bounds.max + pad)
+}

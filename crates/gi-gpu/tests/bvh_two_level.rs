@@ -1,0 +1,397 @@
+//! The two-level GPU BVH (`GpuBvh::from_scene` + `update`) against the CPU's single BVH over
+//! the flattened world-space frame: every bundled scene, the animated `dynamic` scene at several
+//! times, and a scene of many moving, mirrored and parented copies of a mesh.
+//!
+//! Static geometry is traced in world space exactly as the CPU traces it, so its hits must
+//! agree as tightly as the single-level test's. A moving node's triangles are traced in object
+//! space: the CPU tests `fl(world_from_object * v)` while the GPU tests `v` against
+//! `fl(object_from_world * ray)`, so the two see the same surface displaced by the rounding of
+//! one 4x4 transform and its inverse. That displacement is bounded by
+//! `POSITION_ULPS * f32::EPSILON * (|origin| + |hit| + scene radius)` in world units; along the
+//! ray it becomes a distance error of that over `|dir| |cos|` (the cosine between the ray and
+//! the triangle's normal). Disagreements on the triangle are accepted only as documented ties:
+//! two triangles at the same distance (shared edges), or a ray passing within that displacement
+//! of a moving triangle's edge (a silhouette, hit on one side and missed on the other).
+
+mod common;
+
+use common::{Rng, test_rays};
+use gi_gpu::bvh::{BvhTracer, GpuBvh, GpuHit, GpuRay, TraceResults, moving_nodes};
+use gi_gpu::{GpuContext, ShaderLibrary};
+use gi_scene::{
+    Animation, Channel, ChannelValues, Interpolation, Node, Scene, SceneBvh, SceneFrame, Triangle,
+};
+use glam::{Quat, Vec2, Vec3, Vec3A};
+
+/// Relative tolerance on distances of static hits (the single-level test's).
+const T_REL: f32 = 1e-4;
+
+/// Rounding of the object-space path in units of `f32::EPSILON` times the coordinates'
+/// magnitude: the inverse (a few ulps per entry), the ray transform (3 products and sums), and
+/// the world-space vertices of the CPU (3 products and sums), with a factor of 4 for the
+/// magnitudes of the matrix entries.
+const POSITION_ULPS: f32 = 64.0;
+
+/// Largest share of rays allowed to be ties.
+const MAX_TIE_SHARE: f64 = 0.01;
+
+#[derive(Debug, Default)]
+struct Agreement {
+    rays: usize,
+    hits: usize,
+    ties: usize,
+}
+
+/// World-space rounding allowance at a hit point `p` of the ray from `origin`.
+fn position_tolerance(origin: Vec3, p: Vec3, radius: f32) -> f32 {
+    POSITION_ULPS * f32::EPSILON * (origin.length() + p.length() + radius)
+}
+
+/// Distance from the point with barycentrics `(b1, b2)` on `tri` to the nearest edge.
+fn edge_distance(tri: &Triangle, b: Vec2) -> f32 {
+    let [a, bb, c] = [tri.v0, tri.v1, tri.v2].map(Vec3::from);
+    let double_area = (bb - a).cross(c - a).length();
+    let weights = [1.0 - b.x - b.y, b.x, b.y];
+    let opposite = [(c - bb).length(), (c - a).length(), (bb - a).length()];
+    (0..3)
+        .map(|i| weights[i].abs() * double_area / opposite[i].max(1e-30))
+        .fold(f32::INFINITY, f32::min)
+}
+
+fn obvhs_ray(r: &GpuRay) -> obvhs::ray::Ray {
+    obvhs::ray::Ray::new(
+        Vec3A::from_array(r.origin),
+        Vec3A::from_array(r.dir),
+        r.t_min,
+        r.t_max,
+    )
+}
+
+/// Compares GPU results with the CPU's single BVH over `frame`; `moving[i]` says whether frame
+/// triangle `i` belongs to a moving node.
+fn compare(
+    label: &str,
+    frame: &SceneFrame,
+    moving: &[bool],
+    rays: &[GpuRay],
+    results: &TraceResults,
+) -> Agreement {
+    let triangles = &frame.triangles;
+    let cpu = SceneBvh::build(triangles);
+    let radius = scene_radius(triangles);
+    let mut agreement = Agreement {
+        rays: rays.len(),
+        ..Default::default()
+    };
+    for (i, (r, gpu_hit)) in rays.iter().zip(&results.hits).enumerate() {
+        let (origin, dir) = (Vec3::from(r.origin), Vec3::from(r.dir));
+        let cpu_hit = cpu.closest_hit(triangles, origin, dir, r.t_min, r.t_max);
+        // Allowed distance error for a hit at `t` on triangle `tri`.
+        let t_tolerance = |tri: u32, t: f32| {
+            let mut tolerance = T_REL * t.max(1e-3);
+            if moving[tri as usize] {
+                let normal = Vec3::from(triangles[tri as usize].compute_normal());
+                let cos = normal.dot(dir).abs().max(1e-3);
+                let p = origin + dir * t;
+                tolerance += position_tolerance(origin, p, radius) / cos;
+            }
+            tolerance
+        };
+        // A ray within the rounding allowance of a moving triangle's edge.
+        let grazes_edge = |tri: u32, t: f32| {
+            let triangle = &triangles[tri as usize];
+            let p = origin + dir * t;
+            let b = barycentrics(triangle, origin, dir);
+            moving[tri as usize]
+                && edge_distance(triangle, b) <= position_tolerance(origin, p, radius)
+        };
+        let tie = match (cpu_hit, gpu_hit.triangle()) {
+            (None, None) => false,
+            (Some(c), Some(g)) if c.triangle == g => {
+                agreement.hits += 1;
+                assert!(
+                    (gpu_hit.t - c.t).abs() <= t_tolerance(g, c.t),
+                    "{label} ray {i}: t GPU {} CPU {} (tolerance {})",
+                    gpu_hit.t,
+                    c.t,
+                    t_tolerance(g, c.t)
+                );
+                let bary = Vec2::from(gpu_hit.barycentrics);
+                let bary_tolerance = if moving[g as usize] { 1e-2 } else { 1e-3 };
+                assert!(
+                    (bary - c.barycentrics).abs().max_element() < bary_tolerance,
+                    "{label} ray {i}: barycentrics GPU {bary} CPU {}",
+                    c.barycentrics
+                );
+                false
+            }
+            (Some(c), Some(g))
+                if (triangles[g as usize].intersect(&obvhs_ray(r)) - c.t).abs()
+                    <= t_tolerance(g, c.t).max(t_tolerance(c.triangle, c.t))
+                    || grazes_edge(c.triangle, c.t)
+                    || grazes_edge(g, gpu_hit.t) =>
+            {
+                agreement.hits += 1;
+                true
+            }
+            (Some(c), None) if grazes_edge(c.triangle, c.t) => true,
+            (None, Some(g)) if grazes_edge(g, gpu_hit.t) => true,
+            (c, g) => panic!("{label} ray {i} {r:?}: CPU hit {c:?}, GPU {gpu_hit:?} ({g:?})"),
+        };
+        agreement.ties += tie as usize;
+        let cpu_occluded = cpu.occluded(triangles, origin, dir, r.t_min, r.t_max);
+        if results.occluded[i] != cpu_occluded {
+            // Occlusion is "a closest hit before t_max": it can only differ on a tie or on a
+            // moving hit within the distance tolerance of t_max.
+            let near_end = cpu_hit.is_some_and(|c| {
+                moving[c.triangle as usize] && (r.t_max - c.t).abs() <= t_tolerance(c.triangle, c.t)
+            });
+            assert!(
+                tie || near_end,
+                "{label} ray {i} {r:?}: GPU occluded {}, CPU {cpu_occluded}",
+                results.occluded[i]
+            );
+        }
+    }
+    agreement
+}
+
+/// The CPU's barycentric weights of v1 and v2 where the ray's line meets the triangle's plane.
+fn barycentrics(tri: &Triangle, origin: Vec3, dir: Vec3) -> Vec2 {
+    let bvh = SceneBvh::build(std::slice::from_ref(tri));
+    bvh.closest_hit(
+        std::slice::from_ref(tri),
+        origin,
+        dir,
+        f32::MIN,
+        f32::INFINITY,
+    )
+    .map_or(Vec2::ZERO, |h| h.barycentrics)
+}
+
+fn scene_radius(triangles: &[Triangle]) -> f32 {
+    triangles
+        .iter()
+        .flat_map(|t| [t.v0, t.v1, t.v2])
+        .map(|v| v.length())
+        .fold(0.0, f32::max)
+}
+
+/// Per frame triangle: whether its node moves.
+fn moving_triangles(scene: &Scene, frame: &SceneFrame) -> Vec<bool> {
+    let moving = moving_nodes(scene);
+    frame
+        .attributes
+        .iter()
+        .map(|a| moving[a.node as usize])
+        .collect()
+}
+
+fn check(label: &str, agreement: &Agreement) {
+    eprintln!("{label}: {agreement:?}");
+    assert!(
+        agreement.hits > agreement.rays / 4,
+        "{label}: too few hits to mean anything"
+    );
+    assert!(
+        agreement.ties as f64 <= MAX_TIE_SHARE * agreement.rays as f64,
+        "{label}: {} ties in {} rays",
+        agreement.ties,
+        agreement.rays
+    );
+}
+
+fn context(name: &str) -> Option<(GpuContext, BvhTracer)> {
+    let ctx = GpuContext::new_or_skip(name)?;
+    let tracer = BvhTracer::new(&ctx, &ShaderLibrary::new()).expect("trace shader composes");
+    Some((ctx, tracer))
+}
+
+#[test]
+fn two_level_matches_cpu_on_every_bundled_scene() {
+    let Some((ctx, tracer)) = context("two_level_matches_cpu_on_every_bundled_scene") else {
+        return;
+    };
+    for (seed, (name, _)) in gi_scene::BUNDLED_SCENES.iter().enumerate() {
+        let scene = gi_scene::load(name).unwrap_or_else(|e| panic!("{name}: {e}"));
+        let frame = scene.evaluate(0.0, None);
+        let gpu = GpuBvh::from_scene(&ctx, &scene, &frame).expect("BVH uploads");
+        eprintln!(
+            "{name}: {} instances, bottom {} nodes depth {}, top {} nodes depth {}, build {:.1} ms, \
+             update {:.3} ms",
+            gpu.instance_count,
+            gpu.node_count,
+            gpu.depth,
+            gpu.top_node_count,
+            gpu.top_depth,
+            gpu.build_seconds * 1e3,
+            gpu.update_seconds * 1e3
+        );
+        let rays = test_rays(&frame, &SceneBvh::build(&frame.triangles), seed as u64 + 11);
+        let results = tracer.trace(&ctx, &gpu, &rays);
+        let moving = moving_triangles(&scene, &frame);
+        check(name, &compare(name, &frame, &moving, &rays, &results));
+        gpu.release(&ctx);
+    }
+    assert_eq!(
+        ctx.memory().bytes_with_prefix("bvh."),
+        0,
+        "every BVH buffer released"
+    );
+}
+
+/// Built once at time 0, then only updated: at every later time the hits equal the CPU's over
+/// that time's flattened frame, and equal a fresh build's at that time bit for bit (the same
+/// bottom levels and the same top level, built from the same boxes).
+fn updates_match_cpu_and_fresh_builds(scene: &Scene, label: &str, times: &[f32]) {
+    let Some((ctx, tracer)) = context(label) else {
+        return;
+    };
+    let first = scene.evaluate(0.0, None);
+    let mut gpu = GpuBvh::from_scene(&ctx, scene, &first).expect("BVH uploads");
+    assert!(
+        gpu.instance_count > 1,
+        "{label}: the scene should have moving instances"
+    );
+    for (k, &time) in times.iter().enumerate() {
+        let frame = scene.evaluate(time, None);
+        gpu.update(&ctx, &frame).expect("top level fits the stack");
+        let rays = test_rays(&frame, &SceneBvh::build(&frame.triangles), 100 + k as u64);
+        let updated = tracer.trace(&ctx, &gpu, &rays);
+        let moving = moving_triangles(scene, &frame);
+        let at = format!("{label} at {time} s");
+        check(&at, &compare(&at, &frame, &moving, &rays, &updated));
+
+        let fresh = GpuBvh::from_scene(&ctx, scene, &frame).expect("BVH uploads");
+        let rebuilt = tracer.trace(&ctx, &fresh, &rays);
+        let bits = |hits: &[GpuHit]| -> Vec<[u32; 4]> {
+            hits.iter().map(|h| bytemuck::cast(*h)).collect()
+        };
+        assert_eq!(
+            bits(&updated.hits),
+            bits(&rebuilt.hits),
+            "{at}: update differs from a rebuild"
+        );
+        assert_eq!(updated.occluded, rebuilt.occluded, "{at}");
+        fresh.release(&ctx);
+    }
+    gpu.release(&ctx);
+}
+
+#[test]
+fn dynamic_scene_updates_match_cpu_and_fresh_builds() {
+    let scene = gi_scene::load("dynamic").expect("dynamic scene");
+    updates_match_cpu_and_fresh_builds(&scene, "dynamic", &[0.35, 1.3, 2.05, 3.7]);
+}
+
+/// Eighty moving copies of the `dynamic` scene's meshes: mirrored ones, children of moving
+/// parents, shared bottom levels and a top level with many leaves.
+#[test]
+fn many_moving_instances_match_cpu_and_fresh_builds() {
+    let scene = crowd_scene(80);
+    updates_match_cpu_and_fresh_builds(&scene, "crowd", &[0.5, 1.7]);
+}
+
+/// An update rebuilds only the top level: bottom-level buffers, counts and build time stay as
+/// they were, and the update's own time is reported apart.
+#[test]
+fn update_leaves_bottom_levels_untouched() {
+    let Some((ctx, _)) = context("update_leaves_bottom_levels_untouched") else {
+        return;
+    };
+    let scene = crowd_scene(20);
+    let mut gpu = GpuBvh::from_scene(&ctx, &scene, &scene.evaluate(0.0, None)).expect("uploads");
+    let before = (
+        gpu.nodes.clone(),
+        gpu.triangles.clone(),
+        gpu.node_count,
+        gpu.primitive_count,
+        gpu.build_seconds,
+        gpu.bottom_bytes(),
+    );
+    let bottom_levels = gpu.bottom_levels().nodes.clone();
+    let bytes_before = ctx.memory().bytes_with_prefix("bvh.");
+    for (k, time) in [0.4, 1.1, 2.9].into_iter().enumerate() {
+        gpu.update(&ctx, &scene.evaluate(time, None))
+            .expect("updates");
+        assert_eq!(gpu.update_count, k as u32 + 2, "one top level per update");
+        assert!(gpu.update_seconds > 0.0);
+        eprintln!(
+            "update at {time} s: {:.3} ms for {} instances ({} top nodes); build was {:.1} ms",
+            gpu.update_seconds * 1e3,
+            gpu.instance_count,
+            gpu.top_node_count,
+            gpu.build_seconds * 1e3
+        );
+    }
+    assert!(
+        gpu.nodes == before.0 && gpu.triangles == before.1,
+        "bottom buffers replaced"
+    );
+    assert_eq!(
+        (
+            gpu.node_count,
+            gpu.primitive_count,
+            gpu.build_seconds,
+            gpu.bottom_bytes()
+        ),
+        (before.2, before.3, before.4, before.5)
+    );
+    assert_eq!(gpu.bottom_levels().nodes, bottom_levels);
+    assert_eq!(
+        ctx.memory().bytes_with_prefix("bvh."),
+        bytes_before,
+        "nothing reallocated"
+    );
+    gpu.release(&ctx);
+}
+
+/// The `dynamic` scene plus `count` moving nodes instancing its meshes: every fourth one
+/// mirrored (negative x scale), every third one the child of the one before it.
+fn crowd_scene(count: usize) -> Scene {
+    let mut scene = gi_scene::load("dynamic").expect("dynamic scene");
+    let meshes: Vec<usize> = scene.nodes.iter().filter_map(|n| n.mesh).collect();
+    let mut rng = Rng(7);
+    let mut animation = Animation {
+        name: "crowd".to_string(),
+        channels: Vec::new(),
+    };
+    let first = scene.nodes.len();
+    for k in 0..count {
+        let node = scene.nodes.len();
+        let parent = (k % 3 == 2).then_some(node - 1);
+        let scale = Vec3::splat(0.1 + 0.1 * rng.next_f32())
+            * Vec3::new(if k % 4 == 0 { -1.0 } else { 1.0 }, 1.0, 1.0);
+        let start = rng.in_box(Vec3::new(-3.5, 0.2, -3.5), Vec3::new(3.5, 2.5, 3.5));
+        let start = if parent.is_some() {
+            Vec3::new(0.0, 4.0, 0.0)
+        } else {
+            start
+        };
+        scene.nodes.push(Node {
+            name: format!("crowd {k}"),
+            parent,
+            translation: start,
+            scale,
+            mesh: Some(meshes[k % meshes.len()]),
+            ..Node::default()
+        });
+        let end = start + rng.unit_vector();
+        animation.channels.push(Channel {
+            node,
+            times: vec![0.0, 1.0, 2.0],
+            values: ChannelValues::Translation(vec![start, end, start]),
+            interpolation: Interpolation::Linear,
+        });
+        let axis = rng.unit_vector();
+        animation.channels.push(Channel {
+            node,
+            times: vec![0.0, 2.0],
+            values: ChannelValues::Rotation(vec![Quat::IDENTITY, Quat::from_axis_angle(axis, 2.0)]),
+            interpolation: Interpolation::Linear,
+        });
+    }
+    assert!(scene.nodes.len() > first);
+    scene.animations.push(animation);
+    scene
+}
