@@ -9,50 +9,38 @@
 // path tier find first. It keeps one code path (no vertex pipeline, no second copy of the
 // geometry) at the cost of one closest-hit ray per pixel.
 //
-// Motion vectors: the scene evaluated at the previous time has the same triangle order, so the
-// hit's barycentrics applied to the previous frame's triangle give where the same surface
-// point was; it is projected with the previous camera. Sky pixels project their direction
+// Motion vectors: the hit point goes through its node's `previous_from_current` (the previous
+// frame's world_from_node times this frame's node_from_world; the exact identity for nodes that
+// did not move), which gives where the same surface point was; it is projected with the
+// previous camera. Sky pixels project their direction
 // (a point at infinity), so only camera rotation moves them.
 //
 // Bind group 0: uniforms, the scene (`gi_gpu::GpuScene`, declared in `path/scene.wgsl`), the
-// previous triangle positions, the outputs. Bind group 1: the BVH (`gi_gpu::bvh::GpuBvh`).
+// per-node motion transforms, the outputs. Bind group 1: the BVH (`gi_gpu::bvh::GpuBvh`).
 
 #import gi::bvh::{Ray, trace_closest, BVH_MISS}
 #import gi::scene::{triangles, sample_texture, emission, geometric_normal, triangle_uv, material_of, shading_normal}
 #import gi::packing::pack_unit_vector
+#import gi::camera::{Camera, camera_ray}
 
 const FAR: f32 = 3.40282347e38;
 // Bits of +infinity, the depth of sky pixels.
 const INFINITY_BITS: u32 = 0x7f800000u;
 
-// A pinhole camera as `gi_scene::CameraView` holds it, with the values the reference derives
-// from it. Mirror of `gi_gpu::gbuffer::GBufferCamera`.
-struct GBufferCamera {
-    position: vec3<f32>,
-    // tan(yfov / 2), computed on the CPU as the reference does.
-    tan_half_fov: f32,
-    right: vec3<f32>,
-    // width / height.
-    aspect: f32,
-    up: vec3<f32>,
-    pad_a: f32,
-    forward: vec3<f32>,
-    pad_b: f32,
-}
-
 // Mirror of `gi_gpu::gbuffer::GBufferUniforms`.
 struct GBufferUniforms {
-    camera: GBufferCamera,
-    previous_camera: GBufferCamera,
+    camera: Camera,
+    previous_camera: Camera,
     size_px: vec2<u32>,
     default_material: u32,
-    // 1 when `previous_positions` holds the previous frame's triangles.
-    has_previous_positions: u32,
+    // 1 when `previous_from_current` holds the previous frame's node motion.
+    has_previous_transforms: u32,
 }
 
 @group(0) @binding(0) var<uniform> uniforms: GBufferUniforms;
-// Per frame triangle, the previous frame's world positions of v0, v1, v2 (w unused).
-@group(0) @binding(8) var<storage, read> previous_positions: array<vec4<f32>>;
+// Per scene node, the map from this frame's world position of a point on the node to the
+// previous frame's, as rows: `previous = vec4(p, 1) * previous_from_current[node]`.
+@group(0) @binding(8) var<storage, read> previous_from_current: array<mat3x4<f32>>;
 // Hit distance along the unit camera ray; +infinity for sky.
 @group(0) @binding(9) var<storage, read_write> depth: array<f32>;
 // World shading normal facing the camera, octahedral-packed (`gi::packing`); 0 for sky.
@@ -68,17 +56,9 @@ struct GBufferUniforms {
 // Previous pixel position minus this pixel's center, in pixels (+x right, +y down).
 @group(0) @binding(15) var<storage, read_write> motion: array<vec2<f32>>;
 
-// `CameraView::ray_direction` through the film point `uv`.
-fn camera_ray(camera: GBufferCamera, uv: vec2<f32>) -> vec3<f32> {
-    let fx = (2.0 * uv.x - 1.0) * camera.tan_half_fov * camera.aspect;
-    let fy = (1.0 - 2.0 * uv.y) * camera.tan_half_fov;
-    let d = camera.forward + fx * camera.right + fy * camera.up;
-    return d * (1.0 / sqrt(dot(d, d)));
-}
-
 // Pixel coordinates of the view-space offset `d` (a point minus the camera position, or a
 // direction for points at infinity); the inverse of `camera_ray`. `w` is 0 behind the camera.
-fn project(camera: GBufferCamera, d: vec3<f32>) -> vec3<f32> {
+fn project(camera: Camera, d: vec3<f32>) -> vec3<f32> {
     let z = dot(d, camera.forward);
     if z <= 0.0 {
         return vec3<f32>(0.0);
@@ -139,13 +119,10 @@ fn primary(@builtin(global_invocation_id) id: vec3<u32>) {
     }
     emissive[pixel] = vec4<f32>(emitted, 0.0);
 
-    // Where the surface point was: the same barycentrics on the previous triangle.
+    // Where the surface point was: moved back by its node's motion (node index in `pa.w`).
     var p = tri.pa.xyz + (tri.pb.xyz - tri.pa.xyz) * b1 + (tri.pc.xyz - tri.pa.xyz) * b2;
-    if uniforms.has_previous_positions != 0u {
-        let pa = previous_positions[3u * hit.triangle].xyz;
-        let pb = previous_positions[3u * hit.triangle + 1u].xyz;
-        let pc = previous_positions[3u * hit.triangle + 2u].xyz;
-        p = pa + (pb - pa) * b1 + (pc - pa) * b2;
+    if uniforms.has_previous_transforms != 0u {
+        p = vec4<f32>(p, 1.0) * previous_from_current[u32(tri.pa.w)];
     }
     let previous = project(uniforms.previous_camera, p - uniforms.previous_camera.position);
     motion[pixel] = select(vec2<f32>(0.0), previous.xy - center, previous.z > 0.0);

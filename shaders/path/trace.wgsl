@@ -20,6 +20,7 @@
 #import gi::sampling::{Sampler, sampler_new, sampler_next_f32, sampler_next_2d, cosine_hemisphere, uniform_triangle, power_heuristic, Frame, frame_from_normal, frame_to_local, frame_to_world}
 #import gi::brdf::{Brdf, brdf_new, brdf_eval, brdf_pdf, brdf_sample, is_finite}
 #import gi::bvh::{Ray, Hit, trace_closest, trace_any, BVH_MISS}
+#import gi::camera::{Camera, camera_ray}
 #import gi::scene::{TriangleShading, Material, triangles, materials, emitters, selection, lights, lerp_rgb, sample_texture, emission, geometric_normal, triangle_uv, material_of, shading_normal}
 
 const RUSSIAN_ROULETTE_START: u32 = 3u;
@@ -31,17 +32,7 @@ const FAR: f32 = 3.40282347e38;
 
 // Mirror of `gi_tiers::path::PathUniforms`.
 struct PathUniforms {
-    camera_position: vec3<f32>,
-    // tan(yfov / 2), computed on the CPU as the reference does.
-    tan_half_fov: f32,
-    camera_right: vec3<f32>,
-    // width / height.
-    aspect: f32,
-    camera_up: vec3<f32>,
-    // 0 constant sky (`sky_zenith` is its radiance), 1 gradient.
-    sky_kind: u32,
-    camera_forward: vec3<f32>,
-    max_depth: u32,
+    camera: Camera,
     sky_zenith: vec4<f32>,
     sky_horizon: vec4<f32>,
     sky_ground: vec4<f32>,
@@ -55,8 +46,9 @@ struct PathUniforms {
     // 1 when the sky emits anything.
     sky_emits: u32,
     default_material: u32,
-    pad_a: u32,
-    pad_b: u32,
+    // 0 constant sky (`sky_zenith` is its radiance), 1 gradient.
+    sky_kind: u32,
+    max_depth: u32,
 }
 
 @group(0) @binding(0) var<uniform> uniforms: PathUniforms;
@@ -390,12 +382,8 @@ fn trace(@builtin(global_invocation_id) id: vec3<u32>) {
         let jitter = sampler_next_2d(&sampler);
         let u = (f32(id.x) + jitter.x) / width;
         let v = (f32(id.y) + jitter.y) / height;
-        // `CameraView::ray_direction`.
-        let fx = (2.0 * u - 1.0) * uniforms.tan_half_fov * uniforms.aspect;
-        let fy = (1.0 - 2.0 * v) * uniforms.tan_half_fov;
-        let d = uniforms.camera_forward + fx * uniforms.camera_right + fy * uniforms.camera_up;
-        let dir = d * (1.0 / sqrt(dot(d, d)));
-        let value = radiance(uniforms.camera_position, dir, &sampler);
+        let dir = camera_ray(uniforms.camera, vec2<f32>(u, v));
+        let value = radiance(uniforms.camera.position, dir, &sampler);
         if is_finite(value.x) && is_finite(value.y) && is_finite(value.z) {
             sum += vec4<f32>(value, 0.0);
             sum_sq += vec4<f32>(value * value, 0.0);

@@ -26,10 +26,10 @@
 //! Motion is 0 where the surface point was behind the previous camera.
 
 use bytemuck::{Pod, Zeroable};
-use gi_scene::{CameraView, SceneFrame};
+use gi_scene::SceneFrame;
 
 use crate::bvh::{BVH_MISS, GpuBvh};
-use crate::{GpuContext, GpuError, GpuScene, GpuTimer, ShaderLibrary};
+use crate::{GpuCamera, GpuContext, GpuError, GpuScene, GpuTimer, ShaderLibrary};
 
 /// Triangle id of a sky pixel in `gbuffer.triangle` (the BVH's miss value).
 pub const GBUFFER_MISS: u32 = BVH_MISS;
@@ -37,41 +37,8 @@ pub const GBUFFER_MISS: u32 = BVH_MISS;
 /// Pixels per side of a `gbuffer/primary` workgroup (`@workgroup_size(8, 8)`).
 const TILE: u32 = 8;
 
-/// A pinhole camera with the values the reference derives from it, 64 bytes
-/// (`GBufferCamera` in WGSL).
-#[repr(C)]
-#[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
-pub struct GBufferCamera {
-    /// Pinhole position, world space.
-    pub position: [f32; 3],
-    /// `tan(yfov / 2)`.
-    pub tan_half_fov: f32,
-    /// Unit camera axes in world space.
-    pub right: [f32; 3],
-    /// Image width over height.
-    pub aspect: f32,
-    pub up: [f32; 3],
-    pub pad_a: f32,
-    pub forward: [f32; 3],
-    pub pad_b: f32,
-}
-
-impl GBufferCamera {
-    /// `camera` for an image of `size` pixels, computed as the reference computes it (so GPU
-    /// and CPU rays agree bit for bit).
-    pub fn new(camera: &CameraView, size: (u32, u32)) -> Self {
-        Self {
-            position: camera.position.to_array(),
-            tan_half_fov: (camera.yfov * 0.5).tan(),
-            right: camera.right.to_array(),
-            aspect: size.0 as f32 / size.1 as f32,
-            up: camera.up.to_array(),
-            pad_a: 0.0,
-            forward: camera.forward.to_array(),
-            pad_b: 0.0,
-        }
-    }
-}
+/// The camera of the G-buffer: the shared [`GpuCamera`] (`Camera` of `gi::camera`).
+pub type GBufferCamera = GpuCamera;
 
 /// Uniforms of `gbuffer/primary`, 144 bytes (`GBufferUniforms` in WGSL).
 #[repr(C)]
@@ -85,8 +52,8 @@ pub struct GBufferUniforms {
     pub size_px: [u32; 2],
     /// Index of the default material, used for out-of-range material indices.
     pub default_material: u32,
-    /// 1 when `gbuffer.previous_positions` holds the previous frame's triangles.
-    pub has_previous_positions: u32,
+    /// 1 when `gbuffer.previous_from_current` holds the previous frame's node motion.
+    pub has_previous_transforms: u32,
 }
 
 /// The inputs of one G-buffer frame.
@@ -95,9 +62,9 @@ pub struct GBufferInputs<'a> {
     pub frame: &'a SceneFrame,
     /// This frame uploaded: attributes, materials and the BVH.
     pub scene: &'a GpuScene,
-    /// The scene evaluated at the previous frame's time (same triangle order), with the
-    /// previous camera. A frame with a different triangle count has no usable history: motion
-    /// then comes from the camera alone, as if the geometry had not moved.
+    /// The scene evaluated at the previous frame's time, with the previous camera. Only its
+    /// camera and node transforms are read. A frame with a different node count has no usable
+    /// history: motion then comes from the camera alone, as if the geometry had not moved.
     pub previous: &'a SceneFrame,
 }
 
@@ -121,8 +88,8 @@ pub struct GBufferData {
     pub motion: Vec<[f32; 2]>,
 }
 
-/// The G-buffer technique: its pipeline, its output buffers and the previous frame's triangle
-/// positions. Memory: 60 bytes per pixel plus 48 bytes per triangle.
+/// The G-buffer technique: its pipeline, its output buffers and the per-node motion since the
+/// previous frame. Memory: 60 bytes per pixel plus 48 bytes per scene node.
 pub struct GBuffer {
     /// Image size in pixels.
     pub size: (u32, u32),
@@ -130,8 +97,10 @@ pub struct GBuffer {
     primary: wgpu::ComputePipeline,
     frame_layout: wgpu::BindGroupLayout,
     uniforms: wgpu::Buffer,
-    /// `gbuffer.previous_positions`: three `[f32; 4]` per triangle; grows with the scene.
-    previous_positions: wgpu::Buffer,
+    /// `gbuffer.previous_from_current`: per scene node, the rows of the affine map taking this
+    /// frame's world position of a point on the node to the previous frame's; grows with the
+    /// scene.
+    previous_from_current: wgpu::Buffer,
     /// The outputs in binding order (bindings 9..=15).
     outputs: [wgpu::Buffer; 7],
 }
@@ -214,22 +183,27 @@ impl GBuffer {
                 size_of::<GBufferUniforms>() as u64,
                 wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
             ),
-            previous_positions: Self::positions_buffer(ctx, 1),
+            previous_from_current: Self::motion_buffer(ctx, 1),
             outputs,
         })
     }
 
-    fn positions_buffer(ctx: &GpuContext, triangles: u64) -> wgpu::Buffer {
+    fn motion_buffer(ctx: &GpuContext, nodes: u64) -> wgpu::Buffer {
         ctx.create_buffer(
-            "gbuffer.previous_positions",
-            triangles.max(1) * 48,
+            "gbuffer.previous_from_current",
+            nodes.max(1) * 48,
             wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_DST,
         )
     }
 
     /// Records `gbuffer/primary` into `encoder`, timed by `timer` under that name. Uploads the
-    /// uniforms and the previous frame's triangle positions (48 bytes per triangle) through the
-    /// queue, so record one G-buffer frame per submission.
+    /// uniforms and one 48-byte motion transform per scene node through the queue, so record
+    /// one G-buffer frame per submission.
+    ///
+    /// Motion comes from the previous frame's node transforms rather than a copy of its
+    /// triangles: a hit on node `n` moved by `previous_world_from_node[n] *
+    /// node_from_world[n]`, and nodes whose transform did not change get the exact identity,
+    /// so static geometry moves only with the camera.
     pub fn record(
         &mut self,
         ctx: &GpuContext,
@@ -238,29 +212,39 @@ impl GBuffer {
         inputs: &GBufferInputs<'_>,
     ) {
         let (width, height) = self.size;
-        let has_previous = inputs.previous.triangles.len() == inputs.frame.triangles.len();
-        if has_previous {
-            let positions: Vec<[f32; 4]> = inputs
-                .previous
-                .triangles
+        let (now, then) = (
+            &inputs.frame.world_from_node,
+            &inputs.previous.world_from_node,
+        );
+        let has_previous = now.len() == then.len();
+        if has_previous && !now.is_empty() {
+            let rows: Vec<[[f32; 4]; 3]> = now
                 .iter()
-                .flat_map(|t| [t.v0, t.v1, t.v2].map(|v| [v.x, v.y, v.z, 0.0]))
+                .zip(then)
+                .map(|(now, then)| {
+                    let previous_from_current = if now == then {
+                        glam::Mat4::IDENTITY
+                    } else {
+                        *then * now.inverse()
+                    };
+                    let t = previous_from_current.transpose();
+                    [t.x_axis, t.y_axis, t.z_axis].map(|r| r.to_array())
+                })
                 .collect();
-            let bytes: &[u8] = bytemuck::cast_slice(&positions);
-            if (bytes.len() as u64) > self.previous_positions.size() {
-                ctx.release_buffer(&self.previous_positions);
-                self.previous_positions = Self::positions_buffer(ctx, positions.len() as u64 / 3);
+            let bytes: &[u8] = bytemuck::cast_slice(&rows);
+            if (bytes.len() as u64) > self.previous_from_current.size() {
+                ctx.release_buffer(&self.previous_from_current);
+                self.previous_from_current = Self::motion_buffer(ctx, rows.len() as u64);
             }
-            if !bytes.is_empty() {
-                ctx.queue.write_buffer(&self.previous_positions, 0, bytes);
-            }
+            ctx.queue
+                .write_buffer(&self.previous_from_current, 0, bytes);
         }
         let uniforms = GBufferUniforms {
-            camera: GBufferCamera::new(&inputs.frame.camera, self.size),
-            previous_camera: GBufferCamera::new(&inputs.previous.camera, self.size),
+            camera: GpuCamera::new(&inputs.frame.camera, self.size),
+            previous_camera: GpuCamera::new(&inputs.previous.camera, self.size),
             size_px: [width, height],
             default_material: inputs.scene.default_material,
-            has_previous_positions: u32::from(has_previous),
+            has_previous_transforms: u32::from(has_previous),
         };
         ctx.queue
             .write_buffer(&self.uniforms, 0, bytemuck::bytes_of(&uniforms));
@@ -271,7 +255,7 @@ impl GBuffer {
         }];
         let scene_buffers = inputs.scene.buffers().into_iter();
         let inputs_and_outputs = scene_buffers
-            .chain([&self.previous_positions])
+            .chain([&self.previous_from_current])
             .chain(&self.outputs);
         entries.extend(
             inputs_and_outputs
@@ -346,7 +330,7 @@ impl GBuffer {
     /// Stops counting and destroys every buffer.
     pub fn release(self, ctx: &GpuContext) {
         ctx.release_buffer(&self.uniforms);
-        ctx.release_buffer(&self.previous_positions);
+        ctx.release_buffer(&self.previous_from_current);
         for buffer in &self.outputs {
             ctx.release_buffer(buffer);
         }

@@ -42,6 +42,7 @@
 //! adapter a failure: see [`GpuContext::new_or_skip`].
 
 pub mod bvh;
+mod camera;
 mod context;
 mod error;
 mod frame;
@@ -52,6 +53,7 @@ mod scene;
 mod shaders;
 mod timer;
 
+pub use camera::GpuCamera;
 pub use context::{ADAPTER_ENV, GpuContext, GpuOptions, REQUIRE_GPU_ENV};
 pub use error::GpuError;
 pub use frame::FrameUniforms;

@@ -7,7 +7,7 @@
 //! a test checks every struct's size and member offsets against these Rust mirrors.
 
 use bytemuck::{Pod, Zeroable};
-use gi_scene::{EmitterDistribution, LightKind, Scene, SceneBvh, SceneFrame};
+use gi_scene::{EmitterDistribution, LightKind, Scene, SceneFrame};
 
 use crate::GpuContext;
 use crate::bvh::{BvhError, GpuBvh};
@@ -20,7 +20,9 @@ pub const NO_TEXTURE: u32 = u32::MAX;
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
 pub struct GpuTriangleShading {
-    /// Vertex positions (xyz; w unused).
+    /// Vertex positions (xyz). `pa.w` is the index of the scene node the triangle belongs to,
+    /// as an f32 (exact below 2^24 nodes), for per-node data such as motion; `pb.w` and `pc.w`
+    /// are unused.
     pub pa: [f32; 4],
     pub pb: [f32; 4],
     pub pc: [f32; 4],
@@ -164,38 +166,44 @@ pub struct GpuScene {
     pub light_count: u32,
     /// Index of the default material in `scene.materials`.
     pub default_material: u32,
-    /// Wall time of the BVH build on the CPU, in seconds.
+    /// Wall time of the BVH's bottom-level builds on the CPU, in seconds.
     pub bvh_build_seconds: f64,
 }
 
+/// Per-triangle shading data of `frame`, in frame order.
+fn triangle_shading(frame: &SceneFrame) -> Vec<GpuTriangleShading> {
+    frame
+        .triangles
+        .iter()
+        .zip(&frame.attributes)
+        .map(|(tri, a)| {
+            let p = |v: glam::Vec3A, w: f32| [v.x, v.y, v.z, w];
+            let n = |i: usize| {
+                let n = a.normals[i];
+                [n.x, n.y, n.z, a.uvs[i].x]
+            };
+            GpuTriangleShading {
+                pa: p(tri.v0, a.node as f32),
+                pb: p(tri.v1, 0.0),
+                pc: p(tri.v2, 0.0),
+                na: n(0),
+                nb: n(1),
+                nc: n(2),
+                v: [a.uvs[0].y, a.uvs[1].y, a.uvs[2].y],
+                material: a.material,
+            }
+        })
+        .collect()
+}
+
 impl GpuScene {
-    /// Builds the BVH of `frame` and uploads it with everything a path needs. Cost: one BVH
-    /// build and copies of the frame's attributes and the scene's textures.
+    /// Builds the two-level BVH of `scene` placed at `frame` ([`GpuBvh::from_scene`]) and
+    /// uploads it with everything a path needs. Cost: the bottom-level builds and copies of the
+    /// frame's attributes and the scene's textures; later frames of an animated scene call
+    /// [`GpuScene::update`].
     pub fn upload(ctx: &GpuContext, scene: &Scene, frame: &SceneFrame) -> Result<Self, BvhError> {
-        let cpu_bvh = SceneBvh::build(&frame.triangles);
-        let bvh = GpuBvh::upload(ctx, &cpu_bvh.bvh, &frame.triangles)?;
-        let triangles: Vec<GpuTriangleShading> = frame
-            .triangles
-            .iter()
-            .zip(&frame.attributes)
-            .map(|(tri, a)| {
-                let p = |v: glam::Vec3A| [v.x, v.y, v.z, 0.0];
-                let n = |i: usize| {
-                    let n = a.normals[i];
-                    [n.x, n.y, n.z, a.uvs[i].x]
-                };
-                GpuTriangleShading {
-                    pa: p(tri.v0),
-                    pb: p(tri.v1),
-                    pc: p(tri.v2),
-                    na: n(0),
-                    nb: n(1),
-                    nc: n(2),
-                    v: [a.uvs[0].y, a.uvs[1].y, a.uvs[2].y],
-                    material: a.material,
-                }
-            })
-            .collect();
+        let bvh = GpuBvh::from_scene(ctx, scene, frame)?;
+        let triangles = triangle_shading(frame);
         let texture_ok = |index: Option<usize>| {
             index
                 .filter(|&i| {
@@ -252,12 +260,69 @@ impl GpuScene {
             emitters: upload("scene.emitters", bytemuck::cast_slice(&table.entries), 8),
             selection: upload("scene.selection", bytemuck::cast_slice(&table.selection), 4),
             lights: upload("scene.lights", bytemuck::cast_slice(&lights), 64),
-            bvh,
             emitter_count: table.entries.len() as u32,
             light_count: lights.len() as u32,
             default_material,
-            bvh_build_seconds: cpu_bvh.build_time.as_secs_f64(),
+            bvh_build_seconds: bvh.build_seconds,
+            bvh,
         })
+    }
+
+    /// Moves the scene to `frame`, a later evaluation of the same scene: the BVH's top level
+    /// and instance transforms ([`GpuBvh::update`], bottom levels untouched), the lights and
+    /// the emitter table. The per-triangle shading buffer holds world-space vertices and
+    /// normals, so it is re-uploaded whole (112 bytes per triangle) when the scene is animated;
+    /// a camera move alone needs no update at all.
+    ///
+    /// Returns true when a buffer had to be replaced (an emitter table that grew), so bind
+    /// groups made over [`GpuScene::buffers`] must be made again.
+    pub fn update(
+        &mut self,
+        ctx: &GpuContext,
+        scene: &Scene,
+        frame: &SceneFrame,
+    ) -> Result<bool, BvhError> {
+        self.bvh.update(ctx, frame)?;
+        let triangles = triangle_shading(frame);
+        let triangle_bytes: &[u8] = bytemuck::cast_slice(&triangles);
+        let mut replaced = false;
+        let mut write = |buffer: &mut wgpu::Buffer, label: &str, bytes: &[u8]| {
+            if bytes.is_empty() {
+                return;
+            }
+            if bytes.len() as u64 > buffer.size() {
+                ctx.release_buffer(buffer);
+                *buffer = ctx.create_buffer_init(
+                    label,
+                    bytes,
+                    wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_DST,
+                );
+                replaced = true;
+            } else {
+                ctx.queue.write_buffer(buffer, 0, bytes);
+            }
+        };
+        write(&mut self.triangles, "scene.triangles", triangle_bytes);
+        let table = EmitterTable::build(scene, frame);
+        let lights: Vec<GpuLight> = frame.lights.iter().map(gpu_light).collect();
+        write(
+            &mut self.emitters,
+            "scene.emitters",
+            bytemuck::cast_slice(&table.entries),
+        );
+        write(
+            &mut self.selection,
+            "scene.selection",
+            bytemuck::cast_slice(&table.selection),
+        );
+        write(
+            &mut self.lights,
+            "scene.lights",
+            bytemuck::cast_slice(&lights),
+        );
+        self.emitter_count = table.entries.len() as u32;
+        self.light_count = lights.len() as u32;
+        Ok(replaced)
     }
 
     /// Bytes of every buffer, BVH included.

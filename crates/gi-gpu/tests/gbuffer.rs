@@ -371,7 +371,7 @@ fn gbuffer_structs_match_wgsl() {
     let module = ShaderLibrary::new()
         .compose("gbuffer/primary.wgsl", &[])
         .expect("gbuffer/primary composes");
-    let camera = wgsl_struct_layout(&module, "GBufferCamera").expect("GBufferCamera");
+    let camera = wgsl_struct_layout(&module, "Camera").expect("Camera");
     assert_eq!(camera.size as usize, size_of::<GBufferCamera>());
     assert_eq!(
         camera.members,
@@ -395,7 +395,7 @@ fn gbuffer_structs_match_wgsl() {
             previous_camera,
             size_px,
             default_material,
-            has_previous_positions
+            has_previous_transforms
         })
     );
 }

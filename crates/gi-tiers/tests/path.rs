@@ -252,6 +252,59 @@ fn two_progressive_frames_equal_one_render_of_twice_the_samples() {
     );
 }
 
+/// A camera move restarts the accumulation without touching the geometry, and a new time of an
+/// animated scene only updates the BVH's top level; either way the frame equals a fresh tier's
+/// render of it bit for bit.
+#[test]
+fn camera_moves_and_animation_reuse_the_uploaded_geometry() {
+    let Some(ctx) = GpuContext::new_or_skip("camera_moves_and_animation_reuse") else {
+        return;
+    };
+    let scene = gi_scene::load("dynamic").unwrap();
+    let mut tier = GpuPathTier::new(TierKind::Path, settings(2), ctx).unwrap();
+    let render = |tier: &mut GpuPathTier, frame: &SceneFrame| {
+        let input = FrameInput {
+            scene: &scene,
+            frame,
+            index: 0,
+            progress: None,
+        };
+        tier.render(&input).unwrap().image.pixels
+    };
+    let fresh = |frame: &SceneFrame| {
+        let mut tier =
+            GpuPathTier::new(TierKind::Path, settings(2), GpuContext::new().unwrap()).unwrap();
+        render(&mut tier, frame)
+    };
+    let first = scene.evaluate(0.0, None);
+    render(&mut tier, &first);
+    let (placements, build_seconds) = tier.bvh_builds().unwrap();
+    let bytes = tier.memory_bytes();
+
+    let mut camera = first.camera;
+    camera.position += Vec3::new(0.3, 0.1, -0.2);
+    let moved_camera = scene.evaluate(0.0, Some(camera));
+    let image = render(&mut tier, &moved_camera);
+    assert_eq!(
+        tier.bvh_builds(),
+        Some((placements, build_seconds)),
+        "camera move rebuilt"
+    );
+    assert_eq!(tier.moments().unwrap().samples, 2, "accumulation restarted");
+    assert_eq!(tier.memory_bytes(), bytes);
+    assert_eq!(image, fresh(&moved_camera));
+
+    let later = scene.evaluate(1.3, Some(camera));
+    let image = render(&mut tier, &later);
+    assert_eq!(
+        tier.bvh_builds(),
+        Some((placements + 1, build_seconds)),
+        "one top level"
+    );
+    assert_eq!(tier.moments().unwrap().samples, 2);
+    assert_eq!(image, fresh(&later));
+}
+
 #[test]
 fn path_is_unavailable_for_cpu_kinds_and_auto_prefers_a_hardware_gpu() {
     let Some(ctx) = GpuContext::new_or_skip("path_tier_choice") else {

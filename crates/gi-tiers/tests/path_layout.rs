@@ -26,14 +26,7 @@ fn shared_structs_match_their_wgsl_layout() {
     check(
         "PathUniforms",
         rust_field_offsets!(PathUniforms {
-            camera_position,
-            tan_half_fov,
-            camera_right,
-            aspect,
-            camera_up,
-            sky_kind,
-            camera_forward,
-            max_depth,
+            camera,
             sky_zenith,
             sky_horizon,
             sky_ground,
@@ -45,6 +38,8 @@ fn shared_structs_match_their_wgsl_layout() {
             light_count,
             sky_emits,
             default_material,
+            sky_kind,
+            max_depth,
         }),
         size_of::<PathUniforms>(),
     );

@@ -42,6 +42,9 @@ struct Prepared {
     accumulation: Accumulation,
     /// Non-finite samples counted by earlier frames, so each frame reports its own.
     nonfinite_before: u64,
+    /// Size of the scene the upload was made for; another size means another scene.
+    triangle_count: usize,
+    node_count: usize,
 }
 
 /// Per-pixel statistics of the accumulation so far, read back from the GPU.
@@ -145,35 +148,71 @@ impl GpuPathTier {
         })
     }
 
+    /// Makes the GPU state match `input`. The scene and its BVH are uploaded once; a camera
+    /// move only restarts the accumulation, and a new time of an animated scene updates the
+    /// BVH's top level and the shading data ([`GpuScene::update`]) before restarting it.
     fn prepare(&mut self, input: &FrameInput) -> Result<(), TierError> {
         let frame = input.frame;
-        let reusable = self.prepared.as_ref().is_some_and(|p| {
-            p.camera == frame.camera && (p.time_s == frame.time_s || !input.scene.is_animated())
+        let unavailable = |e: gi_gpu::bvh::BvhError| TierError::Unavailable {
+            tier: self.kind.name(),
+            reason: e.to_string(),
+        };
+        let size = (self.settings.width, self.settings.height);
+        let same_scene = self.prepared.as_ref().is_some_and(|p| {
+            p.triangle_count == frame.triangles.len() && p.node_count == frame.world_from_node.len()
         });
-        if reusable {
+        if !same_scene {
+            if let Some(old) = self.prepared.take() {
+                old.accumulation.release(&self.ctx);
+                old.scene.release(&self.ctx);
+            }
+            let scene = GpuScene::upload(&self.ctx, input.scene, frame).map_err(unavailable)?;
+            let uniforms = PathUniforms::new(frame, &scene, size, self.settings.seed);
+            let accumulation = Accumulation::new(&self.ctx, &self.pipelines, &scene, uniforms);
+            self.prepared = Some(Prepared {
+                time_s: frame.time_s,
+                camera: frame.camera,
+                scene,
+                accumulation,
+                nonfinite_before: 0,
+                triangle_count: frame.triangles.len(),
+                node_count: frame.world_from_node.len(),
+            });
             return Ok(());
         }
-        if let Some(old) = self.prepared.take() {
-            old.accumulation.release(&self.ctx);
-            old.scene.release(&self.ctx);
+        let prepared = self.prepared.as_mut().expect("checked above");
+        let moved = prepared.time_s != frame.time_s && input.scene.is_animated();
+        if prepared.camera == frame.camera && !moved {
+            return Ok(());
         }
-        let scene = GpuScene::upload(&self.ctx, input.scene, frame).map_err(|e| {
-            TierError::Unavailable {
-                tier: self.kind.name(),
-                reason: e.to_string(),
-            }
-        })?;
-        let size = (self.settings.width, self.settings.height);
-        let uniforms = PathUniforms::new(frame, &scene, size, self.settings.seed);
-        let accumulation = Accumulation::new(&self.ctx, &self.pipelines, &scene, uniforms);
-        self.prepared = Some(Prepared {
-            time_s: frame.time_s,
-            camera: frame.camera,
-            scene,
-            accumulation,
-            nonfinite_before: 0,
-        });
+        let mut replaced = false;
+        if moved {
+            replaced = prepared
+                .scene
+                .update(&self.ctx, input.scene, frame)
+                .map_err(unavailable)?;
+        }
+        let uniforms = PathUniforms::new(frame, &prepared.scene, size, self.settings.seed);
+        if replaced {
+            let old = std::mem::replace(
+                &mut prepared.accumulation,
+                Accumulation::new(&self.ctx, &self.pipelines, &prepared.scene, uniforms),
+            );
+            old.release(&self.ctx);
+        } else {
+            prepared.accumulation.restart(uniforms);
+        }
+        prepared.time_s = frame.time_s;
+        prepared.camera = frame.camera;
+        prepared.nonfinite_before = 0;
         Ok(())
+    }
+
+    /// Times the scene's BVH was placed (its first top level plus one per update), and the
+    /// seconds of its bottom-level builds: for tests that a camera move rebuilds nothing.
+    pub fn bvh_builds(&self) -> Option<(u32, f64)> {
+        let bvh = &self.prepared.as_ref()?.scene.bvh;
+        Some((bvh.update_count, bvh.build_seconds))
     }
 }
 

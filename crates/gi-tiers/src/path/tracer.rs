@@ -4,7 +4,8 @@
 
 use bytemuck::{Pod, Zeroable};
 use gi_gpu::{
-    GpuContext, GpuError, GpuScene, GpuTimer, PassTimings, ShaderDefValue, ShaderLibrary, wgpu,
+    GpuCamera, GpuContext, GpuError, GpuScene, GpuTimer, PassTimings, ShaderDefValue,
+    ShaderLibrary, wgpu,
 };
 use gi_scene::{SceneFrame, Sky};
 
@@ -19,20 +20,8 @@ const MAX_GROUPS_PER_ROW: u32 = 65_535;
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
 pub struct PathUniforms {
-    /// Pinhole position, world space.
-    pub camera_position: [f32; 3],
-    /// `tan(yfov / 2)`.
-    pub tan_half_fov: f32,
-    /// Unit camera axes in world space.
-    pub camera_right: [f32; 3],
-    /// Image width over height.
-    pub aspect: f32,
-    pub camera_up: [f32; 3],
-    /// 0: constant sky (`sky_zenith` is its radiance), 1: gradient.
-    pub sky_kind: u32,
-    pub camera_forward: [f32; 3],
-    /// Most scatterings per path (the reference's default).
-    pub max_depth: u32,
+    /// The camera that casts the primary rays (`gi::camera`).
+    pub camera: GpuCamera,
     /// Gradient sky radiance at the zenith, horizon and nadir (xyz; w unused).
     pub sky_zenith: [f32; 4],
     pub sky_horizon: [f32; 4],
@@ -52,14 +41,16 @@ pub struct PathUniforms {
     pub sky_emits: u32,
     /// Index of the default material, used for out-of-range material indices.
     pub default_material: u32,
-    pub pad: [u32; 2],
+    /// 0: constant sky (`sky_zenith` is its radiance), 1: gradient.
+    pub sky_kind: u32,
+    /// Most scatterings per path (the reference's default).
+    pub max_depth: u32,
 }
 
 impl PathUniforms {
     /// The uniforms of `frame` rendered at `width` x `height`, with the camera values computed
     /// exactly as the reference computes them (so GPU and CPU rays agree bit for bit).
     pub fn new(frame: &SceneFrame, scene: &GpuScene, size: (u32, u32), seed: u64) -> Self {
-        let camera = &frame.camera;
         let pad = |v: glam::Vec3| [v.x, v.y, v.z, 0.0];
         let (sky_kind, zenith, horizon, ground) = match frame.sky {
             Sky::Constant { radiance } => (0, radiance, radiance, radiance),
@@ -70,14 +61,7 @@ impl PathUniforms {
             } => (1, zenith, horizon, ground),
         };
         Self {
-            camera_position: camera.position.to_array(),
-            tan_half_fov: (camera.yfov * 0.5).tan(),
-            camera_right: camera.right.to_array(),
-            aspect: size.0 as f32 / size.1 as f32,
-            camera_up: camera.up.to_array(),
-            sky_kind,
-            camera_forward: camera.forward.to_array(),
-            max_depth: gi_reference::RenderSettings::default().max_depth,
+            camera: GpuCamera::new(&frame.camera, size),
             sky_zenith: pad(zenith),
             sky_horizon: pad(horizon),
             sky_ground: pad(ground),
@@ -89,7 +73,8 @@ impl PathUniforms {
             light_count: scene.light_count,
             sky_emits: u32::from(!frame.sky.is_black()),
             default_material: scene.default_material,
-            pad: [0; 2],
+            sky_kind,
+            max_depth: gi_reference::RenderSettings::default().max_depth,
         }
     }
 }
@@ -206,7 +191,10 @@ impl Accumulation {
         let tier = pipelines.tier;
         let size = (uniforms.size_px[0], uniforms.size_px[1]);
         let pixels = u64::from(size.0) * u64::from(size.1);
-        let storage = wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC;
+        // COPY_DST: a restarted accumulation clears its sums.
+        let storage = wgpu::BufferUsages::STORAGE
+            | wgpu::BufferUsages::COPY_SRC
+            | wgpu::BufferUsages::COPY_DST;
         let uniform = wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST;
         let trace_uniforms = ctx.create_buffer(
             &format!("{tier}.trace_uniforms"),
@@ -218,11 +206,7 @@ impl Accumulation {
         let sum = ctx.create_buffer(&format!("{tier}.accum_sum"), pixels * 16, storage);
         let sum_sq = ctx.create_buffer(&format!("{tier}.accum_sum_sq"), pixels * 16, storage);
         let mean = ctx.create_buffer(&format!("{tier}.mean"), pixels * 16, storage);
-        let ray_count = ctx.create_buffer(
-            &format!("{tier}.ray_count"),
-            8,
-            storage | wgpu::BufferUsages::COPY_DST,
-        );
+        let ray_count = ctx.create_buffer(&format!("{tier}.ray_count"), 8, storage);
         let mut entries = vec![trace_uniforms.as_entire_binding()];
         entries.extend(scene.buffers().map(|b| b.as_entire_binding()));
         entries.push(sum.as_entire_binding());
@@ -255,6 +239,13 @@ impl Accumulation {
         }
     }
 
+    /// Empties the sums for a new view or a new frame of the scene, keeping the buffers and
+    /// bind groups: the next [`Accumulation::add_samples`] starts from sample 0.
+    pub(crate) fn restart(&mut self, uniforms: PathUniforms) {
+        self.uniforms = uniforms;
+        self.samples = 0;
+    }
+
     /// Adds `spp` samples per pixel (`path/trace`) and resolves the mean (`path/resolve`),
     /// returning both passes' times.
     pub(crate) fn add_samples(
@@ -265,6 +256,7 @@ impl Accumulation {
         timer: &mut GpuTimer,
         spp: u32,
     ) -> PassTimings {
+        let restarting = self.samples == 0;
         let spp = spp.min(u32::MAX - self.samples);
         self.uniforms.sample_offset = self.samples;
         self.uniforms.spp = spp;
@@ -282,6 +274,10 @@ impl Accumulation {
         let tier = pipelines.tier;
         let mut encoder = ctx.create_encoder(&format!("{tier}/frame"));
         encoder.clear_buffer(&self.ray_count, 0, None);
+        if restarting {
+            encoder.clear_buffer(&self.sum, 0, None);
+            encoder.clear_buffer(&self.sum_sq, 0, None);
+        }
         timer.compute_pass(ctx, &mut encoder, &format!("{tier}/trace"), |pass| {
             pass.set_pipeline(&pipelines.trace);
             pass.set_bind_group(0, &self.trace_group, &[]);

@@ -1,0 +1,29 @@
+// The pinhole camera every ray-cast pass shares (`gi_scene::CameraView` with the values the
+// CPU reference derives from it), and its ray through a film point. The G-buffer and the path
+// tracer cast the same rays through it, bit for bit the reference's.
+#define_import_path gi::camera
+
+// Mirror of `gi_gpu::GpuCamera`, 64 bytes.
+struct Camera {
+    // Pinhole position, world space.
+    position: vec3<f32>,
+    // tan(yfov / 2), computed on the CPU as the reference does.
+    tan_half_fov: f32,
+    // Unit camera axes in world space.
+    right: vec3<f32>,
+    // Image width over height.
+    aspect: f32,
+    up: vec3<f32>,
+    pad_a: f32,
+    forward: vec3<f32>,
+    pad_b: f32,
+}
+
+// `CameraView::ray_direction`: the unit direction through the film point `uv` in [0,1]^2, u to
+// the right and v downwards. The operations are the reference's, so the rays agree.
+fn camera_ray(camera: Camera, uv: vec2<f32>) -> vec3<f32> {
+    let fx = (2.0 * uv.x - 1.0) * camera.tan_half_fov * camera.aspect;
+    let fy = (1.0 - 2.0 * uv.y) * camera.tan_half_fov;
+    let d = camera.forward + fx * camera.right + fy * camera.up;
+    return d * (1.0 / sqrt(dot(d, d)));
+}
