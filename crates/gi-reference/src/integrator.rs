@@ -39,7 +39,7 @@ impl Reference {
     }
 
     /// True when the segment `(0, t_max)` of the ray is blocked (counted in `rays`).
-    fn occluded(&self, origin: Vec3, dir: Vec3, t_max: f32, rays: &mut u64) -> bool {
+    pub(crate) fn occluded(&self, origin: Vec3, dir: Vec3, t_max: f32, rays: &mut u64) -> bool {
         *rays += 1;
         self.bvh
             .occluded(&self.frame.triangles, origin, dir, 0.0, t_max)
@@ -72,7 +72,7 @@ fn direct_radiance(reference: &Reference, origin: Vec3, dir: Vec3, rays: &mut u6
     surface.emitted + punctual_lights(reference, &surface, x, rays)
 }
 
-fn path_radiance(
+pub(crate) fn path_radiance(
     reference: &Reference,
     settings: &RenderSettings,
     mut origin: Vec3,

@@ -86,6 +86,7 @@
 mod accumulate;
 pub mod brdf;
 mod integrator;
+mod irradiance;
 mod lights;
 pub mod sampling;
 mod scene;

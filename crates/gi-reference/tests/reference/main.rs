@@ -10,5 +10,6 @@ mod determinism;
 mod direct;
 mod emitters;
 mod furnace;
+mod irradiance;
 mod mis;
 mod throughput;
