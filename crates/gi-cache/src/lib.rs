@@ -6,9 +6,28 @@
 //!
 //! [`CacheConfig`] holds every tunable number with its justification; [`layout`] documents
 //! the data structure and its addressing, mirrored by `shaders/cache/data.wgsl`.
+//!
+//! The parts: [`BrickAllocator`] hands out pool IDs, [`clipmap`] places the level windows,
+//! [`CacheStructure`] mirrors link grids and masks on the CPU, [`binning`] and
+//! [`cpu_voxelize`] decide which triangles touch which voxels (the CPU oracle of the GPU
+//! voxelizer), [`CacheBuffers`] holds the GPU buffers of bind group 2, and [`CpuCache`] builds
+//! a complete cache on the CPU, for tests and tools that need one without the GPU passes.
 
+pub mod alloc;
+pub mod binning;
+pub mod buffers;
+pub mod clipmap;
 pub mod config;
+pub mod cpu_cache;
+pub mod cpu_voxelize;
 pub mod layout;
+pub mod packing;
+pub mod structure;
 
+pub use alloc::{BrickAllocator, FreeError};
+pub use buffers::CacheBuffers;
+pub use clipmap::{BrickBox, ClipmapWindows, WindowShift};
 pub use config::{CacheConfig, ConfigError};
+pub use cpu_cache::CpuCache;
 pub use layout::{GpuCacheLevel, GpuCacheUniforms, VoxelSurface};
+pub use structure::CacheStructure;

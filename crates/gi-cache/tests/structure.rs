@@ -1,0 +1,148 @@
+//! The cache's CPU structure: allocator, windows, link grid and masks, the CPU-filled cache.
+
+use gi_cache::layout::{GROUP_BRICKS, NO_BRICK, STATE_DYNAMIC, join_mask};
+use gi_cache::packing::unpack_unit_vector;
+use gi_cache::{BrickAllocator, CacheBuffers, CacheConfig, ClipmapWindows, CpuCache, FreeError};
+use gi_gpu::GpuContext;
+use glam::{IVec3, Vec3};
+use rand::{RngExt, SeedableRng};
+
+#[test]
+fn allocator_stays_consistent_under_random_alloc_and_free() {
+    let pool = 97;
+    let mut allocator = BrickAllocator::new(pool);
+    let mut held: Vec<u32> = Vec::new();
+    let mut rng = rand_pcg::Pcg32::seed_from_u64(7);
+    for _ in 0..20_000 {
+        if rng.random_bool(0.55) {
+            match allocator.alloc() {
+                Some(id) => {
+                    assert!((1..=pool).contains(&id));
+                    assert!(!held.contains(&id), "ID {id} handed out twice");
+                    held.push(id);
+                }
+                None => assert_eq!(held.len() as u32, pool),
+            }
+        } else if !held.is_empty() {
+            let id = held.swap_remove(rng.random_range(0..held.len()));
+            assert_eq!(allocator.free(id), Ok(()));
+            assert_eq!(allocator.free(id), Err(FreeError::NotAllocated { id }));
+        }
+        assert_eq!(allocator.allocated_count(), held.len() as u32);
+        assert_eq!(allocator.free_count(), pool - held.len() as u32);
+    }
+    for id in [0, pool + 1, u32::MAX] {
+        assert!(matches!(
+            allocator.free(id),
+            Err(FreeError::OutOfRange { .. })
+        ));
+    }
+}
+
+#[test]
+fn windows_are_centered_on_the_camera_and_snapped_to_groups() {
+    let config = CacheConfig::default();
+    let mut rng = rand_pcg::Pcg32::seed_from_u64(3);
+    for _ in 0..200 {
+        let camera = Vec3::new(
+            rng.random_range(-300.0..300.0),
+            rng.random_range(-50.0..50.0),
+            rng.random_range(-300.0..300.0),
+        );
+        let windows = ClipmapWindows::new(&config, camera);
+        for level in 0..config.levels {
+            let window = windows.window(level);
+            assert_eq!(window.min % GROUP_BRICKS as i32, IVec3::ZERO);
+            let center = (window.min + window.max).as_vec3() * 0.5;
+            let camera_brick = camera / config.brick_size_at(level);
+            let offset = (camera_brick - center).abs().max_element();
+            assert!(
+                offset <= GROUP_BRICKS as f32 / 2.0 + 1e-3,
+                "level {level}: {offset}"
+            );
+        }
+    }
+}
+
+fn load(name: &str) -> gi_scene::Scene {
+    gi_scene::load(name).unwrap_or_else(|e| panic!("scene {name}: {e}"))
+}
+
+#[test]
+fn cpu_cache_of_the_cornell_box_holds_its_surfaces() {
+    let scene = load("cornell-box");
+    let frame = scene.evaluate(0.0, None);
+    let config = CacheConfig::default();
+    let start = std::time::Instant::now();
+    let cache = CpuCache::build(&config, &scene, &frame, frame.camera.position).unwrap();
+    eprintln!(
+        "cornell-box: {} bricks {:?} in {:.1} ms",
+        cache.bricks.len(),
+        cache.bricks_per_level(),
+        start.elapsed().as_secs_f64() * 1e3
+    );
+    assert_eq!(cache.dropped_for_pool, 0);
+    assert_eq!(
+        cache.allocator.allocated_count() as usize,
+        cache.bricks.len()
+    );
+    cache.structure.check_group_masks().unwrap();
+    // Every level holds the whole box (2 m fits the finest 8 x 4 x 8 m window).
+    for level in 0..config.levels {
+        assert!(cache.bricks_per_level()[level as usize] > 0);
+    }
+    // A point on the floor's top face, away from the blocks: an occupied voxel whose normal
+    // points up and whose albedo is the white floor's.
+    let mut found = 0;
+    for b in &cache.bricks {
+        let mask = cache.structure.brick_mask(b.id);
+        assert_ne!(mask, 0);
+        assert_eq!(cache.structure.brick_id(b.level, b.brick), b.id);
+        for bit in 0..64 {
+            if mask & (1 << bit) == 0 {
+                continue;
+            }
+            let s = cache.surface(b.id, bit);
+            assert_eq!(s.state & STATE_DYNAMIC, 0);
+            let n = unpack_unit_vector(s.normal);
+            assert!((n.length() - 1.0).abs() < 1e-3);
+            found += 1;
+        }
+    }
+    assert!(found > 1000);
+}
+
+#[test]
+fn cpu_cache_uploads_to_the_bind_group_buffers() {
+    let Some(ctx) = GpuContext::new_or_skip("cpu_cache_uploads_to_the_bind_group_buffers") else {
+        return;
+    };
+    let scene = load("thin-wall");
+    let frame = scene.evaluate(0.0, None);
+    let config = CacheConfig {
+        pool_bricks: 2048,
+        ..Default::default()
+    };
+    let mut cache = CpuCache::build(&config, &scene, &frame, frame.camera.position).unwrap();
+    let first = cache.bricks[0];
+    cache.set_face_irradiance(first.id, 5, 2, Vec3::new(1.0, 2.0, 3.0), Vec3::splat(0.5));
+    let buffers = cache.upload(&ctx);
+    let masks = buffers.read_brick_masks(&ctx);
+    assert_eq!(masks, cache.structure.brick_masks);
+    let link: Vec<u32> = ctx.read_buffer(&buffers.link);
+    assert_eq!(link, cache.structure.link);
+    let groups: Vec<[u32; 2]> = ctx.read_buffer(&buffers.group_masks);
+    let groups: Vec<u64> = groups.into_iter().map(join_mask).collect();
+    assert_eq!(groups, cache.structure.group_masks);
+    assert_eq!(buffers.read_voxels(&ctx), cache.voxels);
+    let direct: Vec<u32> = ctx.read_buffer(&buffers.direct);
+    assert_eq!(direct, cache.direct);
+    let report = ctx.memory();
+    eprintln!("{report}");
+    assert_eq!(
+        buffers.bytes(),
+        CacheBuffers::sizes(&config).iter().sum::<u64>()
+    );
+    let link_slots = link.iter().filter(|&&id| id != NO_BRICK).count();
+    assert_eq!(link_slots, cache.bricks.len());
+}
