@@ -1,5 +1,11 @@
-//! `gi-bench rays`: rays per second of the GPU CWBVH traversal (`gi::bvh`) and of the CPU's
-//! (obvhs with rayon) on the same rays, in one run.
+//! `gi-bench rays`: rays per second of the GPU's two-level CWBVH traversal (`gi::bvh`) and of
+//! the CPU's (obvhs with rayon, one BVH over the flattened frame) on the same rays, in one run.
+//!
+//! The GPU structure is the one the tiers use (`GpuBvh::from_scene`): a static scene is one
+//! world-space instance; an animated one has an object-space instance per moving node. Its
+//! bottom levels are built at time 0, then the top level is updated over `repeats` frames of
+//! the scene's animation (the per-frame cost, reported as the update time), and the rays are
+//! traced at the last of those frames.
 //!
 //! Three kinds of rays, `count` of each:
 //! - primary: camera rays over a pixel grid (coherent; closest hit),
@@ -48,9 +54,18 @@ impl KindResult {
 pub struct RaysReport {
     pub scene: String,
     pub triangles: usize,
+    /// Bottom-level nodes on the GPU (all levels) and the deepest bottom level.
     pub bvh_nodes: u32,
     pub bvh_depth: u32,
+    /// Instances in the top level (1 for a static scene) and its node count.
+    pub instances: u32,
+    pub top_nodes: u32,
+    /// CPU build and packing of every GPU bottom level, once per scene.
     pub bvh_build_ms: f64,
+    /// Median per-frame top-level update (build plus queued upload) over the animated frames.
+    pub update_ms: f64,
+    /// The CPU baseline's single BVH build over the flattened frame.
+    pub cpu_bvh_build_ms: f64,
     pub adapter: String,
     pub timer_mode: TimerMode,
     pub cpu_threads: usize,
@@ -64,10 +79,18 @@ pub fn run(scene_name: &str, count: usize, repeats: usize) -> anyhow::Result<Ray
         bail!("--rays must be at least 1");
     }
     let scene = gi_scene::load(scene_name).with_context(|| format!("loading {scene_name}"))?;
-    let frame = scene.evaluate(0.0, None);
-    let cpu_bvh = SceneBvh::build(&frame.triangles);
     let ctx = GpuContext::new()?;
-    let gpu_bvh = GpuBvh::upload(&ctx, &cpu_bvh.bvh, &frame.triangles)?;
+    let mut gpu_bvh = GpuBvh::from_scene(&ctx, &scene, &scene.evaluate(0.0, None))?;
+    let mut updates = Vec::with_capacity(repeats);
+    let mut time_s = 0.0;
+    for frame_index in 1..=repeats as u32 {
+        time_s = scene.frame_time(frame_index);
+        gpu_bvh.update(&ctx, &scene.evaluate(time_s, None))?;
+        updates.push(gpu_bvh.update_seconds * 1e3);
+    }
+    updates.sort_by(f64::total_cmp);
+    let frame = scene.evaluate(time_s, None);
+    let cpu_bvh = SceneBvh::build(&frame.triangles);
     let tracer = BvhTracer::new(&ctx, &ShaderLibrary::new())?;
 
     let primary = primary_rays(&frame, count);
@@ -105,7 +128,11 @@ pub fn run(scene_name: &str, count: usize, repeats: usize) -> anyhow::Result<Ray
         triangles: frame.triangles.len(),
         bvh_nodes: gpu_bvh.node_count,
         bvh_depth: gpu_bvh.depth,
-        bvh_build_ms: cpu_bvh.build_time.as_secs_f64() * 1e3,
+        instances: gpu_bvh.instance_count,
+        top_nodes: gpu_bvh.top_node_count,
+        bvh_build_ms: gpu_bvh.build_seconds * 1e3,
+        update_ms: updates[updates.len() / 2],
+        cpu_bvh_build_ms: cpu_bvh.build_time.as_secs_f64() * 1e3,
         adapter: ctx.adapter_info.name.clone(),
         timer_mode,
         cpu_threads: rayon::current_num_threads(),
@@ -270,13 +297,18 @@ impl RaysReport {
     /// A markdown table, one row per ray kind, with a header naming scene, BVH and devices.
     pub fn table(&self) -> String {
         let mut out = format!(
-            "scene {}: {} triangles, BVH {} nodes, depth {}, build {:.1} ms\n\
+            "scene {}: {} triangles; GPU bottom levels {} nodes, depth {}, build {:.2} ms; \
+             top level {} instances, {} nodes, update {:.3} ms per frame; CPU BVH build {:.2} ms\n\
              GPU: {} ({}), CPU: {} threads, median of {} runs\n\n",
             self.scene,
             self.triangles,
             self.bvh_nodes,
             self.bvh_depth,
             self.bvh_build_ms,
+            self.instances,
+            self.top_nodes,
+            self.update_ms,
+            self.cpu_bvh_build_ms,
             self.adapter,
             match self.timer_mode {
                 TimerMode::Gpu => "GPU timestamps",
@@ -330,6 +362,10 @@ impl RaysReport {
             "bvh_nodes": self.bvh_nodes,
             "bvh_depth": self.bvh_depth,
             "bvh_build_ms": self.bvh_build_ms,
+            "instances": self.instances,
+            "top_nodes": self.top_nodes,
+            "update_ms": self.update_ms,
+            "cpu_bvh_build_ms": self.cpu_bvh_build_ms,
             "adapter": self.adapter,
             "gpu_timer": format!("{:?}", self.timer_mode),
             "cpu_threads": self.cpu_threads,

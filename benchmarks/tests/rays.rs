@@ -50,3 +50,38 @@ fn rays_benchmark_runs_and_writes_json() {
         }
     }
 }
+
+/// The animated scene runs over the two-level structure with an instance per moving node and
+/// reports the per-frame top-level update.
+#[test]
+fn rays_benchmark_reports_the_dynamic_scene_update() {
+    if GpuContext::new_or_skip("rays_benchmark_reports_the_dynamic_scene_update").is_none() {
+        return;
+    }
+    let json = std::path::Path::new(env!("CARGO_TARGET_TMPDIR")).join("gi-bench-rays-dyn.json");
+    let output = Command::new(env!("CARGO_BIN_EXE_gi-bench"))
+        .args([
+            "rays",
+            "--scene",
+            "dynamic",
+            "--rays",
+            "200",
+            "--repeats",
+            "2",
+        ])
+        .arg("--json")
+        .arg(&json)
+        .output()
+        .expect("gi-bench starts");
+    assert!(
+        output.status.success(),
+        "gi-bench failed:\n{}",
+        String::from_utf8_lossy(&output.stderr)
+    );
+    let report: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(&json).expect("JSON written"))
+            .expect("JSON parses");
+    assert!(report["instances"].as_u64().expect("instances") > 1);
+    let update = report["update_ms"].as_f64().expect("update_ms");
+    assert!(update.is_finite() && update > 0.0, "update_ms = {update}");
+}
