@@ -23,6 +23,7 @@ pub mod cpu_voxelize;
 pub mod layout;
 pub mod packing;
 pub mod structure;
+pub mod voxelize;
 
 pub use alloc::{BrickAllocator, FreeError};
 pub use buffers::CacheBuffers;

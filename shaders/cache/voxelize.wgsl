@@ -1,0 +1,262 @@
+// Pass `cache/voxelize`: fills pooled bricks from the triangles the CPU binned to them
+// (SmartGI, SIGGRAPH 2024, "Bricklizer": bricks voxelized from their primitive lists; HSGI,
+// GDC 2023, "Radiance Cache": 4^3 surfel voxels of albedo, normal and emission per brick).
+//
+// One 64-thread workgroup per brick, one thread per voxel. The rules are those of
+// `gi_cache::cpu_voxelize`, computed in the same f32 order: occupancy by a triangle-box
+// separating axis test (half-open along the world axes), normal from the area vectors of
+// the triangles clipped to the voxel, coverage from their area projected on that normal,
+// albedo and emission from the material at the closest triangle point to the voxel center.
+// The voxel's faces and age start at 0; occupancy is gathered with workgroup atomics and
+// written once per brick.
+
+#import gi::cache::data::{cache, cache_brick_masks, cache_voxels, cache_direct, cache_indirect, cache_mask_cell, VoxelSurface, CACHE_STATE_DYNAMIC, CACHE_FACE_COUNT}
+#import gi::scene::{triangles, sample_texture, emission, triangle_uv, material_of, geometric_normal}
+#import gi::brdf::{brdf_new, brdf_diffuse_albedo}
+#import gi::packing::{pack_unit_vector, pack_rgb9e5}
+
+// Mirror of `gi_cache::voxelize::VoxelizeUniforms`.
+struct VoxelizeUniforms {
+    default_material: u32,
+    job_count: u32,
+    pad_a: u32,
+    pad_b: u32,
+}
+
+// Mirror of `gi_cache::voxelize::GpuVoxelizeJob`: one brick to fill.
+struct VoxelizeJob {
+    brick: vec3<i32>,
+    level: u32,
+    brick_id: u32,
+    first_triangle: u32,
+    triangle_count: u32,
+    pad: u32,
+}
+
+// Bit of a binned triangle reference marking a dynamic node's triangle
+// (`gi_cache::binning::TRIANGLE_DYNAMIC_BIT`).
+const TRIANGLE_DYNAMIC_BIT: u32 = 0x80000000u;
+// `gi_cache::cpu_voxelize::NORMAL_CANCEL_FRACTION`.
+const NORMAL_CANCEL_FRACTION: f32 = 1e-3;
+
+@group(0) @binding(0) var<uniform> voxelize_uniforms: VoxelizeUniforms;
+@group(0) @binding(8) var<storage, read> jobs: array<VoxelizeJob>;
+@group(0) @binding(9) var<storage, read> brick_triangles: array<u32>;
+
+var<workgroup> occupancy: array<atomic<u32>, 2>;
+
+// True when the axis separates the triangle (relative to the box center) from the box.
+fn separated_on(axis: vec3<f32>, v0: vec3<f32>, v1: vec3<f32>, v2: vec3<f32>, half: f32) -> bool {
+    let p0 = dot(axis, v0);
+    let p1 = dot(axis, v1);
+    let p2 = dot(axis, v2);
+    let r = half * (abs(axis.x) + abs(axis.y) + abs(axis.z));
+    return min(min(p0, p1), p2) > r || max(max(p0, p1), p2) < -r;
+}
+
+// `gi_cache::cpu_voxelize::triangle_box_overlap`.
+fn triangle_box_overlap(a: vec3<f32>, b: vec3<f32>, c: vec3<f32>, center: vec3<f32>, half: f32) -> bool {
+    let v0 = a - center;
+    let v1 = b - center;
+    let v2 = c - center;
+    let lo = min(min(v0, v1), v2);
+    let hi = max(max(v0, v1), v2);
+    if any(lo >= vec3(half)) || any(hi < vec3(-half)) {
+        return false;
+    }
+    let e0 = v1 - v0;
+    let e1 = v2 - v1;
+    let e2 = v0 - v2;
+    let n = cross(e0, e1);
+    if all(n == vec3(0.0)) {
+        return false;
+    }
+    if abs(dot(n, v0)) > half * (abs(n.x) + abs(n.y) + abs(n.z)) {
+        return false;
+    }
+    let edges = array(e0, e1, e2);
+    for (var i = 0u; i < 3u; i++) {
+        let e = edges[i];
+        if separated_on(cross(vec3(1.0, 0.0, 0.0), e), v0, v1, v2, half)
+            || separated_on(cross(vec3(0.0, 1.0, 0.0), e), v0, v1, v2, half)
+            || separated_on(cross(vec3(0.0, 0.0, 1.0), e), v0, v1, v2, half) {
+            return false;
+        }
+    }
+    return true;
+}
+
+// `gi_cache::cpu_voxelize::clipped_area_vector`: Sutherland-Hodgman against the six faces.
+fn clipped_area_vector(a: vec3<f32>, b: vec3<f32>, c: vec3<f32>, center: vec3<f32>, half: f32) -> vec3<f32> {
+    var polygon: array<vec3<f32>, 10>;
+    polygon[0] = a - center;
+    polygon[1] = b - center;
+    polygon[2] = c - center;
+    var count = 3u;
+    for (var plane = 0u; plane < 6u; plane++) {
+        let axis = plane >> 1u;
+        let sign = select(1.0, -1.0, (plane & 1u) != 0u);
+        var clipped: array<vec3<f32>, 10>;
+        var n = 0u;
+        for (var i = 0u; i < count; i++) {
+            let p = polygon[i];
+            let q = polygon[(i + 1u) % count];
+            let p_inside = sign * p[axis] <= half;
+            let q_inside = sign * q[axis] <= half;
+            if p_inside {
+                clipped[n] = p;
+                n++;
+            }
+            if p_inside != q_inside {
+                let t = (half - sign * p[axis]) / (sign * (q[axis] - p[axis]));
+                clipped[n] = p + (q - p) * t;
+                n++;
+            }
+        }
+        polygon = clipped;
+        count = n;
+        if count < 3u {
+            return vec3(0.0);
+        }
+    }
+    var sum = vec3(0.0);
+    for (var i = 1u; i + 1u < count; i++) {
+        sum += cross(polygon[i] - polygon[0], polygon[i + 1u] - polygon[0]);
+    }
+    return sum * 0.5;
+}
+
+// `gi_cache::cpu_voxelize::closest_point_barycentrics` (Ericson, 5.1.5).
+fn closest_point_barycentrics(a: vec3<f32>, b: vec3<f32>, c: vec3<f32>, p: vec3<f32>) -> vec3<f32> {
+    let ab = b - a;
+    let ac = c - a;
+    let ap = p - a;
+    let d1 = dot(ab, ap);
+    let d2 = dot(ac, ap);
+    if d1 <= 0.0 && d2 <= 0.0 {
+        return vec3(1.0, 0.0, 0.0);
+    }
+    let bp = p - b;
+    let d3 = dot(ab, bp);
+    let d4 = dot(ac, bp);
+    if d3 >= 0.0 && d4 <= d3 {
+        return vec3(0.0, 1.0, 0.0);
+    }
+    let vc = d1 * d4 - d3 * d2;
+    if vc <= 0.0 && d1 >= 0.0 && d3 <= 0.0 {
+        let t = d1 / (d1 - d3);
+        return vec3(1.0 - t, t, 0.0);
+    }
+    let cp = p - c;
+    let d5 = dot(ab, cp);
+    let d6 = dot(ac, cp);
+    if d6 >= 0.0 && d5 <= d6 {
+        return vec3(0.0, 0.0, 1.0);
+    }
+    let vb = d5 * d2 - d1 * d6;
+    if vb <= 0.0 && d2 >= 0.0 && d6 <= 0.0 {
+        let t = d2 / (d2 - d6);
+        return vec3(1.0 - t, 0.0, t);
+    }
+    let va = d3 * d6 - d5 * d4;
+    if va <= 0.0 && (d4 - d3) >= 0.0 && (d5 - d6) >= 0.0 {
+        let t = (d4 - d3) / ((d4 - d3) + (d5 - d6));
+        return vec3(0.0, 1.0 - t, t);
+    }
+    let denom = 1.0 / (va + vb + vc);
+    let w1 = vb * denom;
+    let w2 = vc * denom;
+    return vec3(1.0 - w1 - w2, w1, w2);
+}
+
+@compute @workgroup_size(64)
+fn voxelize(@builtin(workgroup_id) workgroup: vec3<u32>, @builtin(local_invocation_index) bit: u32) {
+    if bit < 2u {
+        atomicStore(&occupancy[bit], 0u);
+    }
+    workgroupBarrier();
+
+    let job = jobs[workgroup.x];
+    let voxel_size = cache.levels[job.level].voxel_size_m;
+    let half = 0.5 * voxel_size;
+    let voxel = job.brick * 4 + vec3<i32>(cache_mask_cell(bit));
+    let center = (vec3<f32>(voxel) + 0.5) * voxel_size;
+
+    var area_sum = vec3(0.0);
+    var area_total = 0.0;
+    var dynamic = false;
+    var found = false;
+    var closest_distance_sq = 0.0;
+    var closest_triangle = 0u;
+    var closest_b = vec3(0.0);
+    for (var i = 0u; i < job.triangle_count; i++) {
+        let reference = brick_triangles[job.first_triangle + i];
+        let index = reference & ~TRIANGLE_DYNAMIC_BIT;
+        let tri = triangles[index];
+        let a = tri.pa.xyz;
+        let b = tri.pb.xyz;
+        let c = tri.pc.xyz;
+        if !triangle_box_overlap(a, b, c, center, half) {
+            continue;
+        }
+        dynamic = dynamic || (reference & TRIANGLE_DYNAMIC_BIT) != 0u;
+        let area = clipped_area_vector(a, b, c, center, half);
+        area_sum += area;
+        area_total += length(area);
+        let w = closest_point_barycentrics(a, b, c, center);
+        let point = a * w.x + b * w.y + c * w.z;
+        let d = point - center;
+        let distance_sq = dot(d, d);
+        if !found || distance_sq < closest_distance_sq {
+            found = true;
+            closest_distance_sq = distance_sq;
+            closest_triangle = index;
+            closest_b = w;
+        }
+    }
+
+    var surface = VoxelSurface(0u, 0u, 0u, 0u);
+    if found {
+        let sum_length = length(area_sum);
+        var normal: vec3<f32>;
+        if area_total > 0.0 && sum_length > NORMAL_CANCEL_FRACTION * area_total {
+            normal = area_sum / sum_length;
+        } else {
+            normal = geometric_normal(triangles[closest_triangle]);
+        }
+        // Second pass for the coverage: the clipped areas projected on the final normal.
+        var projected = 0.0;
+        for (var i = 0u; i < job.triangle_count; i++) {
+            let index = brick_triangles[job.first_triangle + i] & ~TRIANGLE_DYNAMIC_BIT;
+            let tri = triangles[index];
+            if triangle_box_overlap(tri.pa.xyz, tri.pb.xyz, tri.pc.xyz, center, half) {
+                projected += abs(dot(clipped_area_vector(tri.pa.xyz, tri.pb.xyz, tri.pc.xyz, center, half), normal));
+            }
+        }
+        let coverage = min(projected / (4.0 * half * half), 1.0);
+        let tri = triangles[closest_triangle];
+        let uv = triangle_uv(tri, closest_b.x, closest_b.y, closest_b.z);
+        let material = material_of(closest_triangle, voxelize_uniforms.default_material);
+        let base = material.base_color.xyz * sample_texture(material.base_color_texture, uv).xyz;
+        let mr = sample_texture(material.metallic_roughness_texture, uv);
+        let albedo = brdf_diffuse_albedo(brdf_new(base, material.metallic * mr.z, material.roughness * mr.y));
+        surface = VoxelSurface(
+            pack4x8unorm(vec4(albedo, coverage)),
+            pack_unit_vector(normal),
+            pack_rgb9e5(emission(material, uv)),
+            select(0u, CACHE_STATE_DYNAMIC, dynamic),
+        );
+        atomicOr(&occupancy[bit >> 5u], 1u << (bit & 31u));
+    }
+    let voxel_index = job.brick_id * 64u + bit;
+    cache_voxels[voxel_index] = surface;
+    for (var face = 0u; face < CACHE_FACE_COUNT; face++) {
+        cache_direct[voxel_index * CACHE_FACE_COUNT + face] = 0u;
+        cache_indirect[voxel_index * CACHE_FACE_COUNT + face] = 0u;
+    }
+
+    workgroupBarrier();
+    if bit == 0u {
+        cache_brick_masks[job.brick_id] = vec2(atomicLoad(&occupancy[0]), atomicLoad(&occupancy[1]));
+    }
+}
