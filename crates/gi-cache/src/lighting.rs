@@ -1,0 +1,527 @@
+//! Lighting the cache: which bricks are relit each frame ([`LightSchedule`]) and the two passes
+//! that relight them ([`CacheLighting`]).
+//!
+//! - `cache/inject` (`shaders/cache/inject.wgsl`): per visible voxel face, the irradiance from
+//!   every punctual light with an exact BVH shadow ray (HSGI's "Direct Lighting", SmartGI's
+//!   first bounce), written to `cache_direct`.
+//! - `cache/propagate` (`shaders/cache/propagate.wgsl`): per visible voxel face,
+//!   [`CacheConfig::gather_rays_per_face`] cosine-distributed rays traced through the cache
+//!   itself; hits bring the previous frame's face radiance (with emission), misses the sky. The
+//!   estimate is accumulated over updates with weight `1 / min(age + 1, max_age)` into
+//!   `cache_indirect` (HSGI's hemisphere gather with temporal accumulation, SmartGI's multi
+//!   bounce). Every update adds one bounce, so the cache converges to all bounces.
+//!
+//! A face is *visible* when the voxel across it is empty; hidden faces are never seen by a ray
+//! and get 0. The irradiance of a visible face is that of a surface with the voxel's normal
+//! flipped towards the face's side; a normal perpendicular to the face keeps its own side.
+//!
+//! Both passes run one 64-thread workgroup per scheduled brick (one thread per voxel), on the
+//! same list of bricks. Bind group 0 is this module's (uniforms, the scene's punctual lights at
+//! `gi::scene`'s binding 7, the scheduled bricks at binding 8), group 1 the BVH, group 2 the
+//! cache.
+
+use std::collections::HashSet;
+
+use bytemuck::{Pod, Zeroable};
+use gi_gpu::bvh::GpuBvh;
+use gi_gpu::{GpuContext, GpuError, GpuScene, GpuTimer, ShaderLibrary, wgpu};
+use gi_scene::Sky;
+use glam::IVec3;
+
+use crate::config::CacheConfig;
+
+/// How many times more often a near-field brick is relit than a far-field one when the budget
+/// is short: HSGI refreshes its near field every 9 frames and its far field every 121
+/// (121 / 9 = 13.4).
+pub const NEAR_REFRESH_RATIO: u32 = 13;
+
+/// Seed of the gather's random sequences (each face's sequence is indexed by the update count).
+const GATHER_SEED: u32 = 0x6c69_6768;
+
+/// The scene's sky as the lighting passes read it (`gi::lights::Sky`, 64 bytes).
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
+pub struct GpuSky {
+    /// Radiance towards +y (gradient), or the constant sky's radiance; w unused.
+    pub zenith: [f32; 4],
+    /// Radiance at the horizon (gradient only).
+    pub horizon: [f32; 4],
+    /// Radiance towards -y (gradient only).
+    pub ground: [f32; 4],
+    /// 0 constant, 1 gradient.
+    pub kind: u32,
+    pub pad_a: u32,
+    pub pad_b: u32,
+    pub pad_c: u32,
+}
+
+impl GpuSky {
+    /// `sky` for the GPU; the WGSL `sky_radiance` then equals [`Sky::radiance`].
+    pub fn new(sky: &Sky) -> Self {
+        let rgba = |v: glam::Vec3| v.extend(0.0).to_array();
+        match *sky {
+            Sky::Constant { radiance } => Self {
+                zenith: rgba(radiance),
+                ..Self::default()
+            },
+            Sky::Gradient {
+                zenith,
+                horizon,
+                ground,
+            } => Self {
+                zenith: rgba(zenith),
+                horizon: rgba(horizon),
+                ground: rgba(ground),
+                kind: 1,
+                ..Self::default()
+            },
+        }
+    }
+}
+
+/// Uniforms of both lighting passes (`gi::cache::lighting::LightingUniforms`, 96 bytes).
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
+pub struct GpuLightingUniforms {
+    /// What rays leaving the cache see.
+    pub sky: GpuSky,
+    /// Scheduled bricks this frame (workgroups dispatched).
+    pub brick_count: u32,
+    /// Punctual lights in the scene's light buffer.
+    pub light_count: u32,
+    /// [`CacheConfig::gather_rays_per_face`].
+    pub rays_per_face: u32,
+    /// [`CacheConfig::max_age`].
+    pub max_age: u32,
+    /// Lighting updates so far (the sample index of every face's random sequence).
+    pub frame_index: u32,
+    /// Seed of the gather's random sequences.
+    pub seed: u32,
+    pub pad_a: u32,
+    pub pad_b: u32,
+}
+
+/// One brick to relight (`gi::cache::lighting::ScheduledBrick`, 32 bytes).
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
+pub struct GpuScheduledBrick {
+    /// World brick coordinate at `level`.
+    pub brick: [i32; 3],
+    pub level: u32,
+    /// Pool ID.
+    pub brick_id: u32,
+    pub pad_a: u32,
+    pub pad_b: u32,
+    pub pad_c: u32,
+}
+
+/// An allocated brick as the schedule sees it.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub struct LitBrick {
+    /// Clipmap level.
+    pub level: u32,
+    /// World brick coordinate at `level`.
+    pub brick: IVec3,
+    /// Pool ID (1-based).
+    pub brick_id: u32,
+}
+
+impl LitBrick {
+    fn gpu(&self) -> GpuScheduledBrick {
+        GpuScheduledBrick {
+            brick: self.brick.to_array(),
+            level: self.level,
+            brick_id: self.brick_id,
+            ..Default::default()
+        }
+    }
+}
+
+/// How one frame's lighting budget was spent.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct ScheduleCounts {
+    /// Bricks voxelized this frame, lit first.
+    pub new: u32,
+    /// Resident near-field bricks (levels below [`CacheConfig::near_levels`]) relit.
+    pub near: u32,
+    /// Resident far-field bricks relit.
+    pub far: u32,
+}
+
+impl ScheduleCounts {
+    /// Bricks relit this frame.
+    pub fn total(&self) -> u32 {
+        self.new + self.near + self.far
+    }
+}
+
+/// Picks the bricks relit each frame, up to a budget: the newly voxelized bricks first (they
+/// have no lighting yet), then round-robins over the resident near-field and far-field bricks.
+///
+/// The budget left after new bricks is split so that a near brick comes round
+/// [`NEAR_REFRESH_RATIO`] times as often as a far brick: with `N_near` and `N_far` resident
+/// bricks and `B` bricks to spend, the far field gets `B N_far / (13 N_near + N_far)` per frame
+/// (kept as a fractional credit, so a small share still comes round), the near field the rest,
+/// and whatever a field cannot use (it has fewer bricks than its share) goes to the other. Each
+/// field's round-robin walks its bricks in pool-ID order from where the last frame stopped, so
+/// bricks that come and go between frames neither reset nor stall it.
+#[derive(Clone, Debug, Default)]
+pub struct LightSchedule {
+    near_cursor: Option<u32>,
+    far_cursor: Option<u32>,
+    far_credit: f64,
+}
+
+impl LightSchedule {
+    /// This frame's bricks: `new_bricks` (voxelized this frame) first, then resident bricks
+    /// from `resident` (every allocated brick, in any order; new ones are skipped there), at
+    /// most `budget` in all and none twice. Levels below `near_levels` are the near field.
+    pub fn pick(
+        &mut self,
+        budget: u32,
+        near_levels: u32,
+        new_bricks: &[LitBrick],
+        resident: &[LitBrick],
+    ) -> (Vec<LitBrick>, ScheduleCounts) {
+        let budget = budget as usize;
+        let mut picked: Vec<LitBrick> = new_bricks.iter().take(budget).copied().collect();
+        let fresh: HashSet<u32> = picked.iter().map(|b| b.brick_id).collect();
+        let mut near: Vec<LitBrick> = Vec::new();
+        let mut far: Vec<LitBrick> = Vec::new();
+        for b in resident.iter().filter(|b| !fresh.contains(&b.brick_id)) {
+            if b.level < near_levels {
+                near.push(*b);
+            } else {
+                far.push(*b);
+            }
+        }
+        near.sort_unstable_by_key(|b| b.brick_id);
+        near.dedup_by_key(|b| b.brick_id);
+        far.sort_unstable_by_key(|b| b.brick_id);
+        far.dedup_by_key(|b| b.brick_id);
+
+        let remaining = budget - picked.len();
+        let near_demand = f64::from(NEAR_REFRESH_RATIO) * near.len() as f64;
+        let far_demand = far.len() as f64;
+        let mut far_count = 0;
+        if far.is_empty() {
+            self.far_credit = 0.0;
+        } else if remaining > 0 {
+            self.far_credit += remaining as f64 * far_demand / (near_demand + far_demand);
+            far_count = (self.far_credit.floor() as usize).min(far.len());
+            self.far_credit = (self.far_credit - far_count as f64).min(far.len() as f64);
+        }
+        let near_count = (remaining - far_count).min(near.len());
+        far_count = (remaining - near_count).min(far.len());
+
+        let counts = ScheduleCounts {
+            new: picked.len() as u32,
+            near: near_count as u32,
+            far: far_count as u32,
+        };
+        round_robin(&near, &mut self.near_cursor, near_count, &mut picked);
+        round_robin(&far, &mut self.far_cursor, far_count, &mut picked);
+        (picked, counts)
+    }
+}
+
+/// Appends `count` bricks of `sorted` (by pool ID) starting after the ID `cursor`, wrapping
+/// around, and moves the cursor to the last one taken.
+fn round_robin(
+    sorted: &[LitBrick],
+    cursor: &mut Option<u32>,
+    count: usize,
+    out: &mut Vec<LitBrick>,
+) {
+    if count == 0 || sorted.is_empty() {
+        return;
+    }
+    let start = cursor.map_or(0, |c| sorted.partition_point(|b| b.brick_id <= c));
+    for i in 0..count.min(sorted.len()) {
+        let b = sorted[(start + i) % sorted.len()];
+        out.push(b);
+        *cursor = Some(b.brick_id);
+    }
+}
+
+/// What one frame of lighting needs.
+pub struct LightingInputs<'a> {
+    /// The scene's sky (rays that leave the cache see it).
+    pub sky: &'a Sky,
+    /// The frame's scene on the GPU: its punctual lights (`scene.lights`, `light_count`).
+    pub scene: &'a GpuScene,
+    /// The BVH that shadow rays are traced through (bind group 1).
+    pub bvh: &'a GpuBvh,
+    /// The cache's bind group (`gi::cache::data`, group 2).
+    pub cache_bind_group: &'a wgpu::BindGroup,
+    /// Bricks voxelized this frame (relit first, whatever their level).
+    pub new_bricks: &'a [LitBrick],
+    /// Every allocated brick.
+    pub resident: &'a [LitBrick],
+}
+
+/// The cache's lighting technique: the `cache/inject` and `cache/propagate` pipelines, the
+/// schedule and the per-frame brick list. Memory: the uniforms (96 bytes) and 32 bytes per
+/// brick of [`CacheConfig::light_bricks_per_frame`], counted under `cache.lighting.*`.
+pub struct CacheLighting {
+    /// Entry point `inject` of `cache/inject.wgsl`.
+    inject: wgpu::ComputePipeline,
+    /// Entry point `propagate` of `cache/propagate.wgsl`.
+    propagate: wgpu::ComputePipeline,
+    lighting_layout: wgpu::BindGroupLayout,
+    /// `cache.lighting.uniforms`: [`GpuLightingUniforms`].
+    uniforms: wgpu::Buffer,
+    /// `cache.lighting.bricks`: [`GpuScheduledBrick`] per scheduled brick.
+    bricks: wgpu::Buffer,
+    schedule: LightSchedule,
+    config: CacheConfig,
+    /// Lighting updates recorded so far.
+    updates: u32,
+}
+
+impl CacheLighting {
+    /// Compiles both passes against the cache's bind group layout `cache_layout`
+    /// (`CacheBuffers::bind_group_layout`) and allocates the brick list for `config`.
+    pub fn new(
+        ctx: &GpuContext,
+        shaders: &ShaderLibrary,
+        config: &CacheConfig,
+        cache_layout: &wgpu::BindGroupLayout,
+    ) -> Result<Self, GpuError> {
+        let entry = |binding, ty| wgpu::BindGroupLayoutEntry {
+            binding,
+            visibility: wgpu::ShaderStages::COMPUTE,
+            ty: wgpu::BindingType::Buffer {
+                ty,
+                has_dynamic_offset: false,
+                min_binding_size: None,
+            },
+            count: None,
+        };
+        let read = wgpu::BufferBindingType::Storage { read_only: true };
+        let lighting_layout =
+            ctx.device
+                .create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+                    label: Some("cache.lighting.layout"),
+                    entries: &[
+                        entry(0, wgpu::BufferBindingType::Uniform),
+                        entry(7, read),
+                        entry(8, read),
+                    ],
+                });
+        let bvh_layout = GpuBvh::bind_group_layout(ctx);
+        let pipeline = |name: &str, file: &str, groups: &[Option<&wgpu::BindGroupLayout>]| {
+            let module = shaders.create_module(ctx, file, &[])?;
+            let layout = ctx
+                .device
+                .create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
+                    label: Some(&format!("cache/{name}.layout")),
+                    bind_group_layouts: groups,
+                    immediate_size: 0,
+                });
+            Ok::<_, GpuError>(ctx.device.create_compute_pipeline(
+                &wgpu::ComputePipelineDescriptor {
+                    label: Some(&format!("cache/{name}")),
+                    layout: Some(&layout),
+                    module: &module,
+                    entry_point: Some(name),
+                    compilation_options: Default::default(),
+                    cache: None,
+                },
+            ))
+        };
+        let inject = pipeline(
+            "inject",
+            "cache/inject.wgsl",
+            &[
+                Some(&lighting_layout),
+                Some(&bvh_layout),
+                Some(cache_layout),
+            ],
+        )?;
+        let propagate = pipeline(
+            "propagate",
+            "cache/propagate.wgsl",
+            &[Some(&lighting_layout), None, Some(cache_layout)],
+        )?;
+        let uniforms = ctx.create_buffer(
+            "cache.lighting.uniforms",
+            size_of::<GpuLightingUniforms>() as u64,
+            wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
+        );
+        let bricks = ctx.create_buffer(
+            "cache.lighting.bricks",
+            u64::from(config.light_bricks_per_frame.max(1)) * size_of::<GpuScheduledBrick>() as u64,
+            wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_DST,
+        );
+        Ok(Self {
+            inject,
+            propagate,
+            lighting_layout,
+            uniforms,
+            bricks,
+            schedule: LightSchedule::default(),
+            config: config.clone(),
+            updates: 0,
+        })
+    }
+
+    /// Picks this frame's bricks and records `cache/inject` then `cache/propagate` on them into
+    /// `encoder`, each timed under its name. Records nothing when there is no brick to light.
+    /// The brick list and uniforms are written with `queue.write_buffer`, so `encoder` must be
+    /// submitted before the next call.
+    pub fn record(
+        &mut self,
+        ctx: &GpuContext,
+        timer: &mut GpuTimer,
+        encoder: &mut wgpu::CommandEncoder,
+        inputs: &LightingInputs<'_>,
+    ) -> ScheduleCounts {
+        let (bricks, counts) = self.schedule.pick(
+            self.config.light_bricks_per_frame,
+            self.config.near_levels,
+            inputs.new_bricks,
+            inputs.resident,
+        );
+        if bricks.is_empty() {
+            return counts;
+        }
+        let gpu_bricks: Vec<GpuScheduledBrick> = bricks.iter().map(LitBrick::gpu).collect();
+        ctx.queue
+            .write_buffer(&self.bricks, 0, bytemuck::cast_slice(&gpu_bricks));
+        let uniforms = GpuLightingUniforms {
+            sky: GpuSky::new(inputs.sky),
+            brick_count: bricks.len() as u32,
+            light_count: inputs.scene.light_count,
+            rays_per_face: self.config.gather_rays_per_face,
+            max_age: self.config.max_age,
+            frame_index: self.updates,
+            seed: GATHER_SEED,
+            ..Default::default()
+        };
+        ctx.queue
+            .write_buffer(&self.uniforms, 0, bytemuck::bytes_of(&uniforms));
+        self.updates = self.updates.wrapping_add(1);
+
+        let lighting_group = ctx.device.create_bind_group(&wgpu::BindGroupDescriptor {
+            label: Some("cache.lighting.bind_group"),
+            layout: &self.lighting_layout,
+            entries: &[
+                wgpu::BindGroupEntry {
+                    binding: 0,
+                    resource: self.uniforms.as_entire_binding(),
+                },
+                wgpu::BindGroupEntry {
+                    binding: 7,
+                    resource: inputs.scene.lights.as_entire_binding(),
+                },
+                wgpu::BindGroupEntry {
+                    binding: 8,
+                    resource: self.bricks.as_entire_binding(),
+                },
+            ],
+        });
+        let workgroups = bricks.len() as u32;
+        timer.compute_pass(ctx, encoder, "cache/inject", |pass| {
+            pass.set_pipeline(&self.inject);
+            pass.set_bind_group(0, &lighting_group, &[]);
+            pass.set_bind_group(1, &inputs.bvh.bind_group, &[]);
+            pass.set_bind_group(2, inputs.cache_bind_group, &[]);
+            pass.dispatch_workgroups(workgroups, 1, 1);
+        });
+        timer.compute_pass(ctx, encoder, "cache/propagate", |pass| {
+            pass.set_pipeline(&self.propagate);
+            pass.set_bind_group(0, &lighting_group, &[]);
+            pass.set_bind_group(2, inputs.cache_bind_group, &[]);
+            pass.dispatch_workgroups(workgroups, 1, 1);
+        });
+        counts
+    }
+
+    /// Lighting updates recorded so far.
+    pub fn updates(&self) -> u32 {
+        self.updates
+    }
+
+    /// Bytes of the buffers this technique owns.
+    pub fn bytes(&self) -> u64 {
+        self.uniforms.size() + self.bricks.size()
+    }
+
+    /// Stops counting and destroys the buffers.
+    pub fn release(self, ctx: &GpuContext) {
+        ctx.release_buffer(&self.uniforms);
+        ctx.release_buffer(&self.bricks);
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn bricks(levels: &[(u32, u32)]) -> Vec<LitBrick> {
+        let mut out = Vec::new();
+        let mut id = 1;
+        for &(level, count) in levels {
+            for i in 0..count {
+                out.push(LitBrick {
+                    level,
+                    brick: IVec3::new(i as i32, 0, 0),
+                    brick_id: id,
+                });
+                id += 1;
+            }
+        }
+        out
+    }
+
+    #[test]
+    fn new_bricks_come_first_and_nothing_repeats_within_a_frame() {
+        let resident = bricks(&[(0, 10), (4, 10)]);
+        let new = vec![resident[3], resident[15]];
+        let mut schedule = LightSchedule::default();
+        let (picked, counts) = schedule.pick(8, 3, &new, &resident);
+        println!("{counts:?}");
+        assert_eq!(&picked[..2], &new[..]);
+        assert_eq!(picked.len(), 8);
+        assert_eq!(counts.total(), 8);
+        let unique: HashSet<u32> = picked.iter().map(|b| b.brick_id).collect();
+        assert_eq!(unique.len(), picked.len());
+        // A budget larger than the cache lights everything once.
+        let (all, _) = schedule.pick(100, 3, &[], &resident);
+        assert_eq!(all.len(), resident.len());
+    }
+
+    #[test]
+    fn near_bricks_come_round_thirteen_times_as_often_as_far_bricks() {
+        // 100 near and 1000 far bricks, 40 per frame: every brick is visited, and the refresh
+        // periods keep HSGI's near/far ratio.
+        let resident = bricks(&[(0, 50), (2, 50), (3, 500), (6, 500)]);
+        let mut schedule = LightSchedule::default();
+        let mut visits = vec![0u32; resident.len() + 1];
+        let frames = 2000;
+        for _ in 0..frames {
+            let (picked, counts) = schedule.pick(40, 3, &[], &resident);
+            assert_eq!(counts.total(), 40);
+            for b in picked {
+                visits[b.brick_id as usize] += 1;
+            }
+        }
+        let mean = |range: std::ops::Range<usize>| {
+            let n = range.len() as f64;
+            range.map(|i| f64::from(visits[i])).sum::<f64>() / n
+        };
+        let (near, far) = (mean(1..101), mean(101..1101));
+        let ratio = near / far;
+        println!(
+            "near period {:.1} frames, far period {:.1} frames, ratio {ratio:.2}",
+            frames as f64 / near,
+            frames as f64 / far
+        );
+        assert!(
+            (ratio - f64::from(NEAR_REFRESH_RATIO)).abs() < 0.5,
+            "{ratio}"
+        );
+        assert!(visits[1..].iter().all(|&v| v > 0));
+    }
+}
