@@ -1,0 +1,267 @@
+// Rays through the brick radiance cache with a hierarchical DDA (HDDA): SmartGI, SIGGRAPH 2024,
+// "Bricklizer / Brick Tracing" (a coarse test on the 64-bit group mask, a fine test on the
+// 64-bit brick mask, then voxels); HSGI, GDC 2023, "Software Ray Trace" (HDDA after GVDB,
+// Hoetzlein 2016: one 64-bit occupancy fetch per cell) and "Light Propagation - Origin
+// Geometry" (rays leave a surface voxel from an offset origin).
+//
+// Traversal, per clipmap level (finest first):
+//   - cells of 16 voxels (a group): skipped in one step when the group mask is 0;
+//   - cells of 4 voxels (a brick): skipped when their bit of the group mask is clear;
+//   - voxels: a hit when their bit of the brick mask is set.
+// An occupied cell is entered at the same point (descend); a step that leaves the parent cell
+// goes back up to the coarsest scale whose cell changed. Leaving a level's window continues in
+// the next coarser level from the same boundary point, whose voxel there is the fine voxel's
+// coordinate halved (windows start on group boundaries, so the halving is exact and the coarse
+// voxel lies wholly outside the finer window, which a ray never enters again).
+//
+// Robustness: the current cell is an integer voxel coordinate; each step computes the crossing
+// distance afresh from the integer boundary plane and the ray's origin (no accumulated float
+// position), keeps the other coordinates inside the cell being left (clamped), and never lets
+// `t` decrease. Zero direction components never step on their axis.
+#define_import_path gi::cache::trace
+
+#import gi::cache::data::{
+    cache, cache_link, cache_group_masks, cache_brick_masks, cache_voxels, VoxelRef,
+    cache_mask_bit, cache_mask_test, cache_face_index, cache_face_direction, cache_voxel_of_point,
+    cache_in_window, cache_level_of_point, cache_link_index, cache_group_index, cache_voxel_at,
+    cache_voxel_index, cache_voxel_normal, cache_face_irradiance, cache_face_radiance
+}
+
+// Most cells one trace visits (all scales and levels together). A ray crossing a default
+// level (128 x 64 x 128 voxels) voxel by voxel takes at most 320 voxel steps; empty space goes
+// by in groups, so this bound is only reached by rays grazing long surfaces through several
+// levels. A ray that reaches it is reported as a miss.
+const CACHE_TRACE_MAX_STEPS: u32 = 2048u;
+
+// Distance standing for "never" on an axis the ray does not move along.
+const CACHE_TRACE_FAR: f32 = 3.0e38;
+
+// What a ray found in the cache.
+struct CacheHit {
+    // Distance along the (unit) direction to where the ray entered the hit voxel; the surface
+    // lies somewhere inside that voxel, so this is early by up to one voxel diagonal of `level`.
+    t: f32,
+    // Level of the hit voxel (its edge is `cache.levels[level].voxel_size_m`).
+    level: u32,
+    // The hit voxel (brick_id 0 on a miss).
+    voxel: VoxelRef,
+    // Face the ray entered through: moving +x the ray enters through face 1 (-x), and so on.
+    face: u32,
+    // False when the ray reached `t_max`, left the coarsest window or ran out of steps.
+    hit: bool,
+}
+
+fn cache_miss(t_max: f32) -> CacheHit {
+    return CacheHit(t_max, 0u, VoxelRef(0u, 0u), 0u, false);
+}
+
+// Index of the smallest component (ties: x, then y).
+fn cache_argmin3(v: vec3<f32>) -> u32 {
+    if v.x <= v.y && v.x <= v.z {
+        return 0u;
+    }
+    return select(2u, 1u, v.y <= v.z);
+}
+
+// Index of the largest component (ties: x, then y).
+fn cache_argmax3(v: vec3<f32>) -> u32 {
+    if v.x >= v.y && v.x >= v.z {
+        return 0u;
+    }
+    return select(2u, 1u, v.y >= v.z);
+}
+
+// Traces `origin + t * dir`, `t` in (0, t_max], `dir` of unit length, through the cache, and
+// returns the first occupied voxel.
+//
+// It starts at the finest level whose window holds `origin` (from a point outside every window,
+// where the ray enters the coarsest one) and skips the voxel that holds `origin`: rays leave
+// surfaces, and the surface's own voxel would hit at once. Callers therefore start rays about
+// one voxel (of the level they start in) off the surface along its normal, as HSGI does, so
+// that the neighbouring voxels of the same surface are not hit either; a ray leaving at a
+// grazing angle may still hit them.
+fn cache_trace(origin: vec3<f32>, dir: vec3<f32>, t_max: f32) -> CacheHit {
+    if cache.level_count == 0u {
+        return cache_miss(t_max);
+    }
+    let moving = dir != vec3(0.0);
+    let inv_dir = 1.0 / select(vec3(1.0), dir, moving);
+    let step = select(vec3(-1), vec3(1), dir >= vec3(0.0));
+
+    var level = cache_level_of_point(origin);
+    var t = 0.0;
+    var face = 0u;
+    var vox: vec3<i32>;
+    var skip_origin = true;
+    if level < cache.level_count {
+        vox = cache_voxel_of_point(origin, level);
+    } else {
+        // Outside every window: clip the ray to the coarsest window (slab test) and enter it.
+        level = cache.level_count - 1u;
+        let s = cache.levels[level].voxel_size_m;
+        let lo_voxel = cache.levels[level].origin_brick * 4;
+        let hi_voxel = lo_voxel + vec3<i32>(cache.level_bricks * 4u);
+        let ta = (vec3<f32>(lo_voxel) * s - origin) * inv_dir;
+        let tb = (vec3<f32>(hi_voxel) * s - origin) * inv_dir;
+        let inside_slab = (origin >= vec3<f32>(lo_voxel) * s) & (origin < vec3<f32>(hi_voxel) * s);
+        if any(!moving & !inside_slab) {
+            return cache_miss(t_max);
+        }
+        let t_near = select(vec3(-CACHE_TRACE_FAR), min(ta, tb), moving);
+        let t_far = select(vec3(CACHE_TRACE_FAR), max(ta, tb), moving);
+        let t_enter = max(max(t_near.x, t_near.y), max(t_near.z, 0.0));
+        let t_exit = min(min(t_far.x, t_far.y), t_far.z);
+        if t_enter >= t_exit || t_enter > t_max {
+            return cache_miss(t_max);
+        }
+        let axis = cache_argmax3(t_near);
+        t = t_enter;
+        face = cache_face_index(axis, step[axis] < 0);
+        vox = clamp(cache_voxel_of_point(origin + dir * t, level), lo_voxel, hi_voxel - vec3(1));
+        vox[axis] = select(hi_voxel[axis] - 1, lo_voxel[axis], step[axis] > 0);
+        skip_origin = false;
+    }
+    let origin_level = level;
+    let origin_voxel = vox;
+
+    // log2 of the current cell's edge in voxels: 4 (group), 2 (brick) or 0 (voxel).
+    var shift = 4u;
+    // Masks and brick of the cells the traversal is inside of (valid below the group scale).
+    var group_mask = vec2(0u);
+    var brick_id = 0u;
+    var brick_mask = vec2(0u);
+    for (var i = 0u; i < CACHE_TRACE_MAX_STEPS; i++) {
+        if t > t_max {
+            break;
+        }
+        if !cache_in_window(level, vox >> vec3(2u)) {
+            // Left this level's window: go on from the same point one level coarser.
+            level += 1u;
+            if level >= cache.level_count {
+                break;
+            }
+            vox = vox >> vec3(1u);
+            shift = 4u;
+            continue;
+        }
+        var occupied = false;
+        if shift == 4u {
+            group_mask = cache_group_masks[cache_group_index(level, vox >> vec3(4u))];
+            occupied = any(group_mask != vec2(0u));
+        } else if shift == 2u {
+            let brick = vox >> vec3(2u);
+            if cache_mask_test(group_mask, cache_mask_bit(vec3<u32>(brick & vec3(3)))) {
+                brick_id = cache_link[cache_link_index(level, brick)];
+                brick_mask = cache_brick_masks[brick_id];
+                occupied = brick_id != 0u && any(brick_mask != vec2(0u));
+            }
+        } else {
+            let bit = cache_mask_bit(vec3<u32>(vox & vec3(3)));
+            let is_origin = skip_origin && level == origin_level && all(vox == origin_voxel);
+            if cache_mask_test(brick_mask, bit) && !is_origin {
+                return CacheHit(t, level, VoxelRef(brick_id, bit), face, true);
+            }
+        }
+        if occupied {
+            shift -= 2u;
+            continue;
+        }
+
+        // Step over the empty cell: find the boundary plane the ray leaves it through.
+        let s = cache.levels[level].voxel_size_m;
+        let size = 1 << shift;
+        let lo = (vox >> vec3(shift)) * size;
+        let boundary = lo + select(vec3(0), vec3(size), step > vec3(0));
+        let t_axis = select(vec3(CACHE_TRACE_FAR), (vec3<f32>(boundary) * s - origin) * inv_dir, moving);
+        let axis = cache_argmin3(t_axis);
+        t = max(t, t_axis[axis]);
+        var next = clamp(vec3<i32>(floor((origin + dir * t) / s)), lo, lo + vec3(size - 1));
+        next[axis] = select(lo[axis] - 1, lo[axis] + size, step[axis] > 0);
+        face = cache_face_index(axis, step[axis] < 0);
+        // Back up to the coarsest scale whose cell changed (the group and brick masks held
+        // are those of the cells still containing the traversal).
+        if any((next >> vec3(4u)) != (vox >> vec3(4u))) {
+            shift = 4u;
+        } else if any((next >> vec3(2u)) != (vox >> vec3(2u))) {
+            shift = max(shift, 2u);
+        }
+        vox = next;
+    }
+    return cache_miss(t_max);
+}
+
+// Radiance leaving the hit face towards the ray (the face's Lambertian radiance, plus the
+// voxel's emission when `with_emission`); black on a miss.
+fn cache_hit_radiance(hit: CacheHit, with_emission: bool) -> vec3<f32> {
+    if !hit.hit {
+        return vec3(0.0);
+    }
+    return cache_face_radiance(hit.voxel, hit.face, with_emission);
+}
+
+// The hit voxel's surface normal, flipped to the side of the face the ray entered through
+// (the side whose lighting the face holds); zero on a miss.
+fn cache_hit_normal(hit: CacheHit) -> vec3<f32> {
+    if !hit.hit {
+        return vec3(0.0);
+    }
+    let n = cache_voxel_normal(cache_voxels[cache_voxel_index(hit.voxel)]);
+    return select(n, -n, dot(n, cache_face_direction(hit.face)) < 0.0);
+}
+
+// Irradiance of voxel `v` seen by a surface of normal `n`: the faces on `n`'s side weighted by
+// `n_axis^2` (an ambient cube; the weights sum to 1 for a unit `n`).
+fn cache_voxel_irradiance(v: VoxelRef, n: vec3<f32>) -> vec3<f32> {
+    let w = n * n;
+    return w.x * cache_face_irradiance(v, cache_face_index(0u, n.x >= 0.0))
+        + w.y * cache_face_irradiance(v, cache_face_index(1u, n.y >= 0.0))
+        + w.z * cache_face_irradiance(v, cache_face_index(2u, n.z >= 0.0));
+}
+
+// Irradiance (rgb) at surface point `p` with unit normal `n`, and in w whether the cache has a
+// voxel there (1) or not (0, rgb 0), at the finest level whose window holds `p`.
+//
+// Interpolation: trilinear over the 2 x 2 x 2 voxels around the point half a voxel behind the
+// surface (`p - n * s / 2`, where the surface's own voxels are), using only occupied voxels
+// whose surface is roughly parallel to the query's (|n_voxel . n| >= 0.5) and renormalizing
+// the weights. Empty voxels and voxels of a crossing surface (a wall meeting the floor) thus
+// never leak in. When none qualifies, the voxel containing `p` or else its neighbour behind
+// `p` along `-n` is used as is.
+fn cache_irradiance(p: vec3<f32>, n: vec3<f32>) -> vec4<f32> {
+    let level = cache_level_of_point(p);
+    if level >= cache.level_count {
+        return vec4(0.0);
+    }
+    let s = cache.levels[level].voxel_size_m;
+    let q = (p - n * (0.5 * s)) / s - 0.5;
+    let base = vec3<i32>(floor(q));
+    let f = q - floor(q);
+    var sum = vec3(0.0);
+    var weight = 0.0;
+    for (var corner = 0u; corner < 8u; corner++) {
+        let offset = vec3(corner & 1u, (corner >> 1u) & 1u, corner >> 2u);
+        let v = cache_voxel_at(level, base + vec3<i32>(offset));
+        if v.brick_id == 0u {
+            continue;
+        }
+        let n_voxel = cache_voxel_normal(cache_voxels[cache_voxel_index(v)]);
+        if abs(dot(n_voxel, n)) < 0.5 {
+            continue;
+        }
+        let w3 = select(1.0 - f, f, offset == vec3(1u));
+        let w = w3.x * w3.y * w3.z;
+        sum += w * cache_voxel_irradiance(v, n);
+        weight += w;
+    }
+    if weight > 1e-6 {
+        return vec4(sum / weight, 1.0);
+    }
+    var v = cache_voxel_at(level, cache_voxel_of_point(p, level));
+    if v.brick_id == 0u {
+        v = cache_voxel_at(level, cache_voxel_of_point(p - n * s, level));
+    }
+    if v.brick_id == 0u {
+        return vec4(0.0);
+    }
+    return vec4(cache_voxel_irradiance(v, n), 1.0);
+}
