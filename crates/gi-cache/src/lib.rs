@@ -16,6 +16,7 @@
 pub mod alloc;
 pub mod binning;
 pub mod buffers;
+pub mod cache;
 pub mod clipmap;
 pub mod config;
 pub mod cpu_cache;
@@ -30,11 +31,15 @@ pub mod voxelize;
 
 pub use alloc::{BrickAllocator, FreeError};
 pub use buffers::CacheBuffers;
+pub use cache::{
+    CacheError, CacheFrame, CacheInputs, CacheLightingHook, CacheStats, CacheUpdateStats,
+    RadianceCache, ResidentBrick,
+};
 pub use clipmap::{BrickBox, ClipmapWindows, WindowShift};
 pub use config::{CacheConfig, ConfigError};
 pub use cpu_cache::CpuCache;
 pub use debug::{DebugView, UnknownDebugView, render_debug_view};
 pub use layout::{GpuCacheLevel, GpuCacheUniforms, VoxelSurface};
-pub use query::{CacheRayHit, CacheTraceTimings, CacheTracer};
 pub use lighting::{CacheLighting, LightSchedule, LightingInputs, LitBrick, ScheduleCounts};
+pub use query::{CacheRayHit, CacheTraceTimings, CacheTracer};
 pub use structure::CacheStructure;

@@ -1,0 +1,526 @@
+//! [`RadianceCache`]: the cache's resources and its per-frame update.
+//!
+//! Each [`RadianceCache::update`]:
+//! 1. re-centers the level windows on the camera; bricks of the slabs that leave are released
+//!    (link cleared, ID freed), the slabs that enter are queued (toroidal addressing: nothing
+//!    else moves in memory);
+//! 2. queues the bricks around every dynamic node that moved (its old and new bounds), to be
+//!    voxelized again in place or released when empty;
+//! 3. takes up to [`CacheConfig::voxelize_bricks_per_frame`] queued bricks, finer levels and
+//!    nearer bricks first, bins the frame's triangles to them, allocates IDs (evicting the
+//!    farthest brick of a coarser level when the pool is full), links them and records
+//!    `cache/voxelize`;
+//! 4. uploads the changed link and group-mask slots and the uniforms;
+//! 5. records the lighting passes, when a [`CacheLightingHook`] is set.
+
+use std::collections::HashSet;
+
+use gi_gpu::bvh::GpuBvh;
+use gi_gpu::{GpuContext, GpuError, GpuScene, GpuTimer, ShaderLibrary, wgpu};
+use gi_scene::{Scene, SceneFrame};
+use glam::{IVec3, Mat4, Vec3};
+
+use crate::alloc::BrickAllocator;
+use crate::binning::{CacheScene, bin_triangles, fill_priority};
+use crate::buffers::{CacheBuffers, cache_uniforms};
+use crate::clipmap::{BrickBox, ClipmapWindows};
+use crate::config::{CacheConfig, ConfigError};
+use crate::layout::NO_BRICK;
+use crate::structure::CacheStructure;
+use crate::voxelize::{VoxelizeJob, Voxelizer};
+
+/// Why a cache could not be created.
+#[derive(Debug, thiserror::Error)]
+pub enum CacheError {
+    #[error(transparent)]
+    Config(#[from] ConfigError),
+    /// A buffer exceeds the device's largest storage binding.
+    #[error(
+        "cache buffer `{label}` needs {bytes} bytes but the device binds at most {limit}: lower `pool_bricks` (or `levels` / `level_bricks`)"
+    )]
+    BufferTooLarge {
+        label: &'static str,
+        bytes: u64,
+        limit: u64,
+    },
+    /// The voxelization pass binds more storage buffers than the device allows per stage.
+    #[error(
+        "the cache's passes bind {needed} storage buffers per stage; the device allows {available}"
+    )]
+    TooManyStorageBuffers { needed: u32, available: u32 },
+    #[error(transparent)]
+    Gpu(#[from] GpuError),
+}
+
+/// What one cache update reads.
+pub struct CacheInputs<'a> {
+    pub scene: &'a Scene,
+    /// `scene` evaluated at this frame's time.
+    pub frame: &'a SceneFrame,
+    /// `frame` on the GPU (triangles and materials are read by `cache/voxelize`).
+    pub gpu_scene: &'a GpuScene,
+    /// The frame's BVH (traced by the lighting passes).
+    pub bvh: &'a GpuBvh,
+    /// Where the level windows are centered.
+    pub camera_position: Vec3,
+}
+
+/// An allocated brick.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub struct ResidentBrick {
+    pub level: u32,
+    /// World brick coordinate at `level`.
+    pub brick: IVec3,
+    /// Pool ID.
+    pub brick_id: u32,
+}
+
+/// What the lighting passes get each update.
+pub struct CacheFrame<'a> {
+    pub config: &'a CacheConfig,
+    pub buffers: &'a CacheBuffers,
+    pub inputs: &'a CacheInputs<'a>,
+    /// Bricks voxelized by this update (their faces were reset to 0).
+    pub new_bricks: &'a [ResidentBrick],
+    /// Every allocated brick.
+    pub resident: &'a [ResidentBrick],
+    /// Updates so far, this one included.
+    pub frame_index: u32,
+}
+
+/// Passes recorded after voxelization in every update: the cache's lighting
+/// (`lighting.rs` implements it for its `CacheLighting`).
+pub trait CacheLightingHook {
+    /// Records the passes into `encoder`, timed by `timer`.
+    fn record(
+        &mut self,
+        ctx: &GpuContext,
+        timer: &mut GpuTimer,
+        encoder: &mut wgpu::CommandEncoder,
+        frame: &CacheFrame<'_>,
+    );
+}
+
+/// What one update did.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct CacheUpdateStats {
+    /// Levels whose window moved.
+    pub levels_moved: u32,
+    /// Bricks released because their slab left the window.
+    pub released_leaving: u32,
+    /// Bricks released because their re-voxelization found no triangle.
+    pub released_empty: u32,
+    /// Bricks queued by entering slabs and the first fill.
+    pub queued_entering: u32,
+    /// Bricks queued around moved dynamic nodes.
+    pub queued_dynamic: u32,
+    /// Bricks voxelized (`cache/voxelize` workgroups).
+    pub voxelized: u32,
+    /// Bricks of coarser levels evicted to make room for finer ones.
+    pub evicted: u32,
+    /// Bricks with geometry left unfilled because the pool was full.
+    pub dropped_for_pool: u32,
+    /// Bricks still queued after this update.
+    pub queued_remaining: u32,
+}
+
+/// The cache's state.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct CacheStats {
+    pub allocated_bricks: u32,
+    pub free_bricks: u32,
+    pub queued_bricks: u32,
+    /// Allocated bricks per level.
+    pub bricks_per_level: Vec<u32>,
+    /// Bricks dropped for lack of pool over the cache's life.
+    pub dropped_for_pool: u64,
+}
+
+/// The radiance cache: its GPU buffers, the CPU structure that places bricks, the fill queue
+/// and the voxelization pass.
+pub struct RadianceCache {
+    config: CacheConfig,
+    buffers: CacheBuffers,
+    voxelizer: Voxelizer,
+    structure: CacheStructure,
+    allocator: BrickAllocator,
+    /// `None` until the first update places the windows.
+    windows: Option<ClipmapWindows>,
+    /// Level and brick of each allocated ID (`owner[id]`).
+    owner: Vec<Option<(u32, IVec3)>>,
+    queue: Vec<(u32, IVec3)>,
+    queued: HashSet<(u32, IVec3)>,
+    /// World transforms of the previous update, to find moved dynamic nodes.
+    previous_world_from_node: Vec<Mat4>,
+    /// World bounds of each node's triangles at the previous update.
+    previous_node_bounds: Vec<Option<(Vec3, Vec3)>>,
+    frame_index: u32,
+    dropped_for_pool: u64,
+    /// The lighting passes, recorded after voxelization (see [`CacheLightingHook`]).
+    pub lighting: Option<Box<dyn CacheLightingHook>>,
+}
+
+/// Storage buffers `cache/voxelize` binds: seven of the scene, two of its own, six of the cache.
+const VOXELIZE_STORAGE_BUFFERS: u32 = 15;
+
+impl RadianceCache {
+    /// Validates `config` against itself and the device, creates the buffers (counted under
+    /// `cache.*`) and compiles `cache/voxelize`. The cache is empty until the first update.
+    pub fn new(ctx: &GpuContext, config: &CacheConfig) -> Result<Self, CacheError> {
+        config.validate()?;
+        let limit = ctx.limits.max_storage_buffer_binding_size;
+        let labels = [
+            "cache.uniforms",
+            "cache.link",
+            "cache.group_masks",
+            "cache.brick_masks",
+            "cache.voxels",
+            "cache.direct",
+            "cache.indirect",
+        ];
+        for (label, bytes) in labels.into_iter().zip(CacheBuffers::sizes(config)) {
+            if bytes > limit {
+                return Err(CacheError::BufferTooLarge {
+                    label,
+                    bytes,
+                    limit,
+                });
+            }
+        }
+        let available = ctx.limits.max_storage_buffers_per_shader_stage;
+        if available < VOXELIZE_STORAGE_BUFFERS {
+            return Err(CacheError::TooManyStorageBuffers {
+                needed: VOXELIZE_STORAGE_BUFFERS,
+                available,
+            });
+        }
+        let voxelizer = Voxelizer::new(ctx, &ShaderLibrary::new())?;
+        Ok(Self {
+            config: config.clone(),
+            buffers: CacheBuffers::new(ctx, config),
+            voxelizer,
+            structure: CacheStructure::new(config),
+            allocator: BrickAllocator::new(config.pool_bricks),
+            windows: None,
+            owner: vec![None; config.pool_bricks as usize + 1],
+            queue: Vec::new(),
+            queued: HashSet::new(),
+            previous_world_from_node: Vec::new(),
+            previous_node_bounds: Vec::new(),
+            frame_index: 0,
+            dropped_for_pool: 0,
+            lighting: None,
+        })
+    }
+
+    /// The GPU buffers and bind group 2.
+    pub fn buffers(&self) -> &CacheBuffers {
+        &self.buffers
+    }
+
+    pub fn config(&self) -> &CacheConfig {
+        &self.config
+    }
+
+    /// The CPU mirror of link grids and group masks (brick masks are the GPU's).
+    pub fn structure(&self) -> &CacheStructure {
+        &self.structure
+    }
+
+    /// The level windows (`None` before the first update).
+    pub fn windows(&self) -> Option<&ClipmapWindows> {
+        self.windows.as_ref()
+    }
+
+    /// Bytes of the buffers the context counts under `cache.*` (the bind group's buffers and
+    /// the voxelization pass's upload buffers; not the lighting's, which it counts itself).
+    pub fn memory_bytes(&self, ctx: &GpuContext) -> u64 {
+        let report = ctx.memory();
+        report.bytes_with_prefix("cache.") - report.bytes_with_prefix("cache.lighting")
+    }
+
+    /// Every allocated brick, in ID order.
+    pub fn resident_bricks(&self) -> Vec<ResidentBrick> {
+        self.owner
+            .iter()
+            .enumerate()
+            .filter_map(|(id, owner)| {
+                owner.map(|(level, brick)| ResidentBrick {
+                    level,
+                    brick,
+                    brick_id: id as u32,
+                })
+            })
+            .collect()
+    }
+
+    pub fn stats(&self) -> CacheStats {
+        let mut bricks_per_level = vec![0; self.config.levels as usize];
+        for (level, _) in self.owner.iter().flatten() {
+            bricks_per_level[*level as usize] += 1;
+        }
+        CacheStats {
+            allocated_bricks: self.allocator.allocated_count(),
+            free_bricks: self.allocator.free_count(),
+            queued_bricks: self.queue.len() as u32,
+            bricks_per_level,
+            dropped_for_pool: self.dropped_for_pool,
+        }
+    }
+
+    /// Updates the cache for one frame (see the module docs) and records its passes into
+    /// `encoder`. Uploads go through the queue, so submit `encoder` before the next update.
+    pub fn update(
+        &mut self,
+        ctx: &GpuContext,
+        timer: &mut GpuTimer,
+        encoder: &mut wgpu::CommandEncoder,
+        inputs: &CacheInputs<'_>,
+    ) -> CacheUpdateStats {
+        self.frame_index = self.frame_index.wrapping_add(1);
+        let mut stats = CacheUpdateStats::default();
+        let scene = CacheScene::new(inputs.scene, inputs.frame);
+        self.move_windows(&scene, inputs.camera_position, &mut stats);
+        self.queue_moved_dynamic_nodes(&scene, &mut stats);
+        let (jobs, new_bricks) = self.fill_from_queue(&scene, inputs.camera_position, &mut stats);
+
+        self.buffers.upload_structure(ctx, &mut self.structure);
+        let windows = self.windows.as_ref().expect("placed by move_windows");
+        self.buffers.write_uniforms(
+            ctx,
+            &cache_uniforms(&self.config, windows, self.frame_index),
+        );
+        self.voxelizer
+            .record(ctx, encoder, timer, inputs.gpu_scene, &self.buffers, &jobs);
+
+        // The lighting passes run here, after voxelization, on the updated cache.
+        if let Some(mut lighting) = self.lighting.take() {
+            let resident = self.resident_bricks();
+            let frame = CacheFrame {
+                config: &self.config,
+                buffers: &self.buffers,
+                inputs,
+                new_bricks: &new_bricks,
+                resident: &resident,
+                frame_index: self.frame_index,
+            };
+            lighting.record(ctx, timer, encoder, &frame);
+            self.lighting = Some(lighting);
+        }
+        stats.queued_remaining = self.queue.len() as u32;
+        stats
+    }
+
+    /// Places the windows on the first update (queuing every brick with geometry), else
+    /// re-centers them: releases the leaving slabs' bricks and queues the entering slabs'.
+    fn move_windows(&mut self, scene: &CacheScene<'_>, camera: Vec3, stats: &mut CacheUpdateStats) {
+        let triangles = 0..scene.frame.triangles.len() as u32;
+        let Some(windows) = self.windows.as_mut() else {
+            let windows = ClipmapWindows::new(&self.config, camera);
+            for level in 0..self.config.levels {
+                let window = windows.window(level);
+                stats.queued_entering += self.queue_geometry(scene, level, &window);
+            }
+            self.windows = Some(windows);
+            return;
+        };
+        let shifts = windows.recenter(&self.config, camera);
+        stats.levels_moved = shifts.len() as u32;
+        for shift in shifts {
+            for slab in &shift.leaving {
+                for brick in slab.bricks() {
+                    if self.release(shift.level, brick) {
+                        stats.released_leaving += 1;
+                    }
+                }
+            }
+            for slab in &shift.entering {
+                let bins = bin_triangles(&self.config, scene, shift.level, slab, triangles.clone());
+                for brick in bins.into_keys() {
+                    stats.queued_entering += u32::from(self.enqueue(shift.level, brick));
+                }
+            }
+        }
+    }
+
+    /// Queues every brick of `region` at `level` that some triangle touches; returns how many
+    /// were newly queued.
+    fn queue_geometry(&mut self, scene: &CacheScene<'_>, level: u32, region: &BrickBox) -> u32 {
+        let triangles = 0..scene.frame.triangles.len() as u32;
+        let bins = bin_triangles(&self.config, scene, level, region, triangles);
+        bins.into_keys()
+            .map(|brick| u32::from(self.enqueue(level, brick)))
+            .sum()
+    }
+
+    fn enqueue(&mut self, level: u32, brick: IVec3) -> bool {
+        let fresh = self.queued.insert((level, brick));
+        if fresh {
+            self.queue.push((level, brick));
+        }
+        fresh
+    }
+
+    /// Empties the slot of `brick` and frees its ID; false when it held none.
+    fn release(&mut self, level: u32, brick: IVec3) -> bool {
+        let id = self.structure.clear_brick(level, brick);
+        if id == NO_BRICK {
+            return false;
+        }
+        self.owner[id as usize] = None;
+        // The structure and the allocator change together, so the ID is allocated here.
+        self.allocator
+            .free(id)
+            .expect("a linked brick ID is allocated");
+        true
+    }
+
+    /// Queues, at every level, the bricks inside the old and the new bounds of each dynamic
+    /// node whose transform changed: allocated ones are voxelized again (or released when
+    /// empty), new ones filled.
+    fn queue_moved_dynamic_nodes(&mut self, scene: &CacheScene<'_>, stats: &mut CacheUpdateStats) {
+        let world = &scene.frame.world_from_node;
+        let bounds = scene.node_bounds();
+        let comparable = self.previous_world_from_node.len() == world.len()
+            && self.previous_node_bounds.len() == bounds.len();
+        if comparable {
+            let windows = self.windows.clone().expect("placed by move_windows");
+            for node in 0..world.len() {
+                if !scene.dynamic_node[node] || world[node] == self.previous_world_from_node[node] {
+                    continue;
+                }
+                for (lo, hi) in [self.previous_node_bounds[node], bounds[node]]
+                    .into_iter()
+                    .flatten()
+                {
+                    for level in 0..self.config.levels {
+                        let region = BrickBox::from_world(lo, hi, self.config.brick_size_at(level))
+                            .intersection(&windows.window(level));
+                        for brick in region.bricks() {
+                            // Allocated bricks may have become empty; empty ones may now be hit.
+                            if self.structure.brick_id(level, brick) != NO_BRICK {
+                                stats.queued_dynamic += u32::from(self.enqueue(level, brick));
+                            }
+                        }
+                        stats.queued_dynamic += self.queue_geometry(scene, level, &region);
+                    }
+                }
+            }
+        }
+        self.previous_world_from_node = world.clone();
+        self.previous_node_bounds = bounds;
+    }
+
+    /// Takes the budget's worth of queued bricks in fill order and prepares their
+    /// voxelization: bins, allocates (evicting coarser bricks when the pool is full) and links.
+    fn fill_from_queue(
+        &mut self,
+        scene: &CacheScene<'_>,
+        camera: Vec3,
+        stats: &mut CacheUpdateStats,
+    ) -> (Vec<VoxelizeJob>, Vec<ResidentBrick>) {
+        let windows = self.windows.clone().expect("placed by move_windows");
+        // Bricks whose window moved away are dropped from the queue.
+        self.queue
+            .retain(|(level, brick)| windows.window(*level).contains(*brick));
+        self.queued = self.queue.iter().copied().collect();
+        let config = &self.config;
+        let key = |&(level, brick): &(u32, IVec3)| fill_priority(config, level, brick, camera);
+        // Sorted farthest first, so the batch pops off the end.
+        self.queue
+            .sort_by(|a, b| key(b).0.cmp(&key(a).0).then(key(b).1.total_cmp(&key(a).1)));
+        let take = (self.config.voxelize_bricks_per_frame as usize).min(self.queue.len());
+        let batch: Vec<(u32, IVec3)> = self.queue.split_off(self.queue.len() - take);
+        for entry in &batch {
+            self.queued.remove(entry);
+        }
+
+        let mut jobs = Vec::new();
+        let mut new_bricks = Vec::new();
+        for level in 0..self.config.levels {
+            let bricks: Vec<IVec3> = batch
+                .iter()
+                .rev()
+                .filter(|(l, _)| *l == level)
+                .map(|(_, b)| *b)
+                .collect();
+            let Some(region) = bricks
+                .iter()
+                .map(|b| BrickBox::new(*b, glam::UVec3::ONE))
+                .reduce(|a, b| BrickBox {
+                    min: a.min.min(b.min),
+                    max: a.max.max(b.max),
+                })
+            else {
+                continue;
+            };
+            let triangles = 0..scene.frame.triangles.len() as u32;
+            let mut bins = bin_triangles(&self.config, scene, level, &region, triangles);
+            for brick in bricks {
+                let Some(triangles) = bins.remove(&brick) else {
+                    if self.release(level, brick) {
+                        stats.released_empty += 1;
+                    }
+                    continue;
+                };
+                let mut id = self.structure.brick_id(level, brick);
+                if id == NO_BRICK {
+                    id = match self.allocate(level, camera, stats) {
+                        Some(id) => id,
+                        None => {
+                            stats.dropped_for_pool += 1;
+                            self.dropped_for_pool += 1;
+                            continue;
+                        }
+                    };
+                    self.structure.set_brick(level, brick, id);
+                    self.owner[id as usize] = Some((level, brick));
+                }
+                new_bricks.push(ResidentBrick {
+                    level,
+                    brick,
+                    brick_id: id,
+                });
+                jobs.push(VoxelizeJob {
+                    level,
+                    brick,
+                    id,
+                    triangles,
+                });
+            }
+        }
+        stats.voxelized = jobs.len() as u32;
+        (jobs, new_bricks)
+    }
+
+    /// A free ID, or the ID of the farthest brick of the coarsest level above `level` (evicted
+    /// so finer levels are kept), or `None`.
+    fn allocate(&mut self, level: u32, camera: Vec3, stats: &mut CacheUpdateStats) -> Option<u32> {
+        if let Some(id) = self.allocator.alloc() {
+            return Some(id);
+        }
+        let config = &self.config;
+        let victim = self
+            .owner
+            .iter()
+            .flatten()
+            .filter(|(l, _)| *l > level)
+            .max_by(|a, b| {
+                let (ka, kb) = (
+                    fill_priority(config, a.0, a.1, camera),
+                    fill_priority(config, b.0, b.1, camera),
+                );
+                ka.0.cmp(&kb.0).then(ka.1.total_cmp(&kb.1))
+            })
+            .copied()?;
+        self.release(victim.0, victim.1);
+        stats.evicted += 1;
+        self.allocator.alloc()
+    }
+
+    /// Stops counting and destroys the cache's buffers.
+    pub fn release_buffers(self, ctx: &GpuContext) {
+        self.buffers.release(ctx);
+        self.voxelizer.release(ctx);
+    }
+}
