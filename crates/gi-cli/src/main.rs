@@ -3,6 +3,7 @@
 
 mod cache;
 mod compare;
+mod debug_cache;
 mod render;
 mod tiers;
 
@@ -29,6 +30,9 @@ enum Command {
     Render(render::RenderArgs),
     /// Render several tiers and report their error against a cached path-traced reference.
     Compare(compare::CompareArgs),
+    /// Render what the brick radiance cache holds for a scene (albedo, normals, radiance,
+    /// occupancy per level) and report its size.
+    DebugCache(debug_cache::DebugCacheArgs),
     /// List the bundled scenes.
     Scenes,
     /// Load a scene and report its content and BVH build time.
@@ -130,6 +134,7 @@ fn run(cli: Cli) -> anyhow::Result<()> {
     match cli.command {
         Command::Render(args) => render::run(&args),
         Command::Compare(args) => compare::run(&args),
+        Command::DebugCache(args) => debug_cache::run(&args),
         Command::Scenes => {
             let dir = gi_scene::bundled_scene_dir();
             for (name, description) in gi_scene::BUNDLED_SCENES {

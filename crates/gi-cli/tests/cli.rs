@@ -251,3 +251,61 @@ fn unsupported_output_format_is_rejected_before_rendering() {
     let output = gi(&["render", "cornell-box", "--out", "a.bmp"], dir.path());
     assert_fails_with(&output, "a.bmp");
 }
+
+#[test]
+fn debug_cache_writes_the_view_and_reports_the_cache() {
+    if gi_gpu::GpuContext::new_or_skip("debug_cache_writes_the_view_and_reports_the_cache")
+        .is_none()
+    {
+        return;
+    }
+    let dir = tempfile::tempdir().unwrap();
+    let output = gi(
+        &[
+            "debug-cache",
+            "cornell-box",
+            "--view",
+            "occupancy",
+            "--size",
+            "32x24",
+            "--out",
+            "occupancy.png",
+        ],
+        dir.path(),
+    );
+    assert!(output.status.success(), "{}", stderr(&output));
+    let stdout = String::from_utf8_lossy(&output.stdout);
+    assert!(
+        stdout.contains("bricks") && stdout.contains("MiB"),
+        "{stdout}"
+    );
+    let image = gi_image::load(dir.path().join("occupancy.png")).unwrap();
+    assert_eq!((image.width, image.height), (32, 24));
+    // The camera looks into the box: most pixels see its voxels (the rest look past its open
+    // front edges into empty space).
+    let seen = image
+        .enumerate_pixels()
+        .filter(|(_, _, p)| p.max_element() > 0.0)
+        .count();
+    assert!(seen * 2 >= 32 * 24, "{seen} of {} pixels hit", 32 * 24);
+}
+
+#[test]
+fn debug_cache_rejects_unknown_views_and_scenes_in_one_line() {
+    let dir = tempfile::tempdir().unwrap();
+    let output = gi(
+        &["debug-cache", "cornell-box", "--view", "albedos"],
+        dir.path(),
+    );
+    assert_fails_with(&output, "unknown cache debug view `albedos`");
+    let output = gi(
+        &["debug-cache", "no-such-scene", "--view", "albedo"],
+        dir.path(),
+    );
+    assert_fails_with(&output, "no-such-scene");
+    let output = gi(
+        &["debug-cache", "cornell-box", "--size", "0x10"],
+        dir.path(),
+    );
+    assert_fails_with(&output, "--size");
+}
