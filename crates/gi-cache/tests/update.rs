@@ -269,3 +269,57 @@ fn dynamic_object_is_revoxelized_locally_and_exactly() {
         );
     }
 }
+
+#[test]
+fn a_pool_beyond_the_storage_binding_limit_is_refused() {
+    let Some(ctx) = GpuContext::new_or_skip("a_pool_beyond_the_storage_binding_limit_is_refused")
+    else {
+        return;
+    };
+    let config = CacheConfig {
+        pool_bricks: 1 << 22,
+        ..Default::default()
+    };
+    let err = RadianceCache::new(&ctx, &config).err().expect("refused");
+    assert!(
+        matches!(err, gi_cache::CacheError::BufferTooLarge { .. }),
+        "{err}"
+    );
+    assert!(err.to_string().contains("pool_bricks"), "{err}");
+    let bad = CacheConfig {
+        levels: 0,
+        ..Default::default()
+    };
+    let err = RadianceCache::new(&ctx, &bad).err().expect("refused");
+    assert!(err.to_string().contains("levels"), "{err}");
+}
+
+/// Fill figures of every bundled scene with the default configuration (a measurement, not a
+/// check): `cargo test -p gi-cache --test update -- --ignored --nocapture`.
+#[test]
+#[ignore]
+fn bundled_scene_fill_figures() {
+    let Some(ctx) = GpuContext::new_or_skip("bundled_scene_fill_figures") else {
+        return;
+    };
+    for (name, _) in gi_scene::BUNDLED_SCENES {
+        let scene = gi_scene::load(name).unwrap();
+        let frame = scene.evaluate(0.0, None);
+        let config = CacheConfig {
+            voxelize_bricks_per_frame: 100_000,
+            ..Default::default()
+        };
+        let mut cache = RadianceCache::new(&ctx, &config).unwrap();
+        let start = std::time::Instant::now();
+        let stats = update(&ctx, &mut cache, &scene, &frame, frame.camera.position);
+        eprintln!(
+            "FIGURES {name}: {} bricks {:?}, {} dropped for pool, update {:.0} ms wall, cache memory {:.1} MiB",
+            cache.stats().allocated_bricks,
+            cache.stats().bricks_per_level,
+            stats.dropped_for_pool,
+            start.elapsed().as_secs_f64() * 1e3,
+            cache.memory_bytes(&ctx) as f64 / (1 << 20) as f64
+        );
+        cache.release_buffers(&ctx);
+    }
+}
