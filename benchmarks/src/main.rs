@@ -2,9 +2,11 @@
 //!
 //! ```text
 //! gi-bench rays --scene open-world --rays 1048576 --json rays.json
+//! gi-bench cache-rays --scene atrium --rays 65536 --json cache-rays.json
 //! gi-bench path --scene atrium --width 1920 --height 1080 --spp 4 --json path.json
 //! ```
 
+mod cache_rays;
 mod path;
 mod rays;
 
@@ -28,6 +30,22 @@ enum Command {
         #[arg(long, default_value = "cornell-box")]
         scene: String,
         /// Rays per kind. More rays fill a large GPU better; lavapipe wants few.
+        #[arg(long, default_value_t = 1 << 20)]
+        rays: usize,
+        /// Timed repetitions (after one warm-up); the median is reported.
+        #[arg(long, default_value_t = 5)]
+        repeats: usize,
+        /// Also write the results as JSON to this file.
+        #[arg(long)]
+        json: Option<PathBuf>,
+    },
+    /// Ray throughput of the brick cache's hierarchical DDA against the GPU BVH on the same
+    /// camera and diffuse bounce rays (the cache filled on the CPU around the camera).
+    CacheRays {
+        /// Bundled scene name or glTF path.
+        #[arg(long, default_value = "cornell-box")]
+        scene: String,
+        /// Camera rays (and at most as many bounce rays). Lavapipe wants few.
         #[arg(long, default_value_t = 1 << 20)]
         rays: usize,
         /// Timed repetitions (after one warm-up); the median is reported.
@@ -68,6 +86,16 @@ fn main() -> anyhow::Result<()> {
             json,
         } => {
             let report = rays::run(&scene, rays, repeats.max(1))?;
+            print!("{}", report.table());
+            write_json(json, &report.json())
+        }
+        Command::CacheRays {
+            scene,
+            rays,
+            repeats,
+            json,
+        } => {
+            let report = cache_rays::run(&scene, rays, repeats.max(1))?;
             print!("{}", report.table());
             write_json(json, &report.json())
         }
