@@ -31,7 +31,7 @@ struct Bounce {
 
 impl Reference {
     /// Closest hit along a ray from `origin` (counted in `rays`).
-    fn trace(&self, origin: Vec3, dir: Vec3, rays: &mut u64) -> Option<Hit> {
+    pub(crate) fn trace(&self, origin: Vec3, dir: Vec3, rays: &mut u64) -> Option<Hit> {
         *rays += 1;
         let triangles = &self.frame.triangles;
         self.bvh
