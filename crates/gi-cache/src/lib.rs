@@ -40,6 +40,6 @@ pub use config::{CacheConfig, ConfigError};
 pub use cpu_cache::CpuCache;
 pub use debug::{DebugView, UnknownDebugView, render_debug_view};
 pub use layout::{GpuCacheLevel, GpuCacheUniforms, VoxelSurface};
-pub use lighting::{CacheLighting, LightSchedule, LightingInputs, LitBrick, ScheduleCounts};
+pub use lighting::{CacheLighting, LightSchedule, LightingInputs, ScheduleCounts};
 pub use query::{CacheRayHit, CacheTraceTimings, CacheTracer};
 pub use structure::CacheStructure;

@@ -26,8 +26,9 @@ use bytemuck::{Pod, Zeroable};
 use gi_gpu::bvh::GpuBvh;
 use gi_gpu::{GpuContext, GpuError, GpuScene, GpuTimer, ShaderLibrary, wgpu};
 use gi_scene::Sky;
-use glam::IVec3;
 
+use crate::buffers::CacheBuffers;
+use crate::cache::{CacheFrame, CacheLightingHook, RadianceCache, ResidentBrick};
 use crate::config::CacheConfig;
 
 /// How many times more often a near-field brick is relit than a far-field one when the budget
@@ -115,25 +116,13 @@ pub struct GpuScheduledBrick {
     pub pad_c: u32,
 }
 
-/// An allocated brick as the schedule sees it.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
-pub struct LitBrick {
-    /// Clipmap level.
-    pub level: u32,
-    /// World brick coordinate at `level`.
-    pub brick: IVec3,
-    /// Pool ID (1-based).
-    pub brick_id: u32,
-}
-
-impl LitBrick {
-    fn gpu(&self) -> GpuScheduledBrick {
-        GpuScheduledBrick {
-            brick: self.brick.to_array(),
-            level: self.level,
-            brick_id: self.brick_id,
-            ..Default::default()
-        }
+/// The GPU entry of a scheduled brick.
+fn scheduled_brick(b: &ResidentBrick) -> GpuScheduledBrick {
+    GpuScheduledBrick {
+        brick: b.brick.to_array(),
+        level: b.level,
+        brick_id: b.brick_id,
+        ..Default::default()
     }
 }
 
@@ -180,14 +169,14 @@ impl LightSchedule {
         &mut self,
         budget: u32,
         near_levels: u32,
-        new_bricks: &[LitBrick],
-        resident: &[LitBrick],
-    ) -> (Vec<LitBrick>, ScheduleCounts) {
+        new_bricks: &[ResidentBrick],
+        resident: &[ResidentBrick],
+    ) -> (Vec<ResidentBrick>, ScheduleCounts) {
         let budget = budget as usize;
-        let mut picked: Vec<LitBrick> = new_bricks.iter().take(budget).copied().collect();
+        let mut picked: Vec<ResidentBrick> = new_bricks.iter().take(budget).copied().collect();
         let fresh: HashSet<u32> = picked.iter().map(|b| b.brick_id).collect();
-        let mut near: Vec<LitBrick> = Vec::new();
-        let mut far: Vec<LitBrick> = Vec::new();
+        let mut near: Vec<ResidentBrick> = Vec::new();
+        let mut far: Vec<ResidentBrick> = Vec::new();
         for b in resident.iter().filter(|b| !fresh.contains(&b.brick_id)) {
             if b.level < near_levels {
                 near.push(*b);
@@ -228,10 +217,10 @@ impl LightSchedule {
 /// Appends `count` bricks of `sorted` (by pool ID) starting after the ID `cursor`, wrapping
 /// around, and moves the cursor to the last one taken.
 fn round_robin(
-    sorted: &[LitBrick],
+    sorted: &[ResidentBrick],
     cursor: &mut Option<u32>,
     count: usize,
-    out: &mut Vec<LitBrick>,
+    out: &mut Vec<ResidentBrick>,
 ) {
     if count == 0 || sorted.is_empty() {
         return;
@@ -255,9 +244,9 @@ pub struct LightingInputs<'a> {
     /// The cache's bind group (`gi::cache::data`, group 2).
     pub cache_bind_group: &'a wgpu::BindGroup,
     /// Bricks voxelized this frame (relit first, whatever their level).
-    pub new_bricks: &'a [LitBrick],
+    pub new_bricks: &'a [ResidentBrick],
     /// Every allocated brick.
-    pub resident: &'a [LitBrick],
+    pub resident: &'a [ResidentBrick],
 }
 
 /// The cache's lighting technique: the `cache/inject` and `cache/propagate` pipelines, the
@@ -277,6 +266,8 @@ pub struct CacheLighting {
     config: CacheConfig,
     /// Lighting updates recorded so far.
     updates: u32,
+    /// The schedule of the last update.
+    last_counts: ScheduleCounts,
 }
 
 impl CacheLighting {
@@ -363,7 +354,21 @@ impl CacheLighting {
             schedule: LightSchedule::default(),
             config: config.clone(),
             updates: 0,
+            last_counts: ScheduleCounts::default(),
         })
+    }
+
+    /// Builds the lighting for `cache`'s configuration and installs it as the cache's
+    /// lighting hook, so every [`RadianceCache::update`] relights bricks after voxelizing.
+    pub fn attach(
+        ctx: &GpuContext,
+        shaders: &ShaderLibrary,
+        cache: &mut RadianceCache,
+    ) -> Result<(), GpuError> {
+        let layout = CacheBuffers::bind_group_layout(ctx);
+        let lighting = Self::new(ctx, shaders, cache.config(), &layout)?;
+        cache.lighting = Some(Box::new(lighting));
+        Ok(())
     }
 
     /// Picks this frame's bricks and records `cache/inject` then `cache/propagate` on them into
@@ -383,10 +388,11 @@ impl CacheLighting {
             inputs.new_bricks,
             inputs.resident,
         );
+        self.last_counts = counts;
         if bricks.is_empty() {
             return counts;
         }
-        let gpu_bricks: Vec<GpuScheduledBrick> = bricks.iter().map(LitBrick::gpu).collect();
+        let gpu_bricks: Vec<GpuScheduledBrick> = bricks.iter().map(scheduled_brick).collect();
         ctx.queue
             .write_buffer(&self.bricks, 0, bytemuck::cast_slice(&gpu_bricks));
         let uniforms = GpuLightingUniforms {
@@ -438,6 +444,11 @@ impl CacheLighting {
         counts
     }
 
+    /// How the last update spent its budget.
+    pub fn last_counts(&self) -> ScheduleCounts {
+        self.last_counts
+    }
+
     /// Lighting updates recorded so far.
     pub fn updates(&self) -> u32 {
         self.updates
@@ -455,16 +466,39 @@ impl CacheLighting {
     }
 }
 
+/// The cache's lighting hook: relights this update's bricks with the frame's lights and sky.
+impl CacheLightingHook for CacheLighting {
+    fn record(
+        &mut self,
+        ctx: &GpuContext,
+        timer: &mut GpuTimer,
+        encoder: &mut wgpu::CommandEncoder,
+        frame: &CacheFrame<'_>,
+    ) {
+        let inputs = LightingInputs {
+            sky: &frame.inputs.frame.sky,
+            scene: frame.inputs.gpu_scene,
+            bvh: frame.inputs.bvh,
+            cache_bind_group: &frame.buffers.bind_group,
+            new_bricks: frame.new_bricks,
+            resident: frame.resident,
+        };
+        CacheLighting::record(self, ctx, timer, encoder, &inputs);
+    }
+}
+
 #[cfg(test)]
 mod tests {
+    use glam::IVec3;
+
     use super::*;
 
-    fn bricks(levels: &[(u32, u32)]) -> Vec<LitBrick> {
+    fn bricks(levels: &[(u32, u32)]) -> Vec<ResidentBrick> {
         let mut out = Vec::new();
         let mut id = 1;
         for &(level, count) in levels {
             for i in 0..count {
-                out.push(LitBrick {
+                out.push(ResidentBrick {
                     level,
                     brick: IVec3::new(i as i32, 0, 0),
                     brick_id: id,
