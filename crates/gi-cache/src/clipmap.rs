@@ -96,12 +96,35 @@ impl BrickBox {
 
 /// The window origin (world brick coordinate of its lowest corner) of `level` for a camera at
 /// `camera_position`: the window's center is the group boundary nearest to the camera, so the
-/// camera is at most half a group (2 bricks) from the center along each axis.
+/// camera is at most half a group (2 bricks) from the center along each axis when a window is
+/// placed; between moves it may stray further ([`window_needs_move`]).
 pub fn window_origin(config: &CacheConfig, level: u32, camera_position: Vec3) -> IVec3 {
     let group = GROUP_BRICKS as f32;
     let camera_brick = camera_position / config.brick_size_at(level);
     let half = UVec3::from(config.level_bricks).as_vec3() * 0.5;
     ((camera_brick - half) / group).round().as_ivec3() * GROUP_BRICKS as i32
+}
+
+/// How far past one group the camera may stray from a window's center before the window
+/// moves, in groups. Without it a camera moving back and forth over a group boundary would
+/// move the window, and refill a slab, every frame; with it such a camera moves the window
+/// once. The cost is reach: the camera may sit up to `1 + WINDOW_HYSTERESIS_GROUPS` groups
+/// off center, so the window reaches that much less far ahead on one side.
+pub const WINDOW_HYSTERESIS_GROUPS: f32 = 0.25;
+
+/// True when the window of `level` starting at `origin` should move for a camera at
+/// `camera_position`: the camera is more than `1 + WINDOW_HYSTERESIS_GROUPS` groups from the
+/// window's center along some axis.
+pub fn window_needs_move(
+    config: &CacheConfig,
+    level: u32,
+    origin: IVec3,
+    camera_position: Vec3,
+) -> bool {
+    let brick_size = config.brick_size_at(level);
+    let center = (origin.as_vec3() + UVec3::from(config.level_bricks).as_vec3() * 0.5) * brick_size;
+    let limit = config.group_size_at(level) * (1.0 + WINDOW_HYSTERESIS_GROUPS);
+    (camera_position - center).abs().max_element() > limit
 }
 
 /// How one level's window changed.
@@ -139,12 +162,16 @@ impl ClipmapWindows {
         BrickBox::new(self.origins[level as usize], self.level_bricks)
     }
 
-    /// Re-centers every level on `camera_position` and returns the levels that moved, with the
-    /// slabs that left and entered.
+    /// Re-centers on `camera_position` every level whose window the camera has strayed too far
+    /// from ([`window_needs_move`]: hysteresis of [`WINDOW_HYSTERESIS_GROUPS`]) and returns the
+    /// levels that moved, with the slabs that left and entered.
     pub fn recenter(&mut self, config: &CacheConfig, camera_position: Vec3) -> Vec<WindowShift> {
         let mut shifts = Vec::new();
         for level in 0..self.origins.len() as u32 {
             let old = self.window(level);
+            if !window_needs_move(config, level, old.min, camera_position) {
+                continue;
+            }
             let origin = window_origin(config, level, camera_position);
             if origin == old.min {
                 continue;
@@ -177,5 +204,44 @@ mod tests {
             assert_eq!(in_slabs, usize::from(!b.contains(brick)), "{brick}");
         }
         assert_eq!(a.difference(&a), vec![]);
+    }
+
+    #[test]
+    fn a_camera_oscillating_over_a_group_boundary_moves_the_window_once() {
+        let config = CacheConfig {
+            levels: 2,
+            level_bricks: [16, 8, 16],
+            ..Default::default()
+        };
+        let group = config.group_size_at(0);
+        // A group boundary of level 0 along x (the window center sits on one).
+        let boundary = Vec3::new(3.0 * group, 0.5, 0.25);
+        let mut windows = ClipmapWindows::new(&config, boundary + Vec3::X * 0.05 * group);
+        let mut moves = 0;
+        for step in 0..40 {
+            let side = if step % 2 == 0 { -0.05 } else { 0.05 };
+            let camera = boundary + Vec3::X * (side * group + step as f32 * 1e-3 * group);
+            moves += windows.recenter(&config, camera).len();
+        }
+        assert_eq!(moves, 0, "oscillation by a tenth of a group moved a window");
+        // Inside the band no move, beyond it a move that puts the camera near the center.
+        let origin = windows.origins[0];
+        assert!(
+            windows
+                .recenter(&config, boundary + Vec3::X * 1.2 * group)
+                .is_empty()
+        );
+        let shifts = windows.recenter(&config, boundary + Vec3::X * 6.0 * group);
+        assert_eq!(shifts.len(), 2, "a long move shifts both levels");
+        assert_eq!(
+            windows.origins[0],
+            origin + IVec3::X * 6 * GROUP_BRICKS as i32
+        );
+        assert!(!window_needs_move(
+            &config,
+            0,
+            windows.origins[0],
+            boundary + Vec3::X * 6.0 * group
+        ));
     }
 }
