@@ -6,12 +6,13 @@
 //!    else moves in memory);
 //! 2. queues the bricks around every dynamic node that moved (its old and new bounds), to be
 //!    voxelized again in place or released when empty;
-//! 3. takes up to [`CacheConfig::voxelize_bricks_per_frame`] queued bricks, finer levels and
+//! 3. queues again bricks that were dropped for lack of pool, when IDs are free;
+//! 4. takes up to [`CacheConfig::voxelize_bricks_per_frame`] queued bricks, finer levels and
 //!    nearer bricks first, bins the frame's triangles to them, allocates IDs (evicting the
 //!    farthest brick of a coarser level when the pool is full), links them and records
 //!    `cache/voxelize`;
-//! 4. uploads the changed link and group-mask slots and the uniforms;
-//! 5. records the lighting passes, when a [`CacheLightingHook`] is set.
+//! 5. uploads the changed link and group-mask slots and the uniforms;
+//! 6. records the lighting passes, when a [`CacheLightingHook`] is set.
 
 use std::collections::HashSet;
 
@@ -120,6 +121,9 @@ pub struct CacheUpdateStats {
     pub evicted: u32,
     /// Bricks with geometry left unfilled because the pool was full.
     pub dropped_for_pool: u32,
+    /// Bricks dropped for lack of pool (or evicted) earlier and queued again because pool
+    /// space was free at this update.
+    pub requeued_dropped: u32,
     /// Bricks still queued after this update.
     pub queued_remaining: u32,
 }
@@ -150,6 +154,9 @@ pub struct RadianceCache {
     owner: Vec<Option<(u32, IVec3)>>,
     queue: Vec<(u32, IVec3)>,
     queued: HashSet<(u32, IVec3)>,
+    /// Bricks with geometry that lost their place for lack of pool (dropped or evicted), queued
+    /// again when IDs are free (`requeue_dropped`).
+    dropped: HashSet<(u32, IVec3)>,
     /// World transforms of the previous update, to find moved dynamic nodes.
     previous_world_from_node: Vec<Mat4>,
     /// World bounds of each node's triangles at the previous update.
@@ -205,6 +212,7 @@ impl RadianceCache {
             owner: vec![None; config.pool_bricks as usize + 1],
             queue: Vec::new(),
             queued: HashSet::new(),
+            dropped: HashSet::new(),
             previous_world_from_node: Vec::new(),
             previous_node_bounds: Vec::new(),
             frame_index: 0,
@@ -282,6 +290,7 @@ impl RadianceCache {
         let scene = CacheScene::new(inputs.scene, inputs.frame);
         self.move_windows(&scene, inputs.camera_position, &mut stats);
         self.queue_moved_dynamic_nodes(&scene, &mut stats);
+        self.requeue_dropped(inputs.camera_position, &mut stats);
         let (jobs, new_bricks) = self.fill_from_queue(&scene, inputs.camera_position, &mut stats);
 
         self.buffers.upload_structure(ctx, &mut self.structure);
@@ -411,6 +420,37 @@ impl RadianceCache {
         self.previous_node_bounds = bounds;
     }
 
+    /// Queues again, finest levels and nearest bricks first, as many bricks that lost their place
+    /// for lack of pool as there are free IDs (freed by window shifts or empty re-voxelizations);
+    /// forgets those whose window moved away (their slab is queued again when it re-enters).
+    fn requeue_dropped(&mut self, camera: Vec3, stats: &mut CacheUpdateStats) {
+        let windows = self.windows.as_ref().expect("placed by move_windows");
+        self.dropped
+            .retain(|(level, brick)| windows.window(*level).contains(*brick));
+        let free = self.allocator.free_count() as usize;
+        if free == 0 || self.dropped.is_empty() {
+            return;
+        }
+        let config = &self.config;
+        let mut candidates: Vec<(u32, IVec3)> = self
+            .dropped
+            .iter()
+            .filter(|entry| !self.queued.contains(entry))
+            .copied()
+            .collect();
+        candidates.sort_by(|a, b| {
+            let (ka, kb) = (
+                fill_priority(config, a.0, a.1, camera),
+                fill_priority(config, b.0, b.1, camera),
+            );
+            ka.0.cmp(&kb.0).then(ka.1.total_cmp(&kb.1))
+        });
+        for entry in candidates.into_iter().take(free) {
+            self.dropped.remove(&entry);
+            stats.requeued_dropped += u32::from(self.enqueue(entry.0, entry.1));
+        }
+    }
+
     /// Takes the budget's worth of queued bricks in fill order and prepares their
     /// voxelization: bins, allocates (evicting coarser bricks when the pool is full) and links.
     fn fill_from_queue(
@@ -470,11 +510,13 @@ impl RadianceCache {
                         None => {
                             stats.dropped_for_pool += 1;
                             self.dropped_for_pool += 1;
+                            self.dropped.insert((level, brick));
                             continue;
                         }
                     };
                     self.structure.set_brick(level, brick, id);
                     self.owner[id as usize] = Some((level, brick));
+                    self.dropped.remove(&(level, brick));
                 }
                 new_bricks.push(ResidentBrick {
                     level,
@@ -514,6 +556,7 @@ impl RadianceCache {
             })
             .copied()?;
         self.release(victim.0, victim.1);
+        self.dropped.insert(victim);
         stats.evicted += 1;
         self.allocator.alloc()
     }

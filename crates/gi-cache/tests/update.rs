@@ -80,8 +80,9 @@ fn camera_move_keeps_staying_bricks_in_place() {
     let voxels_before: Vec<VoxelSurface> = cache.buffers().read_voxels(&ctx);
     let windows_before = cache.windows().unwrap().clone();
 
-    // Two level-0 groups (2 m) along x and one down z: level 0 moves 2 groups, level 1 one.
-    let moved = camera + Vec3::new(2.0, 0.0, -1.0);
+    // Three level-0 groups (3 m) along x and one down z: past the hysteresis band of both
+    // levels (1.25 groups: 1.25 m at level 0, 2.5 m at level 1), so both move.
+    let moved = camera + Vec3::new(3.0, 0.0, -1.0);
     let stats = update(&ctx, &mut cache, &scene, &frame, moved);
     let windows = cache.windows().unwrap().clone();
     assert_eq!(stats.levels_moved, 2);
@@ -199,6 +200,67 @@ fn pool_exhaustion_keeps_the_finest_levels() {
     );
     assert_eq!(cache.stats().allocated_bricks, 300);
     assert!(stats.released_leaving > 0);
+    cache.structure().check_group_masks().unwrap();
+}
+
+#[test]
+fn bricks_dropped_for_pool_are_filled_when_a_shift_frees_space() {
+    let Some(ctx) =
+        GpuContext::new_or_skip("bricks_dropped_for_pool_are_filled_when_a_shift_frees_space")
+    else {
+        return;
+    };
+    let scene = gi_scene::load("thin-wall").unwrap();
+    let frame = scene.evaluate(0.0, None);
+    let config = CacheConfig {
+        levels: 3,
+        level_bricks: [16, 8, 16],
+        pool_bricks: 300,
+        voxelize_bricks_per_frame: 100_000,
+        ..Default::default()
+    };
+    let mut cache = RadianceCache::new(&ctx, &config).unwrap();
+    let camera = frame.camera.position;
+    let first = update(&ctx, &mut cache, &scene, &frame, camera);
+    assert!(first.dropped_for_pool > 0);
+    // Up, away from the ground: the leaving slabs below free many bricks, the entering slabs
+    // above (open sky) need none, so the freed IDs go to bricks dropped at the first update.
+    let raised = camera + Vec3::new(0.0, 3.0, 0.0);
+    let stats = update(&ctx, &mut cache, &scene, &frame, raised);
+    eprintln!(
+        "requeue: first update dropped {}, the shift released {}, requeued {}, now {} allocated",
+        first.dropped_for_pool,
+        stats.released_leaving,
+        stats.requeued_dropped,
+        cache.stats().allocated_bricks
+    );
+    assert!(stats.released_leaving > 0);
+    assert!(stats.requeued_dropped > 0);
+    // The freed space is used again, finest levels first.
+    assert_eq!(cache.stats().allocated_bricks, config.pool_bricks);
+    let cache_scene = CacheScene::new(&scene, &frame);
+    let windows = cache.windows().unwrap();
+    let held = residents(&cache);
+    let mut incomplete = false;
+    for level in 0..config.levels {
+        let bins = bin_triangles(
+            &config,
+            &cache_scene,
+            level,
+            &windows.window(level),
+            0..frame.triangles.len() as u32,
+        );
+        let missing = bins
+            .keys()
+            .filter(|b| !held.contains_key(&(level, **b)))
+            .count();
+        let count = cache.stats().bricks_per_level[level as usize];
+        assert!(
+            !incomplete || count == 0,
+            "level {level} holds {count} while a finer level is incomplete"
+        );
+        incomplete |= missing > 0;
+    }
     cache.structure().check_group_masks().unwrap();
 }
 
