@@ -12,7 +12,9 @@
 //!    farthest brick of a coarser level when the pool is full), links them and records
 //!    `cache/voxelize`;
 //! 5. uploads the changed link and group-mask slots and the uniforms;
-//! 6. records the lighting passes, when a [`CacheLightingHook`] is set.
+//! 6. when [`CacheInputs::gbuffer`] is set, records `cache/screen_inject` over the visible
+//!    resident bricks not voxelized in this update ([`crate::screen_inject`]);
+//! 7. records the lighting passes, when a [`CacheLightingHook`] is set.
 
 use std::collections::HashSet;
 
@@ -27,6 +29,7 @@ use crate::buffers::{CacheBuffers, cache_uniforms};
 use crate::clipmap::{BrickBox, ClipmapWindows};
 use crate::config::{CacheConfig, ConfigError};
 use crate::layout::NO_BRICK;
+use crate::screen_inject::{ScreenInjectCounts, ScreenInjector, ScreenInputs, select_bricks};
 use crate::structure::CacheStructure;
 use crate::voxelize::{VoxelizeJob, Voxelizer};
 
@@ -64,6 +67,9 @@ pub struct CacheInputs<'a> {
     pub bvh: &'a GpuBvh,
     /// Where the level windows are centered.
     pub camera_position: Vec3,
+    /// This frame's G-buffer, to correct visible bricks from (`cache/screen_inject`); `None`
+    /// skips the pass.
+    pub gbuffer: Option<ScreenInputs<'a>>,
 }
 
 /// An allocated brick.
@@ -126,6 +132,8 @@ pub struct CacheUpdateStats {
     pub requeued_dropped: u32,
     /// Bricks still queued after this update.
     pub queued_remaining: u32,
+    /// Visible bricks checked against the G-buffer (`cache/screen_inject` workgroups).
+    pub screen_injected: u32,
 }
 
 /// The cache's state.
@@ -146,6 +154,7 @@ pub struct RadianceCache {
     config: CacheConfig,
     buffers: CacheBuffers,
     voxelizer: Voxelizer,
+    screen_injector: ScreenInjector,
     structure: CacheStructure,
     allocator: BrickAllocator,
     /// `None` until the first update places the windows.
@@ -201,11 +210,14 @@ impl RadianceCache {
                 available,
             });
         }
-        let voxelizer = Voxelizer::new(ctx, &ShaderLibrary::new())?;
+        let shaders = ShaderLibrary::new();
+        let voxelizer = Voxelizer::new(ctx, &shaders)?;
+        let screen_injector = ScreenInjector::new(ctx, &shaders)?;
         Ok(Self {
             config: config.clone(),
             buffers: CacheBuffers::new(ctx, config),
             voxelizer,
+            screen_injector,
             structure: CacheStructure::new(config),
             allocator: BrickAllocator::new(config.pool_bricks),
             windows: None,
@@ -301,6 +313,20 @@ impl RadianceCache {
         );
         self.voxelizer
             .record(ctx, encoder, timer, inputs.gpu_scene, &self.buffers, &jobs);
+        if let Some(screen) = &inputs.gbuffer {
+            let fresh = new_bricks.iter().map(|b| (b.level, b.brick)).collect();
+            let budget = self.config.screen_inject_bricks_per_frame.min(65_535);
+            let bricks = select_bricks(
+                &self.config,
+                &self.resident_bricks(),
+                &screen.camera,
+                &fresh,
+                budget,
+            );
+            stats.screen_injected = bricks.len() as u32;
+            self.screen_injector
+                .record(ctx, encoder, timer, &self.buffers, screen, &bricks);
+        }
 
         // The lighting passes run here, after voxelization, on the updated cache.
         if let Some(mut lighting) = self.lighting.take() {
@@ -561,9 +587,15 @@ impl RadianceCache {
         self.allocator.alloc()
     }
 
+    /// What the last `cache/screen_inject` did (stalls; for tests and tools).
+    pub fn screen_inject_counts(&self, ctx: &GpuContext) -> ScreenInjectCounts {
+        self.screen_injector.read_counts(ctx)
+    }
+
     /// Stops counting and destroys the cache's buffers.
     pub fn release_buffers(self, ctx: &GpuContext) {
         self.buffers.release(ctx);
         self.voxelizer.release(ctx);
+        self.screen_injector.release(ctx);
     }
 }

@@ -34,6 +34,11 @@ pub struct CacheConfig {
     /// Bricks voxelized per frame at most (the rest wait in a queue, nearest first).
     /// Higher values fill a new view faster at the cost of frame time spikes.
     pub voxelize_bricks_per_frame: u32,
+    /// Visible resident bricks `cache/screen_inject` checks against the G-buffer per update at
+    /// most, finer levels and nearer bricks first. Higher values correct stale occupancy and
+    /// materials further out each frame at the cost of 64 threads per brick, each reading up to
+    /// 81 G-buffer pixels.
+    pub screen_inject_bricks_per_frame: u32,
     /// Bricks whose lighting (direct and indirect) is updated per frame. The near field
     /// (levels below [`CacheConfig::near_levels`]) gets its share first; HSGI refreshes its
     /// near field every 9 frames and its far field every 121.
@@ -56,6 +61,7 @@ impl Default for CacheConfig {
             level_bricks: [32, 16, 32],
             pool_bricks: 6144,
             voxelize_bricks_per_frame: 512,
+            screen_inject_bricks_per_frame: 2048,
             light_bricks_per_frame: 512,
             near_levels: 3,
             gather_rays_per_face: 4,
@@ -119,6 +125,10 @@ impl CacheConfig {
         }
         for (field, value) in [
             ("voxelize_bricks_per_frame", self.voxelize_bricks_per_frame),
+            (
+                "screen_inject_bricks_per_frame",
+                self.screen_inject_bricks_per_frame,
+            ),
             ("light_bricks_per_frame", self.light_bricks_per_frame),
             ("gather_rays_per_face", self.gather_rays_per_face),
             ("max_age", self.max_age),

@@ -26,6 +26,7 @@ pub mod layout;
 pub mod lighting;
 pub mod packing;
 pub mod query;
+pub mod screen_inject;
 pub mod structure;
 pub mod voxelize;
 
@@ -42,4 +43,5 @@ pub use debug::{DebugView, UnknownDebugView, render_debug_view};
 pub use layout::{GpuCacheLevel, GpuCacheUniforms, VoxelSurface};
 pub use lighting::{CacheLighting, LightSchedule, LightingInputs, ScheduleCounts};
 pub use query::{CacheRayHit, CacheTraceTimings, CacheTracer};
+pub use screen_inject::{ScreenInjectCounts, ScreenInputs};
 pub use structure::CacheStructure;

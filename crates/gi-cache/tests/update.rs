@@ -30,6 +30,7 @@ fn update(
             gpu_scene: &gpu_scene,
             bvh: &gpu_scene.bvh,
             camera_position: camera,
+            gbuffer: None,
         },
     );
     let timings = timer.finish(ctx, encoder);

@@ -1,0 +1,375 @@
+//! Pass `cache/screen_inject` (`shaders/cache/screen_inject.wgsl`): corrects resident bricks
+//! from the G-buffer (HSGI, GDC 2023, "Injection": screen injection with tile-based culling).
+//!
+//! Voxelization is exact but only runs where the CPU queued bricks (entering slabs, moved
+//! dynamic nodes); everything else keeps what it was voxelized with. What the camera sees is
+//! current, so each update with [`crate::CacheInputs::gbuffer`] set checks the visible
+//! resident bricks against it, one thread per voxel:
+//! - voxels the view sees through (every pixel over the voxel shows something farther, by a
+//!   voxel diagonal plus a pixel footprint) are **cleared** from the occupancy mask;
+//! - voxels the visible surface crosses, with agreeing normals, get the G-buffer's diffuse
+//!   albedo and normal (**update**);
+//! - everything else is left alone (**skip**): occluded, off screen, normals disagreeing.
+//!
+//! Only occupancy is removed, never added: new geometry arrives through voxelization.
+//!
+//! Bricks are chosen on the CPU: resident bricks whose box intersects the view frustum, not
+//! voxelized in this update (they are exact already), finer levels first and nearer bricks
+//! first within a level, at most [`crate::CacheConfig::screen_inject_bricks_per_frame`].
+//! The finest levels cover the near field, so the budget amortizes by distance as HSGI's tiles
+//! do: what falls beyond it waits for a frame with fewer visible fine bricks.
+//!
+//! **What clearing leaves behind.** A brick whose mask ends empty stays allocated and linked,
+//! with its group-mask bit still set: the CPU does not read brick masks back, so it cannot keep
+//! its mirror consistent if the GPU unlinked bricks, and a set group bit over an empty brick
+//! only costs the tracer one brick-mask fetch. The brick is freed when its slab leaves the
+//! window, or voxelized again when a dynamic node moves through it.
+//!
+//! Group 0: binding 0 the pass uniforms, 1 the jobs, 2..=5 the G-buffer's depth, normal, base
+//! color and metallic/roughness, 6 three counters (voxels cleared, voxels updated, bricks left
+//! empty). Group 2: the cache ([`CacheBuffers`]). Memory: `cache.screen_inject_*`, 32 bytes per
+//! job, grown on demand.
+
+use bytemuck::{Pod, Zeroable};
+use gi_gpu::{GBuffer, GpuCamera, GpuContext, GpuError, GpuTimer, ShaderLibrary, wgpu};
+use gi_scene::CameraView;
+use glam::{IVec3, Vec3};
+
+use crate::buffers::CacheBuffers;
+use crate::cache::ResidentBrick;
+use crate::config::CacheConfig;
+
+/// Least `|cos|` between the G-buffer normal and a voxel's normal for an update: a voxel whose
+/// surface turns (an edge or a corner of the geometry) keeps its own normal.
+pub const NORMAL_AGREEMENT: f32 = 0.9;
+/// Grazing views count as this steep (`|cos|` of the view and the surface) in the clear
+/// margin, which grows as one pixel footprint over it: at most ten footprints.
+pub const MIN_COS_VIEW: f32 = 0.1;
+
+/// The G-buffer a cache update reads for screen injection: its buffers and the camera that
+/// cast it (see `gi_gpu::gbuffer` for each buffer's contents).
+#[derive(Clone, Copy)]
+pub struct ScreenInputs<'a> {
+    /// `gbuffer.depth`: distance along the unit camera ray, `+inf` for sky.
+    pub depth: &'a wgpu::Buffer,
+    /// `gbuffer.normal`: octahedral world shading normal facing the camera.
+    pub normal: &'a wgpu::Buffer,
+    /// `gbuffer.base_color`: textured linear base color.
+    pub base_color: &'a wgpu::Buffer,
+    /// `gbuffer.metallic_roughness`: textured metallic (x), perceptual roughness (y).
+    pub metallic_roughness: &'a wgpu::Buffer,
+    /// The camera the G-buffer's rays were cast from.
+    pub camera: GpuCamera,
+    /// Image size in pixels.
+    pub size_px: (u32, u32),
+}
+
+impl<'a> ScreenInputs<'a> {
+    /// The buffers of `gbuffer`, rendered from `camera`.
+    pub fn from_gbuffer(gbuffer: &'a GBuffer, camera: &CameraView) -> Self {
+        let find = |name: &str| {
+            gbuffer
+                .outputs()
+                .find(|(label, _)| *label == name)
+                .map(|(_, buffer)| buffer)
+                .expect("the G-buffer has every output")
+        };
+        Self {
+            depth: find("gbuffer.depth"),
+            normal: find("gbuffer.normal"),
+            base_color: find("gbuffer.base_color"),
+            metallic_roughness: find("gbuffer.metallic_roughness"),
+            camera: GpuCamera::new(camera, gbuffer.size),
+            size_px: gbuffer.size,
+        }
+    }
+}
+
+/// Uniforms of `cache/screen_inject` (`ScreenInjectUniforms` in WGSL), 80 bytes.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
+pub struct ScreenInjectUniforms {
+    pub camera: GpuCamera,
+    pub size_px: [u32; 2],
+    /// Jobs in this dispatch.
+    pub job_count: u32,
+    pub pad: u32,
+}
+
+/// One brick to correct (`ScreenJob` in WGSL), 32 bytes.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
+pub struct GpuScreenJob {
+    /// World brick coordinate.
+    pub brick: [i32; 3],
+    pub level: u32,
+    /// Pool ID.
+    pub brick_id: u32,
+    pub pad_a: u32,
+    pub pad_b: u32,
+    pub pad_c: u32,
+}
+
+/// What the pass did, read back from its counters ([`ScreenInjector::read_counts`]).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct ScreenInjectCounts {
+    /// Voxels whose occupancy was cleared.
+    pub cleared_voxels: u32,
+    /// Voxels whose albedo and normal were refreshed.
+    pub updated_voxels: u32,
+    /// Bricks whose mask became empty (they stay allocated).
+    pub emptied_bricks: u32,
+}
+
+/// True when the box `[lo, hi]` intersects the view frustum of `camera` (the four side
+/// planes and the plane through the camera facing forward; no far plane).
+pub fn box_in_frustum(camera: &GpuCamera, lo: Vec3, hi: Vec3) -> bool {
+    let position = Vec3::from(camera.position);
+    let (right, up, forward) = (
+        Vec3::from(camera.right),
+        Vec3::from(camera.up),
+        Vec3::from(camera.forward),
+    );
+    let tx = camera.tan_half_fov * camera.aspect;
+    let ty = camera.tan_half_fov;
+    let planes = [
+        forward,
+        forward * tx - right,
+        forward * tx + right,
+        forward * ty - up,
+        forward * ty + up,
+    ];
+    planes.iter().all(|n| {
+        // The box corner farthest along the plane's inward normal.
+        let corner = Vec3::select(n.cmpge(Vec3::ZERO), hi, lo);
+        (corner - position).dot(*n) >= 0.0
+    })
+}
+
+/// The bricks `cache/screen_inject` corrects this update: those of `resident` inside the
+/// frustum of `camera` and not in `skip`, finer levels first, then nearer, at most `budget`.
+pub fn select_bricks(
+    config: &CacheConfig,
+    resident: &[ResidentBrick],
+    camera: &GpuCamera,
+    skip: &std::collections::HashSet<(u32, IVec3)>,
+    budget: u32,
+) -> Vec<ResidentBrick> {
+    let position = Vec3::from(camera.position);
+    let mut visible: Vec<(u32, f32, ResidentBrick)> = resident
+        .iter()
+        .filter(|b| !skip.contains(&(b.level, b.brick)))
+        .filter_map(|b| {
+            let size = config.brick_size_at(b.level);
+            let lo = b.brick.as_vec3() * size;
+            let hi = lo + Vec3::splat(size);
+            box_in_frustum(camera, lo, hi)
+                .then(|| (b.level, ((lo + hi) * 0.5 - position).length(), *b))
+        })
+        .collect();
+    visible.sort_by(|a, b| a.0.cmp(&b.0).then(a.1.total_cmp(&b.1)));
+    visible
+        .into_iter()
+        .take(budget as usize)
+        .map(|(_, _, b)| b)
+        .collect()
+}
+
+/// The screen injection pass: its pipeline, job buffer and counters.
+pub struct ScreenInjector {
+    /// Entry point `screen_inject` of `cache/screen_inject.wgsl`.
+    screen_inject: wgpu::ComputePipeline,
+    frame_layout: wgpu::BindGroupLayout,
+    uniforms: wgpu::Buffer,
+    jobs: wgpu::Buffer,
+    counts: wgpu::Buffer,
+}
+
+impl ScreenInjector {
+    /// Compiles `cache/screen_inject`.
+    pub fn new(ctx: &GpuContext, shaders: &ShaderLibrary) -> Result<Self, GpuError> {
+        let module = shaders.create_module(ctx, "cache/screen_inject.wgsl", &[])?;
+        let entry = |binding, ty| wgpu::BindGroupLayoutEntry {
+            binding,
+            visibility: wgpu::ShaderStages::COMPUTE,
+            ty: wgpu::BindingType::Buffer {
+                ty,
+                has_dynamic_offset: false,
+                min_binding_size: None,
+            },
+            count: None,
+        };
+        let read = wgpu::BufferBindingType::Storage { read_only: true };
+        let mut entries = vec![entry(0, wgpu::BufferBindingType::Uniform)];
+        entries.extend((1..=5).map(|binding| entry(binding, read)));
+        entries.push(entry(
+            6,
+            wgpu::BufferBindingType::Storage { read_only: false },
+        ));
+        let frame_layout = ctx
+            .device
+            .create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+                label: Some("cache/screen_inject.frame_layout"),
+                entries: &entries,
+            });
+        let empty = ctx
+            .device
+            .create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+                label: Some("cache/screen_inject.unused_layout"),
+                entries: &[],
+            });
+        let cache_layout = CacheBuffers::bind_group_layout(ctx);
+        let layout = ctx
+            .device
+            .create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
+                label: Some("cache/screen_inject.layout"),
+                bind_group_layouts: &[Some(&frame_layout), Some(&empty), Some(&cache_layout)],
+                immediate_size: 0,
+            });
+        let screen_inject = ctx
+            .device
+            .create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
+                label: Some("cache/screen_inject"),
+                layout: Some(&layout),
+                module: &module,
+                entry_point: Some("screen_inject"),
+                compilation_options: Default::default(),
+                cache: None,
+            });
+        Ok(Self {
+            screen_inject,
+            frame_layout,
+            uniforms: ctx.create_buffer(
+                "cache.screen_inject_uniforms",
+                size_of::<ScreenInjectUniforms>() as u64,
+                wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
+            ),
+            jobs: Self::jobs_buffer(ctx, 32),
+            counts: ctx.create_buffer(
+                "cache.screen_inject_counts",
+                16,
+                wgpu::BufferUsages::STORAGE
+                    | wgpu::BufferUsages::COPY_DST
+                    | wgpu::BufferUsages::COPY_SRC,
+            ),
+        })
+    }
+
+    fn jobs_buffer(ctx: &GpuContext, bytes: u64) -> wgpu::Buffer {
+        ctx.create_buffer(
+            "cache.screen_inject_jobs",
+            bytes.max(32),
+            wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_DST,
+        )
+    }
+
+    /// Records `cache/screen_inject` over `bricks` (at most 65535) into `encoder`, timed by
+    /// `timer`, and resets the counters first. Uploads through the queue, so record one per
+    /// submission.
+    pub fn record(
+        &mut self,
+        ctx: &GpuContext,
+        encoder: &mut wgpu::CommandEncoder,
+        timer: &mut GpuTimer,
+        cache: &CacheBuffers,
+        screen: &ScreenInputs<'_>,
+        bricks: &[ResidentBrick],
+    ) {
+        ctx.queue.write_buffer(&self.counts, 0, &[0; 16]);
+        if bricks.is_empty() {
+            return;
+        }
+        assert!(bricks.len() <= 65_535, "too many bricks in one dispatch");
+        let jobs: Vec<GpuScreenJob> = bricks
+            .iter()
+            .map(|b| GpuScreenJob {
+                brick: b.brick.to_array(),
+                level: b.level,
+                brick_id: b.brick_id,
+                ..Default::default()
+            })
+            .collect();
+        let bytes: &[u8] = bytemuck::cast_slice(&jobs);
+        if bytes.len() as u64 > self.jobs.size() {
+            ctx.release_buffer(&self.jobs);
+            self.jobs = Self::jobs_buffer(ctx, (bytes.len() as u64).next_power_of_two());
+        }
+        ctx.queue.write_buffer(&self.jobs, 0, bytes);
+        let uniforms = ScreenInjectUniforms {
+            camera: screen.camera,
+            size_px: [screen.size_px.0, screen.size_px.1],
+            job_count: jobs.len() as u32,
+            pad: 0,
+        };
+        ctx.queue
+            .write_buffer(&self.uniforms, 0, bytemuck::bytes_of(&uniforms));
+        let buffers = [
+            &self.uniforms,
+            &self.jobs,
+            screen.depth,
+            screen.normal,
+            screen.base_color,
+            screen.metallic_roughness,
+            &self.counts,
+        ];
+        let entries: Vec<wgpu::BindGroupEntry> = buffers
+            .iter()
+            .zip(0..)
+            .map(|(buffer, binding)| wgpu::BindGroupEntry {
+                binding,
+                resource: buffer.as_entire_binding(),
+            })
+            .collect();
+        let frame_group = ctx.device.create_bind_group(&wgpu::BindGroupDescriptor {
+            label: Some("cache/screen_inject.frame"),
+            layout: &self.frame_layout,
+            entries: &entries,
+        });
+        timer.compute_pass(ctx, encoder, "cache/screen_inject", |pass| {
+            pass.set_pipeline(&self.screen_inject);
+            pass.set_bind_group(0, &frame_group, &[]);
+            pass.set_bind_group(CacheBuffers::BIND_GROUP, &cache.bind_group, &[]);
+            pass.dispatch_workgroups(jobs.len() as u32, 1, 1);
+        });
+    }
+
+    /// The counters of the last recorded pass (stalls; for tests and tools).
+    pub fn read_counts(&self, ctx: &GpuContext) -> ScreenInjectCounts {
+        let counts: Vec<u32> = ctx.read_buffer(&self.counts);
+        ScreenInjectCounts {
+            cleared_voxels: counts[0],
+            updated_voxels: counts[1],
+            emptied_bricks: counts[2],
+        }
+    }
+
+    /// Stops counting and destroys the pass's buffers.
+    pub fn release(self, ctx: &GpuContext) {
+        for buffer in [&self.uniforms, &self.jobs, &self.counts] {
+            ctx.release_buffer(buffer);
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn frustum_keeps_boxes_in_view_and_drops_those_behind_or_beside() {
+        let view = CameraView::look_at(Vec3::ZERO, Vec3::NEG_Z, 1.0);
+        let camera = GpuCamera::new(&view, (64, 64));
+        let unit = |c: Vec3| (c - Vec3::splat(0.5), c + Vec3::splat(0.5));
+        for (center, inside) in [
+            (Vec3::new(0.0, 0.0, -5.0), true),
+            (Vec3::new(0.0, 0.0, 5.0), false),
+            (Vec3::new(20.0, 0.0, -5.0), false),
+            (Vec3::new(0.0, -20.0, -5.0), false),
+            (Vec3::new(3.0, 0.0, -5.0), true),
+            (Vec3::ZERO, true),
+        ] {
+            let (lo, hi) = unit(center);
+            assert_eq!(box_in_frustum(&camera, lo, hi), inside, "{center}");
+        }
+    }
+}
