@@ -4,7 +4,8 @@
 //
 // Bind group 0 of both passes (`gi_cache::CacheLighting`):
 //   binding 0: `lighting` uniform LightingUniforms
-//   binding 7: `lights` array<PunctualLight> (`gi::scene`'s binding of `gi_gpu::GpuScene::lights`)
+//   bindings 1-7: the scene (`gi::scene`, `gi_gpu::GpuScene::buffers`): triangles, materials,
+//              textures, texels, the emitter table, selection probabilities, punctual lights
 //   binding 8: `scheduled_bricks` array<ScheduledBrick>, one workgroup each
 #define_import_path gi::cache::lighting
 
@@ -31,8 +32,10 @@ struct LightingUniforms {
     frame_index: u32,
     // Seed of the gather's random sequences.
     seed: u32,
-    pad_a: u32,
-    pad_b: u32,
+    // Entries of the scene's emitter table (`gi::scene::emitters`).
+    emitter_count: u32,
+    // Index of the default material in `gi::scene::materials`.
+    default_material: u32,
 }
 
 // Mirror of `gi_cache::lighting::GpuScheduledBrick`: a brick whose lighting is updated.

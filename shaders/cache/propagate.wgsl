@@ -6,19 +6,24 @@
 // One 64-thread workgroup per scheduled brick, one thread per voxel. For every visible face,
 // `rays_per_face` cosine-distributed directions about the face normal (the voxel normal flipped
 // towards the face) are traced through the cache from the center of the empty neighbour across
-// the face. A hit contributes the hit face's radiance (albedo / pi x its direct + indirect
-// irradiance, plus the voxel's emission: `cache/inject` adds only punctual lights, so nothing is
-// counted twice); a miss contributes the sky. E = pi mean(L) estimates the face's indirect
-// irradiance, accumulated over updates with weight 1 / age (age = min(age + 1, max_age)).
+// the face. A hit contributes the hit face's reflected radiance (albedo / pi x its direct +
+// indirect irradiance), a miss the sky: E = pi mean(L). Light emitted by emissive triangles is
+// not taken from the hit voxels' emission but sampled directly (next-event estimation through
+// the scene's emitter table, `rays_per_face` samples from the face point with BVH shadow rays,
+// E = mean(Le cos / pdf)): a small bright emitter is then found by every sample instead of by
+// the rare ray that hits its voxel, and nothing is counted twice (`cache/inject` adds only
+// punctual lights). The sum is the face's indirect irradiance, accumulated over updates with
+// weight 1 / age (age = min(age + 1, max_age)).
 //
 // Reads of other bricks see what this frame's passes have written so far or last frame's
 // values: each update is one more bounce, the order does not bias the fixed point.
 //
-// Bind group 0: `gi::cache::lighting`; 2: the cache (`gi::cache::data`).
+// Bind group 0: `gi::cache::lighting`; 1: the BVH (`gi::bvh`); 2: the cache (`gi::cache::data`).
 
 #import gi::math::PI
-#import gi::sampling::{Sampler, sampler_new, sampler_next_2d, cosine_hemisphere, frame_from_normal, frame_to_world}
-#import gi::lights::sky_radiance
+#import gi::sampling::{Sampler, sampler_new, sampler_next_f32, sampler_next_2d, cosine_hemisphere, frame_from_normal, frame_to_world}
+#import gi::lights::{sky_radiance, sample_emitter}
+#import gi::bvh::{Ray, trace_any}
 #import gi::packing::{pack_rgb9e5, unpack_rgb9e5}
 #import gi::cache::data::{
     cache, cache_brick_masks, cache_voxels, cache_indirect, VoxelRef, cache_mask_cell,
@@ -26,18 +31,37 @@
     cache_face_direction
 }
 #import gi::cache::trace::{cache_trace, cache_hit_radiance}
-#import gi::cache::lighting::{lighting, scheduled_bricks, face_is_visible, face_normal}
+#import gi::cache::lighting::{lighting, scheduled_bricks, face_is_visible, face_normal, face_point}
 
 const FAR: f32 = 3.0e38;
+// Shadow rays stop short of the emitter point by this relative margin (the reference's
+// `shadow_distance`).
+const SHADOW_MARGIN: f32 = 1e-4;
 
-// Incoming radiance along `dir` from `origin`: the cache's face radiance with emission, or the
-// sky where the ray leaves the cache.
-fn incoming_radiance(origin: vec3<f32>, dir: vec3<f32>) -> vec3<f32> {
+// Radiance arriving along `dir` at `origin` after at least one bounce: the cache's reflected
+// face radiance (emission is sampled directly), or the sky where the ray leaves the cache.
+fn bounced_radiance(origin: vec3<f32>, dir: vec3<f32>) -> vec3<f32> {
     let hit = cache_trace(origin, dir, FAR);
     if hit.hit {
-        return cache_hit_radiance(hit, true);
+        return cache_hit_radiance(hit, false);
     }
     return sky_radiance(lighting.sky, dir);
+}
+
+// One next-event sample of the emissive triangles at `x` for a surface of normal `n`: the
+// irradiance estimate Le cos / pdf, 0 when the sample is shadowed or behind the surface.
+fn emitter_irradiance(x: vec3<f32>, n: vec3<f32>, sampler: ptr<function, Sampler>) -> vec3<f32> {
+    let u_select = sampler_next_f32(sampler);
+    let u_point = sampler_next_2d(sampler);
+    let light = sample_emitter(x, u_select, u_point, lighting.emitter_count, lighting.default_material);
+    let cos_theta = dot(light.wi, n);
+    if light.pdf <= 0.0 || cos_theta <= 0.0 || all(light.radiance == vec3<f32>(0.0)) {
+        return vec3<f32>(0.0);
+    }
+    if trace_any(Ray(x, 0.0, light.wi, light.distance * (1.0 - SHADOW_MARGIN))) {
+        return vec3<f32>(0.0);
+    }
+    return light.radiance * (cos_theta / light.pdf);
 }
 
 @compute @workgroup_size(64)
@@ -67,15 +91,21 @@ fn propagate(
             cache_indirect[slot] = 0u;
             continue;
         }
-        let frame = frame_from_normal(face_normal(n, face));
+        let n_f = face_normal(n, face);
+        let frame = frame_from_normal(n_f);
         let origin = center + cache_face_direction(face) * size;
+        let x = face_point(center, size, face);
         var sampler = sampler_new(vec2<u32>(lighting.seed, 0u), slot, lighting.frame_index);
-        var sum = vec3<f32>(0.0);
+        var bounced = vec3<f32>(0.0);
+        var emitted = vec3<f32>(0.0);
         for (var i = 0u; i < rays; i++) {
             let dir = frame_to_world(frame, cosine_hemisphere(sampler_next_2d(&sampler)));
-            sum += incoming_radiance(origin, dir);
+            bounced += bounced_radiance(origin, dir);
+            if lighting.emitter_count > 0u {
+                emitted += emitter_irradiance(x, n_f, &sampler);
+            }
         }
-        let irradiance = sum * (PI / f32(rays));
+        let irradiance = (bounced * PI + emitted) / f32(rays);
         let history = unpack_rgb9e5(cache_indirect[slot]);
         cache_indirect[slot] = pack_rgb9e5(mix(history, irradiance, weight));
     }

@@ -1,11 +1,15 @@
 // The scene's light sources as every GI technique evaluates them: KHR_lights_punctual lights
 // through the rule of `gi_scene::WorldLight::incident` (glTF inverse-square falloff, the range
-// window, the spot cone), and the constant or gradient sky of `gi_scene::Sky::radiance`. Written
-// operation for operation like the CPU rules (and like `path/trace.wgsl`'s inline copies), so
-// the cache's lighting and the path tracer agree on what a light delivers.
+// window, the spot cone), the constant or gradient sky of `gi_scene::Sky::radiance`, and a point
+// drawn on the emissive triangles as the reference's `Reference::sample_emitter` draws it (by
+// power through the emitter table, then uniformly by area). Written operation for operation like
+// the CPU rules (and like `path/trace.wgsl`'s inline copies), so the cache's lighting and the
+// path tracer agree on what a light delivers.
 #define_import_path gi::lights
 
-#import gi::scene::{PunctualLight, lerp_rgb}
+#import gi::brdf::is_finite
+#import gi::sampling::uniform_triangle
+#import gi::scene::{PunctualLight, lerp_rgb, triangles, emitters, selection, emission, geometric_normal, triangle_uv, material_of}
 
 // Light kinds of `PunctualLight::kind`.
 const LIGHT_DIRECTIONAL: u32 = 0u;
@@ -69,4 +73,72 @@ fn sky_radiance(sky: Sky, dir: vec3<f32>) -> vec3<f32> {
         return lerp_rgb(sky.horizon.xyz, sky.zenith.xyz, y);
     }
     return lerp_rgb(sky.horizon.xyz, sky.ground.xyz, -y);
+}
+
+// A point drawn on an emissive triangle, seen from a shading point.
+struct EmitterSample {
+    // Unit direction from the shading point to the emitter point.
+    wi: vec3<f32>,
+    // Distance to the emitter point.
+    distance: f32,
+    // Radiance leaving the emitter point towards the shading point.
+    radiance: vec3<f32>,
+    // Solid-angle pdf at the shading point; 0 when the sample cannot contribute (the back of a
+    // single-sided emitter, degenerate geometry).
+    pdf: f32,
+}
+
+// The entry `partition_point(cdf <= u)` of the emitter table (`gi_gpu::EmitterTable`'s integer
+// thresholds), as `path/trace.wgsl` picks it.
+fn pick_emitter(u: f32, emitter_count: u32) -> u32 {
+    let k = u32(u * 16777216.0);
+    var lo = 0u;
+    var hi = emitter_count;
+    while lo < hi {
+        let mid = (lo + hi) / 2u;
+        if emitters[mid].threshold <= k {
+            lo = mid + 1u;
+        } else {
+            hi = mid;
+        }
+    }
+    return emitters[min(lo, emitter_count - 1u)].triangle;
+}
+
+// `Reference::sample_emitter(p, u_select, u_point)`; `emitter_count` must be at least 1.
+fn sample_emitter(
+    p: vec3<f32>,
+    u_select: f32,
+    u_point: vec2<f32>,
+    emitter_count: u32,
+    default_material: u32,
+) -> EmitterSample {
+    var sample = EmitterSample(vec3<f32>(0.0), 0.0, vec3<f32>(0.0), 0.0);
+    let triangle = pick_emitter(u_select, emitter_count);
+    let p_select = selection[triangle];
+    let tri = triangles[triangle];
+    let b = uniform_triangle(u_point);
+    let e1 = tri.pb.xyz - tri.pa.xyz;
+    let e2 = tri.pc.xyz - tri.pa.xyz;
+    let y = tri.pa.xyz + e1 * b.x + e2 * b.y;
+    let c = cross(e1, e2);
+    let area = 0.5 * sqrt(dot(c, c));
+    let to_light = y - p;
+    let distance_sq = dot(to_light, to_light);
+    if area <= 0.0 || distance_sq <= 0.0 {
+        return sample;
+    }
+    let distance = sqrt(distance_sq);
+    let wi = to_light / distance;
+    let cos_light = -dot(geometric_normal(tri), wi);
+    let material = material_of(triangle, default_material);
+    if cos_light == 0.0 || (cos_light < 0.0 && material.double_sided == 0u) {
+        return sample;
+    }
+    let pdf = p_select * distance_sq / (area * abs(cos_light));
+    if !(pdf > 0.0 && is_finite(pdf)) {
+        return sample;
+    }
+    let uv = triangle_uv(tri, 1.0 - b.x - b.y, b.x, b.y);
+    return EmitterSample(wi, distance, emission(material, uv), pdf);
 }

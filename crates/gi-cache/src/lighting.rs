@@ -6,26 +6,28 @@
 //!   first bounce), written to `cache_direct`.
 //! - `cache/propagate` (`shaders/cache/propagate.wgsl`): per visible voxel face,
 //!   [`CacheConfig::gather_rays_per_face`] cosine-distributed rays traced through the cache
-//!   itself; hits bring the previous frame's face radiance (with emission), misses the sky. The
-//!   estimate is accumulated over updates with weight `1 / min(age + 1, max_age)` into
-//!   `cache_indirect` (HSGI's hemisphere gather with temporal accumulation, SmartGI's multi
-//!   bounce). Every update adds one bounce, so the cache converges to all bounces.
+//!   itself (hits bring the previous frame's reflected face radiance, misses the sky) plus as
+//!   many next-event samples of the emissive triangles with BVH shadow rays (emission is
+//!   sampled directly rather than found by rare gather hits on small emitters, and never counted
+//!   twice). The estimate is accumulated over updates with weight `1 / min(age + 1, max_age)`
+//!   into `cache_indirect` (HSGI's hemisphere gather with temporal accumulation, SmartGI's
+//!   multi bounce). Every update adds one bounce, so the cache converges to all bounces.
 //!
 //! A face is *visible* when the voxel across it is empty; hidden faces are never seen by a ray
 //! and get 0. The irradiance of a visible face is that of a surface with the voxel's normal
 //! flipped towards the face's side; a normal perpendicular to the face keeps its own side.
 //!
 //! Both passes run one 64-thread workgroup per scheduled brick (one thread per voxel), on the
-//! same list of bricks. Bind group 0 is this module's (uniforms, the scene's punctual lights at
-//! `gi::scene`'s binding 7, the scheduled bricks at binding 8), group 1 the BVH, group 2 the
-//! cache.
+//! same list of bricks. Bind group 0 is this module's (uniforms at binding 0, the scene's
+//! buffers at `gi::scene`'s bindings 1 to 7, the scheduled bricks at binding 8), group 1 the
+//! BVH, group 2 the cache.
 
 use std::collections::HashSet;
 
 use bytemuck::{Pod, Zeroable};
 use gi_gpu::bvh::GpuBvh;
 use gi_gpu::{GpuContext, GpuError, GpuScene, GpuTimer, ShaderLibrary, wgpu};
-use gi_scene::Sky;
+use gi_scene::{LightKind, Sky, WorldLight};
 
 use crate::buffers::CacheBuffers;
 use crate::cache::{CacheFrame, CacheLightingHook, RadianceCache, ResidentBrick};
@@ -35,6 +37,11 @@ use crate::config::CacheConfig;
 /// is short: HSGI refreshes its near field every 9 frames and its far field every 121
 /// (121 / 9 = 13.4).
 pub const NEAR_REFRESH_RATIO: u32 = 13;
+
+/// Accumulation cap (the largest age) while the lighting follows a change of the lights or the
+/// sky: each update then weighs at least 1/4, so stale light fades by (3/4)^n over n updates,
+/// at the cost of 4-update noise while lights keep changing (a moving light).
+pub const CHANGED_MAX_AGE: u32 = 4;
 
 /// Seed of the gather's random sequences (each face's sequence is indexed by the update count).
 const GATHER_SEED: u32 = 0x6c69_6768;
@@ -92,14 +99,16 @@ pub struct GpuLightingUniforms {
     pub light_count: u32,
     /// [`CacheConfig::gather_rays_per_face`].
     pub rays_per_face: u32,
-    /// [`CacheConfig::max_age`].
+    /// [`CacheConfig::max_age`], or [`CHANGED_MAX_AGE`] while following a lighting change.
     pub max_age: u32,
     /// Lighting updates so far (the sample index of every face's random sequence).
     pub frame_index: u32,
     /// Seed of the gather's random sequences.
     pub seed: u32,
-    pub pad_a: u32,
-    pub pad_b: u32,
+    /// Entries of the scene's emitter table.
+    pub emitter_count: u32,
+    /// Index of the default material in the scene's materials.
+    pub default_material: u32,
 }
 
 /// One brick to relight (`gi::cache::lighting::ScheduledBrick`, 32 bytes).
@@ -237,6 +246,9 @@ fn round_robin(
 pub struct LightingInputs<'a> {
     /// The scene's sky (rays that leave the cache see it).
     pub sky: &'a Sky,
+    /// The frame's punctual lights (the same as `scene.lights`); a change from the previous
+    /// update shortens the accumulation for a while (see [`CHANGED_MAX_AGE`]).
+    pub lights: &'a [WorldLight],
     /// The frame's scene on the GPU: its punctual lights (`scene.lights`, `light_count`).
     pub scene: &'a GpuScene,
     /// The BVH that shadow rays are traced through (bind group 1).
@@ -268,6 +280,10 @@ pub struct CacheLighting {
     updates: u32,
     /// The schedule of the last update.
     last_counts: ScheduleCounts,
+    /// The lights and sky of the last update, as bits ([`light_key`]).
+    light_key: Vec<u32>,
+    /// Updates left with the accumulation capped at [`CHANGED_MAX_AGE`].
+    fast_updates_left: u32,
 }
 
 impl CacheLighting {
@@ -296,6 +312,12 @@ impl CacheLighting {
                     label: Some("cache.lighting.layout"),
                     entries: &[
                         entry(0, wgpu::BufferBindingType::Uniform),
+                        entry(1, read),
+                        entry(2, read),
+                        entry(3, read),
+                        entry(4, read),
+                        entry(5, read),
+                        entry(6, read),
                         entry(7, read),
                         entry(8, read),
                     ],
@@ -333,7 +355,11 @@ impl CacheLighting {
         let propagate = pipeline(
             "propagate",
             "cache/propagate.wgsl",
-            &[Some(&lighting_layout), None, Some(cache_layout)],
+            &[
+                Some(&lighting_layout),
+                Some(&bvh_layout),
+                Some(cache_layout),
+            ],
         )?;
         let uniforms = ctx.create_buffer(
             "cache.lighting.uniforms",
@@ -355,6 +381,8 @@ impl CacheLighting {
             config: config.clone(),
             updates: 0,
             last_counts: ScheduleCounts::default(),
+            light_key: Vec::new(),
+            fast_updates_left: 0,
         })
     }
 
@@ -389,9 +417,23 @@ impl CacheLighting {
             inputs.resident,
         );
         self.last_counts = counts;
+        // A change of the lights or the sky caps the accumulation for `max_age` updates, so
+        // history that no longer holds fades within a few updates; ages then grow back by one
+        // per update, and so does the smoothing.
+        let key = light_key(inputs.lights, inputs.sky);
+        if key != self.light_key && self.updates > 0 {
+            self.fast_updates_left = self.config.max_age;
+        }
+        self.light_key = key;
         if bricks.is_empty() {
             return counts;
         }
+        let max_age = if self.fast_updates_left > 0 {
+            self.fast_updates_left -= 1;
+            CHANGED_MAX_AGE.min(self.config.max_age)
+        } else {
+            self.config.max_age
+        };
         let gpu_bricks: Vec<GpuScheduledBrick> = bricks.iter().map(scheduled_brick).collect();
         ctx.queue
             .write_buffer(&self.bricks, 0, bytemuck::cast_slice(&gpu_bricks));
@@ -400,32 +442,33 @@ impl CacheLighting {
             brick_count: bricks.len() as u32,
             light_count: inputs.scene.light_count,
             rays_per_face: self.config.gather_rays_per_face,
-            max_age: self.config.max_age,
+            max_age,
             frame_index: self.updates,
             seed: GATHER_SEED,
-            ..Default::default()
+            emitter_count: inputs.scene.emitter_count,
+            default_material: inputs.scene.default_material,
         };
         ctx.queue
             .write_buffer(&self.uniforms, 0, bytemuck::bytes_of(&uniforms));
         self.updates = self.updates.wrapping_add(1);
 
+        // Uniforms, the scene's seven buffers (bindings 1..=7), the brick list.
+        let buffers: Vec<&wgpu::Buffer> = std::iter::once(&self.uniforms)
+            .chain(inputs.scene.buffers())
+            .chain(std::iter::once(&self.bricks))
+            .collect();
+        let entries: Vec<wgpu::BindGroupEntry> = buffers
+            .iter()
+            .zip(0..)
+            .map(|(buffer, binding)| wgpu::BindGroupEntry {
+                binding,
+                resource: buffer.as_entire_binding(),
+            })
+            .collect();
         let lighting_group = ctx.device.create_bind_group(&wgpu::BindGroupDescriptor {
             label: Some("cache.lighting.bind_group"),
             layout: &self.lighting_layout,
-            entries: &[
-                wgpu::BindGroupEntry {
-                    binding: 0,
-                    resource: self.uniforms.as_entire_binding(),
-                },
-                wgpu::BindGroupEntry {
-                    binding: 7,
-                    resource: inputs.scene.lights.as_entire_binding(),
-                },
-                wgpu::BindGroupEntry {
-                    binding: 8,
-                    resource: self.bricks.as_entire_binding(),
-                },
-            ],
+            entries: &entries,
         });
         let workgroups = bricks.len() as u32;
         timer.compute_pass(ctx, encoder, "cache/inject", |pass| {
@@ -438,6 +481,7 @@ impl CacheLighting {
         timer.compute_pass(ctx, encoder, "cache/propagate", |pass| {
             pass.set_pipeline(&self.propagate);
             pass.set_bind_group(0, &lighting_group, &[]);
+            pass.set_bind_group(1, &inputs.bvh.bind_group, &[]);
             pass.set_bind_group(2, inputs.cache_bind_group, &[]);
             pass.dispatch_workgroups(workgroups, 1, 1);
         });
@@ -466,6 +510,30 @@ impl CacheLighting {
     }
 }
 
+/// Every number that defines what the lights and the sky deliver, as bits: equal keys mean
+/// unchanged lighting.
+fn light_key(lights: &[WorldLight], sky: &Sky) -> Vec<u32> {
+    let mut key = Vec::new();
+    for light in lights {
+        let (kind, inner, outer) = match light.kind {
+            LightKind::Directional => (0.0, 0.0, 0.0),
+            LightKind::Point => (1.0, 0.0, 0.0),
+            LightKind::Spot {
+                inner_cone_angle,
+                outer_cone_angle,
+            } => (2.0, inner_cone_angle, outer_cone_angle),
+        };
+        let values = [kind, inner, outer, light.range.unwrap_or(-1.0)]
+            .into_iter()
+            .chain(light.position.to_array())
+            .chain(light.direction.to_array())
+            .chain(light.intensity.to_array());
+        key.extend(values.map(f32::to_bits));
+    }
+    key.extend(bytemuck::cast_slice::<GpuSky, u32>(&[GpuSky::new(sky)]));
+    key
+}
+
 /// The cache's lighting hook: relights this update's bricks with the frame's lights and sky.
 impl CacheLightingHook for CacheLighting {
     fn record(
@@ -477,6 +545,7 @@ impl CacheLightingHook for CacheLighting {
     ) {
         let inputs = LightingInputs {
             sky: &frame.inputs.frame.sky,
+            lights: &frame.inputs.frame.lights,
             scene: frame.inputs.gpu_scene,
             bvh: frame.inputs.bvh,
             cache_bind_group: &frame.buffers.bind_group,
