@@ -127,7 +127,11 @@ fn safe_inverse(x: f32) -> f32 {
     return 1.0 / x;
 }
 
-fn ray_state(origin: vec3<f32>, dir: vec3<f32>) -> RayState {
+fn ray_state(origin: vec3<f32>, ray_dir: vec3<f32>) -> RayState {
+    // Negative zeros become +0.0 (the CPU side, gi_scene::SceneBvh, does the same): the sign
+    // of a zero component must agree between `inv_dir` (sign bit) and `negative` (`< 0.0`),
+    // or the slab test picks the wrong planes and the ray misses.
+    let dir = select(ray_dir, vec3(0.0), ray_dir == vec3(0.0));
     var state: RayState;
     state.origin = origin;
     state.dir = dir;

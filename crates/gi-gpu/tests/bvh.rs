@@ -151,13 +151,20 @@ fn known_answers_on_two_triangles() {
         ray(origin, Vec3::NEG_Z, 0.0, 100.0),
         ray(origin, Vec3::NEG_Z, 0.0, 1.5),
         ray(Vec3::new(3.5, 3.5, 0.0), Vec3::NEG_Z, 0.0, 100.0),
+        // Negative zeros (what negating an axis-aligned direction gives) trace like +0.0.
+        ray(origin, Vec3::new(-0.0, -0.0, -1.0), 0.0, 100.0),
+        ray(origin, Vec3::new(0.0, -0.0, -1.0), 0.0, 100.0),
     ];
     let results = tracer.trace(&ctx, &gpu, &rays);
+    for (i, hit) in results.hits.iter().enumerate().skip(3) {
+        assert_eq!(hit.triangle(), Some(1), "ray {i}");
+        assert!((hit.t - 2.0).abs() < 1e-5, "ray {i}");
+    }
     assert_eq!(results.hits[0].triangle(), Some(1));
     assert!((results.hits[0].t - 2.0).abs() < 1e-5);
     let bary = Vec2::from(results.hits[0].barycentrics);
     assert!((bary - Vec2::new(0.25, 0.5)).length() < 1e-5, "{bary}");
-    assert_eq!(results.occluded, [true, false, false]);
+    assert_eq!(results.occluded, [true, false, false, true, true]);
     assert_eq!(results.hits[1].triangle(), None);
     assert_eq!(results.hits[2].triangle(), None);
 }

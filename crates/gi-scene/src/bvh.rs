@@ -40,6 +40,14 @@ fn barycentrics(tri: &Triangle, origin: Vec3, dir: Vec3) -> Vec2 {
     Vec2::new(u as f32, v as f32)
 }
 
+/// `dir` with negative zeros made positive. obvhs inverts a `-0.0` component to a large
+/// negative value but classifies its sign with `< 0.0` (false), so the box test of such a ray
+/// uses the wrong slab planes and misses; `-light.direction` of an axis-aligned light produces
+/// exactly such directions.
+fn canonical_direction(dir: Vec3) -> Vec3A {
+    Vec3A::from(Vec3::select(dir.cmpeq(Vec3::ZERO), Vec3::ZERO, dir))
+}
+
 /// A CWBVH over world-space triangles, with the time its build took.
 pub struct SceneBvh {
     pub bvh: CwBvh,
@@ -79,7 +87,7 @@ impl SceneBvh {
         if triangles.is_empty() {
             return None;
         }
-        let ray = Ray::new(Vec3A::from(origin), Vec3A::from(dir), t_min, t_max);
+        let ray = Ray::new(Vec3A::from(origin), canonical_direction(dir), t_min, t_max);
         let mut hit = RayHit::none();
         let indices = &self.bvh.primitive_indices;
         if !self.bvh.ray_traverse(ray, &mut hit, |ray, id| {
@@ -108,7 +116,7 @@ impl SceneBvh {
         if triangles.is_empty() {
             return false;
         }
-        let ray = Ray::new(Vec3A::from(origin), Vec3A::from(dir), t_min, t_max);
+        let ray = Ray::new(Vec3A::from(origin), canonical_direction(dir), t_min, t_max);
         let indices = &self.bvh.primitive_indices;
         !self.bvh.ray_traverse_miss(ray, |ray, id| {
             triangles[indices[id] as usize].intersect(ray)
@@ -160,5 +168,36 @@ mod tests {
             )
             .is_none()
         );
+    }
+
+    /// Axis-aligned directions with negative zeros (what negating an axis-aligned light
+    /// direction gives) must find blockers like any other direction.
+    #[test]
+    fn negative_zero_directions_find_blockers() {
+        let quad = [
+            Triangle {
+                v0: Vec3A::new(-1.0, 1.0, -1.0),
+                v1: Vec3A::new(1.0, 1.0, -1.0),
+                v2: Vec3A::new(1.0, 1.0, 1.0),
+            },
+            Triangle {
+                v0: Vec3A::new(-1.0, 1.0, -1.0),
+                v1: Vec3A::new(1.0, 1.0, 1.0),
+                v2: Vec3A::new(-1.0, 1.0, 1.0),
+            },
+        ];
+        let bvh = SceneBvh::build(&quad);
+        let origin = Vec3::new(0.3, 0.0, 0.2);
+        for dir in [
+            Vec3::new(-0.0, 1.0, -0.0),
+            Vec3::new(0.0, 1.0, -0.0),
+            -Vec3::NEG_Y,
+        ] {
+            assert!(bvh.occluded(&quad, origin, dir, 0.0, 10.0), "{dir:?}");
+            let hit = bvh
+                .closest_hit(&quad, origin, dir, 0.0, 10.0)
+                .expect("hits the quad");
+            assert!((hit.t - 1.0).abs() < 1e-6);
+        }
     }
 }
