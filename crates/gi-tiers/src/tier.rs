@@ -121,6 +121,11 @@ pub trait Tier: Send {
     fn is_temporal(&self) -> bool;
 
     /// Renders one frame.
+    ///
+    /// A tier keeps what it uploaded for the scene of its first frame (geometry,
+    /// acceleration structures, caches) and reuses it for later frames: every frame given to
+    /// one tier must come from the same [`Scene`](gi_scene::Scene) (at any time and through
+    /// any camera). Render another scene with another tier; [`crate::Renderer`] does this.
     fn render(&mut self, input: &FrameInput) -> Result<FrameOutput, TierError>;
 
     /// Bytes of every buffer, texture and acceleration structure the tier owns now.
