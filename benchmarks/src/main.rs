@@ -3,10 +3,12 @@
 //! ```text
 //! gi-bench rays --scene open-world --rays 1048576 --json rays.json
 //! gi-bench cache-rays --scene atrium --rays 65536 --json cache-rays.json
+//! gi-bench cache-update --scene atrium --frames 16 --json cache-update.json
 //! gi-bench path --scene atrium --width 1920 --height 1080 --spp 4 --json path.json
 //! ```
 
 mod cache_rays;
+mod cache_update;
 mod path;
 mod rays;
 
@@ -55,6 +57,36 @@ enum Command {
         #[arg(long)]
         json: Option<PathBuf>,
     },
+    /// Cost of one frame of the brick cache with its lighting along the scene's camera path:
+    /// the fill frame's pass times, then the median per pass over the remaining frames.
+    CacheUpdate {
+        /// Bundled scene name or glTF path.
+        #[arg(long, default_value = "cornell-box")]
+        scene: String,
+        /// Frames along the camera path; the first fills the cache, the rest are the steady
+        /// state. Lavapipe wants few.
+        #[arg(long, default_value_t = 16)]
+        frames: u32,
+        /// Override of the pool size in bricks (default: the cache's default).
+        #[arg(long)]
+        pool_bricks: Option<u32>,
+        /// Override of the number of clipmap levels.
+        #[arg(long)]
+        levels: Option<u32>,
+        /// Override of the level-0 voxel edge in meters.
+        #[arg(long)]
+        voxel_size: Option<f32>,
+        /// Also ray-cast a G-buffer each frame and correct visible bricks from it
+        /// (`cache/screen_inject`).
+        #[arg(long)]
+        screen_inject: bool,
+        /// G-buffer size for `--screen-inject`, WIDTHxHEIGHT.
+        #[arg(long, default_value = "1920x1080", value_parser = parse_size)]
+        size: (u32, u32),
+        /// Also write the results as JSON to this file.
+        #[arg(long)]
+        json: Option<PathBuf>,
+    },
     /// Samples per second of the GPU path tracer: median `path/trace` time over still frames.
     Path {
         /// Bundled scene name or glTF path.
@@ -99,6 +131,35 @@ fn main() -> anyhow::Result<()> {
             print!("{}", report.table());
             write_json(json, &report.json())
         }
+        Command::CacheUpdate {
+            scene,
+            frames,
+            pool_bricks,
+            levels,
+            voxel_size,
+            screen_inject,
+            size,
+            json,
+        } => {
+            let defaults = gi_cache::CacheConfig::default();
+            let config = gi_cache::CacheConfig {
+                pool_bricks: pool_bricks.unwrap_or(defaults.pool_bricks),
+                levels: levels.unwrap_or(defaults.levels),
+                // Fewer levels than the default near field keep every level near.
+                near_levels: defaults.near_levels.min(levels.unwrap_or(defaults.levels)),
+                voxel_size_m: voxel_size.unwrap_or(defaults.voxel_size_m),
+                ..defaults
+            };
+            let options = cache_update::CacheUpdateOptions {
+                scene,
+                frames,
+                config,
+                screen_inject: screen_inject.then_some(size),
+            };
+            let report = cache_update::run(&options)?;
+            print!("{}", report.table());
+            write_json(json, &report.json())
+        }
         Command::Path {
             scene,
             width,
@@ -112,6 +173,14 @@ fn main() -> anyhow::Result<()> {
             write_json(json, &report.json())
         }
     }
+}
+
+/// Parses `WIDTHxHEIGHT` (each side at least 1).
+fn parse_size(size: &str) -> Result<(u32, u32), String> {
+    size.split_once(['x', 'X'])
+        .and_then(|(w, h)| Some((w.trim().parse().ok()?, h.trim().parse().ok()?)))
+        .filter(|&(w, h): &(u32, u32)| w > 0 && h > 0)
+        .ok_or_else(|| "expected WIDTHxHEIGHT with both sides at least 1, e.g. 320x180".to_owned())
 }
 
 fn write_json(path: Option<PathBuf>, value: &serde_json::Value) -> anyhow::Result<()> {

@@ -1,0 +1,76 @@
+//! `gi-bench cache-update` in a tiny mode, so the benchmark keeps building and running in CI.
+
+use std::process::Command;
+
+use gi_gpu::GpuContext;
+
+#[test]
+fn cache_update_benchmark_runs_and_writes_json() {
+    // The benchmark needs an adapter; this skips loudly (or fails under GI_REQUIRE_GPU) first.
+    if GpuContext::new_or_skip("cache_update_benchmark_runs_and_writes_json").is_none() {
+        return;
+    }
+    let json = std::path::Path::new(env!("CARGO_TARGET_TMPDIR")).join("gi-bench-cache-update.json");
+    // A small pool and few levels keep the lighting passes short on a software adapter; the
+    // G-buffer is tiny.
+    let output = Command::new(env!("CARGO_BIN_EXE_gi-bench"))
+        .args([
+            "cache-update",
+            "--scene",
+            "cornell-box",
+            "--frames",
+            "3",
+            "--levels",
+            "2",
+            "--pool-bricks",
+            "256",
+            "--screen-inject",
+            "--size",
+            "16x8",
+        ])
+        .arg("--json")
+        .arg(&json)
+        .output()
+        .expect("gi-bench starts");
+    let stdout = String::from_utf8_lossy(&output.stdout);
+    assert!(
+        output.status.success(),
+        "gi-bench failed:\n{stdout}\n{}",
+        String::from_utf8_lossy(&output.stderr)
+    );
+    assert!(stdout.contains("| cache/propagate |"), "{stdout}");
+    let report: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(&json).expect("JSON written"))
+            .expect("JSON parses");
+    assert_eq!(report["frames"], 3);
+    assert_eq!(report["config"]["levels"], 2);
+    let fill = &report["fill"]["passes_ms"];
+    for pass in [
+        "cache/voxelize",
+        "cache/screen_inject",
+        "cache/inject",
+        "cache/propagate",
+    ] {
+        let ms = fill[pass]
+            .as_f64()
+            .unwrap_or_else(|| panic!("{pass} in {fill}"));
+        assert!(ms.is_finite() && ms >= 0.0, "{pass}: {ms}");
+    }
+    assert!(
+        report["steady"]["passes_ms"]["cache/propagate"]
+            .as_f64()
+            .is_some()
+    );
+    let allocated = report["bricks"]["allocated"].as_u64().expect("allocated");
+    assert!(allocated > 0 && allocated <= 256, "{allocated}");
+    let cache_bytes = report["memory"]["cache_bytes"].as_u64().expect("bytes");
+    let lighting_bytes = report["memory"]["lighting_bytes"].as_u64().expect("bytes");
+    assert!(lighting_bytes > 0 && cache_bytes > lighting_bytes);
+    let frames = report["per_frame"].as_array().expect("per-frame rows");
+    assert_eq!(frames.len(), 3);
+    assert!(
+        frames[0]["scheduled"]["new"].as_u64().unwrap() > 0,
+        "{}",
+        frames[0]
+    );
+}
