@@ -1,17 +1,20 @@
 //! `gi debug-cache`: renders what the brick radiance cache holds for a scene, seen from the
 //! scene's camera through the cache's hierarchical DDA (albedo, normals, radiance, occupancy
-//! per level, ...), and reports the cache's size.
+//! per level, ...), and reports the cache's size, memory and pass times.
 //!
-//! The cache is filled on the CPU (`CpuCache`: the same voxels the GPU voxelizer writes) around
-//! the camera. It is not lit here, so the `radiance` and `irradiance` views show only what the
-//! cache holds before lighting: emission, and black elsewhere.
+//! The cache runs as the real-time tiers run it: a [`RadianceCache`] with its [`CacheLighting`]
+//! is updated `--frames` times at the requested time and camera (voxelizing on the GPU, then
+//! injecting direct light and gathering bounces), so the `radiance` and `irradiance` views show
+//! the lighting accumulated over those updates. One update adds one bounce; the default of 32
+//! updates reaches the accumulation cap of the default configuration on small scenes.
 
 use std::path::PathBuf;
+use std::time::Instant;
 
 use anyhow::Context;
 use clap::Args;
-use gi_cache::{CacheConfig, CpuCache, DebugView, render_debug_view};
-use gi_gpu::GpuContext;
+use gi_cache::{CacheConfig, CacheInputs, CacheLighting, CacheTracer, DebugView, RadianceCache};
+use gi_gpu::{GpuContext, GpuScene, GpuTimer, PassTimings, ShaderLibrary};
 
 /// Arguments of `gi debug-cache`.
 #[derive(Args, Debug)]
@@ -27,6 +30,11 @@ pub struct DebugCacheArgs {
     /// Scene time in seconds (animated scenes).
     #[arg(long, default_value_t = 0.0)]
     time: f32,
+    /// Cache updates (voxelization and lighting) before the view is rendered. More updates fill
+    /// larger views and converge the lighting further (one bounce per update) at the cost of
+    /// run time; small scenes settle within the default.
+    #[arg(long, default_value_t = 32)]
+    frames: u32,
     /// Output PNG (default `debug-cache-<scene>-<view>.png`).
     #[arg(long)]
     out: Option<PathBuf>,
@@ -56,6 +64,7 @@ pub fn run(args: &DebugCacheArgs) -> anyhow::Result<()> {
         "--time {} must be a non-negative number of seconds",
         args.time
     );
+    anyhow::ensure!(args.frames >= 1, "--frames must be at least 1");
     let out = args.out.clone().unwrap_or_else(|| {
         let stem = std::path::Path::new(&args.scene)
             .file_stem()
@@ -73,12 +82,34 @@ pub fn run(args: &DebugCacheArgs) -> anyhow::Result<()> {
     let scene = gi_scene::load(&args.scene)?;
     let frame = scene.evaluate(args.time, None);
     let ctx = GpuContext::new().context("debug-cache needs a GPU (or lavapipe)")?;
+    let shaders = ShaderLibrary::new();
     let config = CacheConfig::default();
-    let started = std::time::Instant::now();
-    let cache = CpuCache::build(&config, &scene, &frame, frame.camera.position)?;
-    let build_s = started.elapsed().as_secs_f64();
-    let buffers = cache.upload(&ctx);
-    let image = render_debug_view(&ctx, &buffers, view, &frame.camera, width, height)?;
+    let gpu_scene = GpuScene::upload(&ctx, &scene, &frame)?;
+    let mut cache = RadianceCache::new(&ctx, &config)?;
+    CacheLighting::attach(&ctx, &shaders, &mut cache)?;
+    let mut timer = GpuTimer::new(&ctx, "debug_cache.timer", 8);
+    let started = Instant::now();
+    let mut last = PassTimings::default();
+    for _ in 0..args.frames {
+        let mut encoder = ctx.create_encoder("debug_cache.update");
+        cache.update(
+            &ctx,
+            &mut timer,
+            &mut encoder,
+            &CacheInputs {
+                scene: &scene,
+                frame: &frame,
+                gpu_scene: &gpu_scene,
+                bvh: &gpu_scene.bvh,
+                camera_position: frame.camera.position,
+                gbuffer: None,
+            },
+        );
+        last = timer.finish(&ctx, encoder);
+    }
+    let update_s = started.elapsed().as_secs_f64();
+    let tracer = CacheTracer::new(&ctx, &shaders)?;
+    let image = tracer.render_debug_view(&ctx, cache.buffers(), view, &frame.camera, width, height);
     // Views of stored light use the scene's exposure; the others are colors in [0, 1].
     let exposure = match view {
         DebugView::Radiance | DebugView::Irradiance => scene.exposure,
@@ -87,8 +118,9 @@ pub fn run(args: &DebugCacheArgs) -> anyhow::Result<()> {
     gi_image::write_png(&image, &out, exposure)
         .with_context(|| format!("writing {}", out.display()))?;
 
-    let per_level = cache.bricks_per_level();
-    let total: u32 = per_level.iter().sum();
+    let stats = cache.stats();
+    let memory = ctx.memory();
+    let mib = |bytes: u64| bytes as f64 / (1024.0 * 1024.0);
     println!("scene          {}", scene.name);
     println!("view           {view} ({width}x{height})");
     println!(
@@ -99,23 +131,29 @@ pub fn run(args: &DebugCacheArgs) -> anyhow::Result<()> {
         config.voxel_size_at(config.levels - 1)
     );
     println!(
-        "bricks         {total} of {} in the pool",
-        config.pool_bricks
+        "bricks         {} of {} in the pool, {} still queued",
+        stats.allocated_bricks, config.pool_bricks, stats.queued_bricks
     );
-    println!("per level      {per_level:?}");
+    println!("per level      {:?}", stats.bricks_per_level);
     println!(
         "dropped        {} (bricks with geometry left out: pool full)",
-        cache.dropped_for_pool
+        stats.dropped_for_pool
     );
     println!(
-        "memory         {:.2} MiB on the GPU",
-        buffers.bytes() as f64 / (1024.0 * 1024.0)
+        "memory         {:.2} MiB on the GPU ({:.3} MiB of it lighting)",
+        mib(memory.bytes_with_prefix("cache.")),
+        mib(memory.bytes_with_prefix("cache.lighting"))
     );
-    println!("filled in      {build_s:.2} s (CPU voxelizer)");
-    if matches!(view, DebugView::Radiance | DebugView::Irradiance) {
-        println!("note           the cache is not lit by this command: only emission shows");
+    println!(
+        "updated        {} frames in {update_s:.2} s (voxelization and lighting on the GPU)",
+        args.frames
+    );
+    println!("last frame     ms per pass ({:?} timer):", timer.mode());
+    for (pass, ms) in &last.0 {
+        println!("  {pass:<18} {ms:>10.3}");
     }
     println!("wrote          {}", out.display());
-    buffers.release(&ctx);
+    cache.release_buffers(&ctx);
+    gpu_scene.release(&ctx);
     Ok(())
 }

@@ -268,6 +268,8 @@ fn debug_cache_writes_the_view_and_reports_the_cache() {
             "occupancy",
             "--size",
             "32x24",
+            "--frames",
+            "1",
             "--out",
             "occupancy.png",
         ],
@@ -288,6 +290,43 @@ fn debug_cache_writes_the_view_and_reports_the_cache() {
         .filter(|(_, _, p)| p.max_element() > 0.0)
         .count();
     assert!(seen * 2 >= 32 * 24, "{seen} of {} pixels hit", 32 * 24);
+}
+
+#[test]
+fn debug_cache_lights_the_cache_on_the_gpu() {
+    if gi_gpu::GpuContext::new_or_skip("debug_cache_lights_the_cache_on_the_gpu").is_none() {
+        return;
+    }
+    let dir = tempfile::tempdir().unwrap();
+    let output = gi(
+        &[
+            "debug-cache",
+            "cornell-box",
+            "--view",
+            "irradiance",
+            "--size",
+            "32x24",
+            "--frames",
+            "3",
+            "--out",
+            "irradiance.png",
+        ],
+        dir.path(),
+    );
+    assert!(output.status.success(), "{}", stderr(&output));
+    let stdout = String::from_utf8_lossy(&output.stdout);
+    assert!(
+        stdout.contains("cache/inject") && stdout.contains("cache/propagate"),
+        "{stdout}"
+    );
+    // The ceiling light reaches every wall within one update (emitters are sampled directly),
+    // so most of the voxels the camera sees hold light.
+    let image = gi_image::load(dir.path().join("irradiance.png")).unwrap();
+    let lit = image
+        .enumerate_pixels()
+        .filter(|(_, _, p)| p.max_element() > 0.0)
+        .count();
+    assert!(lit * 2 >= 32 * 24, "{lit} of {} pixels lit", 32 * 24);
 }
 
 #[test]
