@@ -1,7 +1,10 @@
 // The surfel brick radiance cache's data and addressing (HSGI, GDC 2023, "Radiance Cache":
 // bricks of 4^3 surfel voxels, a brick-ID pool, a dense hierarchy link, clipmap levels with
 // toroidal addressing; SmartGI, SIGGRAPH 2024, "Bricklizer": 64-bit brick and group masks for
-// a two-level HDDA, radiance per visible voxel face).
+// a two-level HDDA, lighting per visible voxel face). Lighting is stored per surfel side: HSGI's
+// surfel is "voxel + normal", so a voxel has a front side (0, along its normal) and a back side
+// (1, against it), the two faces of a thin wall that SmartGI's visible faces keep apart;
+// `gi_cache::layout` explains why two sides rather than six axis faces.
 //
 // Mirrors `gi_cache::layout` (the Rust side documents the structure in full); tests check the
 // struct layouts and the addressing functions against it.
@@ -12,7 +15,7 @@
 //   binding 2: `cache_group_masks` array<vec2<u32>>, per level then per group slot
 //   binding 3: `cache_brick_masks` array<vec2<u32>>, per brick ID: voxel occupancy
 //   binding 4: `cache_voxels` array<VoxelSurface>, per brick ID * 64 + voxel bit
-//   binding 5: `cache_direct` array<u32>, per voxel index * 6 + face: RGB9E5 direct irradiance
+//   binding 5: `cache_direct` array<u32>, per voxel index * 2 + side: RGB9E5 direct irradiance
 //   binding 6: `cache_indirect` array<u32>, same indexing: RGB9E5 indirect irradiance
 // The storage buffers are read_write so update passes and queries share one module and one
 // layout; queries only read them.
@@ -22,7 +25,10 @@
 
 const CACHE_MAX_LEVELS: u32 = 8u;
 const CACHE_NO_BRICK: u32 = 0u;
-const CACHE_FACE_COUNT: u32 = 6u;
+const CACHE_SIDE_COUNT: u32 = 2u;
+// The side along the voxel's normal, and the one against it.
+const CACHE_SIDE_FRONT: u32 = 0u;
+const CACHE_SIDE_BACK: u32 = 1u;
 const CACHE_STATE_DYNAMIC: u32 = 256u;
 const CACHE_INV_PI: f32 = 0.3183098861837907;
 
@@ -81,8 +87,8 @@ fn cache_mask_test(m: vec2<u32>, bit: u32) -> bool {
     return ((m[bit >> 5u] >> (bit & 31u)) & 1u) != 0u;
 }
 
-// Face index of the side with outward normal along `axis` in direction `positive`
-// (0 +x, 1 -x, 2 +y, 3 -y, 4 +z, 5 -z).
+// Index of the axis face with outward normal along `axis` in direction `positive`
+// (0 +x, 1 -x, 2 +y, 3 -y, 4 +z, 5 -z): the face a ray entered a voxel through, for debugging.
 fn cache_face_index(axis: u32, positive: bool) -> u32 {
     return axis * 2u + select(1u, 0u, positive);
 }
@@ -155,9 +161,22 @@ fn cache_voxel_index(v: VoxelRef) -> u32 {
     return v.brick_id * 64u + v.bit;
 }
 
-// Index of a voxel face in `cache_direct` / `cache_indirect`.
-fn cache_face_slot(v: VoxelRef, face: u32) -> u32 {
-    return cache_voxel_index(v) * CACHE_FACE_COUNT + face;
+// Index of side `side` of voxel `v` in `cache_direct` / `cache_indirect`.
+fn cache_side_slot(v: VoxelRef, side: u32) -> u32 {
+    return cache_voxel_index(v) * CACHE_SIDE_COUNT + side;
+}
+
+// The side of a surfel of normal `n` that a ray along `dir` sees: the front when the ray arrives
+// against the normal (dot(dir, n) < 0), else the back. A ray exactly in the surfel's plane
+// (dot = 0) sees the back: an arbitrary but fixed choice, for a case of measure zero that the
+// traversal's exact axis-parallel rays against axis-aligned normals do meet.
+fn cache_side_seen_by_ray(n: vec3<f32>, dir: vec3<f32>) -> u32 {
+    return select(CACHE_SIDE_BACK, CACHE_SIDE_FRONT, dot(dir, n) < 0.0);
+}
+
+// Outward normal of side `side` of a surfel of normal `n`.
+fn cache_side_normal(n: vec3<f32>, side: u32) -> vec3<f32> {
+    return select(-n, n, side == CACHE_SIDE_FRONT);
 }
 
 fn cache_voxel_albedo(s: VoxelSurface) -> vec3<f32> {
@@ -176,17 +195,17 @@ fn cache_voxel_age(s: VoxelSurface) -> u32 {
     return s.state & 0xffu;
 }
 
-// Irradiance (direct + indirect) that face `face` of voxel `v` receives.
-fn cache_face_irradiance(v: VoxelRef, face: u32) -> vec3<f32> {
-    let slot = cache_face_slot(v, face);
+// Irradiance (direct + indirect) that side `side` of voxel `v` receives.
+fn cache_side_irradiance(v: VoxelRef, side: u32) -> vec3<f32> {
+    let slot = cache_side_slot(v, side);
     return unpack_rgb9e5(cache_direct[slot]) + unpack_rgb9e5(cache_indirect[slot]);
 }
 
-// Outgoing radiance of face `face` of voxel `v` (a Lambertian surface of the voxel's diffuse
+// Outgoing radiance of side `side` of voxel `v` (a Lambertian surface of the voxel's diffuse
 // albedo), plus the voxel's emission when `with_emission`.
-fn cache_face_radiance(v: VoxelRef, face: u32, with_emission: bool) -> vec3<f32> {
+fn cache_side_radiance(v: VoxelRef, side: u32, with_emission: bool) -> vec3<f32> {
     let s = cache_voxels[cache_voxel_index(v)];
-    var radiance = cache_voxel_albedo(s) * CACHE_INV_PI * cache_face_irradiance(v, face);
+    var radiance = cache_voxel_albedo(s) * CACHE_INV_PI * cache_side_irradiance(v, side);
     if with_emission {
         radiance += cache_voxel_emission(s);
     }

@@ -1,16 +1,17 @@
 // Direct injection into the brick radiance cache (pass `cache/inject`): HSGI, GDC 2023, "Light
 // Propagation - Direct Lighting" (analytic lights with ray-traced visibility) and SmartGI,
 // SIGGRAPH 2024, "Lighting Injection" (the first bounce from the light sources with shadow
-// rays, per visible voxel face).
+// rays, per visible voxel face; here per surfel side, HSGI's surfel being "voxel + normal").
 //
-// One 64-thread workgroup per scheduled brick, one thread per voxel. For every occupied voxel
-// and every visible face (the neighbour across it is empty), the irradiance from every punctual
-// light arriving at the point just outside the face, on a surface whose normal is the voxel's
-// flipped towards the face (`gi::cache::lighting::face_normal`), with one exact shadow ray
-// through the BVH each: `WorldLight::incident` times the cosine, as the reference evaluates
-// punctual lights. Emissive surfaces and the sky reach voxels through `cache/propagate`.
-// Hidden faces get 0. A face whose direct light changed by more than LIGHT_CHANGE (a light moved
-// or switched) pulls its voxel's age down to CHANGED_AGE, so its indirect light follows quickly.
+// One 64-thread workgroup per scheduled brick, one thread per voxel. For both sides of every
+// occupied voxel (normals +n and -n), the irradiance from every punctual light arriving at the
+// point just outside the surfel on that side (`gi::cache::lighting::side_point`), on a surface
+// of the side's normal, with one exact shadow ray through the BVH each: `WorldLight::incident`
+// times the cosine, as the reference evaluates punctual lights. Emissive surfaces and the sky
+// reach voxels through `cache/propagate`. Both sides are always lit: a side facing into solid
+// geometry finds it with its shadow rays. A side whose direct light changed by more than
+// LIGHT_CHANGE (a light moved or switched) pulls its voxel's age down to CHANGED_AGE, so its
+// indirect light follows quickly.
 //
 // Bind group 0: `gi::cache::lighting`; 1: the BVH (`gi::bvh`); 2: the cache (`gi::cache::data`).
 
@@ -21,15 +22,16 @@
 #import gi::math::luminance
 #import gi::cache::data::{
     cache, cache_brick_masks, cache_voxels, cache_direct, VoxelRef, cache_mask_cell, cache_mask_test,
-    cache_voxel_index, cache_face_slot, cache_voxel_normal, cache_voxel_age
+    cache_voxel_index, cache_side_slot, cache_side_normal, cache_voxel_normal, cache_voxel_age,
+    CACHE_SIDE_COUNT
 }
-#import gi::cache::lighting::{lighting, scheduled_bricks, face_is_visible, face_normal, face_point}
+#import gi::cache::lighting::{lighting, scheduled_bricks, side_point}
 
 // Shadow rays towards a point or spot light stop short of it by this relative margin (the
 // reference's `shadow_distance`).
 const SHADOW_MARGIN: f32 = 1e-4;
 const FAR: f32 = 3.40282347e38;
-// Relative change of a face's direct luminance that counts as "the lighting changed".
+// Relative change of a side's direct luminance that counts as "the lighting changed".
 const LIGHT_CHANGE: f32 = 0.25;
 // Age a changed voxel is pulled down to: its next indirect updates weigh 1/3, 1/4, ...
 const CHANGED_AGE: u32 = 2u;
@@ -74,13 +76,10 @@ fn inject(
     let surface = cache_voxels[cache_voxel_index(v)];
     let n = cache_voxel_normal(surface);
     var changed = false;
-    for (var face = 0u; face < 6u; face++) {
-        let slot = cache_face_slot(v, face);
-        if !face_is_visible(scheduled.level, voxel, face) {
-            cache_direct[slot] = 0u;
-            continue;
-        }
-        let irradiance = punctual_irradiance(face_point(center, size, face), face_normal(n, face));
+    for (var side = 0u; side < CACHE_SIDE_COUNT; side++) {
+        let slot = cache_side_slot(v, side);
+        let n_side = cache_side_normal(n, side);
+        let irradiance = punctual_irradiance(side_point(center, size, n_side), n_side);
         let new_luminance = luminance(irradiance);
         let old_luminance = luminance(unpack_rgb9e5(cache_direct[slot]));
         let scale = max(new_luminance, old_luminance);

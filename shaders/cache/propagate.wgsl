@@ -1,18 +1,20 @@
 // Multi-bounce propagation in the brick radiance cache (pass `cache/propagate`): HSGI, GDC 2023,
 // "Light Propagation - Indirect Lighting" (hemisphere gather, temporal accumulation) and "Origin
 // Geometry" (rays start about one voxel off the surface); SmartGI, SIGGRAPH 2024, "Lighting
-// Injection" (multi bounce: each visible face gathers the previous frame's voxel lighting).
+// Injection" (multi bounce: each visible face gathers the previous frame's voxel lighting; here
+// each surfel side, HSGI's surfel being "voxel + normal").
 //
-// One 64-thread workgroup per scheduled brick, one thread per voxel. For every visible face,
-// `rays_per_face` cosine-distributed directions about the face normal (the voxel normal flipped
-// towards the face) are traced through the cache from the center of the empty neighbour across
-// the face. A hit contributes the hit face's reflected radiance (albedo / pi x its direct +
-// indirect irradiance), a miss the sky: E = pi mean(L). Light emitted by emissive triangles is
-// not taken from the hit voxels' emission but sampled directly (next-event estimation through
-// the scene's emitter table, `rays_per_face` samples from the face point with BVH shadow rays,
+// One 64-thread workgroup per scheduled brick, one thread per voxel. For both sides of every
+// occupied voxel (normals +n and -n), `rays_per_side` cosine-distributed directions about the
+// side's normal are traced through the cache from the point just outside the surfel on that
+// side (`gi::cache::lighting::side_point`, half a voxel diagonal off the center). A hit
+// contributes the reflected radiance of the side it sees (albedo / pi x its direct + indirect
+// irradiance), a miss the sky: E = pi mean(L). Light emitted by emissive triangles is not taken
+// from the hit voxels' emission but sampled directly (next-event estimation through the
+// scene's emitter table, `rays_per_side` samples from the side point with BVH shadow rays,
 // E = mean(Le cos / pdf)): a small bright emitter is then found by every sample instead of by
 // the rare ray that hits its voxel, and nothing is counted twice (`cache/inject` adds only
-// punctual lights). The sum is the face's indirect irradiance, accumulated over updates with
+// punctual lights). The sum is the side's indirect irradiance, accumulated over updates with
 // weight 1 / age (age = min(age + 1, max_age)).
 //
 // Reads of other bricks see what this frame's passes have written so far or last frame's
@@ -27,11 +29,11 @@
 #import gi::packing::{pack_rgb9e5, unpack_rgb9e5}
 #import gi::cache::data::{
     cache, cache_brick_masks, cache_voxels, cache_indirect, VoxelRef, cache_mask_cell,
-    cache_mask_test, cache_voxel_index, cache_face_slot, cache_voxel_normal, cache_voxel_age,
-    cache_face_direction
+    cache_mask_test, cache_voxel_index, cache_side_slot, cache_side_normal, cache_voxel_normal,
+    cache_voxel_age, CACHE_SIDE_COUNT
 }
 #import gi::cache::trace::{cache_trace, cache_hit_radiance}
-#import gi::cache::lighting::{lighting, scheduled_bricks, face_is_visible, face_normal, face_point}
+#import gi::cache::lighting::{lighting, scheduled_bricks, side_point}
 
 const FAR: f32 = 3.0e38;
 // Shadow rays stop short of the emitter point by this relative margin (the reference's
@@ -39,7 +41,7 @@ const FAR: f32 = 3.0e38;
 const SHADOW_MARGIN: f32 = 1e-4;
 
 // Radiance arriving along `dir` at `origin` after at least one bounce: the cache's reflected
-// face radiance (emission is sampled directly), or the sky where the ray leaves the cache.
+// side radiance (emission is sampled directly), or the sky where the ray leaves the cache.
 fn bounced_radiance(origin: vec3<f32>, dir: vec3<f32>) -> vec3<f32> {
     let hit = cache_trace(origin, dir, FAR);
     if hit.hit {
@@ -84,25 +86,23 @@ fn propagate(
     let n = cache_voxel_normal(surface);
     let age = min(cache_voxel_age(surface) + 1u, lighting.max_age);
     let weight = 1.0 / f32(age);
-    let rays = max(lighting.rays_per_face, 1u);
-    for (var face = 0u; face < 6u; face++) {
-        let slot = cache_face_slot(v, face);
-        if !face_is_visible(scheduled.level, voxel, face) {
-            cache_indirect[slot] = 0u;
-            continue;
-        }
-        let n_f = face_normal(n, face);
-        let frame = frame_from_normal(n_f);
-        let origin = center + cache_face_direction(face) * size;
-        let x = face_point(center, size, face);
+    let rays = max(lighting.rays_per_side, 1u);
+    for (var side = 0u; side < CACHE_SIDE_COUNT; side++) {
+        let slot = cache_side_slot(v, side);
+        let n_side = cache_side_normal(n, side);
+        let frame = frame_from_normal(n_side);
+        // Gather rays and emitter samples leave from the same point. It lies in a neighbouring
+        // voxel, which the trace skips: where the surface lies on a voxel boundary that
+        // neighbour holds the same surface.
+        let x = side_point(center, size, n_side);
         var sampler = sampler_new(vec2<u32>(lighting.seed, 0u), slot, lighting.frame_index);
         var bounced = vec3<f32>(0.0);
         var emitted = vec3<f32>(0.0);
         for (var i = 0u; i < rays; i++) {
             let dir = frame_to_world(frame, cosine_hemisphere(sampler_next_2d(&sampler)));
-            bounced += bounced_radiance(origin, dir);
+            bounced += bounced_radiance(x, dir);
             if lighting.emitter_count > 0u {
-                emitted += emitter_irradiance(x, n_f, &sampler);
+                emitted += emitter_irradiance(x, n_side, &sampler);
             }
         }
         let irradiance = (bounced * PI + emitted) / f32(rays);

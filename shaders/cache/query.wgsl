@@ -11,8 +11,8 @@
 // Bind group 2 is the cache (`gi::cache::data`).
 
 #import gi::cache::data::{
-    cache, cache_voxels, cache_voxel_index, cache_voxel_albedo, cache_face_irradiance,
-    cache_face_direction
+    cache, cache_voxels, cache_voxel_index, cache_voxel_albedo, cache_side_irradiance,
+    cache_face_direction, CACHE_SIDE_FRONT
 }
 #import gi::cache::trace::{
     CacheHit, cache_trace, cache_hit_radiance, cache_hit_normal, cache_irradiance
@@ -28,11 +28,11 @@ struct QueryRay {
 
 // Mirror of `gi_cache::GpuCacheRayHit`.
 struct QueryHit {
-    // Normal of the hit voxel, on the side of the entered face.
+    // Normal of the hit voxel, on the side the ray sees.
     normal: vec3<f32>,
     // Distance to the entry into the hit voxel (t_max on a miss).
     t: f32,
-    // Radiance leaving the entered face, emission included.
+    // Radiance leaving the side the ray sees, emission included.
     radiance: vec3<f32>,
     level: u32,
     face: u32,
@@ -40,6 +40,11 @@ struct QueryHit {
     hit: u32,
     brick_id: u32,
     bit: u32,
+    // Side of the hit surfel the ray sees (0 front, 1 back).
+    side: u32,
+    pad_a: u32,
+    pad_b: u32,
+    pad_c: u32,
 }
 
 // Mirror of `gi_cache::GpuIrradianceQuery`.
@@ -110,6 +115,10 @@ fn trace_rays(
         select(0u, 1u, hit.hit),
         hit.voxel.brick_id,
         hit.voxel.bit,
+        hit.side,
+        0u,
+        0u,
+        0u,
     );
 }
 
@@ -150,13 +159,14 @@ fn debug_color(hit: CacheHit) -> vec3<f32> {
             return cache_hit_radiance(hit, true);
         }
         case DEBUG_IRRADIANCE: {
-            return cache_face_irradiance(hit.voxel, hit.face);
+            return cache_side_irradiance(hit.voxel, hit.side);
         }
         case DEBUG_OCCUPANCY: {
             return level_color(hit.level) * face_shade;
         }
         case DEBUG_FACE: {
-            return abs(cache_face_direction(hit.face)) * select(1.0, 0.5, (hit.face & 1u) != 0u);
+            // The axis of the entered face in hue, the side seen in brightness.
+            return abs(cache_face_direction(hit.face)) * select(0.4, 1.0, hit.side == CACHE_SIDE_FRONT);
         }
         case DEBUG_DISTANCE: {
             return vec3(1.0 / (1.0 + 0.25 * hit.t));

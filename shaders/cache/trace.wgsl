@@ -22,9 +22,10 @@
 
 #import gi::cache::data::{
     cache, cache_link, cache_group_masks, cache_brick_masks, cache_voxels, VoxelRef,
-    cache_mask_bit, cache_mask_test, cache_face_index, cache_face_direction, cache_voxel_of_point,
-    cache_in_window, cache_level_of_point, cache_link_index, cache_group_index, cache_voxel_at,
-    cache_voxel_index, cache_voxel_normal, cache_face_irradiance, cache_face_radiance
+    cache_mask_bit, cache_mask_test, cache_face_index, cache_voxel_of_point, cache_in_window,
+    cache_level_of_point, cache_link_index, cache_group_index, cache_voxel_at, cache_voxel_index,
+    cache_voxel_normal, cache_side_irradiance, cache_side_radiance, cache_side_seen_by_ray,
+    cache_side_normal, CACHE_SIDE_FRONT, CACHE_SIDE_BACK
 }
 
 // Most cells one trace visits (all scales and levels together). A ray crossing a default
@@ -45,14 +46,17 @@ struct CacheHit {
     level: u32,
     // The hit voxel (brick_id 0 on a miss).
     voxel: VoxelRef,
-    // Face the ray entered through: moving +x the ray enters through face 1 (-x), and so on.
+    // Axis face the ray entered through (moving +x the ray enters through face 1, -x), for
+    // debugging: the lighting it sees is that of `side`.
     face: u32,
+    // Side of the hit surfel facing the ray (`cache_side_seen_by_ray`): 0 front, 1 back.
+    side: u32,
     // False when the ray reached `t_max`, left the coarsest window or ran out of steps.
     hit: bool,
 }
 
 fn cache_miss(t_max: f32) -> CacheHit {
-    return CacheHit(t_max, 0u, VoxelRef(0u, 0u), 0u, false);
+    return CacheHit(t_max, 0u, VoxelRef(0u, 0u), 0u, 0u, false);
 }
 
 // Index of the smallest component (ties: x, then y).
@@ -159,7 +163,9 @@ fn cache_trace(origin: vec3<f32>, dir: vec3<f32>, t_max: f32) -> CacheHit {
             let bit = cache_mask_bit(vec3<u32>(vox & vec3(3)));
             let is_origin = skip_origin && level == origin_level && all(vox == origin_voxel);
             if cache_mask_test(brick_mask, bit) && !is_origin {
-                return CacheHit(t, level, VoxelRef(brick_id, bit), face, true);
+                let v = VoxelRef(brick_id, bit);
+                let n = cache_voxel_normal(cache_voxels[cache_voxel_index(v)]);
+                return CacheHit(t, level, v, face, cache_side_seen_by_ray(n, dir), true);
             }
         }
         if occupied {
@@ -190,43 +196,41 @@ fn cache_trace(origin: vec3<f32>, dir: vec3<f32>, t_max: f32) -> CacheHit {
     return cache_miss(t_max);
 }
 
-// Radiance leaving the hit face towards the ray (the face's Lambertian radiance, plus the
+// Radiance leaving the hit surfel's side towards the ray (its Lambertian radiance, plus the
 // voxel's emission when `with_emission`); black on a miss.
 fn cache_hit_radiance(hit: CacheHit, with_emission: bool) -> vec3<f32> {
     if !hit.hit {
         return vec3(0.0);
     }
-    return cache_face_radiance(hit.voxel, hit.face, with_emission);
+    return cache_side_radiance(hit.voxel, hit.side, with_emission);
 }
 
-// The hit voxel's surface normal, flipped to the side of the face the ray entered through
-// (the side whose lighting the face holds); zero on a miss.
+// The hit voxel's surface normal on the side the ray sees (the side whose lighting it reads);
+// zero on a miss.
 fn cache_hit_normal(hit: CacheHit) -> vec3<f32> {
     if !hit.hit {
         return vec3(0.0);
     }
-    let n = cache_voxel_normal(cache_voxels[cache_voxel_index(hit.voxel)]);
-    return select(n, -n, dot(n, cache_face_direction(hit.face)) < 0.0);
+    return cache_side_normal(cache_voxel_normal(cache_voxels[cache_voxel_index(hit.voxel)]), hit.side);
 }
 
-// Irradiance of voxel `v` seen by a surface of normal `n`: the faces on `n`'s side weighted by
-// `n_axis^2` (an ambient cube; the weights sum to 1 for a unit `n`).
-fn cache_voxel_irradiance(v: VoxelRef, n: vec3<f32>) -> vec3<f32> {
-    let w = n * n;
-    return w.x * cache_face_irradiance(v, cache_face_index(0u, n.x >= 0.0))
-        + w.y * cache_face_irradiance(v, cache_face_index(1u, n.y >= 0.0))
-        + w.z * cache_face_irradiance(v, cache_face_index(2u, n.z >= 0.0));
-}
+// Least agreement |n_voxel . n| of a voxel's surfel with a query's normal for the voxel to count
+// in `cache_irradiance`: voxels of a crossing surface (a wall meeting the floor, at 0) stay out,
+// voxels whose normal is averaged over the edge between them (at about 0.71) count.
+const CACHE_IRRADIANCE_MIN_AGREEMENT: f32 = 0.5;
 
 // Irradiance (rgb) at surface point `p` with unit normal `n`, and in w whether the cache has a
 // voxel there (1) or not (0, rgb 0), at the finest level whose window holds `p`.
 //
 // Interpolation: trilinear over the 2 x 2 x 2 voxels around the point half a voxel behind the
-// surface (`p - n * s / 2`, where the surface's own voxels are), using only occupied voxels
-// whose surface is roughly parallel to the query's (|n_voxel . n| >= 0.5) and renormalizing
-// the weights. Empty voxels and voxels of a crossing surface (a wall meeting the floor) thus
-// never leak in. When none qualifies, the voxel containing `p` or else its neighbour behind
-// `p` along `-n` is used as is.
+// surface (`p - n * s / 2`, where the surface's own voxels are). Each occupied voxel gives the
+// side of its surfel that faces the same way as `n` (the front when n_voxel . n >= 0), weighted
+// by its trilinear weight times how well the two normals agree (|n_voxel . n|); voxels that
+// agree less than CACHE_IRRADIANCE_MIN_AGREEMENT are left out, and the weights renormalized.
+// Empty voxels and voxels of a crossing surface thus never leak in, and a voxel at a concave
+// edge or corner (its normal averaged over the surfaces meeting there) brings the light of its
+// side, lit from outside the corner. When none qualifies, the voxel containing `p` or else its
+// neighbour behind `p` along `-n` is used as is.
 fn cache_irradiance(p: vec3<f32>, n: vec3<f32>) -> vec4<f32> {
     let level = cache_level_of_point(p);
     if level >= cache.level_count {
@@ -244,13 +248,13 @@ fn cache_irradiance(p: vec3<f32>, n: vec3<f32>) -> vec4<f32> {
         if v.brick_id == 0u {
             continue;
         }
-        let n_voxel = cache_voxel_normal(cache_voxels[cache_voxel_index(v)]);
-        if abs(dot(n_voxel, n)) < 0.5 {
+        let agreement = dot(cache_voxel_normal(cache_voxels[cache_voxel_index(v)]), n);
+        if abs(agreement) < CACHE_IRRADIANCE_MIN_AGREEMENT {
             continue;
         }
         let w3 = select(1.0 - f, f, offset == vec3(1u));
-        let w = w3.x * w3.y * w3.z;
-        sum += w * cache_voxel_irradiance(v, n);
+        let w = w3.x * w3.y * w3.z * abs(agreement);
+        sum += w * cache_side_irradiance(v, select(CACHE_SIDE_BACK, CACHE_SIDE_FRONT, agreement >= 0.0));
         weight += w;
     }
     if weight > 1e-6 {
@@ -263,5 +267,6 @@ fn cache_irradiance(p: vec3<f32>, n: vec3<f32>) -> vec4<f32> {
     if v.brick_id == 0u {
         return vec4(0.0);
     }
-    return vec4(cache_voxel_irradiance(v, n), 1.0);
+    let agreement = dot(cache_voxel_normal(cache_voxels[cache_voxel_index(v)]), n);
+    return vec4(cache_side_irradiance(v, select(CACHE_SIDE_BACK, CACHE_SIDE_FRONT, agreement >= 0.0)), 1.0);
 }

@@ -7,10 +7,10 @@
 // separating axis test (half-open along the world axes), normal from the area vectors of
 // the triangles clipped to the voxel, coverage from their area projected on that normal,
 // albedo and emission from the material at the closest triangle point to the voxel center.
-// The voxel's faces and age start at 0; occupancy is gathered with workgroup atomics and
+// The voxel's sides and age start at 0; occupancy is gathered with workgroup atomics and
 // written once per brick.
 
-#import gi::cache::data::{cache, cache_brick_masks, cache_voxels, cache_direct, cache_indirect, cache_mask_cell, VoxelSurface, CACHE_STATE_DYNAMIC, CACHE_FACE_COUNT}
+#import gi::cache::data::{cache, cache_brick_masks, cache_voxels, cache_direct, cache_indirect, cache_mask_cell, VoxelSurface, CACHE_STATE_DYNAMIC, CACHE_SIDE_COUNT}
 #import gi::scene::{triangles, sample_texture, emission, triangle_uv, material_of, geometric_normal}
 #import gi::brdf::{brdf_new, brdf_diffuse_albedo}
 #import gi::packing::{pack_unit_vector, pack_rgb9e5}
@@ -250,9 +250,9 @@ fn voxelize(@builtin(workgroup_id) workgroup: vec3<u32>, @builtin(local_invocati
     }
     let voxel_index = job.brick_id * 64u + bit;
     cache_voxels[voxel_index] = surface;
-    for (var face = 0u; face < CACHE_FACE_COUNT; face++) {
-        cache_direct[voxel_index * CACHE_FACE_COUNT + face] = 0u;
-        cache_indirect[voxel_index * CACHE_FACE_COUNT + face] = 0u;
+    for (var side = 0u; side < CACHE_SIDE_COUNT; side++) {
+        cache_direct[voxel_index * CACHE_SIDE_COUNT + side] = 0u;
+        cache_indirect[voxel_index * CACHE_SIDE_COUNT + side] = 0u;
     }
 
     workgroupBarrier();

@@ -8,8 +8,8 @@
 //! | 2 | `cache.group_masks` | `[u32; 2]` per level and group slot | 8 per group |
 //! | 3 | `cache.brick_masks` | `[u32; 2]` voxel occupancy per brick ID | 8 per brick |
 //! | 4 | `cache.voxels` | [`VoxelSurface`] per brick ID x 64 + voxel bit | 1024 per brick |
-//! | 5 | `cache.direct` | RGB9E5 direct irradiance per voxel x 6 + face | 1536 per brick |
-//! | 6 | `cache.indirect` | RGB9E5 indirect irradiance, same indexing | 1536 per brick |
+//! | 5 | `cache.direct` | RGB9E5 direct irradiance per voxel x 2 + side | 512 per brick |
+//! | 6 | `cache.indirect` | RGB9E5 indirect irradiance, same indexing | 512 per brick |
 //!
 //! Every buffer is created through [`GpuContext`], so it is counted under its label; all are
 //! `STORAGE | COPY_DST | COPY_SRC` so they can be uploaded and read back by tests.
@@ -19,7 +19,7 @@ use gi_gpu::{GpuContext, wgpu};
 use crate::clipmap::ClipmapWindows;
 use crate::config::CacheConfig;
 use crate::layout::{
-    FACE_COUNT, GpuCacheLevel, GpuCacheUniforms, VOXELS_PER_BRICK, VoxelSurface, join_mask,
+    GpuCacheLevel, GpuCacheUniforms, SIDE_COUNT, VOXELS_PER_BRICK, VoxelSurface, join_mask,
     split_mask,
 };
 use crate::structure::CacheStructure;
@@ -37,9 +37,9 @@ pub struct CacheBuffers {
     pub brick_masks: wgpu::Buffer,
     /// `cache.voxels`: [`VoxelSurface`] per voxel of every pooled brick.
     pub voxels: wgpu::Buffer,
-    /// `cache.direct`: direct irradiance per voxel face.
+    /// `cache.direct`: direct irradiance per voxel side.
     pub direct: wgpu::Buffer,
-    /// `cache.indirect`: indirect irradiance per voxel face.
+    /// `cache.indirect`: indirect irradiance per voxel side.
     pub indirect: wgpu::Buffer,
     /// The seven buffers bound as `shaders/cache/data.wgsl` declares them.
     pub bind_group: wgpu::BindGroup,
@@ -89,8 +89,8 @@ impl CacheBuffers {
             levels * u64::from(config.groups_per_level()) * 8,
             ids * 8,
             voxels * size_of::<VoxelSurface>() as u64,
-            voxels * u64::from(FACE_COUNT) * 4,
-            voxels * u64::from(FACE_COUNT) * 4,
+            voxels * u64::from(SIDE_COUNT) * 4,
+            voxels * u64::from(SIDE_COUNT) * 4,
         ]
     }
 

@@ -87,7 +87,7 @@ pub struct CacheFrame<'a> {
     pub config: &'a CacheConfig,
     pub buffers: &'a CacheBuffers,
     pub inputs: &'a CacheInputs<'a>,
-    /// Bricks voxelized by this update (their faces were reset to 0).
+    /// Bricks voxelized by this update (their sides' lighting was reset to 0).
     pub new_bricks: &'a [ResidentBrick],
     /// Every allocated brick.
     pub resident: &'a [ResidentBrick],

@@ -5,7 +5,7 @@
 //! structural constants that the 64-bit masks impose (4 voxels per brick edge, 4 bricks per
 //! group edge) are in [`crate::layout`].
 
-use crate::layout::{BRICK_VOXELS, FACE_COUNT, GROUP_BRICKS, MAX_LEVELS, VOXELS_PER_BRICK};
+use crate::layout::{BRICK_VOXELS, GROUP_BRICKS, MAX_LEVELS, SIDE_COUNT, VOXELS_PER_BRICK};
 
 /// How the cache is shaped and how much work it does per frame.
 ///
@@ -13,8 +13,10 @@ use crate::layout::{BRICK_VOXELS, FACE_COUNT, GROUP_BRICKS, MAX_LEVELS, VOXELS_P
 /// 6.25 cm doubling per level, so level 0 covers 8 x 4 x 8 m around the camera and level 6
 /// (4 m voxels) covers 512 x 256 x 512 m: the 512 x 512 x 128 m of SmartGI's table with the
 /// detail of HSGI's clipmap near the camera (SmartGI's single level of 0.5 m voxels cannot
-/// hold a 5 cm wall or a 2 m room). A pool of 6144 bricks keeps the whole cache near 25 MB,
-/// under SmartGI's 28 MB.
+/// hold a 5 cm wall or a 2 m room). A pool of 12288 bricks keeps the whole cache near 25 MiB,
+/// under SmartGI's 28 MB: lighting stored per surfel side (2 per voxel, see
+/// [`crate::layout`]) makes a brick cost 2 KiB, half of what 6 axis faces cost, and the
+/// bundled scenes need about 10,800 (thin-wall) and 6,800 (atrium) bricks at this shape.
 #[derive(Clone, Debug, PartialEq)]
 pub struct CacheConfig {
     /// Edge of a level-0 voxel in meters; level `k` voxels are `2^k` times larger. Smaller
@@ -45,9 +47,9 @@ pub struct CacheConfig {
     pub light_bricks_per_frame: u32,
     /// Levels counted as near field for the update schedule.
     pub near_levels: u32,
-    /// Hemisphere rays per voxel face per indirect update. More rays lower the noise of each
+    /// Hemisphere rays per voxel side per indirect update. More rays lower the noise of each
     /// update at a proportional cost; temporal accumulation does the rest.
-    pub gather_rays_per_face: u32,
+    pub gather_rays_per_side: u32,
     /// Cap of the temporal accumulation weight `1 / min(age, max_age)`: higher values converge
     /// to a smoother result but follow lighting changes more slowly.
     pub max_age: u32,
@@ -59,12 +61,12 @@ impl Default for CacheConfig {
             voxel_size_m: 0.0625,
             levels: 7,
             level_bricks: [32, 16, 32],
-            pool_bricks: 6144,
+            pool_bricks: 12288,
             voxelize_bricks_per_frame: 512,
             screen_inject_bricks_per_frame: 2048,
             light_bricks_per_frame: 512,
             near_levels: 3,
-            gather_rays_per_face: 4,
+            gather_rays_per_side: 4,
             max_age: 32,
         }
     }
@@ -130,7 +132,7 @@ impl CacheConfig {
                 self.screen_inject_bricks_per_frame,
             ),
             ("light_bricks_per_frame", self.light_bricks_per_frame),
-            ("gather_rays_per_face", self.gather_rays_per_face),
+            ("gather_rays_per_side", self.gather_rays_per_side),
             ("max_age", self.max_age),
         ] {
             if value == 0 {
@@ -191,9 +193,9 @@ impl CacheConfig {
     }
 
     /// Bytes one pooled brick costs: its 64-bit occupancy mask, 16 bytes of surface per voxel
-    /// and two RGB9E5 irradiances (direct, indirect) per voxel face.
+    /// and two RGB9E5 irradiances (direct, indirect) per voxel side: 8 + 64 x 32 = 2056.
     pub fn bytes_per_brick() -> u64 {
-        8 + VOXELS_PER_BRICK as u64 * (16 + 2 * 4 * FACE_COUNT as u64)
+        8 + VOXELS_PER_BRICK as u64 * (16 + 2 * 4 * SIDE_COUNT as u64)
     }
 
     /// Bytes of everything the cache allocates on the GPU for this configuration: the pool
@@ -225,6 +227,8 @@ mod tests {
             config.gpu_bytes()
         );
         assert_eq!(config.level_extent_m(0), [8.0, 4.0, 8.0]);
+        assert_eq!(CacheConfig::bytes_per_brick(), 2056);
+        assert_eq!(config.pool_bricks, 12288);
     }
 
     #[test]

@@ -25,8 +25,8 @@ use crate::clipmap::ClipmapWindows;
 use crate::config::{CacheConfig, ConfigError};
 use crate::cpu_voxelize::voxelize_brick;
 use crate::layout::{
-    BRICK_VOXELS, FACE_COUNT, GpuCacheUniforms, NO_BRICK, VOXELS_PER_BRICK, VoxelSurface,
-    brick_of_voxel, face_slot, in_window, mask_bit, voxel_index,
+    BRICK_VOXELS, GpuCacheUniforms, NO_BRICK, SIDE_COUNT, VOXELS_PER_BRICK, VoxelSurface,
+    brick_of_voxel, in_window, mask_bit, side_slot, voxel_index,
 };
 use crate::packing::pack_rgb9e5;
 use crate::structure::CacheStructure;
@@ -41,7 +41,7 @@ pub struct FilledBrick {
     pub id: u32,
 }
 
-/// Every level filled on the CPU: the structure, the pool's surfaces and face irradiances
+/// Every level filled on the CPU: the structure, the pool's surfaces and side irradiances
 /// (zero unless a test sets them) and what did not fit.
 #[derive(Clone, Debug)]
 pub struct CpuCache {
@@ -51,9 +51,9 @@ pub struct CpuCache {
     pub allocator: BrickAllocator,
     /// Surface per brick ID x 64 + voxel bit (entry 0's bricks unused).
     pub voxels: Vec<VoxelSurface>,
-    /// RGB9E5 direct irradiance per voxel x 6 + face.
+    /// RGB9E5 direct irradiance per voxel x 2 + side.
     pub direct: Vec<u32>,
-    /// RGB9E5 indirect irradiance per voxel x 6 + face.
+    /// RGB9E5 indirect irradiance per voxel x 2 + side.
     pub indirect: Vec<u32>,
     /// The filled bricks in fill order (finer levels, then nearer bricks, first).
     pub bricks: Vec<FilledBrick>,
@@ -100,8 +100,8 @@ impl CpuCache {
             structure: CacheStructure::new(config),
             allocator: BrickAllocator::new(config.pool_bricks),
             voxels: vec![VoxelSurface::default(); voxels_len],
-            direct: vec![0; voxels_len * FACE_COUNT as usize],
-            indirect: vec![0; voxels_len * FACE_COUNT as usize],
+            direct: vec![0; voxels_len * SIDE_COUNT as usize],
+            indirect: vec![0; voxels_len * SIDE_COUNT as usize],
             bricks: Vec::new(),
             dropped_for_pool: 0,
         };
@@ -148,23 +148,24 @@ impl CpuCache {
         self.voxels[voxel_index(id, bit) as usize]
     }
 
-    /// Sets the direct and indirect irradiance of face `face` of voxel `bit` of brick `id`
-    /// (packed to RGB9E5), e.g. to give a trace test known radiance.
-    pub fn set_face_irradiance(
+    /// Sets the direct and indirect irradiance of side `side` ([`crate::layout::SIDE_FRONT`]
+    /// or [`crate::layout::SIDE_BACK`]) of voxel `bit` of brick `id` (packed to RGB9E5), e.g.
+    /// to give a trace test known radiance.
+    pub fn set_side_irradiance(
         &mut self,
         id: u32,
         bit: u32,
-        face: u32,
+        side: u32,
         direct: Vec3,
         indirect: Vec3,
     ) {
-        let slot = face_slot(id, bit, face) as usize;
+        let slot = side_slot(id, bit, side) as usize;
         self.direct[slot] = pack_rgb9e5(direct);
         self.indirect[slot] = pack_rgb9e5(indirect);
     }
 
     /// Creates the GPU buffers (counted under `cache.*`) and uploads everything: uniforms,
-    /// link grids, group masks, brick masks, surfaces and face irradiances.
+    /// link grids, group masks, brick masks, surfaces and side irradiances.
     pub fn upload(&self, ctx: &GpuContext) -> CacheBuffers {
         let buffers = CacheBuffers::new(ctx, &self.config);
         self.write_to(ctx, &buffers);

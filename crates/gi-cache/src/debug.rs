@@ -1,7 +1,7 @@
 //! Debug views of the cache: what a pinhole camera sees when its rays go through the cache's
 //! hierarchical DDA instead of the scene (entry point `debug_view` of
 //! `shaders/cache/query.wgsl`). They show what the cache holds, not what the scene looks like:
-//! voxel sizes, holes, leaks through thin walls and the lighting stored per face.
+//! voxel sizes, holes, leaks through thin walls and the lighting stored per surfel side.
 
 use std::fmt;
 use std::str::FromStr;
@@ -22,16 +22,17 @@ pub enum DebugView {
     Albedo,
     /// The voxel's normal on the ray's side, mapped from [-1, 1] to [0, 1].
     Normal,
-    /// Radiance leaving the entered face (its stored irradiance times albedo / pi, plus
-    /// emission): what a ray gathering light from the cache receives. Black until the cache
-    /// has been lit.
+    /// Radiance leaving the surfel side the ray sees (its stored irradiance times albedo / pi,
+    /// plus emission): what a ray gathering light from the cache receives. Black until the
+    /// cache has been lit.
     Radiance,
-    /// The entered face's stored irradiance (direct + indirect), before the albedo.
+    /// The stored irradiance (direct + indirect) of the side the ray sees, before the albedo.
     Irradiance,
     /// One color per clipmap level, shaded by the entered face's orientation: shows voxel
     /// sizes and where each level ends.
     Occupancy,
-    /// The entered face: x red, y green, z blue, bright for + faces and dim for - faces.
+    /// The entered axis face and the side seen: the face's axis in hue (x red, y green, z
+    /// blue), bright where the ray sees the surfel's front side, dim where it sees the back.
     Face,
     /// Distance to the hit, `1 / (1 + t / 4 m)`.
     Distance,

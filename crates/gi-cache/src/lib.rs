@@ -1,8 +1,14 @@
 //! The surfel brick radiance cache (HSGI + SmartGI's bricklizer): a clipmapped sparse volume
 //! of voxel bricks around the camera that stores the scene's diffuse albedo, normals and
-//! emission per voxel and its lighting per voxel face, filled by voxelizing the scene on the
+//! emission per voxel and its lighting per surfel side, filled by voxelizing the scene on the
 //! GPU, lit by direct injection and multi-bounce gathering, and traced with a hierarchical
 //! DDA. It is where the real-time tiers read radiance from.
+//!
+//! Each voxel's surface is one surfel ("voxel + normal", HSGI) with two sides, front along the
+//! normal and back against it, each with its own irradiance: the two faces of a wall thinner
+//! than a voxel that SmartGI keeps apart with its visible faces, at 32 bytes per voxel instead
+//! of the 64 that six axis faces cost, which doubles the bricks the same memory holds
+//! ([`layout`] has the details).
 //!
 //! [`CacheConfig`] holds every tunable number with its justification; [`layout`] documents
 //! the data structure and its addressing, mirrored by `shaders/cache/data.wgsl`.

@@ -1,21 +1,24 @@
 //! Lighting the cache: which bricks are relit each frame ([`LightSchedule`]) and the two passes
 //! that relight them ([`CacheLighting`]).
 //!
-//! - `cache/inject` (`shaders/cache/inject.wgsl`): per visible voxel face, the irradiance from
-//!   every punctual light with an exact BVH shadow ray (HSGI's "Direct Lighting", SmartGI's
-//!   first bounce), written to `cache_direct`.
-//! - `cache/propagate` (`shaders/cache/propagate.wgsl`): per visible voxel face,
-//!   [`CacheConfig::gather_rays_per_face`] cosine-distributed rays traced through the cache
-//!   itself (hits bring the previous frame's reflected face radiance, misses the sky) plus as
+//! - `cache/inject` (`shaders/cache/inject.wgsl`): per voxel side, the irradiance from every
+//!   punctual light with an exact BVH shadow ray (HSGI's "Direct Lighting", SmartGI's first
+//!   bounce), written to `cache_direct`.
+//! - `cache/propagate` (`shaders/cache/propagate.wgsl`): per voxel side,
+//!   [`CacheConfig::gather_rays_per_side`] cosine-distributed rays traced through the cache
+//!   itself (hits bring the previous frame's reflected side radiance, misses the sky) plus as
 //!   many next-event samples of the emissive triangles with BVH shadow rays (emission is
 //!   sampled directly rather than found by rare gather hits on small emitters, and never counted
 //!   twice). The estimate is accumulated over updates with weight `1 / min(age + 1, max_age)`
 //!   into `cache_indirect` (HSGI's hemisphere gather with temporal accumulation, SmartGI's
 //!   multi bounce). Every update adds one bounce, so the cache converges to all bounces.
 //!
-//! A face is *visible* when the voxel across it is empty; hidden faces are never seen by a ray
-//! and get 0. The irradiance of a visible face is that of a surface with the voxel's normal
-//! flipped towards the face's side; a normal perpendicular to the face keeps its own side.
+//! A voxel's two sides (normals `+n` and `-n`, [`crate::layout`]) are both lit, each at the
+//! point half a voxel diagonal off the voxel's center along its normal: beyond the voxel's
+//! surface on that side, whatever the normal's direction, and inside the voxel's 3 x 3 x 3
+//! neighbourhood. A voxel whose normal is averaged over an edge or corner is lit with that
+//! normal from outside the corner; a side facing into solid geometry sees it through its
+//! shadow rays and gather. [`side_point`] mirrors `gi::cache::lighting::side_point`.
 //!
 //! Both passes run one 64-thread workgroup per scheduled brick (one thread per voxel), on the
 //! same list of bricks. Bind group 0 is this module's (uniforms at binding 0, the scene's
@@ -43,8 +46,24 @@ pub const NEAR_REFRESH_RATIO: u32 = 13;
 /// at the cost of 4-update noise while lights keep changing (a moving light).
 pub const CHANGED_MAX_AGE: u32 = 4;
 
-/// Seed of the gather's random sequences (each face's sequence is indexed by the update count).
+/// Seed of the gather's random sequences (each side's sequence is indexed by the update count).
 const GATHER_SEED: u32 = 0x6c69_6768;
+
+/// Distance from a voxel's center to the point its sides are lit at, in voxel edges: half the
+/// voxel's diagonal, the farthest a plane crossing the voxel lies from its center, so the point
+/// is beyond the voxel's surface on that side whatever the normal (`SIDE_OFFSET_VOXELS` in
+/// `shaders/cache/lighting.wgsl`).
+pub const SIDE_OFFSET_VOXELS: f32 = 0.866_025_4;
+
+/// The point side normal `side_n` of a voxel of edge `size_m` centered at `center` is lit at,
+/// as `gi::cache::lighting::side_point` computes it: along `side_n` by
+/// [`SIDE_OFFSET_VOXELS`] edges plus a margin that escapes f32 rounding, clamped to the
+/// voxel's 3 x 3 x 3 neighbourhood (a guard against a degenerate normal).
+pub fn side_point(center: glam::Vec3, size_m: f32, side_n: glam::Vec3) -> glam::Vec3 {
+    let margin = (1e-3 * size_m).max(1e-4 * (1.0 + center.abs().max_element()));
+    let p = center + side_n * (SIDE_OFFSET_VOXELS * size_m + margin);
+    p.clamp(center - size_m, center + size_m)
+}
 
 /// The scene's sky as the lighting passes read it (`gi::lights::Sky`, 64 bytes).
 #[repr(C)]
@@ -97,11 +116,11 @@ pub struct GpuLightingUniforms {
     pub brick_count: u32,
     /// Punctual lights in the scene's light buffer.
     pub light_count: u32,
-    /// [`CacheConfig::gather_rays_per_face`].
-    pub rays_per_face: u32,
+    /// [`CacheConfig::gather_rays_per_side`].
+    pub rays_per_side: u32,
     /// [`CacheConfig::max_age`], or [`CHANGED_MAX_AGE`] while following a lighting change.
     pub max_age: u32,
-    /// Lighting updates so far (the sample index of every face's random sequence).
+    /// Lighting updates so far (the sample index of every side's random sequence).
     pub frame_index: u32,
     /// Seed of the gather's random sequences.
     pub seed: u32,
@@ -441,7 +460,7 @@ impl CacheLighting {
             sky: GpuSky::new(inputs.sky),
             brick_count: bricks.len() as u32,
             light_count: inputs.scene.light_count,
-            rays_per_face: self.config.gather_rays_per_face,
+            rays_per_side: self.config.gather_rays_per_side,
             max_age,
             frame_index: self.updates,
             seed: GATHER_SEED,

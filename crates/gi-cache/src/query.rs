@@ -26,16 +26,16 @@ const WORKGROUP_SIZE: u32 = 64;
 /// fold into rows.
 const MAX_GROUPS_PER_ROW: u32 = 65_535;
 
-/// One ray's answer as `trace_rays` writes it (`QueryHit` in `shaders/cache/query.wgsl`, 48
+/// One ray's answer as `trace_rays` writes it (`QueryHit` in `shaders/cache/query.wgsl`, 64
 /// bytes).
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
 pub struct GpuCacheRayHit {
-    /// Normal of the hit voxel, flipped to the side of the entered face.
+    /// Normal of the hit voxel on the side the ray sees.
     pub normal: [f32; 3],
     /// Distance along the ray to where it entered the hit voxel (`t_max` on a miss).
     pub t: f32,
-    /// Radiance leaving the entered face towards the ray, emission included.
+    /// Radiance leaving the side the ray sees towards the ray, emission included.
     pub radiance: [f32; 3],
     /// Level of the hit voxel.
     pub level: u32,
@@ -47,6 +47,11 @@ pub struct GpuCacheRayHit {
     pub brick_id: u32,
     /// Bit of the hit voxel in its brick.
     pub bit: u32,
+    /// Side of the hit surfel the ray sees (0 front, 1 back; `gi_cache::layout`).
+    pub side: u32,
+    pub pad_a: u32,
+    pub pad_b: u32,
+    pub pad_c: u32,
 }
 
 /// One irradiance query as `irradiance_at` reads it (`IrradianceQuery`, 32 bytes).
@@ -73,10 +78,15 @@ pub struct CacheRayHit {
     pub level: u32,
     /// Unit normal of the hit voxel's surface on the ray's side (zero on a miss).
     pub normal: Vec3,
-    /// Radiance leaving the hit face towards the ray, emission included (zero on a miss).
+    /// Radiance leaving the side the ray sees towards the ray, emission included (zero on a
+    /// miss).
     pub radiance: Vec3,
-    /// Face the ray entered through.
+    /// Axis face the ray entered the voxel through (0 +x, 1 -x, 2 +y, 3 -y, 4 +z, 5 -z), for
+    /// debugging.
     pub face: u32,
+    /// Side of the hit surfel the ray sees: [`crate::layout::SIDE_FRONT`] when it arrives
+    /// against the voxel's normal, else [`crate::layout::SIDE_BACK`].
+    pub side: u32,
     /// Pooled brick ID and bit of the hit voxel (`(0, _)` on a miss).
     pub voxel: (u32, u32),
 }
@@ -90,6 +100,7 @@ impl From<GpuCacheRayHit> for CacheRayHit {
             normal: Vec3::from(h.normal),
             radiance: Vec3::from(h.radiance),
             face: h.face,
+            side: h.side,
             voxel: (h.brick_id, h.bit),
         }
     }

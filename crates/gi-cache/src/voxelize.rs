@@ -2,7 +2,7 @@
 //! chose with the triangles it binned to them, one 64-thread workgroup per brick.
 //!
 //! The CPU side ([`crate::RadianceCache`]) decides which bricks to fill, allocates their IDs
-//! and links them; this pass writes their surfaces, occupancy masks and zeroed face
+//! and links them; this pass writes their surfaces, occupancy masks and zeroed side
 //! irradiances. The rules are [`crate::cpu_voxelize`]'s, which the tests hold it to.
 //!
 //! Group 0: binding 0 the pass uniforms, bindings 1..=7 the scene (`gi::scene`, from

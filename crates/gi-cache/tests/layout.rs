@@ -5,7 +5,7 @@ use gi_gpu::{ShaderLibrary, rust_field_offsets, wgsl_struct_layout};
 
 /// A tiny entry file that uses every shared struct, so composition keeps them.
 const PROBE: &str = r#"
-#import gi::cache::data::{cache, cache_voxels, cache_face_radiance, cache_voxel_at, cache_level_of_point}
+#import gi::cache::data::{cache, cache_voxels, cache_side_radiance, cache_voxel_at, cache_level_of_point}
 
 @group(0) @binding(0) var<storage, read_write> out: array<vec4<f32>>;
 
@@ -13,7 +13,7 @@ const PROBE: &str = r#"
 fn probe() {
     let level = cache_level_of_point(vec3(0.0));
     let v = cache_voxel_at(level, vec3(0));
-    out[0] = vec4(cache_face_radiance(v, 0u, true), cache.levels[0].voxel_size_m)
+    out[0] = vec4(cache_side_radiance(v, 0u, true), cache.levels[0].voxel_size_m)
         + vec4(f32(cache_voxels[0].state));
 }
 "#;

@@ -3,8 +3,10 @@
 //! light, and the passes' GPU times.
 
 use gi_cache::cpu_voxelize::closest_point_barycentrics;
-use gi_cache::layout::{FACE_DIRECTIONS, face_slot, mask_cell, voxel_index};
-use gi_cache::lighting::{GpuLightingUniforms, GpuScheduledBrick, GpuSky};
+use gi_cache::layout::{
+    SIDE_BACK, SIDE_COUNT, SIDE_FRONT, mask_cell, side_normal, side_slot, voxel_index,
+};
+use gi_cache::lighting::{GpuLightingUniforms, GpuScheduledBrick, GpuSky, side_point};
 use gi_cache::packing::{unpack_rgb9e5, unpack_unit_vector};
 use gi_cache::{
     CacheBuffers, CacheConfig, CacheInputs, CacheLighting, CacheTracer, CpuCache, LightingInputs,
@@ -50,7 +52,7 @@ fn lighting_structs_match_their_wgsl_layout() {
             sky,
             brick_count,
             light_count,
-            rays_per_face,
+            rays_per_side,
             max_age,
             frame_index,
             seed,
@@ -210,8 +212,8 @@ impl LitCache {
         (counts, self.timer.finish(ctx, encoder))
     }
 
-    /// `(direct, indirect)` irradiance per voxel face, unpacked.
-    fn read_faces(&self, ctx: &GpuContext) -> (Vec<Vec3>, Vec<Vec3>) {
+    /// `(direct, indirect)` irradiance per voxel side, unpacked.
+    fn read_sides(&self, ctx: &GpuContext) -> (Vec<Vec3>, Vec<Vec3>) {
         let direct: Vec<u32> = ctx.read_buffer(&self.buffers.direct);
         let indirect: Vec<u32> = ctx.read_buffer(&self.buffers.indirect);
         (
@@ -221,39 +223,35 @@ impl LitCache {
     }
 }
 
-/// One visible face of an occupied voxel of the CPU cache.
+/// One side of an occupied voxel of the CPU cache.
 #[derive(Clone, Copy, Debug)]
-struct Face {
+struct Side {
     level: u32,
     /// World voxel coordinate.
     voxel: IVec3,
     center: Vec3,
     size: f32,
+    /// The voxel's normal.
     normal: Vec3,
-    face: u32,
+    side: u32,
     slot: usize,
 }
 
-impl Face {
-    /// The lighting passes' normal of this face: the voxel normal flipped towards the face.
-    fn face_normal(&self) -> Vec3 {
-        if self.normal.dot(FACE_DIRECTIONS[self.face as usize]) < -1e-3 {
-            -self.normal
-        } else {
-            self.normal
-        }
+impl Side {
+    /// The side's outward normal: the voxel normal, or its opposite for the back.
+    fn side_normal(&self) -> Vec3 {
+        side_normal(self.normal, self.side)
     }
 
-    /// The point just outside the face's center (as `gi::cache::lighting::face_point`).
+    /// The point the side is lit at (as `gi::cache::lighting::side_point`).
     fn point(&self) -> Vec3 {
-        let margin = (1e-3 * self.size).max(1e-4 * (1.0 + self.center.abs().max_element()));
-        self.center + FACE_DIRECTIONS[self.face as usize] * (0.5 * self.size + margin)
+        side_point(self.center, self.size, self.side_normal())
     }
 }
 
-/// Every visible face (the neighbouring voxel of the same level is empty) of the cache.
-fn visible_faces(cpu: &CpuCache) -> Vec<Face> {
-    let mut faces = Vec::new();
+/// Both sides of every occupied voxel of the cache.
+fn voxel_sides(cpu: &CpuCache) -> Vec<Side> {
+    let mut sides = Vec::new();
     for b in &cpu.bricks {
         let mask = cpu.structure.brick_mask(b.id);
         let size = cpu.config.voxel_size_at(b.level);
@@ -263,24 +261,20 @@ fn visible_faces(cpu: &CpuCache) -> Vec<Face> {
             }
             let voxel = b.brick * 4 + mask_cell(bit).as_ivec3();
             let surface = cpu.voxels[voxel_index(b.id, bit) as usize];
-            for face in 0..6u32 {
-                let neighbour = voxel + FACE_DIRECTIONS[face as usize].as_ivec3();
-                if cpu.voxel_at(b.level, neighbour).is_some() {
-                    continue;
-                }
-                faces.push(Face {
+            for side in 0..SIDE_COUNT {
+                sides.push(Side {
                     level: b.level,
                     voxel,
                     center: (voxel.as_vec3() + 0.5) * size,
                     size,
                     normal: unpack_unit_vector(surface.normal),
-                    face,
-                    slot: face_slot(b.id, bit, face) as usize,
+                    side,
+                    slot: side_slot(b.id, bit, side) as usize,
                 });
             }
         }
     }
-    faces
+    sides
 }
 
 fn small_config() -> CacheConfig {
@@ -328,15 +322,14 @@ fn direct_injection_matches_the_analytic_irradiance_and_shadows() {
     let mut lit = LitCache::new(&ctx, &small_config(), &scene, &frame);
     let (counts, timings) = lit.frame(&ctx, &scene.sky);
     println!("{counts:?}\n{timings}");
-    let (direct, _) = lit.read_faces(&ctx);
+    let (direct, _) = lit.read_sides(&ctx);
 
     let bvh = SceneBvh::build(&frame.triangles);
     let wi = -light_dir;
-    let (mut lit_faces, mut shadowed, mut below) = (0, 0, 0);
+    let (mut lit_sides, mut shadowed, mut below) = (0, 0, 0);
     let mut worst = 0.0f32;
-    for f in visible_faces(&lit.cpu) {
-        let n_f = f.face_normal();
-        let cos = wi.dot(n_f);
+    for f in voxel_sides(&lit.cpu) {
+        let cos = wi.dot(f.side_normal());
         let occluded = bvh.occluded(&frame.triangles, f.point(), wi, 0.0, f32::INFINITY);
         let expected = if cos <= 0.0 || occluded {
             0.0
@@ -349,28 +342,28 @@ fn direct_injection_matches_the_analytic_irradiance_and_shadows() {
         worst = worst.max(error / expected.max(1e-3));
         assert!(
             error <= expected * 2f32.powi(-9) + 1e-6,
-            "face {} of voxel {} (level {}): {got} vs {expected}",
-            f.face,
+            "side {} of voxel {} (level {}): {got} vs {expected}",
+            f.side,
             f.voxel,
             f.level
         );
-        if f.normal.y > 0.99 && f.face == 2 {
+        if f.normal.y > 0.99 && f.side == SIDE_FRONT {
             if expected > 0.0 {
-                lit_faces += 1;
+                lit_sides += 1;
             } else {
                 shadowed += 1;
             }
         }
-        if f.normal.y > 0.99 && f.face == 3 {
+        if f.normal.y > 0.99 && f.side == SIDE_BACK {
             below += 1;
         }
     }
     println!(
-        "floor top faces lit {lit_faces}, in the roof's shadow {shadowed}, bottom faces {below} \
-         (all 0); worst relative error of lit faces {worst:.2e}; E = I cos(theta) = {:.4}",
+        "floor top sides lit {lit_sides}, in the roof's shadow {shadowed}, bottom sides {below} \
+         (all 0); worst relative error of lit sides {worst:.2e}; E = I cos(theta) = {:.4}",
         intensity * wi.y
     );
-    assert!(lit_faces > 500 && shadowed > 20 && below > 500);
+    assert!(lit_sides > 500 && shadowed > 20 && below > 500);
 }
 
 // ---------------------------------------------------------------------------------------------
@@ -438,17 +431,38 @@ fn thin_wall_interior_stays_dark() {
     let Some(ctx) = GpuContext::new_or_skip("thin_wall_interior_stays_dark") else {
         return;
     };
-    let scene = gi_scene::load("thin-wall").unwrap();
-    let frame = scene.evaluate(0.0, None);
     // Windows of 16 x 8 x 16 bricks: the room at 6.25 and 12.5 cm voxels (the 5 cm wall is one
-    // voxel thick either way), the outdoors up to 32 m, about 2000 bricks.
+    // voxel thick either way), the outdoors up to 32 m, about 2300 bricks.
     let config = CacheConfig {
         level_bricks: [16, 8, 16],
         ..converging_config(4)
     };
-    let mut lit = LitCache::new(&ctx, &config, &scene, &frame);
+    check_thin_wall(&thin_wall_means(&ctx, &config));
+}
+
+/// The same at the default shape (7 levels of 32 x 16 x 32 bricks, about 10,800 bricks, which
+/// the default pool holds): minutes on the software adapter. Run with `--ignored`.
+#[test]
+#[ignore = "a measurement: minutes on the software adapter"]
+fn thin_wall_interior_stays_dark_at_the_default_shape() {
+    let Some(ctx) = GpuContext::new_or_skip("thin_wall_interior_stays_dark_at_the_default_shape")
+    else {
+        return;
+    };
+    let config = converging_config(CacheConfig::default().levels);
+    check_thin_wall(&thin_wall_means(&ctx, &config));
+}
+
+/// Lights thin-wall's cache with `config` (32 frames) and returns the mean luminance `(cache,
+/// reference)` of the irradiance on the thin wall's inner face, its outer face, the interior
+/// floor and the outdoor ground.
+fn thin_wall_means(ctx: &GpuContext, config: &CacheConfig) -> Vec<(f32, f32)> {
+    let scene = gi_scene::load("thin-wall").unwrap();
+    let frame = scene.evaluate(0.0, None);
+    let mut lit = LitCache::new(ctx, config, &scene, &frame);
+    assert_eq!(lit.cpu.dropped_for_pool, 0, "the pool is too small");
     let frames = 32;
-    let timings = run_frames(&ctx, &mut lit, &frame.sky, frames);
+    let timings = run_frames(ctx, &mut lit, &frame.sky, frames);
     println!(
         "thin-wall: {} bricks, {frames} frames; median of the last {}:\n{timings}",
         lit.bricks.len(),
@@ -505,7 +519,7 @@ fn thin_wall_interior_stays_dark() {
     let reference = Reference::new(&scene, frame.clone());
     let mut means = Vec::new();
     for (name, points) in &groups {
-        let cache = cache_irradiance(&ctx, &lit, points);
+        let cache = cache_irradiance(ctx, &lit, points);
         let truth: Vec<Vec3> = points
             .iter()
             .enumerate()
@@ -518,6 +532,12 @@ fn thin_wall_interior_stays_dark() {
         );
         means.push((c, r));
     }
+    means
+}
+
+/// No leak through thin-wall's 5 cm wall, and the outdoors right: `means` from
+/// [`thin_wall_means`].
+fn check_thin_wall(means: &[(f32, f32)]) {
     let inner_outer_cache = means[0].0 / means[1].0;
     let inner_outer_reference = means[0].1 / means[1].1;
     let floor_ground_cache = means[2].0 / means[3].0;
@@ -527,14 +547,15 @@ fn thin_wall_interior_stays_dark() {
          interior floor / outdoor ground: cache {floor_ground_cache:.4}, reference \
          {floor_ground_reference:.4}"
     );
-    // No leak: light through the 5 cm wall would put the inner faces near the outer ones (about
-    // 70 times the reference's inner irradiance). Measured: the cache's inner faces and interior
-    // floor are darker than the reference's (ratios 0.47 and 0.60, the cache under-estimates
-    // the light that bounces in through the door), its outer faces and the outdoor ground within
-    // 3% of it.
+    // No leak: light through the 5 cm wall would put the inner sides near the outer ones (about
+    // 70 times the reference's inner irradiance). Measured with 16 x 8 x 16-brick windows: the
+    // cache's inner wall and interior floor are darker than the reference's (ratios 0.72 and
+    // 0.82, the cache under-estimates the light that bounces in through the door; 0.50 and 0.67
+    // when lighting was stored per axis face, whose hidden faces darkened the room's edges),
+    // its outer wall and the outdoor ground within 3% of it.
     assert!(means[0].0 < 1.5 * means[0].1 && means[2].0 < 1.5 * means[2].1);
     assert!(inner_outer_cache < 2.0 * inner_outer_reference);
-    assert!(means[0].0 > 0.25 * means[0].1 && means[2].0 > 0.25 * means[2].1);
+    assert!(means[0].0 > 0.5 * means[0].1 && means[2].0 > 0.5 * means[2].1);
     assert!(
         (means[1].0 / means[1].1 - 1.0).abs() < 0.1 && (means[3].0 / means[3].1 - 1.0).abs() < 0.1
     );
@@ -698,7 +719,25 @@ fn cornell_box_irradiance_matches_the_reference() {
              bias {bias:+.3}; reference noise {noise:.3}, cache change over 4 frames {change:.3}"
         );
     }
+    assert!(
+        all.1 <= CORNELL_MAX_ERROR_ALL && away.1 <= CORNELL_MAX_ERROR_AWAY_FROM_EDGES,
+        "mean relative errors {:.3} (all), {:.3} (away from edges)",
+        all.1,
+        away.1
+    );
 }
+
+/// Largest mean relative error of the cache's irradiance against the reference over all
+/// cornell-box sample points. Measured with lighting per surfel side: 0.417, 0.425 and 0.468
+/// over three runs (the passes' workgroup order makes runs differ; the cache changes by about
+/// 0.06 over four frames), reference noise 0.039; per axis face it was 0.595, voxels at
+/// concave edges reading their hidden faces' zeros. The bound is the largest measurement plus
+/// the reference's noise.
+const CORNELL_MAX_ERROR_ALL: f32 = 0.51;
+
+/// The same over points farther than 1.5 voxels from any other surface: measured 0.160, 0.171
+/// and 0.170 (reference noise 0.034); 0.176 per axis face.
+const CORNELL_MAX_ERROR_AWAY_FROM_EDGES: f32 = 0.21;
 
 // ---------------------------------------------------------------------------------------------
 // A changed light.
@@ -734,26 +773,27 @@ fn a_light_switched_off_is_followed_within_a_few_frames() {
         ..small_config()
     };
     let mut lit = LitCache::new(&ctx, &config, &scene, &frame);
-    let faces = visible_faces(&lit.cpu);
-    let wall: Vec<usize> = faces
+    let sides = voxel_sides(&lit.cpu);
+    // The wall's sides facing +x (towards the floor) and the floor's sides facing up.
+    let wall: Vec<usize> = sides
         .iter()
-        .filter(|f| f.normal.x.abs() > 0.99 && f.face == 0 && f.center.y > 0.2)
+        .filter(|f| f.normal.x.abs() > 0.99 && f.side_normal().x > 0.99 && f.center.y > 0.2)
         .map(|f| f.slot)
         .collect();
-    let floor: Vec<usize> = faces
+    let floor: Vec<usize> = sides
         .iter()
-        .filter(|f| f.normal.y > 0.99 && f.face == 2 && f.center.x > 0.8)
+        .filter(|f| f.normal.y > 0.99 && f.side_normal().y > 0.99 && f.center.x > 0.8)
         .map(|f| f.slot)
         .collect();
     let mean = |values: &[Vec3], slots: &[usize]| {
         slots.iter().map(|&s| luminance(values[s])).sum::<f32>() / slots.len() as f32
     };
     run_frames(&ctx, &mut lit, &scene.sky, 40);
-    let (direct, indirect) = lit.read_faces(&ctx);
+    let (direct, indirect) = lit.read_sides(&ctx);
     let (floor_before, wall_before) = (mean(&direct, &floor), mean(&indirect, &wall));
     println!(
         "light on, 40 frames: floor direct {floor_before:.4}, wall indirect {wall_before:.4} \
-         ({} floor, {} wall faces)",
+         ({} floor, {} wall sides)",
         floor.len(),
         wall.len()
     );
@@ -769,7 +809,7 @@ fn a_light_switched_off_is_followed_within_a_few_frames() {
     let mut followed = None;
     for k in 1..=16 {
         lit.frame(&ctx, &dark.sky);
-        let (direct, indirect) = lit.read_faces(&ctx);
+        let (direct, indirect) = lit.read_sides(&ctx);
         let (floor_now, wall_now) = (mean(&direct, &floor), mean(&indirect, &wall));
         println!(
             "frame {k} after switching off: floor direct {floor_now:.4}, wall indirect \

@@ -1,7 +1,7 @@
 //! The cache's CPU structure: allocator, windows, link grid and masks, the CPU-filled cache.
 
-use gi_cache::layout::{GROUP_BRICKS, NO_BRICK, STATE_DYNAMIC, join_mask};
-use gi_cache::packing::unpack_unit_vector;
+use gi_cache::layout::{GROUP_BRICKS, NO_BRICK, STATE_DYNAMIC, join_mask, side_slot};
+use gi_cache::packing::{unpack_rgb9e5, unpack_unit_vector};
 use gi_cache::{BrickAllocator, CacheBuffers, CacheConfig, ClipmapWindows, CpuCache, FreeError};
 use gi_gpu::GpuContext;
 use glam::{IVec3, Vec3};
@@ -125,7 +125,7 @@ fn cpu_cache_uploads_to_the_bind_group_buffers() {
     };
     let mut cache = CpuCache::build(&config, &scene, &frame, frame.camera.position).unwrap();
     let first = cache.bricks[0];
-    cache.set_face_irradiance(first.id, 5, 2, Vec3::new(1.0, 2.0, 3.0), Vec3::splat(0.5));
+    cache.set_side_irradiance(first.id, 5, 1, Vec3::new(1.0, 2.0, 3.0), Vec3::splat(0.5));
     let buffers = cache.upload(&ctx);
     let masks = buffers.read_brick_masks(&ctx);
     assert_eq!(masks, cache.structure.brick_masks);
@@ -137,6 +137,15 @@ fn cpu_cache_uploads_to_the_bind_group_buffers() {
     assert_eq!(buffers.read_voxels(&ctx), cache.voxels);
     let direct: Vec<u32> = ctx.read_buffer(&buffers.direct);
     assert_eq!(direct, cache.direct);
+    let indirect: Vec<u32> = ctx.read_buffer(&buffers.indirect);
+    assert_eq!(indirect, cache.indirect);
+    // The side set above, at its slot: voxel index x 2 + side.
+    let slot = side_slot(first.id, 5, 1) as usize;
+    assert_eq!(slot, (first.id as usize * 64 + 5) * 2 + 1);
+    assert_eq!(
+        (unpack_rgb9e5(direct[slot]), unpack_rgb9e5(indirect[slot])),
+        (Vec3::new(1.0, 2.0, 3.0), Vec3::splat(0.5))
+    );
     let report = ctx.memory();
     eprintln!("{report}");
     assert_eq!(

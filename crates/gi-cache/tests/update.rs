@@ -4,7 +4,7 @@
 use std::collections::HashMap;
 
 use gi_cache::binning::{CacheScene, bin_triangles};
-use gi_cache::layout::{NO_BRICK, VoxelSurface, join_mask};
+use gi_cache::layout::{NO_BRICK, SIDE_COUNT, VOXELS_PER_BRICK, VoxelSurface, join_mask};
 use gi_cache::{CacheConfig, CacheInputs, CacheUpdateStats, CpuCache, RadianceCache};
 use gi_gpu::{GpuContext, GpuScene, GpuTimer};
 use gi_scene::{Scene, SceneFrame};
@@ -71,9 +71,9 @@ fn camera_move_keeps_staying_bricks_in_place() {
     let before = residents(&cache);
     assert_eq!(before.len() as u32, first.voxelized);
 
-    // Known face values, so a later read shows whether anything touched them.
-    let faces = (cache.buffers().direct.size() / 4) as u32;
-    let known: Vec<u32> = (0..faces).map(|i| i.wrapping_mul(2_654_435_761)).collect();
+    // Known side values, so a later read shows whether anything touched them.
+    let sides = (cache.buffers().direct.size() / 4) as u32;
+    let known: Vec<u32> = (0..sides).map(|i| i.wrapping_mul(2_654_435_761)).collect();
     ctx.queue
         .write_buffer(&cache.buffers().direct, 0, bytemuck::cast_slice(&known));
     ctx.queue
@@ -108,9 +108,10 @@ fn camera_move_keeps_staying_bricks_in_place() {
         );
         let voxels = id as usize * 64..(id as usize + 1) * 64;
         assert_eq!(voxels_after[voxels.clone()], voxels_before[voxels]);
-        let faces = id as usize * 384..(id as usize + 1) * 384;
-        assert_eq!(direct[faces.clone()], known[faces.clone()]);
-        assert_eq!(indirect[faces.clone()], known[faces]);
+        let per_brick = (VOXELS_PER_BRICK * SIDE_COUNT) as usize;
+        let sides = id as usize * per_brick..(id as usize + 1) * per_brick;
+        assert_eq!(direct[sides.clone()], known[sides.clone()]);
+        assert_eq!(indirect[sides.clone()], known[sides]);
     }
     assert!(stayed > 100 && left > 10, "stayed {stayed}, left {left}");
     assert_eq!(stats.released_leaving, left);

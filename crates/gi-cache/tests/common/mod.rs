@@ -4,10 +4,10 @@
 #![allow(dead_code)]
 
 use gi_cache::layout::{
-    FACE_COUNT, VOXELS_PER_BRICK, brick_of_voxel, brick_slot, face_index, face_slot,
-    group_of_brick, group_slot, mask_bit, split_mask, voxel_index,
+    SIDE_COUNT, VOXELS_PER_BRICK, brick_of_voxel, brick_slot, face_index, group_of_brick,
+    group_slot, mask_bit, side_seen_by_ray, side_slot, split_mask, voxel_index,
 };
-use gi_cache::packing::{pack_rgb9e5, pack_unit_vector, pack4x8unorm};
+use gi_cache::packing::{pack_rgb9e5, pack_unit_vector, pack4x8unorm, unpack_unit_vector};
 use gi_cache::{CacheBuffers, CacheConfig, GpuCacheLevel, GpuCacheUniforms, VoxelSurface};
 use gi_gpu::GpuContext;
 use gi_gpu::bvh::GpuRay;
@@ -104,6 +104,10 @@ pub fn scene_bounds(frame: &SceneFrame) -> (Vec3, Vec3) {
     (min, max)
 }
 
+/// A voxel the reference traversal's ray passes through: entry and exit distances, entered
+/// face, `(brick ID, bit)`, stored normal.
+type Candidate = (f32, f32, u32, (u32, u32), Vec3);
+
 /// What the reference traversal expects of one ray.
 #[derive(Clone, Copy, Debug)]
 pub struct ExpectedHit {
@@ -111,6 +115,8 @@ pub struct ExpectedHit {
     pub level: u32,
     pub voxel: (u32, u32),
     pub face: u32,
+    /// Side of the hit surfel the ray sees.
+    pub side: u32,
     /// Another voxel is entered within 1e-4 of the same distance, or the ray only grazes the
     /// voxel: either answer is right.
     pub tie: bool,
@@ -128,7 +134,8 @@ pub struct HandCache {
     direct: Vec<u32>,
     indirect: Vec<u32>,
     next_id: u32,
-    set: Vec<(u32, IVec3, (u32, u32))>,
+    /// Every voxel set: level, world voxel, `(brick ID, bit)`, normal.
+    set: Vec<(u32, IVec3, (u32, u32), Vec3)>,
 }
 
 impl HandCache {
@@ -162,8 +169,8 @@ impl HandCache {
             group_masks: vec![0; (config.levels * config.groups_per_level()) as usize],
             brick_masks: vec![0; config.pool_bricks as usize + 1],
             voxels: vec![VoxelSurface::default(); voxels],
-            direct: vec![0; voxels * FACE_COUNT as usize],
-            indirect: vec![0; voxels * FACE_COUNT as usize],
+            direct: vec![0; voxels * SIDE_COUNT as usize],
+            indirect: vec![0; voxels * SIDE_COUNT as usize],
             next_id: 1,
             set: Vec::new(),
             config,
@@ -204,15 +211,17 @@ impl HandCache {
             emission: 0,
             state: 1,
         };
-        if !self.set.iter().any(|(l, v, _)| *l == level && *v == voxel) {
-            self.set.push((level, voxel, (id, bit)));
-        }
+        self.set
+            .retain(|(l, v, _, _)| !(*l == level && *v == voxel));
+        // The shaders see the normal as packed.
+        let stored = unpack_unit_vector(pack_unit_vector(normal));
+        self.set.push((level, voxel, (id, bit), stored));
         (id, bit)
     }
 
-    /// Sets the direct and indirect irradiance of one face of a voxel.
-    pub fn set_face(&mut self, (id, bit): (u32, u32), face: u32, direct: Vec3, indirect: Vec3) {
-        let slot = face_slot(id, bit, face) as usize;
+    /// Sets the direct and indirect irradiance of one side of a voxel.
+    pub fn set_side(&mut self, (id, bit): (u32, u32), side: u32, direct: Vec3, indirect: Vec3) {
+        let slot = side_slot(id, bit, side) as usize;
         self.direct[slot] = pack_rgb9e5(direct);
         self.indirect[slot] = pack_rgb9e5(indirect);
     }
@@ -260,8 +269,9 @@ impl HandCache {
             let ((_, _), end) = slab(origin, dir, lo, hi).expect("origin inside");
             let s = self.voxel_size(level);
             let origin_voxel = (origin / s).floor().as_ivec3();
-            let mut candidates: Vec<(f32, f32, u32, (u32, u32))> = Vec::new();
-            for &(l, voxel, id_bit) in &self.set {
+            // (entry t, exit t, entered face, (brick ID, bit), stored normal) per voxel.
+            let mut candidates: Vec<Candidate> = Vec::new();
+            for &(l, voxel, id_bit, normal) in &self.set {
                 if l != level || (level == origin_level && voxel == origin_voxel) {
                     continue;
                 }
@@ -282,10 +292,10 @@ impl HandCache {
                 } else {
                     start_face
                 };
-                candidates.push((t, t_far, face, id_bit));
+                candidates.push((t, t_far, face, id_bit, normal));
             }
             candidates.sort_by(|a, b| a.0.total_cmp(&b.0));
-            if let Some(&(t, t_far, face, voxel)) = candidates.first() {
+            if let Some(&(t, t_far, face, voxel, normal)) = candidates.first() {
                 if t > t_max {
                     return None;
                 }
@@ -295,6 +305,7 @@ impl HandCache {
                     level,
                     voxel,
                     face,
+                    side: side_seen_by_ray(normal, dir),
                     tie,
                 });
             }
