@@ -440,8 +440,10 @@ fn thin_wall_interior_stays_dark() {
     check_thin_wall(&thin_wall_means(&ctx, &config));
 }
 
-/// The same at the default shape (7 levels of 32 x 16 x 32 bricks, about 10,800 bricks, which
-/// the default pool holds): minutes on the software adapter. Run with `--ignored`.
+/// The same at the default shape (7 levels of 32 x 16 x 32 bricks, 10,805 bricks, which the
+/// default pool holds): about 3.5 minutes on the software adapter. Run with `--ignored`.
+/// Measured: inner wall 0.77 and interior floor 0.87 of the reference, outer wall 0.98 and
+/// outdoor ground 0.99.
 #[test]
 #[ignore = "a measurement: minutes on the software adapter"]
 fn thin_wall_interior_stays_dark_at_the_default_shape() {
