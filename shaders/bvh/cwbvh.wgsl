@@ -18,7 +18,13 @@
 //   binding 0: `bvh_nodes`      array<CwBvhNode>, every bottom level, 80 bytes each
 //   binding 1: `bvh_triangles`  array<BvhTriangle>, every bottom level's primitives, 48 bytes
 //   binding 2: `bvh_top_nodes`  array<CwBvhNode>, the top level, root at index 0
-//   binding 3: `bvh_instances`  array<BvhInstance>, 64 bytes each, in top-level leaf order
+//   binding 3: `bvh_instances`  BvhInstances: a 16-byte header, then 64 bytes per instance in
+//                               top-level leaf order
+//
+// When the only instance is the static level, the header names its root and rays start there
+// with the world ray: a static scene pays neither the top-level node, nor the instance load,
+// nor the level switch. It visits the same bottom-level nodes in the same order with the same
+// ray as through the top level (whose one box encloses the level's), so its hits are identical.
 
 #define_import_path gi::bvh
 
@@ -82,6 +88,22 @@ struct BvhInstance {
     pad: u32,
 }
 
+/// Head of `bvh_instances` (`gi_gpu::bvh::GpuBvhInstanceHeader`).
+struct BvhInstanceHeader {
+    /// Root of the static level when it is the only instance, else `BVH_NO_STATIC_ROOT`.
+    static_root: u32,
+    instance_count: u32,
+    pad: vec2<u32>,
+}
+
+struct BvhInstances {
+    header: BvhInstanceHeader,
+    instances: array<BvhInstance>,
+}
+
+/// `BvhInstanceHeader::static_root` when rays start at the top level.
+const BVH_NO_STATIC_ROOT: u32 = 0xffffffffu;
+
 /// `BvhInstance::flags`: trace the world ray unchanged (the static level).
 const BVH_INSTANCE_IDENTITY: u32 = 1u;
 /// `BvhInstance::flags`: the transform mirrors; the frame triangle has v1 and v2 swapped.
@@ -101,7 +123,7 @@ const BVH_NODE_EPSILON: f32 = 0.0001;
 @group(1) @binding(0) var<storage, read> bvh_nodes: array<CwBvhNode>;
 @group(1) @binding(1) var<storage, read> bvh_triangles: array<BvhTriangle>;
 @group(1) @binding(2) var<storage, read> bvh_top_nodes: array<CwBvhNode>;
-@group(1) @binding(3) var<storage, read> bvh_instances: array<BvhInstance>;
+@group(1) @binding(3) var<storage, read> bvh_instances: BvhInstances;
 
 /// `traverse`'s marker for "in the top level" (no instance entered).
 const BVH_IN_TOP: u32 = 0xffffffffu;
@@ -212,7 +234,8 @@ fn group_child(group: vec2<u32>, bit: u32, oct_inv: u32) -> u32 {
 
 /// Both queries: the nearest hit in `[ray.t_min, ray.t_max]`, or with `any_hit` the first hit
 /// found. Cost: one 80-byte node load and eight box tests per visited node, one 48-byte load per
-/// tested triangle, and a 64-byte load plus a ray transform per entered instance.
+/// tested triangle, and a 64-byte load plus a ray transform per entered instance; a static scene
+/// (one identity instance) starts at its bottom level and pays none of the top level's share.
 fn traverse(ray: Ray, any_hit: bool) -> Hit {
     let world = ray_state(ray.origin, ray.dir);
     var state = world;
@@ -230,12 +253,19 @@ fn traverse(ray: Ray, any_hit: bool) -> Hit {
     // (primitive_base_idx, hit bits of leaf primitives still to test): triangles in a bottom
     // level, instances in the top level.
     var leaf_group = vec2(0u, 0u);
+    let static_root = bvh_instances.header.static_root;
+    if static_root != BVH_NO_STATIC_ROOT {
+        // The static level entered from an empty stack, as the top level would enter it: the
+        // world ray, no triangle base, not mirrored; emptying the stack ends the traversal.
+        instance_stack_len = 0u;
+        node_group = vec2(static_root, 0x80000000u);
+    }
     loop {
         if instance_stack_len == BVH_IN_TOP {
             if leaf_group.y != 0u {
                 let bit = firstLeadingBit(leaf_group.y);
                 leaf_group.y &= ~(1u << bit);
-                let instance = bvh_instances[leaf_group.x + bit];
+                let instance = bvh_instances.instances[leaf_group.x + bit];
                 // The rest of this top-level node's work resumes when the instance is done.
                 // Leaf groups have no bits in 24..31, which tells them apart when popped.
                 if leaf_group.y != 0u {

@@ -16,7 +16,7 @@
 mod common;
 
 use common::{Rng, test_rays};
-use gi_gpu::bvh::{BvhTracer, GpuBvh, GpuHit, GpuRay, TraceResults, moving_nodes};
+use gi_gpu::bvh::{BVH_MISS, BvhTracer, GpuBvh, GpuHit, GpuRay, TraceResults, moving_nodes};
 use gi_gpu::{GpuContext, ShaderLibrary};
 use gi_scene::{
     Animation, Channel, ChannelValues, Interpolation, Node, Scene, SceneBvh, SceneFrame, Triangle,
@@ -290,6 +290,72 @@ fn dynamic_scene_updates_match_cpu_and_fresh_builds() {
 fn many_moving_instances_match_cpu_and_fresh_builds() {
     let scene = crowd_scene(80);
     updates_match_cpu_and_fresh_builds(&scene, "crowd", &[0.5, 1.7]);
+}
+
+/// A scene whose only instance is the static level starts its rays at that level's root;
+/// forced through the top level instead, every hit is the same bit for bit. Scenes with moving
+/// instances, and an empty one, always go through the top level.
+#[test]
+fn static_scenes_skip_the_top_level_with_identical_hits() {
+    let Some((ctx, tracer)) = context("static_scenes_skip_the_top_level_with_identical_hits")
+    else {
+        return;
+    };
+    let bits =
+        |hits: &[GpuHit]| -> Vec<[u32; 4]> { hits.iter().map(|h| bytemuck::cast(*h)).collect() };
+    let mut static_scenes = 0;
+    for (seed, (name, _)) in gi_scene::BUNDLED_SCENES.iter().enumerate() {
+        let scene = gi_scene::load(name).unwrap_or_else(|e| panic!("{name}: {e}"));
+        let frame = scene.evaluate(0.0, None);
+        let mut gpu = GpuBvh::from_scene(&ctx, &scene, &frame).expect("BVH uploads");
+        let is_static = !moving_nodes(&scene).contains(&true);
+        assert_eq!(gpu.traces_static_directly(), is_static, "{name}");
+        if !is_static {
+            gpu.release(&ctx);
+            continue;
+        }
+        static_scenes += 1;
+        assert_eq!(gpu.instance_count, 1, "{name}");
+        let rays = test_rays(&frame, &SceneBvh::build(&frame.triangles), seed as u64 + 31);
+        let direct = tracer.trace(&ctx, &gpu, &rays);
+        gpu.set_static_fast_path(&ctx, false);
+        assert!(!gpu.traces_static_directly(), "{name}: switch off");
+        let through_top = tracer.trace(&ctx, &gpu, &rays);
+        assert_eq!(
+            bits(&direct.hits),
+            bits(&through_top.hits),
+            "{name}: direct hits differ from the two-level path"
+        );
+        assert_eq!(direct.occluded, through_top.occluded, "{name}");
+        assert!(
+            direct
+                .hits
+                .iter()
+                .filter(|h| h.triangle != BVH_MISS)
+                .count()
+                > rays.len() / 4,
+            "{name}: too few hits to mean anything"
+        );
+        // An update keeps the choice: off stays off, and on again takes the direct path.
+        gpu.update(&ctx, &frame).expect("top level fits the stack");
+        assert!(!gpu.traces_static_directly(), "{name}: off after update");
+        gpu.set_static_fast_path(&ctx, true);
+        gpu.update(&ctx, &frame).expect("top level fits the stack");
+        assert!(gpu.traces_static_directly(), "{name}: on after update");
+        let updated = tracer.trace(&ctx, &gpu, &rays);
+        assert_eq!(
+            bits(&direct.hits),
+            bits(&updated.hits),
+            "{name}: after update"
+        );
+        gpu.release(&ctx);
+    }
+    assert!(static_scenes > 0, "no static bundled scene to test");
+
+    // No instance at all: the top level's childless root answers every ray with a miss.
+    let empty = GpuBvh::upload(&ctx, &SceneBvh::build(&[]).bvh, &[]).expect("empty BVH uploads");
+    assert!(!empty.traces_static_directly(), "empty BVH");
+    empty.release(&ctx);
 }
 
 /// An update rebuilds only the top level: bottom-level buffers, counts and build time stay as

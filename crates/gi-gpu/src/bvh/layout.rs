@@ -102,6 +102,24 @@ pub struct GpuBvhInstance {
     pub pad: u32,
 }
 
+/// [`GpuBvhInstanceHeader::static_root`] when rays must start at the top level.
+pub const BVH_NO_STATIC_ROOT: u32 = u32::MAX;
+
+/// The first 16 bytes of `bvh.instances` (`BvhInstanceHeader` in WGSL), followed by the
+/// [`GpuBvhInstance`]s. Every ray reads it once, before traversal.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
+pub struct GpuBvhInstanceHeader {
+    /// Root in `bvh.nodes` of the static level when it is the only instance, so rays start
+    /// there with the world ray and skip the top-level node, the instance load and the level
+    /// switch; [`BVH_NO_STATIC_ROOT`] otherwise. Both paths visit the same bottom-level nodes
+    /// in the same order with the same ray, so their hits are identical.
+    pub static_root: u32,
+    /// Instances that follow the header (the top level's primitives).
+    pub instance_count: u32,
+    pub pad: [u32; 2],
+}
+
 /// WGSL `Ray` (32 bytes): `origin + t * dir` for `t` in `[t_min, t_max]`.
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
@@ -314,6 +332,29 @@ mod tests {
             child_max_y,
             child_min_z,
             child_max_z
+        );
+    }
+
+    #[test]
+    fn instance_header_matches_wgsl() {
+        let (size, wgsl) = wgsl_layout("BvhInstanceHeader");
+        assert_eq!(size as usize, size_of::<GpuBvhInstanceHeader>());
+        assert_eq!(size, 16);
+        for (member, rust) in [
+            ("static_root", offset_of!(GpuBvhInstanceHeader, static_root)),
+            (
+                "instance_count",
+                offset_of!(GpuBvhInstanceHeader, instance_count),
+            ),
+        ] {
+            assert_eq!(offset(&wgsl, member), rust, "{member}");
+        }
+        // The instances follow the header directly.
+        let (_, instances) = wgsl_layout("BvhInstances");
+        assert_eq!(offset(&instances, "header"), 0);
+        assert_eq!(
+            offset(&instances, "instances"),
+            size_of::<GpuBvhInstanceHeader>()
         );
     }
 

@@ -15,7 +15,11 @@
 //! | 0 | `bvh.nodes`, read-only storage | [`GpuCwBvhNode`] of every bottom level, 80 bytes each |
 //! | 1 | `bvh.triangles`, read-only storage | [`GpuBvhTriangle`] of every bottom level, 48 bytes each, in leaf order |
 //! | 2 | `bvh.top_nodes`, read-only storage | the top level's [`GpuCwBvhNode`]s, root first |
-//! | 3 | `bvh.instances`, read-only storage | [`GpuBvhInstance`], 64 bytes each, in top-level leaf order |
+//! | 3 | `bvh.instances`, read-only storage | a 16-byte [`GpuBvhInstanceHeader`], then [`GpuBvhInstance`], 64 bytes each, in top-level leaf order |
+//!
+//! A static scene (its only instance the world-space static level) is traced without the top
+//! level: the header names the static level's root and rays start there with the world ray
+//! ([`GpuBvh::traces_static_directly`]), with the same hits as through the top level.
 //!
 //! [`BvhTracer`] runs batches of rays through it, for tests and benchmarks.
 
@@ -24,8 +28,9 @@ mod levels;
 mod tracer;
 
 pub use layout::{
-    BVH_INSTANCE_IDENTITY, BVH_INSTANCE_MIRRORED, BVH_MISS, BVH_STACK_SIZE, BvhError,
-    GpuBvhInstance, GpuBvhTriangle, GpuCwBvhNode, GpuHit, GpuRay, PackedBvh,
+    BVH_INSTANCE_IDENTITY, BVH_INSTANCE_MIRRORED, BVH_MISS, BVH_NO_STATIC_ROOT, BVH_STACK_SIZE,
+    BvhError, GpuBvhInstance, GpuBvhInstanceHeader, GpuBvhTriangle, GpuCwBvhNode, GpuHit, GpuRay,
+    PackedBvh,
 };
 pub use levels::{BottomLevels, TopLevel, moving_nodes};
 pub use tracer::{BvhTracer, TraceResults, TraceTimings};
@@ -42,7 +47,8 @@ pub const BVH_BIND_GROUP: u32 = 1;
 
 /// A two-level CWBVH in GPU storage buffers, with the bind group that exposes it to
 /// `gi::bvh`. Memory: 80 bytes per bottom-level node plus 48 per primitive (spatial splits may
-/// reference one triangle from several leaves), plus 80 per top-level node and 64 per instance.
+/// reference one triangle from several leaves), plus 80 per top-level node, 64 per instance and
+/// a 16-byte instance header.
 pub struct GpuBvh {
     /// `bvh.nodes`: every bottom level's nodes. Written once, at upload.
     pub nodes: wgpu::Buffer,
@@ -50,10 +56,11 @@ pub struct GpuBvh {
     pub triangles: wgpu::Buffer,
     /// `bvh.top_nodes`: the top level, root at index 0; rewritten by [`GpuBvh::update`].
     pub top_nodes: wgpu::Buffer,
-    /// `bvh.instances`: the instances in top-level leaf order; rewritten by every update.
+    /// `bvh.instances`: a [`GpuBvhInstanceHeader`], then the instances in top-level leaf
+    /// order; rewritten by every update.
     pub instances: wgpu::Buffer,
     /// `bvh.bind_group`: the four buffers, for [`BVH_BIND_GROUP`]. Made again only when an
-    /// update's top level outgrows `bvh.top_nodes`.
+    /// update's top level outgrows `bvh.top_nodes` or its instances outgrow `bvh.instances`.
     pub bind_group: wgpu::BindGroup,
     /// Bottom-level nodes uploaded (1 for an empty scene: a single childless root).
     pub node_count: u32,
@@ -74,6 +81,13 @@ pub struct GpuBvh {
     /// Top levels built so far (the upload's is the first).
     pub update_count: u32,
     levels: BottomLevels,
+    /// The header of the last top level written.
+    header: GpuBvhInstanceHeader,
+    /// Root of the static level when it is the only instance of the last top level written.
+    lone_static_root: Option<u32>,
+    /// Whether a lone static instance may be traced directly (see
+    /// [`GpuBvh::set_static_fast_path`]).
+    static_fast_path: bool,
 }
 
 impl GpuBvh {
@@ -146,11 +160,7 @@ impl GpuBvh {
         // the top level: the buffer never has to grow for a fixed set of instances.
         let top_capacity = top.nodes.len().max(levels.instance_count()).max(1) as u64;
         let top_nodes = Self::top_nodes_buffer(ctx, top_capacity);
-        let instances = ctx.create_buffer(
-            "bvh.instances",
-            top.instances.len() as u64 * size_of::<GpuBvhInstance>() as u64,
-            usage,
-        );
+        let instances = Self::instances_buffer(ctx, top.instances.len() as u64);
         let bind_group = Self::bind_group(ctx, [&nodes, &triangles, &top_nodes, &instances]);
         let build_seconds = levels.build_time.as_secs_f64() + start.elapsed().as_secs_f64();
         let mut bvh = Self {
@@ -169,6 +179,9 @@ impl GpuBvh {
             update_seconds: 0.0,
             update_count: 0,
             levels,
+            header: GpuBvhInstanceHeader::default(),
+            lone_static_root: None,
+            static_fast_path: true,
         };
         bvh.write_top(ctx, top)?;
         Ok(bvh)
@@ -183,17 +196,46 @@ impl GpuBvh {
         self.write_top(ctx, top)
     }
 
+    /// Whether rays start directly at the static level's root: the scene's only instance is
+    /// the world-space static level (and [`GpuBvh::set_static_fast_path`] has not turned this
+    /// off). Follows the instance set of the last [`GpuBvh::update`].
+    pub fn traces_static_directly(&self) -> bool {
+        self.header.static_root != BVH_NO_STATIC_ROOT
+    }
+
+    /// Allows (the default) or forbids starting a static scene's rays at its bottom level. Off,
+    /// every ray goes through the top level as in a scene with moving objects; the hits are
+    /// the same either way, so this exists to compare and time the two paths. Cost: a 16-byte
+    /// write.
+    pub fn set_static_fast_path(&mut self, ctx: &GpuContext, enabled: bool) {
+        self.static_fast_path = enabled;
+        self.write_header(ctx, self.header.instance_count);
+    }
+
     fn write_top(&mut self, ctx: &GpuContext, top: TopLevel) -> Result<(), BvhError> {
         let start = Instant::now();
+        let limit = ctx.limits.max_storage_buffer_binding_size;
         let node_bytes: &[u8] = bytemuck::cast_slice(&top.nodes);
+        let instance_bytes: &[u8] = bytemuck::cast_slice(&top.instances);
+        let header_bytes = size_of::<GpuBvhInstanceHeader>() as u64;
+        let mut grown = false;
         if node_bytes.len() as u64 > self.top_nodes.size() {
-            check_size(
-                "bvh.top_nodes",
-                node_bytes.len() as u64,
-                ctx.limits.max_storage_buffer_binding_size,
-            )?;
+            check_size("bvh.top_nodes", node_bytes.len() as u64, limit)?;
             ctx.release_buffer(&self.top_nodes);
             self.top_nodes = Self::top_nodes_buffer(ctx, top.nodes.len() as u64);
+            grown = true;
+        }
+        if header_bytes + instance_bytes.len() as u64 > self.instances.size() {
+            check_size(
+                "bvh.instances",
+                header_bytes + instance_bytes.len() as u64,
+                limit,
+            )?;
+            ctx.release_buffer(&self.instances);
+            self.instances = Self::instances_buffer(ctx, top.instances.len() as u64);
+            grown = true;
+        }
+        if grown {
             self.bind_group = Self::bind_group(
                 ctx,
                 [
@@ -206,12 +248,41 @@ impl GpuBvh {
         }
         ctx.queue.write_buffer(&self.top_nodes, 0, node_bytes);
         ctx.queue
-            .write_buffer(&self.instances, 0, bytemuck::cast_slice(&top.instances));
+            .write_buffer(&self.instances, header_bytes, instance_bytes);
+        // Decided from this top level's instances, so the fast path follows the instance set.
+        self.lone_static_root = match top.instances.as_slice() {
+            [only] if only.flags & BVH_INSTANCE_IDENTITY != 0 => Some(only.blas_root),
+            _ => None,
+        };
+        self.write_header(ctx, top.instances.len() as u32);
         self.top_node_count = top.nodes.len() as u32;
         self.top_depth = top.depth;
         self.update_seconds = (top.build_time + start.elapsed()).as_secs_f64();
         self.update_count += 1;
         Ok(())
+    }
+
+    fn write_header(&mut self, ctx: &GpuContext, instance_count: u32) {
+        let static_root = self
+            .lone_static_root
+            .filter(|_| self.static_fast_path)
+            .unwrap_or(BVH_NO_STATIC_ROOT);
+        self.header = GpuBvhInstanceHeader {
+            static_root,
+            instance_count,
+            pad: [0; 2],
+        };
+        ctx.queue
+            .write_buffer(&self.instances, 0, bytemuck::bytes_of(&self.header));
+    }
+
+    fn instances_buffer(ctx: &GpuContext, instances: u64) -> wgpu::Buffer {
+        ctx.create_buffer(
+            "bvh.instances",
+            size_of::<GpuBvhInstanceHeader>() as u64
+                + instances.max(1) * size_of::<GpuBvhInstance>() as u64,
+            wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_DST,
+        )
     }
 
     fn top_nodes_buffer(ctx: &GpuContext, nodes: u64) -> wgpu::Buffer {
