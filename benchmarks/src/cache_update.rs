@@ -23,15 +23,16 @@ use gi_gpu::{
     GBuffer, GBufferInputs, GpuContext, GpuScene, GpuTimer, PassTimings, ShaderLibrary, wgpu,
 };
 
-/// Passes a frame can record: `gbuffer/primary` and the four cache passes, with room to spare.
+/// Passes a frame can record: `gbuffer/primary` and the five cache passes, with room to spare.
 const TIMER_SCOPES: u32 = 8;
 
 /// The cache passes reported, in frame order.
-pub const CACHE_PASSES: [&str; 4] = [
+pub const CACHE_PASSES: [&str; 5] = [
     "cache/voxelize",
     "cache/screen_inject",
     "cache/inject",
     "cache/propagate",
+    "cache/propagate_resolve",
 ];
 
 /// What `gi-bench cache-update` runs.
@@ -242,7 +243,7 @@ fn median(values: impl IntoIterator<Item = f64>) -> f64 {
 #[derive(Clone, Debug, Default, PartialEq)]
 pub struct PassRow {
     /// Milliseconds of each of [`CACHE_PASSES`]; `None` when the pass did not run.
-    pub cache_ms: [Option<f64>; 4],
+    pub cache_ms: [Option<f64>; CACHE_PASSES.len()],
     /// Milliseconds of `gbuffer/primary`, when the G-buffer ran.
     pub gbuffer_ms: Option<f64>,
     pub cpu_update_ms: f64,

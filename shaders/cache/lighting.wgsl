@@ -1,12 +1,16 @@
-// What the cache's lighting passes (`cache/inject.wgsl`, `cache/propagate.wgsl`) share: their
-// uniforms, the list of bricks scheduled this frame and the point a voxel side is lit at.
-// Mirrors `gi_cache::lighting`; a test checks the struct layouts.
+// What the cache's lighting passes (`cache/inject.wgsl`, `cache/propagate.wgsl`,
+// `cache/propagate_resolve.wgsl`) share: their uniforms, the list of bricks scheduled this frame,
+// the propagation's scratch and the point a voxel side is lit at. Mirrors `gi_cache::lighting`;
+// a test checks the struct layouts.
 //
-// Bind group 0 of both passes (`gi_cache::CacheLighting`):
+// Bind group 0 of all three passes (`gi_cache::CacheLighting`):
 //   binding 0: `lighting` uniform LightingUniforms
 //   bindings 1-7: the scene (`gi::scene`, `gi_gpu::GpuScene::buffers`): triangles, materials,
 //              textures, texels, the emitter table, selection probabilities, punctual lights
 //   binding 8: `scheduled_bricks` array<ScheduledBrick>, one workgroup each
+//   binding 9: `propagate_scratch` array<u32>, per scheduled brick * 128 + voxel bit * 2 + side:
+//              the side's new RGB9E5 indirect irradiance, written by `cache/propagate` and
+//              copied into `cache_indirect` by `cache/propagate_resolve`
 #define_import_path gi::cache::lighting
 
 #import gi::lights::Sky
@@ -51,6 +55,19 @@ struct ScheduledBrick {
 
 @group(0) @binding(0) var<uniform> lighting: LightingUniforms;
 @group(0) @binding(8) var<storage, read> scheduled_bricks: array<ScheduledBrick>;
+@group(0) @binding(9) var<storage, read_write> propagate_scratch: array<u32>;
+
+// Index in `propagate_scratch` of side `side` of voxel `bit` of the `scheduled`-th brick.
+fn propagate_scratch_slot(scheduled: u32, bit: u32, side: u32) -> u32 {
+    return (scheduled * 64u + bit) * 2u + side;
+}
+
+// Age of a voxel after this frame's propagation: one update older, at most `max_age`. Both
+// `cache/propagate` (for the accumulation weight) and `cache/propagate_resolve` (to store it)
+// compute it from the same unchanged state.
+fn propagated_age(age: u32) -> u32 {
+    return min(age + 1u, lighting.max_age);
+}
 
 // The point side `side_n` (the side's outward normal, the voxel normal or its opposite) of a
 // voxel of edge `size` centered at `center` is lit at: along `side_n` by half the voxel's

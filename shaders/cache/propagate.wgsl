@@ -17,8 +17,13 @@
 // punctual lights). The sum is the side's indirect irradiance, accumulated over updates with
 // weight 1 / age (age = min(age + 1, max_age)).
 //
-// Reads of other bricks see what this frame's passes have written so far or last frame's
-// values: each update is one more bounce, the order does not bias the fixed point.
+// A gather from last frame's lighting (HSGI's and SmartGI's "previous frame" bounce): this pass
+// writes nothing the cache's rays read. The accumulated value goes to `propagate_scratch` and
+// the voxel's age stays as it was; `cache/propagate_resolve`, the next pass, copies both into
+// the cache. Every ray therefore sees `cache_indirect` and the ages as the previous update left
+// them, whatever order the workgroups run in, and the result is the same on every run. The
+// direct light it reflects (`cache_direct`) is this frame's: `cache/inject` is recorded before
+// this pass, so it has finished when this pass starts.
 //
 // Bind group 0: `gi::cache::lighting`; 1: the BVH (`gi::bvh`); 2: the cache (`gi::cache::data`).
 
@@ -33,7 +38,10 @@
     cache_voxel_age, CACHE_SIDE_COUNT
 }
 #import gi::cache::trace::{cache_trace, cache_hit_radiance}
-#import gi::cache::lighting::{lighting, scheduled_bricks, side_point}
+#import gi::cache::lighting::{
+    lighting, scheduled_bricks, propagate_scratch, propagate_scratch_slot, propagated_age,
+    side_point
+}
 
 const FAR: f32 = 3.0e38;
 // Shadow rays stop short of the emitter point by this relative margin (the reference's
@@ -66,6 +74,15 @@ fn emitter_irradiance(x: vec3<f32>, n: vec3<f32>, sampler: ptr<function, Sampler
     return light.radiance * (cos_theta / light.pdf);
 }
 
+// The random sequence of side `side` of world voxel `voxel` at `level` for this update. Keyed by
+// the side's place in the world rather than its pool slot, so the result does not depend on the
+// brick IDs the allocator handed out (which follow the order bricks were filled in).
+fn side_sampler(level: u32, voxel: vec3<i32>, side: u32) -> Sampler {
+    let key = vec2<u32>(bitcast<u32>(voxel.x) ^ lighting.seed, bitcast<u32>(voxel.y));
+    let place = bitcast<u32>(voxel.z) * 16u + level * CACHE_SIDE_COUNT + side;
+    return sampler_new(key, place, lighting.frame_index);
+}
+
 @compute @workgroup_size(64)
 fn propagate(
     @builtin(workgroup_id) group: vec3<u32>,
@@ -84,7 +101,7 @@ fn propagate(
     let center = (vec3<f32>(voxel) + 0.5) * size;
     let surface = cache_voxels[cache_voxel_index(v)];
     let n = cache_voxel_normal(surface);
-    let age = min(cache_voxel_age(surface) + 1u, lighting.max_age);
+    let age = propagated_age(cache_voxel_age(surface));
     let weight = 1.0 / f32(age);
     let rays = max(lighting.rays_per_side, 1u);
     for (var side = 0u; side < CACHE_SIDE_COUNT; side++) {
@@ -95,7 +112,7 @@ fn propagate(
         // voxel, which the trace skips: where the surface lies on a voxel boundary that
         // neighbour holds the same surface.
         let x = side_point(center, size, n_side);
-        var sampler = sampler_new(vec2<u32>(lighting.seed, 0u), slot, lighting.frame_index);
+        var sampler = side_sampler(scheduled.level, voxel, side);
         var bounced = vec3<f32>(0.0);
         var emitted = vec3<f32>(0.0);
         for (var i = 0u; i < rays; i++) {
@@ -107,7 +124,7 @@ fn propagate(
         }
         let irradiance = (bounced * PI + emitted) / f32(rays);
         let history = unpack_rgb9e5(cache_indirect[slot]);
-        cache_indirect[slot] = pack_rgb9e5(mix(history, irradiance, weight));
+        propagate_scratch[propagate_scratch_slot(group.x, bit, side)] =
+            pack_rgb9e5(mix(history, irradiance, weight));
     }
-    cache_voxels[cache_voxel_index(v)].state = (surface.state & ~0xffu) | age;
 }

@@ -1,5 +1,5 @@
-//! Lighting the cache: which bricks are relit each frame ([`LightSchedule`]) and the two passes
-//! that relight them ([`CacheLighting`]).
+//! Lighting the cache: which bricks are relit each frame ([`LightSchedule`]) and the passes that
+//! relight them ([`CacheLighting`]).
 //!
 //! - `cache/inject` (`shaders/cache/inject.wgsl`): per voxel side, the irradiance from every
 //!   punctual light with an exact BVH shadow ray (HSGI's "Direct Lighting", SmartGI's first
@@ -10,8 +10,19 @@
 //!   many next-event samples of the emissive triangles with BVH shadow rays (emission is
 //!   sampled directly rather than found by rare gather hits on small emitters, and never counted
 //!   twice). The estimate is accumulated over updates with weight `1 / min(age + 1, max_age)`
-//!   into `cache_indirect` (HSGI's hemisphere gather with temporal accumulation, SmartGI's
-//!   multi bounce). Every update adds one bounce, so the cache converges to all bounces.
+//!   (HSGI's hemisphere gather with temporal accumulation, SmartGI's multi bounce), written to
+//!   `cache.lighting.scratch`. Every update adds one bounce, so the cache converges to all
+//!   bounces.
+//! - `cache/propagate_resolve` (`shaders/cache/propagate_resolve.wgsl`): copies the scratch into
+//!   `cache_indirect` and advances the voxels' ages.
+//!
+//! Propagation gathers from last frame's lighting: `cache/propagate` writes nothing that its own
+//! rays read (neither `cache_indirect` nor the ages), so every workgroup sees the cache as the
+//! previous update left it and the result does not depend on the order workgroups run in: the
+//! same inputs and frames give bit-identical lighting. The direct light it reflects is this
+//! frame's, since `cache/inject` is recorded before it (a later pass of the same encoder sees
+//! the earlier one's writes); that is deterministic too, and lets a changed light reach the first
+//! bounce one update sooner.
 //!
 //! A voxel's two sides (normals `+n` and `-n`, [`crate::layout`]) are both lit, each at the
 //! point half a voxel diagonal off the voxel's center along its normal: beyond the voxel's
@@ -20,10 +31,10 @@
 //! normal from outside the corner; a side facing into solid geometry sees it through its
 //! shadow rays and gather. [`side_point`] mirrors `gi::cache::lighting::side_point`.
 //!
-//! Both passes run one 64-thread workgroup per scheduled brick (one thread per voxel), on the
-//! same list of bricks. Bind group 0 is this module's (uniforms at binding 0, the scene's
-//! buffers at `gi::scene`'s bindings 1 to 7, the scheduled bricks at binding 8), group 1 the
-//! BVH, group 2 the cache.
+//! All three passes run one 64-thread workgroup per scheduled brick (one thread per voxel), on
+//! the same list of bricks. Bind group 0 is this module's (uniforms at binding 0, the scene's
+//! buffers at `gi::scene`'s bindings 1 to 7, the scheduled bricks at binding 8, the scratch at
+//! binding 9), group 1 the BVH (not used by `cache/propagate_resolve`), group 2 the cache.
 
 use std::collections::HashSet;
 
@@ -106,7 +117,7 @@ impl GpuSky {
     }
 }
 
-/// Uniforms of both lighting passes (`gi::cache::lighting::LightingUniforms`, 96 bytes).
+/// Uniforms of the lighting passes (`gi::cache::lighting::LightingUniforms`, 96 bytes).
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
 pub struct GpuLightingUniforms {
@@ -280,19 +291,31 @@ pub struct LightingInputs<'a> {
     pub resident: &'a [ResidentBrick],
 }
 
-/// The cache's lighting technique: the `cache/inject` and `cache/propagate` pipelines, the
-/// schedule and the per-frame brick list. Memory: the uniforms (96 bytes) and 32 bytes per
-/// brick of [`CacheConfig::light_bricks_per_frame`], counted under `cache.lighting.*`.
+/// Bytes of `cache.lighting.scratch` per scheduled brick: 64 voxels x 2 sides, one RGB9E5
+/// irradiance each (the age needs no room: the resolve recomputes it from the unchanged state).
+pub const SCRATCH_BYTES_PER_BRICK: u64 = 64 * 2 * 4;
+
+/// The cache's lighting technique: the `cache/inject`, `cache/propagate` and
+/// `cache/propagate_resolve` pipelines, the schedule, the per-frame brick list and the
+/// propagation's scratch. Memory: the uniforms (96 bytes) and, per brick of
+/// [`CacheConfig::light_bricks_per_frame`], 32 bytes of brick list and
+/// [`SCRATCH_BYTES_PER_BRICK`] (512) of scratch, counted under `cache.lighting.*` (the default
+/// 512 bricks: 272 KiB).
 pub struct CacheLighting {
     /// Entry point `inject` of `cache/inject.wgsl`.
     inject: wgpu::ComputePipeline,
     /// Entry point `propagate` of `cache/propagate.wgsl`.
     propagate: wgpu::ComputePipeline,
+    /// Entry point `propagate_resolve` of `cache/propagate_resolve.wgsl`.
+    propagate_resolve: wgpu::ComputePipeline,
     lighting_layout: wgpu::BindGroupLayout,
     /// `cache.lighting.uniforms`: [`GpuLightingUniforms`].
     uniforms: wgpu::Buffer,
     /// `cache.lighting.bricks`: [`GpuScheduledBrick`] per scheduled brick.
     bricks: wgpu::Buffer,
+    /// `cache.lighting.scratch`: per scheduled brick, voxel and side, the new RGB9E5 indirect
+    /// irradiance `cache/propagate` computed, stored by `cache/propagate_resolve`.
+    scratch: wgpu::Buffer,
     schedule: LightSchedule,
     config: CacheConfig,
     /// Lighting updates recorded so far.
@@ -306,7 +329,7 @@ pub struct CacheLighting {
 }
 
 impl CacheLighting {
-    /// Compiles both passes against the cache's bind group layout `cache_layout`
+    /// Compiles the passes against the cache's bind group layout `cache_layout`
     /// (`CacheBuffers::bind_group_layout`) and allocates the brick list for `config`.
     pub fn new(
         ctx: &GpuContext,
@@ -339,6 +362,7 @@ impl CacheLighting {
                         entry(6, read),
                         entry(7, read),
                         entry(8, read),
+                        entry(9, wgpu::BufferBindingType::Storage { read_only: false }),
                     ],
                 });
         let bvh_layout = GpuBvh::bind_group_layout(ctx);
@@ -380,6 +404,11 @@ impl CacheLighting {
                 Some(cache_layout),
             ],
         )?;
+        let propagate_resolve = pipeline(
+            "propagate_resolve",
+            "cache/propagate_resolve.wgsl",
+            &[Some(&lighting_layout), None, Some(cache_layout)],
+        )?;
         let uniforms = ctx.create_buffer(
             "cache.lighting.uniforms",
             size_of::<GpuLightingUniforms>() as u64,
@@ -390,12 +419,19 @@ impl CacheLighting {
             u64::from(config.light_bricks_per_frame.max(1)) * size_of::<GpuScheduledBrick>() as u64,
             wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_DST,
         );
+        let scratch = ctx.create_buffer(
+            "cache.lighting.scratch",
+            u64::from(config.light_bricks_per_frame.max(1)) * SCRATCH_BYTES_PER_BRICK,
+            wgpu::BufferUsages::STORAGE,
+        );
         Ok(Self {
             inject,
             propagate,
+            propagate_resolve,
             lighting_layout,
             uniforms,
             bricks,
+            scratch,
             schedule: LightSchedule::default(),
             config: config.clone(),
             updates: 0,
@@ -418,8 +454,8 @@ impl CacheLighting {
         Ok(())
     }
 
-    /// Picks this frame's bricks and records `cache/inject` then `cache/propagate` on them into
-    /// `encoder`, each timed under its name. Records nothing when there is no brick to light.
+    /// Picks this frame's bricks and records `cache/inject`, `cache/propagate` and
+    /// `cache/propagate_resolve` on them into `encoder`, each timed under its name. Records nothing when there is no brick to light.
     /// The brick list and uniforms are written with `queue.write_buffer`, so `encoder` must be
     /// submitted before the next call.
     pub fn record(
@@ -471,10 +507,10 @@ impl CacheLighting {
             .write_buffer(&self.uniforms, 0, bytemuck::bytes_of(&uniforms));
         self.updates = self.updates.wrapping_add(1);
 
-        // Uniforms, the scene's seven buffers (bindings 1..=7), the brick list.
+        // Uniforms, the scene's seven buffers (bindings 1..=7), the brick list, the scratch.
         let buffers: Vec<&wgpu::Buffer> = std::iter::once(&self.uniforms)
             .chain(inputs.scene.buffers())
-            .chain(std::iter::once(&self.bricks))
+            .chain([&self.bricks, &self.scratch])
             .collect();
         let entries: Vec<wgpu::BindGroupEntry> = buffers
             .iter()
@@ -504,6 +540,13 @@ impl CacheLighting {
             pass.set_bind_group(2, inputs.cache_bind_group, &[]);
             pass.dispatch_workgroups(workgroups, 1, 1);
         });
+        // A pass of its own: the next compute pass sees everything `cache/propagate` wrote.
+        timer.compute_pass(ctx, encoder, "cache/propagate_resolve", |pass| {
+            pass.set_pipeline(&self.propagate_resolve);
+            pass.set_bind_group(0, &lighting_group, &[]);
+            pass.set_bind_group(2, inputs.cache_bind_group, &[]);
+            pass.dispatch_workgroups(workgroups, 1, 1);
+        });
         counts
     }
 
@@ -519,13 +562,14 @@ impl CacheLighting {
 
     /// Bytes of the buffers this technique owns.
     pub fn bytes(&self) -> u64 {
-        self.uniforms.size() + self.bricks.size()
+        self.uniforms.size() + self.bricks.size() + self.scratch.size()
     }
 
     /// Stops counting and destroys the buffers.
     pub fn release(self, ctx: &GpuContext) {
         ctx.release_buffer(&self.uniforms);
         ctx.release_buffer(&self.bricks);
+        ctx.release_buffer(&self.scratch);
     }
 }
 

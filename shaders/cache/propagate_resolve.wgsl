@@ -1,0 +1,43 @@
+// The second half of multi-bounce propagation in the brick radiance cache (pass
+// `cache/propagate_resolve`): HSGI, GDC 2023, "Light Propagation - Indirect Lighting" and
+// SmartGI, SIGGRAPH 2024, "Lighting Injection" gather from the previous frame's lighting, so
+// `cache/propagate` leaves the cache untouched and writes its results to `propagate_scratch`;
+// this pass stores them. Kept apart so that no ray of `cache/propagate` reads a value another
+// workgroup of the same dispatch has already replaced, which would make the result depend on
+// the order the workgroups run in.
+//
+// One 64-thread workgroup per scheduled brick, one thread per voxel: for every occupied voxel,
+// both sides' new indirect irradiance is copied into `cache_indirect` and the voxel's age
+// advanced as `cache/propagate` weighed it (`propagated_age` of the same, unchanged state).
+//
+// Bind group 0: `gi::cache::lighting`; 2: the cache (`gi::cache::data`).
+
+#import gi::cache::data::{
+    cache_brick_masks, cache_voxels, cache_indirect, VoxelRef, cache_mask_test, cache_voxel_index,
+    cache_side_slot, cache_voxel_age, CACHE_SIDE_COUNT
+}
+#import gi::cache::lighting::{
+    lighting, scheduled_bricks, propagate_scratch, propagate_scratch_slot, propagated_age
+}
+
+@compute @workgroup_size(64)
+fn propagate_resolve(
+    @builtin(workgroup_id) group: vec3<u32>,
+    @builtin(local_invocation_index) bit: u32,
+) {
+    if group.x >= lighting.brick_count {
+        return;
+    }
+    let scheduled = scheduled_bricks[group.x];
+    if !cache_mask_test(cache_brick_masks[scheduled.brick_id], bit) {
+        return;
+    }
+    let v = VoxelRef(scheduled.brick_id, bit);
+    for (var side = 0u; side < CACHE_SIDE_COUNT; side++) {
+        cache_indirect[cache_side_slot(v, side)] =
+            propagate_scratch[propagate_scratch_slot(group.x, bit, side)];
+    }
+    let surface = cache_voxels[cache_voxel_index(v)];
+    let age = propagated_age(cache_voxel_age(surface));
+    cache_voxels[cache_voxel_index(v)].state = (surface.state & ~0xffu) | age;
+}
