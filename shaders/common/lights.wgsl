@@ -3,8 +3,8 @@
 // window, the spot cone), the constant or gradient sky of `gi_scene::Sky::radiance`, and a point
 // drawn on the emissive triangles as the reference's `Reference::sample_emitter` draws it (by
 // power through the emitter table, then uniformly by area). Written operation for operation like
-// the CPU rules (and like `path/trace.wgsl`'s inline copies), so the cache's lighting and the
-// path tracer agree on what a light delivers.
+// the CPU rules, so that the path tracer (`path/trace.wgsl`), which matches the reference up to
+// f32 rounding, and the cache's lighting read what a light delivers from one statement.
 #define_import_path gi::lights
 
 #import gi::brdf::is_finite
@@ -89,7 +89,7 @@ struct EmitterSample {
 }
 
 // The entry `partition_point(cdf <= u)` of the emitter table (`gi_gpu::EmitterTable`'s integer
-// thresholds), as `path/trace.wgsl` picks it.
+// thresholds), as the reference's `EmitterTable::pick` picks it.
 fn pick_emitter(u: f32, emitter_count: u32) -> u32 {
     let k = u32(u * 16777216.0);
     var lo = 0u;

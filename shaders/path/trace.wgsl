@@ -15,13 +15,17 @@
 // Bind group 0: uniforms, the scene (`gi_gpu::GpuScene`, declared in `path/scene.wgsl`), the
 // accumulation buffers.
 // Bind group 1: the BVH (`gi_gpu::bvh::GpuBvh`).
+//
+// What a light delivers (punctual lights, the sky, a point drawn on the emitters) comes from
+// `gi::lights`, the statement of those rules the brick cache's lighting uses too.
 
 #import gi::math::PI
-#import gi::sampling::{Sampler, sampler_new, sampler_next_f32, sampler_next_2d, cosine_hemisphere, uniform_triangle, power_heuristic, Frame, frame_from_normal, frame_to_local, frame_to_world}
+#import gi::sampling::{Sampler, sampler_new, sampler_next_f32, sampler_next_2d, cosine_hemisphere, power_heuristic, Frame, frame_from_normal, frame_to_local, frame_to_world}
 #import gi::brdf::{Brdf, brdf_new, brdf_eval, brdf_pdf, brdf_sample, is_finite}
 #import gi::bvh::{Ray, Hit, trace_closest, trace_any, BVH_MISS}
 #import gi::camera::{Camera, camera_ray}
-#import gi::scene::{TriangleShading, Material, triangles, materials, emitters, selection, lights, lerp_rgb, sample_texture, emission, geometric_normal, triangle_uv, material_of, shading_normal}
+#import gi::scene::{triangles, selection, lights, sample_texture, emission, geometric_normal, triangle_uv, material_of, shading_normal}
+#import gi::lights::{LIGHT_DIRECTIONAL, Sky, light_incident, sky_radiance, sample_emitter}
 
 const RUSSIAN_ROULETTE_START: u32 = 3u;
 const RUSSIAN_ROULETTE_MAX_SURVIVAL: f32 = 0.95;
@@ -30,7 +34,8 @@ const RUSSIAN_ROULETTE_MAX_SURVIVAL: f32 = 0.95;
 const SHADOW_MARGIN: f32 = 1e-4;
 const FAR: f32 = 3.40282347e38;
 
-// Mirror of `gi_tiers::path::PathUniforms`.
+// Mirror of `gi_tiers::path::PathUniforms`. The sky's fields are those of `gi::lights::Sky`,
+// which `sky()` assembles from them.
 struct PathUniforms {
     camera: Camera,
     sky_zenith: vec4<f32>,
@@ -72,15 +77,9 @@ struct Surface {
     emitted: vec3<f32>,
 }
 
-fn sky_radiance(dir: vec3<f32>) -> vec3<f32> {
-    if uniforms.sky_kind == 0u {
-        return uniforms.sky_zenith.xyz;
-    }
-    let y = clamp(dir.y, -1.0, 1.0);
-    if y >= 0.0 {
-        return lerp_rgb(uniforms.sky_horizon.xyz, uniforms.sky_zenith.xyz, y);
-    }
-    return lerp_rgb(uniforms.sky_horizon.xyz, uniforms.sky_ground.xyz, -y);
+// The uniforms' sky as `gi::lights` reads it.
+fn sky() -> Sky {
+    return Sky(uniforms.sky_zenith, uniforms.sky_horizon, uniforms.sky_ground, uniforms.sky_kind, 0u, 0u, 0u);
 }
 
 // The reference's `Reference::surface` for a hit with barycentrics `b` of v1 and v2.
@@ -135,41 +134,20 @@ fn punctual_lights(s: Surface, x: vec3<f32>) -> vec3<f32> {
     var sum = vec3<f32>(0.0);
     for (var i = 0u; i < uniforms.light_count; i++) {
         let light = lights[i];
-        var wi = -light.direction;
-        var dist = FAR;
-        var irradiance = light.intensity;
-        if light.kind != 0u {
-            let to_light = light.position - s.p;
-            let distance_sq = max(dot(to_light, to_light), 1e-8);
-            dist = sqrt(distance_sq);
-            wi = to_light / dist;
-            var falloff = 1.0 / distance_sq;
-            if light.has_range != 0u {
-                let ratio = dist / light.range;
-                let r2 = ratio * ratio;
-                let window = clamp(1.0 - r2 * r2, 0.0, 1.0);
-                falloff *= window * window;
-            }
-            if light.kind == 2u {
-                let cd = dot(light.direction, -wi);
-                let cone = clamp((cd - light.cos_outer) * light.spot_scale, 0.0, 1.0);
-                falloff *= cone * cone;
-            }
-            irradiance = light.intensity * falloff;
-        }
-        if dot(wi, s.ng) <= 0.0 {
+        let incident = light_incident(light, s.p);
+        if dot(incident.wi, s.ng) <= 0.0 {
             continue;
         }
-        let wi_local = frame_to_local(s.frame, wi);
-        let contribution = brdf_eval(s.brdf, s.wo, wi_local) * wi_local.z * irradiance;
+        let wi_local = frame_to_local(s.frame, incident.wi);
+        let contribution = brdf_eval(s.brdf, s.wo, wi_local) * wi_local.z * incident.irradiance;
         if all(contribution == vec3<f32>(0.0)) {
             continue;
         }
         var t_max = FAR;
-        if light.kind != 0u {
-            t_max = dist * (1.0 - SHADOW_MARGIN);
+        if light.kind != LIGHT_DIRECTIONAL {
+            t_max = incident.distance * (1.0 - SHADOW_MARGIN);
         }
-        if !occluded(x, wi, t_max) {
+        if !occluded(x, incident.wi, t_max) {
             sum += contribution;
         }
     }
@@ -196,67 +174,24 @@ fn emitter_pdf(triangle: u32, t: f32, dir: vec3<f32>) -> f32 {
     return p_select * t * t / (area * cos_light);
 }
 
-// The entry `partition_point(cdf <= u)` of the reference's table, from integer thresholds.
-fn pick_emitter(u: f32) -> u32 {
-    let k = u32(u * 16777216.0);
-    var lo = 0u;
-    var hi = uniforms.emitter_count;
-    while lo < hi {
-        let mid = (lo + hi) / 2u;
-        if emitters[mid].threshold <= k {
-            lo = mid + 1u;
-        } else {
-            hi = mid;
-        }
-    }
-    return emitters[min(lo, uniforms.emitter_count - 1u)].triangle;
-}
-
 // One next-event sample of the emissive triangles, MIS-weighted against BRDF sampling.
 fn sample_emitters(s: Surface, x: vec3<f32>, sampler: ptr<function, Sampler>) -> vec3<f32> {
     let u_select = sampler_next_f32(sampler);
     let u_point = sampler_next_2d(sampler);
-    let triangle = pick_emitter(u_select);
-    let p_select = selection[triangle];
-    let tri = triangles[triangle];
-    let b = uniform_triangle(u_point);
-    let e1 = tri.pb.xyz - tri.pa.xyz;
-    let e2 = tri.pc.xyz - tri.pa.xyz;
-    let y = tri.pa.xyz + e1 * b.x + e2 * b.y;
-    let c = cross(e1, e2);
-    let area = 0.5 * sqrt(dot(c, c));
-    let n_light = geometric_normal(tri);
-    let to_light = y - x;
-    let distance_sq = dot(to_light, to_light);
-    if area <= 0.0 || distance_sq <= 0.0 {
+    let light = sample_emitter(x, u_select, u_point, uniforms.emitter_count, uniforms.default_material);
+    if light.pdf <= 0.0 || dot(light.wi, s.ng) <= 0.0 {
         return vec3<f32>(0.0);
     }
-    let dist = sqrt(distance_sq);
-    let wi = to_light / dist;
-    let cos_light = -dot(n_light, wi);
-    let material = material_of(triangle, uniforms.default_material);
-    if cos_light == 0.0 || (cos_light < 0.0 && material.double_sided == 0u) {
-        return vec3<f32>(0.0);
-    }
-    let uv = triangle_uv(tri, 1.0 - b.x - b.y, b.x, b.y);
-    let radiance = emission(material, uv);
-    let pdf = p_select * distance_sq / (area * abs(cos_light));
-    if !(pdf > 0.0 && is_finite(pdf)) {
-        return vec3<f32>(0.0);
-    }
-    if dot(wi, s.ng) <= 0.0 {
-        return vec3<f32>(0.0);
-    }
-    let wi_local = frame_to_local(s.frame, wi);
-    let contribution = brdf_eval(s.brdf, s.wo, wi_local) * wi_local.z * radiance;
+    let wi_local = frame_to_local(s.frame, light.wi);
+    let contribution = brdf_eval(s.brdf, s.wo, wi_local) * wi_local.z * light.radiance;
     if all(contribution == vec3<f32>(0.0)) {
         return vec3<f32>(0.0);
     }
-    let w = power_heuristic(pdf, brdf_pdf(s.brdf, s.wo, wi_local));
-    if occluded(x, wi, dist * (1.0 - SHADOW_MARGIN)) {
+    let w = power_heuristic(light.pdf, brdf_pdf(s.brdf, s.wo, wi_local));
+    if occluded(x, light.wi, light.distance * (1.0 - SHADOW_MARGIN)) {
         return vec3<f32>(0.0);
     }
-    return contribution * (w / pdf);
+    return contribution * (w / light.pdf);
 }
 
 // One cosine-weighted next-event sample of the sky, MIS-weighted against BRDF sampling.
@@ -270,7 +205,7 @@ fn sample_sky(s: Surface, x: vec3<f32>, sampler: ptr<function, Sampler>) -> vec3
     if dot(wi_world, s.ng) <= 0.0 {
         return vec3<f32>(0.0);
     }
-    let contribution = brdf_eval(s.brdf, s.wo, wi) * wi.z * sky_radiance(wi_world);
+    let contribution = brdf_eval(s.brdf, s.wo, wi) * wi.z * sky_radiance(sky(), wi_world);
     if all(contribution == vec3<f32>(0.0)) {
         return vec3<f32>(0.0);
     }
@@ -286,7 +221,7 @@ fn radiance(camera_origin: vec3<f32>, camera_dir: vec3<f32>, sampler: ptr<functi
 #ifdef DIRECT_ONLY
     let hit = closest(camera_origin, camera_dir);
     if hit.triangle == BVH_MISS {
-        return sky_radiance(camera_dir);
+        return sky_radiance(sky(), camera_dir);
     }
     let s = surface_at(camera_dir, hit.triangle, hit.barycentrics);
     return s.emitted + punctual_lights(s, offset_origin(s.p, s.ng));
@@ -309,7 +244,7 @@ fn radiance(camera_origin: vec3<f32>, camera_dir: vec3<f32>, sampler: ptr<functi
                 if depth > 0u {
                     w = power_heuristic(last_brdf_pdf, last_sky_pdf);
                 }
-                l += beta * sky_radiance(dir) * w;
+                l += beta * sky_radiance(sky(), dir) * w;
             }
             break;
         }
