@@ -21,11 +21,10 @@
 #import gi::packing::{pack_rgb9e5, unpack_rgb9e5}
 #import gi::math::luminance
 #import gi::cache::data::{
-    cache, cache_brick_masks, cache_voxels, cache_direct, VoxelRef, cache_mask_cell, cache_mask_test,
-    cache_voxel_index, cache_side_slot, cache_side_normal, cache_voxel_normal, cache_voxel_age,
-    CACHE_SIDE_COUNT
+    cache_voxels, cache_direct, cache_voxel_index, cache_side_slot, cache_side_normal,
+    cache_voxel_age, CACHE_SIDE_COUNT
 }
-#import gi::cache::lighting::{lighting, scheduled_bricks, side_point}
+#import gi::cache::lighting::{lighting, scheduled_voxel, scheduled_voxel_occupied, side_point}
 
 // Shadow rays towards a point or spot light stop short of it by this relative margin (the
 // reference's `shadow_distance`).
@@ -62,24 +61,15 @@ fn inject(
     @builtin(workgroup_id) group: vec3<u32>,
     @builtin(local_invocation_index) bit: u32,
 ) {
-    if group.x >= lighting.brick_count {
+    if !scheduled_voxel_occupied(group.x, bit) {
         return;
     }
-    let scheduled = scheduled_bricks[group.x];
-    if !cache_mask_test(cache_brick_masks[scheduled.brick_id], bit) {
-        return;
-    }
-    let v = VoxelRef(scheduled.brick_id, bit);
-    let size = cache.levels[scheduled.level].voxel_size_m;
-    let voxel = scheduled.brick * 4 + vec3<i32>(cache_mask_cell(bit));
-    let center = (vec3<f32>(voxel) + 0.5) * size;
-    let surface = cache_voxels[cache_voxel_index(v)];
-    let n = cache_voxel_normal(surface);
+    let lit = scheduled_voxel(group.x, bit);
     var changed = false;
     for (var side = 0u; side < CACHE_SIDE_COUNT; side++) {
-        let slot = cache_side_slot(v, side);
-        let n_side = cache_side_normal(n, side);
-        let irradiance = punctual_irradiance(side_point(center, size, n_side), n_side);
+        let slot = cache_side_slot(lit.v, side);
+        let n_side = cache_side_normal(lit.n, side);
+        let irradiance = punctual_irradiance(side_point(lit.center, lit.size_m, n_side), n_side);
         let new_luminance = luminance(irradiance);
         let old_luminance = luminance(unpack_rgb9e5(cache_direct[slot]));
         let scale = max(new_luminance, old_luminance);
@@ -88,7 +78,7 @@ fn inject(
         }
         cache_direct[slot] = pack_rgb9e5(irradiance);
     }
-    if changed && cache_voxel_age(surface) > CHANGED_AGE {
-        cache_voxels[cache_voxel_index(v)].state = (surface.state & ~0xffu) | CHANGED_AGE;
+    if changed && cache_voxel_age(lit.surface) > CHANGED_AGE {
+        cache_voxels[cache_voxel_index(lit.v)].state = (lit.surface.state & ~0xffu) | CHANGED_AGE;
     }
 }

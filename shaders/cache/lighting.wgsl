@@ -1,7 +1,8 @@
 // What the cache's lighting passes (`cache/inject.wgsl`, `cache/propagate.wgsl`,
-// `cache/propagate_resolve.wgsl`) share: their uniforms, the list of bricks scheduled this frame,
-// the propagation's scratch and the point a voxel side is lit at. Mirrors `gi_cache::lighting`;
-// a test checks the struct layouts.
+// `cache/propagate_resolve.wgsl`) share: their uniforms, the list of bricks scheduled this frame
+// and the voxel each thread updates, the propagation's scratch and the point a voxel side is lit
+// at. Mirrors `gi_cache::lighting`; a test checks the struct layouts. Finding a thread's voxel
+// reads the cache (`gi::cache::data`, group 2), which every lighting pass binds.
 //
 // Bind group 0 of all three passes (`gi_cache::CacheLighting`):
 //   binding 0: `lighting` uniform LightingUniforms
@@ -14,6 +15,10 @@
 #define_import_path gi::cache::lighting
 
 #import gi::lights::Sky
+#import gi::cache::data::{
+    cache, cache_brick_masks, cache_voxels, VoxelRef, VoxelSurface, cache_mask_cell,
+    cache_mask_test, cache_voxel_index, cache_voxel_normal
+}
 
 // Distance from a voxel's center to the point its sides are lit at, in voxel edges: half the
 // voxel's diagonal, so the point lies beyond the voxel's surface (a plane of normal n crossing
@@ -56,6 +61,43 @@ struct ScheduledBrick {
 @group(0) @binding(0) var<uniform> lighting: LightingUniforms;
 @group(0) @binding(8) var<storage, read> scheduled_bricks: array<ScheduledBrick>;
 @group(0) @binding(9) var<storage, read_write> propagate_scratch: array<u32>;
+
+// A voxel of a brick scheduled this frame: thread `bit` of workgroup `i` of each lighting pass
+// updates voxel `bit` of `scheduled_bricks[i]`.
+struct ScheduledVoxel {
+    // The voxel in the pool.
+    v: VoxelRef,
+    // Its world voxel coordinate at `level`.
+    voxel: vec3<i32>,
+    // Its cache level.
+    level: u32,
+    // Its world-space center.
+    center: vec3<f32>,
+    // Its edge length in metres.
+    size_m: f32,
+    // Its stored surface, as the pass found it, and that surface's normal.
+    surface: VoxelSurface,
+    n: vec3<f32>,
+}
+
+// Whether thread `bit` of workgroup `scheduled` of a lighting pass has a voxel to update: the
+// workgroup has a scheduled brick and the brick's voxel `bit` is occupied.
+fn scheduled_voxel_occupied(scheduled: u32, bit: u32) -> bool {
+    return scheduled < lighting.brick_count
+        && cache_mask_test(cache_brick_masks[scheduled_bricks[scheduled].brick_id], bit);
+}
+
+// Voxel `bit` of the `scheduled`-th brick of `scheduled_bricks`, an occupied one
+// (`scheduled_voxel_occupied`).
+fn scheduled_voxel(scheduled: u32, bit: u32) -> ScheduledVoxel {
+    let brick = scheduled_bricks[scheduled];
+    let v = VoxelRef(brick.brick_id, bit);
+    let size_m = cache.levels[brick.level].voxel_size_m;
+    let voxel = brick.brick * 4 + vec3<i32>(cache_mask_cell(bit));
+    let center = (vec3<f32>(voxel) + 0.5) * size_m;
+    let surface = cache_voxels[cache_voxel_index(v)];
+    return ScheduledVoxel(v, voxel, brick.level, center, size_m, surface, cache_voxel_normal(surface));
+}
 
 // Index in `propagate_scratch` of side `side` of voxel `bit` of the `scheduled`-th brick.
 fn propagate_scratch_slot(scheduled: u32, bit: u32, side: u32) -> u32 {

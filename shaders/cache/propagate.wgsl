@@ -33,14 +33,12 @@
 #import gi::bvh::{Ray, trace_any}
 #import gi::packing::{pack_rgb9e5, unpack_rgb9e5}
 #import gi::cache::data::{
-    cache, cache_brick_masks, cache_voxels, cache_indirect, VoxelRef, cache_mask_cell,
-    cache_mask_test, cache_voxel_index, cache_side_slot, cache_side_normal, cache_voxel_normal,
-    cache_voxel_age, CACHE_SIDE_COUNT
+    cache_indirect, cache_side_slot, cache_side_normal, cache_voxel_age, CACHE_SIDE_COUNT
 }
 #import gi::cache::trace::{cache_trace, cache_hit_radiance}
 #import gi::cache::lighting::{
-    lighting, scheduled_bricks, propagate_scratch, propagate_scratch_slot, propagated_age,
-    side_point
+    lighting, scheduled_voxel, scheduled_voxel_occupied, propagate_scratch,
+    propagate_scratch_slot, propagated_age, side_point
 }
 
 const FAR: f32 = 3.0e38;
@@ -88,31 +86,22 @@ fn propagate(
     @builtin(workgroup_id) group: vec3<u32>,
     @builtin(local_invocation_index) bit: u32,
 ) {
-    if group.x >= lighting.brick_count {
+    if !scheduled_voxel_occupied(group.x, bit) {
         return;
     }
-    let scheduled = scheduled_bricks[group.x];
-    if !cache_mask_test(cache_brick_masks[scheduled.brick_id], bit) {
-        return;
-    }
-    let v = VoxelRef(scheduled.brick_id, bit);
-    let size = cache.levels[scheduled.level].voxel_size_m;
-    let voxel = scheduled.brick * 4 + vec3<i32>(cache_mask_cell(bit));
-    let center = (vec3<f32>(voxel) + 0.5) * size;
-    let surface = cache_voxels[cache_voxel_index(v)];
-    let n = cache_voxel_normal(surface);
-    let age = propagated_age(cache_voxel_age(surface));
+    let lit = scheduled_voxel(group.x, bit);
+    let age = propagated_age(cache_voxel_age(lit.surface));
     let weight = 1.0 / f32(age);
     let rays = max(lighting.rays_per_side, 1u);
     for (var side = 0u; side < CACHE_SIDE_COUNT; side++) {
-        let slot = cache_side_slot(v, side);
-        let n_side = cache_side_normal(n, side);
+        let slot = cache_side_slot(lit.v, side);
+        let n_side = cache_side_normal(lit.n, side);
         let frame = frame_from_normal(n_side);
         // Gather rays and emitter samples leave from the same point. It lies in a neighbouring
         // voxel, which the trace skips: where the surface lies on a voxel boundary that
         // neighbour holds the same surface.
-        let x = side_point(center, size, n_side);
-        var sampler = side_sampler(scheduled.level, voxel, side);
+        let x = side_point(lit.center, lit.size_m, n_side);
+        var sampler = side_sampler(lit.level, lit.voxel, side);
         var bounced = vec3<f32>(0.0);
         var emitted = vec3<f32>(0.0);
         for (var i = 0u; i < rays; i++) {

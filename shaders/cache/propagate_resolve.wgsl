@@ -13,11 +13,12 @@
 // Bind group 0: `gi::cache::lighting`; 2: the cache (`gi::cache::data`).
 
 #import gi::cache::data::{
-    cache_brick_masks, cache_voxels, cache_indirect, VoxelRef, cache_mask_test, cache_voxel_index,
-    cache_side_slot, cache_voxel_age, CACHE_SIDE_COUNT
+    cache_voxels, cache_indirect, cache_voxel_index, cache_side_slot, cache_voxel_age,
+    CACHE_SIDE_COUNT
 }
 #import gi::cache::lighting::{
-    lighting, scheduled_bricks, propagate_scratch, propagate_scratch_slot, propagated_age
+    scheduled_voxel, scheduled_voxel_occupied, propagate_scratch, propagate_scratch_slot,
+    propagated_age
 }
 
 @compute @workgroup_size(64)
@@ -25,19 +26,14 @@ fn propagate_resolve(
     @builtin(workgroup_id) group: vec3<u32>,
     @builtin(local_invocation_index) bit: u32,
 ) {
-    if group.x >= lighting.brick_count {
+    if !scheduled_voxel_occupied(group.x, bit) {
         return;
     }
-    let scheduled = scheduled_bricks[group.x];
-    if !cache_mask_test(cache_brick_masks[scheduled.brick_id], bit) {
-        return;
-    }
-    let v = VoxelRef(scheduled.brick_id, bit);
+    let lit = scheduled_voxel(group.x, bit);
     for (var side = 0u; side < CACHE_SIDE_COUNT; side++) {
-        cache_indirect[cache_side_slot(v, side)] =
+        cache_indirect[cache_side_slot(lit.v, side)] =
             propagate_scratch[propagate_scratch_slot(group.x, bit, side)];
     }
-    let surface = cache_voxels[cache_voxel_index(v)];
-    let age = propagated_age(cache_voxel_age(surface));
-    cache_voxels[cache_voxel_index(v)].state = (surface.state & ~0xffu) | age;
+    let age = propagated_age(cache_voxel_age(lit.surface));
+    cache_voxels[cache_voxel_index(lit.v)].state = (lit.surface.state & ~0xffu) | age;
 }

@@ -14,6 +14,7 @@
 //! Every buffer is created through [`GpuContext`], so it is counted under its label; all are
 //! `STORAGE | COPY_DST | COPY_SRC` so they can be uploaded and read back by tests.
 
+use gi_gpu::binding::{storage_entry, uniform_entry};
 use gi_gpu::{GpuContext, wgpu};
 
 use crate::clipmap::ClipmapWindows;
@@ -57,20 +58,8 @@ impl CacheBuffers {
     /// The layout of bind group 2: a uniform at binding 0 and six read-write storage buffers,
     /// visible to compute stages.
     pub fn bind_group_layout(ctx: &GpuContext) -> wgpu::BindGroupLayout {
-        let entry = |binding, ty| wgpu::BindGroupLayoutEntry {
-            binding,
-            visibility: wgpu::ShaderStages::COMPUTE,
-            ty: wgpu::BindingType::Buffer {
-                ty,
-                has_dynamic_offset: false,
-                min_binding_size: None,
-            },
-            count: None,
-        };
-        let mut entries = vec![entry(0, wgpu::BufferBindingType::Uniform)];
-        entries.extend(
-            (1..=6).map(|b| entry(b, wgpu::BufferBindingType::Storage { read_only: false })),
-        );
+        let mut entries = vec![uniform_entry(0)];
+        entries.extend((1..=6).map(|binding| storage_entry(binding, false)));
         ctx.device
             .create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
                 label: Some("cache.bind_group_layout"),

@@ -39,6 +39,7 @@
 use std::collections::HashSet;
 
 use bytemuck::{Pod, Zeroable};
+use gi_gpu::binding::{buffer_entries, storage_entry, uniform_entry};
 use gi_gpu::bvh::GpuBvh;
 use gi_gpu::{GpuContext, GpuError, GpuScene, GpuTimer, ShaderLibrary, wgpu};
 use gi_scene::{LightKind, Sky, WorldLight};
@@ -337,33 +338,14 @@ impl CacheLighting {
         config: &CacheConfig,
         cache_layout: &wgpu::BindGroupLayout,
     ) -> Result<Self, GpuError> {
-        let entry = |binding, ty| wgpu::BindGroupLayoutEntry {
-            binding,
-            visibility: wgpu::ShaderStages::COMPUTE,
-            ty: wgpu::BindingType::Buffer {
-                ty,
-                has_dynamic_offset: false,
-                min_binding_size: None,
-            },
-            count: None,
-        };
-        let read = wgpu::BufferBindingType::Storage { read_only: true };
+        let mut entries = vec![uniform_entry(0)];
+        entries.extend(GpuScene::layout_entries());
+        entries.extend([storage_entry(8, true), storage_entry(9, false)]);
         let lighting_layout =
             ctx.device
                 .create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
                     label: Some("cache.lighting.layout"),
-                    entries: &[
-                        entry(0, wgpu::BufferBindingType::Uniform),
-                        entry(1, read),
-                        entry(2, read),
-                        entry(3, read),
-                        entry(4, read),
-                        entry(5, read),
-                        entry(6, read),
-                        entry(7, read),
-                        entry(8, read),
-                        entry(9, wgpu::BufferBindingType::Storage { read_only: false }),
-                    ],
+                    entries: &entries,
                 });
         let bvh_layout = GpuBvh::bind_group_layout(ctx);
         let pipeline = |name: &str, file: &str, groups: &[Option<&wgpu::BindGroupLayout>]| {
@@ -508,18 +490,9 @@ impl CacheLighting {
         self.updates = self.updates.wrapping_add(1);
 
         // Uniforms, the scene's seven buffers (bindings 1..=7), the brick list, the scratch.
-        let buffers: Vec<&wgpu::Buffer> = std::iter::once(&self.uniforms)
-            .chain(inputs.scene.buffers())
-            .chain([&self.bricks, &self.scratch])
-            .collect();
-        let entries: Vec<wgpu::BindGroupEntry> = buffers
-            .iter()
-            .zip(0..)
-            .map(|(buffer, binding)| wgpu::BindGroupEntry {
-                binding,
-                resource: buffer.as_entire_binding(),
-            })
-            .collect();
+        let mut entries = buffer_entries(0, [&self.uniforms]);
+        entries.extend(inputs.scene.bind_group_entries());
+        entries.extend(buffer_entries(8, [&self.bricks, &self.scratch]));
         let lighting_group = ctx.device.create_bind_group(&wgpu::BindGroupDescriptor {
             label: Some("cache.lighting.bind_group"),
             layout: &self.lighting_layout,

@@ -9,6 +9,7 @@
 //! [`CacheBuffers::bind_group`] as bind group [`CacheBuffers::BIND_GROUP`].
 
 use bytemuck::{Pod, Zeroable};
+use gi_gpu::binding::{storage_entry, uniform_entry};
 use gi_gpu::bvh::GpuRay;
 use gi_gpu::wgpu;
 use gi_gpu::{GpuContext, GpuError, GpuTimer, PassTimings, ShaderLibrary, TimerMode};
@@ -143,19 +144,6 @@ impl Batch {
     }
 }
 
-pub(crate) fn storage_entry(binding: u32, read_only: bool) -> wgpu::BindGroupLayoutEntry {
-    wgpu::BindGroupLayoutEntry {
-        binding,
-        visibility: wgpu::ShaderStages::COMPUTE,
-        ty: wgpu::BindingType::Buffer {
-            ty: wgpu::BufferBindingType::Storage { read_only },
-            has_dynamic_offset: false,
-            min_binding_size: None,
-        },
-        count: None,
-    }
-}
-
 /// Workgroups `(x, y)` covering `count` items of a one-dimensional batch.
 fn batch_groups(count: usize) -> (u32, u32) {
     let groups = (count as u32).div_ceil(WORKGROUP_SIZE).max(1);
@@ -186,19 +174,7 @@ impl CacheTracer {
         );
         let debug_view_layout = layout(
             "cache.debug_view_batch",
-            &[
-                wgpu::BindGroupLayoutEntry {
-                    binding: 4,
-                    visibility: wgpu::ShaderStages::COMPUTE,
-                    ty: wgpu::BindingType::Buffer {
-                        ty: wgpu::BufferBindingType::Uniform,
-                        has_dynamic_offset: false,
-                        min_binding_size: None,
-                    },
-                    count: None,
-                },
-                storage_entry(5, false),
-            ],
+            &[uniform_entry(4), storage_entry(5, false)],
         );
         let pipeline = |entry_point: &str, batch_layout: &wgpu::BindGroupLayout| {
             let mut groups: Vec<Option<&wgpu::BindGroupLayout>> =

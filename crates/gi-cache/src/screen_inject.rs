@@ -31,6 +31,7 @@
 //! job, grown on demand.
 
 use bytemuck::{Pod, Zeroable};
+use gi_gpu::binding::{buffer_entries, storage_entry, uniform_entry};
 use gi_gpu::{GBuffer, GpuCamera, GpuContext, GpuError, GpuTimer, ShaderLibrary, wgpu};
 use gi_scene::CameraView;
 use glam::{IVec3, Vec3};
@@ -189,23 +190,9 @@ impl ScreenInjector {
     /// Compiles `cache/screen_inject`.
     pub fn new(ctx: &GpuContext, shaders: &ShaderLibrary) -> Result<Self, GpuError> {
         let module = shaders.create_module(ctx, "cache/screen_inject.wgsl", &[])?;
-        let entry = |binding, ty| wgpu::BindGroupLayoutEntry {
-            binding,
-            visibility: wgpu::ShaderStages::COMPUTE,
-            ty: wgpu::BindingType::Buffer {
-                ty,
-                has_dynamic_offset: false,
-                min_binding_size: None,
-            },
-            count: None,
-        };
-        let read = wgpu::BufferBindingType::Storage { read_only: true };
-        let mut entries = vec![entry(0, wgpu::BufferBindingType::Uniform)];
-        entries.extend((1..=5).map(|binding| entry(binding, read)));
-        entries.push(entry(
-            6,
-            wgpu::BufferBindingType::Storage { read_only: false },
-        ));
+        let mut entries = vec![uniform_entry(0)];
+        entries.extend((1..=5).map(|binding| storage_entry(binding, true)));
+        entries.push(storage_entry(6, false));
         let frame_layout = ctx
             .device
             .create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
@@ -303,23 +290,18 @@ impl ScreenInjector {
         };
         ctx.queue
             .write_buffer(&self.uniforms, 0, bytemuck::bytes_of(&uniforms));
-        let buffers = [
-            &self.uniforms,
-            &self.jobs,
-            screen.depth,
-            screen.normal,
-            screen.base_color,
-            screen.metallic_roughness,
-            &self.counts,
-        ];
-        let entries: Vec<wgpu::BindGroupEntry> = buffers
-            .iter()
-            .zip(0..)
-            .map(|(buffer, binding)| wgpu::BindGroupEntry {
-                binding,
-                resource: buffer.as_entire_binding(),
-            })
-            .collect();
+        let entries = buffer_entries(
+            0,
+            [
+                &self.uniforms,
+                &self.jobs,
+                screen.depth,
+                screen.normal,
+                screen.base_color,
+                screen.metallic_roughness,
+                &self.counts,
+            ],
+        );
         let frame_group = ctx.device.create_bind_group(&wgpu::BindGroupDescriptor {
             label: Some("cache/screen_inject.frame"),
             layout: &self.frame_layout,

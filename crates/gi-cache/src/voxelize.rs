@@ -11,6 +11,7 @@
 //! per binned triangle, grown on demand.
 
 use bytemuck::{Pod, Zeroable};
+use gi_gpu::binding::{buffer_entries, storage_entry, uniform_entry};
 use gi_gpu::{GpuContext, GpuError, GpuScene, GpuTimer, ShaderLibrary, wgpu};
 use glam::IVec3;
 
@@ -73,20 +74,10 @@ impl Voxelizer {
     /// Compiles `cache/voxelize`.
     pub fn new(ctx: &GpuContext, shaders: &ShaderLibrary) -> Result<Self, GpuError> {
         let module = shaders.create_module(ctx, "cache/voxelize.wgsl", &[])?;
-        let entry = |binding, ty| wgpu::BindGroupLayoutEntry {
-            binding,
-            visibility: wgpu::ShaderStages::COMPUTE,
-            ty: wgpu::BindingType::Buffer {
-                ty,
-                has_dynamic_offset: false,
-                min_binding_size: None,
-            },
-            count: None,
-        };
         // Explicit: the pass uses only some scene bindings, which an automatic layout drops.
-        let read = wgpu::BufferBindingType::Storage { read_only: true };
-        let mut entries = vec![entry(0, wgpu::BufferBindingType::Uniform)];
-        entries.extend((1..=9).map(|binding| entry(binding, read)));
+        let mut entries = vec![uniform_entry(0)];
+        entries.extend(GpuScene::layout_entries());
+        entries.extend([storage_entry(8, true), storage_entry(9, true)]);
         let frame_layout = ctx
             .device
             .create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
@@ -204,22 +195,9 @@ impl Voxelizer {
         ctx.queue
             .write_buffer(&self.uniforms, 0, bytemuck::bytes_of(&uniforms));
 
-        let mut entries = vec![wgpu::BindGroupEntry {
-            binding: 0,
-            resource: self.uniforms.as_entire_binding(),
-        }];
-        let buffers = scene
-            .buffers()
-            .into_iter()
-            .chain([&self.jobs, &self.triangles]);
-        entries.extend(
-            buffers
-                .zip(1..)
-                .map(|(buffer, binding)| wgpu::BindGroupEntry {
-                    binding,
-                    resource: buffer.as_entire_binding(),
-                }),
-        );
+        let mut entries = buffer_entries(0, [&self.uniforms]);
+        entries.extend(scene.bind_group_entries());
+        entries.extend(buffer_entries(8, [&self.jobs, &self.triangles]));
         let frame_group = ctx.device.create_bind_group(&wgpu::BindGroupDescriptor {
             label: Some("cache/voxelize.frame"),
             layout: &self.frame_layout,

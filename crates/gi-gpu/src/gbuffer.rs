@@ -28,6 +28,7 @@
 use bytemuck::{Pod, Zeroable};
 use gi_scene::SceneFrame;
 
+use crate::binding::{buffer_entries, storage_entry, uniform_entry};
 use crate::bvh::{BVH_MISS, GpuBvh};
 use crate::{GpuCamera, GpuContext, GpuError, GpuScene, GpuTimer, ShaderLibrary};
 
@@ -125,23 +126,12 @@ impl GBuffer {
         height: u32,
     ) -> Result<Self, GpuError> {
         let module = shaders.create_module(ctx, "gbuffer/primary.wgsl", &[])?;
-        let entry = |binding, ty| wgpu::BindGroupLayoutEntry {
-            binding,
-            visibility: wgpu::ShaderStages::COMPUTE,
-            ty: wgpu::BindingType::Buffer {
-                ty,
-                has_dynamic_offset: false,
-                min_binding_size: None,
-            },
-            count: None,
-        };
         // An explicit layout: the BVH's bind group is made with `GpuBvh::bind_group_layout`,
         // and the pass leaves some scene bindings unused, which an automatic layout would drop.
-        let read = wgpu::BufferBindingType::Storage { read_only: true };
-        let write = wgpu::BufferBindingType::Storage { read_only: false };
-        let mut entries = vec![entry(0, wgpu::BufferBindingType::Uniform)];
-        entries.extend((1..=8).map(|binding| entry(binding, read)));
-        entries.extend((9..=15).map(|binding| entry(binding, write)));
+        let mut entries = vec![uniform_entry(0)];
+        entries.extend(GpuScene::layout_entries());
+        entries.push(storage_entry(8, true));
+        entries.extend((9..=15).map(|binding| storage_entry(binding, false)));
         let frame_layout = ctx
             .device
             .create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
@@ -249,22 +239,12 @@ impl GBuffer {
         ctx.queue
             .write_buffer(&self.uniforms, 0, bytemuck::bytes_of(&uniforms));
 
-        let mut entries = vec![wgpu::BindGroupEntry {
-            binding: 0,
-            resource: self.uniforms.as_entire_binding(),
-        }];
-        let scene_buffers = inputs.scene.buffers().into_iter();
-        let inputs_and_outputs = scene_buffers
-            .chain([&self.previous_from_current])
-            .chain(&self.outputs);
-        entries.extend(
-            inputs_and_outputs
-                .zip(1..)
-                .map(|(buffer, binding)| wgpu::BindGroupEntry {
-                    binding,
-                    resource: buffer.as_entire_binding(),
-                }),
-        );
+        let mut entries = buffer_entries(0, [&self.uniforms]);
+        entries.extend(inputs.scene.bind_group_entries());
+        entries.extend(buffer_entries(
+            8,
+            std::iter::once(&self.previous_from_current).chain(&self.outputs),
+        ));
         let frame_group = ctx.device.create_bind_group(&wgpu::BindGroupDescriptor {
             label: Some("gbuffer/primary.frame"),
             layout: &self.frame_layout,

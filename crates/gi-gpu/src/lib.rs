@@ -41,6 +41,7 @@
 //! no adapter exists, unless `GI_REQUIRE_GPU` is set (CI sets it), which makes a missing
 //! adapter a failure: see [`GpuContext::new_or_skip`].
 
+pub mod binding;
 pub mod bvh;
 mod camera;
 mod context;

@@ -330,6 +330,26 @@ impl GpuScene {
         self.buffers().iter().map(|b| b.size()).sum::<u64>() + self.bvh.bytes()
     }
 
+    /// The binding of `scene.triangles`, the first of `gi::scene`'s seven in group 0.
+    pub const FIRST_BINDING: u32 = 1;
+
+    /// The layout entries of `gi::scene`: read-only storage buffers at bindings 1..=7 of a
+    /// pass's group 0, visible to compute stages. All seven are listed, also for passes that
+    /// read fewer, so the bind group of [`GpuScene::bind_group_entries`] always fits.
+    pub fn layout_entries() -> [wgpu::BindGroupLayoutEntry; 7] {
+        std::array::from_fn(|i| crate::binding::storage_entry(Self::FIRST_BINDING + i as u32, true))
+    }
+
+    /// [`GpuScene::buffers`] bound whole at bindings 1..=7, matching
+    /// [`GpuScene::layout_entries`].
+    pub fn bind_group_entries(&self) -> [wgpu::BindGroupEntry<'_>; 7] {
+        let buffers = self.buffers();
+        std::array::from_fn(|i| wgpu::BindGroupEntry {
+            binding: Self::FIRST_BINDING + i as u32,
+            resource: buffers[i].as_entire_binding(),
+        })
+    }
+
     /// The scene buffers in the binding order of `gi::scene` (bindings 1..=7 of group 0).
     pub fn buffers(&self) -> [&wgpu::Buffer; 7] {
         [

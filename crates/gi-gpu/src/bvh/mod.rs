@@ -41,6 +41,7 @@ use gi_scene::{Scene, SceneFrame};
 use obvhs::{cwbvh::CwBvh, triangle::Triangle};
 
 use crate::GpuContext;
+use crate::binding::storage_entry;
 
 /// Bind group index that `gi::bvh` declares its buffers in.
 pub const BVH_BIND_GROUP: u32 = 1;
@@ -95,16 +96,7 @@ impl GpuBvh {
     /// compute shaders. Layouts with equal entries are interchangeable, so pipelines made with
     /// one from this function accept the bind group of any `GpuBvh`.
     pub fn bind_group_layout(ctx: &GpuContext) -> wgpu::BindGroupLayout {
-        let storage = |binding| wgpu::BindGroupLayoutEntry {
-            binding,
-            visibility: wgpu::ShaderStages::COMPUTE,
-            ty: wgpu::BindingType::Buffer {
-                ty: wgpu::BufferBindingType::Storage { read_only: true },
-                has_dynamic_offset: false,
-                min_binding_size: None,
-            },
-            count: None,
-        };
+        let storage = |binding| storage_entry(binding, true);
         ctx.device
             .create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
                 label: Some("bvh.bind_group_layout"),

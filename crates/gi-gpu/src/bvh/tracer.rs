@@ -1,6 +1,7 @@
 //! Batches of rays through the GPU BVH: `shaders/bvh/trace_test.wgsl`, one ray per invocation.
 //! Tests compare its hits with the CPU's ray by ray; benchmarks time it.
 
+use crate::binding::storage_entry;
 use crate::{GpuContext, GpuError, GpuTimer, PassTimings, ShaderLibrary, TimerMode};
 
 use super::{BVH_BIND_GROUP, GpuBvh, GpuHit, GpuRay};
@@ -60,21 +61,15 @@ impl BvhTracer {
     /// 0 the ray batch, group [`BVH_BIND_GROUP`] a [`GpuBvh`].
     pub fn new(ctx: &GpuContext, shaders: &ShaderLibrary) -> Result<Self, GpuError> {
         let module = shaders.create_module(ctx, "bvh/trace_test.wgsl", &[])?;
-        let entry = |binding, read_only| wgpu::BindGroupLayoutEntry {
-            binding,
-            visibility: wgpu::ShaderStages::COMPUTE,
-            ty: wgpu::BindingType::Buffer {
-                ty: wgpu::BufferBindingType::Storage { read_only },
-                has_dynamic_offset: false,
-                min_binding_size: None,
-            },
-            count: None,
-        };
         let ray_batch_layout =
             ctx.device
                 .create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
                     label: Some("bvh.ray_batch_layout"),
-                    entries: &[entry(0, true), entry(1, false), entry(2, false)],
+                    entries: &[
+                        storage_entry(0, true),
+                        storage_entry(1, false),
+                        storage_entry(2, false),
+                    ],
                 });
         let bvh_layout = GpuBvh::bind_group_layout(ctx);
         let pipeline_layout = ctx

@@ -3,6 +3,7 @@
 //! `path`, or `direct` for the direct-only variant of the same shader.
 
 use bytemuck::{Pod, Zeroable};
+use gi_gpu::binding::{buffer_entries, storage_entry, uniform_entry};
 use gi_gpu::{
     GpuCamera, GpuContext, GpuError, GpuScene, GpuTimer, PassTimings, ShaderDefValue,
     ShaderLibrary, wgpu,
@@ -114,21 +115,9 @@ impl PathPipelines {
         // An explicit layout: the BVH's bind group is made with `GpuBvh::bind_group_layout`,
         // and the direct variant leaves some scene bindings unused, which an automatic layout
         // would drop.
-        let entry = |binding, ty| wgpu::BindGroupLayoutEntry {
-            binding,
-            visibility: wgpu::ShaderStages::COMPUTE,
-            ty: wgpu::BindingType::Buffer {
-                ty,
-                has_dynamic_offset: false,
-                min_binding_size: None,
-            },
-            count: None,
-        };
-        let read = wgpu::BufferBindingType::Storage { read_only: true };
-        let write = wgpu::BufferBindingType::Storage { read_only: false };
-        let mut entries = vec![entry(0, wgpu::BufferBindingType::Uniform)];
-        entries.extend((1..=7).map(|binding| entry(binding, read)));
-        entries.extend([entry(8, write), entry(9, write), entry(10, write)]);
+        let mut entries = vec![uniform_entry(0)];
+        entries.extend(GpuScene::layout_entries());
+        entries.extend((8..=10).map(|binding| storage_entry(binding, false)));
         let frame_layout = ctx
             .device
             .create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
@@ -207,22 +196,16 @@ impl Accumulation {
         let sum_sq = ctx.create_buffer(&format!("{tier}.accum_sum_sq"), pixels * 16, storage);
         let mean = ctx.create_buffer(&format!("{tier}.mean"), pixels * 16, storage);
         let ray_count = ctx.create_buffer(&format!("{tier}.ray_count"), 8, storage);
-        let mut entries = vec![trace_uniforms.as_entire_binding()];
-        entries.extend(scene.buffers().map(|b| b.as_entire_binding()));
-        entries.push(sum.as_entire_binding());
-        entries.push(sum_sq.as_entire_binding());
-        entries.push(ray_count.as_entire_binding());
+        let mut entries = buffer_entries(0, [&trace_uniforms]);
+        entries.extend(scene.bind_group_entries());
+        entries.extend(buffer_entries(8, [&sum, &sum_sq, &ray_count]));
         let tier = pipelines.tier;
         let trace_group = bind_group(ctx, &format!("{tier}/trace"), &pipelines.trace, entries);
         let resolve_group = bind_group(
             ctx,
             &format!("{tier}/resolve"),
             &pipelines.resolve,
-            vec![
-                resolve_uniforms.as_entire_binding(),
-                sum.as_entire_binding(),
-                mean.as_entire_binding(),
-            ],
+            buffer_entries(0, [&resolve_uniforms, &sum, &mean]),
         );
         Self {
             size,
@@ -323,16 +306,8 @@ fn bind_group(
     ctx: &GpuContext,
     label: &str,
     pipeline: &wgpu::ComputePipeline,
-    resources: Vec<wgpu::BindingResource<'_>>,
+    entries: Vec<wgpu::BindGroupEntry<'_>>,
 ) -> wgpu::BindGroup {
-    let entries: Vec<wgpu::BindGroupEntry> = resources
-        .into_iter()
-        .enumerate()
-        .map(|(binding, resource)| wgpu::BindGroupEntry {
-            binding: binding as u32,
-            resource,
-        })
-        .collect();
     ctx.device.create_bind_group(&wgpu::BindGroupDescriptor {
         label: Some(label),
         layout: &pipeline.get_bind_group_layout(0),
