@@ -24,7 +24,7 @@ use gi_scene::{Scene, SceneFrame};
 use glam::{IVec3, Mat4, Vec3};
 
 use crate::alloc::BrickAllocator;
-use crate::binning::{CacheScene, bin_triangles, fill_priority};
+use crate::binning::{CacheScene, TriangleIndex, fill_priority};
 use crate::buffers::{CacheBuffers, cache_uniforms};
 use crate::clipmap::{BrickBox, ClipmapWindows};
 use crate::config::{CacheConfig, ConfigError};
@@ -170,6 +170,8 @@ pub struct RadianceCache {
     previous_world_from_node: Vec<Mat4>,
     /// World bounds of each node's triangles at the previous update.
     previous_node_bounds: Vec<Option<(Vec3, Vec3)>>,
+    /// The previous update's triangles and grids, reused while the triangles stand still.
+    triangle_index: Option<TriangleIndex>,
     frame_index: u32,
     dropped_for_pool: u64,
     /// The lighting passes, recorded after voxelization (see [`CacheLightingHook`]).
@@ -227,6 +229,7 @@ impl RadianceCache {
             dropped: HashSet::new(),
             previous_world_from_node: Vec::new(),
             previous_node_bounds: Vec::new(),
+            triangle_index: None,
             frame_index: 0,
             dropped_for_pool: 0,
             lighting: None,
@@ -300,10 +303,19 @@ impl RadianceCache {
         self.frame_index = self.frame_index.wrapping_add(1);
         let mut stats = CacheUpdateStats::default();
         let scene = CacheScene::new(inputs.scene, inputs.frame);
-        self.move_windows(&scene, inputs.camera_position, &mut stats);
-        self.queue_moved_dynamic_nodes(&scene, &mut stats);
+        let mut index = match self.triangle_index.take() {
+            Some(mut index) => {
+                index.update(&self.config, &scene);
+                index
+            }
+            None => TriangleIndex::new(&self.config, &scene),
+        };
+        self.move_windows(&mut index, inputs.camera_position, &mut stats);
+        self.queue_moved_dynamic_nodes(&scene, &mut index, &mut stats);
         self.requeue_dropped(inputs.camera_position, &mut stats);
-        let (jobs, new_bricks) = self.fill_from_queue(&scene, inputs.camera_position, &mut stats);
+        let (jobs, new_bricks) =
+            self.fill_from_queue(&mut index, inputs.camera_position, &mut stats);
+        self.triangle_index = Some(index);
 
         self.buffers.upload_structure(ctx, &mut self.structure);
         let windows = self.windows.as_ref().expect("placed by move_windows");
@@ -348,20 +360,26 @@ impl RadianceCache {
 
     /// Places the windows on the first update (queuing every brick with geometry), else
     /// re-centers them: releases the leaving slabs' bricks and queues the entering slabs'.
-    fn move_windows(&mut self, scene: &CacheScene<'_>, camera: Vec3, stats: &mut CacheUpdateStats) {
-        let triangles = 0..scene.frame.triangles.len() as u32;
+    fn move_windows(
+        &mut self,
+        index: &mut TriangleIndex,
+        camera: Vec3,
+        stats: &mut CacheUpdateStats,
+    ) {
         let Some(windows) = self.windows.as_mut() else {
             let windows = ClipmapWindows::new(&self.config, camera);
             for level in 0..self.config.levels {
                 let window = windows.window(level);
-                stats.queued_entering += self.queue_geometry(scene, level, &window);
+                stats.queued_entering += self.queue_geometry(index, level, &window, &window);
             }
             self.windows = Some(windows);
             return;
         };
         let shifts = windows.recenter(&self.config, camera);
         stats.levels_moved = shifts.len() as u32;
+        let windows = windows.clone();
         for shift in shifts {
+            let window = windows.window(shift.level);
             for slab in &shift.leaving {
                 for brick in slab.bricks() {
                     if self.release(shift.level, brick) {
@@ -370,7 +388,7 @@ impl RadianceCache {
                 }
             }
             for slab in &shift.entering {
-                let bins = bin_triangles(&self.config, scene, shift.level, slab, triangles.clone());
+                let bins = index.bin_region(shift.level, slab, &window);
                 for brick in bins.into_keys() {
                     stats.queued_entering += u32::from(self.enqueue(shift.level, brick));
                 }
@@ -378,11 +396,16 @@ impl RadianceCache {
         }
     }
 
-    /// Queues every brick of `region` at `level` that some triangle touches; returns how many
-    /// were newly queued.
-    fn queue_geometry(&mut self, scene: &CacheScene<'_>, level: u32, region: &BrickBox) -> u32 {
-        let triangles = 0..scene.frame.triangles.len() as u32;
-        let bins = bin_triangles(&self.config, scene, level, region, triangles);
+    /// Queues every brick of `region` at `level` (inside `window`, the level's window) that
+    /// some triangle touches; returns how many were newly queued.
+    fn queue_geometry(
+        &mut self,
+        index: &mut TriangleIndex,
+        level: u32,
+        region: &BrickBox,
+        window: &BrickBox,
+    ) -> u32 {
+        let bins = index.bin_region(level, region, window);
         bins.into_keys()
             .map(|brick| u32::from(self.enqueue(level, brick)))
             .sum()
@@ -413,7 +436,12 @@ impl RadianceCache {
     /// Queues, at every level, the bricks inside the old and the new bounds of each dynamic
     /// node whose transform changed: allocated ones are voxelized again (or released when
     /// empty), new ones filled.
-    fn queue_moved_dynamic_nodes(&mut self, scene: &CacheScene<'_>, stats: &mut CacheUpdateStats) {
+    fn queue_moved_dynamic_nodes(
+        &mut self,
+        scene: &CacheScene<'_>,
+        index: &mut TriangleIndex,
+        stats: &mut CacheUpdateStats,
+    ) {
         let world = &scene.frame.world_from_node;
         let bounds = scene.node_bounds();
         let comparable = self.previous_world_from_node.len() == world.len()
@@ -429,15 +457,16 @@ impl RadianceCache {
                     .flatten()
                 {
                     for level in 0..self.config.levels {
+                        let window = windows.window(level);
                         let region = BrickBox::from_world(lo, hi, self.config.brick_size_at(level))
-                            .intersection(&windows.window(level));
+                            .intersection(&window);
                         for brick in region.bricks() {
                             // Allocated bricks may have become empty; empty ones may now be hit.
                             if self.structure.brick_id(level, brick) != NO_BRICK {
                                 stats.queued_dynamic += u32::from(self.enqueue(level, brick));
                             }
                         }
-                        stats.queued_dynamic += self.queue_geometry(scene, level, &region);
+                        stats.queued_dynamic += self.queue_geometry(index, level, &region, &window);
                     }
                 }
             }
@@ -481,7 +510,7 @@ impl RadianceCache {
     /// voxelization: bins, allocates (evicting coarser bricks when the pool is full) and links.
     fn fill_from_queue(
         &mut self,
-        scene: &CacheScene<'_>,
+        index: &mut TriangleIndex,
         camera: Vec3,
         stats: &mut CacheUpdateStats,
     ) -> (Vec<VoxelizeJob>, Vec<ResidentBrick>) {
@@ -510,18 +539,10 @@ impl RadianceCache {
                 .filter(|(l, _)| *l == level)
                 .map(|(_, b)| *b)
                 .collect();
-            let Some(region) = bricks
-                .iter()
-                .map(|b| BrickBox::new(*b, glam::UVec3::ONE))
-                .reduce(|a, b| BrickBox {
-                    min: a.min.min(b.min),
-                    max: a.max.max(b.max),
-                })
-            else {
+            if bricks.is_empty() {
                 continue;
-            };
-            let triangles = 0..scene.frame.triangles.len() as u32;
-            let mut bins = bin_triangles(&self.config, scene, level, &region, triangles);
+            }
+            let mut bins = index.bin_bricks(level, &bricks, &windows.window(level));
             for brick in bricks {
                 let Some(triangles) = bins.remove(&brick) else {
                     if self.release(level, brick) {
