@@ -21,11 +21,10 @@
 //   binding 3: `bvh_instances`  BvhInstances: a 16-byte header, then 64 bytes per instance in
 //                               top-level leaf order
 //
-// When the only instance is the static level, the header names its root and rays run the
-// single-level loop (`traverse_static`) from there with the world ray: a static scene pays
-// neither the top-level node, nor the instance load, nor the level bookkeeping of each
-// iteration. It visits the same bottom-level nodes in the same order with the same ray as
-// through the top level (whose one box encloses the level's), so its hits are identical.
+// When the only instance is the static level, the header names its root and rays start there
+// with the world ray: a static scene pays neither the top-level node, nor the instance load,
+// nor the level switch. It visits the same bottom-level nodes in the same order with the same
+// ray as through the top level (whose one box encloses the level's), so its hits are identical.
 
 #define_import_path gi::bvh
 
@@ -233,114 +232,11 @@ fn group_child(group: vec2<u32>, bit: u32, oct_inv: u32) -> u32 {
     return group.x + countOneBits(group.y & lower_slots);
 }
 
-/// Takes the nearest internal child out of `node_group` and returns its node index; the rest
-/// of the group goes on the stack if any child remains in it.
-fn pop_nearest_child(
-    node_group: ptr<function, vec2<u32>>,
-    stack: ptr<function, array<vec2<u32>, BVH_STACK_SIZE>>,
-    stack_len: ptr<function, u32>,
-    oct_inv: u32,
-) -> u32 {
-    let bit = firstLeadingBit((*node_group).y);
-    let child = group_child(*node_group, bit, oct_inv);
-    (*node_group).y &= ~(1u << bit);
-    if ((*node_group).y & 0xff000000u) != 0u {
-        (*stack)[*stack_len] = *node_group;
-        *stack_len += 1u;
-    }
-    return child;
-}
-
-/// What a visited node leaves to traverse: (child_base_idx, hit bits << 24 | imask) of its hit
-/// internal children, (primitive_base_idx, hit bits) of its hit leaf primitives.
-struct NodeGroups {
-    nodes: vec2<u32>,
-    leaves: vec2<u32>,
-}
-
-fn visit_node(node: CwBvhNode, ray: RayState, t_max: f32) -> NodeGroups {
-    let hit_mask = intersect_node(node, ray, t_max);
-    let imask = node.e_imask >> 24u;
-    return NodeGroups(
-        vec2(node.child_base_idx, (hit_mask & 0xff000000u) | imask),
-        vec2(node.primitive_base_idx, hit_mask & 0x00ffffffu),
-    );
-}
-
-/// Tests the bottom-level triangles left in `leaf_group`, highest bit first, until none is
-/// left; each closer hit shrinks `t_max` and replaces `hit` (its triangle offset by
-/// `triangle_base`, its barycentrics swapped when `mirrored`). With `any_hit`, returns true at
-/// the first hit: the traversal is over.
-fn test_leaf_triangles(
-    leaf_group: ptr<function, vec2<u32>>,
-    ray: RayState,
-    t_min: f32,
-    t_max: ptr<function, f32>,
-    hit: ptr<function, Hit>,
-    triangle_base: u32,
-    mirrored: bool,
-    any_hit: bool,
-) -> bool {
-    while (*leaf_group).y != 0u {
-        let bit = firstLeadingBit((*leaf_group).y);
-        (*leaf_group).y &= ~(1u << bit);
-        let tri = bvh_triangles[(*leaf_group).x + bit];
-        let tuv = intersect_triangle(tri, ray, t_min, *t_max);
-        if tuv.x < *t_max {
-            *t_max = tuv.x;
-            *hit = Hit(tuv.x, triangle_base + tri.triangle, select(tuv.yz, tuv.zy, mirrored));
-            if any_hit {
-                return true;
-            }
-        }
-    }
-    return false;
-}
-
-/// `traverse` for a static scene: the single-level traversal of the static level from `root`
-/// with the world ray. Its loop is `traverse`'s without the level bookkeeping (the level it is
-/// in, the instance state, the switch checks), which a static scene pays on every iteration
-/// otherwise; the node and triangle steps are the same functions, so it visits the same nodes
-/// in the same order and its hits are identical to the two-level path's.
-fn traverse_static(ray: Ray, root: u32, any_hit: bool) -> Hit {
-    let state = ray_state(ray.origin, ray.dir);
-    var hit = Hit(ray.t_max, BVH_MISS, vec2(0.0));
-    var t_max = ray.t_max;
-    var stack: array<vec2<u32>, BVH_STACK_SIZE>;
-    var stack_len = 0u;
-    // The root is the single child of a virtual group; only node groups are ever pushed.
-    var node_group = vec2(root, 0x80000000u);
-    var leaf_group = vec2(0u, 0u);
-    loop {
-        if test_leaf_triangles(&leaf_group, state, ray.t_min, &t_max, &hit, 0u, false, any_hit) {
-            return hit;
-        }
-        if (node_group.y & 0xff000000u) != 0u {
-            let child = pop_nearest_child(&node_group, &stack, &stack_len, state.oct_inv);
-            let groups = visit_node(bvh_nodes[child], state, t_max);
-            node_group = groups.nodes;
-            leaf_group = groups.leaves;
-        }
-        if leaf_group.y == 0u && (node_group.y & 0xff000000u) == 0u {
-            if stack_len == 0u {
-                break;
-            }
-            stack_len -= 1u;
-            node_group = stack[stack_len];
-        }
-    }
-    return hit;
-}
-
 /// Both queries: the nearest hit in `[ray.t_min, ray.t_max]`, or with `any_hit` the first hit
 /// found. Cost: one 80-byte node load and eight box tests per visited node, one 48-byte load per
 /// tested triangle, and a 64-byte load plus a ray transform per entered instance; a static scene
-/// (one identity instance) runs `traverse_static` and pays none of the top level's share.
+/// (one identity instance) starts at its bottom level and pays none of the top level's share.
 fn traverse(ray: Ray, any_hit: bool) -> Hit {
-    let static_root = bvh_instances.header.static_root;
-    if static_root != BVH_NO_STATIC_ROOT {
-        return traverse_static(ray, static_root, any_hit);
-    }
     let world = ray_state(ray.origin, ray.dir);
     var state = world;
     var hit = Hit(ray.t_max, BVH_MISS, vec2(0.0));
@@ -357,6 +253,13 @@ fn traverse(ray: Ray, any_hit: bool) -> Hit {
     // (primitive_base_idx, hit bits of leaf primitives still to test): triangles in a bottom
     // level, instances in the top level.
     var leaf_group = vec2(0u, 0u);
+    let static_root = bvh_instances.header.static_root;
+    if static_root != BVH_NO_STATIC_ROOT {
+        // The static level entered from an empty stack, as the top level would enter it: the
+        // world ray, no triangle base, not mirrored; emptying the stack ends the traversal.
+        instance_stack_len = 0u;
+        node_group = vec2(static_root, 0x80000000u);
+    }
     loop {
         if instance_stack_len == BVH_IN_TOP {
             if leaf_group.y != 0u {
@@ -383,22 +286,39 @@ fn traverse(ray: Ray, any_hit: bool) -> Hit {
                 node_group = vec2(instance.blas_root, 0x80000000u);
                 leaf_group = vec2(0u, 0u);
             }
-        } else if test_leaf_triangles(
-            &leaf_group, state, ray.t_min, &t_max, &hit, triangle_base, mirrored, any_hit,
-        ) {
-            return hit;
+        } else {
+            while leaf_group.y != 0u {
+                let bit = firstLeadingBit(leaf_group.y);
+                leaf_group.y &= ~(1u << bit);
+                let tri = bvh_triangles[leaf_group.x + bit];
+                let tuv = intersect_triangle(tri, state, ray.t_min, t_max);
+                if tuv.x < t_max {
+                    t_max = tuv.x;
+                    hit = Hit(tuv.x, triangle_base + tri.triangle, select(tuv.yz, tuv.zy, mirrored));
+                    if any_hit {
+                        return hit;
+                    }
+                }
+            }
         }
         if (node_group.y & 0xff000000u) != 0u {
-            let child = pop_nearest_child(&node_group, &stack, &stack_len, state.oct_inv);
+            let bit = firstLeadingBit(node_group.y);
+            let child = group_child(node_group, bit, state.oct_inv);
+            node_group.y &= ~(1u << bit);
+            if (node_group.y & 0xff000000u) != 0u {
+                stack[stack_len] = node_group;
+                stack_len += 1u;
+            }
             var node: CwBvhNode;
             if instance_stack_len == BVH_IN_TOP {
                 node = bvh_top_nodes[child];
             } else {
                 node = bvh_nodes[child];
             }
-            let groups = visit_node(node, state, t_max);
-            node_group = groups.nodes;
-            leaf_group = groups.leaves;
+            let hit_mask = intersect_node(node, state, t_max);
+            let imask = node.e_imask >> 24u;
+            node_group = vec2(node.child_base_idx, (hit_mask & 0xff000000u) | imask);
+            leaf_group = vec2(node.primitive_base_idx, hit_mask & 0x00ffffffu);
         }
         if leaf_group.y == 0u && (node_group.y & 0xff000000u) == 0u {
             if stack_len == instance_stack_len {
