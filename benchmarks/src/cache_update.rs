@@ -92,15 +92,7 @@ impl CacheLightingHook for ScheduledLighting {
         encoder: &mut wgpu::CommandEncoder,
         frame: &CacheFrame<'_>,
     ) {
-        let inputs = LightingInputs {
-            sky: &frame.inputs.frame.sky,
-            lights: &frame.inputs.frame.lights,
-            scene: frame.inputs.gpu_scene,
-            bvh: frame.inputs.bvh,
-            cache_bind_group: &frame.buffers.bind_group,
-            new_bricks: frame.new_bricks,
-            resident: frame.resident,
-        };
+        let inputs = LightingInputs::from_frame(frame);
         let counts = self.lighting.record(ctx, timer, encoder, &inputs);
         self.last.set(counts);
     }

@@ -292,6 +292,22 @@ pub struct LightingInputs<'a> {
     pub resident: &'a [ResidentBrick],
 }
 
+impl<'a> LightingInputs<'a> {
+    /// The lighting inputs of one cache update, as [`RadianceCache`](crate::RadianceCache)
+    /// hands it to its lighting hook.
+    pub fn from_frame(frame: &CacheFrame<'a>) -> Self {
+        Self {
+            sky: &frame.inputs.frame.sky,
+            lights: &frame.inputs.frame.lights,
+            scene: frame.inputs.gpu_scene,
+            bvh: frame.inputs.bvh,
+            cache_bind_group: &frame.buffers.bind_group,
+            new_bricks: frame.new_bricks,
+            resident: frame.resident,
+        }
+    }
+}
+
 /// Bytes of `cache.lighting.scratch` per scheduled brick: 64 voxels x 2 sides, one RGB9E5
 /// irradiance each (the age needs no room: the resolve recomputes it from the unchanged state).
 pub const SCRATCH_BYTES_PER_BRICK: u64 = 64 * 2 * 4;
@@ -579,16 +595,13 @@ impl CacheLightingHook for CacheLighting {
         encoder: &mut wgpu::CommandEncoder,
         frame: &CacheFrame<'_>,
     ) {
-        let inputs = LightingInputs {
-            sky: &frame.inputs.frame.sky,
-            lights: &frame.inputs.frame.lights,
-            scene: frame.inputs.gpu_scene,
-            bvh: frame.inputs.bvh,
-            cache_bind_group: &frame.buffers.bind_group,
-            new_bricks: frame.new_bricks,
-            resident: frame.resident,
-        };
-        CacheLighting::record(self, ctx, timer, encoder, &inputs);
+        CacheLighting::record(
+            self,
+            ctx,
+            timer,
+            encoder,
+            &LightingInputs::from_frame(frame),
+        );
     }
 }
 

@@ -277,11 +277,7 @@ impl ScreenInjector {
             })
             .collect();
         let bytes: &[u8] = bytemuck::cast_slice(&jobs);
-        if bytes.len() as u64 > self.jobs.size() {
-            ctx.release_buffer(&self.jobs);
-            self.jobs = Self::jobs_buffer(ctx, (bytes.len() as u64).next_power_of_two());
-        }
-        ctx.queue.write_buffer(&self.jobs, 0, bytes);
+        ctx.write_growing(&mut self.jobs, "cache.screen_inject_jobs", bytes);
         let uniforms = ScreenInjectUniforms {
             camera: screen.camera,
             size_px: [screen.size_px.0, screen.size_px.1],

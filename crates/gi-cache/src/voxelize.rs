@@ -129,17 +129,6 @@ impl Voxelizer {
         )
     }
 
-    /// Writes `data` to `buffer`, replacing it by one twice as large when it does not fit.
-    fn upload(ctx: &GpuContext, buffer: &mut wgpu::Buffer, label: &str, data: &[u8]) {
-        if data.len() as u64 > buffer.size() {
-            ctx.release_buffer(buffer);
-            *buffer = Self::storage(ctx, label, (data.len() as u64).next_power_of_two());
-        }
-        if !data.is_empty() {
-            ctx.queue.write_buffer(buffer, 0, data);
-        }
-    }
-
     /// Records `cache/voxelize` for `jobs` (at most 65535; the caller's budget keeps it far
     /// below) into `encoder`, timed by `timer`. Uploads through the queue, so record one
     /// voxelization per submission.
@@ -175,14 +164,12 @@ impl Voxelizer {
                 }
             })
             .collect();
-        Self::upload(
-            ctx,
+        ctx.write_growing(
             &mut self.jobs,
             "cache.voxelize_jobs",
             bytemuck::cast_slice(&gpu_jobs),
         );
-        Self::upload(
-            ctx,
+        ctx.write_growing(
             &mut self.triangles,
             "cache.voxelize_triangles",
             bytemuck::cast_slice(&references),

@@ -197,6 +197,21 @@ impl GpuContext {
         texture
     }
 
+    /// Queues `data` into `buffer` at offset 0. When it does not fit, `buffer` is first
+    /// released and replaced by one of the next power-of-two size with the same usage, counted
+    /// under `label` (bind groups holding the old one must be rebuilt). For per-frame lists
+    /// whose length varies: the buffer only grows, so steady frames allocate nothing.
+    pub fn write_growing(&self, buffer: &mut wgpu::Buffer, label: &str, data: &[u8]) {
+        if data.len() as u64 > buffer.size() {
+            let usage = buffer.usage();
+            self.release_buffer(buffer);
+            *buffer = self.create_buffer(label, (data.len() as u64).next_power_of_two(), usage);
+        }
+        if !data.is_empty() {
+            self.queue.write_buffer(buffer, 0, data);
+        }
+    }
+
     /// Stops counting `buffer` and destroys it (every clone of the handle becomes unusable).
     /// Returns false if this context did not create it.
     pub fn release_buffer(&self, buffer: &wgpu::Buffer) -> bool {

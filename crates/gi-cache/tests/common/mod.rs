@@ -39,13 +39,9 @@ impl Rng {
     }
 }
 
+/// Shorthand of [`GpuRay::new`] for the tests' many rays.
 pub fn ray(origin: Vec3, dir: Vec3, t_min: f32, t_max: f32) -> GpuRay {
-    GpuRay {
-        origin: origin.to_array(),
-        t_min,
-        dir: dir.to_array(),
-        t_max,
-    }
+    GpuRay::new(origin, dir, t_min, t_max)
 }
 
 /// Where the ray enters the box `[lo, hi]`: `(t_near, axis)` (clamped to 0 from inside), or

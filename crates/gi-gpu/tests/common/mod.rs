@@ -32,13 +32,9 @@ impl Rng {
     }
 }
 
+/// Shorthand of [`GpuRay::new`] for the tests' many rays.
 pub fn ray(origin: Vec3, dir: Vec3, t_min: f32, t_max: f32) -> GpuRay {
-    GpuRay {
-        origin: origin.to_array(),
-        t_min,
-        dir: dir.to_array(),
-        t_max,
-    }
+    GpuRay::new(origin, dir, t_min, t_max)
 }
 
 /// Camera rays over a grid, random rays (some of them segments), and for camera hits a shadow ray to each light (or a
