@@ -25,10 +25,10 @@ struct Prepared {
 impl CpuTier {
     /// A CPU tier of `kind` (`Reference` or `Direct`).
     pub fn new(kind: TierKind, settings: TierSettings) -> Result<Self, TierError> {
-        if kind == TierKind::Path {
+        if matches!(kind, TierKind::Path | TierKind::Mobile) {
             return Err(TierError::Unavailable {
                 tier: kind.name(),
-                reason: "the path tier runs on the GPU only".to_string(),
+                reason: format!("the {kind} tier runs on the GPU only"),
             });
         }
         render_settings(kind, &settings).validate()?;
@@ -50,7 +50,7 @@ pub(crate) fn render_settings(kind: TierKind, settings: &TierSettings) -> Render
         seed: settings.seed,
         mode: match kind {
             TierKind::Direct => Mode::Direct,
-            TierKind::Reference | TierKind::Path => Mode::Full,
+            TierKind::Reference | TierKind::Path | TierKind::Mobile => Mode::Full,
         },
         strategy: Strategy::Mis,
         ..RenderSettings::default()

@@ -14,11 +14,13 @@
 //! ```
 
 mod cpu;
+pub mod mobile;
 mod path;
 mod renderer;
 mod tier;
 
 pub use cpu::CpuTier;
+pub use mobile::{MobileConfig, MobileTier};
 pub use path::{GpuPathTier, Moments, PathUniforms};
 pub use renderer::{CameraMode, Renderer};
 pub use tier::{FrameInput, FrameOutput, Tier, TierChoice, TierError, TierKind, TierSettings};

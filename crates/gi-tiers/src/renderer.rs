@@ -6,6 +6,7 @@ use gi_gpu::{GpuContext, wgpu};
 
 use crate::{
     cpu::CpuTier,
+    mobile::{MobileConfig, MobileTier},
     path::GpuPathTier,
     tier::{FrameInput, FrameOutput, Tier, TierChoice, TierError, TierKind, TierSettings},
 };
@@ -37,7 +38,9 @@ impl Renderer {
         camera: CameraMode,
     ) -> Result<Self, TierError> {
         let tier: Box<dyn Tier> = match choice {
-            TierChoice::Mobile => return Err(not_built("mobile")),
+            TierChoice::Mobile | TierChoice::Tier(TierKind::Mobile) => {
+                Box::new(MobileTier::open(settings, MobileConfig::default())?)
+            }
             TierChoice::Pc => return Err(not_built("pc")),
             TierChoice::Path | TierChoice::Tier(TierKind::Path) => {
                 Box::new(GpuPathTier::open(TierKind::Path, settings)?)

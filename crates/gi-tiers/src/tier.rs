@@ -20,11 +20,19 @@ pub enum TierKind {
     /// as `reference` for the same seed and samples. Progressive: each frame adds its samples
     /// to those of the frames before it while the camera and scene stay still.
     Path,
+    /// The mobile tier: the brick radiance cache, a probe volume and deferred screen probes
+    /// with a temporal filter (`crate::MobileTier`). Temporal: it converges over frames.
+    Mobile,
 }
 
 impl TierKind {
     /// Every tier, in the order tables list them.
-    pub const ALL: [TierKind; 3] = [TierKind::Reference, TierKind::Direct, TierKind::Path];
+    pub const ALL: [TierKind; 4] = [
+        TierKind::Reference,
+        TierKind::Direct,
+        TierKind::Path,
+        TierKind::Mobile,
+    ];
 
     /// The name used on the command line, in JSON and in pass names.
     pub fn name(self) -> &'static str {
@@ -32,6 +40,7 @@ impl TierKind {
             TierKind::Reference => "reference",
             TierKind::Direct => "direct",
             TierKind::Path => "path",
+            TierKind::Mobile => "mobile",
         }
     }
 }

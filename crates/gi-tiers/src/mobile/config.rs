@@ -1,0 +1,115 @@
+//! The mobile tier's configuration: the brick cache it reads, the probe volume, the screen
+//! probes and their temporal filter.
+//!
+//! Every default is justified against the seeds: HSGI (GDC 2023, "Mobile Solution": probe
+//! volume of ambient cubes with visibility and relocation, 2 clipmap levels on mobile, one
+//! random face per probe and frame; lite deferred G-buffer; 64 x 64-pixel screen tiles with one
+//! jittered 4 x 4-texel hemisphere probe; half-resolution gather, temporal filter, bilateral
+//! upsample) and SmartGI (SIGGRAPH 2024: 16 x 16-pixel tiles in 2 x 2 virtual groups, one probe
+//! recomputed per group per frame, history probes reprojected, mip fallback).
+
+use gi_cache::CacheConfig;
+
+/// Texels per side of a screen probe's hemisphere map (HSGI: 4 x 4). Fixed: the trace and
+/// gather shaders run one invocation per texel.
+pub const PROBE_TEXELS: u32 = 4;
+
+/// How screen probes are scheduled.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub enum ScreenProbeMode {
+    /// HSGI mobile: every tile gets a freshly traced probe every frame, placed at a jittered
+    /// pixel of the tile; tiles whose gather failed get one more probe the next frame.
+    Hsgi,
+    /// SmartGI: tiles form 2 x 2 virtual groups; one probe per group is traced per frame and the
+    /// other three come from the previous frame's probes reprojected to this one (the
+    /// geometrically closest history probe wins), with a mip fallback for holes.
+    SmartGi,
+}
+
+impl ScreenProbeMode {
+    pub fn name(self) -> &'static str {
+        match self {
+            ScreenProbeMode::Hsgi => "hsgi",
+            ScreenProbeMode::SmartGi => "smartgi",
+        }
+    }
+}
+
+/// The world-space probe volume (DDGI-style, HSGI's simplified format).
+#[derive(Clone, Debug, PartialEq)]
+pub struct VolumeConfig {
+    /// Clipmap levels (HSGI: 4 on PC, 2 on mobile). Level `k` spaces its probes
+    /// `spacing_m * 4^k` apart.
+    pub levels: u32,
+    /// Probes per level along x, y, z (y is world up), centered on the camera.
+    pub probes: [u32; 3],
+    /// Distance between neighbouring probes of level 0, meters.
+    pub spacing_m: f32,
+    /// Rays per active probe per frame, each updating one random face of its ambient cube
+    /// (HSGI: 1).
+    pub rays_per_probe: u32,
+    /// Cap of the temporal weight `1 / min(age, max_age)` of a face's running mean.
+    pub max_age: u32,
+}
+
+impl Default for VolumeConfig {
+    fn default() -> Self {
+        Self {
+            levels: 2,
+            probes: [24, 12, 24],
+            spacing_m: 0.5,
+            rays_per_probe: 1,
+            max_age: 64,
+        }
+    }
+}
+
+/// Screen probes, the half-resolution gather, its temporal filter and the upsample.
+#[derive(Clone, Debug, PartialEq)]
+pub struct ScreenConfig {
+    pub mode: ScreenProbeMode,
+    /// Pixels per side of a screen tile (one probe per tile). HSGI mobile: 64; SmartGI: 16.
+    pub tile_px: u32,
+    /// Cap of the per-pixel temporal weight `1 / min(age, max_age)` of the gathered irradiance.
+    pub max_age: u32,
+    /// Largest distance of a pixel from a probe's tangent plane, as a fraction of the pixel's
+    /// distance to the camera, for the probe to count in the gather (depth test).
+    pub plane_tolerance: f32,
+    /// Least cosine between a pixel's normal and a probe's for the probe to count (normal test).
+    pub normal_cos: f32,
+    /// Ray origins are offset along the surface normal by this many voxels of the cache level
+    /// holding the point, so rays do not hit the voxel of their own surface.
+    pub ray_offset_voxels: f32,
+}
+
+impl Default for ScreenConfig {
+    fn default() -> Self {
+        Self {
+            mode: ScreenProbeMode::Hsgi,
+            tile_px: 64,
+            max_age: 32,
+            plane_tolerance: 0.05,
+            normal_cos: 0.8,
+            ray_offset_voxels: 1.5,
+        }
+    }
+}
+
+impl ScreenConfig {
+    /// SmartGI's economy: 16-pixel tiles in 2 x 2 virtual groups.
+    pub fn smartgi() -> Self {
+        Self {
+            mode: ScreenProbeMode::SmartGi,
+            tile_px: 16,
+            ..Self::default()
+        }
+    }
+}
+
+/// Everything the mobile tier is made of.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct MobileConfig {
+    pub cache: CacheConfig,
+    pub volume: VolumeConfig,
+    pub screen: ScreenConfig,
+}
