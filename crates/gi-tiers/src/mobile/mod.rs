@@ -33,6 +33,22 @@ impl MobileMemory {
     }
 }
 
+/// One frame's GI and what identifies its pixels, one entry per pixel in row-major order.
+#[derive(Clone, Debug)]
+pub struct MobileFrameData {
+    /// The GI term: linear radiance the tier added to the direct light (diffuse albedo times
+    /// the gathered irradiance over pi, plus the approximate specular part).
+    pub gi: Image,
+    /// The gathered irradiance itself (before albedo), full resolution.
+    pub irradiance: Image,
+    /// Pixels showing a node moved by an animation (the lite G-buffer's mask bit).
+    pub dynamic: Vec<bool>,
+    /// `gbuffer.motion`: previous pixel position minus this pixel's center, in pixels.
+    pub motion: Vec<[f32; 2]>,
+    /// `gbuffer.depth`: distance along the pixel's unit ray, `+inf` for sky.
+    pub depth: Vec<f32>,
+}
+
 /// The mobile tier. See the module docs.
 pub struct MobileTier {
     settings: TierSettings,
@@ -72,9 +88,9 @@ impl MobileTier {
         &self.ctx
     }
 
-    /// The GI term of the last frame (linear radiance the tier added to the direct light),
-    /// read back from the GPU; `None` before the first frame. For tests and metrics.
-    pub fn gi_image(&self) -> Option<Image> {
+    /// The last frame's GI term and the G-buffer data needed to compare it across frames,
+    /// read back from the GPU (stalls); `None` before the first frame. For tests and metrics.
+    pub fn frame_data(&self) -> Option<MobileFrameData> {
         None
     }
 
