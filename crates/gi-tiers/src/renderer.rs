@@ -1,5 +1,7 @@
 //! The [`Renderer`] facade: a scene, a tier and a frame counter.
 
+use std::any::Any;
+
 use gi_scene::{CameraView, Scene};
 
 use gi_gpu::{GpuContext, wgpu};
@@ -27,6 +29,9 @@ pub struct Renderer {
     tier: Box<dyn Tier>,
     camera: CameraMode,
     next_frame: u32,
+    /// Still warm-up frames rendered so far ([`Renderer::warm_up`]); they show an existing
+    /// frame again, so they do not advance `next_frame`.
+    warm_up_frames: u32,
 }
 
 impl Renderer {
@@ -55,20 +60,45 @@ impl Renderer {
             },
             TierChoice::Tier(kind) => Box::new(CpuTier::new(kind, settings)?),
         };
-        Ok(Self {
+        Ok(Self::with_tier(scene, tier, camera))
+    }
+
+    /// Renders `scene` with a tier the caller made, e.g. a [`MobileTier`] with another
+    /// [`MobileConfig`] than the default `new` uses.
+    pub fn with_tier(scene: Scene, tier: Box<dyn Tier>, camera: CameraMode) -> Self {
+        Self {
             scene,
             tier,
             camera,
             next_frame: 0,
-        })
+            warm_up_frames: 0,
+        }
     }
 
     pub fn scene(&self) -> &Scene {
         &self.scene
     }
 
+    /// The scene, to change it between frames (e.g. turn a light to measure how fast a
+    /// temporal tier settles). Every frame is evaluated from it afresh, but a tier may keep
+    /// what it prepared from earlier frames ([`Tier::render`]): geometry always, and the CPU
+    /// and path tiers their whole prepared scene until the camera or the animation time
+    /// changes. So an edit reaches the image only through a tier that reads it per frame;
+    /// meshes, materials and the node count must not change (render another scene with a new
+    /// `Renderer`).
+    pub fn scene_mut(&mut self) -> &mut Scene {
+        &mut self.scene
+    }
+
     pub fn tier(&self) -> TierKind {
         self.tier.kind()
+    }
+
+    /// The tier as its concrete type, to reach what only that tier offers (the mobile tier's
+    /// [`MobileTier::frame_data`] and [`MobileTier::memory`]); `None` if it is another type.
+    pub fn tier_as<T: Tier>(&self) -> Option<&T> {
+        let tier: &dyn Any = self.tier.as_ref();
+        tier.downcast_ref()
     }
 
     /// Index of the frame the next call renders.
@@ -90,23 +120,61 @@ impl Renderer {
         }
     }
 
+    /// Still warm-up frames rendered so far.
+    pub fn warm_up_frames(&self) -> u32 {
+        self.warm_up_frames
+    }
+
     /// Renders the next frame.
     pub fn render_frame(
         &mut self,
         progress: Option<&(dyn Fn(u32) + Sync)>,
     ) -> Result<FrameOutput, TierError> {
-        let index = self.next_frame;
-        let frame = self
-            .scene
-            .evaluate(self.frame_time(index), Some(self.view(index)));
-        let output = self.tier.render(&FrameInput {
-            scene: &self.scene,
-            frame: &frame,
-            index,
-            progress,
-        })?;
+        let output = self.render_still(progress)?;
         self.next_frame += 1;
         Ok(output)
+    }
+
+    /// A still warm-up for temporal tiers: renders `frames` frames that all show the next
+    /// frame (frame 0 on a new renderer: its time and camera) without advancing the frame
+    /// counter, so history-based tiers converge on a still view before the frames that are
+    /// measured. Tiers without history ([`Tier::is_temporal`] false) skip it. Each warm-up
+    /// frame costs a full frame; [`TierKind::default_warmup`] is how many a measurement of a
+    /// tier wants. `progress` is called with the warm-up frames done so far.
+    pub fn warm_up(
+        &mut self,
+        frames: u32,
+        progress: Option<&(dyn Fn(u32) + Sync)>,
+    ) -> Result<(), TierError> {
+        if !self.tier.is_temporal() {
+            return Ok(());
+        }
+        for done in 1..=frames {
+            self.render_still(None)?;
+            self.warm_up_frames += 1;
+            if let Some(progress) = progress {
+                progress(done);
+            }
+        }
+        Ok(())
+    }
+
+    /// Renders the next frame without advancing the frame counter. The tier's frame index
+    /// counts every frame it rendered, warm-up included.
+    fn render_still(
+        &mut self,
+        progress: Option<&(dyn Fn(u32) + Sync)>,
+    ) -> Result<FrameOutput, TierError> {
+        let shown = self.next_frame;
+        let frame = self
+            .scene
+            .evaluate(self.frame_time(shown), Some(self.view(shown)));
+        self.tier.render(&FrameInput {
+            scene: &self.scene,
+            frame: &frame,
+            index: self.next_frame + self.warm_up_frames,
+            progress,
+        })
     }
 
     /// Advances `count` frames (at least one) and returns the last: warm-up frames, then the

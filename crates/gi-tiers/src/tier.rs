@@ -1,7 +1,7 @@
 //! What every tier is: created from a scene and settings, renders frames, reports its passes'
 //! timings and its memory.
 
-use std::{fmt, str::FromStr};
+use std::{any::Any, fmt, str::FromStr};
 
 use gi_image::Image;
 use gi_reference::RenderStats;
@@ -43,6 +43,19 @@ impl TierKind {
             TierKind::Mobile => "mobile",
         }
     }
+
+    /// Still warm-up frames a measurement of this tier renders before its measured frames
+    /// ([`crate::Renderer::warm_up`]): 63 for `mobile`, so the measured frame is the 64th of a
+    /// still view, when its temporal filter (at most 32 frames of history per pixel, 64 per
+    /// probe face) has converged; 0 for the others. The path tier's progressive accumulation
+    /// is controlled by its samples per pixel and frames instead, and the CPU tiers keep no
+    /// history. More warm-up costs time linearly and only changes temporal tiers.
+    pub fn default_warmup(self) -> u32 {
+        match self {
+            TierKind::Mobile => 63,
+            TierKind::Reference | TierKind::Direct | TierKind::Path => 0,
+        }
+    }
 }
 
 impl fmt::Display for TierKind {
@@ -71,7 +84,8 @@ pub enum TierChoice {
     /// The best tier the machine runs: the GPU path tracer on a hardware GPU, else the CPU
     /// reference (a software Vulkan adapter is slower than the CPU reference itself).
     Auto,
-    /// The mobile tier (surfel brick cache, probe volume, screen probes). Not built yet.
+    /// The mobile tier (surfel brick cache, probe volume, screen probes) with its default
+    /// configuration; [`crate::Renderer::with_tier`] takes one configured otherwise.
     Mobile,
     /// The PC tier (BVH ray tracing, ReSTIR GI, SVGF). Not built yet.
     Pc,
@@ -98,7 +112,8 @@ pub struct FrameInput<'a> {
     pub scene: &'a Scene,
     /// The scene evaluated at this frame's time, seen through this frame's camera.
     pub frame: &'a SceneFrame,
-    /// Frames rendered before this one since the tier was created.
+    /// Frames rendered before this one since the tier was created, warm-up frames included
+    /// (so per-frame jitter keeps changing through a still warm-up).
     pub index: u32,
     /// Called with the samples per pixel done so far, for progress bars.
     pub progress: Option<&'a (dyn Fn(u32) + Sync)>,
@@ -122,7 +137,10 @@ impl FrameOutput {
 }
 
 /// A GI technique that renders frames of a scene, possibly reusing history between them.
-pub trait Tier: Send {
+///
+/// `Any` lets a caller that knows the concrete tier reach its own methods through
+/// [`crate::Renderer::tier_as`] (the mobile tier's frame data and memory breakdown).
+pub trait Tier: Send + Any {
     fn kind(&self) -> TierKind;
 
     /// True when the tier reuses history, so every frame must be rendered in order. Tiers

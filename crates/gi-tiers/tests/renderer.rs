@@ -1,7 +1,10 @@
 //! The Renderer facade and the CPU tiers behind it.
 
 use gi_reference::{Mode, Reference, RenderSettings};
-use gi_tiers::{CameraMode, Renderer, TierChoice, TierError, TierKind, TierSettings};
+use gi_tiers::{
+    CameraMode, CpuTier, MobileConfig, MobileTier, Renderer, TierChoice, TierError, TierKind,
+    TierSettings,
+};
 
 const SETTINGS: TierSettings = TierSettings {
     width: 24,
@@ -105,10 +108,17 @@ fn unknown_unbuilt_and_invalid_requests_are_errors() {
     let err = "ultra".parse::<TierKind>().unwrap_err().to_string();
     assert!(err.contains("ultra") && err.contains("reference") && err.contains("direct"));
     // The path tier's choices are tested with the GPU tiers (tests/path.rs).
-    for choice in [TierChoice::Mobile, TierChoice::Pc] {
-        let scene = gi_scene::load("cornell-box").unwrap();
-        let result = Renderer::new(scene, choice, SETTINGS, CameraMode::Default);
-        assert!(matches!(result, Err(TierError::Unavailable { .. })));
+    let scene = gi_scene::load("cornell-box").unwrap();
+    let result = Renderer::new(scene, TierChoice::Pc, SETTINGS, CameraMode::Default);
+    assert!(matches!(result, Err(TierError::Unavailable { .. })));
+    // The mobile tier is built: it needs a Vulkan adapter, and says so without one.
+    let scene = gi_scene::load("cornell-box").unwrap();
+    match Renderer::new(scene, TierChoice::Mobile, SETTINGS, CameraMode::Default) {
+        Ok(renderer) => assert_eq!(renderer.tier(), TierKind::Mobile),
+        Err(error) => assert!(
+            matches!(error, TierError::Unavailable { tier: "mobile", .. }),
+            "{error}"
+        ),
     }
     let scene = gi_scene::load("cornell-box").unwrap();
     let zero = TierSettings {
@@ -117,4 +127,89 @@ fn unknown_unbuilt_and_invalid_requests_are_errors() {
     };
     let result = Renderer::new(scene, TierChoice::Auto, zero, CameraMode::Default);
     assert!(matches!(result, Err(TierError::Render(_))));
+}
+
+#[test]
+fn default_warm_up_is_for_the_mobile_tier_only() {
+    for kind in TierKind::ALL {
+        let expected = if kind == TierKind::Mobile { 63 } else { 0 };
+        assert_eq!(kind.default_warmup(), expected, "{kind}");
+    }
+}
+
+#[test]
+fn tiers_without_history_skip_the_warm_up() {
+    for kind in [TierKind::Reference, TierKind::Direct] {
+        let mut warmed = renderer("dynamic", kind);
+        let calls = std::sync::atomic::AtomicU32::new(0);
+        let count = |_| {
+            calls.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
+        };
+        warmed.warm_up(5, Some(&count)).unwrap();
+        assert_eq!(calls.into_inner(), 0, "{kind} rendered warm-up frames");
+        assert_eq!((warmed.next_frame(), warmed.warm_up_frames()), (0, 0));
+        let after = warmed.render_frames(3, None).unwrap();
+        let plain = renderer("dynamic", kind).render_frames(3, None).unwrap();
+        assert_eq!(after.image.pixels, plain.image.pixels, "{kind}");
+        assert_eq!(warmed.next_frame(), 3);
+    }
+}
+
+#[test]
+fn tier_as_reaches_the_concrete_tier() {
+    let direct = renderer("cornell-box", TierKind::Reference);
+    assert!(direct.tier_as::<CpuTier>().is_some());
+    assert!(direct.tier_as::<MobileTier>().is_none());
+}
+
+#[test]
+fn mobile_warm_up_renders_still_frames_without_advancing_the_frame_counter() {
+    let Some(ctx) = gi_gpu::GpuContext::new_or_skip("mobile_warm_up_renders_still_frames") else {
+        return;
+    };
+    let settings = TierSettings {
+        width: 32,
+        height: 24,
+        spp: 1,
+        seed: 7,
+    };
+    let tier = MobileTier::new(settings, MobileConfig::default(), ctx).unwrap();
+    let scene = gi_scene::load("dynamic").unwrap();
+    let mut renderer = Renderer::with_tier(scene, Box::new(tier), CameraMode::Default);
+    let done = std::sync::Mutex::new(Vec::new());
+    let record = |n| done.lock().unwrap().push(n);
+    renderer.warm_up(3, Some(&record)).unwrap();
+    assert_eq!(done.into_inner().unwrap(), [1, 2, 3]);
+    assert_eq!((renderer.next_frame(), renderer.warm_up_frames()), (0, 3));
+    let mobile = renderer.tier_as::<MobileTier>().expect("the mobile tier");
+    let data = mobile.frame_data().expect("frame data after the warm-up");
+    assert_eq!((data.gi.width, data.gi.height), (32, 24));
+    assert_eq!(data.dynamic.len(), 32 * 24);
+    // The measured frames start at frame 0: the warm-up showed it but did not count it.
+    let frame = renderer.render_frames(2, None).unwrap();
+    assert_eq!(renderer.next_frame(), 2);
+    assert_eq!((frame.image.width, frame.image.height), (32, 24));
+    assert!(
+        frame
+            .passes
+            .iter()
+            .any(|(name, _)| name.starts_with("mobile/"))
+    );
+}
+
+#[test]
+fn path_warm_up_adds_samples_to_the_still_view() {
+    if gi_gpu::GpuContext::new_or_skip("path_warm_up_adds_samples").is_none() {
+        return;
+    }
+    let scene = gi_scene::load("cornell-box").unwrap();
+    let mut renderer = Renderer::new(scene, TierChoice::Path, SETTINGS, CameraMode::Default)
+        .expect("a path tier on the adapter");
+    renderer.warm_up(2, None).unwrap();
+    let samples = std::sync::atomic::AtomicU32::new(0);
+    let record = |n| samples.store(n, std::sync::atomic::Ordering::Relaxed);
+    renderer.render_frame(Some(&record)).unwrap();
+    // Two warm-up frames and the measured one accumulate on the same view.
+    assert_eq!(samples.into_inner(), 3 * SETTINGS.spp);
+    assert_eq!(renderer.next_frame(), 1);
 }
