@@ -97,7 +97,7 @@ pub struct CacheFrame<'a> {
 
 /// Passes recorded after voxelization in every update: the cache's lighting
 /// (`lighting.rs` implements it for its `CacheLighting`).
-pub trait CacheLightingHook {
+pub trait CacheLightingHook: Send {
     /// Records the passes into `encoder`, timed by `timer`.
     fn record(
         &mut self,

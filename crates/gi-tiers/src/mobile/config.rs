@@ -113,3 +113,47 @@ pub struct MobileConfig {
     pub volume: VolumeConfig,
     pub screen: ScreenConfig,
 }
+
+impl MobileConfig {
+    /// Checks the screen settings (the cache and the volume check their own when created).
+    pub fn validate(&self) -> Result<(), String> {
+        let screen = &self.screen;
+        let check = |ok: bool, field: &str, value: String, reason: &str| {
+            if ok {
+                Ok(())
+            } else {
+                Err(format!("mobile setting `screen.{field}` = {value}: {reason}"))
+            }
+        };
+        check(
+            (8..=256).contains(&screen.tile_px),
+            "tile_px",
+            screen.tile_px.to_string(),
+            "must be 8 to 256 pixels",
+        )?;
+        check(
+            (1..=1024).contains(&screen.max_age),
+            "max_age",
+            screen.max_age.to_string(),
+            "must be 1 to 1024 frames",
+        )?;
+        check(
+            screen.plane_tolerance.is_finite() && screen.plane_tolerance > 0.0,
+            "plane_tolerance",
+            screen.plane_tolerance.to_string(),
+            "must be a positive fraction of the depth",
+        )?;
+        check(
+            screen.normal_cos.is_finite() && (-1.0..1.0).contains(&screen.normal_cos),
+            "normal_cos",
+            screen.normal_cos.to_string(),
+            "must be a cosine below 1",
+        )?;
+        check(
+            screen.ray_offset_voxels.is_finite() && (0.0..=8.0).contains(&screen.ray_offset_voxels),
+            "ray_offset_voxels",
+            screen.ray_offset_voxels.to_string(),
+            "must be 0 to 8 voxels",
+        )
+    }
+}

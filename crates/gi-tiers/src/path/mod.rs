@@ -7,6 +7,8 @@
 
 mod tracer;
 
+pub(crate) use tracer::{Accumulation, PathPipelines};
+
 pub use tracer::PathUniforms;
 
 use gi_gpu::{GpuContext, GpuScene, GpuTimer};
@@ -16,7 +18,7 @@ use gi_scene::CameraView;
 use glam::Vec3;
 
 use crate::tier::{FrameInput, FrameOutput, Tier, TierError, TierKind, TierSettings};
-use tracer::{Accumulation, PathPipelines};
+
 
 /// Passes per frame the timer has room for (`<tier>/trace`, `<tier>/resolve`).
 const TIMER_SCOPES: u32 = 4;
