@@ -9,14 +9,19 @@ use serde::Serialize;
 
 use gi_tiers::TierKind;
 
-use crate::{ViewArgs, cache, parse_tier, render::progress_bar, tiers::render_tier};
+use crate::{
+    ViewArgs, cache, parse_tier,
+    render::progress_bar,
+    tiers::{MobileReport, render_tier},
+};
 
 #[derive(Args, Debug)]
 pub struct CompareArgs {
     /// Bundled scene name (see `gi scenes`) or path to a .gltf/.glb file.
     #[arg(default_value = "cornell-box")]
     scene: String,
-    /// Comma-separated tiers to compare (default: every tier).
+    /// Comma-separated tiers to compare (default: every tier: reference, direct, path,
+    /// mobile).
     #[arg(long, value_delimiter = ',', value_parser = parse_tier)]
     tiers: Vec<TierKind>,
     #[command(flatten)]
@@ -62,6 +67,12 @@ struct TierReport {
     ms_per_frame: f64,
     passes: BTreeMap<String, f64>,
     memory_bytes: u64,
+    /// Still warm-up frames rendered before the frames (0 for tiers without history).
+    warmup: u32,
+    /// The mobile tier's GI time (`cache/*` + `mobile/*` passes) and memory breakdown; absent
+    /// for the other tiers.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    mobile: Option<MobileReport>,
     /// Path-tracing throughput; null for tiers that don't trace paths on the CPU.
     samples_per_second: Option<f64>,
     rays_per_second: Option<f64>,
@@ -74,6 +85,8 @@ struct CompareReport {
     height: u32,
     spp: u32,
     frames: u32,
+    /// `--warmup` as given; null: each tier's default (the tiers' `warmup` say what ran).
+    warmup: Option<u32>,
     reference: ReferenceReport,
     tiers: Vec<TierReport>,
 }
@@ -82,6 +95,8 @@ struct CompareReport {
 fn reference_image(args: &CompareArgs, scene: &gi_scene::Scene) -> Result<(Image, f64, bool)> {
     let mut request = args.view.request(args.reference_spp)?;
     request.seed = args.reference_seed;
+    // The reference keeps no history; its cache key holds no warm-up.
+    request.warmup = None;
     let key = cache::ReferenceKey::new(
         scene,
         &request.view(scene),
@@ -181,6 +196,8 @@ pub fn run(args: &CompareArgs) -> Result<()> {
             ms_per_frame: render.ms_per_frame,
             passes: render.passes.clone(),
             memory_bytes: render.memory_bytes,
+            warmup: render.warmup,
+            mobile: render.mobile.clone(),
             samples_per_second: render.stats.as_ref().map(|s| s.samples_per_second),
             rays_per_second: render.stats.as_ref().map(|s| s.rays_per_second),
         });
@@ -191,6 +208,7 @@ pub fn run(args: &CompareArgs) -> Result<()> {
         height: request.height,
         spp: request.spp,
         frames: request.frames,
+        warmup: request.warmup,
         reference: ReferenceReport {
             spp: args.reference_spp,
             seconds: reference_seconds,
@@ -241,5 +259,10 @@ fn print_table(report: &CompareReport) {
             tier.ms_per_frame,
             tier.memory_bytes as f64 / (1 << 20) as f64
         );
+    }
+    for tier in &report.tiers {
+        if let Some(mobile) = &tier.mobile {
+            println!("{}", mobile.line(tier.ms_per_frame, tier.warmup));
+        }
     }
 }

@@ -11,7 +11,7 @@ use std::{path::PathBuf, process::ExitCode};
 
 use clap::{Args, Parser, Subcommand};
 use gi_tiers::TierKind;
-use tiers::{CameraChoice, RenderRequest};
+use tiers::{CameraChoice, RenderRequest, ScreenProbes};
 
 /// Real-time global illumination tiers, measured against a path-traced reference.
 #[derive(Parser, Debug)]
@@ -67,6 +67,17 @@ pub struct ViewArgs {
     /// Random seed; the same seed gives the same image.
     #[arg(long, default_value_t = 1)]
     seed: u64,
+    /// Still warm-up frames before the frames: each shows frame 0 again without advancing
+    /// scene time, so temporal tiers converge before the measurement (default: each tier's
+    /// own, 63 for mobile so the measured frame is the 64th of a still view, 0 for the
+    /// others). Tiers without history skip it; each warm-up frame costs a frame.
+    #[arg(long)]
+    warmup: Option<u32>,
+    /// Screen probes of the mobile tier: hsgi (a fresh probe per 64-pixel tile each frame,
+    /// the default) or smartgi (16-pixel tiles, a quarter of them traced per frame, the
+    /// rest reprojected). Only the mobile tier reads it.
+    #[arg(long, value_enum)]
+    screen_probes: Option<ScreenProbes>,
 }
 
 /// Largest accepted image side, and largest pixel count (a 16K x 4K image).
@@ -100,6 +111,12 @@ impl ViewArgs {
             "--frames {} is out of range (1..={MAX_FRAMES})",
             self.frames
         );
+        if let Some(warmup) = self.warmup {
+            anyhow::ensure!(
+                warmup <= MAX_FRAMES,
+                "--warmup {warmup} is out of range (0..={MAX_FRAMES})"
+            );
+        }
         Ok(RenderRequest {
             width: self.width,
             height: self.height,
@@ -107,6 +124,8 @@ impl ViewArgs {
             frames: self.frames,
             seed: self.seed,
             camera: self.camera,
+            warmup: self.warmup,
+            mobile: ScreenProbes::mobile_config(self.screen_probes),
         })
     }
 }

@@ -15,7 +15,7 @@ use crate::{ViewArgs, parse_tier, tiers::render_tier};
 pub struct RenderArgs {
     /// Bundled scene name (see `gi scenes`) or path to a .gltf/.glb file.
     scene: String,
-    /// Tier to render with: reference, direct.
+    /// Tier to render with: reference, direct, path, mobile.
     #[arg(long, value_parser = parse_tier, default_value = "reference")]
     tier: TierKind,
     #[command(flatten)]
@@ -40,6 +40,8 @@ pub struct RenderReport {
     pub height: u32,
     pub spp: u32,
     pub frames: u32,
+    /// Still warm-up frames rendered before the frames (0 for tiers without history).
+    pub warmup: u32,
     pub time_s: f32,
     pub triangles: usize,
     pub ms_per_frame: f64,
@@ -49,6 +51,8 @@ pub struct RenderReport {
     pub samples_per_second: Option<f64>,
     pub rays_per_second: Option<f64>,
     pub bvh_build_ms: Option<f64>,
+    /// The mobile tier's GI time and memory breakdown; null for the other tiers.
+    pub mobile: Option<crate::tiers::MobileReport>,
 }
 
 /// A progress bar over samples per pixel; indicatif hides it when stderr is not a terminal.
@@ -100,6 +104,7 @@ pub fn run(args: &RenderArgs) -> Result<()> {
         height: request.height,
         spp: request.spp,
         frames: request.frames,
+        warmup: result.warmup,
         time_s: request.time_s(&scene),
         triangles: scene
             .evaluate(request.time_s(&scene), Some(request.view(&scene)))
@@ -111,6 +116,7 @@ pub fn run(args: &RenderArgs) -> Result<()> {
         samples_per_second: result.stats.as_ref().map(|s| s.samples_per_second),
         rays_per_second: result.stats.as_ref().map(|s| s.rays_per_second),
         bvh_build_ms: result.stats.as_ref().map(|s| s.bvh_build_seconds * 1e3),
+        mobile: result.mobile.clone(),
     };
     let throughput = match (report.samples_per_second, report.rays_per_second) {
         (Some(samples), Some(rays)) => {
@@ -132,6 +138,9 @@ pub fn run(args: &RenderArgs) -> Result<()> {
         report.ms_per_frame,
         args.out.display()
     );
+    if let Some(mobile) = &report.mobile {
+        println!("{}", mobile.line(report.ms_per_frame, report.warmup));
+    }
     if let Some(path) = &args.stats {
         std::fs::write(path, serde_json::to_string_pretty(&report)?)
             .with_context(|| format!("writing {}", path.display()))?;

@@ -6,7 +6,10 @@ use anyhow::Result;
 use gi_image::Image;
 use gi_reference::RenderStats;
 use gi_scene::{CameraView, Scene};
-use gi_tiers::{CameraMode, Renderer, TierChoice, TierKind, TierSettings};
+use gi_tiers::{
+    CameraMode, MobileConfig, MobileTier, Renderer, TierChoice, TierKind, TierSettings,
+    mobile::{MobileMemory, ScreenConfig},
+};
 use serde::Serialize;
 
 /// Which camera a render looks through.
@@ -28,6 +31,36 @@ impl From<CameraChoice> for CameraMode {
     }
 }
 
+/// How the mobile tier schedules its screen probes (`--screen-probes`).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum, Serialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum ScreenProbes {
+    /// HSGI mobile: one freshly traced probe per 64-pixel tile every frame.
+    Hsgi,
+    /// SmartGI: 16-pixel tiles in 2 x 2 groups, one probe per group traced per frame, the
+    /// others reprojected from history.
+    Smartgi,
+}
+
+impl ScreenProbes {
+    pub fn config(self) -> ScreenConfig {
+        match self {
+            ScreenProbes::Hsgi => ScreenConfig::default(),
+            ScreenProbes::Smartgi => ScreenConfig::smartgi(),
+        }
+    }
+
+    /// The mobile tier's configuration: its default with these screen probes, or the
+    /// default itself for `None`.
+    pub fn mobile_config(choice: Option<Self>) -> MobileConfig {
+        let mut config = MobileConfig::default();
+        if let Some(choice) = choice {
+            config.screen = choice.config();
+        }
+        config
+    }
+}
+
 /// What a render asks of a tier.
 #[derive(Clone, Debug)]
 pub struct RenderRequest {
@@ -39,6 +72,11 @@ pub struct RenderRequest {
     pub frames: u32,
     pub seed: u64,
     pub camera: CameraChoice,
+    /// Still warm-up frames before the frames ([`Renderer::warm_up`]); `None`: the tier's
+    /// [`TierKind::default_warmup`].
+    pub warmup: Option<u32>,
+    /// The mobile tier's configuration (ignored by the other tiers).
+    pub mobile: MobileConfig,
 }
 
 impl RenderRequest {
@@ -67,9 +105,66 @@ pub struct TierRender {
     /// Bytes the tier owns after the measured frame.
     pub memory_bytes: u64,
     pub stats: Option<RenderStats>,
+    /// Warm-up frames rendered (0 for tiers without history, which skip it).
+    pub warmup: u32,
+    /// What only the mobile tier reports.
+    pub mobile: Option<MobileReport>,
 }
 
-/// Renders `request.frames` frames of `scene` with `tier` and returns the last.
+/// The mobile tier's GI cost and memory breakdown, in the JSON reports.
+#[derive(Clone, Debug, Serialize)]
+pub struct MobileReport {
+    /// `hsgi` or `smartgi`.
+    pub screen_probes: &'static str,
+    /// Milliseconds of the measured frame's GI passes (`cache/*` and `mobile/*`).
+    pub gi_ms: f64,
+    pub memory: MobileMemoryReport,
+}
+
+#[derive(Clone, Debug, Serialize)]
+pub struct MobileMemoryReport {
+    /// Brick cache and probe volume (fixed by the coverage).
+    pub coverage_bytes: u64,
+    /// Resolution-dependent GI buffers.
+    pub screen_bytes: u64,
+    /// Scene, BVH, G-buffer and direct light (what every tier needs).
+    pub frame_bytes: u64,
+    /// coverage + screen.
+    pub gi_bytes: u64,
+}
+
+impl From<MobileMemory> for MobileMemoryReport {
+    fn from(memory: MobileMemory) -> Self {
+        Self {
+            coverage_bytes: memory.coverage_bytes,
+            screen_bytes: memory.screen_bytes,
+            frame_bytes: memory.frame_bytes,
+            gi_bytes: memory.gi_bytes(),
+        }
+    }
+}
+
+impl MobileReport {
+    /// One line for the printed tables.
+    pub fn line(&self, ms_per_frame: f64, warmup: u32) -> String {
+        let mib = |bytes: u64| bytes as f64 / (1 << 20) as f64;
+        let m = &self.memory;
+        format!(
+            "mobile ({} screen probes, measured after {warmup} warm-up frames): GI {:.2} ms of \
+             {ms_per_frame:.2} ms/frame (cache/* + mobile/*); GI memory {:.2} MiB (coverage \
+             {:.2} + screen {:.2}), frame {:.2} MiB",
+            self.screen_probes,
+            self.gi_ms,
+            mib(m.gi_bytes),
+            mib(m.coverage_bytes),
+            mib(m.screen_bytes),
+            mib(m.frame_bytes),
+        )
+    }
+}
+
+/// Renders `request.frames` frames of `scene` with `tier`, after the request's still warm-up,
+/// and returns the last.
 pub fn render_tier(
     scene: &Scene,
     tier: TierKind,
@@ -82,18 +177,31 @@ pub fn render_tier(
         spp: request.spp,
         seed: request.seed,
     };
-    let mut renderer = Renderer::new(
-        scene.clone(),
-        TierChoice::Tier(tier),
-        settings,
-        request.camera.into(),
-    )?;
+    let mut renderer = if tier == TierKind::Mobile {
+        let mobile = MobileTier::open(settings, request.mobile.clone())?;
+        Renderer::with_tier(scene.clone(), Box::new(mobile), request.camera.into())
+    } else {
+        Renderer::new(
+            scene.clone(),
+            TierChoice::Tier(tier),
+            settings,
+            request.camera.into(),
+        )?
+    };
+    renderer.warm_up(request.warmup.unwrap_or(tier.default_warmup()), None)?;
     let frame = renderer.render_frames(request.frames, Some(progress))?;
+    let mobile = renderer.tier_as::<MobileTier>().map(|mobile| MobileReport {
+        screen_probes: mobile.config().screen.mode.name(),
+        gi_ms: frame.gi_ms(TierKind::Mobile),
+        memory: mobile.memory().into(),
+    });
     Ok(TierRender {
         ms_per_frame: frame.ms_total(),
         passes: frame.passes.iter().cloned().collect(),
         memory_bytes: renderer.memory_bytes(),
         image: frame.image,
         stats: frame.stats,
+        warmup: renderer.warm_up_frames(),
+        mobile,
     })
 }

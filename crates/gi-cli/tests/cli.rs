@@ -348,3 +348,223 @@ fn debug_cache_rejects_unknown_views_and_scenes_in_one_line() {
     );
     assert_fails_with(&output, "--size");
 }
+
+#[test]
+fn tiers_without_history_skip_the_warm_up_and_say_so() {
+    let dir = tempfile::tempdir().unwrap();
+    let output = gi(
+        &[
+            "render",
+            "cornell-box",
+            "--tier",
+            "direct",
+            "--width",
+            "8",
+            "--height",
+            "6",
+            "--spp",
+            "1",
+            "--warmup",
+            "5",
+            "--out",
+            "direct.png",
+            "--stats",
+            "stats.json",
+        ],
+        dir.path(),
+    );
+    assert!(output.status.success(), "{}", stderr(&output));
+    let stats: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(dir.path().join("stats.json")).unwrap()).unwrap();
+    assert_eq!(stats["warmup"], 0, "{stats}");
+    assert!(stats["mobile"].is_null(), "{stats}");
+}
+
+#[test]
+fn render_with_the_mobile_tier_reports_its_gi_time_and_memory() {
+    if gi_gpu::GpuContext::new_or_skip("render_with_the_mobile_tier").is_none() {
+        return;
+    }
+    let dir = tempfile::tempdir().unwrap();
+    let output = gi(
+        &[
+            "render",
+            "cornell-box",
+            "--tier",
+            "mobile",
+            "--screen-probes",
+            "smartgi",
+            "--width",
+            "32",
+            "--height",
+            "24",
+            "--warmup",
+            "3",
+            "--frames",
+            "2",
+            "--out",
+            "mobile.png",
+            "--stats",
+            "stats.json",
+        ],
+        dir.path(),
+    );
+    assert!(output.status.success(), "{}", stderr(&output));
+    let stdout = String::from_utf8_lossy(&output.stdout);
+    assert!(stdout.contains("smartgi screen probes"), "{stdout}");
+    let image = gi_image::load(dir.path().join("mobile.png")).unwrap();
+    assert_eq!((image.width, image.height), (32, 24));
+    let stats: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(dir.path().join("stats.json")).unwrap()).unwrap();
+    assert_eq!(stats["tier"], "mobile");
+    assert_eq!(stats["warmup"], 3);
+    assert_eq!(stats["frames"], 2);
+    let mobile = &stats["mobile"];
+    assert_eq!(mobile["screen_probes"], "smartgi");
+    assert_mobile_report(
+        mobile,
+        &stats["passes"],
+        stats["ms_per_frame"].as_f64().unwrap(),
+    );
+}
+
+/// The mobile tier's report: its GI time is the sum of its `cache/*` and `mobile/*` passes,
+/// within the frame's time, and its memory breakdown adds up.
+fn assert_mobile_report(mobile: &serde_json::Value, passes: &serde_json::Value, frame_ms: f64) {
+    let passes = passes.as_object().expect("passes");
+    assert!(
+        passes.keys().any(|p| p.starts_with("mobile/")),
+        "{passes:?}"
+    );
+    let gi_sum: f64 = passes
+        .iter()
+        .filter(|(name, _)| name.starts_with("cache/") || name.starts_with("mobile/"))
+        .map(|(_, ms)| ms.as_f64().unwrap())
+        .sum();
+    let gi_ms = mobile["gi_ms"].as_f64().expect("gi_ms");
+    assert!(
+        (gi_ms - gi_sum).abs() <= 1e-9 * gi_sum.max(1.0),
+        "{gi_ms} vs {gi_sum}"
+    );
+    assert!(
+        gi_ms > 0.0 && gi_ms <= frame_ms * (1.0 + 1e-9),
+        "{gi_ms} of {frame_ms}"
+    );
+    let memory = &mobile["memory"];
+    let bytes = |field: &str| memory[field].as_u64().unwrap_or_else(|| panic!("{field}"));
+    assert!(
+        bytes("coverage_bytes") > 0 && bytes("screen_bytes") > 0,
+        "{memory}"
+    );
+    assert_eq!(
+        bytes("gi_bytes"),
+        bytes("coverage_bytes") + bytes("screen_bytes")
+    );
+}
+
+#[test]
+fn compare_with_the_mobile_tier_reports_its_gi_time_and_memory() {
+    if gi_gpu::GpuContext::new_or_skip("compare_with_the_mobile_tier").is_none() {
+        return;
+    }
+    let dir = tempfile::tempdir().unwrap();
+    let output = gi(
+        &[
+            "compare",
+            "cornell-box",
+            "--tiers",
+            "mobile",
+            "--width",
+            "32",
+            "--height",
+            "24",
+            "--spp",
+            "1",
+            "--warmup",
+            "4",
+            "--reference-spp",
+            "8",
+            "--out-dir",
+            "cmp",
+        ],
+        dir.path(),
+    );
+    assert!(output.status.success(), "{}", stderr(&output));
+    let table = String::from_utf8_lossy(&output.stdout);
+    assert!(
+        table.contains("mobile (hsgi screen probes, measured after 4 warm-up frames): GI"),
+        "{table}"
+    );
+    let json: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(dir.path().join("cmp/compare.json")).unwrap())
+            .unwrap();
+    assert_eq!(json["warmup"], 4);
+    let tiers = json["tiers"].as_array().unwrap();
+    assert_eq!(tiers.len(), 1);
+    let mobile = &tiers[0];
+    assert_eq!(mobile["tier"], "mobile");
+    assert_eq!(mobile["warmup"], 4);
+    assert_eq!(mobile["mobile"]["screen_probes"], "hsgi");
+    for field in ["rmse_srgb8", "gain_vs_direct", "ms_per_frame"] {
+        assert!(mobile[field].is_number(), "{field} missing in {mobile}");
+    }
+    assert_mobile_report(
+        &mobile["mobile"],
+        &mobile["passes"],
+        mobile["ms_per_frame"].as_f64().unwrap(),
+    );
+    for file in ["mobile.png", "mobile.exr", "mobile_error.png"] {
+        assert!(dir.path().join("cmp").join(file).is_file(), "{file}");
+    }
+}
+
+#[test]
+fn unknown_screen_probes_and_bad_warm_ups_are_clear_errors() {
+    let dir = tempfile::tempdir().unwrap();
+    let output = gi(
+        &[
+            "render",
+            "cornell-box",
+            "--tier",
+            "mobile",
+            "--screen-probes",
+            "lumen",
+            "--out",
+            "a.png",
+        ],
+        dir.path(),
+    );
+    let err = stderr(&output);
+    assert!(!output.status.success());
+    assert!(
+        err.contains("lumen") && err.contains("hsgi") && err.contains("smartgi"),
+        "{err}"
+    );
+    let output = gi(
+        &[
+            "render",
+            "cornell-box",
+            "--warmup",
+            "many",
+            "--out",
+            "a.png",
+        ],
+        dir.path(),
+    );
+    assert!(!output.status.success());
+    let err = stderr(&output);
+    assert!(err.contains("'many'") && err.contains("--warmup"), "{err}");
+    let output = gi(
+        &[
+            "render",
+            "cornell-box",
+            "--warmup",
+            "2000000",
+            "--out",
+            "a.png",
+        ],
+        dir.path(),
+    );
+    assert_fails_with(&output, "--warmup 2000000");
+    assert!(!dir.path().join("a.png").exists());
+}

@@ -56,6 +56,17 @@ impl TierKind {
             TierKind::Reference | TierKind::Direct | TierKind::Path => 0,
         }
     }
+
+    /// True when the pass named `pass` (`group/name`) is part of this tier's GI cost, the
+    /// figure compared with a GI budget: the mobile tier's `cache/*` and `mobile/*` passes,
+    /// not the G-buffer (`gbuffer/*`) or direct light (`direct/*`) every tier needs. The other
+    /// tiers compute their whole image as one transport, so no pass of theirs is split out.
+    pub fn is_gi_pass(self, pass: &str) -> bool {
+        match self {
+            TierKind::Mobile => pass.starts_with("cache/") || pass.starts_with("mobile/"),
+            TierKind::Reference | TierKind::Direct | TierKind::Path => false,
+        }
+    }
 }
 
 impl fmt::Display for TierKind {
@@ -133,6 +144,15 @@ impl FrameOutput {
     /// The frame's total time: the sum of its passes.
     pub fn ms_total(&self) -> f64 {
         self.passes.iter().map(|(_, ms)| ms).sum()
+    }
+
+    /// The frame's GI cost for `kind`: the sum of its passes that [`TierKind::is_gi_pass`].
+    pub fn gi_ms(&self, kind: TierKind) -> f64 {
+        self.passes
+            .iter()
+            .filter(|(name, _)| kind.is_gi_pass(name))
+            .map(|(_, ms)| ms)
+            .sum()
     }
 }
 

@@ -213,3 +213,26 @@ fn path_warm_up_adds_samples_to_the_still_view() {
     assert_eq!(samples.into_inner(), 3 * SETTINGS.spp);
     assert_eq!(renderer.next_frame(), 1);
 }
+
+#[test]
+fn the_mobile_gi_cost_counts_cache_and_mobile_passes_only() {
+    let frame = gi_tiers::FrameOutput {
+        image: gi_image::Image::new(1, 1),
+        passes: [
+            ("gbuffer/primary", 1.0),
+            ("cache/inject", 2.0),
+            ("direct/shadow", 4.0),
+            ("mobile/trace", 8.0),
+            ("mobile/upsample", 16.0),
+            ("cachex/other", 32.0),
+        ]
+        .map(|(name, ms)| (name.to_string(), ms))
+        .to_vec(),
+        stats: None,
+    };
+    assert_eq!(frame.gi_ms(TierKind::Mobile), 26.0);
+    assert_eq!(frame.ms_total(), 63.0);
+    for kind in [TierKind::Reference, TierKind::Direct, TierKind::Path] {
+        assert_eq!(frame.gi_ms(kind), 0.0, "{kind}");
+    }
+}
