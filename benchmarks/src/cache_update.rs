@@ -10,8 +10,7 @@
 //! (window moves, binning, allocation, uploads and recording: the CPU work outside the GPU);
 //! `scene update` that of [`GpuScene::update`] on animated scenes.
 
-use std::cell::Cell;
-use std::rc::Rc;
+use std::sync::{Arc, Mutex};
 use std::time::Instant;
 
 use anyhow::{Context, bail};
@@ -78,10 +77,10 @@ pub struct CacheUpdateReport {
 }
 
 /// The lighting hook of [`CacheLighting`], keeping each update's schedule where the benchmark
-/// can read it (the cache owns its hook as a trait object).
+/// can read it (the cache owns its hook as a `Send` trait object).
 struct ScheduledLighting {
     lighting: CacheLighting,
-    last: Rc<Cell<ScheduleCounts>>,
+    last: Arc<Mutex<ScheduleCounts>>,
 }
 
 impl CacheLightingHook for ScheduledLighting {
@@ -94,7 +93,7 @@ impl CacheLightingHook for ScheduledLighting {
     ) {
         let inputs = LightingInputs::from_frame(frame);
         let counts = self.lighting.record(ctx, timer, encoder, &inputs);
-        self.last.set(counts);
+        *self.last.lock().expect("not poisoned") = counts;
     }
 }
 
@@ -122,7 +121,7 @@ pub fn run(options: &CacheUpdateOptions) -> anyhow::Result<CacheUpdateReport> {
         &options.config,
         &CacheBuffers::bind_group_layout(&ctx),
     )?;
-    let scheduled = Rc::new(Cell::new(ScheduleCounts::default()));
+    let scheduled = Arc::new(Mutex::new(ScheduleCounts::default()));
     cache.lighting = Some(Box::new(ScheduledLighting {
         lighting,
         last: scheduled.clone(),
@@ -161,7 +160,7 @@ pub fn run(options: &CacheUpdateOptions) -> anyhow::Result<CacheUpdateReport> {
                 },
             );
         }
-        scheduled.set(ScheduleCounts::default());
+        *scheduled.lock().expect("not poisoned") = ScheduleCounts::default();
         let started = Instant::now();
         let update = cache.update(
             &ctx,
@@ -186,7 +185,7 @@ pub fn run(options: &CacheUpdateOptions) -> anyhow::Result<CacheUpdateReport> {
             cpu_update_ms,
             scene_update_ms,
             update,
-            scheduled: scheduled.get(),
+            scheduled: *scheduled.lock().expect("not poisoned"),
         });
         previous = frame;
     }

@@ -5,12 +5,18 @@
 //! gi-bench cache-rays --scene atrium --rays 65536 --json cache-rays.json
 //! gi-bench cache-update --scene atrium --frames 16 --json cache-update.json
 //! gi-bench path --scene atrium --width 1920 --height 1080 --spp 4 --json path.json
+//! gi-bench mobile --scenes cornell-box,atrium,thin-wall --size 1920x1080 --frames 64 \
+//!     --screen-probes both --json mobile.json
+//! gi-bench mobile-stability --size 320x240 --screen-probes both --json stability.json
 //! ```
 
 mod cache_rays;
 mod cache_update;
+mod mobile;
+mod mobile_stability;
 mod path;
 mod rays;
+mod stability;
 
 use std::path::PathBuf;
 
@@ -107,7 +113,81 @@ enum Command {
         #[arg(long)]
         json: Option<PathBuf>,
     },
+    /// Cost and memory of the mobile tier per scene and screen-probe mode: a still warm-up,
+    /// then the median per pass over the measured frames, the GI sum (cache/* + mobile/*)
+    /// apart from the other passes, and the memory breakdown against the 32 MB bar.
+    Mobile {
+        /// Comma-separated bundled scene names or glTF paths.
+        #[arg(
+            long,
+            value_delimiter = ',',
+            default_value = "cornell-box,atrium,thin-wall"
+        )]
+        scenes: Vec<String>,
+        /// Image size, WIDTHxHEIGHT. Lavapipe wants a tiny one.
+        #[arg(long, default_value = "1920x1080", value_parser = parse_size)]
+        size: (u32, u32),
+        /// Still warm-up frames (showing frame 0) before the measured frames (default: the
+        /// mobile tier's 63).
+        #[arg(long)]
+        warmup: Option<u32>,
+        /// Measured frames; each pass's median over them is reported.
+        #[arg(long, default_value_t = 64)]
+        frames: u32,
+        /// Screen probes: hsgi, smartgi or both (one run each).
+        #[arg(long, default_value = "hsgi", value_parser = mobile::parse_modes)]
+        screen_probes: ModeList,
+        /// Also write the results as JSON to this file.
+        #[arg(long)]
+        json: Option<PathBuf>,
+    },
+    /// Temporal stability of the mobile tier's GI term: flicker (mean absolute frame-to-frame
+    /// change of its luminance on static pixels, still, animated and along a camera path) and
+    /// settle time after a light turns (frames until within k x the converged noise of the
+    /// converged image).
+    MobileStability {
+        /// Image size, WIDTHxHEIGHT. Every frame is read back, so keep it small.
+        #[arg(long, default_value = "320x240", value_parser = parse_size)]
+        size: (u32, u32),
+        /// Still warm-up frames before each case (default: the mobile tier's 63).
+        #[arg(long)]
+        warmup: Option<u32>,
+        /// Measured frames of each flicker case.
+        #[arg(long, default_value_t = 32)]
+        frames: u32,
+        /// Screen probes: hsgi, smartgi or both (one run each).
+        #[arg(long, default_value = "hsgi", value_parser = mobile::parse_modes)]
+        screen_probes: ModeList,
+        /// Scene of the still and animated flicker cases, seen by its still default camera.
+        #[arg(long, default_value = "dynamic")]
+        still_scene: String,
+        /// Scene of the camera-path flicker case (it needs a camera path).
+        #[arg(long, default_value = "atrium")]
+        path_scene: String,
+        /// Static scene whose first punctual light turns for the settle measurement.
+        #[arg(long, default_value = "atrium")]
+        settle_scene: String,
+        /// How far the light turns about the world vertical, degrees.
+        #[arg(long, default_value_t = 30.0)]
+        light_turn_deg: f32,
+        /// Frames rendered after the light turns.
+        #[arg(long, default_value_t = 160)]
+        settle_frames: u32,
+        /// The last frames, whose mean is the converged image and whose frame-to-frame change
+        /// is the noise.
+        #[arg(long, default_value_t = 10)]
+        converged_frames: u32,
+        /// Settled means within this many times the converged noise of the converged image.
+        #[arg(long, default_value_t = 2.0)]
+        settle_k: f64,
+        /// Also write the results as JSON to this file.
+        #[arg(long)]
+        json: Option<PathBuf>,
+    },
 }
+
+/// Screen-probe modes of a run (clap needs a named type for a parsed list).
+type ModeList = Vec<gi_tiers::mobile::ScreenProbeMode>;
 
 fn main() -> anyhow::Result<()> {
     match Cli::parse().command {
@@ -169,6 +249,54 @@ fn main() -> anyhow::Result<()> {
             json,
         } => {
             let report = path::run(&scene, (width, height), spp, frames)?;
+            print!("{}", report.table());
+            write_json(json, &report.json())
+        }
+        Command::Mobile {
+            scenes,
+            size,
+            warmup,
+            frames,
+            screen_probes,
+            json,
+        } => {
+            let report = mobile::run(&mobile::MobileOptions {
+                scenes,
+                size,
+                warmup: warmup.unwrap_or(gi_tiers::TierKind::Mobile.default_warmup()),
+                frames,
+                modes: screen_probes,
+            })?;
+            print!("{}", report.table());
+            write_json(json, &report.json())
+        }
+        Command::MobileStability {
+            size,
+            warmup,
+            frames,
+            screen_probes,
+            still_scene,
+            path_scene,
+            settle_scene,
+            light_turn_deg,
+            settle_frames,
+            converged_frames,
+            settle_k,
+            json,
+        } => {
+            let report = mobile_stability::run(&mobile_stability::StabilityOptions {
+                size,
+                warmup: warmup.unwrap_or(gi_tiers::TierKind::Mobile.default_warmup()),
+                frames,
+                modes: screen_probes,
+                still_scene,
+                path_scene,
+                settle_scene,
+                light_turn_deg,
+                settle_frames,
+                converged_frames,
+                settle_k,
+            })?;
             print!("{}", report.table());
             write_json(json, &report.json())
         }

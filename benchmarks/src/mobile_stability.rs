@@ -1,0 +1,333 @@
+//! `gi-bench mobile-stability`: how steady the mobile tier's GI term is and how fast it
+//! follows a lighting change, with the metrics of [`crate::stability`] (their definitions are
+//! in its docs). Every case first renders a still warm-up of frame 0.
+//!
+//! Flicker, over `frames` measured frames after the warm-up:
+//! - `still`: the still scene frozen at frame 0 (every frame the same view): the tier's own
+//!   temporal noise.
+//! - `animated`: the still scene's animation running under its still default camera. Static
+//!   pixels' GI also changes for real when a light moves (the `dynamic` scene's light circles
+//!   the room), so this is an upper bound of the flicker there; `still` is the noise floor.
+//! - `camera path`: the path scene through its camera path, pixels reprojected through the
+//!   motion vectors.
+//!
+//! Settle: the settle scene (static, with a punctual light) warms up, then its first punctual
+//! light turns by `light_turn_deg` about the world vertical (a directional or spot light's
+//! direction; a point light's position about the vertical axis through the origin) and
+//! `settle_frames` still frames follow. The converged value is the mean of the last
+//! `converged_frames`, the noise their mean frame-to-frame change, the threshold `k` times the
+//! noise, and the settle time the frames from the change until every later frame (before the
+//! converged window) is within the threshold of the converged value. Errors and noise are mean
+//! absolute luminance differences over the pixels that see a static surface.
+
+use anyhow::{Context, bail};
+use gi_scene::LightKind;
+use gi_tiers::{CameraMode, Renderer, mobile::ScreenProbeMode};
+use glam::Quat;
+
+use crate::mobile::{mobile, mobile_renderer};
+use crate::stability::{
+    Change, DEPTH_TOLERANCE, GiFrame, frame_to_frame_noise, luminance_image, mean_abs_difference,
+    mean_image, settle_frames, static_change,
+};
+
+/// What `gi-bench mobile-stability` runs.
+#[derive(Clone, Debug)]
+pub struct StabilityOptions {
+    pub size: (u32, u32),
+    pub warmup: u32,
+    /// Measured frames of each flicker case.
+    pub frames: u32,
+    pub modes: Vec<ScreenProbeMode>,
+    /// Scene of the `still` and `animated` flicker cases (default `dynamic`).
+    pub still_scene: String,
+    /// Scene of the `camera path` flicker case; it needs a camera path.
+    pub path_scene: String,
+    /// Static scene with a punctual light for the settle measurement.
+    pub settle_scene: String,
+    pub light_turn_deg: f32,
+    /// Frames rendered after the light turns.
+    pub settle_frames: u32,
+    /// The last frames, whose mean is the converged value.
+    pub converged_frames: u32,
+    /// Threshold as a multiple of the converged frame-to-frame noise.
+    pub settle_k: f64,
+}
+
+/// One flicker case.
+pub struct FlickerCase {
+    pub case: &'static str,
+    pub scene: String,
+    pub change: Change,
+}
+
+/// The settle measurement.
+pub struct Settle {
+    pub scene: String,
+    /// Mean GI luminance of the converged value over the measured pixels.
+    pub converged_luminance: f64,
+    /// Mean |converged after - last frame before| the change: how much the turn changed the GI.
+    pub light_change: f64,
+    pub noise: f64,
+    pub threshold: f64,
+    /// Error of frame 1, 2, ... after the change (before the converged window).
+    pub errors: Vec<f64>,
+    pub settle_frames: Option<usize>,
+}
+
+pub struct StabilityRun {
+    pub mode: ScreenProbeMode,
+    pub flicker: Vec<FlickerCase>,
+    pub settle: Settle,
+}
+
+pub struct StabilityReport {
+    pub options: StabilityOptions,
+    pub runs: Vec<StabilityRun>,
+}
+
+pub fn run(options: &StabilityOptions) -> anyhow::Result<StabilityReport> {
+    anyhow::ensure!(options.frames >= 1, "--frames must be at least 1");
+    anyhow::ensure!(
+        options.converged_frames >= 2 && options.converged_frames < options.settle_frames,
+        "--converged-frames must be at least 2 and less than --settle-frames"
+    );
+    anyhow::ensure!(options.settle_k > 0.0, "--settle-k must be positive");
+    let load = |name: &str| gi_scene::load(name).with_context(|| format!("loading {name}"));
+    let still = load(&options.still_scene)?;
+    let path = load(&options.path_scene)?;
+    anyhow::ensure!(
+        path.camera_path.is_some(),
+        "{} has no camera path (try atrium or cornell-box)",
+        options.path_scene
+    );
+    let settle_scene = load(&options.settle_scene)?;
+    let mut runs = Vec::new();
+    for &mode in &options.modes {
+        let renderer = |scene: &gi_scene::Scene, camera| {
+            mobile_renderer(scene.clone(), options.size, mode, camera)
+        };
+        let flicker = vec![
+            FlickerCase {
+                case: "still",
+                scene: still.name.clone(),
+                change: flicker(&mut renderer(&still, CameraMode::Default)?, options, false)?,
+            },
+            FlickerCase {
+                case: "animated",
+                scene: still.name.clone(),
+                change: flicker(&mut renderer(&still, CameraMode::Default)?, options, true)?,
+            },
+            FlickerCase {
+                case: "camera path",
+                scene: path.name.clone(),
+                change: flicker(&mut renderer(&path, CameraMode::Path)?, options, true)?,
+            },
+        ];
+        let settle = settle(&mut renderer(&settle_scene, CameraMode::Default)?, options)?;
+        runs.push(StabilityRun {
+            mode,
+            flicker,
+            settle,
+        });
+    }
+    Ok(StabilityReport {
+        options: options.clone(),
+        runs,
+    })
+}
+
+fn frame_data(renderer: &Renderer) -> anyhow::Result<gi_tiers::mobile::MobileFrameData> {
+    mobile(renderer)
+        .frame_data()
+        .context("the mobile tier returned no frame data after a frame")
+}
+
+/// Warms up, then measures `options.frames` frames, advancing scene time when `advance`.
+fn flicker(
+    renderer: &mut Renderer,
+    options: &StabilityOptions,
+    advance: bool,
+) -> anyhow::Result<Change> {
+    renderer.warm_up(options.warmup, None)?;
+    if options.warmup == 0 {
+        // The first measured frame needs a frame before it.
+        renderer.warm_up(1, None)?;
+    }
+    let mut previous = frame_data(renderer)?;
+    let mut total = Change::default();
+    for _ in 0..options.frames {
+        if advance {
+            renderer.render_frame(None)?;
+        } else {
+            renderer.warm_up(1, None)?;
+        }
+        let current = frame_data(renderer)?;
+        total.add(static_change(
+            &GiFrame::of(&current),
+            &GiFrame::of(&previous),
+            DEPTH_TOLERANCE,
+        ));
+        previous = current;
+    }
+    Ok(total)
+}
+
+/// Turns the scene's first punctual light about the world vertical by `degrees`.
+fn turn_first_light(scene: &mut gi_scene::Scene, degrees: f32) -> anyhow::Result<()> {
+    let Some(node) = scene.nodes.iter().position(|n| n.light.is_some()) else {
+        bail!(
+            "{} has no punctual light to turn (thin-wall, atrium and open-world have a sun)",
+            scene.name
+        );
+    };
+    let light = scene.nodes[node].light.expect("found above");
+    let turn = Quat::from_rotation_y(degrees.to_radians());
+    let node = &mut scene.nodes[node];
+    match scene.lights[light].kind {
+        LightKind::Directional | LightKind::Spot { .. } => node.rotation = turn * node.rotation,
+        LightKind::Point => node.translation = turn * node.translation,
+    }
+    Ok(())
+}
+
+fn settle(renderer: &mut Renderer, options: &StabilityOptions) -> anyhow::Result<Settle> {
+    let name = renderer.scene().name.clone();
+    anyhow::ensure!(
+        !renderer.scene().is_animated(),
+        "the settle scene must be static; {name} is animated (try atrium or thin-wall)"
+    );
+    renderer.warm_up(options.warmup.max(1), None)?;
+    let before = luminance_image(&frame_data(renderer)?.gi.pixels);
+    turn_first_light(renderer.scene_mut(), options.light_turn_deg)?;
+    let mut frames = Vec::new();
+    let mut last = None;
+    for _ in 0..options.settle_frames {
+        renderer.warm_up(1, None)?;
+        let data = frame_data(renderer)?;
+        frames.push(luminance_image(&data.gi.pixels));
+        last = Some(data);
+    }
+    let last = last.expect("at least two frames");
+    let mask: Vec<bool> = last
+        .depth
+        .iter()
+        .zip(&last.dynamic)
+        .map(|(depth, dynamic)| depth.is_finite() && !dynamic)
+        .collect();
+    let window = frames.len() - options.converged_frames as usize;
+    let converged = mean_image(&frames[window..]);
+    let noise = frame_to_frame_noise(&frames[window..], &mask);
+    let threshold = options.settle_k * noise;
+    let errors: Vec<f64> = frames[..window]
+        .iter()
+        .map(|frame| mean_abs_difference(frame, &converged, &mask))
+        .collect();
+    let black = vec![0.0; converged.len()];
+    Ok(Settle {
+        scene: name,
+        converged_luminance: mean_abs_difference(&converged, &black, &mask),
+        light_change: mean_abs_difference(&before, &converged, &mask),
+        noise,
+        threshold,
+        settle_frames: settle_frames(&errors, threshold),
+        errors,
+    })
+}
+
+impl StabilityReport {
+    pub fn table(&self) -> String {
+        let o = &self.options;
+        let mut out = format!(
+            "mobile tier {}x{}, {} still warm-up frames, flicker over {} frames; settle: light \
+             turned {} deg, {} frames, converged = mean of the last {}, threshold = {} x their \
+             frame-to-frame noise\n\n",
+            o.size.0,
+            o.size.1,
+            o.warmup,
+            o.frames,
+            o.light_turn_deg,
+            o.settle_frames,
+            o.converged_frames,
+            o.settle_k,
+        );
+        out += "| screen probes | case | scene | static pixels | flicker (mean abs dL) | \
+                mean L | relative |\n|---|---|---|---:|---:|---:|---:|\n";
+        for run in &self.runs {
+            for case in &run.flicker {
+                let c = &case.change;
+                out += &format!(
+                    "| {} | {} | {} | {} | {:.5} | {:.5} | {} |\n",
+                    run.mode.name(),
+                    case.case,
+                    case.scene,
+                    c.pixels,
+                    c.mean_abs_change(),
+                    c.mean_luminance(),
+                    c.relative()
+                        .map_or("-".to_owned(), |r| format!("{:.2}%", r * 100.0)),
+                );
+            }
+        }
+        out += "\n| screen probes | scene | light change | noise | threshold | settle frames \
+                |\n|---|---|---:|---:|---:|---:|\n";
+        for run in &self.runs {
+            let s = &run.settle;
+            out += &format!(
+                "| {} | {} | {:.5} | {:.5} | {:.5} | {} |\n",
+                run.mode.name(),
+                s.scene,
+                s.light_change,
+                s.noise,
+                s.threshold,
+                s.settle_frames
+                    .map_or("not settled".to_owned(), |n| n.to_string()),
+            );
+            if s.light_change <= s.threshold {
+                out += &format!(
+                    "\nwarning ({}): turning the light changed the converged GI by no more \
+                     than the threshold; the settle time measures nothing\n",
+                    run.mode.name()
+                );
+            }
+        }
+        out
+    }
+
+    pub fn json(&self) -> serde_json::Value {
+        let o = &self.options;
+        serde_json::json!({
+            "width": o.size.0,
+            "height": o.size.1,
+            "warmup": o.warmup,
+            "frames": o.frames,
+            "depth_tolerance": DEPTH_TOLERANCE,
+            "settle_options": {
+                "light_turn_deg": o.light_turn_deg,
+                "settle_frames": o.settle_frames,
+                "converged_frames": o.converged_frames,
+                "k": o.settle_k,
+            },
+            "runs": self.runs.iter().map(|run| serde_json::json!({
+                "screen_probes": run.mode.name(),
+                "flicker": run.flicker.iter().map(|case| serde_json::json!({
+                    "case": case.case,
+                    "scene": case.scene,
+                    "pixels": case.change.pixels,
+                    "mean_abs_change": case.change.mean_abs_change(),
+                    "mean_luminance": case.change.mean_luminance(),
+                    "relative": case.change.relative(),
+                })).collect::<Vec<_>>(),
+                "settle": {
+                    "scene": run.settle.scene,
+                    "converged_luminance": run.settle.converged_luminance,
+                    "light_change": run.settle.light_change,
+                    "noise": run.settle.noise,
+                    "threshold": run.settle.threshold,
+                    "settle_frames": run.settle.settle_frames,
+                    "errors": run.settle.errors,
+                },
+            })).collect::<Vec<_>>(),
+        })
+    }
+}

@@ -1,0 +1,189 @@
+//! `gi-bench mobile` and `gi-bench mobile-stability` in a tiny mode, so they keep building and
+//! running in CI.
+
+use std::process::{Command, Output};
+
+use gi_gpu::GpuContext;
+
+fn gi_bench(args: &[&str], json: &std::path::Path) -> (Output, String) {
+    let output = Command::new(env!("CARGO_BIN_EXE_gi-bench"))
+        .args(args)
+        .arg("--json")
+        .arg(json)
+        .output()
+        .expect("gi-bench starts");
+    let stdout = String::from_utf8_lossy(&output.stdout).into_owned();
+    assert!(
+        output.status.success(),
+        "gi-bench failed:\n{stdout}\n{}",
+        String::from_utf8_lossy(&output.stderr)
+    );
+    (output, stdout)
+}
+
+fn read_json(path: &std::path::Path) -> serde_json::Value {
+    serde_json::from_str(&std::fs::read_to_string(path).expect("JSON written"))
+        .expect("JSON parses")
+}
+
+#[test]
+fn mobile_benchmark_reports_gi_passes_and_memory() {
+    if GpuContext::new_or_skip("mobile_benchmark_reports_gi_passes_and_memory").is_none() {
+        return;
+    }
+    let json = std::path::Path::new(env!("CARGO_TARGET_TMPDIR")).join("gi-bench-mobile.json");
+    let (_, stdout) = gi_bench(
+        &[
+            "mobile",
+            "--scenes",
+            "cornell-box,thin-wall",
+            "--size",
+            "32x24",
+            "--warmup",
+            "2",
+            "--frames",
+            "3",
+            "--screen-probes",
+            "both",
+        ],
+        &json,
+    );
+    assert!(
+        stdout.contains("| **GI (cache/* + mobile/*)** |"),
+        "{stdout}"
+    );
+    assert!(stdout.contains("the 32 MB bar"), "{stdout}");
+    let report = read_json(&json);
+    assert_eq!(report["frames"], 3);
+    assert_eq!(report["warmup"], 2);
+    let runs = report["runs"].as_array().expect("runs");
+    // Two scenes in both modes.
+    let keys: Vec<(String, String)> = runs
+        .iter()
+        .map(|r| {
+            (
+                r["scene"].as_str().unwrap().to_owned(),
+                r["screen_probes"].as_str().unwrap().to_owned(),
+            )
+        })
+        .collect();
+    let expected = [
+        ("cornell-box", "hsgi"),
+        ("cornell-box", "smartgi"),
+        ("thin-wall", "hsgi"),
+        ("thin-wall", "smartgi"),
+    ]
+    .map(|(s, m)| (s.to_owned(), m.to_owned()));
+    assert_eq!(keys, expected);
+    for run in runs {
+        let passes = run["passes_ms"].as_object().expect("passes");
+        let gi: f64 = passes
+            .iter()
+            .filter(|(name, _)| name.starts_with("cache/") || name.starts_with("mobile/"))
+            .map(|(_, ms)| ms.as_f64().unwrap())
+            .sum();
+        let all: f64 = passes.values().map(|ms| ms.as_f64().unwrap()).sum();
+        assert!(gi > 0.0, "{run}");
+        assert!(
+            (run["gi_ms"].as_f64().unwrap() - gi).abs() <= 1e-9 * gi,
+            "{run}"
+        );
+        let other = run["other_ms"].as_f64().unwrap();
+        assert!((gi + other - all).abs() <= 1e-9 * all, "{run}");
+        let memory = &run["memory"];
+        let bytes = |field: &str| memory[field].as_u64().unwrap_or_else(|| panic!("{field}"));
+        assert!(
+            bytes("coverage_bytes") > 0 && bytes("screen_bytes") > 0,
+            "{memory}"
+        );
+        assert_eq!(
+            bytes("gi_bytes"),
+            bytes("coverage_bytes") + bytes("screen_bytes")
+        );
+    }
+}
+
+#[test]
+fn mobile_stability_benchmark_reports_flicker_and_settle() {
+    if GpuContext::new_or_skip("mobile_stability_benchmark_reports_flicker_and_settle").is_none() {
+        return;
+    }
+    let json = std::path::Path::new(env!("CARGO_TARGET_TMPDIR")).join("gi-bench-stability.json");
+    let (_, stdout) = gi_bench(
+        &[
+            "mobile-stability",
+            "--size",
+            "32x24",
+            "--warmup",
+            "2",
+            "--frames",
+            "2",
+            "--path-scene",
+            "cornell-box",
+            "--settle-scene",
+            "thin-wall",
+            "--settle-frames",
+            "6",
+            "--converged-frames",
+            "3",
+        ],
+        &json,
+    );
+    assert!(stdout.contains("settle frames"), "{stdout}");
+    let report = read_json(&json);
+    let runs = report["runs"].as_array().expect("runs");
+    assert_eq!(runs.len(), 1);
+    let run = &runs[0];
+    assert_eq!(run["screen_probes"], "hsgi");
+    let cases: Vec<&str> = run["flicker"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|c| c["case"].as_str().unwrap())
+        .collect();
+    assert_eq!(cases, ["still", "animated", "camera path"]);
+    for case in run["flicker"].as_array().unwrap() {
+        // Most of the still camera's pixels see static walls; the path moves slowly.
+        assert!(case["pixels"].as_u64().unwrap() > 0, "{case}");
+        let change = case["mean_abs_change"].as_f64().unwrap();
+        assert!(change.is_finite() && change >= 0.0, "{case}");
+        assert!(case["mean_luminance"].as_f64().unwrap() > 0.0, "{case}");
+    }
+    let settle = &run["settle"];
+    assert_eq!(settle["scene"], "thin-wall");
+    // Six frames after the turn, the last three converged: three errors.
+    assert_eq!(settle["errors"].as_array().unwrap().len(), 3);
+    let noise = settle["noise"].as_f64().unwrap();
+    assert!(
+        (settle["threshold"].as_f64().unwrap() - 2.0 * noise).abs() <= 1e-12,
+        "{settle}"
+    );
+    assert!(settle["light_change"].as_f64().unwrap() > 0.0, "{settle}");
+}
+
+#[test]
+fn mobile_benchmarks_reject_bad_input_clearly() {
+    let run = |args: &[&str]| {
+        let output = Command::new(env!("CARGO_BIN_EXE_gi-bench"))
+            .args(args)
+            .output()
+            .expect("gi-bench starts");
+        assert!(!output.status.success(), "{args:?} succeeded");
+        String::from_utf8_lossy(&output.stderr).into_owned()
+    };
+    let err = run(&["mobile", "--screen-probes", "lumen"]);
+    assert!(
+        err.contains("unknown screen-probe mode `lumen` (expected hsgi, smartgi or both)"),
+        "{err}"
+    );
+    let err = run(&["mobile-stability", "--size", "0x3"]);
+    assert!(err.contains("WIDTHxHEIGHT"), "{err}");
+    let err = run(&[
+        "mobile-stability",
+        "--settle-frames",
+        "4",
+        "--converged-frames",
+        "4",
+    ]);
+    assert!(err.contains("--converged-frames"), "{err}");
+}
