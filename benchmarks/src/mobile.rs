@@ -33,15 +33,17 @@ pub fn parse_modes(value: &str) -> Result<Vec<ScreenProbeMode>, String> {
     }
 }
 
-/// The mobile tier's default configuration with the screen probes of `mode`.
+/// The mobile tier's default configuration with the screen probes of `mode` (the default's
+/// own screen settings when it already uses `mode`).
 pub fn config_for(mode: ScreenProbeMode) -> MobileConfig {
-    MobileConfig {
-        screen: match mode {
+    let mut config = MobileConfig::default();
+    if config.screen.mode != mode {
+        config.screen = match mode {
             ScreenProbeMode::Hsgi => ScreenConfig::default(),
             ScreenProbeMode::SmartGi => ScreenConfig::smartgi(),
-        },
-        ..MobileConfig::default()
+        };
     }
+    config
 }
 
 /// A renderer of `scene` with a mobile tier of `mode` at `size`.

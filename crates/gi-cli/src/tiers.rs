@@ -8,7 +8,7 @@ use gi_reference::RenderStats;
 use gi_scene::{CameraView, Scene};
 use gi_tiers::{
     CameraMode, MobileConfig, MobileTier, Renderer, TierChoice, TierKind, TierSettings,
-    mobile::{MobileMemory, ScreenConfig},
+    mobile::{MobileMemory, ScreenConfig, ScreenProbeMode},
 };
 use serde::Serialize;
 
@@ -50,14 +50,23 @@ impl ScreenProbes {
         }
     }
 
-    /// The mobile tier's configuration: its default with these screen probes, or the
-    /// default itself for `None`.
+    /// The mobile tier's configuration: its default with these screen probes (the default's
+    /// own screen settings when it already uses them), or the default itself for `None`.
     pub fn mobile_config(choice: Option<Self>) -> MobileConfig {
         let mut config = MobileConfig::default();
-        if let Some(choice) = choice {
+        if let Some(choice) = choice
+            && config.screen.mode != choice.mode()
+        {
             config.screen = choice.config();
         }
         config
+    }
+
+    fn mode(self) -> ScreenProbeMode {
+        match self {
+            ScreenProbes::Hsgi => ScreenProbeMode::Hsgi,
+            ScreenProbes::Smartgi => ScreenProbeMode::SmartGi,
+        }
     }
 }
 
