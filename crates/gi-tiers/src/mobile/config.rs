@@ -64,6 +64,88 @@ impl Default for VolumeConfig {
     }
 }
 
+/// A probe volume setting the volume cannot run with.
+#[derive(Debug, thiserror::Error, PartialEq)]
+#[error("probe volume setting `{field}` = {value}: {reason}")]
+pub struct VolumeConfigError {
+    pub field: &'static str,
+    pub value: String,
+    pub reason: String,
+}
+
+impl VolumeConfig {
+    /// Most clipmap levels (HSGI's PC tier uses 4).
+    pub const MAX_LEVELS: u32 = 4;
+    /// Most probe slots over all levels: 2^20 probes of 192 bytes keep every buffer within
+    /// the 128 MiB storage binding of the software adapter.
+    pub const MAX_SLOTS: u64 = 1 << 20;
+
+    /// Checks every field; the volume refuses a configuration that fails.
+    pub fn validate(&self) -> Result<(), VolumeConfigError> {
+        let invalid = |field, value: String, reason: &str| {
+            Err(VolumeConfigError {
+                field,
+                value,
+                reason: reason.to_string(),
+            })
+        };
+        if self.levels == 0 || self.levels > Self::MAX_LEVELS {
+            return invalid(
+                "levels",
+                self.levels.to_string(),
+                &format!("must be 1 to {}", Self::MAX_LEVELS),
+            );
+        }
+        if self.probes.iter().any(|&n| !(2..=256).contains(&n)) {
+            return invalid(
+                "probes",
+                format!("{:?}", self.probes),
+                "each must be 2 to 256 (a cell needs two probes per axis)",
+            );
+        }
+        if self.slot_count() > Self::MAX_SLOTS {
+            return invalid(
+                "probes",
+                format!("{:?} x {} levels", self.probes, self.levels),
+                &format!("at most {} probes over all levels", Self::MAX_SLOTS),
+            );
+        }
+        if !(self.spacing_m.is_finite() && (1e-3..=1e3).contains(&self.spacing_m)) {
+            return invalid(
+                "spacing_m",
+                self.spacing_m.to_string(),
+                "must be between 1 mm and 1 km",
+            );
+        }
+        if !(1..=64).contains(&self.rays_per_probe) {
+            return invalid(
+                "rays_per_probe",
+                self.rays_per_probe.to_string(),
+                "must be 1 to 64",
+            );
+        }
+        if !(1..=65_535).contains(&self.max_age) {
+            return invalid("max_age", self.max_age.to_string(), "must be 1 to 65535");
+        }
+        Ok(())
+    }
+
+    /// Distance between neighbouring probes of `level`, meters (`spacing_m * 4^level`).
+    pub fn spacing_at(&self, level: u32) -> f32 {
+        self.spacing_m * 4f32.powi(level as i32)
+    }
+
+    /// Probes of one level.
+    pub fn probes_per_level(&self) -> u64 {
+        self.probes.iter().map(|&n| u64::from(n)).product()
+    }
+
+    /// Probe slots of all levels.
+    pub fn slot_count(&self) -> u64 {
+        self.probes_per_level() * u64::from(self.levels)
+    }
+}
+
 /// Screen probes, the half-resolution gather, its temporal filter and the upsample.
 #[derive(Clone, Debug, PartialEq)]
 pub struct ScreenConfig {
