@@ -13,7 +13,7 @@
 //     probes to `active_list`, counting workgroups into the indirect arguments;
 //   - `trace_probes`, indirect, one invocation per listed probe: relocates it when flagged, then
 //     traces `rays_per_probe` rays, each updating one random face of its ambient cube and the
-//     distance moments of the ray direction's bin.
+//     depth moments of the ray direction's bin.
 // `irradiance_at` evaluates `volume_irradiance` for a batch of queries (tests and tools).
 //
 // Bind group 0 (this file's; bindings 1-7 are `gi::scene`'s, which `gi::lights` declares):
@@ -66,7 +66,7 @@ const INSIDE_BACK_HITS: u32 = 3u;
 // spacings of the spot, beyond the farthest relocation (0.45 per axis) and the cell's probes.
 const INSIDE_REACH_SPACINGS: f32 = 2.0;
 // A relocation that moves a probe further than this (in spacings) keeps at most
-// RELOCATED_MAX_AGE samples of its faces and distance bins, so the new spot's samples take
+// RELOCATED_MAX_AGE samples of its faces and depth bins, so the new spot's samples take
 // over within a few frames.
 const RELOCATION_MOVED_SPACINGS: f32 = 0.1;
 const RELOCATED_MAX_AGE: u32 = 4u;
@@ -272,7 +272,7 @@ fn classify_probes(@builtin(global_invocation_id) id: vec3<u32>) {
 // trace_probes
 // ---------------------------------------------------------------------------------------------
 
-// Keeps at most `max_count` samples of every face and distance bin of `slot`.
+// Keeps at most `max_count` samples of every face and depth bin of `slot`.
 fn volume_clamp_ages(slot: u32, state: ptr<function, ProbeState>, max_count: u32) {
     var counts = 0u;
     for (var face = 0u; face < VOLUME_FACES; face++) {

@@ -1,7 +1,7 @@
 //! The mobile tier's world-space probe volume (HSGI, GDC 2023, "Mobile Solution / Probe
 //! Volume", sampled as DDGI does): a clipmap of [`VolumeConfig::levels`] levels of probes around
 //! the camera, each probe an ambient cube (six face irradiances with their sample counts) plus
-//! distance moments for Chebyshev visibility and a relocation offset.
+//! depth moments per face for Chebyshev visibility and a relocation offset.
 //!
 //! - Layout, sampling and the group-1 bindings: `shaders/mobile/volume.wgsl`
 //!   (`gi::mobile::volume`, whose `volume_irradiance(p, n)` the gather passes call).
@@ -133,8 +133,8 @@ pub struct ProbeSample {
     pub irradiance: [Vec3; 6],
     /// Samples of each face (the temporal weight is `1 / min(samples, max_age)`).
     pub face_samples: [u32; 6],
-    /// Mean distance and mean squared distance to the first hit, per direction bin (same
-    /// order), and the bins' sample counts.
+    /// Mean depth and mean squared depth of the first hit along the bin's axis, per direction
+    /// bin (rays binned by their major axis, same order), and the bins' sample counts.
     pub moments: [[f32; 2]; 6],
     pub moment_samples: [u32; 6],
 }
@@ -149,7 +149,7 @@ pub struct ProbeVolume {
     probes: wgpu::Buffer,
     /// `mobile.volume.faces`: 6 x vec4 per slot (irradiance, samples).
     faces: wgpu::Buffer,
-    /// `mobile.volume.moments`: 6 x vec2 per slot (mean distance, mean squared distance).
+    /// `mobile.volume.moments`: 6 x vec2 per slot (mean depth, mean squared depth).
     moments: wgpu::Buffer,
     /// `mobile.volume.update_uniforms`: [`GpuUpdateUniforms`].
     update_uniforms: wgpu::Buffer,
