@@ -3,7 +3,7 @@
 // ambient-cube irradiance with an age, visibility, relocation; a clipmap of 2 levels on mobile)
 // sampled as DDGI does (Majercik et al. 2019, "Dynamic Diffuse Global Illumination with
 // Ray-Traced Irradiance Fields": trilinear weights, a smooth back-face term and Chebyshev
-// visibility from distance moments, with a normal bias).
+// visibility from depth moments, with a normal bias).
 //
 // Layout: `volume.level_count` clipmap levels of `volume.probes` probes each, level k spaced
 // `volume.levels[k].spacing_m` apart, its window starting at world probe coordinate
@@ -49,8 +49,8 @@ const VOLUME_FAR_SPACINGS: f32 = 4.0;
 // the point off its surface so that probes seeing that surface measure a larger distance to it
 // than to the point, and pushes points beside a thin wall away from the wall.
 const VOLUME_NORMAL_BIAS_SPACINGS: f32 = 0.25;
-// Least variance of a probe's distance distribution, in squared spacings: keeps Chebyshev's
-// bound finite for a bin whose rays all hit at one distance.
+// Least variance of a probe bin's depth distribution, in squared spacings: keeps Chebyshev's
+// bound finite for a bin whose rays all hit at one depth.
 const VOLUME_MIN_VARIANCE_SPACINGS2: f32 = 1e-4;
 // Cells over which a level fades into the next coarser one near its window's border.
 const VOLUME_BLEND_CELLS: f32 = 2.0;
@@ -91,7 +91,7 @@ struct ProbeState {
     // Occupancy of the bricks around the probe when its relocation was computed (bits 0-26)
     // and the cache level they were read at (bits 27-31).
     signature: u32,
-    // Sample counts of the six distance bins, VOLUME_MOMENT_COUNT_BITS bits each.
+    // Sample counts of the six depth bins, VOLUME_MOMENT_COUNT_BITS bits each.
     moment_counts: u32,
     pad_a: u32,
     pad_b: u32,
@@ -141,7 +141,7 @@ fn volume_major_face(dir: vec3<f32>) -> u32 {
     return axis * 2u + select(0u, 1u, dir[axis] < 0.0);
 }
 
-// Sample count of distance bin `face` in a packed ProbeState::moment_counts.
+// Sample count of depth bin `face` in a packed ProbeState::moment_counts.
 fn volume_moment_count(counts: u32, face: u32) -> u32 {
     return (counts >> (face * VOLUME_MOMENT_COUNT_BITS)) & VOLUME_MOMENT_MAX_COUNT;
 }

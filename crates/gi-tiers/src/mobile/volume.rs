@@ -83,7 +83,7 @@ pub struct GpuProbeState {
     pub age: u32,
     /// Occupancy around the probe its relocation was computed for.
     pub signature: u32,
-    /// Sample counts of the six distance bins, 5 bits each.
+    /// Sample counts of the six depth bins, 5 bits each.
     pub moment_counts: u32,
     pub pad_a: u32,
     pub pad_b: u32,
