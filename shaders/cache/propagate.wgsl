@@ -48,10 +48,16 @@ const SHADOW_MARGIN: f32 = 1e-4;
 
 // Radiance arriving along `dir` at `origin` after at least one bounce: the cache's reflected
 // side radiance (emission is sampled directly), or the sky where the ray leaves the cache.
+// During a fill (`max_age` 0, `gi_cache::lighting::FILL_FRACTION`) a ray that finds nothing may
+// have passed where a wall is still queued, so it brings nothing: the fill's lighting starts
+// dark and the updates after it add the sky, rather than leaking it indoors.
 fn bounced_radiance(origin: vec3<f32>, dir: vec3<f32>) -> vec3<f32> {
     let hit = cache_trace(origin, dir, FAR);
     if hit.hit {
         return cache_hit_radiance(hit, false);
+    }
+    if lighting.max_age == 0u {
+        return vec3(0.0);
     }
     return sky_radiance(lighting.sky, dir);
 }
@@ -91,7 +97,8 @@ fn propagate(
     }
     let lit = scheduled_voxel(group.x, bit);
     let age = propagated_age(cache_voxel_age(lit.surface));
-    let weight = 1.0 / f32(age);
+    // Age 0 (max_age 0, during a fill) replaces without keeping history.
+    let weight = 1.0 / f32(max(age, 1u));
     let rays = max(lighting.rays_per_side, 1u);
     for (var side = 0u; side < CACHE_SIDE_COUNT; side++) {
         let slot = cache_side_slot(lit.v, side);

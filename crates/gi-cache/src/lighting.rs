@@ -58,6 +58,19 @@ pub const NEAR_REFRESH_RATIO: u32 = 13;
 /// at the cost of 4-update noise while lights keep changing (a moving light).
 pub const CHANGED_MAX_AGE: u32 = 4;
 
+/// A cache update that voxelizes at least one brick for every `FILL_FRACTION` resident ones is
+/// (re)filling the cache: a first fill, or a jump to a new place. Rays traced then pass through
+/// space whose bricks are still queued and see the sky where walls will be, so lighting computed
+/// during a fill must not be kept as history: those updates store age 0 (weight 1, and the first
+/// update after the fill replaces their result).
+pub const FILL_FRACTION: usize = 16;
+
+/// Whether an update that voxelized `new_bricks` of `resident_bricks` is a fill (see
+/// [`FILL_FRACTION`]); temporal filters that read the cache restart their history then too.
+pub fn is_filling(new_bricks: usize, resident_bricks: usize) -> bool {
+    new_bricks > 0 && new_bricks * FILL_FRACTION >= resident_bricks
+}
+
 /// Seed of the gather's random sequences (each side's sequence is indexed by the update count).
 const GATHER_SEED: u32 = 0x6c69_6768;
 
@@ -130,7 +143,8 @@ pub struct GpuLightingUniforms {
     pub light_count: u32,
     /// [`CacheConfig::gather_rays_per_side`].
     pub rays_per_side: u32,
-    /// [`CacheConfig::max_age`], or [`CHANGED_MAX_AGE`] while following a lighting change.
+    /// [`CacheConfig::max_age`], [`CHANGED_MAX_AGE`] while following a lighting change, or 0
+    /// during a fill ([`FILL_FRACTION`]: each update replaces and stores age 0).
     pub max_age: u32,
     /// Lighting updates so far (the sample index of every side's random sequence).
     pub frame_index: u32,
@@ -481,7 +495,9 @@ impl CacheLighting {
         if bricks.is_empty() {
             return counts;
         }
-        let max_age = if self.fast_updates_left > 0 {
+        let max_age = if is_filling(inputs.new_bricks.len(), inputs.resident.len()) {
+            0
+        } else if self.fast_updates_left > 0 {
             self.fast_updates_left -= 1;
             CHANGED_MAX_AGE.min(self.config.max_age)
         } else {

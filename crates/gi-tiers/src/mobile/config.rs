@@ -204,7 +204,9 @@ impl MobileConfig {
             if ok {
                 Ok(())
             } else {
-                Err(format!("mobile setting `screen.{field}` = {value}: {reason}"))
+                Err(format!(
+                    "mobile setting `screen.{field}` = {value}: {reason}"
+                ))
             }
         };
         check(
@@ -214,10 +216,10 @@ impl MobileConfig {
             "must be 8 to 256 pixels",
         )?;
         check(
-            (1..=1024).contains(&screen.max_age),
+            (1..=255).contains(&screen.max_age),
             "max_age",
             screen.max_age.to_string(),
-            "must be 1 to 1024 frames",
+            "must be 1 to 255 frames (the history stores it in 8 bits)",
         )?;
         check(
             screen.plane_tolerance.is_finite() && screen.plane_tolerance > 0.0,

@@ -3,15 +3,29 @@
 //! (GDC 2023) and SmartGI's screen-probe economy (SIGGRAPH 2024).
 
 mod config;
+mod screen;
 mod volume;
 
-pub use config::{MobileConfig, PROBE_TEXELS, ScreenConfig, ScreenProbeMode, VolumeConfig};
-pub use volume::ProbeVolume;
+pub use config::{
+    MobileConfig, PROBE_TEXELS, ScreenConfig, ScreenProbeMode, VolumeConfig, VolumeConfigError,
+};
+pub use screen::{GpuScreenProbe, ScreenUniforms};
+pub use volume::{ProbeSample, ProbeVolume, VolumeError};
 
-use gi_gpu::GpuContext;
+use gi_cache::lighting::{GpuSky, is_filling};
+use gi_cache::{CacheLighting, RadianceCache, ScreenInputs, binning::dynamic_nodes};
+use gi_gpu::gbuffer::{GBuffer, GBufferInputs};
+use gi_gpu::{GpuCamera, GpuContext, GpuScene, GpuTimer, PassTimings, ShaderLibrary, wgpu};
 use gi_image::Image;
+use gi_scene::{CameraView, SceneFrame};
+use glam::Vec3;
 
+use crate::path::{Accumulation, PathPipelines, PathUniforms};
 use crate::tier::{FrameInput, FrameOutput, Tier, TierError, TierKind, TierSettings};
+use screen::{ScreenBuffers, ScreenLayout, ScreenPipelines, ScreenSources, screen_uniforms};
+
+/// Most timed passes in one frame (G-buffer, the cache's passes, the mobile passes, direct).
+const TIMER_SCOPES: u32 = 32;
 
 /// GPU memory of the mobile tier by what it scales with.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
@@ -50,23 +64,93 @@ pub struct MobileFrameData {
 }
 
 /// The mobile tier. See the module docs.
+///
+/// A frame: `gbuffer/primary` (ray-cast G-buffer), the cache update (`cache/*`: voxelization
+/// of entering and moved bricks, screen injection, light injection and propagation),
+/// `mobile/lite` (the lite G-buffer), `mobile/volume` (probe volume), `mobile/probe_place` and
+/// `mobile/probe_trace` (screen probes), `mobile/gather` (half resolution, temporal),
+/// `direct/trace` + `direct/resolve` (direct light, accumulated while the view holds still, up
+/// to [`TierSettings::spp`] samples per pixel: the anti-aliasing of the direct tier), and
+/// `mobile/compose` (upsample and final image). The GI's cost is the `cache/*` and `mobile/*`
+/// passes.
 pub struct MobileTier {
     settings: TierSettings,
     config: MobileConfig,
     ctx: GpuContext,
+    shaders: ShaderLibrary,
+    timer: GpuTimer,
+    direct_pipelines: PathPipelines,
+    screen_pipelines: ScreenPipelines,
+    gbuffer: GBuffer,
+    cache: RadianceCache,
+    volume: ProbeVolume,
+    prepared: Option<Prepared>,
+    frame_index: u32,
+}
+
+/// What the tier uploaded for its scene.
+struct Prepared {
+    scene: GpuScene,
+    direct: Accumulation,
+    screen: ScreenBuffers,
+    dynamic_triangles: wgpu::Buffer,
+    /// The previous frame as the G-buffer's motion vectors need it.
+    previous: SceneFrame,
+    previous_camera: GpuCamera,
+    time_s: f32,
+    camera: CameraView,
+    triangle_count: usize,
+    node_count: usize,
 }
 
 impl MobileTier {
-    /// A mobile tier on `ctx`.
+    /// A mobile tier on `ctx`. Fails when the configuration or the image size is unusable or
+    /// the shaders do not compile on the device.
     pub fn new(
         settings: TierSettings,
         config: MobileConfig,
         ctx: GpuContext,
     ) -> Result<Self, TierError> {
+        let unavailable = |reason: String| TierError::Unavailable {
+            tier: "mobile",
+            reason,
+        };
+        crate::cpu::render_settings(TierKind::Reference, &settings).validate()?;
+        config.validate().map_err(unavailable)?;
+        let pixel_bytes = u64::from(settings.width) * u64::from(settings.height) * 16;
+        let limit = ctx.limits.max_storage_buffer_binding_size;
+        if pixel_bytes > limit {
+            return Err(unavailable(format!(
+                "{}x{} needs {pixel_bytes} bytes per image buffer, over the device's \
+                 {limit}-byte storage binding limit",
+                settings.width, settings.height
+            )));
+        }
+        let shaders = ShaderLibrary::new();
+        let gpu = |e: gi_gpu::GpuError| unavailable(e.to_string());
+        let direct_pipelines = PathPipelines::new(&ctx, "direct").map_err(gpu)?;
+        let gbuffer = GBuffer::new(&ctx, &shaders, settings.width, settings.height).map_err(gpu)?;
+        let mut cache =
+            RadianceCache::new(&ctx, &config.cache).map_err(|e| unavailable(e.to_string()))?;
+        CacheLighting::attach(&ctx, &shaders, &mut cache).map_err(gpu)?;
+        let volume = ProbeVolume::new(&ctx, &shaders, &config.volume)
+            .map_err(|e| unavailable(e.to_string()))?;
+        let screen_pipelines =
+            ScreenPipelines::new(&ctx, &shaders, volume.bind_group_layout()).map_err(gpu)?;
+        let timer = GpuTimer::new(&ctx, "mobile", TIMER_SCOPES);
         Ok(Self {
             settings,
             config,
             ctx,
+            shaders,
+            timer,
+            direct_pipelines,
+            screen_pipelines,
+            gbuffer,
+            cache,
+            volume,
+            prepared: None,
+            frame_index: 0,
         })
     }
 
@@ -88,16 +172,209 @@ impl MobileTier {
         &self.ctx
     }
 
+    /// The shader library the tier compiled its passes from.
+    pub fn shaders(&self) -> &ShaderLibrary {
+        &self.shaders
+    }
+
+    /// The brick cache the tier reads.
+    pub fn cache(&self) -> &RadianceCache {
+        &self.cache
+    }
+
+    /// The probe volume.
+    pub fn volume(&self) -> &ProbeVolume {
+        &self.volume
+    }
+
     /// The last frame's GI term and the G-buffer data needed to compare it across frames,
     /// read back from the GPU (stalls); `None` before the first frame. For tests and metrics.
     pub fn frame_data(&self) -> Option<MobileFrameData> {
-        None
+        let prepared = self.prepared.as_ref()?;
+        let ctx = &self.ctx;
+        let (width, height) = (self.settings.width, self.settings.height);
+        let gbuffer = self.gbuffer.read(ctx);
+        let output: Vec<[f32; 4]> = ctx.read_buffer(&prepared.screen.output);
+        let direct: Vec<[f32; 4]> = ctx.read_buffer(&prepared.direct.mean);
+        let lite: Vec<u32> = ctx.read_buffer(&prepared.screen.lite);
+        let history: Vec<[u32; 2]> =
+            ctx.read_buffer(&prepared.screen.history[prepared.screen.current]);
+        let half = prepared.screen.layout.half;
+        let gi = output
+            .iter()
+            .zip(&direct)
+            .map(|(o, d)| Vec3::from_slice(o) - Vec3::from_slice(d))
+            .collect();
+        let irradiance = (0..height)
+            .flat_map(|y| (0..width).map(move |x| (x, y)))
+            .map(|(x, y)| {
+                let h = (y / 2).min(half.1 - 1) * half.0 + (x / 2).min(half.0 - 1);
+                gi_cache::packing::unpack_rgb9e5(history[h as usize][0])
+            })
+            .collect();
+        let image = |pixels| Image {
+            width,
+            height,
+            pixels,
+        };
+        Some(MobileFrameData {
+            gi: image(gi),
+            irradiance: image(irradiance),
+            dynamic: lite.iter().map(|bits| bits & (1 << 23) != 0).collect(),
+            motion: gbuffer.motion,
+            depth: gbuffer.depth,
+        })
     }
 
     /// The tier's GPU memory now, by what it scales with.
     pub fn memory(&self) -> MobileMemory {
-        MobileMemory::default()
+        let memory = self.ctx.memory();
+        let volume = memory.bytes_with_prefix("mobile.volume.");
+        let coverage_bytes = memory.bytes_with_prefix("cache.") + volume;
+        let screen_bytes = memory.bytes_with_prefix("mobile.")
+            - volume
+            - memory.bytes_with_prefix("mobile.output");
+        MobileMemory {
+            coverage_bytes,
+            screen_bytes,
+            frame_bytes: memory.total_bytes() - coverage_bytes - screen_bytes,
+        }
     }
+
+    /// Makes the GPU state match `input`: the scene is uploaded once; a new time of an
+    /// animated scene updates the BVH and shading data; a camera move or a new time restarts
+    /// the direct-light accumulation (the GI keeps its history and reprojects it).
+    fn prepare(&mut self, input: &FrameInput) -> Result<(), TierError> {
+        let frame = input.frame;
+        let unavailable = |e: gi_gpu::bvh::BvhError| TierError::Unavailable {
+            tier: "mobile",
+            reason: e.to_string(),
+        };
+        let size = (self.settings.width, self.settings.height);
+        let same_scene = self.prepared.as_ref().is_some_and(|p| {
+            p.triangle_count == frame.triangles.len() && p.node_count == frame.world_from_node.len()
+        });
+        if !same_scene {
+            if let Some(old) = self.prepared.take() {
+                old.release(&self.ctx);
+            }
+            let scene = GpuScene::upload(&self.ctx, input.scene, frame).map_err(unavailable)?;
+            let uniforms = PathUniforms::new(frame, &scene, size, self.settings.seed);
+            let direct = Accumulation::new(&self.ctx, &self.direct_pipelines, &scene, uniforms);
+            let dynamic_triangles = dynamic_triangle_bits(&self.ctx, input.scene, frame);
+            let screen = self.screen_buffers(&direct, &dynamic_triangles);
+            self.prepared = Some(Prepared {
+                previous_camera: GpuCamera::new(&frame.camera, size),
+                previous: frame.clone(),
+                scene,
+                direct,
+                screen,
+                dynamic_triangles,
+                time_s: frame.time_s,
+                camera: frame.camera,
+                triangle_count: frame.triangles.len(),
+                node_count: frame.world_from_node.len(),
+            });
+            return Ok(());
+        }
+        let prepared = self.prepared.as_mut().expect("checked above");
+        let moved = prepared.time_s != frame.time_s && input.scene.is_animated();
+        if prepared.camera == frame.camera && !moved {
+            return Ok(());
+        }
+        let mut replaced = false;
+        if moved {
+            replaced = prepared
+                .scene
+                .update(&self.ctx, input.scene, frame)
+                .map_err(unavailable)?;
+        }
+        let uniforms = PathUniforms::new(frame, &prepared.scene, size, self.settings.seed);
+        if replaced {
+            let direct =
+                Accumulation::new(&self.ctx, &self.direct_pipelines, &prepared.scene, uniforms);
+            std::mem::replace(&mut prepared.direct, direct).release(&self.ctx);
+            // The screen bind groups name the direct image: make them again (history is lost).
+            let prepared = self.prepared.take().expect("checked above");
+            let screen = self.screen_buffers(&prepared.direct, &prepared.dynamic_triangles);
+            let old = std::mem::replace(&mut self.prepared.insert(prepared).screen, screen);
+            old.release(&self.ctx);
+        } else {
+            prepared.direct.restart(uniforms);
+        }
+        let prepared = self.prepared.as_mut().expect("checked above");
+        prepared.time_s = frame.time_s;
+        prepared.camera = frame.camera;
+        Ok(())
+    }
+
+    fn screen_buffers(
+        &self,
+        direct: &Accumulation,
+        dynamic_triangles: &wgpu::Buffer,
+    ) -> ScreenBuffers {
+        let find = |name: &str| {
+            self.gbuffer
+                .outputs()
+                .find(|(label, _)| *label == name)
+                .map(|(_, buffer)| buffer)
+                .expect("the G-buffer has every output")
+        };
+        let layout = ScreenLayout::new(
+            self.settings.width,
+            self.settings.height,
+            self.config.screen.tile_px,
+        );
+        ScreenBuffers::new(
+            &self.ctx,
+            &self.screen_pipelines,
+            layout,
+            &ScreenSources {
+                depth: find("gbuffer.depth"),
+                normal: find("gbuffer.normal"),
+                base_color: find("gbuffer.base_color"),
+                metallic_roughness: find("gbuffer.metallic_roughness"),
+                triangle: find("gbuffer.triangle"),
+                motion: find("gbuffer.motion"),
+                dynamic_triangles,
+                direct_mean: &direct.mean,
+            },
+        )
+    }
+}
+
+impl Prepared {
+    fn release(self, ctx: &GpuContext) {
+        self.direct.release(ctx);
+        self.screen.release(ctx);
+        ctx.release_buffer(&self.dynamic_triangles);
+        self.scene.release(ctx);
+    }
+}
+
+/// One bit per frame triangle, set when the triangle's node is moved by an animation
+/// (`mobile.dynamic_triangles`).
+fn dynamic_triangle_bits(
+    ctx: &GpuContext,
+    scene: &gi_scene::Scene,
+    frame: &SceneFrame,
+) -> wgpu::Buffer {
+    let dynamic = dynamic_nodes(scene);
+    let mut bits = vec![0u32; frame.triangles.len().div_ceil(32).max(1)];
+    for (index, attributes) in frame.attributes.iter().enumerate() {
+        if dynamic
+            .get(attributes.node as usize)
+            .copied()
+            .unwrap_or(false)
+        {
+            bits[index / 32] |= 1 << (index % 32);
+        }
+    }
+    ctx.create_buffer_init(
+        "mobile.dynamic_triangles",
+        bytemuck::cast_slice(&bits),
+        wgpu::BufferUsages::STORAGE,
+    )
 }
 
 impl Tier for MobileTier {
@@ -105,18 +382,142 @@ impl Tier for MobileTier {
         TierKind::Mobile
     }
 
+    /// Temporal: the cache, the probe volume and the gathered irradiance converge over frames.
     fn is_temporal(&self) -> bool {
         true
     }
 
-    fn render(&mut self, _input: &FrameInput) -> Result<FrameOutput, TierError> {
-        let _ = self.settings;
-        Err(TierError::Unavailable {
-            tier: "mobile",
-            reason: "not wired yet".to_string(),
+    fn render(&mut self, input: &FrameInput) -> Result<FrameOutput, TierError> {
+        self.prepare(input)?;
+        let frame = input.frame;
+        let size = (self.settings.width, self.settings.height);
+        let ctx = &self.ctx;
+        let prepared = self.prepared.as_mut().expect("prepared above");
+        let camera = GpuCamera::new(&frame.camera, size);
+        let sky = GpuSky::new(&frame.sky);
+        let mut passes = PassTimings::default();
+
+        let mut encoder = ctx.create_encoder("mobile/frame");
+        self.gbuffer.record(
+            ctx,
+            &mut encoder,
+            &mut self.timer,
+            &GBufferInputs {
+                frame,
+                scene: &prepared.scene,
+                previous: &prepared.previous,
+            },
+        );
+        let cache_stats = self.cache.update(
+            ctx,
+            &mut self.timer,
+            &mut encoder,
+            &gi_cache::CacheInputs {
+                scene: input.scene,
+                frame,
+                gpu_scene: &prepared.scene,
+                bvh: &prepared.scene.bvh,
+                camera_position: frame.camera.position,
+                gbuffer: Some(ScreenInputs::from_gbuffer(&self.gbuffer, &frame.camera)),
+            },
+        );
+        let screen = &mut prepared.screen;
+        // A cache fill (a first view, a jump) lights through missing walls: history gathered
+        // from it must not be kept.
+        if is_filling(
+            cache_stats.voxelized as usize,
+            self.cache.stats().allocated_bricks as usize,
+        ) {
+            screen.reset_history();
+        }
+        screen.begin_frame(
+            ctx,
+            screen_uniforms(
+                &self.config.screen,
+                screen.layout,
+                camera,
+                prepared.previous_camera,
+                sky,
+                self.frame_index,
+                self.settings.seed,
+            ),
+        );
+        let cache_group = &self.cache.buffers().bind_group;
+        let groups = (self.volume.bind_group(), cache_group);
+        screen.record_lite(
+            ctx,
+            &mut self.timer,
+            &mut encoder,
+            &self.screen_pipelines,
+            groups,
+        );
+        self.volume.update(
+            ctx,
+            &mut self.timer,
+            &mut encoder,
+            self.cache.buffers(),
+            frame.camera.position,
+            &frame.sky,
+            self.frame_index,
+        );
+        let groups = (self.volume.bind_group(), &self.cache.buffers().bind_group);
+        screen.record_probes(
+            ctx,
+            &mut self.timer,
+            &mut encoder,
+            &self.screen_pipelines,
+            groups,
+        );
+        screen.record_gather(
+            ctx,
+            &mut self.timer,
+            &mut encoder,
+            &self.screen_pipelines,
+            groups,
+        );
+        passes.0.extend(self.timer.finish(ctx, encoder).0);
+
+        if prepared.direct.samples < self.settings.spp {
+            let direct = prepared.direct.add_samples(
+                ctx,
+                &self.direct_pipelines,
+                &prepared.scene,
+                &mut self.timer,
+                1,
+            );
+            passes.0.extend(direct.0);
+        }
+
+        let mut encoder = ctx.create_encoder("mobile/compose");
+        screen.record_compose(
+            ctx,
+            &mut self.timer,
+            &mut encoder,
+            &self.screen_pipelines,
+            groups,
+        );
+        passes.0.extend(self.timer.finish(ctx, encoder).0);
+
+        let output: Vec<[f32; 4]> = ctx.read_buffer(&screen.output);
+        prepared.previous = frame.clone();
+        prepared.previous_camera = camera;
+        self.frame_index = self.frame_index.wrapping_add(1);
+        if let Some(progress) = input.progress {
+            progress(prepared.direct.samples);
+        }
+        Ok(FrameOutput {
+            image: Image {
+                width: size.0,
+                height: size.1,
+                pixels: output.iter().map(|o| Vec3::from_slice(o)).collect(),
+            },
+            passes: passes.0,
+            stats: None,
         })
     }
 
+    /// Everything counted by the tier's own context: scene, BVH, G-buffer, cache, probe
+    /// volume, screen buffers, direct accumulation and timer.
     fn memory_bytes(&self) -> u64 {
         self.ctx.memory().total_bytes()
     }

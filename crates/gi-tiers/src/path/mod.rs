@@ -19,7 +19,6 @@ use glam::Vec3;
 
 use crate::tier::{FrameInput, FrameOutput, Tier, TierError, TierKind, TierSettings};
 
-
 /// Passes per frame the timer has room for (`<tier>/trace`, `<tier>/resolve`).
 const TIMER_SCOPES: u32 = 4;
 

@@ -1,0 +1,437 @@
+//! The screen-space passes of the mobile tier (`shaders/mobile/screen.wgsl`): lite G-buffer,
+//! screen probe placement and tracing, the half-resolution gather with its temporal filter,
+//! and the upsample that composes the final image. See the shader for what each pass does.
+
+use bytemuck::{Pod, Zeroable};
+use gi_cache::CacheBuffers;
+use gi_cache::lighting::GpuSky;
+use gi_gpu::binding::{buffer_entries, storage_entry, uniform_entry};
+use gi_gpu::{GpuCamera, GpuContext, GpuError, GpuTimer, ShaderLibrary, wgpu};
+
+use super::config::{PROBE_TEXELS, ScreenConfig};
+
+/// Probe slots per tile: the regular probe and the extra probe of marked tiles.
+pub const SLOTS_PER_TILE: u32 = 2;
+/// Pixels per side of the 2D passes' workgroups (`@workgroup_size(8, 8)`).
+const TILE_GROUP: u32 = 8;
+/// Invocations of the 1D passes' workgroups (`@workgroup_size(64)`).
+const LINEAR_GROUP: u32 = 64;
+
+/// Mirror of `ScreenUniforms` in `shaders/mobile/screen.wgsl`, 256 bytes.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
+pub struct ScreenUniforms {
+    pub camera: GpuCamera,
+    pub previous_camera: GpuCamera,
+    pub sky: GpuSky,
+    pub size_px: [u32; 2],
+    pub half_px: [u32; 2],
+    pub tiles: [u32; 2],
+    pub tile_px: u32,
+    pub frame_index: u32,
+    pub seed: [u32; 2],
+    pub max_age: u32,
+    /// 1 when `history_in` holds the previous frame's gather.
+    pub history_valid: u32,
+    pub plane_tolerance: f32,
+    pub normal_cos: f32,
+    pub ray_offset_voxels: f32,
+    pub pad: u32,
+}
+
+/// Mirror of `ScreenProbe` in the shader, 32 bytes.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
+pub struct GpuScreenProbe {
+    pub position: [f32; 3],
+    /// Distance to the camera; 0 when the slot holds no probe.
+    pub depth: f32,
+    pub normal: [f32; 3],
+    /// Bit 0: the probe sits on a dynamic object.
+    pub flags: u32,
+}
+
+/// Sizes that follow from the image size and the tile size.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct ScreenLayout {
+    pub size: (u32, u32),
+    pub half: (u32, u32),
+    pub tiles: (u32, u32),
+}
+
+impl ScreenLayout {
+    pub fn new(width: u32, height: u32, tile_px: u32) -> Self {
+        Self {
+            size: (width, height),
+            half: (width.div_ceil(2), height.div_ceil(2)),
+            tiles: (width.div_ceil(tile_px), height.div_ceil(tile_px)),
+        }
+    }
+
+    pub fn pixels(&self) -> u64 {
+        u64::from(self.size.0) * u64::from(self.size.1)
+    }
+
+    pub fn half_pixels(&self) -> u64 {
+        u64::from(self.half.0) * u64::from(self.half.1)
+    }
+
+    pub fn tile_count(&self) -> u32 {
+        self.tiles.0 * self.tiles.1
+    }
+
+    pub fn slots(&self) -> u32 {
+        self.tile_count() * SLOTS_PER_TILE
+    }
+}
+
+/// The five pipelines, sharing one layout: group 0 the screen buffers, 1 the probe volume,
+/// 2 the cache.
+pub struct ScreenPipelines {
+    layout0: wgpu::BindGroupLayout,
+    lite: wgpu::ComputePipeline,
+    place: wgpu::ComputePipeline,
+    trace: wgpu::ComputePipeline,
+    gather: wgpu::ComputePipeline,
+    compose: wgpu::ComputePipeline,
+}
+
+impl ScreenPipelines {
+    pub fn new(
+        ctx: &GpuContext,
+        shaders: &ShaderLibrary,
+        volume_layout: &wgpu::BindGroupLayout,
+    ) -> Result<Self, GpuError> {
+        let module = shaders.create_module(ctx, "mobile/screen.wgsl", &[])?;
+        let read_only = [
+            1u32, 2, 3, 4, 5, 6, 7, 12, 14, // G-buffer, dynamic bits, history_in, direct
+        ];
+        let mut entries = vec![uniform_entry(0)];
+        entries
+            .extend((1..=15).map(|binding| storage_entry(binding, read_only.contains(&binding))));
+        let layout0 = ctx
+            .device
+            .create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+                label: Some("mobile/screen.layout0"),
+                entries: &entries,
+            });
+        let cache_layout = CacheBuffers::bind_group_layout(ctx);
+        let layout = ctx
+            .device
+            .create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
+                label: Some("mobile/screen.layout"),
+                bind_group_layouts: &[Some(&layout0), Some(volume_layout), Some(&cache_layout)],
+                immediate_size: 0,
+            });
+        let pipeline = |entry: &str| {
+            ctx.device
+                .create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
+                    label: Some(&format!("mobile/{entry}")),
+                    layout: Some(&layout),
+                    module: &module,
+                    entry_point: Some(entry),
+                    compilation_options: Default::default(),
+                    cache: None,
+                })
+        };
+        Ok(Self {
+            lite: pipeline("lite_pack"),
+            place: pipeline("place"),
+            trace: pipeline("trace"),
+            gather: pipeline("gather"),
+            compose: pipeline("compose"),
+            layout0,
+        })
+    }
+}
+
+/// The G-buffer outputs and the direct image the screen passes read, by binding.
+pub struct ScreenSources<'a> {
+    pub depth: &'a wgpu::Buffer,
+    pub normal: &'a wgpu::Buffer,
+    pub base_color: &'a wgpu::Buffer,
+    pub metallic_roughness: &'a wgpu::Buffer,
+    pub triangle: &'a wgpu::Buffer,
+    pub motion: &'a wgpu::Buffer,
+    pub dynamic_triangles: &'a wgpu::Buffer,
+    pub direct_mean: &'a wgpu::Buffer,
+}
+
+/// The screen buffers of one image size (labels `mobile.*`), with the two bind groups of the
+/// history ping-pong.
+pub struct ScreenBuffers {
+    pub layout: ScreenLayout,
+    uniforms: wgpu::Buffer,
+    pub lite: wgpu::Buffer,
+    pub probes: wgpu::Buffer,
+    pub probe_radiance: wgpu::Buffer,
+    pub tile_marks: wgpu::Buffer,
+    /// Half-resolution irradiance, ping-pong: frame `i` writes `history[i % 2]`.
+    pub history: [wgpu::Buffer; 2],
+    /// The final image, 16 bytes per pixel (`mobile.output`).
+    pub output: wgpu::Buffer,
+    groups: [wgpu::BindGroup; 2],
+    /// Which history buffer the last gather wrote.
+    pub current: usize,
+    frames: u32,
+}
+
+impl ScreenBuffers {
+    pub fn new(
+        ctx: &GpuContext,
+        pipelines: &ScreenPipelines,
+        layout: ScreenLayout,
+        sources: &ScreenSources<'_>,
+    ) -> Self {
+        let storage = wgpu::BufferUsages::STORAGE
+            | wgpu::BufferUsages::COPY_SRC
+            | wgpu::BufferUsages::COPY_DST;
+        let uniforms = ctx.create_buffer(
+            "mobile.screen_uniforms",
+            size_of::<ScreenUniforms>() as u64,
+            wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
+        );
+        let lite = ctx.create_buffer("mobile.lite", layout.pixels() * 4, storage);
+        let slots = u64::from(layout.slots());
+        let probes = ctx.create_buffer(
+            "mobile.probes",
+            slots * size_of::<GpuScreenProbe>() as u64,
+            storage,
+        );
+        let probe_radiance = ctx.create_buffer(
+            "mobile.probe_radiance",
+            slots * u64::from(PROBE_TEXELS * PROBE_TEXELS) * 8,
+            storage,
+        );
+        let tile_marks = ctx.create_buffer(
+            "mobile.tile_marks",
+            u64::from(layout.tile_count()) * 4,
+            storage,
+        );
+        let history = [
+            ctx.create_buffer("mobile.history", layout.half_pixels() * 8, storage),
+            ctx.create_buffer("mobile.history", layout.half_pixels() * 8, storage),
+        ];
+        let output = ctx.create_buffer("mobile.output", layout.pixels() * 16, storage);
+        let group = |write: usize| {
+            let mut entries = buffer_entries(
+                0,
+                [
+                    &uniforms,
+                    sources.depth,
+                    sources.normal,
+                    sources.base_color,
+                    sources.metallic_roughness,
+                    sources.triangle,
+                    sources.motion,
+                    sources.dynamic_triangles,
+                    &lite,
+                    &probes,
+                    &probe_radiance,
+                    &tile_marks,
+                    &history[1 - write],
+                    &history[write],
+                    sources.direct_mean,
+                ],
+            );
+            entries.extend(buffer_entries(15, [&output]));
+            ctx.device.create_bind_group(&wgpu::BindGroupDescriptor {
+                label: Some("mobile/screen.group"),
+                layout: &pipelines.layout0,
+                entries: &entries,
+            })
+        };
+        let groups = [group(0), group(1)];
+        Self {
+            layout,
+            uniforms,
+            lite,
+            probes,
+            probe_radiance,
+            tile_marks,
+            history,
+            output,
+            groups,
+            current: 1,
+            frames: 0,
+        }
+    }
+
+    /// Forgets the history: the next gather starts every pixel at age 1.
+    pub fn reset_history(&mut self) {
+        self.frames = 0;
+    }
+
+    /// Writes this frame's uniforms (history validity and the ping-pong side included) and
+    /// makes the next gather write the other history buffer.
+    pub fn begin_frame(&mut self, ctx: &GpuContext, mut uniforms: ScreenUniforms) {
+        self.current = 1 - self.current;
+        uniforms.history_valid = u32::from(self.frames > 0);
+        ctx.queue
+            .write_buffer(&self.uniforms, 0, bytemuck::bytes_of(&uniforms));
+        self.frames += 1;
+    }
+
+    fn group(&self) -> &wgpu::BindGroup {
+        &self.groups[self.current]
+    }
+
+    /// Records `mobile/lite`.
+    pub fn record_lite(
+        &self,
+        ctx: &GpuContext,
+        timer: &mut GpuTimer,
+        encoder: &mut wgpu::CommandEncoder,
+        pipelines: &ScreenPipelines,
+        groups: (&wgpu::BindGroup, &wgpu::BindGroup),
+    ) {
+        let (w, h) = self.layout.size;
+        self.dispatch(
+            ctx,
+            timer,
+            encoder,
+            "mobile/lite",
+            &pipelines.lite,
+            groups,
+            [w.div_ceil(TILE_GROUP), h.div_ceil(TILE_GROUP)],
+        );
+    }
+
+    /// Records `mobile/probe_place` and `mobile/probe_trace`.
+    pub fn record_probes(
+        &self,
+        ctx: &GpuContext,
+        timer: &mut GpuTimer,
+        encoder: &mut wgpu::CommandEncoder,
+        pipelines: &ScreenPipelines,
+        groups: (&wgpu::BindGroup, &wgpu::BindGroup),
+    ) {
+        let slots = self.layout.slots();
+        self.dispatch(
+            ctx,
+            timer,
+            encoder,
+            "mobile/probe_place",
+            &pipelines.place,
+            groups,
+            [slots.div_ceil(LINEAR_GROUP), 1],
+        );
+        let texels = slots * PROBE_TEXELS * PROBE_TEXELS;
+        self.dispatch(
+            ctx,
+            timer,
+            encoder,
+            "mobile/probe_trace",
+            &pipelines.trace,
+            groups,
+            [texels.div_ceil(LINEAR_GROUP), 1],
+        );
+    }
+
+    /// Records `mobile/gather`.
+    pub fn record_gather(
+        &self,
+        ctx: &GpuContext,
+        timer: &mut GpuTimer,
+        encoder: &mut wgpu::CommandEncoder,
+        pipelines: &ScreenPipelines,
+        groups: (&wgpu::BindGroup, &wgpu::BindGroup),
+    ) {
+        let (w, h) = self.layout.half;
+        self.dispatch(
+            ctx,
+            timer,
+            encoder,
+            "mobile/gather",
+            &pipelines.gather,
+            groups,
+            [w.div_ceil(TILE_GROUP), h.div_ceil(TILE_GROUP)],
+        );
+    }
+
+    /// Records `mobile/compose` (upsample and final image).
+    pub fn record_compose(
+        &self,
+        ctx: &GpuContext,
+        timer: &mut GpuTimer,
+        encoder: &mut wgpu::CommandEncoder,
+        pipelines: &ScreenPipelines,
+        groups: (&wgpu::BindGroup, &wgpu::BindGroup),
+    ) {
+        let (w, h) = self.layout.size;
+        self.dispatch(
+            ctx,
+            timer,
+            encoder,
+            "mobile/compose",
+            &pipelines.compose,
+            groups,
+            [w.div_ceil(TILE_GROUP), h.div_ceil(TILE_GROUP)],
+        );
+    }
+
+    #[allow(clippy::too_many_arguments)]
+    fn dispatch(
+        &self,
+        ctx: &GpuContext,
+        timer: &mut GpuTimer,
+        encoder: &mut wgpu::CommandEncoder,
+        name: &str,
+        pipeline: &wgpu::ComputePipeline,
+        (volume, cache): (&wgpu::BindGroup, &wgpu::BindGroup),
+        groups: [u32; 2],
+    ) {
+        timer.compute_pass(ctx, encoder, name, |pass| {
+            pass.set_pipeline(pipeline);
+            pass.set_bind_group(0, self.group(), &[]);
+            pass.set_bind_group(1, volume, &[]);
+            pass.set_bind_group(CacheBuffers::BIND_GROUP, cache, &[]);
+            pass.dispatch_workgroups(groups[0], groups[1], 1);
+        });
+    }
+
+    /// Stops counting and destroys the buffers.
+    pub fn release(self, ctx: &GpuContext) {
+        for buffer in [
+            &self.uniforms,
+            &self.lite,
+            &self.probes,
+            &self.probe_radiance,
+            &self.tile_marks,
+            &self.history[0],
+            &self.history[1],
+            &self.output,
+        ] {
+            ctx.release_buffer(buffer);
+        }
+    }
+}
+
+/// The screen uniforms of a frame (history validity is set by [`ScreenBuffers::begin_frame`]).
+pub fn screen_uniforms(
+    config: &ScreenConfig,
+    layout: ScreenLayout,
+    camera: GpuCamera,
+    previous_camera: GpuCamera,
+    sky: GpuSky,
+    frame_index: u32,
+    seed: u64,
+) -> ScreenUniforms {
+    ScreenUniforms {
+        camera,
+        previous_camera,
+        sky,
+        size_px: [layout.size.0, layout.size.1],
+        half_px: [layout.half.0, layout.half.1],
+        tiles: [layout.tiles.0, layout.tiles.1],
+        tile_px: config.tile_px,
+        frame_index,
+        seed: [seed as u32, (seed >> 32) as u32],
+        max_age: config.max_age,
+        history_valid: 0,
+        plane_tolerance: config.plane_tolerance,
+        normal_cos: config.normal_cos,
+        ray_offset_voxels: config.ray_offset_voxels,
+        pad: 0,
+    }
+}
