@@ -18,7 +18,9 @@
 //! `converged_frames`, the noise their mean frame-to-frame change, the threshold `k` times the
 //! noise, and the settle time the frames from the change until every later frame (before the
 //! converged window) is within the threshold of the converged value. Errors and noise are mean
-//! absolute luminance differences over the pixels that see a static surface.
+//! absolute luminance differences over the pixels that see a static surface. When the mean of
+//! the window before the converged one still differs from it by more than the threshold
+//! (`converged_drift`), the GI had not converged and the settle time is a lower bound.
 
 use anyhow::{Context, bail};
 use gi_scene::LightKind;
@@ -70,6 +72,9 @@ pub struct Settle {
     pub light_change: f64,
     pub noise: f64,
     pub threshold: f64,
+    /// Mean |converged - mean of the window of as many frames just before it|: above the
+    /// threshold, the GI was still drifting at the end and the settle time is a lower bound.
+    pub converged_drift: f64,
     /// Error of frame 1, 2, ... after the change (before the converged window).
     pub errors: Vec<f64>,
     pub settle_frames: Option<usize>,
@@ -223,6 +228,16 @@ fn settle(renderer: &mut Renderer, options: &StabilityOptions) -> anyhow::Result
         .iter()
         .map(|frame| mean_abs_difference(frame, &converged, &mask))
         .collect();
+    let before_window = window.saturating_sub(options.converged_frames as usize);
+    let converged_drift = if before_window < window {
+        mean_abs_difference(
+            &mean_image(&frames[before_window..window]),
+            &converged,
+            &mask,
+        )
+    } else {
+        0.0
+    };
     let black = vec![0.0; converged.len()];
     Ok(Settle {
         scene: name,
@@ -230,6 +245,7 @@ fn settle(renderer: &mut Renderer, options: &StabilityOptions) -> anyhow::Result
         light_change: mean_abs_difference(&before, &converged, &mask),
         noise,
         threshold,
+        converged_drift,
         settle_frames: settle_frames(&errors, threshold),
         errors,
     })
@@ -269,17 +285,18 @@ impl StabilityReport {
                 );
             }
         }
-        out += "\n| screen probes | scene | light change | noise | threshold | settle frames \
-                |\n|---|---|---:|---:|---:|---:|\n";
+        out += "\n| screen probes | scene | light change | noise | threshold | converged drift | \
+                settle frames |\n|---|---|---:|---:|---:|---:|---:|\n";
         for run in &self.runs {
             let s = &run.settle;
             out += &format!(
-                "| {} | {} | {:.5} | {:.5} | {:.5} | {} |\n",
+                "| {} | {} | {:.5} | {:.5} | {:.5} | {:.5} | {} |\n",
                 run.mode.name(),
                 s.scene,
                 s.light_change,
                 s.noise,
                 s.threshold,
+                s.converged_drift,
                 s.settle_frames
                     .map_or("not settled".to_owned(), |n| n.to_string()),
             );
@@ -287,6 +304,14 @@ impl StabilityReport {
                 out += &format!(
                     "\nwarning ({}): turning the light changed the converged GI by no more \
                      than the threshold; the settle time measures nothing\n",
+                    run.mode.name()
+                );
+            }
+            if s.converged_drift > s.threshold {
+                out += &format!(
+                    "\nwarning ({}): the GI still drifted by more than the threshold between \
+                     the converged window and the one before it; the settle time is a lower \
+                     bound (raise --settle-frames)\n",
                     run.mode.name()
                 );
             }
@@ -324,6 +349,7 @@ impl StabilityReport {
                     "light_change": run.settle.light_change,
                     "noise": run.settle.noise,
                     "threshold": run.settle.threshold,
+                    "converged_drift": run.settle.converged_drift,
                     "settle_frames": run.settle.settle_frames,
                     "errors": run.settle.errors,
                 },
