@@ -3,13 +3,22 @@
 //
 //   lite     pack the G-buffer into the lite deferred G-buffer (`gi::mobile::lite`): diffuse
 //            color, dynamic mask and an 8-bit dithered normal, one u32 per pixel;
-//   place    one probe per screen tile at a jittered pixel of the tile (plus one more in tiles
-//            the previous gather marked), with its world position and normal;
-//   trace    each probe's 4 x 4-texel hemisphere map: one ray per texel, jittered inside the
-//            texel, traced through the brick cache (visibility rays instead of VSM);
+//   reproject (SmartGI mode) every probe of the previous frame is projected into this frame;
+//            where it is still visible (depth and normal agree with the G-buffer) it claims the
+//            tile it lands in, and the geometrically closest claim (nearest the tile's center
+//            on screen) wins;
+//   place    one probe per screen tile (plus one more in tiles the previous gather marked):
+//            HSGI mode places every tile's probe afresh at a jittered pixel of the tile; SmartGI
+//            mode does so for one tile of each 2 x 2 group per frame (rotating) and gives the
+//            other three the history probe that won their claim, or nothing (a hole);
+//   trace    each fresh probe's 4 x 4-texel hemisphere map: one ray per texel, jittered inside
+//            the texel, traced through the brick cache (visibility rays instead of VSM); a
+//            reprojected probe copies its history texels;
 //   gather   half resolution: irradiance from the probes of the four nearest tiles with depth
-//            (tangent plane) and normal tests, the probe volume for dynamic pixels and where
-//            every probe fails (which marks the tile for an extra probe next frame), then a
+//            (tangent plane) and normal tests; in SmartGI mode holes fall back to the next
+//            "mip", the fresh probes of the four nearest 2 x 2 groups; the probe volume serves
+//            dynamic pixels and pixels where every probe fails (which marks the tile for an
+//            extra probe next frame); then a
 //            temporal filter: reprojection through the motion vectors, a depth test, history
 //            of dynamic pixels discarded, age-based convergence;
 //   compose  full resolution: bilateral upsample of the half-resolution irradiance (depth and
@@ -70,8 +79,18 @@ struct ScreenUniforms {
     plane_tolerance: f32,
     normal_cos: f32,
     ray_offset_voxels: f32,
-    pad: u32,
+    // 0: HSGI (every tile traced every frame), 1: SmartGI (2 x 2 groups, reprojection).
+    mode: u32,
 }
+
+const MODE_SMARTGI: u32 = 1u;
+// `ScreenProbe.flags`: bit 0 the probe sits on a dynamic object; bit 1 it was reprojected from
+// the previous frame, whose slot is in bits 8 and up.
+const PROBE_DYNAMIC: u32 = 1u;
+const PROBE_REPROJECTED: u32 = 2u;
+const PROBE_SOURCE_SHIFT: u32 = 8u;
+// Bits of a claim's key that hold the history slot (the rest rank the claim).
+const CLAIM_SLOT_BITS: u32 = 20u;
 
 // A screen probe: where it sits and which way its hemisphere faces; `depth` is its distance
 // to the camera, 0 when the slot holds no probe this frame. 32 bytes.
@@ -98,6 +117,12 @@ struct ScreenProbe {
 @group(0) @binding(9) var<storage, read_write> probes: array<ScreenProbe>;
 // PROBE_TEXELS texels per probe slot: x = RGB9E5 of L / pdf, y = the packed ray direction.
 @group(0) @binding(10) var<storage, read_write> probe_radiance: array<vec2<u32>>;
+// The previous frame's probes and texels (ping-pong with the two above).
+@group(0) @binding(16) var<storage, read> probes_prev: array<ScreenProbe>;
+@group(0) @binding(17) var<storage, read> probe_radiance_prev: array<vec2<u32>>;
+// Per tile, the best claim of a reprojected history probe this frame (0: none): the bitwise
+// complement of (rank << CLAIM_SLOT_BITS | slot), so atomicMax keeps the lowest rank.
+@group(0) @binding(18) var<storage, read_write> tile_claims: array<atomic<u32>>;
 // Per tile, 1 when a gather pixel of the tile found no usable probe this frame.
 @group(0) @binding(11) var<storage, read_write> tile_marks: array<atomic<u32>>;
 // Half-resolution irradiance of the previous and this frame: x = RGB9E5 irradiance,
@@ -147,6 +172,65 @@ fn lite_pack(@builtin(global_invocation_id) id: vec3<u32>) {
 // place
 // ---------------------------------------------------------------------------------------------
 
+// Pixel coordinates of world point `p` seen by `camera`; z is 0 behind the camera.
+fn project(camera: Camera, p: vec3<f32>) -> vec3<f32> {
+    let d = p - camera.position;
+    let z = dot(d, camera.forward);
+    if z <= 0.0 {
+        return vec3(0.0);
+    }
+    let fx = dot(d, camera.right) / (z * camera.tan_half_fov * camera.aspect);
+    let fy = dot(d, camera.up) / (z * camera.tan_half_fov);
+    let uv = vec2(0.5 * (fx + 1.0), 0.5 * (1.0 - fy));
+    return vec3(uv * vec2<f32>(u.size_px), 1.0);
+}
+
+// The tile of 2 x 2 group `group` that gets a freshly traced probe this frame: each tile of the
+// group in turn, the turn offset by a hash of the group so neighbouring groups differ.
+fn fresh_tile(group: vec2<u32>) -> vec2<u32> {
+    let k = (u.frame_index + group.x * 7u + group.y * 13u) & 3u;
+    return min(group * 2u + vec2(k & 1u, k >> 1u), u.tiles - 1u);
+}
+
+fn is_fresh(tile_xy: vec2<u32>) -> bool {
+    return u.mode != MODE_SMARTGI || all(fresh_tile(tile_xy / 2u) == tile_xy);
+}
+
+@compute @workgroup_size(64)
+fn reproject(@builtin(global_invocation_id) id: vec3<u32>) {
+    let slot = id.x;
+    if slot >= u.tiles.x * u.tiles.y * SLOTS_PER_TILE || u.history_valid == 0u {
+        return;
+    }
+    let probe = probes_prev[slot];
+    if probe.depth <= 0.0 || (probe.flags & PROBE_DYNAMIC) != 0u {
+        return;
+    }
+    let screen = project(u.camera, probe.position);
+    if screen.z == 0.0 || any(screen.xy < vec2(0.0)) || any(screen.xy >= vec2<f32>(u.size_px)) {
+        return;
+    }
+    let pixel_xy = vec2<u32>(screen.xy);
+    let pixel = pixel_xy.y * u.size_px.x + pixel_xy.x;
+    let depth = gbuffer_depth[pixel];
+    let distance_now = distance(probe.position, u.camera.position);
+    if is_sky(depth) || abs(depth - distance_now) > u.plane_tolerance * depth {
+        return;
+    }
+    let dir = pixel_ray(u.camera, pixel_xy);
+    if dot(lite_normal(lite[pixel], u.camera, dir), probe.normal) < u.normal_cos {
+        return;
+    }
+    let tile_xy = min(pixel_xy / u.tile_px, u.tiles - 1u);
+    if is_fresh(tile_xy) {
+        return;
+    }
+    let center = (vec2<f32>(tile_xy) + 0.5) * f32(u.tile_px);
+    let rank = u32(clamp(length(screen.xy - center) / f32(u.tile_px), 0.0, 1.0) * 4095.0);
+    let key = (rank << CLAIM_SLOT_BITS) | slot;
+    atomicMax(&tile_claims[tile_xy.y * u.tiles.x + tile_xy.x], ~key);
+}
+
 @compute @workgroup_size(64)
 fn place(@builtin(global_invocation_id) id: vec3<u32>) {
     let tile_count = u.tiles.x * u.tiles.y;
@@ -155,6 +239,7 @@ fn place(@builtin(global_invocation_id) id: vec3<u32>) {
         return;
     }
     let tile = slot / SLOTS_PER_TILE;
+    let tile_xy = vec2(tile % u.tiles.x, tile / u.tiles.x);
     var probe = ScreenProbe(vec3(0.0), 0.0, vec3(0.0, 0.0, 1.0), 0u);
     if slot % SLOTS_PER_TILE == 1u {
         // The extra probe: only for tiles the previous gather marked; the mark is consumed.
@@ -162,8 +247,20 @@ fn place(@builtin(global_invocation_id) id: vec3<u32>) {
             probes[slot] = probe;
             return;
         }
+    } else {
+        // The claim is consumed whatever happens, so the next frame starts with none.
+        let claim = atomicExchange(&tile_claims[tile], 0u);
+        if !is_fresh(tile_xy) {
+            if claim != 0u {
+                let source = (~claim) & ((1u << CLAIM_SLOT_BITS) - 1u);
+                probe = probes_prev[source];
+                probe.depth = distance(probe.position, u.camera.position);
+                probe.flags = PROBE_REPROJECTED | (source << PROBE_SOURCE_SHIFT);
+            }
+            probes[slot] = probe;
+            return;
+        }
     }
-    let tile_xy = vec2(tile % u.tiles.x, tile / u.tiles.x);
     let origin = tile_xy * u.tile_px;
     let extent = min(origin + vec2(u.tile_px), u.size_px) - origin;
     var sampler = sampler_new(u.seed ^ vec2(0x9e3779b9u, 0u), slot, u.frame_index);
@@ -179,7 +276,7 @@ fn place(@builtin(global_invocation_id) id: vec3<u32>) {
         probe.position = u.camera.position + depth * dir;
         probe.normal = lite_normal(lite[pixel], u.camera, dir);
         probe.depth = depth;
-        probe.flags = select(0u, 1u, lite_is_dynamic(lite[pixel]));
+        probe.flags = select(0u, PROBE_DYNAMIC, lite_is_dynamic(lite[pixel]));
         break;
     }
     probes[slot] = probe;
@@ -207,6 +304,11 @@ fn trace(@builtin(global_invocation_id) id: vec3<u32>) {
     let out = slot * PROBE_TEXELS + texel;
     if probe.depth <= 0.0 {
         probe_radiance[out] = vec2(0u);
+        return;
+    }
+    if (probe.flags & PROBE_REPROJECTED) != 0u {
+        let source = probe.flags >> PROBE_SOURCE_SHIFT;
+        probe_radiance[out] = probe_radiance_prev[source * PROBE_TEXELS + texel];
         return;
     }
     var sampler = sampler_new(u.seed ^ vec2(0x85ebca6bu, 0u), out, u.frame_index);
@@ -242,6 +344,54 @@ fn probe_irradiance(slot: u32, n: vec3<f32>) -> vec3<f32> {
         sum += unpack_rgb9e5(t.x) * max(dot(n, unpack_unit_vector(t.y)), 0.0);
     }
     return sum * (1.0 / f32(PROBE_TEXELS));
+}
+
+// Whether probe slot `slot` may light the pixel at `p` (normal `n`, depth `depth`): it holds a
+// probe whose tangent plane passes near `p` (depth test) and whose normal agrees (normal test).
+fn probe_accepts(slot: u32, p: vec3<f32>, n: vec3<f32>, depth: f32) -> bool {
+    let probe = probes[slot];
+    if probe.depth <= 0.0 {
+        return false;
+    }
+    let plane = abs(dot(p - probe.position, probe.normal));
+    return plane <= u.plane_tolerance * depth && dot(n, probe.normal) >= u.normal_cos;
+}
+
+// Irradiance of the pixel `source` (at `p`, normal `n`) interpolated bilinearly from the probes
+// of the four cells of `cell` x `cell` tiles around it that pass the tests, with the weight
+// found in w (0: none passed). Cell 1 reads every slot of the four tiles; cell 2 (SmartGI's
+// mip) reads the regular probe of each group's fresh tile.
+fn interpolate_probes(p: vec3<f32>, n: vec3<f32>, depth: f32, source: vec2<u32>, cell: u32) -> vec4<f32> {
+    let cells = (u.tiles + cell - 1u) / cell;
+    let q = (vec2<f32>(source) + 0.5) / f32(u.tile_px * cell) - 0.5;
+    let base = vec2<i32>(floor(q));
+    let f = q - floor(q);
+    var sum = vec3(0.0);
+    var weight = 0.0;
+    for (var corner = 0u; corner < 4u; corner++) {
+        let c = vec2(corner & 1u, corner >> 1u);
+        let cell_xy = vec2<u32>(clamp(base + vec2<i32>(c), vec2(0), vec2<i32>(cells) - 1));
+        let w2 = select(1.0 - f, f, c == vec2(1u));
+        let bilinear = max(w2.x * w2.y, 1e-3);
+        var tile_xy = cell_xy;
+        var slots = SLOTS_PER_TILE;
+        if cell > 1u {
+            tile_xy = fresh_tile(cell_xy);
+            slots = 1u;
+        }
+        let tile = tile_xy.y * u.tiles.x + tile_xy.x;
+        for (var s = 0u; s < slots; s++) {
+            let slot = tile * SLOTS_PER_TILE + s;
+            if probe_accepts(slot, p, n, depth) {
+                sum += bilinear * probe_irradiance(slot, n);
+                weight += bilinear;
+            }
+        }
+    }
+    if weight > 0.0 {
+        return vec4(sum / weight, weight);
+    }
+    return vec4(0.0);
 }
 
 // Irradiance from the world-space structures: the probe volume, or the cache's own surfels
@@ -291,35 +441,15 @@ fn gather(@builtin(global_invocation_id) id: vec3<u32>) {
         return;
     }
 
-    // Screen probes of the four tiles whose centers surround the pixel.
-    let q = (vec2<f32>(source) + 0.5) / f32(u.tile_px) - 0.5;
-    let base = vec2<i32>(floor(q));
-    let f = q - floor(q);
-    var sum = vec3(0.0);
-    var weight = 0.0;
-    for (var corner = 0u; corner < 4u; corner++) {
-        let c = vec2(corner & 1u, corner >> 1u);
-        let tile_xy = vec2<u32>(clamp(base + vec2<i32>(c), vec2(0), vec2<i32>(u.tiles) - 1));
-        let w2 = select(1.0 - f, f, c == vec2(1u));
-        let bilinear = max(w2.x * w2.y, 1e-3);
-        let tile = tile_xy.y * u.tiles.x + tile_xy.x;
-        for (var s = 0u; s < SLOTS_PER_TILE; s++) {
-            let slot = tile * SLOTS_PER_TILE + s;
-            let probe = probes[slot];
-            if probe.depth <= 0.0 {
-                continue;
-            }
-            let plane = abs(dot(p - probe.position, probe.normal));
-            if plane > u.plane_tolerance * depth || dot(n, probe.normal) < u.normal_cos {
-                continue;
-            }
-            sum += bilinear * probe_irradiance(slot, n);
-            weight += bilinear;
-        }
+    // Screen probes of the four tiles whose centers surround the pixel; in SmartGI mode, where
+    // they all fail, the fresh probes of the four nearest groups (the next mip).
+    var found = interpolate_probes(p, n, depth, source, 1u);
+    if found.w <= 0.0 && u.mode == MODE_SMARTGI {
+        found = interpolate_probes(p, n, depth, source, 2u);
     }
     var current: vec3<f32>;
-    if weight > 0.0 {
-        current = sum / weight;
+    if found.w > 0.0 {
+        current = found.xyz;
     } else {
         let own_tile = min(source / u.tile_px, u.tiles - 1u);
         atomicStore(&tile_marks[own_tile.y * u.tiles.x + own_tile.x], 1u);

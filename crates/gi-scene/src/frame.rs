@@ -23,7 +23,7 @@ pub struct TriangleAttributes {
 }
 
 /// A punctual light in world space.
-#[derive(Clone, Copy, Debug)]
+#[derive(Clone, Copy, Debug, PartialEq)]
 pub struct WorldLight {
     pub kind: LightKind,
     pub position: Vec3,

@@ -53,14 +53,31 @@ pub struct MobileFrameData {
     /// The GI term: linear radiance the tier added to the direct light (diffuse albedo times
     /// the gathered irradiance over pi, plus the approximate specular part).
     pub gi: Image,
-    /// The gathered irradiance itself (before albedo), full resolution.
+    /// The gathered irradiance (before albedo) of the half-resolution sample nearest each pixel.
     pub irradiance: Image,
+    /// Frames of temporal history behind that sample's irradiance (1: this frame only; 0: sky).
+    pub history_age: Vec<u8>,
+    /// How this frame's screen probe slots were filled.
+    pub probes: ProbeCounts,
     /// Pixels showing a node moved by an animation (the lite G-buffer's mask bit).
     pub dynamic: Vec<bool>,
     /// `gbuffer.motion`: previous pixel position minus this pixel's center, in pixels.
     pub motion: Vec<[f32; 2]>,
     /// `gbuffer.depth`: distance along the pixel's unit ray, `+inf` for sky.
     pub depth: Vec<f32>,
+}
+
+/// How the screen probe slots of a frame were filled.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct ProbeCounts {
+    /// Regular probes placed and traced this frame.
+    pub fresh: u32,
+    /// Regular probes carried over from the previous frame (SmartGI mode).
+    pub reprojected: u32,
+    /// Extra probes of tiles the previous gather marked.
+    pub extra: u32,
+    /// Regular slots left empty: sky tiles, and SmartGI tiles no history probe claimed.
+    pub empty: u32,
 }
 
 /// The mobile tier. See the module docs.
@@ -200,17 +217,36 @@ impl MobileTier {
         let history: Vec<[u32; 2]> =
             ctx.read_buffer(&prepared.screen.history[prepared.screen.current]);
         let half = prepared.screen.layout.half;
+        let slots: Vec<GpuScreenProbe> =
+            ctx.read_buffer(&prepared.screen.probes[prepared.screen.current]);
+        let mut probes = ProbeCounts::default();
+        for (slot, probe) in slots.iter().enumerate() {
+            let valid = probe.depth > 0.0;
+            match (slot as u32 % screen::SLOTS_PER_TILE, valid) {
+                (0, true) if probe.flags & 2 != 0 => probes.reprojected += 1,
+                (0, true) => probes.fresh += 1,
+                (0, false) => probes.empty += 1,
+                (_, true) => probes.extra += 1,
+                (_, false) => {}
+            }
+        }
+        let half_index =
+            |x: u32, y: u32| ((y / 2).min(half.1 - 1) * half.0 + (x / 2).min(half.0 - 1)) as usize;
         let gi = output
             .iter()
             .zip(&direct)
             .map(|(o, d)| Vec3::from_slice(o) - Vec3::from_slice(d))
             .collect();
-        let irradiance = (0..height)
+        let pixels: Vec<(u32, u32)> = (0..height)
             .flat_map(|y| (0..width).map(move |x| (x, y)))
-            .map(|(x, y)| {
-                let h = (y / 2).min(half.1 - 1) * half.0 + (x / 2).min(half.0 - 1);
-                gi_cache::packing::unpack_rgb9e5(history[h as usize][0])
-            })
+            .collect();
+        let irradiance = pixels
+            .iter()
+            .map(|&(x, y)| gi_cache::packing::unpack_rgb9e5(history[half_index(x, y)][0]))
+            .collect();
+        let history_age = pixels
+            .iter()
+            .map(|&(x, y)| (history[half_index(x, y)][1] & 0xff) as u8)
             .collect();
         let image = |pixels| Image {
             width,
@@ -220,6 +256,8 @@ impl MobileTier {
         Some(MobileFrameData {
             gi: image(gi),
             irradiance: image(irradiance),
+            history_age,
+            probes,
             dynamic: lite.iter().map(|bits| bits & (1 << 23) != 0).collect(),
             motion: gbuffer.motion,
             depth: gbuffer.depth,
@@ -278,7 +316,10 @@ impl MobileTier {
             return Ok(());
         }
         let prepared = self.prepared.as_mut().expect("checked above");
-        let moved = prepared.time_s != frame.time_s && input.scene.is_animated();
+        // An animated frame, or lights edited between frames (a tool moving a light): the
+        // GPU scene's transforms and lights follow.
+        let moved = (prepared.time_s != frame.time_s && input.scene.is_animated())
+            || prepared.previous.lights != frame.lights;
         if prepared.camera == frame.camera && !moved {
             return Ok(());
         }
@@ -329,6 +370,7 @@ impl MobileTier {
             &self.ctx,
             &self.screen_pipelines,
             layout,
+            self.config.screen.mode,
             &ScreenSources {
                 depth: find("gbuffer.depth"),
                 normal: find("gbuffer.normal"),

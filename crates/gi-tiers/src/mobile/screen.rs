@@ -8,7 +8,7 @@ use gi_cache::lighting::GpuSky;
 use gi_gpu::binding::{buffer_entries, storage_entry, uniform_entry};
 use gi_gpu::{GpuCamera, GpuContext, GpuError, GpuTimer, ShaderLibrary, wgpu};
 
-use super::config::{PROBE_TEXELS, ScreenConfig};
+use super::config::{PROBE_TEXELS, ScreenConfig, ScreenProbeMode};
 
 /// Probe slots per tile: the regular probe and the extra probe of marked tiles.
 pub const SLOTS_PER_TILE: u32 = 2;
@@ -36,7 +36,8 @@ pub struct ScreenUniforms {
     pub plane_tolerance: f32,
     pub normal_cos: f32,
     pub ray_offset_voxels: f32,
-    pub pad: u32,
+    /// 0: HSGI, 1: SmartGI ([`ScreenProbeMode`]).
+    pub mode: u32,
 }
 
 /// Mirror of `ScreenProbe` in the shader, 32 bytes.
@@ -47,7 +48,8 @@ pub struct GpuScreenProbe {
     /// Distance to the camera; 0 when the slot holds no probe.
     pub depth: f32,
     pub normal: [f32; 3],
-    /// Bit 0: the probe sits on a dynamic object.
+    /// Bit 0: the probe sits on a dynamic object; bit 1: reprojected from the previous frame's
+    /// slot `flags >> 8`.
     pub flags: u32,
 }
 
@@ -85,11 +87,12 @@ impl ScreenLayout {
     }
 }
 
-/// The five pipelines, sharing one layout: group 0 the screen buffers, 1 the probe volume,
+/// The six pipelines, sharing one layout: group 0 the screen buffers, 1 the probe volume,
 /// 2 the cache.
 pub struct ScreenPipelines {
     layout0: wgpu::BindGroupLayout,
     lite: wgpu::ComputePipeline,
+    reproject: wgpu::ComputePipeline,
     place: wgpu::ComputePipeline,
     trace: wgpu::ComputePipeline,
     gather: wgpu::ComputePipeline,
@@ -103,12 +106,11 @@ impl ScreenPipelines {
         volume_layout: &wgpu::BindGroupLayout,
     ) -> Result<Self, GpuError> {
         let module = shaders.create_module(ctx, "mobile/screen.wgsl", &[])?;
-        let read_only = [
-            1u32, 2, 3, 4, 5, 6, 7, 12, 14, // G-buffer, dynamic bits, history_in, direct
-        ];
+        // G-buffer, dynamic bits, history_in, direct, the previous frame's probes.
+        let read_only = [1u32, 2, 3, 4, 5, 6, 7, 12, 14, 16, 17];
         let mut entries = vec![uniform_entry(0)];
         entries
-            .extend((1..=15).map(|binding| storage_entry(binding, read_only.contains(&binding))));
+            .extend((1..=18).map(|binding| storage_entry(binding, read_only.contains(&binding))));
         let layout0 = ctx
             .device
             .create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
@@ -136,6 +138,7 @@ impl ScreenPipelines {
         };
         Ok(Self {
             lite: pipeline("lite_pack"),
+            reproject: pipeline("reproject"),
             place: pipeline("place"),
             trace: pipeline("trace"),
             gather: pipeline("gather"),
@@ -163,9 +166,13 @@ pub struct ScreenBuffers {
     pub layout: ScreenLayout,
     uniforms: wgpu::Buffer,
     pub lite: wgpu::Buffer,
-    pub probes: wgpu::Buffer,
-    pub probe_radiance: wgpu::Buffer,
+    /// Probes and their texels, ping-pong like the history: frame `i` writes `[i % 2]` and
+    /// reads the previous frame's from the other.
+    pub probes: [wgpu::Buffer; 2],
+    pub probe_radiance: [wgpu::Buffer; 2],
     pub tile_marks: wgpu::Buffer,
+    pub tile_claims: wgpu::Buffer,
+    mode: ScreenProbeMode,
     /// Half-resolution irradiance, ping-pong: frame `i` writes `history[i % 2]`.
     pub history: [wgpu::Buffer; 2],
     /// The final image, 16 bytes per pixel (`mobile.output`).
@@ -181,6 +188,7 @@ impl ScreenBuffers {
         ctx: &GpuContext,
         pipelines: &ScreenPipelines,
         layout: ScreenLayout,
+        mode: ScreenProbeMode,
         sources: &ScreenSources<'_>,
     ) -> Self {
         let storage = wgpu::BufferUsages::STORAGE
@@ -193,21 +201,14 @@ impl ScreenBuffers {
         );
         let lite = ctx.create_buffer("mobile.lite", layout.pixels() * 4, storage);
         let slots = u64::from(layout.slots());
-        let probes = ctx.create_buffer(
-            "mobile.probes",
-            slots * size_of::<GpuScreenProbe>() as u64,
-            storage,
-        );
-        let probe_radiance = ctx.create_buffer(
-            "mobile.probe_radiance",
-            slots * u64::from(PROBE_TEXELS * PROBE_TEXELS) * 8,
-            storage,
-        );
-        let tile_marks = ctx.create_buffer(
-            "mobile.tile_marks",
-            u64::from(layout.tile_count()) * 4,
-            storage,
-        );
+        let probe_bytes = slots * size_of::<GpuScreenProbe>() as u64;
+        let texel_bytes = slots * u64::from(PROBE_TEXELS * PROBE_TEXELS) * 8;
+        let probes = [0, 1].map(|_| ctx.create_buffer("mobile.probes", probe_bytes, storage));
+        let probe_radiance =
+            [0, 1].map(|_| ctx.create_buffer("mobile.probe_radiance", texel_bytes, storage));
+        let tile_bytes = u64::from(layout.tile_count()) * 4;
+        let tile_marks = ctx.create_buffer("mobile.tile_marks", tile_bytes, storage);
+        let tile_claims = ctx.create_buffer("mobile.tile_claims", tile_bytes, storage);
         let history = [
             ctx.create_buffer("mobile.history", layout.half_pixels() * 8, storage),
             ctx.create_buffer("mobile.history", layout.half_pixels() * 8, storage),
@@ -226,15 +227,23 @@ impl ScreenBuffers {
                     sources.motion,
                     sources.dynamic_triangles,
                     &lite,
-                    &probes,
-                    &probe_radiance,
+                    &probes[write],
+                    &probe_radiance[write],
                     &tile_marks,
                     &history[1 - write],
                     &history[write],
                     sources.direct_mean,
                 ],
             );
-            entries.extend(buffer_entries(15, [&output]));
+            entries.extend(buffer_entries(
+                15,
+                [
+                    &output,
+                    &probes[1 - write],
+                    &probe_radiance[1 - write],
+                    &tile_claims,
+                ],
+            ));
             ctx.device.create_bind_group(&wgpu::BindGroupDescriptor {
                 label: Some("mobile/screen.group"),
                 layout: &pipelines.layout0,
@@ -249,6 +258,8 @@ impl ScreenBuffers {
             probes,
             probe_radiance,
             tile_marks,
+            tile_claims,
+            mode,
             history,
             output,
             groups,
@@ -297,7 +308,8 @@ impl ScreenBuffers {
         );
     }
 
-    /// Records `mobile/probe_place` and `mobile/probe_trace`.
+    /// Records `mobile/probe_reproject` (SmartGI mode), `mobile/probe_place` and
+    /// `mobile/probe_trace`.
     pub fn record_probes(
         &self,
         ctx: &GpuContext,
@@ -307,6 +319,17 @@ impl ScreenBuffers {
         groups: (&wgpu::BindGroup, &wgpu::BindGroup),
     ) {
         let slots = self.layout.slots();
+        if self.mode == ScreenProbeMode::SmartGi {
+            self.dispatch(
+                ctx,
+                timer,
+                encoder,
+                "mobile/probe_reproject",
+                &pipelines.reproject,
+                groups,
+                [slots.div_ceil(LINEAR_GROUP), 1],
+            );
+        }
         self.dispatch(
             ctx,
             timer,
@@ -395,9 +418,12 @@ impl ScreenBuffers {
         for buffer in [
             &self.uniforms,
             &self.lite,
-            &self.probes,
-            &self.probe_radiance,
+            &self.probes[0],
+            &self.probes[1],
+            &self.probe_radiance[0],
+            &self.probe_radiance[1],
             &self.tile_marks,
+            &self.tile_claims,
             &self.history[0],
             &self.history[1],
             &self.output,
@@ -432,6 +458,9 @@ pub fn screen_uniforms(
         plane_tolerance: config.plane_tolerance,
         normal_cos: config.normal_cos,
         ray_offset_voxels: config.ray_offset_voxels,
-        pad: 0,
+        mode: match config.mode {
+            ScreenProbeMode::Hsgi => 0,
+            ScreenProbeMode::SmartGi => 1,
+        },
     }
 }
