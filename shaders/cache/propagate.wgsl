@@ -4,8 +4,9 @@
 // Injection" (multi bounce: each visible face gathers the previous frame's voxel lighting; here
 // each surfel side, HSGI's surfel being "voxel + normal").
 //
-// One 64-thread workgroup per scheduled brick, one thread per voxel. For both sides of every
-// occupied voxel (normals +n and -n), `rays_per_side` cosine-distributed directions about the
+// Two 64-thread workgroups per scheduled brick, one per surfel side (`workgroup_id.y`), one
+// thread per voxel. For each side of every occupied voxel (normals +n and -n),
+// `rays_per_side` cosine-distributed directions about the
 // side's normal are traced through the cache from the point just outside the surfel on that
 // side (`gi::cache::lighting::side_point`, half a voxel diagonal off the center). A hit
 // contributes the reflected radiance of the side it sees (albedo / pi x its direct + indirect
@@ -100,7 +101,10 @@ fn propagate(
     // Age 0 (max_age 0, during a fill) replaces without keeping history.
     let weight = 1.0 / f32(max(age, 1u));
     let rays = max(lighting.rays_per_side, 1u);
-    for (var side = 0u; side < CACHE_SIDE_COUNT; side++) {
+    // One workgroup row per side (`group.y`): the two sides' gathers run in parallel, each
+    // with its own random sequence, so the result is the same as gathering both in turn.
+    let side = group.y;
+    {
         let slot = cache_side_slot(lit.v, side);
         let n_side = cache_side_normal(lit.n, side);
         let frame = frame_from_normal(n_side);

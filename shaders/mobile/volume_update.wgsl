@@ -8,8 +8,8 @@
 // Two dispatches in one compute pass:
 //   - `classify_probes`, one invocation per slot: resets the probes that entered the clipmap,
 //     marks active those with an occupied cache brick within one spacing (group-mask bits of
-//     the cache level whose bricks are at least a spacing wide), flags relocation when the
-//     occupancy around a probe changed or its spot became occupied, and appends the active
+//     the cache level whose bricks are at least a spacing wide), flags relocation when a
+//     probe's spot became occupied or a buried probe's surroundings changed, and appends the active
 //     probes to `active_list`, counting workgroups into the indirect arguments;
 //   - `trace_probes`, indirect, one invocation per listed probe: relocates it when flagged, then
 //     traces `rays_per_probe` rays, each updating one random face of its ambient cube and the
@@ -248,10 +248,15 @@ fn classify_probes(@builtin(global_invocation_id) id: vec3<u32>) {
     state.flags &= ~PROBE_ACTIVE;
     if hood.valid && hood.occupied {
         state.flags |= PROBE_ACTIVE;
-        // The occupancy around the probe changed (geometry came or went, or the cache level
-        // read changed), or its spot became occupied: find its spot again.
-        let moved_in = (state.flags & PROBE_BURIED) == 0u && volume_spot_occupied(grid + state.offset);
-        if hood.signature != state.signature || moved_in {
+        // Its spot became occupied (geometry moved into it), or a buried probe's neighbourhood
+        // changed (geometry left, it may have a spot now): find its spot again. A change of
+        // the occupancy elsewhere around a free probe does not move it: moving objects change
+        // the masks around many probes every frame, and one relocation costs hundreds of
+        // cache rays in one invocation (measured on an H100: 1.3 ms per frame on `dynamic`
+        // when every change relocated, against 0.2 ms on static scenes).
+        let buried = (state.flags & PROBE_BURIED) != 0u;
+        let moved_in = !buried && volume_spot_occupied(grid + state.offset);
+        if (buried && hood.signature != state.signature) || moved_in {
             state.flags |= PROBE_RELOCATE;
             state.signature = hood.signature;
         }

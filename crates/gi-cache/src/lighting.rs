@@ -58,6 +58,9 @@ pub const NEAR_REFRESH_RATIO: u32 = 13;
 /// at the cost of 4-update noise while lights keep changing (a moving light).
 pub const CHANGED_MAX_AGE: u32 = 4;
 
+/// Surfel sides per voxel, one `cache/propagate` workgroup row each.
+const CACHE_SIDES: u32 = crate::layout::SIDE_COUNT;
+
 /// A cache update that voxelizes at least one brick for every `FILL_FRACTION` resident ones is
 /// (re)filling the cache: a first fill, or a jump to a new place. Rays traced then pass through
 /// space whose bricks are still queued and see the sky where walls will be, so lighting computed
@@ -543,7 +546,8 @@ impl CacheLighting {
             pass.set_bind_group(0, &lighting_group, &[]);
             pass.set_bind_group(1, &inputs.bvh.bind_group, &[]);
             pass.set_bind_group(2, inputs.cache_bind_group, &[]);
-            pass.dispatch_workgroups(workgroups, 1, 1);
+            // One row of workgroups per surfel side (`@builtin(workgroup_id).y`).
+            pass.dispatch_workgroups(workgroups, CACHE_SIDES, 1);
         });
         // A pass of its own: the next compute pass sees everything `cache/propagate` wrote.
         timer.compute_pass(ctx, encoder, "cache/propagate_resolve", |pass| {
