@@ -8,8 +8,8 @@
 // Two dispatches in one compute pass:
 //   - `classify_probes`, one invocation per slot: resets the probes that entered the clipmap,
 //     marks active those with an occupied cache brick within one spacing (group-mask bits of
-//     the cache level whose bricks are at least a spacing wide), flags relocation when a
-//     probe's spot became occupied or a buried probe's surroundings changed, and appends the active
+//     the cache level whose bricks are at least a spacing wide), flags relocation when static
+//     geometry took a probe's spot, and appends the active
 //     probes to `active_list`, counting workgroups into the indirect arguments;
 //   - `trace_probes`, indirect, one invocation per listed probe: relocates it when flagged, then
 //     traces `rays_per_probe` rays, each updating one random face of its ambient cube and the
@@ -31,7 +31,8 @@
 #import gi::lights::{Sky, sky_radiance}
 #import gi::cache::data::{
     cache, cache_group_masks, cache_group_index, cache_mask_bit, cache_mask_test,
-    cache_in_window, cache_voxel_at, cache_level_of_point, cache_voxel_of_point, CACHE_SIDE_BACK
+    cache_in_window, cache_voxel_at, cache_level_of_point, cache_voxel_of_point, CACHE_SIDE_BACK,
+    cache_voxels, cache_voxel_index, CACHE_STATE_DYNAMIC
 }
 #import gi::cache::trace::{CacheHit, cache_trace, cache_hit_radiance}
 #import gi::mobile::volume::{
@@ -152,6 +153,21 @@ fn volume_spot_occupied(q: vec3<f32>) -> bool {
     return cache_voxel_at(level, cache_voxel_of_point(q, level)).brick_id != 0u;
 }
 
+// Rays a probe has traced before its surroundings count as settled: a first fill of the cache
+// takes about 20 frames at the default budget.
+const YOUNG_PROBE_RAYS: u32 = 32u;
+
+// True when the cache voxel holding `q` holds static geometry (occupied, not dynamic).
+fn volume_spot_occupied_static(q: vec3<f32>) -> bool {
+    let level = cache_level_of_point(q);
+    if level >= cache.level_count {
+        return false;
+    }
+    let v = cache_voxel_at(level, cache_voxel_of_point(q, level));
+    return v.brick_id != 0u
+        && (cache_voxels[cache_voxel_index(v)].state & CACHE_STATE_DYNAMIC) == 0u;
+}
+
 // ---------------------------------------------------------------------------------------------
 // Relocation.
 // ---------------------------------------------------------------------------------------------
@@ -248,15 +264,18 @@ fn classify_probes(@builtin(global_invocation_id) id: vec3<u32>) {
     state.flags &= ~PROBE_ACTIVE;
     if hood.valid && hood.occupied {
         state.flags |= PROBE_ACTIVE;
-        // Its spot became occupied (geometry moved into it), or a buried probe's neighbourhood
-        // changed (geometry left, it may have a spot now): find its spot again. A change of
-        // the occupancy elsewhere around a free probe does not move it: moving objects change
-        // the masks around many probes every frame, and one relocation costs hundreds of
-        // cache rays in one invocation (measured on an H100: 1.3 ms per frame on `dynamic`
-        // when every change relocated, against 0.2 ms on static scenes).
+        // Find the probe's spot again when static geometry took it (the cache re-voxelized
+        // the place), or, while the probe is young (the cache around it may still be filling),
+        // when the occupancy around it changed. Later changes around it do not move it: one
+        // relocation costs hundreds of cache rays in one invocation, and moving objects pass
+        // over probe spots and change the occupancy around them every frame (on an H100,
+        // relocating for them cost 1.3-1.9 ms per frame on `dynamic`, against 0.2 ms for the
+        // whole pass on static scenes). A probe a moving object covers keeps its spot; its
+        // rays see the object's inside until it has passed.
         let buried = (state.flags & PROBE_BURIED) != 0u;
-        let moved_in = !buried && volume_spot_occupied(grid + state.offset);
-        if (buried && hood.signature != state.signature) || moved_in {
+        let young = state.age < YOUNG_PROBE_RAYS;
+        if (!buried && volume_spot_occupied_static(grid + state.offset))
+            || (young && hood.signature != state.signature) {
             state.flags |= PROBE_RELOCATE;
             state.signature = hood.signature;
         }
