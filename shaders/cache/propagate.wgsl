@@ -4,9 +4,9 @@
 // Injection" (multi bounce: each visible face gathers the previous frame's voxel lighting; here
 // each surfel side, HSGI's surfel being "voxel + normal").
 //
-// Two 64-thread workgroups per scheduled brick, one per surfel side (`workgroup_id.y`), one
-// thread per voxel. For each side of every occupied voxel (normals +n and -n),
-// `rays_per_side` cosine-distributed directions about the
+// Two 256-thread workgroups per scheduled brick, one per surfel side (`workgroup_id.y`), four
+// threads per voxel sharing its rays. For each side of every occupied voxel (normals +n and
+// -n), `rays_per_side` cosine-distributed directions about the
 // side's normal are traced through the cache from the point just outside the surfel on that
 // side (`gi::cache::lighting::side_point`, half a voxel diagonal off the center). A hit
 // contributes the reflected radiance of the side it sees (albedo / pi x its direct + indirect
@@ -79,52 +79,71 @@ fn emitter_irradiance(x: vec3<f32>, n: vec3<f32>, sampler: ptr<function, Sampler
     return light.radiance * (cos_theta / light.pdf);
 }
 
-// The random sequence of side `side` of world voxel `voxel` at `level` for this update. Keyed by
-// the side's place in the world rather than its pool slot, so the result does not depend on the
-// brick IDs the allocator handed out (which follow the order bricks were filled in).
-fn side_sampler(level: u32, voxel: vec3<i32>, side: u32) -> Sampler {
+// Threads per voxel side: each takes every RAY_LANES-th of the side's rays (and emitter
+// samples), and the workgroup sums them. Spreading a side's rays over threads shortens each
+// invocation's serial chain of cache traces and shadow rays: the pass has too few voxels per
+// frame (512 bricks x 64 voxels x 2 sides) to hide that latency otherwise.
+const RAY_LANES: u32 = 4u;
+
+// Each thread's share of its side's irradiance sum (bounced x pi + emitted), by thread index.
+var<workgroup> lane_sums: array<vec3<f32>, 256>;
+
+// The random sequence of lane `lane` of side `side` of world voxel `voxel` at `level` for this
+// update. Keyed by the side's place in the world rather than its pool slot, so the result does
+// not depend on the brick IDs the allocator handed out (which follow the order bricks were
+// filled in).
+fn side_sampler(level: u32, voxel: vec3<i32>, side: u32, lane: u32) -> Sampler {
     let key = vec2<u32>(bitcast<u32>(voxel.x) ^ lighting.seed, bitcast<u32>(voxel.y));
     let place = bitcast<u32>(voxel.z) * 16u + level * CACHE_SIDE_COUNT + side;
-    return sampler_new(key, place, lighting.frame_index);
+    return sampler_new(key, place, lighting.frame_index * RAY_LANES + lane);
 }
 
-@compute @workgroup_size(64)
+// Workgroups: one per scheduled brick (x) and surfel side (y); threads: RAY_LANES per voxel
+// (thread t serves voxel t % 64, lane t / 64).
+@compute @workgroup_size(256)
 fn propagate(
     @builtin(workgroup_id) group: vec3<u32>,
-    @builtin(local_invocation_index) bit: u32,
+    @builtin(local_invocation_index) thread: u32,
 ) {
-    if !scheduled_voxel_occupied(group.x, bit) {
-        return;
-    }
-    let lit = scheduled_voxel(group.x, bit);
-    let age = propagated_age(cache_voxel_age(lit.surface));
-    // Age 0 (max_age 0, during a fill) replaces without keeping history.
-    let weight = 1.0 / f32(max(age, 1u));
-    let rays = max(lighting.rays_per_side, 1u);
-    // One workgroup row per side (`group.y`): the two sides' gathers run in parallel, each
-    // with its own random sequence, so the result is the same as gathering both in turn.
+    let bit = thread % 64u;
+    let lane = thread / 64u;
     let side = group.y;
-    {
-        let slot = cache_side_slot(lit.v, side);
+    let occupied = scheduled_voxel_occupied(group.x, bit);
+    let rays = max(lighting.rays_per_side, 1u);
+    var sum = vec3<f32>(0.0);
+    if occupied {
+        let lit = scheduled_voxel(group.x, bit);
         let n_side = cache_side_normal(lit.n, side);
         let frame = frame_from_normal(n_side);
         // Gather rays and emitter samples leave from the same point. It lies in a neighbouring
         // voxel, which the trace skips: where the surface lies on a voxel boundary that
         // neighbour holds the same surface.
         let x = side_point(lit.center, lit.size_m, n_side);
-        var sampler = side_sampler(lit.level, lit.voxel, side);
-        var bounced = vec3<f32>(0.0);
-        var emitted = vec3<f32>(0.0);
-        for (var i = 0u; i < rays; i++) {
+        var sampler = side_sampler(lit.level, lit.voxel, side, lane);
+        for (var i = lane; i < rays; i += RAY_LANES) {
             let dir = frame_to_world(frame, cosine_hemisphere(sampler_next_2d(&sampler)));
-            bounced += bounced_radiance(x, dir);
+            sum += bounced_radiance(x, dir) * PI;
             if lighting.emitter_count > 0u {
-                emitted += emitter_irradiance(x, n_side, &sampler);
+                sum += emitter_irradiance(x, n_side, &sampler);
             }
         }
-        let irradiance = (bounced * PI + emitted) / f32(rays);
-        let history = unpack_rgb9e5(cache_indirect[slot]);
-        propagate_scratch[propagate_scratch_slot(group.x, bit, side)] =
-            pack_rgb9e5(mix(history, irradiance, weight));
     }
+    lane_sums[thread] = sum;
+    workgroupBarrier();
+    if !occupied || lane != 0u {
+        return;
+    }
+    var total = vec3<f32>(0.0);
+    for (var l = 0u; l < RAY_LANES; l++) {
+        total += lane_sums[bit + 64u * l];
+    }
+    let lit = scheduled_voxel(group.x, bit);
+    let age = propagated_age(cache_voxel_age(lit.surface));
+    // Age 0 (max_age 0, during a fill) replaces without keeping history.
+    let weight = 1.0 / f32(max(age, 1u));
+    let slot = cache_side_slot(lit.v, side);
+    let irradiance = total / f32(rays);
+    let history = unpack_rgb9e5(cache_indirect[slot]);
+    propagate_scratch[propagate_scratch_slot(group.x, bit, side)] =
+        pack_rgb9e5(mix(history, irradiance, weight));
 }
