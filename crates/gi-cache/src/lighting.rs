@@ -350,6 +350,11 @@ pub struct CacheLighting {
     /// `cache.lighting.scratch`: per scheduled brick, voxel and side, the new RGB9E5 indirect
     /// irradiance `cache/propagate` computed, stored by `cache/propagate_resolve`.
     scratch: wgpu::Buffer,
+    /// `cache.lighting.all_uniforms` and `cache.lighting.all_bricks`: the uniforms and brick
+    /// list of `cache/inject_all`, which relights every resident brick's direct light in the
+    /// update where the lights change (the list grows with the resident bricks).
+    all_uniforms: wgpu::Buffer,
+    all_bricks: wgpu::Buffer,
     schedule: LightSchedule,
     config: CacheConfig,
     /// Lighting updates recorded so far.
@@ -439,6 +444,16 @@ impl CacheLighting {
             u64::from(config.light_bricks_per_frame.max(1)) * SCRATCH_BYTES_PER_BRICK,
             wgpu::BufferUsages::STORAGE,
         );
+        let all_uniforms = ctx.create_buffer(
+            "cache.lighting.all_uniforms",
+            size_of::<GpuLightingUniforms>() as u64,
+            wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
+        );
+        let all_bricks = ctx.create_buffer(
+            "cache.lighting.all_bricks",
+            size_of::<GpuScheduledBrick>() as u64,
+            wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_DST,
+        );
         Ok(Self {
             inject,
             propagate,
@@ -447,6 +462,8 @@ impl CacheLighting {
             uniforms,
             bricks,
             scratch,
+            all_uniforms,
+            all_bricks,
             schedule: LightSchedule::default(),
             config: config.clone(),
             updates: 0,
@@ -491,7 +508,8 @@ impl CacheLighting {
         // history that no longer holds fades within a few updates; ages then grow back by one
         // per update, and so does the smoothing.
         let key = light_key(inputs.lights, inputs.sky);
-        if key != self.light_key && self.updates > 0 {
+        let lights_changed = key != self.light_key && self.updates > 0;
+        if lights_changed {
             self.fast_updates_left = self.config.max_age;
         }
         self.light_key = key;
@@ -523,6 +541,9 @@ impl CacheLighting {
         ctx.queue
             .write_buffer(&self.uniforms, 0, bytemuck::bytes_of(&uniforms));
         self.updates = self.updates.wrapping_add(1);
+        if lights_changed {
+            self.record_inject_all(ctx, timer, encoder, inputs, uniforms);
+        }
 
         // Uniforms, the scene's seven buffers (bindings 1..=7), the brick list, the scratch.
         let mut entries = buffer_entries(0, [&self.uniforms]);
@@ -559,6 +580,53 @@ impl CacheLighting {
         counts
     }
 
+    /// Records `cache/inject_all`: the direct light of every resident brick (up to 65,535, one
+    /// dispatch row), so a light that moved or switched shows in the whole cache at once
+    /// rather than over the schedule's cycle (HSGI relights its far field every 121 frames).
+    /// Direct injection is cheap next to propagation (one shadow ray per light and side); the
+    /// indirect light follows through the schedule, its ages pulled down by the change.
+    fn record_inject_all(
+        &mut self,
+        ctx: &GpuContext,
+        timer: &mut GpuTimer,
+        encoder: &mut wgpu::CommandEncoder,
+        inputs: &LightingInputs<'_>,
+        mut uniforms: GpuLightingUniforms,
+    ) {
+        let all: Vec<GpuScheduledBrick> = inputs
+            .resident
+            .iter()
+            .take(65_535)
+            .map(scheduled_brick)
+            .collect();
+        if all.is_empty() {
+            return;
+        }
+        ctx.write_growing(
+            &mut self.all_bricks,
+            "cache.lighting.all_bricks",
+            bytemuck::cast_slice(&all),
+        );
+        uniforms.brick_count = all.len() as u32;
+        ctx.queue
+            .write_buffer(&self.all_uniforms, 0, bytemuck::bytes_of(&uniforms));
+        let mut entries = buffer_entries(0, [&self.all_uniforms]);
+        entries.extend(inputs.scene.bind_group_entries());
+        entries.extend(buffer_entries(8, [&self.all_bricks, &self.scratch]));
+        let group = ctx.device.create_bind_group(&wgpu::BindGroupDescriptor {
+            label: Some("cache.lighting.all_bind_group"),
+            layout: &self.lighting_layout,
+            entries: &entries,
+        });
+        timer.compute_pass(ctx, encoder, "cache/inject_all", |pass| {
+            pass.set_pipeline(&self.inject);
+            pass.set_bind_group(0, &group, &[]);
+            pass.set_bind_group(1, &inputs.bvh.bind_group, &[]);
+            pass.set_bind_group(2, inputs.cache_bind_group, &[]);
+            pass.dispatch_workgroups(all.len() as u32, 1, 1);
+        });
+    }
+
     /// How the last update spent its budget.
     pub fn last_counts(&self) -> ScheduleCounts {
         self.last_counts
@@ -571,7 +639,11 @@ impl CacheLighting {
 
     /// Bytes of the buffers this technique owns.
     pub fn bytes(&self) -> u64 {
-        self.uniforms.size() + self.bricks.size() + self.scratch.size()
+        self.uniforms.size()
+            + self.bricks.size()
+            + self.scratch.size()
+            + self.all_uniforms.size()
+            + self.all_bricks.size()
     }
 
     /// Stops counting and destroys the buffers.
@@ -579,6 +651,8 @@ impl CacheLighting {
         ctx.release_buffer(&self.uniforms);
         ctx.release_buffer(&self.bricks);
         ctx.release_buffer(&self.scratch);
+        ctx.release_buffer(&self.all_uniforms);
+        ctx.release_buffer(&self.all_bricks);
     }
 }
 

@@ -850,13 +850,13 @@ fn identical_inputs_give_bit_identical_lighting() {
 // A changed light.
 // ---------------------------------------------------------------------------------------------
 
-#[test]
-fn a_light_switched_off_is_followed_within_a_few_frames() {
-    let Some(ctx) = GpuContext::new_or_skip("a_light_switched_off_is_followed") else {
-        return;
-    };
-    // A sunlit floor and a wall facing it whose +x side the light cannot reach: the wall's
-    // light is all indirect (the floor's bounce).
+/// A sunlit floor and a wall facing it whose +x side the light cannot reach (the wall's light
+/// is all indirect: the floor's bounce), lit by a cache of `config`: the scene, the cache, and
+/// the slots of the wall's sides facing the floor and of the floor's sides facing up.
+fn sunlit_floor_and_wall(
+    ctx: &GpuContext,
+    config: &CacheConfig,
+) -> (gi_scene::Scene, LitCache, Vec<usize>, Vec<usize>) {
     let mut builder = SceneBuilder::new(Sky::default());
     builder
         .quad(
@@ -875,13 +875,8 @@ fn a_light_switched_off_is_followed_within_a_few_frames() {
     let scene = builder.scene.clone();
     let mut frame = scene.evaluate(0.0, None);
     frame.camera.position = Vec3::new(0.5, 0.5, 0.0);
-    let config = CacheConfig {
-        max_age: 32,
-        ..small_config()
-    };
-    let mut lit = LitCache::new(&ctx, &config, &scene, &frame);
+    let lit = LitCache::new(ctx, config, &scene, &frame);
     let sides = voxel_sides(&lit.cpu);
-    // The wall's sides facing +x (towards the floor) and the floor's sides facing up.
     let wall: Vec<usize> = sides
         .iter()
         .filter(|f| f.normal.x.abs() > 0.99 && f.side_normal().x > 0.99 && f.center.y > 0.2)
@@ -892,6 +887,77 @@ fn a_light_switched_off_is_followed_within_a_few_frames() {
         .filter(|f| f.normal.y > 0.99 && f.side_normal().y > 0.99 && f.center.x > 0.8)
         .map(|f| f.slot)
         .collect();
+    (scene, lit, wall, floor)
+}
+
+/// The scene of [`sunlit_floor_and_wall`] without its light, uploaded into `lit`.
+fn switch_the_light_off(ctx: &GpuContext, scene: &gi_scene::Scene, lit: &mut LitCache) -> Sky {
+    let mut dark = scene.clone();
+    dark.lights.clear();
+    dark.nodes.retain(|n| n.light.is_none());
+    let dark_frame = dark.evaluate(0.0, None);
+    lit.gpu_scene = GpuScene::upload(ctx, &dark, &dark_frame).unwrap();
+    lit.lights = dark_frame.lights.clone();
+    dark.sky
+}
+
+#[test]
+fn a_light_change_relights_every_bricks_direct_light_at_once() {
+    let Some(ctx) = GpuContext::new_or_skip("a_light_change_relights_every_brick") else {
+        return;
+    };
+    // Four bricks lit per update: the schedule alone would take many updates to reach them all.
+    let config = CacheConfig {
+        light_bricks_per_frame: 4,
+        ..small_config()
+    };
+    let (scene, mut lit, _, floor) = sunlit_floor_and_wall(&ctx, &config);
+    run_frames(&ctx, &mut lit, &scene.sky, 4);
+    // Run until every floor side has been scheduled once.
+    let mut lit_sides = 0;
+    for _ in 0..64 {
+        lit.frame(&ctx, &scene.sky);
+        let (direct, _) = lit.read_sides(&ctx);
+        lit_sides = floor
+            .iter()
+            .filter(|&&s| direct[s].max_element() > 0.0)
+            .count();
+        if lit_sides == floor.len() {
+            break;
+        }
+    }
+    assert_eq!(
+        lit_sides,
+        floor.len(),
+        "the schedule never reached every floor side"
+    );
+    let sky = switch_the_light_off(&ctx, &scene, &mut lit);
+    lit.frame(&ctx, &sky);
+    let (direct, _) = lit.read_sides(&ctx);
+    let still_lit = floor
+        .iter()
+        .filter(|&&s| direct[s].max_element() > 0.0)
+        .count();
+    println!(
+        "{} floor sides, {still_lit} still lit one update after the light went off",
+        floor.len()
+    );
+    assert_eq!(
+        still_lit, 0,
+        "cache/inject_all must relight every brick at once"
+    );
+}
+
+#[test]
+fn a_light_switched_off_is_followed_within_a_few_frames() {
+    let Some(ctx) = GpuContext::new_or_skip("a_light_switched_off_is_followed") else {
+        return;
+    };
+    let config = CacheConfig {
+        max_age: 32,
+        ..small_config()
+    };
+    let (scene, mut lit, wall, floor) = sunlit_floor_and_wall(&ctx, &config);
     let mean = |values: &[Vec3], slots: &[usize]| {
         slots.iter().map(|&s| luminance(values[s])).sum::<f32>() / slots.len() as f32
     };
@@ -907,15 +973,10 @@ fn a_light_switched_off_is_followed_within_a_few_frames() {
     assert!(floor_before > 1.0 && wall_before > 0.05);
 
     // Switch the light off: upload the scene without it.
-    let mut dark = scene.clone();
-    dark.lights.clear();
-    dark.nodes.retain(|n| n.light.is_none());
-    let dark_frame = dark.evaluate(0.0, None);
-    lit.gpu_scene = GpuScene::upload(&ctx, &dark, &dark_frame).unwrap();
-    lit.lights = dark_frame.lights.clone();
+    let sky = switch_the_light_off(&ctx, &scene, &mut lit);
     let mut followed = None;
     for k in 1..=16 {
-        lit.frame(&ctx, &dark.sky);
+        lit.frame(&ctx, &sky);
         let (direct, indirect) = lit.read_sides(&ctx);
         let (floor_now, wall_now) = (mean(&direct, &floor), mean(&indirect, &wall));
         println!(
