@@ -27,13 +27,6 @@ use screen::{ScreenBuffers, ScreenLayout, ScreenPipelines, ScreenSources, screen
 /// Most timed passes in one frame (G-buffer, the cache's passes, the mobile passes, direct).
 const TIMER_SCOPES: u32 = 32;
 
-/// Frames after a change of the lights or the sky during which the gathered irradiance's
-/// history is capped at [`CHANGED_MAX_AGE`] frames, so stale light fades by (3/4)^n; then the
-/// cap grows back to the configured age. The cache follows the same rule
-/// (`gi_cache::lighting::CHANGED_MAX_AGE`) and relights every brick's direct light at once.
-const LIGHT_CHANGE_FRAMES: u32 = 32;
-const CHANGED_MAX_AGE: u32 = 4;
-
 /// GPU memory of the mobile tier by what it scales with.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub struct MobileMemory {
@@ -110,8 +103,6 @@ pub struct MobileTier {
     volume: ProbeVolume,
     prepared: Option<Prepared>,
     frame_index: u32,
-    /// Frames left of [`LIGHT_CHANGE_FRAMES`].
-    light_change_frames: u32,
 }
 
 /// What the tier uploaded for its scene.
@@ -177,7 +168,6 @@ impl MobileTier {
             volume,
             prepared: None,
             frame_index: 0,
-            light_change_frames: 0,
         })
     }
 
@@ -441,13 +431,6 @@ impl Tier for MobileTier {
 
     fn render(&mut self, input: &FrameInput) -> Result<FrameOutput, TierError> {
         let frame = input.frame;
-        if self
-            .prepared
-            .as_ref()
-            .is_some_and(|p| p.previous.lights != frame.lights || p.previous.sky != frame.sky)
-        {
-            self.light_change_frames = LIGHT_CHANGE_FRAMES;
-        }
         self.prepare(input)?;
         let size = (self.settings.width, self.settings.height);
         let ctx = &self.ctx;
@@ -489,7 +472,7 @@ impl Tier for MobileTier {
         ) {
             screen.reset_history();
         }
-        let mut uniforms = screen_uniforms(
+        let uniforms = screen_uniforms(
             &self.config.screen,
             screen.layout,
             camera,
@@ -498,10 +481,6 @@ impl Tier for MobileTier {
             self.frame_index,
             self.settings.seed,
         );
-        if self.light_change_frames > 0 {
-            self.light_change_frames -= 1;
-            uniforms.max_age = uniforms.max_age.min(CHANGED_MAX_AGE);
-        }
         screen.begin_frame(ctx, uniforms);
         let cache_group = &self.cache.buffers().bind_group;
         let groups = (self.volume.bind_group(), cache_group);
