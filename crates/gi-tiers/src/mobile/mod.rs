@@ -22,7 +22,9 @@ use glam::Vec3;
 
 use crate::path::{Accumulation, PathPipelines, PathUniforms};
 use crate::tier::{FrameInput, FrameOutput, Tier, TierError, TierKind, TierSettings};
-use screen::{ScreenBuffers, ScreenLayout, ScreenPipelines, ScreenSources, screen_uniforms};
+use screen::{
+    ScreenBuffers, ScreenLayout, ScreenPipelines, ScreenSources, ScreenStep, screen_uniforms,
+};
 
 /// Most timed passes in one frame (G-buffer, the cache's passes, the mobile passes, direct).
 const TIMER_SCOPES: u32 = 32;
@@ -484,12 +486,13 @@ impl Tier for MobileTier {
         screen.begin_frame(ctx, uniforms);
         let cache_group = &self.cache.buffers().bind_group;
         let groups = (self.volume.bind_group(), cache_group);
-        screen.record_lite(
+        screen.record(
             ctx,
             &mut self.timer,
             &mut encoder,
             &self.screen_pipelines,
             groups,
+            ScreenStep::Lite,
         );
         self.volume.update(
             ctx,
@@ -501,19 +504,21 @@ impl Tier for MobileTier {
             self.frame_index,
         );
         let groups = (self.volume.bind_group(), &self.cache.buffers().bind_group);
-        screen.record_probes(
+        screen.record(
             ctx,
             &mut self.timer,
             &mut encoder,
             &self.screen_pipelines,
             groups,
+            ScreenStep::Probes,
         );
-        screen.record_gather(
+        screen.record(
             ctx,
             &mut self.timer,
             &mut encoder,
             &self.screen_pipelines,
             groups,
+            ScreenStep::Gather,
         );
         passes.0.extend(self.timer.finish(ctx, encoder).0);
 
@@ -529,12 +534,13 @@ impl Tier for MobileTier {
         }
 
         let mut encoder = ctx.create_encoder("mobile/compose");
-        screen.record_compose(
+        screen.record(
             ctx,
             &mut self.timer,
             &mut encoder,
             &self.screen_pipelines,
             groups,
+            ScreenStep::Compose,
         );
         passes.0.extend(self.timer.finish(ctx, encoder).0);
 

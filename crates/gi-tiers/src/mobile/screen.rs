@@ -148,6 +148,19 @@ impl ScreenPipelines {
     }
 }
 
+/// The screen passes in frame order, as [`ScreenBuffers::record`] records them.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum ScreenStep {
+    /// `mobile/lite`: the lite G-buffer.
+    Lite,
+    /// `mobile/probe_reproject` (SmartGI mode), `mobile/probe_place`, `mobile/probe_trace`.
+    Probes,
+    /// `mobile/gather`: half-resolution irradiance and its temporal filter.
+    Gather,
+    /// `mobile/compose`: upsample and final image.
+    Compose,
+}
+
 /// The G-buffer outputs and the direct image the screen passes read, by binding.
 pub struct ScreenSources<'a> {
     pub depth: &'a wgpu::Buffer,
@@ -287,110 +300,46 @@ impl ScreenBuffers {
         &self.groups[self.current]
     }
 
-    /// Records `mobile/lite`.
-    pub fn record_lite(
+    /// Records the passes of `step` (see [`ScreenStep`]), each timed under its name.
+    pub fn record(
         &self,
         ctx: &GpuContext,
         timer: &mut GpuTimer,
         encoder: &mut wgpu::CommandEncoder,
         pipelines: &ScreenPipelines,
         groups: (&wgpu::BindGroup, &wgpu::BindGroup),
+        step: ScreenStep,
     ) {
         let (w, h) = self.layout.size;
-        self.dispatch(
-            ctx,
-            timer,
-            encoder,
-            "mobile/lite",
-            &pipelines.lite,
-            groups,
-            [w.div_ceil(TILE_GROUP), h.div_ceil(TILE_GROUP)],
-        );
-    }
-
-    /// Records `mobile/probe_reproject` (SmartGI mode), `mobile/probe_place` and
-    /// `mobile/probe_trace`.
-    pub fn record_probes(
-        &self,
-        ctx: &GpuContext,
-        timer: &mut GpuTimer,
-        encoder: &mut wgpu::CommandEncoder,
-        pipelines: &ScreenPipelines,
-        groups: (&wgpu::BindGroup, &wgpu::BindGroup),
-    ) {
+        let full = [w.div_ceil(TILE_GROUP), h.div_ceil(TILE_GROUP)];
         let slots = self.layout.slots();
-        if self.mode == ScreenProbeMode::SmartGi {
-            self.dispatch(
-                ctx,
-                timer,
-                encoder,
-                "mobile/probe_reproject",
-                &pipelines.reproject,
-                groups,
-                [slots.div_ceil(LINEAR_GROUP), 1],
-            );
-        }
-        self.dispatch(
-            ctx,
-            timer,
-            encoder,
-            "mobile/probe_place",
-            &pipelines.place,
-            groups,
-            [slots.div_ceil(LINEAR_GROUP), 1],
-        );
+        let per_slot = [slots.div_ceil(LINEAR_GROUP), 1];
         let texels = slots * PROBE_TEXELS * PROBE_TEXELS;
-        self.dispatch(
-            ctx,
-            timer,
-            encoder,
-            "mobile/probe_trace",
-            &pipelines.trace,
-            groups,
-            [texels.div_ceil(LINEAR_GROUP), 1],
-        );
-    }
-
-    /// Records `mobile/gather`.
-    pub fn record_gather(
-        &self,
-        ctx: &GpuContext,
-        timer: &mut GpuTimer,
-        encoder: &mut wgpu::CommandEncoder,
-        pipelines: &ScreenPipelines,
-        groups: (&wgpu::BindGroup, &wgpu::BindGroup),
-    ) {
-        let (w, h) = self.layout.half;
-        self.dispatch(
-            ctx,
-            timer,
-            encoder,
-            "mobile/gather",
-            &pipelines.gather,
-            groups,
-            [w.div_ceil(TILE_GROUP), h.div_ceil(TILE_GROUP)],
-        );
-    }
-
-    /// Records `mobile/compose` (upsample and final image).
-    pub fn record_compose(
-        &self,
-        ctx: &GpuContext,
-        timer: &mut GpuTimer,
-        encoder: &mut wgpu::CommandEncoder,
-        pipelines: &ScreenPipelines,
-        groups: (&wgpu::BindGroup, &wgpu::BindGroup),
-    ) {
-        let (w, h) = self.layout.size;
-        self.dispatch(
-            ctx,
-            timer,
-            encoder,
-            "mobile/compose",
-            &pipelines.compose,
-            groups,
-            [w.div_ceil(TILE_GROUP), h.div_ceil(TILE_GROUP)],
-        );
+        let passes: Vec<(&str, &wgpu::ComputePipeline, [u32; 2])> = match step {
+            ScreenStep::Lite => vec![("mobile/lite", &pipelines.lite, full)],
+            ScreenStep::Probes => {
+                let mut passes = Vec::new();
+                if self.mode == ScreenProbeMode::SmartGi {
+                    passes.push(("mobile/probe_reproject", &pipelines.reproject, per_slot));
+                }
+                passes.push(("mobile/probe_place", &pipelines.place, per_slot));
+                passes.push((
+                    "mobile/probe_trace",
+                    &pipelines.trace,
+                    [texels.div_ceil(LINEAR_GROUP), 1],
+                ));
+                passes
+            }
+            ScreenStep::Gather => {
+                let (w, h) = self.layout.half;
+                let half = [w.div_ceil(TILE_GROUP), h.div_ceil(TILE_GROUP)];
+                vec![("mobile/gather", &pipelines.gather, half)]
+            }
+            ScreenStep::Compose => vec![("mobile/compose", &pipelines.compose, full)],
+        };
+        for (name, pipeline, workgroups) in passes {
+            self.dispatch(ctx, timer, encoder, name, pipeline, groups, workgroups);
+        }
     }
 
     #[allow(clippy::too_many_arguments)]
