@@ -159,7 +159,10 @@ fn mobile_stability_benchmark_reports_flicker_and_settle() {
         "{settle}"
     );
     assert!(settle["light_change"].as_f64().unwrap() > 0.0, "{settle}");
-    assert!(settle["converged_drift"].as_f64().unwrap() >= 0.0, "{settle}");
+    assert!(
+        settle["converged_drift"].as_f64().unwrap() >= 0.0,
+        "{settle}"
+    );
 }
 
 #[test]
