@@ -134,6 +134,9 @@ pub struct CacheUpdateStats {
     pub queued_remaining: u32,
     /// Visible bricks checked against the G-buffer (`cache/screen_inject` workgroups).
     pub screen_injected: u32,
+    /// The update was a fill ([`crate::lighting::is_filling`]): its lighting keeps no history,
+    /// and temporal filters that read the cache should restart theirs.
+    pub filling: bool,
 }
 
 /// The cache's state.
@@ -325,16 +328,12 @@ impl RadianceCache {
         );
         self.voxelizer
             .record(ctx, encoder, timer, inputs.gpu_scene, &self.buffers, &jobs);
+        let resident = self.resident_bricks();
+        stats.filling = crate::lighting::is_filling(new_bricks.len(), resident.len());
         if let Some(screen) = &inputs.gbuffer {
             let fresh = new_bricks.iter().map(|b| (b.level, b.brick)).collect();
             let budget = self.config.screen_inject_bricks_per_frame.min(65_535);
-            let bricks = select_bricks(
-                &self.config,
-                &self.resident_bricks(),
-                &screen.camera,
-                &fresh,
-                budget,
-            );
+            let bricks = select_bricks(&self.config, &resident, &screen.camera, &fresh, budget);
             stats.screen_injected = bricks.len() as u32;
             self.screen_injector
                 .record(ctx, encoder, timer, &self.buffers, screen, &bricks);
@@ -342,7 +341,6 @@ impl RadianceCache {
 
         // The lighting passes run here, after voxelization, on the updated cache.
         if let Some(mut lighting) = self.lighting.take() {
-            let resident = self.resident_bricks();
             let frame = CacheFrame {
                 config: &self.config,
                 buffers: &self.buffers,

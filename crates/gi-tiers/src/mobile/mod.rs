@@ -12,7 +12,7 @@ pub use config::{
 pub use screen::{GpuScreenProbe, ScreenUniforms};
 pub use volume::{ProbeSample, ProbeVolume, VolumeError};
 
-use gi_cache::lighting::{GpuSky, is_filling};
+use gi_cache::lighting::GpuSky;
 use gi_cache::{CacheLighting, RadianceCache, ScreenInputs, binning::dynamic_nodes};
 use gi_gpu::gbuffer::{GBuffer, GBufferInputs};
 use gi_gpu::{GpuCamera, GpuContext, GpuScene, GpuTimer, PassTimings, ShaderLibrary, wgpu};
@@ -113,9 +113,9 @@ struct Prepared {
     direct: Accumulation,
     screen: ScreenBuffers,
     dynamic_triangles: wgpu::Buffer,
-    /// The previous frame as the G-buffer's motion vectors need it.
+    /// The previous frame without its geometry ([`frame_history`]): the G-buffer's motion
+    /// vectors read its camera and node transforms, `prepare` its lights.
     previous: SceneFrame,
-    previous_camera: GpuCamera,
     time_s: f32,
     camera: CameraView,
     triangle_count: usize,
@@ -304,8 +304,7 @@ impl MobileTier {
             let dynamic_triangles = dynamic_triangle_bits(&self.ctx, input.scene, frame);
             let screen = self.screen_buffers(&direct, &dynamic_triangles);
             self.prepared = Some(Prepared {
-                previous_camera: GpuCamera::new(&frame.camera, size),
-                previous: frame.clone(),
+                previous: frame_history(frame),
                 scene,
                 direct,
                 screen,
@@ -396,6 +395,21 @@ impl Prepared {
     }
 }
 
+/// What the next frame needs of `frame`: everything but its triangles and their attributes,
+/// which a copy per frame would cost megabytes on large scenes.
+fn frame_history(frame: &SceneFrame) -> SceneFrame {
+    SceneFrame {
+        time_s: frame.time_s,
+        triangles: Vec::new(),
+        attributes: Vec::new(),
+        lights: frame.lights.clone(),
+        camera: frame.camera,
+        sky: frame.sky,
+        exposure: frame.exposure,
+        world_from_node: frame.world_from_node.clone(),
+    }
+}
+
 /// One bit per frame triangle, set when the triangle's node is moved by an animation
 /// (`mobile.dynamic_triangles`).
 fn dynamic_triangle_bits(
@@ -468,17 +482,14 @@ impl Tier for MobileTier {
         let screen = &mut prepared.screen;
         // A cache fill (a first view, a jump) lights through missing walls: history gathered
         // from it must not be kept.
-        if is_filling(
-            cache_stats.voxelized as usize,
-            self.cache.stats().allocated_bricks as usize,
-        ) {
+        if cache_stats.filling {
             screen.reset_history();
         }
         let uniforms = screen_uniforms(
             &self.config.screen,
             screen.layout,
             camera,
-            prepared.previous_camera,
+            GpuCamera::new(&prepared.previous.camera, size),
             sky,
             self.frame_index,
             self.settings.seed,
@@ -545,8 +556,7 @@ impl Tier for MobileTier {
         passes.0.extend(self.timer.finish(ctx, encoder).0);
 
         let output: Vec<[f32; 4]> = ctx.read_buffer(&screen.output);
-        prepared.previous = frame.clone();
-        prepared.previous_camera = camera;
+        prepared.previous = frame_history(frame);
         self.frame_index = self.frame_index.wrapping_add(1);
         if let Some(progress) = input.progress {
             progress(prepared.direct.samples);
