@@ -67,6 +67,20 @@ pub struct GpuIrradianceQuery {
     pub pad_b: f32,
 }
 
+impl GpuIrradianceQuery {
+    /// The queries of `(position, unit normal)` pairs.
+    pub fn batch(points: &[(Vec3, Vec3)]) -> Vec<Self> {
+        points
+            .iter()
+            .map(|(position, normal)| Self {
+                position: position.to_array(),
+                normal: normal.to_array(),
+                ..Default::default()
+            })
+            .collect()
+    }
+}
+
 /// What one ray found in the cache.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct CacheRayHit {
@@ -272,14 +286,7 @@ impl CacheTracer {
         if points.is_empty() {
             return Vec::new();
         }
-        let queries: Vec<GpuIrradianceQuery> = points
-            .iter()
-            .map(|(position, normal)| GpuIrradianceQuery {
-                position: position.to_array(),
-                normal: normal.to_array(),
-                ..Default::default()
-            })
-            .collect();
+        let queries = GpuIrradianceQuery::batch(points);
         let input = ctx.create_buffer_init(
             "cache.irradiance_points",
             bytemuck::cast_slice(&queries),

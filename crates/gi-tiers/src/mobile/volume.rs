@@ -511,14 +511,7 @@ impl ProbeVolume {
         if queries.is_empty() {
             return Vec::new();
         }
-        let gpu_queries: Vec<GpuIrradianceQuery> = queries
-            .iter()
-            .map(|(position, normal)| GpuIrradianceQuery {
-                position: position.to_array(),
-                normal: normal.to_array(),
-                ..Default::default()
-            })
-            .collect();
+        let gpu_queries = GpuIrradianceQuery::batch(queries);
         let input = ctx.create_buffer_init(
             "mobile.volume.queries",
             bytemuck::cast_slice(&gpu_queries),
