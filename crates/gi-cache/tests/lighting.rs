@@ -18,10 +18,8 @@ use gi_gpu::{
     wgsl_struct_layout,
 };
 use gi_reference::Reference;
-use gi_scene::{
-    Light, LightKind, Material, Mesh, Node, Primitive, Scene, SceneBvh, SceneFrame, Sky, WorldLight,
-};
-use glam::{IVec3, Quat, Vec2, Vec3};
+use gi_scene::{Light, LightKind, Node, Scene, SceneBvh, SceneFrame, Sky, WorldLight};
+use glam::{IVec3, Quat, Vec3};
 use rand::{RngExt, SeedableRng};
 
 #[test]
@@ -102,32 +100,7 @@ impl SceneBuilder {
 
     /// A parallelogram `center +- u +- v`, front face `u x v`, of diffuse `albedo`.
     fn quad(&mut self, center: Vec3, u: Vec3, v: Vec3, albedo: f32) -> &mut Self {
-        let n = u.cross(v).normalize();
-        self.scene.materials.push(Material {
-            base_color: Vec3::splat(albedo).extend(1.0),
-            metallic: 0.0,
-            roughness: 1.0,
-            ..Default::default()
-        });
-        self.scene.meshes.push(Mesh {
-            name: String::new(),
-            primitives: vec![Primitive {
-                positions: vec![
-                    center - u - v,
-                    center + u - v,
-                    center + u + v,
-                    center - u + v,
-                ],
-                normals: vec![n; 4],
-                uvs: vec![Vec2::ZERO; 4],
-                indices: vec![0, 1, 2, 0, 2, 3],
-                material: self.scene.materials.len() - 1,
-            }],
-        });
-        self.scene.nodes.push(Node {
-            mesh: Some(self.scene.meshes.len() - 1),
-            ..Default::default()
-        });
+        self.scene.add_diffuse_quad(center, u, v, albedo);
         self
     }
 

@@ -32,6 +32,41 @@ pub struct Scene {
     pub frame_time_s: f32,
 }
 
+impl Scene {
+    /// Adds a grey diffuse parallelogram `center +- u +- v` (front face `u x v`) of albedo
+    /// `albedo`, with a material, a mesh and a root node of its own, and returns the node. For
+    /// scenes assembled in code (tests, tools).
+    pub fn add_diffuse_quad(&mut self, center: Vec3, u: Vec3, v: Vec3, albedo: f32) -> usize {
+        let n = u.cross(v).normalize();
+        self.materials.push(Material {
+            base_color: Vec3::splat(albedo).extend(1.0),
+            metallic: 0.0,
+            roughness: 1.0,
+            ..Default::default()
+        });
+        self.meshes.push(Mesh {
+            name: String::new(),
+            primitives: vec![Primitive {
+                positions: vec![
+                    center - u - v,
+                    center + u - v,
+                    center + u + v,
+                    center - u + v,
+                ],
+                normals: vec![n; 4],
+                uvs: vec![Vec2::ZERO; 4],
+                indices: vec![0, 1, 2, 0, 2, 3],
+                material: self.materials.len() - 1,
+            }],
+        });
+        self.nodes.push(Node {
+            mesh: Some(self.meshes.len() - 1),
+            ..Default::default()
+        });
+        self.nodes.len() - 1
+    }
+}
+
 /// A node of the hierarchy. Its transform is `translation * rotation * scale` relative to its
 /// parent, as in glTF.
 #[derive(Clone, Debug)]

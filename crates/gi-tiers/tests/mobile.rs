@@ -5,12 +5,12 @@
 use gi_gpu::{GpuContext, ShaderLibrary, rust_field_offsets, wgpu, wgsl_struct_layout};
 use gi_image::Image;
 use gi_reference::{Mode, Reference, RenderSettings};
-use gi_scene::{CameraView, Material, Mesh, Node, Primitive, Scene, Sky};
+use gi_scene::{CameraView, Scene, Sky};
 use gi_tiers::mobile::{
     GpuScreenProbe, MobileConfig, MobileFrameData, ScreenConfig, ScreenUniforms,
 };
 use gi_tiers::{FrameInput, MobileTier, Tier, TierError, TierSettings};
-use glam::{Vec2, Vec3};
+use glam::Vec3;
 
 fn settings(width: u32, height: u32) -> TierSettings {
     TierSettings {
@@ -263,27 +263,7 @@ fn open_ground(half_m: f32, albedo: f32) -> Scene {
         exposure: 1.0,
         ..Default::default()
     };
-    scene.materials.push(Material {
-        base_color: Vec3::splat(albedo).extend(1.0),
-        metallic: 0.0,
-        roughness: 1.0,
-        ..Default::default()
-    });
-    let (u, v) = (Vec3::Z * half_m, Vec3::X * half_m);
-    scene.meshes.push(Mesh {
-        name: String::new(),
-        primitives: vec![Primitive {
-            positions: vec![-u - v, u - v, u + v, -u + v],
-            normals: vec![Vec3::Y; 4],
-            uvs: vec![Vec2::ZERO; 4],
-            indices: vec![0, 1, 2, 0, 2, 3],
-            material: 0,
-        }],
-    });
-    scene.nodes.push(Node {
-        mesh: Some(0),
-        ..Default::default()
-    });
+    scene.add_diffuse_quad(Vec3::ZERO, Vec3::Z * half_m, Vec3::X * half_m, albedo);
     scene
 }
 

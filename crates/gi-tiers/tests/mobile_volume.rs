@@ -11,9 +11,9 @@ use gi_cache::packing::unpack_unit_vector;
 use gi_cache::{CacheBuffers, CacheConfig, CacheTracer, CpuCache};
 use gi_gpu::bvh::GpuRay;
 use gi_gpu::{GpuContext, GpuTimer, PassTimings, ShaderLibrary};
-use gi_scene::{Material, Mesh, Node, Primitive, Scene, Sky};
+use gi_scene::{Scene, Sky};
 use gi_tiers::mobile::{ProbeVolume, VolumeConfig};
-use glam::{Vec2, Vec3, Vec4};
+use glam::{Vec3, Vec4};
 
 // ---------------------------------------------------------------------------------------------
 // Scenes, a hand-lit cache and the volume's frames.
@@ -47,32 +47,7 @@ impl SceneBuilder {
 
     /// A parallelogram `center +- u +- v`, front face `u x v`, of grey diffuse `albedo`.
     fn quad(&mut self, center: Vec3, u: Vec3, v: Vec3, albedo: f32) -> &mut Self {
-        let n = u.cross(v).normalize();
-        self.scene.materials.push(Material {
-            base_color: Vec3::splat(albedo).extend(1.0),
-            metallic: 0.0,
-            roughness: 1.0,
-            ..Default::default()
-        });
-        self.scene.meshes.push(Mesh {
-            name: String::new(),
-            primitives: vec![Primitive {
-                positions: vec![
-                    center - u - v,
-                    center + u - v,
-                    center + u + v,
-                    center - u + v,
-                ],
-                normals: vec![n; 4],
-                uvs: vec![Vec2::ZERO; 4],
-                indices: vec![0, 1, 2, 0, 2, 3],
-                material: self.scene.materials.len() - 1,
-            }],
-        });
-        self.scene.nodes.push(Node {
-            mesh: Some(self.scene.meshes.len() - 1),
-            ..Default::default()
-        });
+        self.scene.add_diffuse_quad(center, u, v, albedo);
         self
     }
 
