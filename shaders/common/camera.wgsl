@@ -27,3 +27,17 @@ fn camera_ray(camera: Camera, uv: vec2<f32>) -> vec3<f32> {
     let d = camera.forward + fx * camera.right + fy * camera.up;
     return d * (1.0 / sqrt(dot(d, d)));
 }
+
+// Pixel coordinates (x right, y down) in an image of `size` pixels of the view-space offset `d`
+// (a point minus the camera position, or a direction for a point at infinity): the inverse of
+// `camera_ray`. z is 1, or 0 (and x, y are 0) when `d` lies behind the camera.
+fn camera_project(camera: Camera, d: vec3<f32>, size: vec2<u32>) -> vec3<f32> {
+    let z = dot(d, camera.forward);
+    if z <= 0.0 {
+        return vec3<f32>(0.0);
+    }
+    let fx = dot(d, camera.right) / (z * camera.tan_half_fov * camera.aspect);
+    let fy = dot(d, camera.up) / (z * camera.tan_half_fov);
+    let uv = vec2<f32>(0.5 * (fx + 1.0), 0.5 * (1.0 - fy));
+    return vec3<f32>(uv * vec2<f32>(size), 1.0);
+}

@@ -21,7 +21,7 @@
 #import gi::bvh::{Ray, trace_closest, BVH_MISS}
 #import gi::scene::{triangles, sample_texture, emission, geometric_normal, triangle_uv, material_of, shading_normal}
 #import gi::packing::pack_unit_vector
-#import gi::camera::{Camera, camera_ray}
+#import gi::camera::{Camera, camera_ray, camera_project}
 
 const FAR: f32 = 3.40282347e38;
 // Bits of +infinity, the depth of sky pixels.
@@ -56,19 +56,6 @@ struct GBufferUniforms {
 // Previous pixel position minus this pixel's center, in pixels (+x right, +y down).
 @group(0) @binding(15) var<storage, read_write> motion: array<vec2<f32>>;
 
-// Pixel coordinates of the view-space offset `d` (a point minus the camera position, or a
-// direction for points at infinity); the inverse of `camera_ray`. `w` is 0 behind the camera.
-fn project(camera: Camera, d: vec3<f32>) -> vec3<f32> {
-    let z = dot(d, camera.forward);
-    if z <= 0.0 {
-        return vec3<f32>(0.0);
-    }
-    let fx = dot(d, camera.right) / (z * camera.tan_half_fov * camera.aspect);
-    let fy = dot(d, camera.up) / (z * camera.tan_half_fov);
-    let uv = vec2<f32>(0.5 * (fx + 1.0), 0.5 * (1.0 - fy));
-    return vec3<f32>(uv * vec2<f32>(uniforms.size_px), 1.0);
-}
-
 @compute @workgroup_size(8, 8)
 fn primary(@builtin(global_invocation_id) id: vec3<u32>) {
     let size = uniforms.size_px;
@@ -87,7 +74,7 @@ fn primary(@builtin(global_invocation_id) id: vec3<u32>) {
         base_color[pixel] = vec4<f32>(0.0);
         metallic_roughness[pixel] = vec2<f32>(0.0);
         emissive[pixel] = vec4<f32>(0.0);
-        let previous = project(uniforms.previous_camera, dir);
+        let previous = camera_project(uniforms.previous_camera, dir, uniforms.size_px);
         motion[pixel] = select(vec2<f32>(0.0), previous.xy - center, previous.z > 0.0);
         return;
     }
@@ -124,6 +111,6 @@ fn primary(@builtin(global_invocation_id) id: vec3<u32>) {
     if uniforms.has_previous_transforms != 0u {
         p = vec4<f32>(p, 1.0) * previous_from_current[u32(tri.pa.w)];
     }
-    let previous = project(uniforms.previous_camera, p - uniforms.previous_camera.position);
+    let previous = camera_project(uniforms.previous_camera, p - uniforms.previous_camera.position, uniforms.size_px);
     motion[pixel] = select(vec2<f32>(0.0), previous.xy - center, previous.z > 0.0);
 }

@@ -18,16 +18,10 @@
 // equals the exact coordinate away from the square's border).
 #define_import_path gi::mobile::lite
 
-#import gi::camera::{Camera, camera_ray}
+#import gi::camera::Camera
 
 const LITE_DYNAMIC_BIT: u32 = 0x00800000u;
 const LITE_NORMAL_CELLS: f32 = 16.0;
-
-// World position of the surface seen through pixel `pixel` at distance `depth` along its ray.
-fn lite_position(camera: Camera, pixel: vec2<u32>, size: vec2<u32>, depth: f32) -> vec3<f32> {
-    let uv = (vec2<f32>(pixel) + 0.5) / vec2<f32>(size);
-    return camera.position + depth * camera_ray(camera, uv);
-}
 
 // The orthonormal frame the normal of a pixel whose ray runs along `ray_dir` is stored in.
 fn lite_frame(camera: Camera, ray_dir: vec3<f32>) -> mat3x3<f32> {

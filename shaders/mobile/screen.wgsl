@@ -37,12 +37,12 @@
 // Bind group 0: this file's buffers; 1: the probe volume (`gi::mobile::volume`); 2: the brick
 // cache (`gi::cache::data`).
 
-#import gi::camera::{Camera, camera_ray}
+#import gi::camera::{Camera, camera_ray, camera_project}
 #import gi::lights::{Sky, sky_radiance}
 #import gi::packing::{pack_rgb9e5, unpack_rgb9e5, pack_unit_vector, unpack_unit_vector}
 #import gi::sampling::{Sampler, sampler_new, sampler_next_2d, frame_from_normal, frame_to_world}
 #import gi::math::INV_PI
-#import gi::mobile::lite::{lite_encode, lite_diffuse, lite_is_dynamic, lite_normal, lite_position}
+#import gi::mobile::lite::{lite_encode, lite_diffuse, lite_is_dynamic, lite_normal}
 #import gi::mobile::volume::volume_irradiance
 #import gi::cache::data::{cache, cache_level_of_point}
 #import gi::cache::trace::{cache_trace, cache_hit_radiance, cache_irradiance}
@@ -172,19 +172,6 @@ fn lite_pack(@builtin(global_invocation_id) id: vec3<u32>) {
 // place
 // ---------------------------------------------------------------------------------------------
 
-// Pixel coordinates of world point `p` seen by `camera`; z is 0 behind the camera.
-fn project(camera: Camera, p: vec3<f32>) -> vec3<f32> {
-    let d = p - camera.position;
-    let z = dot(d, camera.forward);
-    if z <= 0.0 {
-        return vec3(0.0);
-    }
-    let fx = dot(d, camera.right) / (z * camera.tan_half_fov * camera.aspect);
-    let fy = dot(d, camera.up) / (z * camera.tan_half_fov);
-    let uv = vec2(0.5 * (fx + 1.0), 0.5 * (1.0 - fy));
-    return vec3(uv * vec2<f32>(u.size_px), 1.0);
-}
-
 // The tile of 2 x 2 group `group` that gets a freshly traced probe this frame: each tile of the
 // group in turn, the turn offset by a hash of the group so neighbouring groups differ.
 fn fresh_tile(group: vec2<u32>) -> vec2<u32> {
@@ -206,7 +193,7 @@ fn reproject(@builtin(global_invocation_id) id: vec3<u32>) {
     if probe.depth <= 0.0 || (probe.flags & PROBE_DYNAMIC) != 0u {
         return;
     }
-    let screen = project(u.camera, probe.position);
+    let screen = camera_project(u.camera, probe.position - u.camera.position, u.size_px);
     if screen.z == 0.0 || any(screen.xy < vec2(0.0)) || any(screen.xy >= vec2<f32>(u.size_px)) {
         return;
     }
