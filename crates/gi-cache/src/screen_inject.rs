@@ -68,13 +68,7 @@ pub struct ScreenInputs<'a> {
 impl<'a> ScreenInputs<'a> {
     /// The buffers of `gbuffer`, rendered from `camera`.
     pub fn from_gbuffer(gbuffer: &'a GBuffer, camera: &CameraView) -> Self {
-        let find = |name: &str| {
-            gbuffer
-                .outputs()
-                .find(|(label, _)| *label == name)
-                .map(|(_, buffer)| buffer)
-                .expect("the G-buffer has every output")
-        };
+        let find = |name| gbuffer.output(name);
         Self {
             depth: find("gbuffer.depth"),
             normal: find("gbuffer.normal"),

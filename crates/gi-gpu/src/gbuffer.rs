@@ -302,6 +302,17 @@ impl GBuffer {
         }
     }
 
+    /// The output buffer labeled `label` (`"gbuffer.depth"`, ...; see the module docs).
+    ///
+    /// # Panics
+    /// If no output has that label.
+    pub fn output(&self, label: &str) -> &wgpu::Buffer {
+        self.outputs()
+            .find(|(name, _)| *name == label)
+            .map(|(_, buffer)| buffer)
+            .unwrap_or_else(|| panic!("the G-buffer has no output {label:?}"))
+    }
+
     /// The output buffers with their labels, in binding order (for passes that read them).
     pub fn outputs(&self) -> impl Iterator<Item = (&'static str, &wgpu::Buffer)> {
         OUTPUTS.iter().map(|(label, _)| *label).zip(&self.outputs)

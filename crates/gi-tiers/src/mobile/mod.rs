@@ -17,7 +17,7 @@ use gi_cache::{CacheLighting, RadianceCache, ScreenInputs, binning::dynamic_node
 use gi_gpu::gbuffer::{GBuffer, GBufferInputs};
 use gi_gpu::{GpuCamera, GpuContext, GpuScene, GpuTimer, PassTimings, ShaderLibrary, wgpu};
 use gi_image::Image;
-use gi_scene::{CameraView, SceneFrame};
+use gi_scene::SceneFrame;
 use glam::Vec3;
 
 use crate::path::{Accumulation, PathPipelines, PathUniforms};
@@ -114,12 +114,10 @@ struct Prepared {
     screen: ScreenBuffers,
     dynamic_triangles: wgpu::Buffer,
     /// The previous frame without its geometry ([`frame_history`]): the G-buffer's motion
-    /// vectors read its camera and node transforms, `prepare` its lights.
+    /// vectors read its camera and node transforms, `prepare` its time, camera and lights.
     previous: SceneFrame,
-    time_s: f32,
-    camera: CameraView,
+    /// Triangles of the scene the upload was made for; another count means another scene.
     triangle_count: usize,
-    node_count: usize,
 }
 
 impl MobileTier {
@@ -292,7 +290,8 @@ impl MobileTier {
         };
         let size = (self.settings.width, self.settings.height);
         let same_scene = self.prepared.as_ref().is_some_and(|p| {
-            p.triangle_count == frame.triangles.len() && p.node_count == frame.world_from_node.len()
+            p.triangle_count == frame.triangles.len()
+                && p.previous.world_from_node.len() == frame.world_from_node.len()
         });
         if !same_scene {
             if let Some(old) = self.prepared.take() {
@@ -309,19 +308,16 @@ impl MobileTier {
                 direct,
                 screen,
                 dynamic_triangles,
-                time_s: frame.time_s,
-                camera: frame.camera,
                 triangle_count: frame.triangles.len(),
-                node_count: frame.world_from_node.len(),
             });
             return Ok(());
         }
         let prepared = self.prepared.as_mut().expect("checked above");
         // An animated frame, or lights edited between frames (a tool moving a light): the
         // GPU scene's transforms and lights follow.
-        let moved = (prepared.time_s != frame.time_s && input.scene.is_animated())
+        let moved = (prepared.previous.time_s != frame.time_s && input.scene.is_animated())
             || prepared.previous.lights != frame.lights;
-        if prepared.camera == frame.camera && !moved {
+        if prepared.previous.camera == frame.camera && !moved {
             return Ok(());
         }
         let mut replaced = false;
@@ -344,9 +340,6 @@ impl MobileTier {
         } else {
             prepared.direct.restart(uniforms);
         }
-        let prepared = self.prepared.as_mut().expect("checked above");
-        prepared.time_s = frame.time_s;
-        prepared.camera = frame.camera;
         Ok(())
     }
 
@@ -355,13 +348,7 @@ impl MobileTier {
         direct: &Accumulation,
         dynamic_triangles: &wgpu::Buffer,
     ) -> ScreenBuffers {
-        let find = |name: &str| {
-            self.gbuffer
-                .outputs()
-                .find(|(label, _)| *label == name)
-                .map(|(_, buffer)| buffer)
-                .expect("the G-buffer has every output")
-        };
+        let find = |name| self.gbuffer.output(name);
         let layout = ScreenLayout::new(
             self.settings.width,
             self.settings.height,
