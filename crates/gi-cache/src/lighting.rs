@@ -388,22 +388,11 @@ impl CacheLighting {
         let bvh_layout = GpuBvh::bind_group_layout(ctx);
         let pipeline = |name: &str, file: &str, groups: &[Option<&wgpu::BindGroupLayout>]| {
             let module = shaders.create_module(ctx, file, &[])?;
-            let layout = ctx
-                .device
-                .create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
-                    label: Some(&format!("cache/{name}.layout")),
-                    bind_group_layouts: groups,
-                    immediate_size: 0,
-                });
-            Ok::<_, GpuError>(ctx.device.create_compute_pipeline(
-                &wgpu::ComputePipelineDescriptor {
-                    label: Some(&format!("cache/{name}")),
-                    layout: Some(&layout),
-                    module: &module,
-                    entry_point: Some(name),
-                    compilation_options: Default::default(),
-                    cache: None,
-                },
+            Ok::<_, GpuError>(ctx.create_compute_pipeline_with_layouts(
+                &format!("cache/{name}"),
+                &module,
+                name,
+                groups,
             ))
         };
         let inject = pipeline(

@@ -195,22 +195,12 @@ impl CacheTracer {
                 vec![None; CACHE_BIND_GROUP as usize + 1];
             groups[0] = Some(batch_layout);
             groups[CACHE_BIND_GROUP as usize] = Some(&cache_layout);
-            let pipeline_layout =
-                ctx.device
-                    .create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
-                        label: Some(&format!("cache/{entry_point}.layout")),
-                        bind_group_layouts: &groups,
-                        immediate_size: 0,
-                    });
-            ctx.device
-                .create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
-                    label: Some(&format!("cache/{entry_point}")),
-                    layout: Some(&pipeline_layout),
-                    module: &module,
-                    entry_point: Some(entry_point),
-                    compilation_options: Default::default(),
-                    cache: None,
-                })
+            ctx.create_compute_pipeline_with_layouts(
+                &format!("cache/{entry_point}"),
+                &module,
+                entry_point,
+                &groups,
+            )
         };
         Ok(Self {
             trace_rays: pipeline("trace_rays", &trace_rays_layout),

@@ -193,30 +193,13 @@ impl ScreenInjector {
                 label: Some("cache/screen_inject.frame_layout"),
                 entries: &entries,
             });
-        let empty = ctx
-            .device
-            .create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
-                label: Some("cache/screen_inject.unused_layout"),
-                entries: &[],
-            });
         let cache_layout = CacheBuffers::bind_group_layout(ctx);
-        let layout = ctx
-            .device
-            .create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
-                label: Some("cache/screen_inject.layout"),
-                bind_group_layouts: &[Some(&frame_layout), Some(&empty), Some(&cache_layout)],
-                immediate_size: 0,
-            });
-        let screen_inject = ctx
-            .device
-            .create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
-                label: Some("cache/screen_inject"),
-                layout: Some(&layout),
-                module: &module,
-                entry_point: Some("screen_inject"),
-                compilation_options: Default::default(),
-                cache: None,
-            });
+        let screen_inject = ctx.create_compute_pipeline_with_layouts(
+            "cache/screen_inject",
+            &module,
+            "screen_inject",
+            &[Some(&frame_layout), None, Some(&cache_layout)],
+        );
         Ok(Self {
             screen_inject,
             frame_layout,

@@ -84,30 +84,13 @@ impl Voxelizer {
                 label: Some("cache/voxelize.frame_layout"),
                 entries: &entries,
             });
-        let empty = ctx
-            .device
-            .create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
-                label: Some("cache/voxelize.unused_layout"),
-                entries: &[],
-            });
         let cache_layout = CacheBuffers::bind_group_layout(ctx);
-        let layout = ctx
-            .device
-            .create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
-                label: Some("cache/voxelize.layout"),
-                bind_group_layouts: &[Some(&frame_layout), Some(&empty), Some(&cache_layout)],
-                immediate_size: 0,
-            });
-        let voxelize = ctx
-            .device
-            .create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
-                label: Some("cache/voxelize"),
-                layout: Some(&layout),
-                module: &module,
-                entry_point: Some("voxelize"),
-                compilation_options: Default::default(),
-                cache: None,
-            });
+        let voxelize = ctx.create_compute_pipeline_with_layouts(
+            "cache/voxelize",
+            &module,
+            "voxelize",
+            &[Some(&frame_layout), None, Some(&cache_layout)],
+        );
         Ok(Self {
             voxelize,
             frame_layout,

@@ -261,6 +261,35 @@ impl GpuContext {
             })
     }
 
+    /// Creates a compute pipeline for `entry_point` of `module` with an explicit layout: bind
+    /// group `i` has layout `groups[i]` (`None` for a group the pipeline does not use). Explicit
+    /// layouts let one bind group serve several pipelines, and keep bindings an entry point
+    /// leaves unused, which an automatic layout would drop.
+    pub fn create_compute_pipeline_with_layouts(
+        &self,
+        label: &str,
+        module: &wgpu::ShaderModule,
+        entry_point: &str,
+        groups: &[Option<&wgpu::BindGroupLayout>],
+    ) -> wgpu::ComputePipeline {
+        let layout = self
+            .device
+            .create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
+                label: Some(&format!("{label}.layout")),
+                bind_group_layouts: groups,
+                immediate_size: 0,
+            });
+        self.device
+            .create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
+                label: Some(label),
+                layout: Some(&layout),
+                module,
+                entry_point: Some(entry_point),
+                compilation_options: Default::default(),
+                cache: None,
+            })
+    }
+
     /// Submits `encoder` and blocks until the GPU has finished all submitted work.
     pub fn submit_and_wait(&self, encoder: wgpu::CommandEncoder) {
         self.queue.submit([encoder.finish()]);

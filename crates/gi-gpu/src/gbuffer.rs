@@ -139,23 +139,12 @@ impl GBuffer {
                 entries: &entries,
             });
         let bvh_layout = GpuBvh::bind_group_layout(ctx);
-        let layout = ctx
-            .device
-            .create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
-                label: Some("gbuffer/primary.layout"),
-                bind_group_layouts: &[Some(&frame_layout), Some(&bvh_layout)],
-                immediate_size: 0,
-            });
-        let primary = ctx
-            .device
-            .create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
-                label: Some("gbuffer/primary"),
-                layout: Some(&layout),
-                module: &module,
-                entry_point: Some("primary"),
-                compilation_options: Default::default(),
-                cache: None,
-            });
+        let primary = ctx.create_compute_pipeline_with_layouts(
+            "gbuffer/primary",
+            &module,
+            "primary",
+            &[Some(&frame_layout), Some(&bvh_layout)],
+        );
         let pixels = u64::from(width) * u64::from(height);
         let outputs = OUTPUTS.map(|(label, bytes)| {
             ctx.create_buffer(

@@ -72,23 +72,13 @@ impl BvhTracer {
                     ],
                 });
         let bvh_layout = GpuBvh::bind_group_layout(ctx);
-        let pipeline_layout = ctx
-            .device
-            .create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
-                label: Some("bvh.trace_layout"),
-                bind_group_layouts: &[Some(&ray_batch_layout), Some(&bvh_layout)],
-                immediate_size: 0,
-            });
         let pipeline = |entry_point: &str| {
-            ctx.device
-                .create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
-                    label: Some(&format!("bvh/{entry_point}")),
-                    layout: Some(&pipeline_layout),
-                    module: &module,
-                    entry_point: Some(entry_point),
-                    compilation_options: Default::default(),
-                    cache: None,
-                })
+            ctx.create_compute_pipeline_with_layouts(
+                &format!("bvh/{entry_point}"),
+                &module,
+                entry_point,
+                &[Some(&ray_batch_layout), Some(&bvh_layout)],
+            )
         };
         Ok(Self {
             closest: pipeline("closest"),

@@ -118,23 +118,13 @@ impl ScreenPipelines {
                 entries: &entries,
             });
         let cache_layout = CacheBuffers::bind_group_layout(ctx);
-        let layout = ctx
-            .device
-            .create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
-                label: Some("mobile/screen.layout"),
-                bind_group_layouts: &[Some(&layout0), Some(volume_layout), Some(&cache_layout)],
-                immediate_size: 0,
-            });
         let pipeline = |entry: &str| {
-            ctx.device
-                .create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
-                    label: Some(&format!("mobile/{entry}")),
-                    layout: Some(&layout),
-                    module: &module,
-                    entry_point: Some(entry),
-                    compilation_options: Default::default(),
-                    cache: None,
-                })
+            ctx.create_compute_pipeline_with_layouts(
+                &format!("mobile/{entry}"),
+                &module,
+                entry,
+                &[Some(&layout0), Some(volume_layout), Some(&cache_layout)],
+            )
         };
         Ok(Self {
             lite: pipeline("lite_pack"),

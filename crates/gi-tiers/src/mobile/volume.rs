@@ -302,22 +302,12 @@ impl ProbeVolume {
         let module = shaders.create_module(ctx, "mobile/volume_update.wgsl", &[])?;
         let cache_layout = CacheBuffers::bind_group_layout(ctx);
         let pipeline = |entry_point: &str, group0: &wgpu::BindGroupLayout| {
-            let pipeline_layout =
-                ctx.device
-                    .create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
-                        label: Some(&format!("mobile.volume.{entry_point}.layout")),
-                        bind_group_layouts: &[Some(group0), Some(&layout), Some(&cache_layout)],
-                        immediate_size: 0,
-                    });
-            ctx.device
-                .create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
-                    label: Some(&format!("mobile.volume.{entry_point}")),
-                    layout: Some(&pipeline_layout),
-                    module: &module,
-                    entry_point: Some(entry_point),
-                    compilation_options: Default::default(),
-                    cache: None,
-                })
+            ctx.create_compute_pipeline_with_layouts(
+                &format!("mobile.volume.{entry_point}"),
+                &module,
+                entry_point,
+                &[Some(group0), Some(&layout), Some(&cache_layout)],
+            )
         };
         Ok(Self {
             classify_probes: pipeline("classify_probes", &classify_layout),

@@ -125,23 +125,12 @@ impl PathPipelines {
                 entries: &entries,
             });
         let bvh_layout = gi_gpu::bvh::GpuBvh::bind_group_layout(ctx);
-        let layout = ctx
-            .device
-            .create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
-                label: Some(&format!("{tier}/trace.layout")),
-                bind_group_layouts: &[Some(&frame_layout), Some(&bvh_layout)],
-                immediate_size: 0,
-            });
-        let trace = ctx
-            .device
-            .create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
-                label: Some(&format!("{tier}/trace")),
-                layout: Some(&layout),
-                module: &trace,
-                entry_point: Some("trace"),
-                compilation_options: Default::default(),
-                cache: None,
-            });
+        let trace = ctx.create_compute_pipeline_with_layouts(
+            &format!("{tier}/trace"),
+            &trace,
+            "trace",
+            &[Some(&frame_layout), Some(&bvh_layout)],
+        );
         Ok(Self {
             trace,
             resolve: ctx.create_compute_pipeline(&format!("{tier}/resolve"), &resolve, "resolve"),
