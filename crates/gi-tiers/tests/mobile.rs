@@ -11,6 +11,8 @@ use gi_tiers::mobile::{
 };
 use gi_tiers::{FrameInput, MobileTier, Tier, TierError, TierSettings};
 use glam::Vec3;
+use rand::Rng as _;
+use rand_pcg::Pcg32;
 
 fn settings(width: u32, height: u32) -> TierSettings {
     TierSettings {
@@ -129,16 +131,16 @@ fn main(@builtin(global_invocation_id) id: vec3<u32>) {
 }
 "#;
 
-/// A small deterministic generator for test inputs.
-struct Rng(u64);
+/// Seeded random numbers for test inputs.
+struct Rng(Pcg32);
 
 impl Rng {
+    fn new(seed: u64) -> Self {
+        Self(Pcg32::new(seed, 0x0a02_bdbf_7bb3_c0a7))
+    }
+
     fn next_f32(&mut self) -> f32 {
-        self.0 = self
-            .0
-            .wrapping_mul(6364136223846793005)
-            .wrapping_add(1442695040888963407);
-        ((self.0 >> 40) as f32) / (1u64 << 24) as f32
+        (self.0.next_u32() >> 8) as f32 / (1u32 << 24) as f32
     }
 
     fn unit(&mut self) -> Vec3 {
@@ -160,7 +162,7 @@ fn lite_gbuffer_keeps_albedo_mask_and_an_unbiased_normal() {
     };
     let view = CameraView::look_at(Vec3::new(0.3, 1.2, 4.0), Vec3::ZERO, 1.0);
     let camera = gi_gpu::GpuCamera::new(&view, (64, 48));
-    let mut rng = Rng(11);
+    let mut rng = Rng::new(11);
     // Cases: a ray through a random point of the image, a normal facing back along it at least
     // 0.3 away from the horizon (|the hemisphere map's coordinates| <= 0.83, more than a cell
     // from the square's border, where clamping would bias the dither).

@@ -14,6 +14,8 @@ use gi_gpu::{GpuContext, GpuTimer, PassTimings, ShaderLibrary};
 use gi_scene::{Scene, Sky};
 use gi_tiers::mobile::{ProbeVolume, VolumeConfig};
 use glam::{Vec3, Vec4};
+use rand::Rng as _;
+use rand_pcg::Pcg32;
 
 // ---------------------------------------------------------------------------------------------
 // Scenes, a hand-lit cache and the volume's frames.
@@ -177,16 +179,16 @@ fn run(
     PassTimings::median(&timings)
 }
 
-/// A small seeded generator (SplitMix64) for the reference rays.
-struct Rng(u64);
+/// Seeded random numbers for the reference rays.
+struct Rng(Pcg32);
 
 impl Rng {
+    fn new(seed: u64) -> Self {
+        Self(Pcg32::new(seed, 0x0a02_bdbf_7bb3_c0a7))
+    }
+
     fn next_f32(&mut self) -> f32 {
-        self.0 = self.0.wrapping_add(0x9e37_79b9_7f4a_7c15);
-        let mut z = self.0;
-        z = (z ^ (z >> 30)).wrapping_mul(0xbf58_476d_1ce4_e5b9);
-        z = (z ^ (z >> 27)).wrapping_mul(0x94d0_49bb_1331_11eb);
-        ((z ^ (z >> 31)) >> 40) as f32 / (1u64 << 24) as f32
+        (self.0.next_u32() >> 8) as f32 / (1u32 << 24) as f32
     }
 
     /// A cosine-distributed direction about unit `axis`.
@@ -264,7 +266,7 @@ fn open_ground_faces_match_the_cache_and_the_sky() {
         checked.len()
     );
     let rays_per_face = 2048;
-    let mut rng = Rng(7);
+    let mut rng = Rng::new(7);
     let mut worst = 0.0f32;
     for p in &checked {
         for (face, &axis) in FACES.iter().enumerate() {
