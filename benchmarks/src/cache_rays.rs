@@ -19,6 +19,8 @@ pub struct KindResult {
     pub rays: usize,
     pub bvh_ms: f64,
     pub cache_ms: f64,
+    /// The same rays traced `CACHE_LANES` invocations per ray (`trace_rays_shared`).
+    pub shared_ms: f64,
     /// Share of the rays the cache hits.
     pub cache_hit_share: f64,
 }
@@ -75,6 +77,7 @@ pub fn run(scene_name: &str, count: usize, repeats: usize) -> anyhow::Result<Cac
             rays: rays.len(),
             bvh_ms,
             cache_ms: timing.trace_ms,
+            shared_ms: timing.shared_ms,
             cache_hit_share,
         });
     }
@@ -158,7 +161,7 @@ impl CacheRaysReport {
             self.cache_bytes as f64 / (1024.0 * 1024.0)
         );
         out += &format!(
-            "{:<11} {:>8} {:>10} {:>12} {:>10} {:>12} {:>7} {:>9}\n",
+            "{:<11} {:>8} {:>10} {:>12} {:>10} {:>12} {:>7} {:>11} {:>9}\n",
             "kind",
             "rays",
             "bvh ms",
@@ -166,6 +169,7 @@ impl CacheRaysReport {
             "hdda ms",
             "hdda Mray/s",
             "speedup",
+            "lanes ms",
             "cache hit"
         );
         for k in &self.kinds {
@@ -174,7 +178,7 @@ impl CacheRaysReport {
                 mrays_per_s(k.rays, k.cache_ms),
             );
             out += &format!(
-                "{:<11} {:>8} {:>10.3} {:>12.3} {:>10.3} {:>12.3} {:>6.2}x {:>8.1}%\n",
+                "{:<11} {:>8} {:>10.3} {:>12.3} {:>10.3} {:>12.3} {:>6.2}x {:>11.3} {:>8.1}%\n",
                 k.kind,
                 k.rays,
                 k.bvh_ms,
@@ -182,6 +186,7 @@ impl CacheRaysReport {
                 k.cache_ms,
                 hdda,
                 if bvh > 0.0 { hdda / bvh } else { 0.0 },
+                k.shared_ms,
                 100.0 * k.cache_hit_share
             );
         }
@@ -204,6 +209,7 @@ impl CacheRaysReport {
                 "bvh_mrays_per_s": mrays_per_s(k.rays, k.bvh_ms),
                 "hdda_ms": k.cache_ms,
                 "hdda_mrays_per_s": mrays_per_s(k.rays, k.cache_ms),
+                "hdda_lanes_ms": k.shared_ms,
                 "cache_hit_share": k.cache_hit_share,
             })).collect::<Vec<_>>(),
         })

@@ -139,7 +139,7 @@ pub fn run(options: &MobileOptions) -> anyhow::Result<MobileReport> {
             renderer.warm_up(options.warmup, None)?;
             let mut frames = Vec::new();
             for _ in 0..options.frames {
-                frames.push(PassTimings(renderer.render_frame(None)?.passes));
+                frames.push(PassTimings(renderer.advance_frame(None)?));
             }
             let tier = mobile(&renderer);
             runs.push(MobileRun {

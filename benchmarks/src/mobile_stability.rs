@@ -163,7 +163,7 @@ fn flicker(
     let mut total = Change::default();
     for _ in 0..options.frames {
         if advance {
-            renderer.render_frame(None)?;
+            renderer.advance_frame(None)?;
         } else {
             renderer.warm_up(1, None)?;
         }

@@ -1,11 +1,13 @@
 // Batch queries of the brick radiance cache and its debug views, for tests, benchmarks and
 // the `gi debug-cache` command: `trace_rays` (one ray per invocation through `cache_trace`),
+// `trace_rays_shared` (the same rays, CACHE_LANES invocations per ray through
+// `cache_trace_shared`),
 // `irradiance_at` (one surface point per invocation through `cache_irradiance`) and
 // `debug_view` (one pixel per invocation through a pinhole camera).
 //
 // Bind group 0 (`gi_cache::CacheTracer`), its own bindings per entry point so one module
 // holds all three (each pipeline's layout lists only its own):
-//   trace_rays:    binding 0 `rays` (read), binding 1 `hits` (written)
+//   trace_rays, trace_rays_shared: binding 0 `rays` (read), binding 1 `hits` (written)
 //   irradiance_at: binding 2 `points` (read), binding 3 `irradiance` (written)
 //   debug_view:    binding 4 `view` (uniform), binding 5 `pixels` (written, linear rgb + 1)
 // Bind group 2 is the cache (`gi::cache::data`).
@@ -17,6 +19,7 @@
 #import gi::cache::trace::{
     CacheHit, cache_trace, cache_hit_radiance, cache_hit_normal, cache_irradiance
 }
+#import gi::cache::trace_shared::{cache_trace_shared, CACHE_LANES}
 
 // Mirror of `gi_gpu::bvh::GpuRay`: `origin + t * dir`, `t` in `[t_min, t_max]`, `dir` unit.
 struct QueryRay {
@@ -95,20 +98,10 @@ fn item_index(id: vec3<u32>, groups: vec3<u32>) -> u32 {
     return id.x + id.y * groups.x * WORKGROUP_SIZE;
 }
 
-@compute @workgroup_size(WORKGROUP_SIZE)
-fn trace_rays(
-    @builtin(global_invocation_id) id: vec3<u32>,
-    @builtin(num_workgroups) groups: vec3<u32>,
-) {
-    let i = item_index(id, groups);
-    if i >= arrayLength(&rays) {
-        return;
-    }
-    let ray = rays[i];
-    let hit = cache_trace(ray.origin + ray.dir * ray.t_min, ray.dir, ray.t_max - ray.t_min);
-    hits[i] = QueryHit(
+fn query_hit(hit: CacheHit, t_min: f32) -> QueryHit {
+    return QueryHit(
         cache_hit_normal(hit),
-        hit.t + ray.t_min,
+        hit.t + t_min,
         cache_hit_radiance(hit, true),
         hit.level,
         hit.face,
@@ -120,6 +113,38 @@ fn trace_rays(
         0u,
         0u,
     );
+}
+
+@compute @workgroup_size(WORKGROUP_SIZE)
+fn trace_rays(
+    @builtin(global_invocation_id) id: vec3<u32>,
+    @builtin(num_workgroups) groups: vec3<u32>,
+) {
+    let i = item_index(id, groups);
+    if i >= arrayLength(&rays) {
+        return;
+    }
+    let ray = rays[i];
+    hits[i] = query_hit(cache_trace(ray.origin + ray.dir * ray.t_min, ray.dir, ray.t_max - ray.t_min), ray.t_min);
+}
+
+// `trace_rays` with CACHE_LANES invocations per ray (`gi::cache::trace_shared`).
+@compute @workgroup_size(WORKGROUP_SIZE)
+fn trace_rays_shared(
+    @builtin(global_invocation_id) id: vec3<u32>,
+    @builtin(num_workgroups) groups: vec3<u32>,
+    @builtin(local_invocation_index) local_index: u32,
+) {
+    let i = item_index(id, groups) / CACHE_LANES;
+    let traced = i < arrayLength(&rays);
+    var ray = QueryRay(vec3(0.0), 0.0, vec3(0.0, 0.0, 1.0), 0.0);
+    if traced {
+        ray = rays[i];
+    }
+    let shared_hit = cache_trace_shared(ray.origin + ray.dir * ray.t_min, ray.dir, ray.t_max - ray.t_min, traced, local_index);
+    if traced && shared_hit.owner {
+        hits[i] = query_hit(shared_hit.hit, ray.t_min);
+    }
 }
 
 @compute @workgroup_size(WORKGROUP_SIZE)

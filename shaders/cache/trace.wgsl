@@ -85,6 +85,12 @@ fn cache_argmax3(v: vec3<f32>) -> u32 {
 // that the neighbouring voxels of the same surface are not hit either; a ray leaving at a
 // grazing angle may still hit them.
 fn cache_trace(origin: vec3<f32>, dir: vec3<f32>, t_max: f32) -> CacheHit {
+    return cache_trace_from(origin, dir, t_max, true);
+}
+
+// `cache_trace`, skipping the voxel that holds `origin` only when `skip_origin` (a ray's later
+// segment starts in open space and must not skip anything).
+fn cache_trace_from(origin: vec3<f32>, dir: vec3<f32>, t_max: f32, skip_origin_voxel: bool) -> CacheHit {
     if cache.level_count == 0u {
         return cache_miss(t_max);
     }
@@ -96,7 +102,7 @@ fn cache_trace(origin: vec3<f32>, dir: vec3<f32>, t_max: f32) -> CacheHit {
     var t = 0.0;
     var face = 0u;
     var vox: vec3<i32>;
-    var skip_origin = true;
+    var skip_origin = skip_origin_voxel;
     if level < cache.level_count {
         vox = cache_voxel_of_point(origin, level);
     } else {
@@ -194,6 +200,60 @@ fn cache_trace(origin: vec3<f32>, dir: vec3<f32>, t_max: f32) -> CacheHit {
         vox = next;
     }
     return cache_miss(t_max);
+}
+
+// Distance along `origin + t * dir` at which the ray leaves `level`'s window (0 when it is never
+// inside it ahead of the origin).
+fn cache_window_exit(origin: vec3<f32>, dir: vec3<f32>, level: u32) -> f32 {
+    let s = cache.levels[level].voxel_size_m;
+    let lo = vec3<f32>(cache.levels[level].origin_brick * 4) * s;
+    let hi = lo + vec3<f32>(cache.level_bricks * 4u) * s;
+    let moving = dir != vec3(0.0);
+    let inv_dir = 1.0 / select(vec3(1.0), dir, moving);
+    let t_far = select(vec3(CACHE_TRACE_FAR), max((lo - origin) * inv_dir, (hi - origin) * inv_dir), moving);
+    return max(min(min(t_far.x, t_far.y), t_far.z), 0.0);
+}
+
+// One lane's share of a ray that `lanes` invocations trace together, each through its own part
+// of the clipmap: with `per = ceil(level_count / lanes)`, lane k traces the part of the ray
+// between leaving the windows of levels below `k * per` and leaving the window of level
+// `(k + 1) * per - 1` (the last lane: to `t_max`). Lanes below the one holding the origin's
+// level trace nothing, and only that lane skips the origin's voxel. A ray's lanes together
+// visit the cells `cache_trace` visits, so the hit of the lowest lane that has one is
+// `cache_trace`'s hit (its `t` along the whole ray); `cache_trace_shared` combines them.
+//
+// Why: a ray crossing the clipmap steps through every level's shell in turn, one dependent
+// memory load after another, and a pass with few rays (a probe per screen tile, a ray per
+// volume probe) cannot hide that latency with other threads; traced in lanes, the ray costs
+// its longest shell instead of all of them.
+fn cache_trace_lane(origin: vec3<f32>, dir: vec3<f32>, t_max: f32, lane: u32, lanes: u32) -> CacheHit {
+    let count = cache.level_count;
+    if count == 0u {
+        return cache_miss(t_max);
+    }
+    let per = (count + lanes - 1u) / lanes;
+    let first = lane * per;
+    let origin_lane = min(cache_level_of_point(origin), count - 1u) / per;
+    if first >= count || lane < origin_lane {
+        return cache_miss(t_max);
+    }
+    var t0 = 0.0;
+    if lane > origin_lane {
+        t0 = cache_window_exit(origin, dir, first - 1u);
+    }
+    var t1 = t_max;
+    if first + per < count {
+        t1 = min(t_max, cache_window_exit(origin, dir, first + per - 1u));
+    }
+    if t0 >= t1 {
+        return cache_miss(t_max);
+    }
+    var hit = cache_trace_from(origin + dir * t0, dir, t1 - t0, lane == origin_lane);
+    if !hit.hit {
+        return cache_miss(t_max);
+    }
+    hit.t += t0;
+    return hit;
 }
 
 // Radiance leaving the hit surfel's side towards the ray (its Lambertian radiance, plus the

@@ -45,7 +45,8 @@
 #import gi::mobile::lite::{lite_encode, lite_diffuse, lite_is_dynamic, lite_normal}
 #import gi::mobile::volume::volume_irradiance
 #import gi::cache::data::{cache, cache_level_of_point}
-#import gi::cache::trace::{cache_trace, cache_hit_radiance, cache_irradiance}
+#import gi::cache::trace::{cache_hit_radiance, cache_irradiance}
+#import gi::cache::trace_shared::{cache_trace_shared, CACHE_LANES}
 
 const PROBE_TEXELS: u32 = 16u;
 const SLOTS_PER_TILE: u32 = 2u;
@@ -280,24 +281,24 @@ fn hemisphere_point(s: vec2<f32>) -> vec3<f32> {
     return vec3(p, 1.0 - abs(p.x) - abs(p.y));
 }
 
+// One probe texel's ray per CACHE_LANES invocations (`gi::cache::trace_shared`): the pass
+// traces a few thousand rays, too few to hide the cache's memory latency one ray per thread.
 @compute @workgroup_size(64)
-fn trace(@builtin(global_invocation_id) id: vec3<u32>) {
-    let slot = id.x / PROBE_TEXELS;
-    let texel = id.x % PROBE_TEXELS;
-    if slot >= u.tiles.x * u.tiles.y * SLOTS_PER_TILE {
-        return;
+fn trace(
+    @builtin(global_invocation_id) id: vec3<u32>,
+    @builtin(num_workgroups) groups: vec3<u32>,
+    @builtin(local_invocation_index) local_index: u32,
+) {
+    // Workgroups come in rows of at most 65535.
+    let out = (id.x + id.y * groups.x * 64u) / CACHE_LANES;
+    let slot = out / PROBE_TEXELS;
+    let texel = out % PROBE_TEXELS;
+    let valid = slot < u.tiles.x * u.tiles.y * SLOTS_PER_TILE;
+    var probe = ScreenProbe(vec3(0.0), 0.0, vec3(0.0, 0.0, 1.0), 0u);
+    if valid {
+        probe = probes[slot];
     }
-    let probe = probes[slot];
-    let out = slot * PROBE_TEXELS + texel;
-    if probe.depth <= 0.0 {
-        probe_radiance[out] = vec2(0u);
-        return;
-    }
-    if (probe.flags & PROBE_REPROJECTED) != 0u {
-        let source = probe.flags >> PROBE_SOURCE_SHIFT;
-        probe_radiance[out] = probe_radiance_prev[source * PROBE_TEXELS + texel];
-        return;
-    }
+    let traced = valid && probe.depth > 0.0 && (probe.flags & PROBE_REPROJECTED) == 0u;
     var sampler = sampler_new(u.seed ^ vec2(0x85ebca6bu, 0u), out, u.frame_index);
     let cell = vec2<f32>(vec2(texel % 4u, texel / 4u));
     let s = (cell + sampler_next_2d(&sampler)) * 0.5 - 1.0;
@@ -306,17 +307,26 @@ fn trace(@builtin(global_invocation_id) id: vec3<u32>) {
     let pdf = 0.5 * length_p * length_p * length_p;
     let frame = frame_from_normal(probe.normal);
     let dir = frame_to_world(frame, point / length_p);
-
     let level = min(cache_level_of_point(probe.position), cache.level_count - 1u);
     let offset = u.ray_offset_voxels * cache.levels[level].voxel_size_m;
-    let hit = cache_trace(probe.position + probe.normal * offset, dir, FAR);
-    var radiance: vec3<f32>;
-    if hit.hit {
-        radiance = cache_hit_radiance(hit, true);
-    } else {
-        radiance = sky_radiance(u.sky, dir);
+    let shared_hit = cache_trace_shared(probe.position + probe.normal * offset, dir, FAR, traced, local_index);
+    if !valid || !shared_hit.owner {
+        return;
     }
-    probe_radiance[out] = vec2(pack_rgb9e5(radiance / pdf), pack_unit_vector(dir));
+    if probe.depth <= 0.0 {
+        probe_radiance[out] = vec2(0u);
+    } else if (probe.flags & PROBE_REPROJECTED) != 0u {
+        let source = probe.flags >> PROBE_SOURCE_SHIFT;
+        probe_radiance[out] = probe_radiance_prev[source * PROBE_TEXELS + texel];
+    } else {
+        var radiance: vec3<f32>;
+        if shared_hit.hit.hit {
+            radiance = cache_hit_radiance(shared_hit.hit, true);
+        } else {
+            radiance = sky_radiance(u.sky, dir);
+        }
+        probe_radiance[out] = vec2(pack_rgb9e5(radiance / pdf), pack_unit_vector(dir));
+    }
 }
 
 // ---------------------------------------------------------------------------------------------

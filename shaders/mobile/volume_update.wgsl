@@ -11,9 +11,10 @@
 //     the cache level whose bricks are at least a spacing wide), flags relocation when static
 //     geometry took a probe's spot, and appends the active
 //     probes to `active_list`, counting workgroups into the indirect arguments;
-//   - `trace_probes`, indirect, one invocation per listed probe: relocates it when flagged, then
-//     traces `rays_per_probe` rays, each updating one random face of its ambient cube and the
-//     depth moments of the ray direction's bin.
+//   - `trace_probes`, indirect, CACHE_LANES invocations per listed probe: its first relocates
+//     it when flagged, then all trace `rays_per_probe` rays together (`gi::cache::trace_shared`),
+//     each updating one random face of its ambient cube and the depth moments of the ray
+//     direction's bin.
 // `irradiance_at` evaluates `volume_irradiance` for a batch of queries (tests and tools).
 //
 // Bind group 0 (this file's; bindings 1-7 are `gi::scene`'s, which `gi::lights` declares):
@@ -35,6 +36,7 @@
     cache_voxels, cache_voxel_index, CACHE_STATE_DYNAMIC
 }
 #import gi::cache::trace::{CacheHit, cache_trace, cache_hit_radiance}
+#import gi::cache::trace_shared::{cache_trace_shared, CACHE_LANES}
 #import gi::mobile::volume::{
     volume, volume_probes, volume_faces, volume_moments, ProbeState, volume_slot_coord,
     volume_probe_position, volume_major_face, volume_moment_count, volume_irradiance,
@@ -43,6 +45,8 @@
 }
 
 const WORKGROUP_SIZE: u32 = 64u;
+// Active probes per workgroup of `trace_probes` (CACHE_LANES invocations each).
+const PROBES_PER_GROUP: u32 = WORKGROUP_SIZE / CACHE_LANES;
 
 // How far a probe's rays go: to the end of the cache (a miss then sees the sky).
 const RAY_T_MAX: f32 = 1.0e30;
@@ -286,7 +290,7 @@ fn classify_probes(@builtin(global_invocation_id) id: vec3<u32>) {
     if listed {
         let index = atomicAdd(&active_count[0], 1u);
         active_list[index] = slot;
-        if index % WORKGROUP_SIZE == 0u {
+        if index % PROBES_PER_GROUP == 0u {
             atomicAdd(&dispatch_args[0], 1u);
         }
     }
@@ -308,76 +312,104 @@ fn volume_clamp_ages(slot: u32, state: ptr<function, ProbeState>, max_count: u32
     (*state).moment_counts = counts;
 }
 
+// Per probe of the workgroup (`trace_probes`): where its rays start (xyz), and in w 1 when it
+// traces this frame; then each ray's radiance (xyz) and hit distance (w).
+var<workgroup> probe_origin: array<vec4<f32>, PROBES_PER_GROUP>;
+var<workgroup> probe_ray: array<vec4<f32>, PROBES_PER_GROUP>;
+
+// One active probe per CACHE_LANES invocations: lane 0 relocates the probe and updates its
+// state; each ray is traced by all the probe's lanes (`gi::cache::trace_shared`), a pass of a
+// few thousand rays being too small to hide the cache's memory latency one ray per thread.
 @compute @workgroup_size(WORKGROUP_SIZE)
-fn trace_probes(@builtin(global_invocation_id) id: vec3<u32>) {
-    let index = id.x;
-    if index >= atomicLoad(&active_count[0]) {
-        return;
+fn trace_probes(@builtin(global_invocation_id) id: vec3<u32>, @builtin(local_invocation_index) local_index: u32) {
+    let index = id.x / CACHE_LANES;
+    let lane = local_index % CACHE_LANES;
+    let probe = local_index / CACHE_LANES;
+    let valid = index < atomicLoad(&active_count[0]);
+    var slot = 0u;
+    var state: ProbeState;
+    var s = 1.0;
+    if valid {
+        slot = active_list[index];
+        state = volume_probes[slot];
+        s = volume.levels[slot / volume.probes_per_level].spacing_m;
     }
-    let slot = active_list[index];
-    var state = volume_probes[slot];
-    let level = slot / volume.probes_per_level;
-    let s = volume.levels[level].spacing_m;
-    let grid = volume_probe_position(level, state.coord, vec3(0.0));
-
-    if (state.flags & PROBE_RELOCATE) != 0u {
-        let relocation = volume_relocate(grid, s);
-        if length(relocation.offset - state.offset) > RELOCATION_MOVED_SPACINGS * s {
-            volume_clamp_ages(slot, &state, RELOCATED_MAX_AGE);
+    if valid && lane == 0u {
+        let grid = volume_probe_position(slot / volume.probes_per_level, state.coord, vec3(0.0));
+        if (state.flags & PROBE_RELOCATE) != 0u {
+            let relocation = volume_relocate(grid, s);
+            if length(relocation.offset - state.offset) > RELOCATION_MOVED_SPACINGS * s {
+                volume_clamp_ages(slot, &state, RELOCATED_MAX_AGE);
+            }
+            state.offset = relocation.offset;
+            state.flags &= ~(PROBE_RELOCATE | PROBE_BURIED);
+            if relocation.buried {
+                state.flags |= PROBE_BURIED;
+            }
         }
-        state.offset = relocation.offset;
-        state.flags &= ~(PROBE_RELOCATE | PROBE_BURIED);
-        if relocation.buried {
-            state.flags |= PROBE_BURIED;
+        if (state.flags & PROBE_BURIED) != 0u {
+            volume_probes[slot] = state;
         }
+        probe_origin[probe] = vec4(grid + state.offset, select(0.0, 1.0, (state.flags & PROBE_BURIED) == 0u));
     }
-    if (state.flags & PROBE_BURIED) != 0u {
-        volume_probes[slot] = state;
-        return;
-    }
+    workgroupBarrier();
+    let origin = probe_origin[probe];
+    let traced = valid && origin.w > 0.0;
 
-    let origin = grid + state.offset;
     let far = VOLUME_FAR_SPACINGS * s;
     var sampler = sampler_new(vec2(update.seed, 0u), slot, update.frame_index);
     for (var ray = 0u; ray < update.rays_per_probe; ray++) {
-        // One random face of the ambient cube, one cosine-distributed ray about its axis.
+        // One random face of the ambient cube, one cosine-distributed ray about its axis (every
+        // lane draws the same).
         let face = min(u32(sampler_next_f32(&sampler) * 6.0), 5u);
         var axis = vec3(0.0);
         axis[face >> 1u] = select(1.0, -1.0, (face & 1u) != 0u);
         let dir = frame_to_world(frame_from_normal(axis), cosine_hemisphere(sampler_next_2d(&sampler)));
-        let hit = cache_trace(origin, dir, RAY_T_MAX);
-        var radiance: vec3<f32>;
-        var distance = far;
-        if hit.hit {
-            radiance = cache_hit_radiance(hit, true);
-            // `hit.t` is where the ray entered the hit voxel: the surface lies on average about
-            // half a voxel further.
-            distance = hit.t + 0.5 * cache.levels[hit.level].voxel_size_m;
-        } else {
-            radiance = sky_radiance(update.sky, dir);
+        let shared_hit = cache_trace_shared(origin.xyz, dir, RAY_T_MAX, traced, local_index);
+        if traced && shared_hit.owner {
+            let hit = shared_hit.hit;
+            if hit.hit {
+                // `hit.t` is where the ray entered the hit voxel: the surface lies on average
+                // about half a voxel further.
+                probe_ray[probe] = vec4(cache_hit_radiance(hit, true), hit.t + 0.5 * cache.levels[hit.level].voxel_size_m);
+            } else {
+                probe_ray[probe] = vec4(sky_radiance(update.sky, dir), far);
+            }
         }
-
-        // Running mean of pi * L with weight 1 / min(age, max_age): with the cosine pdf the
-        // Monte Carlo estimate of the face's irradiance is pi times the mean radiance.
-        let face_index = slot * VOLUME_FACES + face;
-        var value = volume_faces[face_index];
-        let age = value.w + 1.0;
-        let alpha = 1.0 / min(age, f32(volume.max_age));
-        value = vec4(mix(value.rgb, PI * radiance, alpha), min(age, 16777216.0));
-        volume_faces[face_index] = value;
-
-        // Depth moments of the bin of the ray's direction: the hit's depth along the bin's
-        // axis (`gi::mobile::volume::volume_visibility` explains why depth).
-        let bin = volume_major_face(dir);
-        let depth = min(distance * abs(dir[bin >> 1u]), far);
-        let count = min(volume_moment_count(state.moment_counts, bin) + 1u, VOLUME_MOMENT_MAX_COUNT);
-        let bin_index = slot * VOLUME_FACES + bin;
-        volume_moments[bin_index] = mix(volume_moments[bin_index], vec2(depth, depth * depth), 1.0 / f32(count));
-        let shift = bin * VOLUME_MOMENT_COUNT_BITS;
-        state.moment_counts = (state.moment_counts & ~(VOLUME_MOMENT_MAX_COUNT << shift)) | (count << shift);
+        workgroupBarrier();
+        if traced && lane == 0u {
+            volume_add_sample(slot, &state, face, dir, probe_ray[probe], far);
+        }
     }
-    state.age = min(state.age + update.rays_per_probe, 0x7fffffffu);
-    volume_probes[slot] = state;
+    if traced && lane == 0u {
+        state.age = min(state.age + update.rays_per_probe, 0x7fffffffu);
+        volume_probes[slot] = state;
+    }
+}
+
+// Adds one ray's sample to probe `slot`: `sample` is the radiance it brought back (xyz) and the
+// distance to its hit (w), `face` the ambient-cube face it was drawn for.
+fn volume_add_sample(slot: u32, state: ptr<function, ProbeState>, face: u32, dir: vec3<f32>, sample: vec4<f32>, far: f32) {
+    let radiance = sample.xyz;
+    let distance = sample.w;
+    // Running mean of pi * L with weight 1 / min(age, max_age): with the cosine pdf the
+    // Monte Carlo estimate of the face's irradiance is pi times the mean radiance.
+    let face_index = slot * VOLUME_FACES + face;
+    var value = volume_faces[face_index];
+    let age = value.w + 1.0;
+    let alpha = 1.0 / min(age, f32(volume.max_age));
+    value = vec4(mix(value.rgb, PI * radiance, alpha), min(age, 16777216.0));
+    volume_faces[face_index] = value;
+
+    // Depth moments of the bin of the ray's direction: the hit's depth along the bin's
+    // axis (`gi::mobile::volume::volume_visibility` explains why depth).
+    let bin = volume_major_face(dir);
+    let depth = min(distance * abs(dir[bin >> 1u]), far);
+    let count = min(volume_moment_count((*state).moment_counts, bin) + 1u, VOLUME_MOMENT_MAX_COUNT);
+    let bin_index = slot * VOLUME_FACES + bin;
+    volume_moments[bin_index] = mix(volume_moments[bin_index], vec2(depth, depth * depth), 1.0 / f32(count));
+    let shift = bin * VOLUME_MOMENT_COUNT_BITS;
+    (*state).moment_counts = ((*state).moment_counts & ~(VOLUME_MOMENT_MAX_COUNT << shift)) | (count << shift);
 }
 
 // ---------------------------------------------------------------------------------------------

@@ -48,6 +48,6 @@ pub use cpu_cache::CpuCache;
 pub use debug::{DebugView, UnknownDebugView, render_debug_view};
 pub use layout::{GpuCacheLevel, GpuCacheUniforms, VoxelSurface};
 pub use lighting::{CacheLighting, LightSchedule, LightingInputs, ScheduleCounts};
-pub use query::{CacheRayHit, CacheTraceTimings, CacheTracer};
+pub use query::{CACHE_LANES, CacheRayHit, CacheTraceTimings, CacheTracer};
 pub use screen_inject::{ScreenInjectCounts, ScreenInputs};
 pub use structure::CacheStructure;

@@ -27,6 +27,10 @@ const WORKGROUP_SIZE: u32 = 64;
 /// fold into rows.
 const MAX_GROUPS_PER_ROW: u32 = 65_535;
 
+/// Invocations per ray of `trace_rays_shared` (`CACHE_LANES` in
+/// `shaders/cache/trace_shared.wgsl`).
+pub const CACHE_LANES: u32 = 8;
+
 /// One ray's answer as `trace_rays` writes it (`QueryHit` in `shaders/cache/query.wgsl`, 64
 /// bytes).
 #[repr(C)]
@@ -124,8 +128,11 @@ impl From<GpuCacheRayHit> for CacheRayHit {
 /// Median GPU time of a ray batch.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct CacheTraceTimings {
-    /// Scope `cache/trace_rays`, milliseconds.
+    /// Scope `cache/trace_rays` (one invocation per ray), milliseconds.
     pub trace_ms: f64,
+    /// Scope `cache/trace_rays_shared` (`CACHE_LANES` invocations per ray, as the mobile
+    /// tier's probes trace), milliseconds.
+    pub shared_ms: f64,
     /// GPU timestamps, or CPU wall-clock time when the adapter has none.
     pub mode: TimerMode,
 }
@@ -135,6 +142,8 @@ pub struct CacheTraceTimings {
 pub struct CacheTracer {
     /// Entry point `trace_rays` (timer scope `cache/trace_rays`).
     pub trace_rays: wgpu::ComputePipeline,
+    /// Entry point `trace_rays_shared` (timer scope `cache/trace_rays_shared`).
+    pub trace_rays_shared: wgpu::ComputePipeline,
     /// Entry point `irradiance_at` (timer scope `cache/irradiance_at`).
     pub irradiance_at: wgpu::ComputePipeline,
     /// Entry point `debug_view` (timer scope `cache/debug_view`).
@@ -204,6 +213,7 @@ impl CacheTracer {
         };
         Ok(Self {
             trace_rays: pipeline("trace_rays", &trace_rays_layout),
+            trace_rays_shared: pipeline("trace_rays_shared", &trace_rays_layout),
             irradiance_at: pipeline("irradiance_at", &irradiance_at_layout),
             debug_view: pipeline("debug_view", &debug_view_layout),
             trace_rays_layout,
@@ -219,6 +229,27 @@ impl CacheTracer {
         cache: &CacheBuffers,
         rays: &[GpuRay],
     ) -> Vec<CacheRayHit> {
+        self.trace_with(ctx, cache, rays, false)
+    }
+
+    /// [`Self::trace`] with `CACHE_LANES` invocations per ray (`gi::cache::trace_shared`);
+    /// the same hits.
+    pub fn trace_shared(
+        &self,
+        ctx: &GpuContext,
+        cache: &CacheBuffers,
+        rays: &[GpuRay],
+    ) -> Vec<CacheRayHit> {
+        self.trace_with(ctx, cache, rays, true)
+    }
+
+    fn trace_with(
+        &self,
+        ctx: &GpuContext,
+        cache: &CacheBuffers,
+        rays: &[GpuRay],
+        shared: bool,
+    ) -> Vec<CacheRayHit> {
         if rays.is_empty() {
             return Vec::new();
         }
@@ -229,7 +260,7 @@ impl CacheTracer {
                 label: Some("cache/trace_rays"),
                 timestamp_writes: None,
             });
-            self.record_trace(&mut pass, &batch, cache, rays.len());
+            self.record_trace(&mut pass, &batch, cache, rays.len(), shared);
         }
         ctx.submit_and_wait(encoder);
         let hits = ctx.read_buffer::<GpuCacheRayHit>(&batch.buffers[1]);
@@ -237,8 +268,8 @@ impl CacheTracer {
         hits.into_iter().map(CacheRayHit::from).collect()
     }
 
-    /// Dispatches `trace_rays` over `rays` `repeats` times after one warm-up and returns the
-    /// median time. The hits are not read back.
+    /// Dispatches `trace_rays` and `trace_rays_shared` over `rays` `repeats` times after one
+    /// warm-up and returns their median times. The hits are not read back.
     pub fn time(
         &self,
         ctx: &GpuContext,
@@ -247,20 +278,25 @@ impl CacheTracer {
         repeats: usize,
     ) -> CacheTraceTimings {
         let batch = self.ray_batch(ctx, rays);
-        let mut timer = GpuTimer::new(ctx, "cache.timer", 1);
+        let mut timer = GpuTimer::new(ctx, "cache.timer", 2);
         let mut frames = Vec::with_capacity(repeats);
         for _ in 0..=repeats {
             let mut encoder = ctx.create_encoder("cache.time");
-            timer.compute_pass(ctx, &mut encoder, "cache/trace_rays", |pass| {
-                self.record_trace(pass, &batch, cache, rays.len());
-            });
+            for (scope, shared) in [
+                ("cache/trace_rays", false),
+                ("cache/trace_rays_shared", true),
+            ] {
+                timer.compute_pass(ctx, &mut encoder, scope, |pass| {
+                    self.record_trace(pass, &batch, cache, rays.len(), shared);
+                });
+            }
             frames.push(timer.finish(ctx, encoder));
         }
         batch.release(ctx);
+        let median = PassTimings::median(&frames[1..]);
         CacheTraceTimings {
-            trace_ms: PassTimings::median(&frames[1..])
-                .get("cache/trace_rays")
-                .unwrap_or(0.0),
+            trace_ms: median.get("cache/trace_rays").unwrap_or(0.0),
+            shared_ms: median.get("cache/trace_rays_shared").unwrap_or(0.0),
             mode: timer.mode(),
         }
     }
@@ -373,9 +409,15 @@ impl CacheTracer {
         batch: &Batch,
         cache: &CacheBuffers,
         count: usize,
+        shared: bool,
     ) {
-        let groups = batch_groups(count);
-        pass.set_pipeline(&self.trace_rays);
+        let (pipeline, invocations) = if shared {
+            (&self.trace_rays_shared, count * CACHE_LANES as usize)
+        } else {
+            (&self.trace_rays, count)
+        };
+        let groups = batch_groups(invocations);
+        pass.set_pipeline(pipeline);
         pass.set_bind_group(0, &batch.bind_group, &[]);
         pass.set_bind_group(CACHE_BIND_GROUP, &cache.bind_group, &[]);
         pass.dispatch_workgroups(groups.0, groups.1, 1);

@@ -3,18 +3,20 @@
 //! - hand-built caches with known voxels: axis-parallel and oblique rays hit exactly the
 //!   expected voxel, entered face, side seen and distance, across level boundaries and from
 //!   outside every window, and random rays through scattered voxels agree with a brute-force
-//!   slab-test reference;
+//!   slab-test reference; the same rays traced in lanes (`trace_shared`, one lane per clipmap
+//!   level) find the same hits;
 //! - `cache_irradiance` returns the side values written into a hand-built cache, at a concave
 //!   corner too;
 //! - voxelized bundled scenes: hit distances agree with the scene's BVH within one voxel
-//!   diagonal of the hit's level for a stated share of rays, and a miss in the cache means no
+//!   diagonal of the hit's level for a stated share of rays (traced in lanes too), and a miss in the cache means no
 //!   BVH hit closer than the ray's end minus a voxel.
 
 mod common;
 
 use common::{HandCache, Rng, ray};
 use gi_cache::layout::{SIDE_BACK, SIDE_FRONT, face_index, side_seen_by_ray};
-use gi_cache::{CacheConfig, CacheTracer, CpuCache};
+use gi_cache::{CacheBuffers, CacheConfig, CacheRayHit, CacheTracer, CpuCache};
+use gi_gpu::bvh::GpuRay;
 use gi_gpu::{GpuContext, ShaderLibrary};
 use gi_scene::SceneBvh;
 use glam::{IVec3, Vec3};
@@ -102,6 +104,35 @@ fn debug_views_parse_by_name_and_reject_others() {
         err.contains("albedos") && err.contains("occupancy"),
         "{err}"
     );
+}
+
+/// `trace_shared` (each ray split over `CACHE_LANES` invocations by clipmap level) finds the
+/// hits `trace` found: the same voxel, level and side, `t` within float rounding of the point
+/// where a lane takes the ray over. Returns how many rays differ, printing the first few.
+fn shared_differences(
+    ctx: &GpuContext,
+    tracer: &CacheTracer,
+    buffers: &CacheBuffers,
+    rays: &[GpuRay],
+    hits: &[CacheRayHit],
+) -> usize {
+    let shared = tracer.trace_shared(ctx, buffers, rays);
+    let mut differ = 0;
+    for (i, (a, b)) in hits.iter().zip(&shared).enumerate() {
+        let same = a.hit == b.hit
+            && (!a.hit
+                || (a.voxel == b.voxel
+                    && a.level == b.level
+                    && a.side == b.side
+                    && (a.t - b.t).abs() <= 1e-5 * a.t.abs().max(1.0)));
+        if !same {
+            if differ < 5 {
+                eprintln!("ray {i} {:?}: serial {a:?}, shared {b:?}", rays[i]);
+            }
+            differ += 1;
+        }
+    }
+    differ
 }
 
 fn setup(name: &str) -> Option<(GpuContext, CacheTracer)> {
@@ -270,6 +301,7 @@ fn rays_continue_in_coarser_levels_and_enter_from_outside() {
     check(3, fine, 0, 5, 5.0);
     assert!(!hits[4].hit, "{:?}", hits[4]);
     assert!(!hits[5].hit, "{:?}", hits[5]);
+    assert_eq!(shared_differences(&ctx, &tracer, &buffers, &rays, &hits), 0);
     buffers.release(&ctx);
 }
 
@@ -286,6 +318,7 @@ fn the_origin_voxel_is_skipped() {
     let hits = tracer.trace(&ctx, &buffers, &rays);
     assert!(hits[0].hit && hits[0].voxel == next, "{:?}", hits[0]);
     assert!((hits[0].t - 0.65).abs() < 1e-5, "{:?}", hits[0]);
+    assert_eq!(shared_differences(&ctx, &tracer, &buffers, &rays, &hits), 0);
     buffers.release(&ctx);
 }
 
@@ -361,6 +394,7 @@ fn random_rays_through_scattered_voxels_match_a_brute_force_reference() {
         }
     }
     assert!(ties <= rays.len() / 100, "{ties} ties");
+    assert_eq!(shared_differences(&ctx, &tracer, &buffers, &rays, &hits), 0);
     buffers.release(&ctx);
 }
 
@@ -504,6 +538,8 @@ struct SceneAgreement {
     /// Cache misses with a BVH hit closer than the ray's end minus a voxel diagonal.
     miss_violations: usize,
     misses: usize,
+    /// Rays whose hit `trace_shared` does not reproduce (`shared_differences`).
+    shared_differ: usize,
 }
 
 fn compare_scene(ctx: &GpuContext, tracer: &CacheTracer, name: &str, seed: u64) -> SceneAgreement {
@@ -558,6 +594,7 @@ fn compare_scene(ctx: &GpuContext, tracer: &CacheTracer, name: &str, seed: u64) 
         rays.push(ray(origin, rng.unit_vector(), 0.0, t_max));
     }
     let hits = tracer.trace(ctx, &buffers, &rays);
+    let shared_differ = shared_differences(ctx, tracer, &buffers, &rays, &hits);
     buffers.release(ctx);
 
     let mut agreement = SceneAgreement::default();
@@ -600,6 +637,7 @@ fn compare_scene(ctx: &GpuContext, tracer: &CacheTracer, name: &str, seed: u64) 
         }
     }
     agreement.rays = rays.len();
+    agreement.shared_differ = shared_differ;
     agreement
 }
 
@@ -649,7 +687,8 @@ fn scene_hits_agree_with_the_bvh_within_a_voxel() {
             a.compared > a.rays / 2,
             "{name}: too few rays compared: {a:?}"
         );
-        if along_ray < *min_along_ray
+        if a.shared_differ > 0
+            || along_ray < *min_along_ray
             || along_normal < MIN_ALONG_NORMAL
             || late > MAX_LATE_OR_MISSED
             || miss_violations > MAX_LATE_OR_MISSED

@@ -130,9 +130,21 @@ impl Renderer {
         &mut self,
         progress: Option<&(dyn Fn(u32) + Sync)>,
     ) -> Result<FrameOutput, TierError> {
-        let output = self.render_still(progress)?;
+        let output = self.still(progress, |tier, input| tier.render(input))?;
         self.next_frame += 1;
         Ok(output)
+    }
+
+    /// Renders the next frame as [`Renderer::render_frame`] does but without its image
+    /// ([`Tier::advance`]): for frames that are timed or only lead up to the one that is
+    /// looked at. Returns the frame's passes.
+    pub fn advance_frame(
+        &mut self,
+        progress: Option<&(dyn Fn(u32) + Sync)>,
+    ) -> Result<Vec<(String, f64)>, TierError> {
+        let passes = self.still(progress, |tier, input| tier.advance(input))?;
+        self.next_frame += 1;
+        Ok(passes)
     }
 
     /// A still warm-up for temporal tiers: renders `frames` frames that all show the next
@@ -150,7 +162,7 @@ impl Renderer {
             return Ok(());
         }
         for done in 1..=frames {
-            self.render_still(None)?;
+            self.still(None, |tier, input| tier.advance(input))?;
             self.warm_up_frames += 1;
             if let Some(progress) = progress {
                 progress(done);
@@ -159,22 +171,27 @@ impl Renderer {
         Ok(())
     }
 
-    /// Renders the next frame without advancing the frame counter. The tier's frame index
-    /// counts every frame it rendered, warm-up included.
-    fn render_still(
+    /// Renders the next frame through `render` (the tier's `render` or `advance`) without
+    /// advancing the frame counter. The tier's frame index counts every frame it rendered,
+    /// warm-up included.
+    fn still<T>(
         &mut self,
         progress: Option<&(dyn Fn(u32) + Sync)>,
-    ) -> Result<FrameOutput, TierError> {
+        render: impl FnOnce(&mut dyn Tier, &FrameInput) -> Result<T, TierError>,
+    ) -> Result<T, TierError> {
         let shown = self.next_frame;
         let frame = self
             .scene
             .evaluate(self.frame_time(shown), Some(self.view(shown)));
-        self.tier.render(&FrameInput {
-            scene: &self.scene,
-            frame: &frame,
-            index: self.next_frame + self.warm_up_frames,
-            progress,
-        })
+        render(
+            self.tier.as_mut(),
+            &FrameInput {
+                scene: &self.scene,
+                frame: &frame,
+                index: self.next_frame + self.warm_up_frames,
+                progress,
+            },
+        )
     }
 
     /// Advances `count` frames (at least one) and returns the last: warm-up frames, then the
@@ -189,7 +206,7 @@ impl Renderer {
             self.next_frame += count - 1;
         } else {
             for _ in 1..count {
-                self.render_frame(None)?;
+                self.advance_frame(None)?;
             }
         }
         self.render_frame(progress)

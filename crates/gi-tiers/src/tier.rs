@@ -175,6 +175,15 @@ pub trait Tier: Send + Any {
     /// any camera). Render another scene with another tier; [`crate::Renderer`] does this.
     fn render(&mut self, input: &FrameInput) -> Result<FrameOutput, TierError>;
 
+    /// Renders one frame as [`Tier::render`] does but does not hand its image over: for
+    /// warm-up frames and timing runs, which need the tier's state and its pass times, not
+    /// the pixels. GPU tiers keep the image on the GPU (no readback, which at 1080p costs
+    /// more than the frame and leaves the GPU idle); others render it and drop it. Returns the
+    /// frame's passes.
+    fn advance(&mut self, input: &FrameInput) -> Result<Vec<(String, f64)>, TierError> {
+        self.render(input).map(|output| output.passes)
+    }
+
     /// Bytes of every buffer, texture and acceleration structure the tier owns now.
     fn memory_bytes(&self) -> u64;
 }

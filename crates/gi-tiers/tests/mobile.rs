@@ -494,6 +494,48 @@ fn every_bundled_scene_renders_finite_and_accounts_its_memory() {
     }
 }
 
+/// `Tier::advance` renders the frame `Tier::render` renders, only without reading the image
+/// back: a tier advanced twice and then rendered shows the image of a tier rendered three
+/// times, with the same passes.
+#[test]
+fn advancing_renders_the_same_frames_without_the_image() {
+    let Some(ctx) = GpuContext::new_or_skip("advancing_renders_the_same_frames_without_the_image")
+    else {
+        return;
+    };
+    let scene = gi_scene::load("cornell-box").unwrap();
+    let (_, rendered) = run(ctx, &scene, MobileConfig::default(), (40, 30), 3, None);
+    let mut tier = MobileTier::new(
+        settings(40, 30),
+        MobileConfig::default(),
+        GpuContext::new().unwrap(),
+    )
+    .unwrap();
+    let frame = scene.evaluate(0.0, None);
+    let input = |index| FrameInput {
+        scene: &scene,
+        frame: &frame,
+        index,
+        progress: None,
+    };
+    let mut advanced = Vec::new();
+    for index in 0..2 {
+        advanced.push(tier.advance(&input(index)).unwrap());
+    }
+    let last = tier.render(&input(2)).unwrap();
+    let names =
+        |passes: &[(String, f64)]| passes.iter().map(|(n, _)| n.clone()).collect::<Vec<_>>();
+    assert_eq!(names(&advanced[1]), names(&last.passes));
+    let worst = last
+        .image
+        .pixels
+        .iter()
+        .zip(&rendered.image.pixels)
+        .map(|(a, b)| (*a - *b).abs().max_element())
+        .fold(0.0f32, f32::max);
+    assert!(worst == 0.0, "images differ by up to {worst}");
+}
+
 #[test]
 fn unusable_settings_are_refused_with_the_reason() {
     let Some(ctx) = GpuContext::new_or_skip("unusable_settings_are_refused_with_the_reason") else {

@@ -433,6 +433,22 @@ impl Tier for MobileTier {
     }
 
     fn render(&mut self, input: &FrameInput) -> Result<FrameOutput, TierError> {
+        let passes = self.advance(input)?;
+        let prepared = self.prepared.as_ref().expect("prepared by advance");
+        let output: Vec<[f32; 4]> = self.ctx.read_buffer(&prepared.screen.output);
+        Ok(FrameOutput {
+            image: Image {
+                width: self.settings.width,
+                height: self.settings.height,
+                pixels: output.iter().map(|o| Vec3::from_slice(o)).collect(),
+            },
+            passes,
+            stats: None,
+        })
+    }
+
+    /// The frame without reading its image back (it stays in the output buffer).
+    fn advance(&mut self, input: &FrameInput) -> Result<Vec<(String, f64)>, TierError> {
         let frame = input.frame;
         self.prepare(input)?;
         let size = (self.settings.width, self.settings.height);
@@ -542,21 +558,12 @@ impl Tier for MobileTier {
         );
         passes.0.extend(self.timer.finish(ctx, encoder).0);
 
-        let output: Vec<[f32; 4]> = ctx.read_buffer(&screen.output);
         prepared.previous = frame_history(frame);
         self.frame_index = self.frame_index.wrapping_add(1);
         if let Some(progress) = input.progress {
             progress(prepared.direct.samples);
         }
-        Ok(FrameOutput {
-            image: Image {
-                width: size.0,
-                height: size.1,
-                pixels: output.iter().map(|o| Vec3::from_slice(o)).collect(),
-            },
-            passes: passes.0,
-            stats: None,
-        })
+        Ok(passes.0)
     }
 
     /// Everything counted by the tier's own context: scene, BVH, G-buffer, cache, probe

@@ -3,8 +3,8 @@
 //! and the upsample that composes the final image. See the shader for what each pass does.
 
 use bytemuck::{Pod, Zeroable};
-use gi_cache::CacheBuffers;
 use gi_cache::lighting::GpuSky;
+use gi_cache::{CACHE_LANES, CacheBuffers};
 use gi_gpu::binding::{buffer_entries, storage_entry, uniform_entry};
 use gi_gpu::{GpuCamera, GpuContext, GpuError, GpuTimer, ShaderLibrary, wgpu};
 
@@ -16,6 +16,8 @@ pub const SLOTS_PER_TILE: u32 = 2;
 const TILE_GROUP: u32 = 8;
 /// Invocations of the 1D passes' workgroups (`@workgroup_size(64)`).
 const LINEAR_GROUP: u32 = 64;
+/// Most workgroups of one dispatch row.
+const MAX_GROUPS_PER_ROW: u32 = 65_535;
 
 /// Mirror of `ScreenUniforms` in `shaders/mobile/screen.wgsl`, 256 bytes.
 #[repr(C)]
@@ -313,10 +315,13 @@ impl ScreenBuffers {
                     passes.push(("mobile/probe_reproject", &pipelines.reproject, per_slot));
                 }
                 passes.push(("mobile/probe_place", &pipelines.place, per_slot));
+                // CACHE_LANES invocations per ray, in rows of at most 65535 workgroups.
+                let groups = (texels * CACHE_LANES).div_ceil(LINEAR_GROUP);
+                let row = groups.min(MAX_GROUPS_PER_ROW);
                 passes.push((
                     "mobile/probe_trace",
                     &pipelines.trace,
-                    [texels.div_ceil(LINEAR_GROUP), 1],
+                    [row, groups.div_ceil(row)],
                 ));
                 passes
             }

@@ -8,8 +8,8 @@
 //! - Update, timer scope `mobile/volume`: `shaders/mobile/volume_update.wgsl`, two dispatches in
 //!   one compute pass. `classify_probes` (one invocation per slot) resets probes that entered
 //!   the clipmap, keeps active only those with an occupied cache brick within one spacing (read
-//!   from the cache's group masks) and lists them; `trace_probes` (indirect, one invocation per
-//!   listed probe) relocates flagged probes and traces [`VolumeConfig::rays_per_probe`] rays
+//!   from the cache's group masks) and lists them; `trace_probes` (indirect, `CACHE_LANES` invocations
+//!   per listed probe) relocates flagged probes and traces [`VolumeConfig::rays_per_probe`] rays
 //!   through the cache, each updating one random face.
 //!
 //! Slots are toroidal (world probe coordinate modulo the window's size) and remember the
