@@ -1,0 +1,551 @@
+//! The PC tier's denoiser (`shaders/pc/denoise.wgsl`): HSGI's final processing (GDC 2023, "PC /
+//! Console Solution": temporal supersampling with a long and a short history, variance
+//! clamping with the short history's 5 x 5 neighbourhood) followed by SVGF (Schied et al. 2017,
+//! "Spatiotemporal Variance-Guided Filtering", HPG).
+//!
+//! Each frame [`Denoiser::record`] records, on full-resolution storage buffers:
+//!
+//! 1. `pc/denoise_temporal`, two dispatches. `temporal_short` reprojects the short history
+//!    through the motion vectors (bilinear 2 x 2 taps, each kept only if its previous depth and
+//!    normal agree with the pixel's) and blends the noisy input into it with
+//!    `alpha = max(1 / (age + 1), 1 / short_history)`. `temporal` reprojects the long history
+//!    (color and luminance moments) with the same taps, clamps its color into
+//!    `mean +- clamp_sigma sigma` of this frame's short history over the 5 x 5 neighbourhood,
+//!    and blends with `alpha = max(1 / (age + 1), 1 / long_history)`.
+//!    Why the short history and not the noisy input for the clamp box: its neighbourhood is
+//!    about `sqrt(short_history)` times less noisy, so the box is tight enough to catch stale
+//!    history, yet it follows a change within about `short_history` frames.
+//! 2. `pc/denoise_variance`: SVGF's luminance variance, from the temporal moments once the
+//!    history is [`VARIANCE_MIN_AGE`] frames old, else from a 7 x 7 bilateral (depth, normal)
+//!    estimate of the moments.
+//! 3. `pc/denoise_atrous` x [`DenoiseConfig::atrous_iterations`]: SVGF's a-trous wavelet
+//!    filter, 5 x 5 B3-spline taps `2^i` pixels apart with normal, depth and luminance
+//!    edge-stopping weights; the variance is filtered with the squared weights. As in SVGF,
+//!    the first iteration's output is the color history of the next frame.
+//!
+//! Sky pixels (depth `+inf`) pass their input through, keep no history and never mix into
+//! their neighbours. Depths are compared without the camera's motion (the denoiser sees no
+//! camera): a camera closing in on a surface faster than
+//! [`DenoiseConfig::reprojection_depth_tolerance`] of its distance per frame loses the history.
+//!
+//! Memory: 120 bytes per pixel (about 250 MB at 1920 x 1080), all `f32`: the previous depth
+//! and normal (8), the color history (16), two short histories (32), two moment buffers (16),
+//! two filter buffers (32) and the output (16).
+
+use std::num::NonZeroU64;
+
+use bytemuck::{Pod, Zeroable};
+use gi_gpu::binding::{buffer_entries, storage_entry, uniform_entry};
+use gi_gpu::{GpuContext, GpuError, GpuTimer, ShaderLibrary, wgpu};
+
+/// Most a-trous iterations (the last one's taps are 256 pixels apart).
+pub const MAX_ATROUS_ITERATIONS: u32 = 8;
+/// Frames of history from which the variance comes from the temporal moments rather than the
+/// spatial estimate (SVGF: 4).
+pub const VARIANCE_MIN_AGE: u32 = 4;
+/// Pixels per side of the passes' workgroups (`@workgroup_size(8, 8)`).
+const TILE_GROUP: u32 = 8;
+/// Bytes between the uniform slots: slot 0 serves the temporal and variance passes, slot
+/// `1 + i` a-trous iteration `i`. 256 is the largest `min_uniform_buffer_offset_alignment`
+/// WebGPU allows, so it suits every device.
+const UNIFORM_SLOT_BYTES: u64 = 256;
+
+/// The denoiser's settings. The defaults are HSGI's history lengths and SVGF's weights.
+#[derive(Clone, Debug, PartialEq)]
+pub struct DenoiseConfig {
+    /// Temporal accumulation (reprojection, depth and normal rejection, variance clamping).
+    /// Off, every frame is filtered alone: more noise, no ghosting.
+    pub temporal: bool,
+    /// SVGF a-trous iterations (taps 1, 2, 4, ... pixels apart), 0 = no spatial filter, at most
+    /// [`MAX_ATROUS_ITERATIONS`]. More iterations blur wider (the footprint is about
+    /// `4 * 2^iterations` pixels) at about the same cost each.
+    pub atrous_iterations: u32,
+    /// Most frames the long history averages (HSGI: 50): higher is smoother in static views
+    /// and slower to follow changes the clamp does not catch.
+    pub long_history: u32,
+    /// Frames of the short history whose neighbourhood clamps the long one (HSGI: 10): lower
+    /// follows lighting changes faster and clamps more noise into the result.
+    pub short_history: u32,
+    /// Half-width of the clamp box in standard deviations of the short history's 5 x 5
+    /// neighbourhood: lower rejects stale history sooner and lets less of its smoothing through.
+    pub clamp_sigma: f32,
+    /// Relative depth difference a reprojected tap may have (plus the depth's change across a
+    /// pixel): higher keeps history on sloped surfaces and in motion, and ghosts more at edges.
+    pub reprojection_depth_tolerance: f32,
+    /// Least cosine between a reprojected tap's normal and the pixel's.
+    pub reprojection_normal_cos: f32,
+    /// Exponent of the a-trous normal weight `max(0, n . m)^p` (SVGF: 128): higher keeps
+    /// creases sharper and smooths curved surfaces less.
+    pub normal_power: f32,
+    /// Scale of the depth weight `exp(-|dz| / (depth_sigma |grad z| |offset|))` (SVGF: 1):
+    /// higher blurs across small depth steps.
+    pub depth_sigma: f32,
+    /// Scale of the luminance weight `exp(-|dl| / (luminance_sigma sigma_l))` (SVGF: 4):
+    /// higher blurs more noise and more detail.
+    pub luminance_sigma: f32,
+}
+
+impl Default for DenoiseConfig {
+    fn default() -> Self {
+        Self {
+            temporal: true,
+            atrous_iterations: 4,
+            long_history: 50,
+            short_history: 10,
+            clamp_sigma: 1.5,
+            reprojection_depth_tolerance: 0.05,
+            reprojection_normal_cos: 0.9,
+            normal_power: 128.0,
+            depth_sigma: 1.0,
+            luminance_sigma: 4.0,
+        }
+    }
+}
+
+impl DenoiseConfig {
+    /// Checks every setting; the error names the first bad field.
+    pub fn validate(&self) -> Result<(), String> {
+        if self.atrous_iterations > MAX_ATROUS_ITERATIONS {
+            return Err(format!(
+                "atrous_iterations = {}: at most {MAX_ATROUS_ITERATIONS}",
+                self.atrous_iterations
+            ));
+        }
+        if self.long_history == 0 {
+            return Err("long_history = 0: at least 1 frame".into());
+        }
+        if self.short_history == 0 || self.short_history > self.long_history {
+            return Err(format!(
+                "short_history = {}: from 1 to long_history ({})",
+                self.short_history, self.long_history
+            ));
+        }
+        let positive = [
+            ("clamp_sigma", self.clamp_sigma),
+            (
+                "reprojection_depth_tolerance",
+                self.reprojection_depth_tolerance,
+            ),
+            ("depth_sigma", self.depth_sigma),
+            ("luminance_sigma", self.luminance_sigma),
+        ];
+        for (name, value) in positive {
+            if !(value.is_finite() && value > 0.0) {
+                return Err(format!("{name} = {value}: must be finite and positive"));
+            }
+        }
+        if !(self.normal_power.is_finite() && self.normal_power >= 0.0) {
+            return Err(format!(
+                "normal_power = {}: must be finite and non-negative",
+                self.normal_power
+            ));
+        }
+        if !(-1.0..=1.0).contains(&self.reprojection_normal_cos) {
+            return Err(format!(
+                "reprojection_normal_cos = {}: must lie in [-1, 1]",
+                self.reprojection_normal_cos
+            ));
+        }
+        Ok(())
+    }
+}
+
+/// Mirror of `DenoiseUniforms` in `shaders/pc/denoise.wgsl`, 56 bytes.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
+pub struct DenoiseUniforms {
+    pub size_px: [u32; 2],
+    /// Pixels between a-trous taps (`2^iteration`).
+    pub step_px: u32,
+    /// 1 on the first a-trous iteration, whose output is the next frame's color history.
+    pub write_history: u32,
+    /// 0 when there is no usable history (first frame, reset, temporal accumulation off).
+    pub history_valid: u32,
+    pub long_history: u32,
+    pub short_history: u32,
+    pub variance_min_age: u32,
+    pub clamp_sigma: f32,
+    pub reprojection_depth_tolerance: f32,
+    pub reprojection_normal_cos: f32,
+    pub normal_power: f32,
+    pub depth_sigma: f32,
+    pub luminance_sigma: f32,
+}
+
+impl DenoiseUniforms {
+    /// The uniforms of `config` for an image of `size` pixels, with no a-trous step yet.
+    pub fn new(config: &DenoiseConfig, size: (u32, u32), history_valid: bool) -> Self {
+        Self {
+            size_px: [size.0, size.1],
+            step_px: 1,
+            write_history: 0,
+            history_valid: u32::from(history_valid),
+            long_history: config.long_history,
+            short_history: config.short_history,
+            variance_min_age: VARIANCE_MIN_AGE,
+            clamp_sigma: config.clamp_sigma,
+            reprojection_depth_tolerance: config.reprojection_depth_tolerance,
+            reprojection_normal_cos: config.reprojection_normal_cos,
+            normal_power: config.normal_power,
+            depth_sigma: config.depth_sigma,
+            luminance_sigma: config.luminance_sigma,
+        }
+    }
+}
+
+/// The four pipelines, one per entry point, sharing two bind group layouts: group 0 the
+/// frame's inputs and the histories, group 1 the dispatch's uniforms and filter buffers.
+pub struct DenoisePipelines {
+    frame_layout: wgpu::BindGroupLayout,
+    filter_layout: wgpu::BindGroupLayout,
+    temporal_short: wgpu::ComputePipeline,
+    temporal: wgpu::ComputePipeline,
+    variance: wgpu::ComputePipeline,
+    atrous: wgpu::ComputePipeline,
+}
+
+impl DenoisePipelines {
+    pub fn new(ctx: &GpuContext, shaders: &ShaderLibrary) -> Result<Self, GpuError> {
+        let module = shaders.create_module(ctx, "pc/denoise.wgsl", &[])?;
+        // The inputs, the previous depth and normal and the `_in` histories are read-only.
+        let writable = [6u32, 8, 10];
+        let frame_entries: Vec<_> = (0..=10)
+            .map(|binding| storage_entry(binding, !writable.contains(&binding)))
+            .collect();
+        let frame_layout = ctx
+            .device
+            .create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+                label: Some("pc/denoise.frame_layout"),
+                entries: &frame_entries,
+            });
+        let filter_layout = ctx
+            .device
+            .create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+                label: Some("pc/denoise.filter_layout"),
+                entries: &[
+                    uniform_entry(0),
+                    storage_entry(1, true),
+                    storage_entry(2, false),
+                ],
+            });
+        let pipeline = |entry: &str| {
+            ctx.create_compute_pipeline_with_layouts(
+                &format!("pc/denoise_{entry}"),
+                &module,
+                entry,
+                &[Some(&frame_layout), Some(&filter_layout)],
+            )
+        };
+        Ok(Self {
+            temporal_short: pipeline("temporal_short"),
+            temporal: pipeline("temporal"),
+            variance: pipeline("variance"),
+            atrous: pipeline("atrous"),
+            frame_layout,
+            filter_layout,
+        })
+    }
+}
+
+/// The G-buffer and the noisy image the denoiser reads, one entry per pixel, row-major.
+/// `depth` and `normal` need `COPY_SRC`: the denoiser keeps a copy of each for the next frame.
+pub struct DenoiseSources<'a> {
+    /// `array<vec4<f32>>`: noisy demodulated diffuse irradiance (rgb), non-negative.
+    pub noisy: &'a wgpu::Buffer,
+    /// `array<f32>`: distance along the unit camera ray, `+inf` for sky (`gbuffer.depth`).
+    pub depth: &'a wgpu::Buffer,
+    /// `array<u32>`: octahedral world shading normal, `gi::packing` (`gbuffer.normal`).
+    pub normal: &'a wgpu::Buffer,
+    /// `array<vec2<f32>>`: previous pixel position minus this pixel's center, pixels
+    /// (`gbuffer.motion`).
+    pub motion: &'a wgpu::Buffer,
+}
+
+/// Two resources of which one is this frame's ([`PingPong::current`]) and the other the
+/// previous frame's ([`PingPong::history`]); [`PingPong::swap`] starts a frame.
+struct PingPong<T> {
+    pair: [T; 2],
+    current: usize,
+}
+
+impl<T> PingPong<T> {
+    fn new(pair: [T; 2]) -> Self {
+        Self { pair, current: 0 }
+    }
+
+    fn current(&self) -> &T {
+        &self.pair[self.current]
+    }
+
+    fn swap(&mut self) {
+        self.current = 1 - self.current;
+    }
+
+    fn both(&self) -> impl Iterator<Item = &T> {
+        self.pair.iter()
+    }
+}
+
+/// The denoiser of one image size: its histories, filter buffers and output (labels
+/// `pc.denoise.*`) and the bind groups over them and the sources it was made with.
+pub struct Denoiser {
+    size: (u32, u32),
+    source_depth: wgpu::Buffer,
+    source_normal: wgpu::Buffer,
+    /// Uniform slots: 0 for the temporal and variance passes, `1 + i` for a-trous iteration `i`.
+    uniforms: wgpu::Buffer,
+    previous_depth: wgpu::Buffer,
+    previous_normal: wgpu::Buffer,
+    /// rgb: the previous frame's first a-trous output (or temporal output without a-trous).
+    history_color: wgpu::Buffer,
+    /// rgb: short history; w: age in frames.
+    short_history: PingPong<wgpu::Buffer>,
+    /// Mean luminance and mean squared luminance of the long history.
+    moments: PingPong<wgpu::Buffer>,
+    /// rgb and luminance variance: `filtered[1]` holds the temporal output, then the
+    /// passes ping-pong between the two.
+    filtered: [wgpu::Buffer; 2],
+    output: wgpu::Buffer,
+    /// Group 0 writing `short_history.pair[i]` and `moments.pair[i]`, flipped with them.
+    frame_groups: PingPong<wgpu::BindGroup>,
+    /// Group 1 of the temporal pass (writes `filtered[1]`) and the variance pass
+    /// (`filtered[1]` to `filtered[0]`).
+    temporal_group: wgpu::BindGroup,
+    variance_group: wgpu::BindGroup,
+    /// Group 1 of a-trous iteration `i`: `[i][0]` writes the next filter buffer, `[i][1]`
+    /// (the last iteration) the output.
+    atrous_groups: Vec<[wgpu::BindGroup; 2]>,
+    has_history: bool,
+}
+
+impl Denoiser {
+    pub fn new(
+        ctx: &GpuContext,
+        pipelines: &DenoisePipelines,
+        size: (u32, u32),
+        sources: &DenoiseSources<'_>,
+    ) -> Self {
+        let pixels = u64::from(size.0) * u64::from(size.1);
+        let storage = wgpu::BufferUsages::STORAGE
+            | wgpu::BufferUsages::COPY_SRC
+            | wgpu::BufferUsages::COPY_DST;
+        let buffer = |label: &str, bytes_per_pixel: u64| {
+            ctx.create_buffer(label, pixels * bytes_per_pixel, storage)
+        };
+        let uniforms = ctx.create_buffer(
+            "pc.denoise.uniforms",
+            UNIFORM_SLOT_BYTES * u64::from(1 + MAX_ATROUS_ITERATIONS),
+            wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
+        );
+        let previous_depth = buffer("pc.denoise.previous_depth", 4);
+        let previous_normal = buffer("pc.denoise.previous_normal", 4);
+        let history_color = buffer("pc.denoise.history_color", 16);
+        let short_history = PingPong::new([0, 1].map(|_| buffer("pc.denoise.short_history", 16)));
+        let moments = PingPong::new([0, 1].map(|_| buffer("pc.denoise.moments", 8)));
+        let filtered = [0, 1].map(|_| buffer("pc.denoise.filtered", 16));
+        let output = buffer("pc.denoise.output", 16);
+
+        let frame_group = |write: usize| {
+            ctx.device.create_bind_group(&wgpu::BindGroupDescriptor {
+                label: Some("pc/denoise.frame_group"),
+                layout: &pipelines.frame_layout,
+                entries: &buffer_entries(
+                    0,
+                    [
+                        sources.noisy,
+                        sources.depth,
+                        sources.normal,
+                        sources.motion,
+                        &previous_depth,
+                        &previous_normal,
+                        &history_color,
+                        &short_history.pair[1 - write],
+                        &short_history.pair[write],
+                        &moments.pair[1 - write],
+                        &moments.pair[write],
+                    ],
+                ),
+            })
+        };
+        let frame_groups = PingPong::new([frame_group(0), frame_group(1)]);
+        let filter_group = |slot: u32, input: &wgpu::Buffer, output: &wgpu::Buffer| {
+            let uniform_binding = wgpu::BufferBinding {
+                buffer: &uniforms,
+                offset: UNIFORM_SLOT_BYTES * u64::from(slot),
+                size: NonZeroU64::new(size_of::<DenoiseUniforms>() as u64),
+            };
+            ctx.device.create_bind_group(&wgpu::BindGroupDescriptor {
+                label: Some("pc/denoise.filter_group"),
+                layout: &pipelines.filter_layout,
+                entries: &[
+                    wgpu::BindGroupEntry {
+                        binding: 0,
+                        resource: wgpu::BindingResource::Buffer(uniform_binding),
+                    },
+                    wgpu::BindGroupEntry {
+                        binding: 1,
+                        resource: input.as_entire_binding(),
+                    },
+                    wgpu::BindGroupEntry {
+                        binding: 2,
+                        resource: output.as_entire_binding(),
+                    },
+                ],
+            })
+        };
+        let temporal_group = filter_group(0, &filtered[0], &filtered[1]);
+        let variance_group = filter_group(0, &filtered[1], &filtered[0]);
+        let atrous_groups = (0..MAX_ATROUS_ITERATIONS)
+            .map(|i| {
+                let input = &filtered[i as usize % 2];
+                [
+                    filter_group(1 + i, input, &filtered[(i as usize + 1) % 2]),
+                    filter_group(1 + i, input, &output),
+                ]
+            })
+            .collect();
+        Self {
+            size,
+            source_depth: sources.depth.clone(),
+            source_normal: sources.normal.clone(),
+            uniforms,
+            previous_depth,
+            previous_normal,
+            history_color,
+            short_history,
+            moments,
+            filtered,
+            output,
+            frame_groups,
+            temporal_group,
+            variance_group,
+            atrous_groups,
+            has_history: false,
+        }
+    }
+
+    /// Records this frame's denoise passes (timer scopes `pc/denoise_temporal`,
+    /// `pc/denoise_variance`, `pc/denoise_atrous`) into `encoder`, then the copies of this
+    /// frame's depth and normal that the next frame reprojects against. The uniforms are
+    /// written through the queue: record at most one frame per submission. `config` should be
+    /// valid ([`DenoiseConfig::validate`]); more a-trous iterations than
+    /// [`MAX_ATROUS_ITERATIONS`] are cut to that.
+    pub fn record(
+        &mut self,
+        ctx: &GpuContext,
+        timer: &mut GpuTimer,
+        encoder: &mut wgpu::CommandEncoder,
+        pipelines: &DenoisePipelines,
+        config: &DenoiseConfig,
+    ) {
+        debug_assert_eq!(config.validate(), Ok(()));
+        let iterations = config.atrous_iterations.min(MAX_ATROUS_ITERATIONS);
+        self.write_uniforms(ctx, config);
+        self.short_history.swap();
+        self.moments.swap();
+        self.frame_groups.swap();
+        let workgroups = [
+            self.size.0.div_ceil(TILE_GROUP),
+            self.size.1.div_ceil(TILE_GROUP),
+        ];
+        let frame_group = self.frame_groups.current();
+        let dispatch = |pass: &mut wgpu::ComputePass<'_>,
+                        pipeline: &wgpu::ComputePipeline,
+                        filter_group: &wgpu::BindGroup| {
+            pass.set_pipeline(pipeline);
+            pass.set_bind_group(0, frame_group, &[]);
+            pass.set_bind_group(1, filter_group, &[]);
+            pass.dispatch_workgroups(workgroups[0], workgroups[1], 1);
+        };
+        // One scope for both dispatches: wgpu orders dispatches of a pass with barriers, and
+        // `temporal` reads the short history `temporal_short` wrote around each pixel.
+        timer.compute_pass(ctx, encoder, "pc/denoise_temporal", |pass| {
+            dispatch(pass, &pipelines.temporal_short, &self.temporal_group);
+            dispatch(pass, &pipelines.temporal, &self.temporal_group);
+        });
+        if iterations == 0 {
+            // The temporal output (or, without temporal accumulation, the input) is the result.
+            let bytes = self.output.size();
+            encoder.copy_buffer_to_buffer(&self.filtered[1], 0, &self.output, 0, bytes);
+            encoder.copy_buffer_to_buffer(&self.filtered[1], 0, &self.history_color, 0, bytes);
+        } else {
+            timer.compute_pass(ctx, encoder, "pc/denoise_variance", |pass| {
+                dispatch(pass, &pipelines.variance, &self.variance_group);
+            });
+            for i in 0..iterations {
+                let last = usize::from(i + 1 == iterations);
+                let group = &self.atrous_groups[i as usize][last];
+                timer.compute_pass(ctx, encoder, "pc/denoise_atrous", |pass| {
+                    dispatch(pass, &pipelines.atrous, group);
+                });
+            }
+        }
+        let bytes = self.previous_depth.size();
+        encoder.copy_buffer_to_buffer(&self.source_depth, 0, &self.previous_depth, 0, bytes);
+        encoder.copy_buffer_to_buffer(&self.source_normal, 0, &self.previous_normal, 0, bytes);
+        self.has_history = config.temporal;
+    }
+
+    /// Writes slot 0 (temporal, variance) and one slot per a-trous iteration.
+    fn write_uniforms(&self, ctx: &GpuContext, config: &DenoiseConfig) {
+        let base = DenoiseUniforms::new(config, self.size, config.temporal && self.has_history);
+        let mut slots = vec![0u8; self.uniforms.size() as usize];
+        for slot in 0..=MAX_ATROUS_ITERATIONS {
+            let uniforms = match slot {
+                0 => base,
+                _ => DenoiseUniforms {
+                    step_px: 1 << (slot - 1),
+                    write_history: u32::from(slot == 1),
+                    ..base
+                },
+            };
+            let offset = (UNIFORM_SLOT_BYTES * u64::from(slot)) as usize;
+            let bytes = bytemuck::bytes_of(&uniforms);
+            slots[offset..offset + bytes.len()].copy_from_slice(bytes);
+        }
+        ctx.queue.write_buffer(&self.uniforms, 0, &slots);
+    }
+
+    /// The denoised irradiance, `array<vec4<f32>>` (rgb; w holds the filter's luminance
+    /// variance estimate), valid once the recorded passes ran.
+    pub fn output(&self) -> &wgpu::Buffer {
+        &self.output
+    }
+
+    /// The image size in pixels.
+    pub fn size(&self) -> (u32, u32) {
+        self.size
+    }
+
+    /// Forgets the history (the next frame starts fresh), e.g. after a scene change.
+    pub fn reset_history(&mut self) {
+        self.has_history = false;
+    }
+
+    fn buffers(&self) -> impl Iterator<Item = &wgpu::Buffer> {
+        [
+            &self.uniforms,
+            &self.previous_depth,
+            &self.previous_normal,
+            &self.history_color,
+            &self.filtered[0],
+            &self.filtered[1],
+            &self.output,
+        ]
+        .into_iter()
+        .chain(self.short_history.both())
+        .chain(self.moments.both())
+    }
+
+    /// Stops counting and destroys the buffers it owns (not the sources).
+    pub fn release(self, ctx: &GpuContext) {
+        for buffer in self.buffers() {
+            ctx.release_buffer(buffer);
+        }
+    }
+
+    /// Bytes of the buffers it owns.
+    pub fn memory_bytes(&self) -> u64 {
+        self.buffers().map(wgpu::Buffer::size).sum()
+    }
+}

@@ -1,0 +1,312 @@
+//! The PC tier's denoiser (`gi_tiers::pc::denoise`) on synthetic 64 x 64 frames built directly
+//! as G-buffer buffers: its uniforms' layout, its settings' validation, exactness on constant
+//! input under every configuration, noise reduction with the mean kept, edges, and history
+//! rejection and clamping.
+
+use gi_cache::packing::pack_unit_vector;
+use gi_gpu::{GpuContext, GpuTimer, ShaderLibrary, rust_field_offsets, wgpu, wgsl_struct_layout};
+use gi_tiers::pc::denoise::{
+    DenoiseConfig, DenoisePipelines, DenoiseSources, DenoiseUniforms, Denoiser,
+};
+use glam::Vec3;
+use rand::RngExt as _;
+use rand_pcg::Pcg32;
+
+const SIZE: (u32, u32) = (64, 64);
+const PIXELS: usize = (SIZE.0 * SIZE.1) as usize;
+
+/// One frame's inputs, one entry per pixel, row-major.
+#[derive(Clone)]
+struct Frame {
+    noisy: Vec<[f32; 4]>,
+    depth: Vec<f32>,
+    normal: Vec<u32>,
+    motion: Vec<[f32; 2]>,
+}
+
+impl Frame {
+    /// A flat surface: every pixel at `depth` with normal `normal`, no motion, input `value`.
+    fn flat(value: [f32; 3], depth: f32, normal: Vec3) -> Self {
+        Self {
+            noisy: vec![[value[0], value[1], value[2], 0.0]; PIXELS],
+            depth: vec![depth; PIXELS],
+            normal: vec![pack_unit_vector(normal); PIXELS],
+            motion: vec![[0.0; 2]; PIXELS],
+        }
+    }
+
+    /// Marks `pixel` as sky with input `value`.
+    fn set_sky(&mut self, pixel: usize, value: f32) {
+        self.depth[pixel] = f32::INFINITY;
+        self.normal[pixel] = 0;
+        self.noisy[pixel] = [value, value, value, 0.0];
+    }
+
+    /// Multiplies every channel of every non-sky pixel by `1 + amplitude * U(-1, 1)`: i.i.d.
+    /// noise, symmetric, so an unbiased filter keeps the mean, and non-negative for
+    /// `amplitude <= 1`.
+    fn add_noise(&mut self, rng: &mut Pcg32, amplitude: f32) {
+        for (color, depth) in self.noisy.iter_mut().zip(&self.depth) {
+            if depth.is_finite() {
+                for channel in &mut color[..3] {
+                    *channel *= 1.0 + amplitude * rng.random_range(-1.0..1.0f32);
+                }
+            }
+        }
+    }
+}
+
+fn column(pixel: usize) -> u32 {
+    pixel as u32 % SIZE.0
+}
+
+/// A denoiser over its own source buffers, which each frame overwrites.
+struct Harness {
+    ctx: GpuContext,
+    pipelines: DenoisePipelines,
+    noisy: wgpu::Buffer,
+    depth: wgpu::Buffer,
+    normal: wgpu::Buffer,
+    motion: wgpu::Buffer,
+    denoiser: Denoiser,
+    timer: GpuTimer,
+}
+
+impl Harness {
+    fn new(ctx: GpuContext) -> Self {
+        let pipelines = DenoisePipelines::new(&ctx, &ShaderLibrary::new()).unwrap();
+        let usage = wgpu::BufferUsages::STORAGE
+            | wgpu::BufferUsages::COPY_SRC
+            | wgpu::BufferUsages::COPY_DST;
+        let buffer = |label: &str, bytes_per_pixel: u64| {
+            ctx.create_buffer(label, PIXELS as u64 * bytes_per_pixel, usage)
+        };
+        let noisy = buffer("test.noisy", 16);
+        let depth = buffer("test.depth", 4);
+        let normal = buffer("test.normal", 4);
+        let motion = buffer("test.motion", 8);
+        let sources = DenoiseSources {
+            noisy: &noisy,
+            depth: &depth,
+            normal: &normal,
+            motion: &motion,
+        };
+        let denoiser = Denoiser::new(&ctx, &pipelines, SIZE, &sources);
+        let timer = GpuTimer::new(&ctx, "test.denoise", 16);
+        Self {
+            ctx,
+            pipelines,
+            noisy,
+            depth,
+            normal,
+            motion,
+            denoiser,
+            timer,
+        }
+    }
+
+    /// Denoises `frame` and returns the output.
+    fn run(&mut self, frame: &Frame, config: &DenoiseConfig) -> Vec<[f32; 4]> {
+        let queue = &self.ctx.queue;
+        queue.write_buffer(&self.noisy, 0, bytemuck::cast_slice(&frame.noisy));
+        queue.write_buffer(&self.depth, 0, bytemuck::cast_slice(&frame.depth));
+        queue.write_buffer(&self.normal, 0, bytemuck::cast_slice(&frame.normal));
+        queue.write_buffer(&self.motion, 0, bytemuck::cast_slice(&frame.motion));
+        let mut encoder = self.ctx.create_encoder("test.denoise");
+        self.denoiser.record(
+            &self.ctx,
+            &mut self.timer,
+            &mut encoder,
+            &self.pipelines,
+            config,
+        );
+        let timings = self.timer.finish(&self.ctx, encoder);
+        let expected = 1 + u32::from(config.atrous_iterations > 0) + config.atrous_iterations;
+        assert_eq!(timings.0.len() as u32, expected, "{timings:?}");
+        self.ctx.read_buffer(self.denoiser.output())
+    }
+}
+
+/// Mean and standard deviation of channel `channel` over the pixels `keep` selects.
+fn stats(image: &[[f32; 4]], channel: usize, keep: impl Fn(usize) -> bool) -> (f64, f64) {
+    let values: Vec<f64> = (0..image.len())
+        .filter(|&pixel| keep(pixel))
+        .map(|pixel| f64::from(image[pixel][channel]))
+        .collect();
+    let n = values.len() as f64;
+    let mean = values.iter().sum::<f64>() / n;
+    let variance = values.iter().map(|v| (v - mean).powi(2)).sum::<f64>() / (n - 1.0);
+    (mean, variance.sqrt())
+}
+
+fn configs() -> Vec<(String, DenoiseConfig)> {
+    let mut configs = Vec::new();
+    for temporal in [true, false] {
+        for atrous_iterations in [0, 1, 4, 8] {
+            configs.push((
+                format!("temporal {temporal}, atrous {atrous_iterations}"),
+                DenoiseConfig {
+                    temporal,
+                    atrous_iterations,
+                    ..DenoiseConfig::default()
+                },
+            ));
+        }
+    }
+    configs
+}
+
+#[test]
+fn uniforms_match_their_wgsl_layout() {
+    let module = ShaderLibrary::new()
+        .compose("pc/denoise.wgsl", &[])
+        .unwrap();
+    let wgsl = wgsl_struct_layout(&module, "DenoiseUniforms").unwrap();
+    let rust = rust_field_offsets!(DenoiseUniforms {
+        size_px,
+        step_px,
+        write_history,
+        history_valid,
+        long_history,
+        short_history,
+        variance_min_age,
+        clamp_sigma,
+        reprojection_depth_tolerance,
+        reprojection_normal_cos,
+        normal_power,
+        depth_sigma,
+        luminance_sigma,
+    });
+    assert_eq!(wgsl.members, rust);
+    assert_eq!(wgsl.size as usize, size_of::<DenoiseUniforms>());
+}
+
+/// Makes one setting of a valid config invalid.
+type Spoil = fn(&mut DenoiseConfig);
+
+#[test]
+fn validation_names_the_bad_field() {
+    assert_eq!(DenoiseConfig::default().validate(), Ok(()));
+    let bad: [(&str, Spoil); 9] = [
+        ("atrous_iterations", |c| c.atrous_iterations = 9),
+        ("long_history", |c| c.long_history = 0),
+        ("short_history", |c| c.short_history = 0),
+        ("short_history", |c| c.short_history = 51),
+        ("clamp_sigma", |c| c.clamp_sigma = 0.0),
+        ("reprojection_depth_tolerance", |c| {
+            c.reprojection_depth_tolerance = f32::NAN
+        }),
+        ("reprojection_normal_cos", |c| {
+            c.reprojection_normal_cos = 1.5
+        }),
+        ("normal_power", |c| c.normal_power = -1.0),
+        ("luminance_sigma", |c| c.luminance_sigma = f32::INFINITY),
+    ];
+    for (field, spoil) in bad {
+        let mut config = DenoiseConfig::default();
+        spoil(&mut config);
+        let err = config.validate().unwrap_err();
+        assert!(err.starts_with(field), "{field}: {err}");
+    }
+}
+
+#[test]
+fn constant_input_stays_constant_under_every_config() {
+    let Some(ctx) = GpuContext::new_or_skip("constant_input_stays_constant_under_every_config")
+    else {
+        return;
+    };
+    let mut harness = Harness::new(ctx);
+    // A plane sloping away to the right, seen moving (sub-pixel motion exercises the bilinear
+    // reprojection and its partial taps at the borders), with a block of sky whose input must
+    // come out as is and must not leak into the constant.
+    let value = [0.3, 0.6, 0.9];
+    let mut frame = Frame::flat(value, 2.0, Vec3::Z);
+    for pixel in 0..PIXELS {
+        frame.depth[pixel] = 2.0 + 0.01 * column(pixel) as f32;
+        frame.motion[pixel] = [0.25, -0.5];
+        if column(pixel) < 16 && pixel < 8 * SIZE.0 as usize {
+            frame.set_sky(pixel, 7.0);
+        }
+    }
+    for (name, config) in configs() {
+        harness.denoiser.reset_history();
+        for index in 0..6 {
+            let output = harness.run(&frame, &config);
+            let mut worst = 0.0f32;
+            for (pixel, out) in output.iter().enumerate() {
+                let expected = if frame.depth[pixel].is_finite() {
+                    value
+                } else {
+                    [7.0; 3]
+                };
+                for c in 0..3 {
+                    worst = worst.max((out[c] - expected[c]).abs() / expected[c]);
+                }
+            }
+            assert!(
+                worst <= 1e-5,
+                "{name}, frame {index}: relative error {worst}"
+            );
+        }
+    }
+}
+
+#[test]
+fn noise_falls_and_the_mean_stays() {
+    let Some(ctx) = GpuContext::new_or_skip("noise_falls_and_the_mean_stays") else {
+        return;
+    };
+    let mut harness = Harness::new(ctx);
+    let mean = [0.5f32, 1.0, 2.0];
+    let frames = 16;
+    // Upper bounds on output / input standard deviation per config: temporal accumulation
+    // alone averages 16 frames (1/4), the a-trous filter alone a wide neighbourhood.
+    let cases = [
+        ("default", DenoiseConfig::default(), 0.03),
+        (
+            "temporal only",
+            DenoiseConfig {
+                atrous_iterations: 0,
+                ..DenoiseConfig::default()
+            },
+            0.3,
+        ),
+        (
+            "spatial only",
+            DenoiseConfig {
+                temporal: false,
+                ..DenoiseConfig::default()
+            },
+            0.15,
+        ),
+    ];
+    for (name, config, bound) in cases {
+        let mut rng = Pcg32::new(17, 0x0a02_bdbf_7bb3_c0a7);
+        harness.denoiser.reset_history();
+        let mut output = Vec::new();
+        let mut input = Frame::flat(mean, 3.0, Vec3::Z);
+        for _ in 0..frames {
+            input = Frame::flat(mean, 3.0, Vec3::Z);
+            input.add_noise(&mut rng, 0.9);
+            output = harness.run(&input, &config);
+        }
+        for (c, &expected_mean) in mean.iter().enumerate() {
+            let (_, sigma_in) = stats(&input.noisy, c, |_| true);
+            let (mean_out, sigma_out) = stats(&output, c, |_| true);
+            // One frame's standard error of the image mean; the output averages more samples.
+            let standard_error = sigma_in / (PIXELS as f64).sqrt();
+            let ratio = sigma_out / sigma_in;
+            let mean_error = (mean_out - f64::from(expected_mean)) / standard_error;
+            eprintln!(
+                "{name}, channel {c}: sigma in {sigma_in:.4}, out {sigma_out:.4} \
+                 (ratio {ratio:.4}); mean error {mean_error:.2} standard errors"
+            );
+            assert!(ratio < bound, "{name}, channel {c}: sigma ratio {ratio}");
+            assert!(
+                mean_error.abs() < 4.0,
+                "{name}, channel {c}: mean {mean_out}"
+            );
+        }
+    }
+}
