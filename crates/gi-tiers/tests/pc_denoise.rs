@@ -310,3 +310,224 @@ fn noise_falls_and_the_mean_stays() {
         }
     }
 }
+
+/// Worst relative difference between two images' rgb over the pixels `keep` selects.
+fn worst_relative_error(
+    image: &[[f32; 4]],
+    expected: &[[f32; 4]],
+    keep: impl Fn(usize) -> bool,
+) -> f32 {
+    let mut worst = 0.0f32;
+    for pixel in (0..image.len()).filter(|&pixel| keep(pixel)) {
+        for c in 0..3 {
+            let scale = expected[pixel][c].abs().max(1e-6);
+            worst = worst.max((image[pixel][c] - expected[pixel][c]).abs() / scale);
+        }
+    }
+    worst
+}
+
+#[test]
+fn atrous_does_not_bleed_across_normal_or_depth_edges() {
+    let Some(ctx) = GpuContext::new_or_skip("atrous_does_not_bleed_across_normal_or_depth_edges")
+    else {
+        return;
+    };
+    let mut harness = Harness::new(ctx);
+    let edge = SIZE.0 / 2;
+    let (left, right) = (1.0f32, 4.0f32);
+    // (name, right half's depth, right half's normal, whether the edge must hold)
+    let cases = [
+        ("normal edge", 2.0, Vec3::X, true),
+        ("depth edge", 10.0, Vec3::Z, true),
+        ("no geometric edge (control)", 2.0, Vec3::Z, false),
+    ];
+    for (name, right_depth, right_normal, holds) in cases {
+        let mut rng = Pcg32::new(5, 0x0a02_bdbf_7bb3_c0a7);
+        harness.denoiser.reset_history();
+        let mut output = Vec::new();
+        for _ in 0..8 {
+            let mut frame = Frame::flat([left; 3], 2.0, Vec3::Z);
+            for pixel in (0..PIXELS).filter(|&pixel| column(pixel) >= edge) {
+                frame.noisy[pixel] = [right, right, right, 0.0];
+                frame.depth[pixel] = right_depth;
+                frame.normal[pixel] = pack_unit_vector(right_normal);
+            }
+            // Noise loosens the luminance weight, so that only geometry can stop the blur.
+            frame.add_noise(&mut rng, 0.5);
+            output = harness.run(&frame, &DenoiseConfig::default());
+        }
+        // The worst relative deviation of a column's mean (over the rows) from its half's
+        // value, among the columns two or more pixels from the edge.
+        let mut worst = 0.0f64;
+        let mut worst_column = 0;
+        for x in (0..SIZE.0).filter(|&x| x + 2 < edge || x >= edge + 2) {
+            let expected = f64::from(if x < edge { left } else { right });
+            let (mean, _) = stats(&output, 0, |pixel| column(pixel) == x);
+            let deviation = (mean - expected).abs() / expected;
+            if deviation > worst {
+                (worst, worst_column) = (deviation, x);
+            }
+        }
+        eprintln!("{name}: worst column mean deviation {worst:.4} (column {worst_column})");
+        if holds {
+            assert!(
+                worst < 0.02,
+                "{name}: column {worst_column} is off by {worst}"
+            );
+        } else {
+            assert!(
+                worst > 0.05,
+                "{name}: the control shows no bleeding ({worst})"
+            );
+        }
+    }
+}
+
+#[test]
+fn disocclusion_drops_the_history_and_a_static_surface_keeps_it() {
+    let Some(ctx) =
+        GpuContext::new_or_skip("disocclusion_drops_the_history_and_a_static_surface_keeps_it")
+    else {
+        return;
+    };
+    let mut harness = Harness::new(ctx);
+    let temporal_only = DenoiseConfig {
+        atrous_iterations: 0,
+        ..DenoiseConfig::default()
+    };
+    let mut rng = Pcg32::new(23, 0x0a02_bdbf_7bb3_c0a7);
+    let noisy_frame = |rng: &mut Pcg32, value: f32, depth: f32| {
+        let mut frame = Frame::flat([value; 3], depth, Vec3::Z);
+        frame.add_noise(rng, 0.9);
+        frame
+    };
+    // Output / input standard deviation, green channel.
+    let sigma_ratio = |output: &[[f32; 4]], frame: &Frame| {
+        stats(output, 1, |_| true).1 / stats(&frame.noisy, 1, |_| true).1
+    };
+
+    // A static surface: the history grows and the noise keeps falling.
+    let mut ratios = Vec::new();
+    for index in 1..=16 {
+        let frame = noisy_frame(&mut rng, 1.0, 2.0);
+        let output = harness.run(&frame, &temporal_only);
+        if [1, 4, 16].contains(&index) {
+            ratios.push(sigma_ratio(&output, &frame));
+        }
+    }
+    eprintln!("static surface: sigma ratio after 1, 4, 16 frames {ratios:.4?}");
+    assert!(
+        ratios[0] > 0.999,
+        "the first frame has no history: {ratios:?}"
+    );
+    assert!(ratios[1] < 0.75 * ratios[0] && ratios[2] < 0.75 * ratios[1]);
+
+    // The depth changes everywhere by 25 %: no history survives, the output is the input.
+    let frame = noisy_frame(&mut rng, 3.0, 2.5);
+    let output = harness.run(&frame, &temporal_only);
+    let error = worst_relative_error(&output, &frame.noisy, |_| true);
+    eprintln!("disocclusion frame: output vs input relative error {error:e}");
+    assert!(error <= 1e-6, "history survived the disocclusion: {error}");
+    let frame = noisy_frame(&mut rng, 3.0, 2.5);
+    let output = harness.run(&frame, &temporal_only);
+    let ratio = sigma_ratio(&output, &frame);
+    eprintln!("the frame after: sigma ratio {ratio:.4}");
+    assert!(ratio < 0.8, "the new history is not kept: {ratio}");
+
+    // The same with the whole filter on a noise-free input: the new value at once.
+    harness.denoiser.reset_history();
+    for _ in 0..10 {
+        harness.run(
+            &Frame::flat([1.0; 3], 2.0, Vec3::Z),
+            &DenoiseConfig::default(),
+        );
+    }
+    let frame = Frame::flat([3.0; 3], 2.5, Vec3::Z);
+    let output = harness.run(&frame, &DenoiseConfig::default());
+    let error = worst_relative_error(&output, &frame.noisy, |_| true);
+    assert!(
+        error <= 1e-5,
+        "default config after the disocclusion: {error}"
+    );
+}
+
+#[test]
+fn a_lighting_change_is_followed_as_fast_as_the_short_history() {
+    let Some(ctx) =
+        GpuContext::new_or_skip("a_lighting_change_is_followed_as_fast_as_the_short_history")
+    else {
+        return;
+    };
+    let mut harness = Harness::new(ctx);
+    let config = DenoiseConfig::default();
+    let (before, after) = (1.0f32, 2.0f32);
+    for _ in 0..60 {
+        harness.run(&Frame::flat([before; 3], 2.0, Vec3::Z), &config);
+    }
+    // Same geometry, new irradiance: depth and normal keep the history, and only the clamp
+    // into the short history's box removes the old value. The short history moves by
+    // 1 / short_history of the remaining difference per frame; the long history alone would
+    // move by 1 / long_history.
+    let frame = Frame::flat([after; 3], 2.0, Vec3::Z);
+    let keep = 1.0 - 1.0 / config.short_history as f32;
+    for k in 1..=20 {
+        let output = harness.run(&frame, &config);
+        let left = output
+            .iter()
+            .map(|o| (o[1] - after).abs())
+            .fold(0.0f32, f32::max);
+        let allowed = (after - before) * keep.powi(k);
+        if k % 5 == 0 {
+            eprintln!("frame {k} after the change: {left:.5} left, clamping allows {allowed:.5}");
+        }
+        assert!(
+            left <= allowed + 1e-3,
+            "frame {k}: {left} of the old value left"
+        );
+    }
+}
+
+#[test]
+fn history_follows_the_motion_vectors() {
+    let Some(ctx) = GpuContext::new_or_skip("history_follows_the_motion_vectors") else {
+        return;
+    };
+    let mut harness = Harness::new(ctx);
+    let config = DenoiseConfig {
+        atrous_iterations: 0,
+        ..DenoiseConfig::default()
+    };
+    // A noise-free stripe pattern moving right one pixel per frame: every pixel's previous
+    // position is one pixel to its left. Reprojected correctly, the history holds this frame's
+    // values and the output equals the input; the wrong pixels' history would differ by up to
+    // the stripes' contrast.
+    let pattern = |x: i64| 1.0 + 0.5 * (0.7 * x as f32).sin();
+    let mut worst = 0.0f32;
+    for index in 0..8i64 {
+        let mut frame = Frame::flat([0.0; 3], 2.0, Vec3::Z);
+        for pixel in 0..PIXELS {
+            let value = pattern(i64::from(column(pixel)) - index);
+            frame.noisy[pixel] = [value, value, value, 0.0];
+            frame.motion[pixel] = [-1.0, 0.0];
+        }
+        let output = harness.run(&frame, &config);
+        worst = worst.max(worst_relative_error(&output, &frame.noisy, |_| true));
+    }
+    eprintln!("moving stripes: worst relative error {worst:e}");
+    assert!(worst <= 1e-5, "moving stripes: {worst}");
+}
+
+#[test]
+fn memory_is_counted_and_released() {
+    let Some(ctx) = GpuContext::new_or_skip("memory_is_counted_and_released") else {
+        return;
+    };
+    let harness = Harness::new(ctx);
+    let bytes = harness.denoiser.memory_bytes();
+    // 120 bytes per pixel (see the module docs) and nine 256-byte uniform slots.
+    assert_eq!(bytes, 120 * PIXELS as u64 + 9 * 256);
+    assert_eq!(harness.ctx.memory().bytes_with_prefix("pc.denoise."), bytes);
+    harness.denoiser.release(&harness.ctx);
+    assert_eq!(harness.ctx.memory().bytes_with_prefix("pc.denoise."), 0);
+}
