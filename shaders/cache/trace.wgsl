@@ -24,9 +24,11 @@
     cache, cache_link, cache_group_masks, cache_brick_masks, cache_voxels, VoxelRef,
     cache_mask_bit, cache_mask_test, cache_face_index, cache_voxel_of_point, cache_in_window,
     cache_level_of_point, cache_link_index, cache_group_index, cache_voxel_at, cache_voxel_index,
-    cache_voxel_normal, cache_side_irradiance, cache_side_radiance, cache_side_seen_by_ray,
-    cache_side_normal, CACHE_SIDE_FRONT, CACHE_SIDE_BACK
+    cache_voxel_normal, cache_side_radiance, cache_side_seen_by_ray,
+    cache_side_normal, cache_side_slot, cache_direct, cache_indirect, CACHE_SIDE_FRONT,
+    CACHE_SIDE_BACK
 }
+#import gi::packing::unpack_rgb9e5
 
 // Most cells one trace visits (all scales and levels together). A ray crossing a default
 // level (128 x 64 x 128 voxels) voxel by voxel takes at most 320 voxel steps; empty space goes
@@ -292,6 +294,26 @@ const CACHE_IRRADIANCE_MIN_AGREEMENT: f32 = 0.5;
 // side, lit from outside the corner. When none qualifies, the voxel containing `p` or else its
 // neighbour behind `p` along `-n` is used as is.
 fn cache_irradiance(p: vec3<f32>, n: vec3<f32>) -> vec4<f32> {
+    return cache_irradiance_of(p, n, true);
+}
+
+// `cache_irradiance` without the punctual lights' direct irradiance (`cache_direct`): what a
+// caller that lights the point itself (with shadow rays) adds to it.
+fn cache_indirect_irradiance(p: vec3<f32>, n: vec3<f32>) -> vec4<f32> {
+    return cache_irradiance_of(p, n, false);
+}
+
+// Irradiance of side `side` of `v`, with or without its direct part.
+fn cache_side_irradiance_of(v: VoxelRef, side: u32, with_direct: bool) -> vec3<f32> {
+    let slot = cache_side_slot(v, side);
+    var e = unpack_rgb9e5(cache_indirect[slot]);
+    if with_direct {
+        e += unpack_rgb9e5(cache_direct[slot]);
+    }
+    return e;
+}
+
+fn cache_irradiance_of(p: vec3<f32>, n: vec3<f32>, with_direct: bool) -> vec4<f32> {
     let level = cache_level_of_point(p);
     if level >= cache.level_count {
         return vec4(0.0);
@@ -314,7 +336,7 @@ fn cache_irradiance(p: vec3<f32>, n: vec3<f32>) -> vec4<f32> {
         }
         let w3 = select(1.0 - f, f, offset == vec3(1u));
         let w = w3.x * w3.y * w3.z * abs(agreement);
-        sum += w * cache_side_irradiance(v, select(CACHE_SIDE_BACK, CACHE_SIDE_FRONT, agreement >= 0.0));
+        sum += w * cache_side_irradiance_of(v, select(CACHE_SIDE_BACK, CACHE_SIDE_FRONT, agreement >= 0.0), with_direct);
         weight += w;
     }
     if weight > 1e-6 {
@@ -328,5 +350,5 @@ fn cache_irradiance(p: vec3<f32>, n: vec3<f32>) -> vec4<f32> {
         return vec4(0.0);
     }
     let agreement = dot(cache_voxel_normal(cache_voxels[cache_voxel_index(v)]), n);
-    return vec4(cache_side_irradiance(v, select(CACHE_SIDE_BACK, CACHE_SIDE_FRONT, agreement >= 0.0)), 1.0);
+    return vec4(cache_side_irradiance_of(v, select(CACHE_SIDE_BACK, CACHE_SIDE_FRONT, agreement >= 0.0), with_direct), 1.0);
 }

@@ -12,7 +12,7 @@ use gi_tiers::TierKind;
 use crate::{
     ViewArgs, cache, parse_tier,
     render::progress_bar,
-    tiers::{MobileReport, render_tier},
+    tiers::{MobileReport, PcReport, render_tier},
 };
 
 #[derive(Args, Debug)]
@@ -73,6 +73,10 @@ struct TierReport {
     /// for the other tiers.
     #[serde(skip_serializing_if = "Option::is_none")]
     mobile: Option<MobileReport>,
+    /// The PC tier's GI time (`cache/*` + `pc/*` passes) and memory breakdown; absent for the
+    /// other tiers.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pc: Option<PcReport>,
     /// Path-tracing throughput; null for tiers that don't trace paths on the CPU.
     samples_per_second: Option<f64>,
     rays_per_second: Option<f64>,
@@ -198,6 +202,7 @@ pub fn run(args: &CompareArgs) -> Result<()> {
             memory_bytes: render.memory_bytes,
             warmup: render.warmup,
             mobile: render.mobile.clone(),
+            pc: render.pc.clone(),
             samples_per_second: render.stats.as_ref().map(|s| s.samples_per_second),
             rays_per_second: render.stats.as_ref().map(|s| s.rays_per_second),
         });
@@ -263,6 +268,9 @@ fn print_table(report: &CompareReport) {
     for tier in &report.tiers {
         if let Some(mobile) = &tier.mobile {
             println!("{}", mobile.line(tier.ms_per_frame, tier.warmup));
+        }
+        if let Some(pc) = &tier.pc {
+            println!("{}", pc.line(tier.ms_per_frame, tier.warmup));
         }
     }
 }

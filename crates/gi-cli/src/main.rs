@@ -10,7 +10,7 @@ mod tiers;
 use std::{path::PathBuf, process::ExitCode};
 
 use clap::{Args, Parser, Subcommand};
-use gi_tiers::TierKind;
+use gi_tiers::{PcConfig, TierKind};
 use tiers::{CameraChoice, RenderRequest, ScreenProbes};
 
 /// Real-time global illumination tiers, measured against a path-traced reference.
@@ -78,6 +78,11 @@ pub struct ViewArgs {
     /// rest reprojected). Only the mobile tier reads it.
     #[arg(long, value_enum)]
     screen_probes: Option<ScreenProbes>,
+    /// Switch one stage of the PC tier off, for ablations: temporal, spatial, shadow,
+    /// multi-sample, boiling, svgf or restir (all reuse off: one sample per trace pixel, the
+    /// same denoiser). Only the PC tier reads it.
+    #[arg(long, value_name = "STAGE")]
+    pc_without: Option<String>,
 }
 
 /// Largest accepted image side, and largest pixel count (a 16K x 4K image).
@@ -126,6 +131,11 @@ impl ViewArgs {
             camera: self.camera,
             warmup: self.warmup,
             mobile: ScreenProbes::mobile_config(self.screen_probes),
+            pc: match &self.pc_without {
+                Some(stage) => PcConfig::without(stage).map_err(anyhow::Error::msg)?,
+                None => PcConfig::default(),
+            },
+            pc_without: self.pc_without.clone(),
         })
     }
 }

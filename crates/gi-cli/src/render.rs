@@ -53,6 +53,8 @@ pub struct RenderReport {
     pub bvh_build_ms: Option<f64>,
     /// The mobile tier's GI time and memory breakdown; null for the other tiers.
     pub mobile: Option<crate::tiers::MobileReport>,
+    /// The PC tier's GI time and memory breakdown; null for the other tiers.
+    pub pc: Option<crate::tiers::PcReport>,
 }
 
 /// A progress bar over samples per pixel; indicatif hides it when stderr is not a terminal.
@@ -117,6 +119,7 @@ pub fn run(args: &RenderArgs) -> Result<()> {
         rays_per_second: result.stats.as_ref().map(|s| s.rays_per_second),
         bvh_build_ms: result.stats.as_ref().map(|s| s.bvh_build_seconds * 1e3),
         mobile: result.mobile.clone(),
+        pc: result.pc.clone(),
     };
     let throughput = match (report.samples_per_second, report.rays_per_second) {
         (Some(samples), Some(rays)) => {
@@ -140,6 +143,9 @@ pub fn run(args: &RenderArgs) -> Result<()> {
     );
     if let Some(mobile) = &report.mobile {
         println!("{}", mobile.line(report.ms_per_frame, report.warmup));
+    }
+    if let Some(pc) = &report.pc {
+        println!("{}", pc.line(report.ms_per_frame, report.warmup));
     }
     if let Some(path) = &args.stats {
         std::fs::write(path, serde_json::to_string_pretty(&report)?)

@@ -7,8 +7,10 @@ use gi_image::Image;
 use gi_reference::RenderStats;
 use gi_scene::{CameraView, Scene};
 use gi_tiers::{
-    CameraMode, MobileConfig, MobileTier, Renderer, TierChoice, TierKind, TierSettings,
+    CameraMode, MobileConfig, MobileTier, PcConfig, PcTier, Renderer, TierChoice, TierKind,
+    TierSettings,
     mobile::{MobileMemory, ScreenConfig, ScreenProbeMode},
+    pc::PcMemory,
 };
 use serde::Serialize;
 
@@ -86,6 +88,10 @@ pub struct RenderRequest {
     pub warmup: Option<u32>,
     /// The mobile tier's configuration (ignored by the other tiers).
     pub mobile: MobileConfig,
+    /// The PC tier's configuration (ignored by the other tiers), and the stage it has
+    /// switched off (`--pc-without`), if any.
+    pub pc: PcConfig,
+    pub pc_without: Option<String>,
 }
 
 impl RenderRequest {
@@ -118,6 +124,8 @@ pub struct TierRender {
     pub warmup: u32,
     /// What only the mobile tier reports.
     pub mobile: Option<MobileReport>,
+    /// What only the PC tier reports.
+    pub pc: Option<PcReport>,
 }
 
 /// The mobile tier's GI cost and memory breakdown, in the JSON reports.
@@ -150,6 +158,53 @@ impl From<MobileMemory> for MobileMemoryReport {
             frame_bytes: memory.frame_bytes,
             gi_bytes: memory.gi_bytes(),
         }
+    }
+}
+
+impl From<PcMemory> for MobileMemoryReport {
+    fn from(memory: PcMemory) -> Self {
+        Self {
+            coverage_bytes: memory.coverage_bytes,
+            screen_bytes: memory.screen_bytes,
+            frame_bytes: memory.frame_bytes,
+            gi_bytes: memory.gi_bytes(),
+        }
+    }
+}
+
+/// The PC tier's GI cost and memory breakdown, in the JSON reports.
+#[derive(Clone, Debug, Serialize)]
+pub struct PcReport {
+    /// The stage switched off (`--pc-without`), or null for the default pipeline.
+    pub without: Option<String>,
+    /// Full-resolution pixels per trace pixel along each axis.
+    pub trace_scale: u32,
+    /// Milliseconds of the measured frame's GI passes (`cache/*` and `pc/*`).
+    pub gi_ms: f64,
+    /// Brick cache (coverage), resolution-dependent GI buffers (screen), the rest (frame).
+    pub memory: MobileMemoryReport,
+}
+
+impl PcReport {
+    /// One line for the printed tables.
+    pub fn line(&self, ms_per_frame: f64, warmup: u32) -> String {
+        let mib = |bytes: u64| bytes as f64 / (1 << 20) as f64;
+        let m = &self.memory;
+        let variant = match &self.without {
+            Some(stage) => format!("without {stage}"),
+            None => "every stage".to_string(),
+        };
+        format!(
+            "pc ({variant}, trace scale {}, measured after {warmup} warm-up frames): GI {:.2} ms \
+             of {ms_per_frame:.2} ms/frame (cache/* + pc/*); GI memory {:.2} MiB (coverage {:.2} \
+             + screen {:.2}), frame {:.2} MiB",
+            self.trace_scale,
+            self.gi_ms,
+            mib(m.gi_bytes),
+            mib(m.coverage_bytes),
+            mib(m.screen_bytes),
+            mib(m.frame_bytes),
+        )
     }
 }
 
@@ -189,6 +244,9 @@ pub fn render_tier(
     let mut renderer = if tier == TierKind::Mobile {
         let mobile = MobileTier::open(settings, request.mobile.clone())?;
         Renderer::with_tier(scene.clone(), Box::new(mobile), request.camera.into())
+    } else if tier == TierKind::Pc {
+        let pc = PcTier::open(settings, request.pc.clone())?;
+        Renderer::with_tier(scene.clone(), Box::new(pc), request.camera.into())
     } else {
         Renderer::new(
             scene.clone(),
@@ -204,6 +262,12 @@ pub fn render_tier(
         gi_ms: frame.gi_ms(TierKind::Mobile),
         memory: mobile.memory().into(),
     });
+    let pc = renderer.tier_as::<PcTier>().map(|pc| PcReport {
+        without: request.pc_without.clone(),
+        trace_scale: pc.config().trace_scale,
+        gi_ms: frame.gi_ms(TierKind::Pc),
+        memory: pc.memory().into(),
+    });
     Ok(TierRender {
         ms_per_frame: frame.ms_total(),
         passes: frame.passes.iter().cloned().collect(),
@@ -212,5 +276,6 @@ pub fn render_tier(
         stats: frame.stats,
         warmup: renderer.warm_up_frames(),
         mobile,
+        pc,
     })
 }

@@ -25,7 +25,7 @@ struct Prepared {
 impl CpuTier {
     /// A CPU tier of `kind` (`Reference` or `Direct`).
     pub fn new(kind: TierKind, settings: TierSettings) -> Result<Self, TierError> {
-        if matches!(kind, TierKind::Path | TierKind::Mobile) {
+        if matches!(kind, TierKind::Path | TierKind::Mobile | TierKind::Pc) {
             return Err(TierError::Unavailable {
                 tier: kind.name(),
                 reason: format!("the {kind} tier runs on the GPU only"),
@@ -50,7 +50,7 @@ pub(crate) fn render_settings(kind: TierKind, settings: &TierSettings) -> Render
         seed: settings.seed,
         mode: match kind {
             TierKind::Direct => Mode::Direct,
-            TierKind::Reference | TierKind::Path | TierKind::Mobile => Mode::Full,
+            TierKind::Reference | TierKind::Path | TierKind::Mobile | TierKind::Pc => Mode::Full,
         },
         strategy: Strategy::Mis,
         ..RenderSettings::default()

@@ -16,11 +16,13 @@
 mod cpu;
 pub mod mobile;
 mod path;
+pub mod pc;
 mod renderer;
 mod tier;
 
 pub use cpu::CpuTier;
 pub use mobile::{MobileConfig, MobileTier};
 pub use path::{GpuPathTier, Moments, PathUniforms};
+pub use pc::{PcConfig, PcTier};
 pub use renderer::{CameraMode, Renderer};
 pub use tier::{FrameInput, FrameOutput, Tier, TierChoice, TierError, TierKind, TierSettings};

@@ -10,6 +10,7 @@ use crate::{
     cpu::CpuTier,
     mobile::{MobileConfig, MobileTier},
     path::GpuPathTier,
+    pc::{PcConfig, PcTier},
     tier::{FrameInput, FrameOutput, Tier, TierChoice, TierError, TierKind, TierSettings},
 };
 
@@ -46,7 +47,9 @@ impl Renderer {
             TierChoice::Mobile | TierChoice::Tier(TierKind::Mobile) => {
                 Box::new(MobileTier::open(settings, MobileConfig::default())?)
             }
-            TierChoice::Pc => return Err(not_built("pc")),
+            TierChoice::Pc | TierChoice::Tier(TierKind::Pc) => {
+                Box::new(PcTier::open(settings, PcConfig::default())?)
+            }
             TierChoice::Path | TierChoice::Tier(TierKind::Path) => {
                 Box::new(GpuPathTier::open(TierKind::Path, settings)?)
             }
@@ -224,11 +227,4 @@ fn hardware_gpu() -> Option<GpuContext> {
     GpuContext::new()
         .ok()
         .filter(|ctx| ctx.adapter_info.device_type != wgpu::DeviceType::Cpu)
-}
-
-fn not_built(tier: &'static str) -> TierError {
-    TierError::Unavailable {
-        tier,
-        reason: "this tier is not built yet".to_string(),
-    }
 }

@@ -23,15 +23,19 @@ pub enum TierKind {
     /// The mobile tier: the brick radiance cache, a probe volume and deferred screen probes
     /// with a temporal filter (`crate::MobileTier`). Temporal: it converges over frames.
     Mobile,
+    /// The PC tier: BVH-traced ReSTIR GI over the brick cache, with a visibility ray,
+    /// multi-sample shading and SVGF (`crate::PcTier`). Temporal.
+    Pc,
 }
 
 impl TierKind {
     /// Every tier, in the order tables list them.
-    pub const ALL: [TierKind; 4] = [
+    pub const ALL: [TierKind; 5] = [
         TierKind::Reference,
         TierKind::Direct,
         TierKind::Path,
         TierKind::Mobile,
+        TierKind::Pc,
     ];
 
     /// The name used on the command line, in JSON and in pass names.
@@ -41,18 +45,21 @@ impl TierKind {
             TierKind::Direct => "direct",
             TierKind::Path => "path",
             TierKind::Mobile => "mobile",
+            TierKind::Pc => "pc",
         }
     }
 
     /// Still warm-up frames a measurement of this tier renders before its measured frames
     /// ([`crate::Renderer::warm_up`]): 63 for `mobile`, so the measured frame is the 64th of a
     /// still view, when its temporal filter (at most 32 frames of history per pixel, 64 per
-    /// probe face) has converged; 0 for the others. The path tier's progressive accumulation
+    /// probe face) has converged; 63 for `pc` too (its reservoirs count at most 20 frames, its
+    /// denoiser's long history 50, and the cache under both converges as the mobile tier's);
+    /// 0 for the others. The path tier's progressive accumulation
     /// is controlled by its samples per pixel and frames instead, and the CPU tiers keep no
     /// history. More warm-up costs time linearly and only changes temporal tiers.
     pub fn default_warmup(self) -> u32 {
         match self {
-            TierKind::Mobile => 63,
+            TierKind::Mobile | TierKind::Pc => 63,
             TierKind::Reference | TierKind::Direct | TierKind::Path => 0,
         }
     }
@@ -64,6 +71,7 @@ impl TierKind {
     pub fn is_gi_pass(self, pass: &str) -> bool {
         match self {
             TierKind::Mobile => pass.starts_with("cache/") || pass.starts_with("mobile/"),
+            TierKind::Pc => pass.starts_with("cache/") || pass.starts_with("pc/"),
             TierKind::Reference | TierKind::Direct | TierKind::Path => false,
         }
     }
@@ -98,7 +106,8 @@ pub enum TierChoice {
     /// The mobile tier (surfel brick cache, probe volume, screen probes) with its default
     /// configuration; [`crate::Renderer::with_tier`] takes one configured otherwise.
     Mobile,
-    /// The PC tier (BVH ray tracing, ReSTIR GI, SVGF). Not built yet.
+    /// The PC tier (BVH ray tracing, ReSTIR GI, SVGF) with its default configuration;
+    /// [`crate::Renderer::with_tier`] takes one configured otherwise.
     Pc,
     /// The GPU path tracer; `Unavailable` without a Vulkan adapter.
     Path,

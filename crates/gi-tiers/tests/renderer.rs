@@ -104,21 +104,23 @@ fn camera_path_mode_follows_the_path() {
 }
 
 #[test]
-fn unknown_unbuilt_and_invalid_requests_are_errors() {
+fn unknown_and_invalid_requests_are_errors() {
     let err = "ultra".parse::<TierKind>().unwrap_err().to_string();
     assert!(err.contains("ultra") && err.contains("reference") && err.contains("direct"));
     // The path tier's choices are tested with the GPU tiers (tests/path.rs).
-    let scene = gi_scene::load("cornell-box").unwrap();
-    let result = Renderer::new(scene, TierChoice::Pc, SETTINGS, CameraMode::Default);
-    assert!(matches!(result, Err(TierError::Unavailable { .. })));
-    // The mobile tier is built: it needs a Vulkan adapter, and says so without one.
-    let scene = gi_scene::load("cornell-box").unwrap();
-    match Renderer::new(scene, TierChoice::Mobile, SETTINGS, CameraMode::Default) {
-        Ok(renderer) => assert_eq!(renderer.tier(), TierKind::Mobile),
-        Err(error) => assert!(
-            matches!(error, TierError::Unavailable { tier: "mobile", .. }),
-            "{error}"
-        ),
+    // The mobile and PC tiers need a Vulkan adapter, and say so without one.
+    for (choice, kind) in [
+        (TierChoice::Mobile, TierKind::Mobile),
+        (TierChoice::Pc, TierKind::Pc),
+    ] {
+        let scene = gi_scene::load("cornell-box").unwrap();
+        match Renderer::new(scene, choice, SETTINGS, CameraMode::Default) {
+            Ok(renderer) => assert_eq!(renderer.tier(), kind),
+            Err(error) => assert!(
+                matches!(error, TierError::Unavailable { tier, .. } if tier == kind.name()),
+                "{error}"
+            ),
+        }
     }
     let scene = gi_scene::load("cornell-box").unwrap();
     let zero = TierSettings {
@@ -130,9 +132,13 @@ fn unknown_unbuilt_and_invalid_requests_are_errors() {
 }
 
 #[test]
-fn default_warm_up_is_for_the_mobile_tier_only() {
+fn default_warm_up_is_for_the_temporal_gpu_tiers_only() {
     for kind in TierKind::ALL {
-        let expected = if kind == TierKind::Mobile { 63 } else { 0 };
+        let expected = if matches!(kind, TierKind::Mobile | TierKind::Pc) {
+            63
+        } else {
+            0
+        };
         assert_eq!(kind.default_warmup(), expected, "{kind}");
     }
 }

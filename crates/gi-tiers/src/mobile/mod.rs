@@ -384,7 +384,7 @@ impl Prepared {
 
 /// What the next frame needs of `frame`: everything but its triangles and their attributes,
 /// which a copy per frame would cost megabytes on large scenes.
-fn frame_history(frame: &SceneFrame) -> SceneFrame {
+pub(crate) fn frame_history(frame: &SceneFrame) -> SceneFrame {
     SceneFrame {
         time_s: frame.time_s,
         triangles: Vec::new(),

@@ -1,0 +1,191 @@
+//! The PC tier's settings.
+
+use gi_cache::CacheConfig;
+
+use super::denoise::DenoiseConfig;
+
+/// Everything the PC tier can be told. `Default` is the product's configuration.
+#[derive(Clone, Debug, PartialEq)]
+pub struct PcConfig {
+    /// The brick radiance cache the hits read their indirect light from.
+    pub cache: CacheConfig,
+    /// Full-resolution pixels per trace pixel along each axis: 2 traces one ray per 2 x 2
+    /// pixels (HSGI traces at 966 x 542 for a 1932 x 1084 frame), 1 one per pixel.
+    pub trace_scale: u32,
+    pub restir: RestirConfig,
+    pub denoise: DenoiseConfig,
+}
+
+impl Default for PcConfig {
+    fn default() -> Self {
+        Self {
+            cache: CacheConfig::default(),
+            trace_scale: 2,
+            restir: RestirConfig::default(),
+            denoise: DenoiseConfig::default(),
+        }
+    }
+}
+
+/// The stages [`PcConfig::without`] can switch off, for ablations.
+pub const PC_STAGES: [&str; 7] = [
+    "temporal",
+    "spatial",
+    "shadow",
+    "multi-sample",
+    "boiling",
+    "svgf",
+    "restir",
+];
+
+impl PcConfig {
+    /// The default with `stage` switched off: one of [`PC_STAGES`]. `restir` switches off all
+    /// reuse (temporal, spatial, shadow ray, multi-sample shading, boiling filter): each
+    /// pixel is shaded from its own trace pixel's single sample, the plain 1-sample-per-trace-
+    /// pixel pipeline with the same denoiser. `svgf` switches off the whole denoiser
+    /// (temporal accumulation and the a-trous passes).
+    pub fn without(stage: &str) -> Result<Self, String> {
+        let mut config = Self::default();
+        let r = &mut config.restir;
+        match stage {
+            "temporal" => r.temporal = false,
+            "spatial" => r.spatial = false,
+            "shadow" => r.shadow_ray = false,
+            "multi-sample" => r.multi_sample = false,
+            "boiling" => r.boiling_filter = false,
+            "svgf" => {
+                config.denoise.temporal = false;
+                config.denoise.atrous_iterations = 0;
+            }
+            "restir" => {
+                r.temporal = false;
+                r.spatial = false;
+                r.shadow_ray = false;
+                r.multi_sample = false;
+                r.boiling_filter = false;
+            }
+            other => {
+                return Err(format!(
+                    "unknown PC tier stage '{other}' (stages: {})",
+                    PC_STAGES.join(", ")
+                ));
+            }
+        }
+        Ok(config)
+    }
+
+    /// Checks every field; the error names the first bad one.
+    pub fn validate(&self) -> Result<(), String> {
+        if !(1..=2).contains(&self.trace_scale) {
+            return Err(format!(
+                "trace_scale must be 1 or 2, not {}",
+                self.trace_scale
+            ));
+        }
+        self.restir.validate()?;
+        self.denoise.validate()
+    }
+}
+
+/// ReSTIR GI's knobs (Ouyang et al. 2021; HSGI, GDC 2023).
+#[derive(Clone, Debug, PartialEq)]
+pub struct RestirConfig {
+    /// Reuse the previous frame's reservoir of the same surface.
+    pub temporal: bool,
+    /// Reuse neighbours' reservoirs.
+    pub spatial: bool,
+    /// HSGI's visibility ray to the chosen sample, with the fallback to the temporal reservoir
+    /// and the shadow condition in the shading's neighbour selection.
+    pub shadow_ray: bool,
+    /// Shade each pixel from the reservoirs of the trace pixels around it.
+    pub multi_sample: bool,
+    /// Restart reservoirs much brighter than their neighbourhood.
+    pub boiling_filter: bool,
+    /// Most samples the temporal history counts (ReSTIR GI and HSGI: 20).
+    pub m_clamp: f32,
+    /// Neighbours the spatial reuse tries.
+    pub spatial_samples: u32,
+    /// Radius of the spatial reuse's disk, in trace pixels.
+    pub spatial_radius: f32,
+    /// Bound of the reconnection shift's Jacobian (HSGI bounds the maximum).
+    pub jacobian_max: f32,
+    /// Multi-sample shading reads (2 r + 1)^2 trace pixels: 1 is HSGI's 3 x 3.
+    pub shade_radius: u32,
+    /// Least cosine between two receivers' normals for reuse (cos 25 degrees).
+    pub normal_cos: f32,
+    /// Most distance of a receiver from another's tangent plane for reuse, relative to depth.
+    pub plane_tolerance: f32,
+    /// A reservoir whose weight exceeds this times its 8 x 8 neighbourhood's mean restarts.
+    pub boil_factor: f32,
+    /// Shadow condition: cosine of the cone around the occluded direction.
+    pub shadow_cos: f32,
+    /// Shadow condition: a neighbour's sample beyond this times the occluder's distance in
+    /// that cone counts as occluded.
+    pub shadow_distance_ratio: f32,
+}
+
+impl Default for RestirConfig {
+    fn default() -> Self {
+        Self {
+            temporal: true,
+            spatial: true,
+            shadow_ray: true,
+            multi_sample: true,
+            boiling_filter: true,
+            m_clamp: 20.0,
+            spatial_samples: 4,
+            spatial_radius: 8.0,
+            jacobian_max: 10.0,
+            shade_radius: 1,
+            normal_cos: 0.906,
+            plane_tolerance: 0.05,
+            boil_factor: 10.0,
+            shadow_cos: 0.9,
+            shadow_distance_ratio: 1.0,
+        }
+    }
+}
+
+impl RestirConfig {
+    pub fn validate(&self) -> Result<(), String> {
+        let positive = [
+            ("m_clamp", self.m_clamp),
+            ("jacobian_max", self.jacobian_max),
+            ("plane_tolerance", self.plane_tolerance),
+            ("boil_factor", self.boil_factor),
+            ("shadow_distance_ratio", self.shadow_distance_ratio),
+        ];
+        for (name, value) in positive {
+            if !(value.is_finite() && value > 0.0) {
+                return Err(format!("{name} must be positive and finite, not {value}"));
+            }
+        }
+        if !(self.spatial_radius.is_finite() && (0.0..=64.0).contains(&self.spatial_radius)) {
+            return Err(format!(
+                "spatial_radius must be within 0..=64 trace pixels, not {}",
+                self.spatial_radius
+            ));
+        }
+        if self.spatial_samples > 32 {
+            return Err(format!(
+                "spatial_samples must be at most 32, not {}",
+                self.spatial_samples
+            ));
+        }
+        if self.shade_radius > 3 {
+            return Err(format!(
+                "shade_radius must be at most 3, not {}",
+                self.shade_radius
+            ));
+        }
+        for (name, value) in [
+            ("normal_cos", self.normal_cos),
+            ("shadow_cos", self.shadow_cos),
+        ] {
+            if !(-1.0..=1.0).contains(&value) {
+                return Err(format!("{name} must be within -1..=1, not {value}"));
+            }
+        }
+        Ok(())
+    }
+}

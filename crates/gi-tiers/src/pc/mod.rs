@@ -1,0 +1,783 @@
+//! The PC tier (`pc`): BVH-traced ReSTIR GI over the brick radiance cache, with HSGI's
+//! visibility ("shadow") ray, multi-sample shading and an SVGF denoiser (HSGI, GDC 2023, "PC /
+//! Console Solution"; ReSTIR GI, Ouyang et al. 2021; SVGF, Schied et al. 2017).
+//!
+//! A frame: `gbuffer/primary` (ray-cast G-buffer), the cache update (`cache/*`, as the mobile
+//! tier's), `pc/trace` (one BVH ray per trace pixel, shaded at the hit with exact direct light
+//! and the cache's indirect light: `shaders/pc/trace.wgsl`), `pc/temporal`, `pc/spatial`,
+//! `pc/shadow` (the reservoir passes), `pc/shade` (multi-sample shading to full resolution:
+//! `shaders/pc/restir.wgsl`), `pc/denoise_*` (temporal supersampling and SVGF:
+//! [`denoise`]), `direct/trace` + `direct/resolve` (direct light, accumulated while the view
+//! holds still, as the mobile tier does) and `pc/compose`. The GI's cost is the `cache/*` and
+//! `pc/*` passes.
+
+mod config;
+pub mod denoise;
+
+pub use config::{PC_STAGES, PcConfig, RestirConfig};
+
+use bytemuck::{Pod, Zeroable};
+use gi_cache::lighting::GpuSky;
+use gi_cache::{CacheBuffers, CacheLighting, RadianceCache, ScreenInputs};
+use gi_gpu::binding::{buffer_entries, storage_entry, uniform_entry};
+use gi_gpu::bvh::{BVH_BIND_GROUP, GpuBvh};
+use gi_gpu::gbuffer::{GBuffer, GBufferInputs};
+use gi_gpu::{GpuCamera, GpuContext, GpuError, GpuScene, GpuTimer, ShaderLibrary, wgpu};
+use gi_image::Image;
+use gi_scene::SceneFrame;
+use glam::Vec3;
+
+use crate::mobile::frame_history;
+use crate::path::{Accumulation, PathPipelines, PathUniforms};
+use crate::tier::{FrameInput, FrameOutput, Tier, TierError, TierKind, TierSettings};
+use denoise::{DenoisePipelines, DenoiseSources, Denoiser};
+
+/// Most timed passes in one frame.
+const TIMER_SCOPES: u32 = 48;
+/// Pixels per side of the passes' workgroups (`@workgroup_size(8, 8)`).
+const TILE: u32 = 8;
+
+/// Mirror of `PcUniforms` in `shaders/pc/common.wgsl`, 288 bytes.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
+pub struct PcUniforms {
+    pub camera: GpuCamera,
+    pub previous_camera: GpuCamera,
+    pub sky: GpuSky,
+    pub size_px: [u32; 2],
+    pub trace_px: [u32; 2],
+    pub seed: [u32; 2],
+    pub frame_index: u32,
+    pub trace_scale: u32,
+    /// `FLAG_*` bits of the shader: which stages run, and whether history exists.
+    pub flags: u32,
+    pub light_count: u32,
+    pub default_material: u32,
+    pub m_clamp: f32,
+    pub jacobian_max: f32,
+    pub spatial_radius: f32,
+    pub spatial_samples: u32,
+    pub shade_radius: u32,
+    pub normal_cos: f32,
+    pub plane_tolerance: f32,
+    pub boil_factor: f32,
+    pub shadow_cos: f32,
+    pub shadow_distance_ratio: f32,
+    pub pad_a: u32,
+    pub pad_b: u32,
+    pub pad_c: u32,
+}
+
+/// Mirror of `Reservoir` in `shaders/pc/common.wgsl`, 48 bytes.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
+pub struct GpuReservoir {
+    /// The sample point, or a sky sample's unit direction.
+    pub position: [f32; 3],
+    /// Unbiased contribution weight W.
+    pub w: f32,
+    pub radiance: [f32; 3],
+    pub m: f32,
+    pub normal: u32,
+    /// Bit 0: sky sample; bit 1: occluded (fell back to the temporal reservoir).
+    pub flags: u32,
+    pub occluder_distance: f32,
+    pub occluder_direction: u32,
+}
+
+/// Mirror of `Surface` in `shaders/pc/common.wgsl`, 32 bytes.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
+pub struct GpuSurface {
+    pub position: [f32; 3],
+    /// Packed normal; 0 when the trace pixel has no surface.
+    pub normal: u32,
+    pub pixel: u32,
+    pub depth: f32,
+    pub pad_a: u32,
+    pub pad_b: u32,
+}
+
+/// Shader flag bits (`FLAG_*` in `shaders/pc/common.wgsl`).
+mod flags {
+    pub const TEMPORAL: u32 = 1;
+    pub const SPATIAL: u32 = 2;
+    pub const SHADOW: u32 = 4;
+    pub const MULTI_SAMPLE: u32 = 8;
+    pub const BOILING: u32 = 16;
+    pub const HISTORY: u32 = 32;
+}
+
+/// GPU memory of the PC tier by what it scales with.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct PcMemory {
+    /// World-space GI structures: the brick cache.
+    pub coverage_bytes: u64,
+    /// Resolution-dependent GI buffers: surfaces, reservoirs, irradiance, denoiser history.
+    pub screen_bytes: u64,
+    /// What every tier needs besides GI: scene, BVH, G-buffer, direct light, output.
+    pub frame_bytes: u64,
+}
+
+impl PcMemory {
+    pub fn gi_bytes(&self) -> u64 {
+        self.coverage_bytes + self.screen_bytes
+    }
+}
+
+/// One frame's intermediate images, for tests and metrics.
+#[derive(Clone, Debug)]
+pub struct PcFrameData {
+    /// The GI term the tier added to the direct light.
+    pub gi: Image,
+    /// The multi-sample shading's irradiance, before denoising.
+    pub noisy_irradiance: Image,
+    /// The denoised irradiance.
+    pub irradiance: Image,
+    /// The trace pixels' resolved reservoirs (row-major, `trace_size`).
+    pub reservoirs: Vec<GpuReservoir>,
+    pub trace_size: (u32, u32),
+}
+
+/// The compute pipelines of `pc/trace.wgsl` and `pc/restir.wgsl` and their layouts.
+struct PcPipelines {
+    trace_layout: wgpu::BindGroupLayout,
+    restir_layout: wgpu::BindGroupLayout,
+    trace: wgpu::ComputePipeline,
+    shadow: wgpu::ComputePipeline,
+    temporal: wgpu::ComputePipeline,
+    spatial: wgpu::ComputePipeline,
+    shade: wgpu::ComputePipeline,
+    compose: wgpu::ComputePipeline,
+}
+
+impl PcPipelines {
+    fn new(ctx: &GpuContext, shaders: &ShaderLibrary) -> Result<Self, GpuError> {
+        let layout = |label: &str, entries: &[wgpu::BindGroupLayoutEntry]| {
+            ctx.device
+                .create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+                    label: Some(label),
+                    entries,
+                })
+        };
+        let mut entries = vec![uniform_entry(0)];
+        entries.extend(GpuScene::layout_entries());
+        for (binding, read_only) in [
+            (8, true),
+            (9, true),
+            (10, false),
+            (11, false),
+            (12, true),
+            (13, true),
+            (14, false),
+        ] {
+            entries.push(storage_entry(binding, read_only));
+        }
+        let trace_layout = layout("pc/trace.layout0", &entries);
+        let mut entries = vec![uniform_entry(0)];
+        for binding in 8..=23 {
+            let written = matches!(binding, 16 | 18 | 20 | 23);
+            entries.push(storage_entry(binding, !written));
+        }
+        let restir_layout = layout("pc/restir.layout0", &entries);
+        let bvh_layout = GpuBvh::bind_group_layout(ctx);
+        let cache_layout = CacheBuffers::bind_group_layout(ctx);
+        let trace_module = shaders.create_module(ctx, "pc/trace.wgsl", &[])?;
+        let restir_module = shaders.create_module(ctx, "pc/restir.wgsl", &[])?;
+        let mut trace_groups: Vec<Option<&wgpu::BindGroupLayout>> =
+            vec![None; CacheBuffers::BIND_GROUP as usize + 1];
+        trace_groups[0] = Some(&trace_layout);
+        trace_groups[BVH_BIND_GROUP as usize] = Some(&bvh_layout);
+        trace_groups[CacheBuffers::BIND_GROUP as usize] = Some(&cache_layout);
+        let traced = |entry: &str| {
+            ctx.create_compute_pipeline_with_layouts(
+                &format!("pc/{entry}"),
+                &trace_module,
+                entry,
+                &trace_groups,
+            )
+        };
+        let reused = |entry: &str| {
+            ctx.create_compute_pipeline_with_layouts(
+                &format!("pc/{entry}"),
+                &restir_module,
+                entry,
+                &[Some(&restir_layout)],
+            )
+        };
+        Ok(Self {
+            trace: traced("trace"),
+            shadow: traced("shadow"),
+            temporal: reused("temporal"),
+            spatial: reused("spatial"),
+            shade: reused("shade"),
+            compose: reused("compose"),
+            trace_layout,
+            restir_layout,
+        })
+    }
+}
+
+/// The tier's resolution-dependent buffers (labels `pc.*`).
+struct PcBuffers {
+    trace_size: (u32, u32),
+    uniforms: wgpu::Buffer,
+    /// Receivers of this frame and the previous one (`current` indexes this frame's).
+    surfaces: [wgpu::Buffer; 2],
+    initial: wgpu::Buffer,
+    temporal: [wgpu::Buffer; 2],
+    spatial: wgpu::Buffer,
+    resolved: wgpu::Buffer,
+    irradiance: wgpu::Buffer,
+    output: wgpu::Buffer,
+    current: usize,
+    /// Whether the other slot holds the previous frame's surfaces and reservoirs.
+    history: bool,
+}
+
+impl PcBuffers {
+    fn new(ctx: &GpuContext, size: (u32, u32), trace_scale: u32) -> Self {
+        let trace_size = (size.0.div_ceil(trace_scale), size.1.div_ceil(trace_scale));
+        let traced = u64::from(trace_size.0) * u64::from(trace_size.1);
+        let pixels = u64::from(size.0) * u64::from(size.1);
+        let storage = wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC;
+        let buffer = |label: &str, bytes: u64| ctx.create_buffer(label, bytes.max(16), storage);
+        let reservoirs = traced * size_of::<GpuReservoir>() as u64;
+        let surfaces = traced * size_of::<GpuSurface>() as u64;
+        Self {
+            trace_size,
+            uniforms: ctx.create_buffer(
+                "pc.uniforms",
+                size_of::<PcUniforms>() as u64,
+                wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
+            ),
+            surfaces: [
+                buffer("pc.surfaces_a", surfaces),
+                buffer("pc.surfaces_b", surfaces),
+            ],
+            initial: buffer("pc.initial", reservoirs),
+            temporal: [
+                buffer("pc.temporal_a", reservoirs),
+                buffer("pc.temporal_b", reservoirs),
+            ],
+            spatial: buffer("pc.spatial", reservoirs),
+            resolved: buffer("pc.resolved", reservoirs),
+            irradiance: buffer("pc.irradiance", pixels * 16),
+            output: buffer("pc.output", pixels * 16),
+            current: 0,
+            history: false,
+        }
+    }
+
+    fn release(&self, ctx: &GpuContext) {
+        for buffer in [
+            &self.uniforms,
+            &self.surfaces[0],
+            &self.surfaces[1],
+            &self.initial,
+            &self.temporal[0],
+            &self.temporal[1],
+            &self.spatial,
+            &self.resolved,
+            &self.irradiance,
+            &self.output,
+        ] {
+            ctx.release_buffer(buffer);
+        }
+    }
+}
+
+/// The PC tier. See the module docs.
+pub struct PcTier {
+    settings: TierSettings,
+    config: PcConfig,
+    ctx: GpuContext,
+    shaders: ShaderLibrary,
+    timer: GpuTimer,
+    direct_pipelines: PathPipelines,
+    pipelines: PcPipelines,
+    denoise_pipelines: DenoisePipelines,
+    gbuffer: GBuffer,
+    cache: RadianceCache,
+    prepared: Option<Prepared>,
+    frame_index: u32,
+}
+
+/// What the tier uploaded for its scene.
+struct Prepared {
+    scene: GpuScene,
+    direct: Accumulation,
+    buffers: PcBuffers,
+    denoiser: Denoiser,
+    /// The previous frame without its geometry (`frame_history`).
+    previous: SceneFrame,
+    triangle_count: usize,
+}
+
+impl Prepared {
+    fn release(self, ctx: &GpuContext) {
+        self.direct.release(ctx);
+        self.buffers.release(ctx);
+        self.denoiser.release(ctx);
+        self.scene.release(ctx);
+    }
+}
+
+impl PcTier {
+    /// A PC tier on `ctx`. Fails when the configuration or the image size is unusable or the
+    /// shaders do not compile on the device.
+    pub fn new(
+        settings: TierSettings,
+        config: PcConfig,
+        ctx: GpuContext,
+    ) -> Result<Self, TierError> {
+        let unavailable = |reason: String| TierError::Unavailable { tier: "pc", reason };
+        crate::cpu::render_settings(TierKind::Reference, &settings).validate()?;
+        config.validate().map_err(unavailable)?;
+        let pixel_bytes = u64::from(settings.width) * u64::from(settings.height) * 16;
+        let limit = ctx.limits.max_storage_buffer_binding_size;
+        if pixel_bytes > limit {
+            return Err(unavailable(format!(
+                "{}x{} needs {pixel_bytes} bytes per image buffer, over the device's \
+                 {limit}-byte storage binding limit",
+                settings.width, settings.height
+            )));
+        }
+        let shaders = ShaderLibrary::new();
+        let gpu = |e: GpuError| unavailable(e.to_string());
+        let direct_pipelines = PathPipelines::new(&ctx, "direct").map_err(gpu)?;
+        let gbuffer = GBuffer::new(&ctx, &shaders, settings.width, settings.height).map_err(gpu)?;
+        let mut cache =
+            RadianceCache::new(&ctx, &config.cache).map_err(|e| unavailable(e.to_string()))?;
+        CacheLighting::attach(&ctx, &shaders, &mut cache).map_err(gpu)?;
+        let pipelines = PcPipelines::new(&ctx, &shaders).map_err(gpu)?;
+        let denoise_pipelines = DenoisePipelines::new(&ctx, &shaders).map_err(gpu)?;
+        let timer = GpuTimer::new(&ctx, "pc", TIMER_SCOPES);
+        Ok(Self {
+            settings,
+            config,
+            ctx,
+            shaders,
+            timer,
+            direct_pipelines,
+            pipelines,
+            denoise_pipelines,
+            gbuffer,
+            cache,
+            prepared: None,
+            frame_index: 0,
+        })
+    }
+
+    /// Opens the default GPU context and makes a PC tier on it; `Unavailable` with the GPU
+    /// error when there is no adapter.
+    pub fn open(settings: TierSettings, config: PcConfig) -> Result<Self, TierError> {
+        let ctx = GpuContext::new().map_err(|e| TierError::Unavailable {
+            tier: "pc",
+            reason: e.to_string(),
+        })?;
+        Self::new(settings, config, ctx)
+    }
+
+    pub fn config(&self) -> &PcConfig {
+        &self.config
+    }
+
+    pub fn context(&self) -> &GpuContext {
+        &self.ctx
+    }
+
+    /// The shader library the tier compiled its passes from.
+    pub fn shaders(&self) -> &ShaderLibrary {
+        &self.shaders
+    }
+
+    /// The brick cache the hits read.
+    pub fn cache(&self) -> &RadianceCache {
+        &self.cache
+    }
+
+    /// The tier's GPU memory now, by what it scales with.
+    pub fn memory(&self) -> PcMemory {
+        let memory = self.ctx.memory();
+        let coverage_bytes = memory.bytes_with_prefix("cache.");
+        let screen_bytes = memory.bytes_with_prefix("pc.") - memory.bytes_with_prefix("pc.output");
+        PcMemory {
+            coverage_bytes,
+            screen_bytes,
+            frame_bytes: memory.total_bytes() - coverage_bytes - screen_bytes,
+        }
+    }
+
+    /// The last frame's GI term and intermediate images, read back from the GPU (stalls);
+    /// `None` before the first frame. For tests and metrics.
+    pub fn frame_data(&self) -> Option<PcFrameData> {
+        let prepared = self.prepared.as_ref()?;
+        let ctx = &self.ctx;
+        let (width, height) = (self.settings.width, self.settings.height);
+        let read_image = |buffer: &wgpu::Buffer| Image {
+            width,
+            height,
+            pixels: ctx
+                .read_buffer::<[f32; 4]>(buffer)
+                .iter()
+                .map(|p| Vec3::from_slice(p))
+                .collect(),
+        };
+        let output = read_image(&prepared.buffers.output);
+        let direct = read_image(&prepared.direct.mean);
+        let gi = Image {
+            width,
+            height,
+            pixels: output
+                .pixels
+                .iter()
+                .zip(&direct.pixels)
+                .map(|(o, d)| *o - *d)
+                .collect(),
+        };
+        Some(PcFrameData {
+            gi,
+            noisy_irradiance: read_image(&prepared.buffers.irradiance),
+            irradiance: read_image(prepared.denoiser.output()),
+            reservoirs: ctx.read_buffer(&prepared.buffers.resolved),
+            trace_size: prepared.buffers.trace_size,
+        })
+    }
+
+    fn uniforms(&self, frame: &SceneFrame, previous: &SceneFrame, history: bool) -> PcUniforms {
+        let size = (self.settings.width, self.settings.height);
+        let r = &self.config.restir;
+        let prepared = self.prepared.as_ref().expect("prepared before uniforms");
+        let trace_size = prepared.buffers.trace_size;
+        let mut bits = 0;
+        for (on, bit) in [
+            (r.temporal, flags::TEMPORAL),
+            (r.spatial, flags::SPATIAL),
+            (r.shadow_ray, flags::SHADOW),
+            (r.multi_sample, flags::MULTI_SAMPLE),
+            (r.boiling_filter, flags::BOILING),
+            (history, flags::HISTORY),
+        ] {
+            if on {
+                bits |= bit;
+            }
+        }
+        let seed = self.settings.seed;
+        PcUniforms {
+            camera: GpuCamera::new(&frame.camera, size),
+            previous_camera: GpuCamera::new(&previous.camera, size),
+            sky: GpuSky::new(&frame.sky),
+            size_px: [size.0, size.1],
+            trace_px: [trace_size.0, trace_size.1],
+            seed: [seed as u32, (seed >> 32) as u32],
+            frame_index: self.frame_index,
+            trace_scale: self.config.trace_scale,
+            flags: bits,
+            light_count: frame.lights.len() as u32,
+            default_material: prepared.scene.default_material,
+            m_clamp: r.m_clamp,
+            jacobian_max: r.jacobian_max,
+            spatial_radius: r.spatial_radius,
+            spatial_samples: r.spatial_samples,
+            shade_radius: r.shade_radius,
+            normal_cos: r.normal_cos,
+            plane_tolerance: r.plane_tolerance,
+            boil_factor: r.boil_factor,
+            shadow_cos: r.shadow_cos,
+            shadow_distance_ratio: r.shadow_distance_ratio,
+            ..Default::default()
+        }
+    }
+
+    /// Makes the GPU state match `input`, as the mobile tier does: the scene is uploaded once;
+    /// a new time of an animated scene or edited lights update the GPU scene; a camera move or
+    /// a new time restarts the direct-light accumulation (the GI keeps its history).
+    fn prepare(&mut self, input: &FrameInput) -> Result<(), TierError> {
+        let frame = input.frame;
+        let unavailable = |e: gi_gpu::bvh::BvhError| TierError::Unavailable {
+            tier: "pc",
+            reason: e.to_string(),
+        };
+        let size = (self.settings.width, self.settings.height);
+        let same_scene = self.prepared.as_ref().is_some_and(|p| {
+            p.triangle_count == frame.triangles.len()
+                && p.previous.world_from_node.len() == frame.world_from_node.len()
+        });
+        if !same_scene {
+            if let Some(old) = self.prepared.take() {
+                old.release(&self.ctx);
+            }
+            let scene = GpuScene::upload(&self.ctx, input.scene, frame).map_err(unavailable)?;
+            let uniforms = PathUniforms::new(frame, &scene, size, self.settings.seed);
+            let direct = Accumulation::new(&self.ctx, &self.direct_pipelines, &scene, uniforms);
+            let buffers = PcBuffers::new(&self.ctx, size, self.config.trace_scale);
+            let denoiser = Denoiser::new(
+                &self.ctx,
+                &self.denoise_pipelines,
+                size,
+                &DenoiseSources {
+                    noisy: &buffers.irradiance,
+                    depth: self.gbuffer.output("gbuffer.depth"),
+                    normal: self.gbuffer.output("gbuffer.normal"),
+                    motion: self.gbuffer.output("gbuffer.motion"),
+                },
+            );
+            self.prepared = Some(Prepared {
+                previous: frame_history(frame),
+                scene,
+                direct,
+                buffers,
+                denoiser,
+                triangle_count: frame.triangles.len(),
+            });
+            return Ok(());
+        }
+        let prepared = self.prepared.as_mut().expect("checked above");
+        let moved = (prepared.previous.time_s != frame.time_s && input.scene.is_animated())
+            || prepared.previous.lights != frame.lights;
+        if prepared.previous.camera == frame.camera && !moved {
+            return Ok(());
+        }
+        let mut replaced = false;
+        if moved {
+            replaced = prepared
+                .scene
+                .update(&self.ctx, input.scene, frame)
+                .map_err(unavailable)?;
+        }
+        let uniforms = PathUniforms::new(frame, &prepared.scene, size, self.settings.seed);
+        if replaced {
+            let direct =
+                Accumulation::new(&self.ctx, &self.direct_pipelines, &prepared.scene, uniforms);
+            std::mem::replace(&mut prepared.direct, direct).release(&self.ctx);
+        } else {
+            prepared.direct.restart(uniforms);
+        }
+        Ok(())
+    }
+
+    fn trace_bind_group(&self, prepared: &Prepared) -> wgpu::BindGroup {
+        let b = &prepared.buffers;
+        let cur = b.current;
+        let mut entries = buffer_entries(0, [&b.uniforms]);
+        entries.extend(prepared.scene.bind_group_entries());
+        entries.extend(buffer_entries(
+            8,
+            [
+                self.gbuffer.output("gbuffer.depth"),
+                self.gbuffer.output("gbuffer.normal"),
+                &b.surfaces[cur],
+                &b.initial,
+                &b.temporal[cur],
+                &b.spatial,
+                &b.resolved,
+            ],
+        ));
+        self.ctx
+            .device
+            .create_bind_group(&wgpu::BindGroupDescriptor {
+                label: Some("pc/trace.group0"),
+                layout: &self.pipelines.trace_layout,
+                entries: &entries,
+            })
+    }
+
+    fn restir_bind_group(&self, prepared: &Prepared) -> wgpu::BindGroup {
+        let b = &prepared.buffers;
+        let (cur, prev) = (b.current, 1 - b.current);
+        let mut entries = buffer_entries(0, [&b.uniforms]);
+        entries.extend(buffer_entries(
+            8,
+            [
+                self.gbuffer.output("gbuffer.depth"),
+                self.gbuffer.output("gbuffer.normal"),
+                self.gbuffer.output("gbuffer.base_color"),
+                self.gbuffer.output("gbuffer.metallic_roughness"),
+                self.gbuffer.output("gbuffer.motion"),
+                &b.surfaces[cur],
+                &b.surfaces[prev],
+                &b.initial,
+                &b.temporal[cur],
+                &b.temporal[prev],
+                &b.spatial,
+                &b.resolved,
+                &b.irradiance,
+                prepared.denoiser.output(),
+                &prepared.direct.mean,
+                &b.output,
+            ],
+        ));
+        self.ctx
+            .device
+            .create_bind_group(&wgpu::BindGroupDescriptor {
+                label: Some("pc/restir.group0"),
+                layout: &self.pipelines.restir_layout,
+                entries: &entries,
+            })
+    }
+}
+
+impl Tier for PcTier {
+    fn kind(&self) -> TierKind {
+        TierKind::Pc
+    }
+
+    /// Temporal: reservoirs, the denoiser's history and the cache converge over frames.
+    fn is_temporal(&self) -> bool {
+        true
+    }
+
+    fn render(&mut self, input: &FrameInput) -> Result<FrameOutput, TierError> {
+        let passes = self.advance(input)?;
+        let prepared = self.prepared.as_ref().expect("prepared by advance");
+        let output: Vec<[f32; 4]> = self.ctx.read_buffer(&prepared.buffers.output);
+        Ok(FrameOutput {
+            image: Image {
+                width: self.settings.width,
+                height: self.settings.height,
+                pixels: output.iter().map(|o| Vec3::from_slice(o)).collect(),
+            },
+            passes,
+            stats: None,
+        })
+    }
+
+    fn advance(&mut self, input: &FrameInput) -> Result<Vec<(String, f64)>, TierError> {
+        let frame = input.frame;
+        self.prepare(input)?;
+        let ctx = &self.ctx;
+        let mut passes = Vec::new();
+        let mut encoder = ctx.create_encoder("pc/frame");
+        {
+            let prepared = self.prepared.as_ref().expect("prepared above");
+            self.gbuffer.record(
+                ctx,
+                &mut encoder,
+                &mut self.timer,
+                &GBufferInputs {
+                    frame,
+                    scene: &prepared.scene,
+                    previous: &prepared.previous,
+                },
+            );
+        }
+        let cache_stats = {
+            let prepared = self.prepared.as_ref().expect("prepared above");
+            self.cache.update(
+                ctx,
+                &mut self.timer,
+                &mut encoder,
+                &gi_cache::CacheInputs {
+                    scene: input.scene,
+                    frame,
+                    gpu_scene: &prepared.scene,
+                    bvh: &prepared.scene.bvh,
+                    camera_position: frame.camera.position,
+                    gbuffer: Some(ScreenInputs::from_gbuffer(&self.gbuffer, &frame.camera)),
+                },
+            )
+        };
+        // A cache fill (a first view, a jump) lights through missing walls: reservoirs and
+        // history gathered from it must not be kept.
+        if cache_stats.filling {
+            let prepared = self.prepared.as_mut().expect("prepared above");
+            prepared.buffers.history = false;
+            prepared.denoiser.reset_history();
+        }
+        let prepared = self.prepared.as_ref().expect("prepared above");
+        let uniforms = self.uniforms(frame, &prepared.previous, prepared.buffers.history);
+        ctx.queue
+            .write_buffer(&prepared.buffers.uniforms, 0, bytemuck::bytes_of(&uniforms));
+        let trace_group = self.trace_bind_group(prepared);
+        let restir_group = self.restir_bind_group(prepared);
+        let cache_group = &self.cache.buffers().bind_group;
+        let (tw, th) = prepared.buffers.trace_size;
+        let trace_groups = (tw.div_ceil(TILE), th.div_ceil(TILE));
+        let (w, h) = (self.settings.width, self.settings.height);
+        let full_groups = (w.div_ceil(TILE), h.div_ceil(TILE));
+        let traced: [(&str, &wgpu::ComputePipeline); 1] = [("pc/trace", &self.pipelines.trace)];
+        for (name, pipeline) in traced {
+            self.timer.compute_pass(ctx, &mut encoder, name, |pass| {
+                pass.set_pipeline(pipeline);
+                pass.set_bind_group(0, &trace_group, &[]);
+                pass.set_bind_group(BVH_BIND_GROUP, &prepared.scene.bvh.bind_group, &[]);
+                pass.set_bind_group(CacheBuffers::BIND_GROUP, cache_group, &[]);
+                pass.dispatch_workgroups(trace_groups.0, trace_groups.1, 1);
+            });
+        }
+        let mut reuse: Vec<(&str, &wgpu::ComputePipeline)> =
+            vec![("pc/temporal", &self.pipelines.temporal)];
+        if self.config.restir.spatial {
+            reuse.push(("pc/spatial", &self.pipelines.spatial));
+        }
+        for (name, pipeline) in reuse {
+            self.timer.compute_pass(ctx, &mut encoder, name, |pass| {
+                pass.set_pipeline(pipeline);
+                pass.set_bind_group(0, &restir_group, &[]);
+                pass.dispatch_workgroups(trace_groups.0, trace_groups.1, 1);
+            });
+        }
+        self.timer
+            .compute_pass(ctx, &mut encoder, "pc/shadow", |pass| {
+                pass.set_pipeline(&self.pipelines.shadow);
+                pass.set_bind_group(0, &trace_group, &[]);
+                pass.set_bind_group(BVH_BIND_GROUP, &prepared.scene.bvh.bind_group, &[]);
+                pass.set_bind_group(CacheBuffers::BIND_GROUP, cache_group, &[]);
+                pass.dispatch_workgroups(trace_groups.0, trace_groups.1, 1);
+            });
+        self.timer
+            .compute_pass(ctx, &mut encoder, "pc/shade", |pass| {
+                pass.set_pipeline(&self.pipelines.shade);
+                pass.set_bind_group(0, &restir_group, &[]);
+                pass.dispatch_workgroups(full_groups.0, full_groups.1, 1);
+            });
+        let prepared = self.prepared.as_mut().expect("prepared above");
+        prepared.denoiser.record(
+            ctx,
+            &mut self.timer,
+            &mut encoder,
+            &self.denoise_pipelines,
+            &self.config.denoise,
+        );
+        passes.extend(self.timer.finish(ctx, encoder).0);
+
+        if prepared.direct.samples < self.settings.spp {
+            let direct = prepared.direct.add_samples(
+                ctx,
+                &self.direct_pipelines,
+                &prepared.scene,
+                &mut self.timer,
+                1,
+            );
+            passes.extend(direct.0);
+        }
+
+        let prepared = self.prepared.as_ref().expect("prepared above");
+        // The denoiser may have swapped its output: bind this frame's.
+        let restir_group = self.restir_bind_group(prepared);
+        let mut encoder = ctx.create_encoder("pc/compose");
+        self.timer
+            .compute_pass(ctx, &mut encoder, "pc/compose", |pass| {
+                pass.set_pipeline(&self.pipelines.compose);
+                pass.set_bind_group(0, &restir_group, &[]);
+                pass.dispatch_workgroups(full_groups.0, full_groups.1, 1);
+            });
+        passes.extend(self.timer.finish(ctx, encoder).0);
+
+        let prepared = self.prepared.as_mut().expect("prepared above");
+        prepared.previous = frame_history(frame);
+        prepared.buffers.current = 1 - prepared.buffers.current;
+        prepared.buffers.history = true;
+        self.frame_index = self.frame_index.wrapping_add(1);
+        if let Some(progress) = input.progress {
+            progress(prepared.direct.samples);
+        }
+        Ok(passes)
+    }
+
+    /// Everything counted by the tier's own context.
+    fn memory_bytes(&self) -> u64 {
+        self.ctx.memory().total_bytes()
+    }
+}

@@ -1,0 +1,230 @@
+// What the PC tier's passes share (`pc/trace.wgsl`, `pc/restir.wgsl`): the uniforms, the
+// per-trace-pixel surface and the ReSTIR GI reservoir, and the reservoir arithmetic (Ouyang et
+// al. 2021, "ReSTIR GI: Path Resampling for Real-Time Path Tracing"; Bitterli et al. 2020 for
+// the streaming reservoir and its unbiased contribution weight W).
+//
+// A reservoir holds one sample: a point `y` that a ray from a receiver `x` found (or a sky
+// direction), the radiance leaving `y` towards `x`, its weight W and its sample count M. The
+// estimate of the receiver's irradiance is `L(y) cos(n_x, y - x) W`; the target function is
+// `p(y) = luminance(L(y)) cos(n_x, y - x)`, the irradiance integrand without colour.
+#define_import_path gi::pc::common
+
+#import gi::camera::Camera
+#import gi::lights::Sky
+#import gi::packing::unpack_unit_vector
+
+// Bits of `PcUniforms::flags`.
+const FLAG_TEMPORAL: u32 = 1u;
+const FLAG_SPATIAL: u32 = 2u;
+const FLAG_SHADOW: u32 = 4u;
+const FLAG_MULTI_SAMPLE: u32 = 8u;
+const FLAG_BOILING: u32 = 16u;
+// The previous frame's surfaces and reservoirs are there to reuse.
+const FLAG_HISTORY: u32 = 32u;
+
+// Bits of `Reservoir::flags`.
+const SAMPLE_SKY: u32 = 1u;
+// The shadow pass found the chosen sample occluded and fell back to the temporal one.
+const SAMPLE_OCCLUDED: u32 = 2u;
+
+// Bits of +infinity, the G-buffer depth of sky pixels.
+const INFINITY_BITS: u32 = 0x7f800000u;
+
+// Mirror of `gi_tiers::pc::PcUniforms`.
+struct PcUniforms {
+    camera: Camera,
+    previous_camera: Camera,
+    sky: Sky,
+    size_px: vec2<u32>,
+    trace_px: vec2<u32>,
+    seed: vec2<u32>,
+    frame_index: u32,
+    // Full-resolution pixels per trace pixel along each axis (1 or 2).
+    trace_scale: u32,
+    flags: u32,
+    light_count: u32,
+    default_material: u32,
+    m_clamp: f32,
+    jacobian_max: f32,
+    spatial_radius: f32,
+    spatial_samples: u32,
+    shade_radius: u32,
+    normal_cos: f32,
+    plane_tolerance: f32,
+    boil_factor: f32,
+    shadow_cos: f32,
+    shadow_distance_ratio: f32,
+    pad_a: u32,
+}
+
+// One trace pixel's receiver: the G-buffer surface of the full-resolution pixel it picked
+// this frame. `normal` 0: no surface (every pixel of its block shows the sky).
+struct Surface {
+    position: vec3<f32>,
+    normal: u32,
+    // The full-resolution pixel (row-major index).
+    pixel: u32,
+    // Its G-buffer depth (distance along its camera ray).
+    depth: f32,
+    pad_a: u32,
+    pad_b: u32,
+}
+
+// Mirror of `gi_tiers::pc::GpuReservoir`, 48 bytes.
+struct Reservoir {
+    // The sample point `y`, or for a sky sample its unit direction.
+    position: vec3<f32>,
+    // Unbiased contribution weight W (0: empty).
+    w: f32,
+    // Radiance leaving `y` towards the receiver (Lambertian, so towards any receiver on its
+    // side), or the sky's radiance along the direction.
+    radiance: vec3<f32>,
+    // Samples behind it.
+    m: f32,
+    // Packed normal of the surface at `y`, on the side the ray arrived from; 0 for sky.
+    normal: u32,
+    flags: u32,
+    // After the shadow pass, for an occluded pixel: distance to the occluder and packed
+    // direction of the occluded sample.
+    occluder_distance: f32,
+    occluder_direction: u32,
+}
+
+fn empty_reservoir() -> Reservoir {
+    return Reservoir(vec3(0.0), 0.0, vec3(0.0), 0.0, 0u, 0u, 0.0, 0u);
+}
+
+fn is_sky_depth(depth: f32) -> bool {
+    return bitcast<u32>(depth) == INFINITY_BITS || !(depth < 3.0e38);
+}
+
+fn luminance(c: vec3<f32>) -> f32 {
+    return dot(c, vec3(0.2126, 0.7152, 0.0722));
+}
+
+fn has_surface(s: Surface) -> bool {
+    return s.normal != 0u;
+}
+
+// Unit direction from receiver `x` to the sample, and the distance (for sky samples 3e38).
+fn sample_direction(r: Reservoir, x: vec3<f32>) -> vec4<f32> {
+    if (r.flags & SAMPLE_SKY) != 0u {
+        return vec4(r.position, 3.0e38);
+    }
+    let d = r.position - x;
+    let len = length(d);
+    return vec4(d / max(len, 1e-12), len);
+}
+
+// Target function of `r`'s sample at receiver (`x`, `n`): luminance of its radiance times the
+// cosine at the receiver; 0 when the sample lies below the receiver's horizon or sees the
+// receiver from behind its own surface.
+fn target_pdf(r: Reservoir, x: vec3<f32>, n: vec3<f32>) -> f32 {
+    let d = sample_direction(r, x);
+    let cos_x = dot(n, d.xyz);
+    if cos_x <= 0.0 {
+        return 0.0;
+    }
+    if (r.flags & SAMPLE_SKY) == 0u && dot(unpack_unit_vector(r.normal), -d.xyz) <= 0.0 {
+        return 0.0;
+    }
+    return luminance(r.radiance) * cos_x;
+}
+
+// Jacobian of the reconnection shift that moves `r`'s sample from receiver `old_receiver` to
+// `new_receiver` (Ouyang et al. 2021, eq. 11: the ratio of the solid angles the sample's surface patch
+// subtends), at most `j_max` (HSGI: bound the maximum, "prefer darken bias than lighten
+// bias"). Sky samples (at infinity) keep their solid angle: 1.
+fn reconnection_jacobian(r: Reservoir, old_receiver: vec3<f32>, new_receiver: vec3<f32>, j_max: f32) -> f32 {
+    if (r.flags & SAMPLE_SKY) != 0u {
+        return 1.0;
+    }
+    let n = unpack_unit_vector(r.normal);
+    let a = old_receiver - r.position;
+    let b = new_receiver - r.position;
+    let la2 = max(dot(a, a), 1e-12);
+    let lb2 = max(dot(b, b), 1e-12);
+    let cos_from = abs(dot(n, a)) / sqrt(la2);
+    let cos_to = abs(dot(n, b)) / sqrt(lb2);
+    if cos_from <= 1e-6 {
+        return select(0.0, j_max, cos_to > 0.0);
+    }
+    return min((cos_to / cos_from) * (la2 / lb2), j_max);
+}
+
+// Streaming combination of reservoirs (Bitterli et al. 2020, Alg. 4): `chosen` is kept with
+// probability proportional to its weight.
+struct Combiner {
+    chosen: Reservoir,
+    // Target function of `chosen` at the receiver.
+    chosen_pdf: f32,
+    weight_sum: f32,
+    m: f32,
+}
+
+fn combiner_new() -> Combiner {
+    return Combiner(empty_reservoir(), 0.0, 0.0, 0.0);
+}
+
+// Adds `r` (whose `m` counts) with target value `p` at the receiver and shift Jacobian `j`;
+// `u` uniform in [0, 1).
+fn combiner_add(c: ptr<function, Combiner>, r: Reservoir, m: f32, p: f32, j: f32, u: f32) {
+    let w = p * r.w * m * j;
+    (*c).m += m;
+    if !(w > 0.0) || !(w < 3.0e38) {
+        return;
+    }
+    (*c).weight_sum += w;
+    if u * (*c).weight_sum < w {
+        (*c).chosen = r;
+        (*c).chosen_pdf = p;
+    }
+}
+
+// The combined reservoir: the chosen sample with W = weight_sum / (M p(chosen)) and M.
+fn combiner_finish(c: Combiner) -> Reservoir {
+    var r = c.chosen;
+    r.m = c.m;
+    if c.chosen_pdf > 0.0 && c.m > 0.0 {
+        r.w = c.weight_sum / (c.m * c.chosen_pdf);
+    } else {
+        r.w = 0.0;
+    }
+    r.flags &= ~SAMPLE_OCCLUDED;
+    r.occluder_distance = 0.0;
+    r.occluder_direction = 0u;
+    return r;
+}
+
+// The irradiance `r` gives receiver (`x`, `n`) that it was built for (`from`): L cos W times
+// the shift's Jacobian when the receivers differ.
+fn reservoir_irradiance(r: Reservoir, source: vec3<f32>, x: vec3<f32>, n: vec3<f32>, j_max: f32) -> vec3<f32> {
+    if r.w <= 0.0 {
+        return vec3(0.0);
+    }
+    let d = sample_direction(r, x);
+    let cos_x = dot(n, d.xyz);
+    if cos_x <= 0.0 {
+        return vec3(0.0);
+    }
+    if (r.flags & SAMPLE_SKY) == 0u && dot(unpack_unit_vector(r.normal), -d.xyz) <= 0.0 {
+        return vec3(0.0);
+    }
+    return r.radiance * (cos_x * r.w * reconnection_jacobian(r, source, x, j_max));
+}
+
+// Whether two receivers lie on one surface for reuse: normals within the cone and `b` within
+// `tolerance` times `a`'s depth of `a`'s tangent plane (Ouyang et al. 2021 compare depths within
+// 10% and normals within 25 degrees; the plane distance also accepts a plane seen at a grazing
+// angle, whose depth changes fast from pixel to pixel).
+fn similar_surfaces(a: Surface, b: Surface, normal_cos: f32, tolerance: f32) -> bool {
+    if !has_surface(a) || !has_surface(b) {
+        return false;
+    }
+    let na = unpack_unit_vector(a.normal);
+    let nb = unpack_unit_vector(b.normal);
+    if dot(na, nb) < normal_cos {
+        return false;
+    }
+    return abs(dot(b.position - a.position, na)) <= tolerance * a.depth;
+}

@@ -1,0 +1,313 @@
+// The PC tier's reservoir passes and shading (ReSTIR GI, Ouyang et al. 2021, with HSGI's
+// changes, GDC 2023, "PC / Console Solution"):
+//   - `temporal` (pass `pc/temporal`), per trace pixel: the initial reservoir combined with the
+//     previous frame's temporal reservoir of the same surface (found by the G-buffer's motion
+//     vector, checked by normal and tangent-plane distance), its M clamped to `m_clamp` (20)
+//     and its sample moved to this receiver with the reconnection shift's bounded Jacobian; then
+//     the boiling filter (a reservoir whose weight exceeds `boil_factor` times its workgroup's
+//     mean restarts from its initial sample). Its result is next frame's history.
+//   - `spatial` (pass `pc/spatial`), per trace pixel: `spatial_samples` neighbours within
+//     `spatial_radius` trace pixels, kept when they lie on the same surface (heuristic
+//     selection by normal and plane distance), combined with the Jacobian and no visibility
+//     (the biased reuse; the shadow pass restores visibility).
+//   - `shade` (pass `pc/shade`), per full-resolution pixel, HSGI's multi-sample shading: the
+//     pixel is shaded from every reservoir of the (2 shade_radius + 1)^2 trace pixels around
+//     it whose receiver lies on its surface and that passes the shadow test (HSGI's "post
+//     spatial reuse" neighbour rule, applied here at shading time), each an estimate of its
+//     irradiance through the reconnection shift; their mean is the noisy, demodulated
+//     irradiance the denoiser filters. It also upsamples the trace resolution to full.
+//   - `compose` (pass `pc/compose`): direct light plus diffuse and split-sum specular albedo
+//     times the denoised irradiance over pi.
+//
+// Bind group 0 only: binding 0 `u` (`gi::pc::common::PcUniforms`), then the buffers below.
+
+#import gi::math::INV_PI
+#import gi::sampling::{sampler_new, sampler_next_f32, sampler_next_2d, concentric_disk}
+#import gi::camera::camera_ray
+#import gi::packing::unpack_unit_vector
+#import gi::pc::common::{
+    PcUniforms, Surface, Reservoir, Combiner, empty_reservoir, is_sky_depth, has_surface,
+    target_pdf, reconnection_jacobian, combiner_new, combiner_add, combiner_finish,
+    reservoir_irradiance, similar_surfaces, sample_direction, SAMPLE_OCCLUDED, FLAG_TEMPORAL,
+    FLAG_SPATIAL, FLAG_SHADOW, FLAG_MULTI_SAMPLE, FLAG_BOILING, FLAG_HISTORY
+}
+
+@group(0) @binding(0) var<uniform> u: PcUniforms;
+@group(0) @binding(8) var<storage, read> gbuffer_depth: array<f32>;
+@group(0) @binding(9) var<storage, read> gbuffer_normal: array<u32>;
+@group(0) @binding(10) var<storage, read> gbuffer_base_color: array<vec4<f32>>;
+@group(0) @binding(11) var<storage, read> gbuffer_metallic_roughness: array<vec2<f32>>;
+@group(0) @binding(12) var<storage, read> gbuffer_motion: array<vec2<f32>>;
+// Per trace pixel: this frame's receivers and the previous frame's.
+@group(0) @binding(13) var<storage, read> surfaces: array<Surface>;
+@group(0) @binding(14) var<storage, read> surfaces_prev: array<Surface>;
+@group(0) @binding(15) var<storage, read> initial: array<Reservoir>;
+// Per trace pixel: this frame's temporal reservoirs (the next frame's history), the previous
+// frame's, the spatial reuse's and the shadow pass's.
+@group(0) @binding(16) var<storage, read_write> temporal_out: array<Reservoir>;
+@group(0) @binding(17) var<storage, read> temporal_prev: array<Reservoir>;
+@group(0) @binding(18) var<storage, read_write> spatial_out: array<Reservoir>;
+@group(0) @binding(19) var<storage, read> resolved: array<Reservoir>;
+// Per pixel: the multi-sample shading's irradiance (rgb), the denoised one, the direct light's
+// running mean, the output image.
+@group(0) @binding(20) var<storage, read_write> irradiance: array<vec4<f32>>;
+@group(0) @binding(21) var<storage, read> denoised: array<vec4<f32>>;
+@group(0) @binding(22) var<storage, read> direct_mean: array<vec4<f32>>;
+@group(0) @binding(23) var<storage, read_write> output: array<vec4<f32>>;
+
+fn trace_index(t: vec2<u32>) -> u32 {
+    return t.y * u.trace_px.x + t.x;
+}
+
+// ---------------------------------------------------------------------------------------------
+// temporal
+// ---------------------------------------------------------------------------------------------
+
+// Trace pixel of the previous frame that held receiver `s`, or -1: the G-buffer's motion
+// vector of `s`'s pixel gives where the surface was; of the 3 x 3 trace pixels around that
+// point, the nearest whose previous receiver lies on the same surface.
+fn previous_trace_pixel(s: Surface) -> i32 {
+    let p = vec2(s.pixel % u.size_px.x, s.pixel / u.size_px.x);
+    let before = vec2<f32>(p) + 0.5 + gbuffer_motion[s.pixel];
+    let t = before / f32(u.trace_scale);
+    let center = vec2<i32>(floor(t));
+    var best = -1;
+    var best_d = 1e30;
+    for (var dy = -1; dy <= 1; dy++) {
+        for (var dx = -1; dx <= 1; dx++) {
+            let q = center + vec2(dx, dy);
+            if any(q < vec2(0)) || any(q >= vec2<i32>(u.trace_px)) {
+                continue;
+            }
+            let i = trace_index(vec2<u32>(q));
+            if !similar_surfaces(s, surfaces_prev[i], u.normal_cos, u.plane_tolerance) {
+                continue;
+            }
+            let d = length(vec2<f32>(q) + 0.5 - t);
+            if d < best_d {
+                best_d = d;
+                best = i32(i);
+            }
+        }
+    }
+    return best;
+}
+
+var<workgroup> boil_weight: array<f32, 64>;
+
+@compute @workgroup_size(8, 8)
+fn temporal(@builtin(global_invocation_id) id: vec3<u32>, @builtin(local_invocation_index) local: u32) {
+    let inside = all(id.xy < u.trace_px);
+    var index = 0u;
+    var first = empty_reservoir();
+    var r = empty_reservoir();
+    var weight = -1.0;
+    if inside {
+        index = trace_index(id.xy);
+        let s = surfaces[index];
+        first = initial[index];
+        if has_surface(s) {
+            let n = unpack_unit_vector(s.normal);
+            var sampler = sampler_new(u.seed ^ vec2(0x9e3779b9u, 0u), index, u.frame_index);
+            var c = combiner_new();
+            combiner_add(&c, first, 1.0, target_pdf(first, s.position, n), 1.0, sampler_next_f32(&sampler));
+            let history = FLAG_TEMPORAL | FLAG_HISTORY;
+            if (u.flags & history) == history {
+                let prev = previous_trace_pixel(s);
+                if prev >= 0 {
+                    let rp = temporal_prev[prev];
+                    let source = surfaces_prev[prev].position;
+                    let j = reconnection_jacobian(rp, source, s.position, u.jacobian_max);
+                    combiner_add(&c, rp, min(rp.m, u.m_clamp), target_pdf(rp, s.position, n), j, sampler_next_f32(&sampler));
+                }
+            }
+            r = combiner_finish(c);
+            weight = c.chosen_pdf * r.w;
+        }
+    }
+    // Boiling filter (Ouyang et al. 2021, 5.4): a reservoir far brighter than its
+    // neighbourhood's mean is a firefly about to spread through reuse; it restarts.
+    if (u.flags & FLAG_BOILING) != 0u {
+        boil_weight[local] = weight;
+        workgroupBarrier();
+        var sum = 0.0;
+        var count = 0.0;
+        for (var i = 0u; i < 64u; i++) {
+            let w = boil_weight[i];
+            if w >= 0.0 {
+                sum += w;
+                count += 1.0;
+            }
+        }
+        if weight > 0.0 && weight > u.boil_factor * sum / max(count, 1.0) {
+            r = first;
+        }
+    }
+    if inside {
+        temporal_out[index] = r;
+    }
+}
+
+// ---------------------------------------------------------------------------------------------
+// spatial
+// ---------------------------------------------------------------------------------------------
+
+// The reservoir the spatial reuse starts from at trace pixel `i`.
+fn reuse_source(i: u32) -> Reservoir {
+    if (u.flags & FLAG_TEMPORAL) != 0u {
+        return temporal_out[i];
+    }
+    return initial[i];
+}
+
+@compute @workgroup_size(8, 8)
+fn spatial(@builtin(global_invocation_id) id: vec3<u32>) {
+    if any(id.xy >= u.trace_px) {
+        return;
+    }
+    let index = trace_index(id.xy);
+    let s = surfaces[index];
+    if !has_surface(s) {
+        spatial_out[index] = empty_reservoir();
+        return;
+    }
+    let n = unpack_unit_vector(s.normal);
+    var sampler = sampler_new(u.seed ^ vec2(0x7f4a7c15u, 0u), index, u.frame_index);
+    var c = combiner_new();
+    let own = reuse_source(index);
+    combiner_add(&c, own, own.m, target_pdf(own, s.position, n), 1.0, sampler_next_f32(&sampler));
+    for (var k = 0u; k < u.spatial_samples; k++) {
+        let offset = concentric_disk(sampler_next_2d(&sampler)) * u.spatial_radius;
+        let u_select = sampler_next_f32(&sampler);
+        let q = vec2<i32>(id.xy) + vec2<i32>(round(offset));
+        if any(q < vec2(0)) || any(q >= vec2<i32>(u.trace_px)) || all(q == vec2<i32>(id.xy)) {
+            continue;
+        }
+        let qi = trace_index(vec2<u32>(q));
+        let sq = surfaces[qi];
+        if !similar_surfaces(s, sq, u.normal_cos, u.plane_tolerance) {
+            continue;
+        }
+        let rq = reuse_source(qi);
+        let j = reconnection_jacobian(rq, sq.position, s.position, u.jacobian_max);
+        combiner_add(&c, rq, rq.m, target_pdf(rq, s.position, n), j, u_select);
+    }
+    spatial_out[index] = combiner_finish(c);
+}
+
+// ---------------------------------------------------------------------------------------------
+// shade
+// ---------------------------------------------------------------------------------------------
+
+// HSGI's shadow condition for reusing neighbour reservoir `nb` at a pixel whose own trace
+// pixel's reservoir is `center`, at receiver `x`: both visible, accept; one occluded and the
+// other not, reject; both occluded, reject when the neighbour's sample lies within the cone
+// (`shadow_cos`) of the centre's occluded direction and beyond `shadow_distance_ratio` times the
+// centre's occluder distance (behind the occluder), accept otherwise.
+fn shadow_compatible(center: Reservoir, nb: Reservoir, x: vec3<f32>) -> bool {
+    let center_occluded = (center.flags & SAMPLE_OCCLUDED) != 0u;
+    let nb_occluded = (nb.flags & SAMPLE_OCCLUDED) != 0u;
+    if center_occluded != nb_occluded {
+        return false;
+    }
+    if !center_occluded {
+        return true;
+    }
+    let d = sample_direction(nb, x);
+    let toward = dot(unpack_unit_vector(center.occluder_direction), d.xyz) > u.shadow_cos;
+    return !(toward && d.w > u.shadow_distance_ratio * center.occluder_distance);
+}
+
+@compute @workgroup_size(8, 8)
+fn shade(@builtin(global_invocation_id) id: vec3<u32>) {
+    if any(id.xy >= u.size_px) {
+        return;
+    }
+    let pixel = id.y * u.size_px.x + id.x;
+    let depth = gbuffer_depth[pixel];
+    if is_sky_depth(depth) {
+        irradiance[pixel] = vec4(0.0);
+        return;
+    }
+    let uv = (vec2<f32>(id.xy) + 0.5) / vec2<f32>(u.size_px);
+    let x = u.camera.position + camera_ray(u.camera, uv) * depth;
+    let me = Surface(x, gbuffer_normal[pixel], pixel, depth, 0u, 0u);
+    let n = unpack_unit_vector(me.normal);
+    let t = vec2<i32>(id.xy / u.trace_scale);
+    let center_index = trace_index(vec2<u32>(t));
+    let center = resolved[center_index];
+    var radius = 0;
+    if (u.flags & FLAG_MULTI_SAMPLE) != 0u {
+        radius = i32(u.shade_radius);
+    }
+    let shadow_test = (u.flags & FLAG_SHADOW) != 0u;
+    var sum = vec3(0.0);
+    var count = 0.0;
+    for (var dy = -radius; dy <= radius; dy++) {
+        for (var dx = -radius; dx <= radius; dx++) {
+            let q = t + vec2(dx, dy);
+            if any(q < vec2(0)) || any(q >= vec2<i32>(u.trace_px)) {
+                continue;
+            }
+            let qi = trace_index(vec2<u32>(q));
+            let sq = surfaces[qi];
+            if !similar_surfaces(me, sq, u.normal_cos, u.plane_tolerance) {
+                continue;
+            }
+            let rq = resolved[qi];
+            if shadow_test && qi != center_index && !shadow_compatible(center, rq, x) {
+                continue;
+            }
+            sum += reservoir_irradiance(rq, sq.position, x, n, u.jacobian_max);
+            count += 1.0;
+        }
+    }
+    if count == 0.0 {
+        // No trace pixel nearby lies on this surface (a thin or small feature): the own one's
+        // sample, whatever surface it was drawn for.
+        let s = surfaces[center_index];
+        if has_surface(s) {
+            sum = reservoir_irradiance(center, s.position, x, n, u.jacobian_max);
+        }
+        count = 1.0;
+    }
+    irradiance[pixel] = vec4(sum / count, 1.0);
+}
+
+// ---------------------------------------------------------------------------------------------
+// compose
+// ---------------------------------------------------------------------------------------------
+
+// Directional albedo of the GGX specular lobe under uniform incident light: Karis's analytic
+// fit of the split-sum environment BRDF ("Physically Based Shading on Mobile", 2014).
+fn specular_albedo(f0: vec3<f32>, roughness: f32, n_dot_v: f32) -> vec3<f32> {
+    let c0 = vec4(-1.0, -0.0275, -0.572, 0.022);
+    let c1 = vec4(1.0, 0.0425, 1.04, -0.04);
+    let r = roughness * c0 + c1;
+    let a004 = min(r.x * r.x, exp2(-9.28 * n_dot_v)) * r.x + r.y;
+    let ab = vec2(-1.04, 1.04) * a004 + r.zw;
+    return f0 * ab.x + ab.y;
+}
+
+@compute @workgroup_size(8, 8)
+fn compose(@builtin(global_invocation_id) id: vec3<u32>) {
+    if any(id.xy >= u.size_px) {
+        return;
+    }
+    let pixel = id.y * u.size_px.x + id.x;
+    let direct = direct_mean[pixel].xyz;
+    let depth = gbuffer_depth[pixel];
+    if is_sky_depth(depth) {
+        output[pixel] = vec4(direct, 1.0);
+        return;
+    }
+    let uv = (vec2<f32>(id.xy) + 0.5) / vec2<f32>(u.size_px);
+    let v = -camera_ray(u.camera, uv);
+    let n = unpack_unit_vector(gbuffer_normal[pixel]);
+    let base = gbuffer_base_color[pixel].xyz;
+    let mr = gbuffer_metallic_roughness[pixel];
+    let diffuse = base * (1.0 - mr.x);
+    let specular = specular_albedo(mix(vec3(0.04), base, mr.x), mr.y, max(dot(n, v), 0.0));
+    let e = max(denoised[pixel].xyz, vec3(0.0));
+    output[pixel] = vec4(direct + (diffuse + specular) * e * INV_PI, 1.0);
+}

@@ -1,0 +1,213 @@
+// The PC tier's BVH rays (HSGI, GDC 2023, "PC / Console Solution": hardware ray tracing, here
+// the software CWBVH of `gi::bvh` standing in for it):
+//   - `trace` (pass `pc/trace`), one invocation per trace pixel: picks one full-resolution
+//     pixel of its block (jittered per frame: HSGI's "canonical sample coverage, 2x2 jitter")
+//     as the receiver, traces one cosine-distributed ray from it through the BVH and shades the
+//     hit: its emission, exact direct light from every punctual light (one shadow ray each)
+//     and the brick cache's indirect irradiance at the hit ("indirect lighting always from the
+//     cache system"), reflected by its diffuse albedo; a miss sees the sky. The result is the
+//     pixel's initial reservoir (M = 1, W = 1 / pdf).
+//   - `shadow` (pass `pc/shadow`), HSGI's "ReSTIR GI shadow": one visibility ray from the
+//     receiver to the sample the spatial reuse chose. Visible: kept. Occluded: the pixel falls
+//     back to its temporal reservoir (reused from its own rays, so with little visibility bias)
+//     and remembers the occluder's distance and the occluded direction for the multi-sample
+//     shading's neighbour test.
+//
+// Bind group 0: binding 0 `u` (`gi::pc::common::PcUniforms`), bindings 1-7 the scene
+// (`gi::scene`), then the buffers below. Group 1: the BVH (`gi::bvh`). Group 2: the cache
+// (`gi::cache::data`).
+
+#import gi::math::INV_PI
+#import gi::sampling::{sampler_new, sampler_next_2d, cosine_hemisphere, frame_from_normal, frame_to_world}
+#import gi::brdf::{brdf_new, brdf_diffuse_albedo}
+#import gi::bvh::{Ray, trace_closest, trace_any, BVH_MISS}
+#import gi::camera::camera_ray
+#import gi::scene::{triangles, lights, sample_texture, emission, geometric_normal, triangle_uv, material_of}
+#import gi::lights::{LIGHT_DIRECTIONAL, light_incident, sky_radiance}
+#import gi::packing::{pack_unit_vector, unpack_unit_vector}
+#import gi::cache::trace::cache_indirect_irradiance
+#import gi::pc::common::{
+    PcUniforms, Surface, Reservoir, empty_reservoir, is_sky_depth, SAMPLE_SKY, SAMPLE_OCCLUDED,
+    FLAG_SPATIAL, FLAG_SHADOW, FLAG_TEMPORAL
+}
+
+const FAR: f32 = 3.40282347e38;
+// Shadow rays stop short of their target by this share of the distance.
+const SHADOW_MARGIN: f32 = 1e-3;
+
+@group(0) @binding(0) var<uniform> u: PcUniforms;
+@group(0) @binding(8) var<storage, read> gbuffer_depth: array<f32>;
+@group(0) @binding(9) var<storage, read> gbuffer_normal: array<u32>;
+// Per trace pixel: this frame's receiver (written by `trace`).
+@group(0) @binding(10) var<storage, read_write> surfaces: array<Surface>;
+// Per trace pixel: the initial reservoir (written by `trace`).
+@group(0) @binding(11) var<storage, read_write> initial: array<Reservoir>;
+// Per trace pixel: the temporal and spatial reuse's results (read by `shadow`).
+@group(0) @binding(12) var<storage, read> temporal: array<Reservoir>;
+@group(0) @binding(13) var<storage, read> spatial: array<Reservoir>;
+// Per trace pixel: the reservoir the shading reads (written by `shadow`).
+@group(0) @binding(14) var<storage, read_write> resolved: array<Reservoir>;
+
+// `p` pushed off its surface along `n` by a margin relative to its magnitude (the reference's
+// `offset_origin`).
+fn offset_origin(p: vec3<f32>, n: vec3<f32>) -> vec3<f32> {
+    let a = abs(p);
+    return p + n * (1e-4 * (1.0 + max(max(a.x, a.y), a.z)));
+}
+
+// The receiver of trace pixel `t`: the first pixel of its block, starting at a per-frame
+// jittered one, that shows a surface.
+fn pick_receiver(t: vec2<u32>, index: u32) -> Surface {
+    let scale = u.trace_scale;
+    let count = scale * scale;
+    var sampler = sampler_new(u.seed ^ vec2(0x2545f491u, 0u), index, u.frame_index);
+    let start = min(u32(sampler_next_2d(&sampler).x * f32(count)), count - 1u);
+    for (var k = 0u; k < count; k++) {
+        let o = (start + k) % count;
+        let p = t * scale + vec2(o % scale, o / scale);
+        if any(p >= u.size_px) {
+            continue;
+        }
+        let pixel = p.y * u.size_px.x + p.x;
+        let depth = gbuffer_depth[pixel];
+        if is_sky_depth(depth) {
+            continue;
+        }
+        let uv = (vec2<f32>(p) + 0.5) / vec2<f32>(u.size_px);
+        let x = u.camera.position + camera_ray(u.camera, uv) * depth;
+        return Surface(x, gbuffer_normal[pixel], pixel, depth, 0u, 0u);
+    }
+    return Surface(vec3(0.0), 0u, 0u, 0.0, 0u, 0u);
+}
+
+// Radiance leaving the point a ray along `dir` hit, towards the ray: emission, the punctual
+// lights' direct light (shadow rays) and the cache's indirect light, Lambertian. Also returns
+// the hit's geometric normal facing the ray (packed) in `normal`.
+struct HitShading {
+    radiance: vec3<f32>,
+    position: vec3<f32>,
+    normal: vec3<f32>,
+}
+
+fn shade_hit(dir: vec3<f32>, triangle: u32, b: vec2<f32>) -> HitShading {
+    let tri = triangles[triangle];
+    let b0 = 1.0 - b.x - b.y;
+    let p = tri.pa.xyz + (tri.pb.xyz - tri.pa.xyz) * b.x + (tri.pc.xyz - tri.pa.xyz) * b.y;
+    var ng = geometric_normal(tri);
+    if all(ng == vec3(0.0)) {
+        ng = -dir;
+    }
+    let front_facing = dot(ng, dir) <= 0.0;
+    ng = select(-ng, ng, front_facing);
+    let uv = triangle_uv(tri, b0, b.x, b.y);
+    let material = material_of(triangle, u.default_material);
+    let base = material.base_color.xyz * sample_texture(material.base_color_texture, uv).xyz;
+    let mr = sample_texture(material.metallic_roughness_texture, uv);
+    let albedo = brdf_diffuse_albedo(brdf_new(base, material.metallic * mr.z, material.roughness * mr.y));
+    var radiance = vec3(0.0);
+    if front_facing || material.double_sided != 0u {
+        radiance = emission(material, uv);
+    }
+    let origin = offset_origin(p, ng);
+    var irradiance = vec3(0.0);
+    for (var i = 0u; i < u.light_count; i++) {
+        let light = lights[i];
+        let incident = light_incident(light, p);
+        let cos_l = dot(incident.wi, ng);
+        if cos_l <= 0.0 || all(incident.irradiance == vec3(0.0)) {
+            continue;
+        }
+        var t_max = FAR;
+        if light.kind != LIGHT_DIRECTIONAL {
+            t_max = incident.distance * (1.0 - SHADOW_MARGIN);
+        }
+        if !trace_any(Ray(origin, 0.0, incident.wi, t_max)) {
+            irradiance += incident.irradiance * cos_l;
+        }
+    }
+    irradiance += cache_indirect_irradiance(p, ng).xyz;
+    radiance += albedo * INV_PI * irradiance;
+    return HitShading(radiance, p, ng);
+}
+
+@compute @workgroup_size(8, 8)
+fn trace(@builtin(global_invocation_id) id: vec3<u32>) {
+    if any(id.xy >= u.trace_px) {
+        return;
+    }
+    let index = id.y * u.trace_px.x + id.x;
+    let s = pick_receiver(id.xy, index);
+    surfaces[index] = s;
+    if s.normal == 0u {
+        initial[index] = empty_reservoir();
+        return;
+    }
+    let n = unpack_unit_vector(s.normal);
+    var sampler = sampler_new(u.seed, index, u.frame_index);
+    let local = cosine_hemisphere(sampler_next_2d(&sampler));
+    let dir = frame_to_world(frame_from_normal(n), local);
+    let pdf = local.z * INV_PI;
+    var r = empty_reservoir();
+    if pdf <= 0.0 {
+        initial[index] = r;
+        return;
+    }
+    let hit = trace_closest(Ray(offset_origin(s.position, n), 0.0, dir, FAR));
+    if hit.triangle == BVH_MISS {
+        r.position = dir;
+        r.radiance = sky_radiance(u.sky, dir);
+        r.flags = SAMPLE_SKY;
+    } else {
+        let shaded = shade_hit(dir, hit.triangle, hit.barycentrics);
+        r.position = shaded.position;
+        r.radiance = shaded.radiance;
+        r.normal = pack_unit_vector(shaded.normal);
+    }
+    // One candidate from the cosine pdf: W = 1 / pdf (the target function cancels).
+    r.w = 1.0 / pdf;
+    r.m = 1.0;
+    initial[index] = r;
+}
+
+@compute @workgroup_size(8, 8)
+fn shadow(@builtin(global_invocation_id) id: vec3<u32>) {
+    if any(id.xy >= u.trace_px) {
+        return;
+    }
+    let index = id.y * u.trace_px.x + id.x;
+    var r = temporal[index];
+    if (u.flags & FLAG_TEMPORAL) == 0u {
+        r = initial[index];
+    }
+    let fallback = r;
+    if (u.flags & FLAG_SPATIAL) != 0u {
+        r = spatial[index];
+    }
+    let s = surfaces[index];
+    if (u.flags & FLAG_SHADOW) == 0u || s.normal == 0u || r.w <= 0.0 {
+        resolved[index] = r;
+        return;
+    }
+    let n = unpack_unit_vector(s.normal);
+    let origin = offset_origin(s.position, n);
+    var dir: vec3<f32>;
+    var t_max = FAR;
+    if (r.flags & SAMPLE_SKY) != 0u {
+        dir = r.position;
+    } else {
+        let d = r.position - origin;
+        let len = length(d);
+        dir = d / max(len, 1e-12);
+        t_max = len * (1.0 - SHADOW_MARGIN);
+    }
+    let hit = trace_closest(Ray(origin, 0.0, dir, t_max));
+    if hit.triangle == BVH_MISS {
+        resolved[index] = r;
+        return;
+    }
+    var back = fallback;
+    back.flags |= SAMPLE_OCCLUDED;
+    back.occluder_distance = hit.t;
+    back.occluder_direction = pack_unit_vector(dir);
+    resolved[index] = back;
+}
