@@ -86,6 +86,8 @@ struct EmitterSample {
     // Solid-angle pdf at the shading point; 0 when the sample cannot contribute (the back of a
     // single-sided emitter, degenerate geometry).
     pdf: f32,
+    // The emitter's geometric normal on the side facing the shading point.
+    normal: vec3<f32>,
 }
 
 // The entry `partition_point(cdf <= u)` of the emitter table (`gi_gpu::EmitterTable`'s integer
@@ -113,7 +115,7 @@ fn sample_emitter(
     emitter_count: u32,
     default_material: u32,
 ) -> EmitterSample {
-    var sample = EmitterSample(vec3<f32>(0.0), 0.0, vec3<f32>(0.0), 0.0);
+    var sample = EmitterSample(vec3<f32>(0.0), 0.0, vec3<f32>(0.0), 0.0, vec3<f32>(0.0));
     let triangle = pick_emitter(u_select, emitter_count);
     let p_select = selection[triangle];
     let tri = triangles[triangle];
@@ -130,7 +132,8 @@ fn sample_emitter(
     }
     let distance = sqrt(distance_sq);
     let wi = to_light / distance;
-    let cos_light = -dot(geometric_normal(tri), wi);
+    let ng = geometric_normal(tri);
+    let cos_light = -dot(ng, wi);
     let material = material_of(triangle, default_material);
     if cos_light == 0.0 || (cos_light < 0.0 && material.double_sided == 0u) {
         return sample;
@@ -140,5 +143,5 @@ fn sample_emitter(
         return sample;
     }
     let uv = triangle_uv(tri, 1.0 - b.x - b.y, b.x, b.y);
-    return EmitterSample(wi, distance, emission(material, uv), pdf);
+    return EmitterSample(wi, distance, emission(material, uv), pdf, select(-ng, ng, cos_light > 0.0));
 }

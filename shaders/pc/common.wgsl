@@ -54,11 +54,14 @@ struct PcUniforms {
     boil_factor: f32,
     shadow_cos: f32,
     shadow_distance_ratio: f32,
-    pad_a: u32,
+    // Emissive triangles in the scene's emitter table (0: no emitter candidates).
+    emitter_count: u32,
+    pad_b: u32,
+    pad_c: u32,
 }
 
 // One trace pixel's receiver: the G-buffer surface of the full-resolution pixel it picked
-// this frame. `normal` 0: no surface (every pixel of its block shows the sky).
+// this frame. `depth` 0: no surface (every pixel of its block shows the sky).
 struct Surface {
     position: vec3<f32>,
     normal: u32,
@@ -103,7 +106,7 @@ fn luminance(c: vec3<f32>) -> f32 {
 }
 
 fn has_surface(s: Surface) -> bool {
-    return s.normal != 0u;
+    return s.depth > 0.0;
 }
 
 // Unit direction from receiver `x` to the sample, and the distance (for sky samples 3e38).

@@ -5,8 +5,9 @@
 //     as the receiver, traces one cosine-distributed ray from it through the BVH and shades the
 //     hit: its emission, exact direct light from every punctual light (one shadow ray each)
 //     and the brick cache's indirect irradiance at the hit ("indirect lighting always from the
-//     cache system"), reflected by its diffuse albedo; a miss sees the sky. The result is the
-//     pixel's initial reservoir (M = 1, W = 1 / pdf).
+//     cache system"), reflected by its diffuse albedo; a miss sees the sky. With emissive
+//     triangles in the scene a second candidate is a point drawn on them (next-event
+//     estimation); the two are combined by RIS into the pixel's initial reservoir (M = 1).
 //   - `shadow` (pass `pc/shadow`), HSGI's "ReSTIR GI shadow": one visibility ray from the
 //     receiver to the sample the spatial reuse chose. Visible: kept. Occluded: the pixel falls
 //     back to its temporal reservoir (reused from its own rays, so with little visibility bias)
@@ -18,16 +19,17 @@
 // (`gi::cache::data`).
 
 #import gi::math::INV_PI
-#import gi::sampling::{sampler_new, sampler_next_2d, cosine_hemisphere, frame_from_normal, frame_to_world}
+#import gi::sampling::{sampler_new, sampler_next_f32, sampler_next_2d, cosine_hemisphere, frame_from_normal, frame_to_world}
 #import gi::brdf::{brdf_new, brdf_diffuse_albedo}
 #import gi::bvh::{Ray, trace_closest, trace_any, BVH_MISS}
 #import gi::camera::camera_ray
-#import gi::scene::{triangles, lights, sample_texture, emission, geometric_normal, triangle_uv, material_of}
-#import gi::lights::{LIGHT_DIRECTIONAL, light_incident, sky_radiance}
+#import gi::scene::{triangles, lights, selection, sample_texture, emission, geometric_normal, triangle_uv, material_of}
+#import gi::lights::{LIGHT_DIRECTIONAL, light_incident, sky_radiance, sample_emitter}
 #import gi::packing::{pack_unit_vector, unpack_unit_vector}
 #import gi::cache::trace::cache_indirect_irradiance
 #import gi::pc::common::{
-    PcUniforms, Surface, Reservoir, empty_reservoir, is_sky_depth, SAMPLE_SKY, SAMPLE_OCCLUDED,
+    PcUniforms, Surface, Reservoir, empty_reservoir, is_sky_depth, has_surface, luminance, SAMPLE_SKY,
+    SAMPLE_OCCLUDED,
     FLAG_SPATIAL, FLAG_SHADOW, FLAG_TEMPORAL
 }
 
@@ -130,6 +132,31 @@ fn shade_hit(dir: vec3<f32>, triangle: u32, b: vec2<f32>) -> HitShading {
     return HitShading(radiance, p, ng);
 }
 
+// Solid-angle pdf with which `sample_emitter` draws the point of emitter triangle `triangle`
+// that a ray from the receiver along `dir` hit at distance `t` (the path tracer's
+// `emitter_pdf`); 0 for triangles outside the emitter table.
+fn emitter_pdf(triangle: u32, t: f32, dir: vec3<f32>) -> f32 {
+    let p_select = selection[triangle];
+    if p_select <= 0.0 {
+        return 0.0;
+    }
+    let tri = triangles[triangle];
+    let c = cross(tri.pb.xyz - tri.pa.xyz, tri.pc.xyz - tri.pa.xyz);
+    let len = sqrt(dot(c, c));
+    let cos_light = abs(dot(c, dir)) / max(len, 1e-30);
+    if len <= 0.0 || cos_light <= 0.0 {
+        return 0.0;
+    }
+    return p_select * t * t / (0.5 * len * cos_light);
+}
+
+// Initial candidates, two strategies combined by resampled importance sampling (Talbot et al.
+// 2005; Bitterli et al. 2020 use it for ReSTIR's initial candidates) with balance-heuristic
+// MIS weights: one cosine-distributed BVH ray (what ReSTIR GI traces), and one point drawn on
+// the scene's emitters by their power with a shadow ray (next-event estimation: a small bright
+// emitter that lights the receiver directly is found by every pixel instead of by the rare ray
+// that hits it). Candidate y_i gets the weight p(y_i) / (p_cos(y_i) + p_emit(y_i)); the kept
+// one has W = (sum of weights) / p(kept).
 @compute @workgroup_size(8, 8)
 fn trace(@builtin(global_invocation_id) id: vec3<u32>) {
     if any(id.xy >= u.trace_px) {
@@ -138,35 +165,78 @@ fn trace(@builtin(global_invocation_id) id: vec3<u32>) {
     let index = id.y * u.trace_px.x + id.x;
     let s = pick_receiver(id.xy, index);
     surfaces[index] = s;
-    if s.normal == 0u {
+    if !has_surface(s) {
         initial[index] = empty_reservoir();
         return;
     }
     let n = unpack_unit_vector(s.normal);
+    let origin = offset_origin(s.position, n);
+    let emitters_on = u.emitter_count > 0u;
     var sampler = sampler_new(u.seed, index, u.frame_index);
+    var weight_sum = 0.0;
+    var chosen = empty_reservoir();
+    var chosen_pdf = 0.0;
+
+    // The BVH ray.
     let local = cosine_hemisphere(sampler_next_2d(&sampler));
     let dir = frame_to_world(frame_from_normal(n), local);
-    let pdf = local.z * INV_PI;
-    var r = empty_reservoir();
-    if pdf <= 0.0 {
-        initial[index] = r;
-        return;
+    let pdf_cos = local.z * INV_PI;
+    if pdf_cos > 0.0 {
+        var r = empty_reservoir();
+        var pdf_emit = 0.0;
+        let hit = trace_closest(Ray(origin, 0.0, dir, FAR));
+        if hit.triangle == BVH_MISS {
+            r.position = dir;
+            r.radiance = sky_radiance(u.sky, dir);
+            r.flags = SAMPLE_SKY;
+        } else {
+            let shaded = shade_hit(dir, hit.triangle, hit.barycentrics);
+            r.position = shaded.position;
+            r.radiance = shaded.radiance;
+            r.normal = pack_unit_vector(shaded.normal);
+            if emitters_on {
+                pdf_emit = emitter_pdf(hit.triangle, hit.t, dir);
+            }
+        }
+        let p = luminance(r.radiance) * local.z;
+        let w = p / (pdf_cos + pdf_emit);
+        if w > 0.0 && w < FAR {
+            weight_sum += w;
+            chosen = r;
+            chosen_pdf = p;
+        }
     }
-    let hit = trace_closest(Ray(offset_origin(s.position, n), 0.0, dir, FAR));
-    if hit.triangle == BVH_MISS {
-        r.position = dir;
-        r.radiance = sky_radiance(u.sky, dir);
-        r.flags = SAMPLE_SKY;
+
+    // The emitter sample.
+    if emitters_on {
+        let u_select = sampler_next_f32(&sampler);
+        let light = sample_emitter(s.position, u_select, sampler_next_2d(&sampler), u.emitter_count, u.default_material);
+        let cos_x = dot(light.wi, n);
+        if light.pdf > 0.0 && cos_x > 0.0 && any(light.radiance > vec3(0.0))
+            && !trace_any(Ray(origin, 0.0, light.wi, light.distance * (1.0 - SHADOW_MARGIN))) {
+            var r = empty_reservoir();
+            r.position = s.position + light.wi * light.distance;
+            r.radiance = light.radiance;
+            r.normal = pack_unit_vector(light.normal);
+            let p = luminance(r.radiance) * cos_x;
+            let w = p / (cos_x * INV_PI + light.pdf);
+            if w > 0.0 && w < FAR {
+                weight_sum += w;
+                if sampler_next_f32(&sampler) * weight_sum < w {
+                    chosen = r;
+                    chosen_pdf = p;
+                }
+            }
+        }
+    }
+    if chosen_pdf > 0.0 {
+        chosen.w = weight_sum / chosen_pdf;
+        chosen.m = 1.0;
     } else {
-        let shaded = shade_hit(dir, hit.triangle, hit.barycentrics);
-        r.position = shaded.position;
-        r.radiance = shaded.radiance;
-        r.normal = pack_unit_vector(shaded.normal);
+        chosen = empty_reservoir();
+        chosen.m = 1.0;
     }
-    // One candidate from the cosine pdf: W = 1 / pdf (the target function cancels).
-    r.w = 1.0 / pdf;
-    r.m = 1.0;
-    initial[index] = r;
+    initial[index] = chosen;
 }
 
 @compute @workgroup_size(8, 8)
@@ -184,7 +254,7 @@ fn shadow(@builtin(global_invocation_id) id: vec3<u32>) {
         r = spatial[index];
     }
     let s = surfaces[index];
-    if (u.flags & FLAG_SHADOW) == 0u || s.normal == 0u || r.w <= 0.0 {
+    if (u.flags & FLAG_SHADOW) == 0u || !has_surface(s) || r.w <= 0.0 {
         resolved[index] = r;
         return;
     }

@@ -63,7 +63,8 @@ pub struct PcUniforms {
     pub boil_factor: f32,
     pub shadow_cos: f32,
     pub shadow_distance_ratio: f32,
-    pub pad_a: u32,
+    /// Emissive triangles in the scene's emitter table.
+    pub emitter_count: u32,
     pub pad_b: u32,
     pub pad_c: u32,
 }
@@ -90,9 +91,10 @@ pub struct GpuReservoir {
 #[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
 pub struct GpuSurface {
     pub position: [f32; 3],
-    /// Packed normal; 0 when the trace pixel has no surface.
+    /// Packed normal.
     pub normal: u32,
     pub pixel: u32,
+    /// G-buffer depth; 0 when the trace pixel has no surface.
     pub depth: f32,
     pub pad_a: u32,
     pub pad_b: u32,
@@ -486,6 +488,7 @@ impl PcTier {
             boil_factor: r.boil_factor,
             shadow_cos: r.shadow_cos,
             shadow_distance_ratio: r.shadow_distance_ratio,
+            emitter_count: prepared.scene.emitter_count,
             ..Default::default()
         }
     }
