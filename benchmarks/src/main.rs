@@ -8,6 +8,8 @@
 //! gi-bench mobile --scenes cornell-box,atrium,thin-wall --size 1920x1080 --frames 64 \
 //!     --screen-probes both --json mobile.json
 //! gi-bench mobile-stability --size 320x240 --screen-probes both --json stability.json
+//! gi-bench pc --scenes cornell-box,atrium,glossy --size 1920x1080 --frames 64 \
+//!     --variants default,temporal,spatial,shadow,multi-sample,boiling,svgf,restir --json pc.json
 //! ```
 
 mod cache_rays;
@@ -15,6 +17,7 @@ mod cache_update;
 mod mobile;
 mod mobile_stability;
 mod path;
+mod pc;
 mod rays;
 mod stability;
 
@@ -137,6 +140,37 @@ enum Command {
         /// Screen probes: hsgi, smartgi or both (one run each).
         #[arg(long, default_value = "hsgi", value_parser = mobile::parse_modes)]
         screen_probes: ModeList,
+        /// Also write the results as JSON to this file.
+        #[arg(long)]
+        json: Option<PathBuf>,
+    },
+    /// Cost and memory of the PC tier per scene and pipeline variant (the default, or one
+    /// stage switched off): a still warm-up, then the median per pass over the measured
+    /// frames and the GI sum (cache/* + pc/*).
+    Pc {
+        /// Comma-separated bundled scene names or glTF paths.
+        #[arg(
+            long,
+            value_delimiter = ',',
+            default_value = "cornell-box,atrium,glossy"
+        )]
+        scenes: Vec<String>,
+        /// Image size, WIDTHxHEIGHT. Lavapipe wants a tiny one.
+        #[arg(long, default_value = "1920x1080", value_parser = parse_size)]
+        size: (u32, u32),
+        /// Still warm-up frames before the measured frames (default: the PC tier's 63).
+        #[arg(long)]
+        warmup: Option<u32>,
+        /// Measured frames; each pass's median over them is reported.
+        #[arg(long, default_value_t = 64)]
+        frames: u32,
+        /// Comma-separated variants: default, or a stage to switch off (temporal, spatial,
+        /// shadow, multi-sample, boiling, svgf, restir).
+        #[arg(long, value_delimiter = ',', default_value = "default", value_parser = pc::parse_variant)]
+        variants: Vec<String>,
+        /// Full-resolution pixels per trace pixel along each axis (1 or 2).
+        #[arg(long, default_value_t = 2)]
+        trace_scale: u32,
         /// Also write the results as JSON to this file.
         #[arg(long)]
         json: Option<PathBuf>,
@@ -266,6 +300,26 @@ fn main() -> anyhow::Result<()> {
                 warmup: warmup.unwrap_or(gi_tiers::TierKind::Mobile.default_warmup()),
                 frames,
                 modes: screen_probes,
+            })?;
+            print!("{}", report.table());
+            write_json(json, &report.json())
+        }
+        Command::Pc {
+            scenes,
+            size,
+            warmup,
+            frames,
+            variants,
+            trace_scale,
+            json,
+        } => {
+            let report = pc::run(&pc::PcOptions {
+                scenes,
+                size,
+                warmup: warmup.unwrap_or(gi_tiers::TierKind::Pc.default_warmup()),
+                frames,
+                variants,
+                trace_scale,
             })?;
             print!("{}", report.table());
             write_json(json, &report.json())

@@ -83,6 +83,10 @@ pub struct ViewArgs {
     /// same denoiser). Only the PC tier reads it.
     #[arg(long, value_name = "STAGE")]
     pc_without: Option<String>,
+    /// Full-resolution pixels per trace pixel of the PC tier along each axis: 2 (the default)
+    /// traces a quarter of the pixels, 1 all of them. Only the PC tier reads it.
+    #[arg(long, value_name = "N")]
+    pc_trace_scale: Option<u32>,
 }
 
 /// Largest accepted image side, and largest pixel count (a 16K x 4K image).
@@ -131,12 +135,24 @@ impl ViewArgs {
             camera: self.camera,
             warmup: self.warmup,
             mobile: ScreenProbes::mobile_config(self.screen_probes),
-            pc: match &self.pc_without {
-                Some(stage) => PcConfig::without(stage).map_err(anyhow::Error::msg)?,
-                None => PcConfig::default(),
-            },
+            pc: self.pc_config()?,
             pc_without: self.pc_without.clone(),
         })
+    }
+}
+
+impl ViewArgs {
+    /// The PC tier's configuration from `--pc-without` and `--pc-trace-scale`.
+    fn pc_config(&self) -> anyhow::Result<PcConfig> {
+        let mut config = match &self.pc_without {
+            Some(stage) => PcConfig::without(stage).map_err(anyhow::Error::msg)?,
+            None => PcConfig::default(),
+        };
+        if let Some(scale) = self.pc_trace_scale {
+            config.trace_scale = scale;
+        }
+        config.validate().map_err(anyhow::Error::msg)?;
+        Ok(config)
     }
 }
 

@@ -1,0 +1,248 @@
+//! `gi-bench pc`: what a frame of the PC tier costs and how much memory it holds, per scene and
+//! pipeline variant (the default, or one stage switched off: the ablation's cost column), in
+//! the form of HSGI's per-pass table.
+//!
+//! Each run makes a PC tier for the scene's default camera, renders a still warm-up
+//! ([`Renderer::warm_up`]) and measures `frames` frames; each pass's figure is its median over
+//! them ([`PassTimings::median`]) and the GI cost is the sum of the `cache/*` and `pc/*`
+//! medians ([`TierKind::is_gi_pass`]).
+
+use anyhow::Context;
+use gi_gpu::PassTimings;
+use gi_tiers::pc::{PC_STAGES, PcMemory};
+use gi_tiers::{CameraMode, PcConfig, PcTier, Renderer, TierKind, TierSettings};
+
+const MIB: f64 = (1 << 20) as f64;
+
+/// A pipeline variant: `default`, or the name of a stage to switch off ([`PC_STAGES`]).
+pub fn parse_variant(value: &str) -> Result<String, String> {
+    if value == "default" || PC_STAGES.contains(&value) {
+        Ok(value.to_string())
+    } else {
+        Err(format!(
+            "unknown variant `{value}` (expected default or one of {})",
+            PC_STAGES.join(", ")
+        ))
+    }
+}
+
+/// What `gi-bench pc` runs.
+#[derive(Clone, Debug)]
+pub struct PcOptions {
+    pub scenes: Vec<String>,
+    pub size: (u32, u32),
+    pub warmup: u32,
+    pub frames: u32,
+    pub variants: Vec<String>,
+    pub trace_scale: u32,
+}
+
+/// One scene in one variant.
+pub struct PcRun {
+    pub scene: String,
+    pub variant: String,
+    pub adapter: String,
+    pub gpu_timestamps: bool,
+    pub median: PassTimings,
+    pub memory: PcMemory,
+}
+
+impl PcRun {
+    pub fn gi_ms(&self) -> f64 {
+        self.passes(true).map(|(_, ms)| ms).sum()
+    }
+
+    pub fn other_ms(&self) -> f64 {
+        self.passes(false).map(|(_, ms)| ms).sum()
+    }
+
+    fn passes(&self, gi: bool) -> impl Iterator<Item = (&str, f64)> {
+        self.median
+            .0
+            .iter()
+            .filter(move |(name, _)| TierKind::Pc.is_gi_pass(name) == gi)
+            .map(|(name, ms)| (name.as_str(), *ms))
+    }
+}
+
+pub struct PcReport {
+    pub options: PcOptions,
+    pub runs: Vec<PcRun>,
+}
+
+/// Renders every scene in every variant and measures it.
+pub fn run(options: &PcOptions) -> anyhow::Result<PcReport> {
+    anyhow::ensure!(options.frames >= 1, "--frames must be at least 1");
+    anyhow::ensure!(!options.scenes.is_empty(), "--scenes names no scene");
+    let mut runs = Vec::new();
+    for name in &options.scenes {
+        let scene = gi_scene::load(name).with_context(|| format!("loading {name}"))?;
+        for variant in &options.variants {
+            let mut config = if variant == "default" {
+                PcConfig::default()
+            } else {
+                PcConfig::without(variant).map_err(anyhow::Error::msg)?
+            };
+            config.trace_scale = options.trace_scale;
+            let settings = TierSettings {
+                width: options.size.0,
+                height: options.size.1,
+                spp: 1,
+                seed: 1,
+            };
+            let tier = PcTier::open(settings, config)?;
+            let mut renderer =
+                Renderer::with_tier(scene.clone(), Box::new(tier), CameraMode::Default);
+            renderer.warm_up(options.warmup, None)?;
+            let mut frames = Vec::new();
+            for _ in 0..options.frames {
+                frames.push(PassTimings(renderer.advance_frame(None)?));
+            }
+            let tier = renderer
+                .tier_as::<PcTier>()
+                .expect("the renderer holds a PC tier");
+            runs.push(PcRun {
+                scene: scene.name.clone(),
+                variant: variant.clone(),
+                adapter: tier.context().adapter_info.name.clone(),
+                gpu_timestamps: tier.context().supports_timestamps(),
+                median: PassTimings::median(&frames),
+                memory: tier.memory(),
+            });
+        }
+    }
+    Ok(PcReport {
+        options: options.clone(),
+        runs,
+    })
+}
+
+impl PcReport {
+    /// Markdown: per scene a pass table with one column per variant, GI sum and memory.
+    pub fn table(&self) -> String {
+        let o = &self.options;
+        let mut out = String::new();
+        let mut scenes: Vec<&str> = self.runs.iter().map(|r| r.scene.as_str()).collect();
+        scenes.dedup();
+        for scene in scenes {
+            let runs: Vec<&PcRun> = self.runs.iter().filter(|r| r.scene == scene).collect();
+            let clock = if runs[0].gpu_timestamps {
+                "GPU timestamps"
+            } else {
+                "CPU wall-clock"
+            };
+            out += &format!(
+                "{scene} {}x{}, trace scale {}, on {}: median of {} frames after {} still \
+                 warm-up frames ({clock}), ms\n\n| pass |",
+                o.size.0, o.size.1, o.trace_scale, runs[0].adapter, o.frames, o.warmup
+            );
+            for run in &runs {
+                let label = if run.variant == "default" {
+                    "default".to_string()
+                } else {
+                    format!("without {}", run.variant)
+                };
+                out += &format!(" {label} |");
+            }
+            out += &format!("\n|---|{}\n", "---:|".repeat(runs.len()));
+            let mut names: Vec<&str> = Vec::new();
+            for run in &runs {
+                for (name, _) in &run.median.0 {
+                    if !names.contains(&name.as_str()) {
+                        names.push(name);
+                    }
+                }
+            }
+            let row = |label: &str, value: &dyn Fn(&PcRun) -> Option<f64>| {
+                let mut line = format!("| {label} |");
+                for run in &runs {
+                    match value(run) {
+                        Some(ms) => line += &format!(" {ms:.3} |"),
+                        None => line += " - |",
+                    }
+                }
+                line + "\n"
+            };
+            for name in names.iter().filter(|n| TierKind::Pc.is_gi_pass(n)) {
+                out += &row(name, &|run| run.median.get(name));
+            }
+            out += &row("**GI (cache/* + pc/*)**", &|run| Some(run.gi_ms()));
+            for name in names.iter().filter(|n| !TierKind::Pc.is_gi_pass(n)) {
+                out += &row(name, &|run| run.median.get(name));
+            }
+            out += &row("GI memory MiB (coverage + screen)", &|run| {
+                Some(run.memory.gi_bytes() as f64 / MIB)
+            });
+            out += &row("screen buffers MiB", &|run| {
+                Some(run.memory.screen_bytes as f64 / MIB)
+            });
+            out += "\n";
+        }
+        out
+    }
+
+    pub fn json(&self) -> serde_json::Value {
+        let o = &self.options;
+        serde_json::json!({
+            "width": o.size.0,
+            "height": o.size.1,
+            "warmup": o.warmup,
+            "frames": o.frames,
+            "trace_scale": o.trace_scale,
+            "runs": self.runs.iter().map(|run| serde_json::json!({
+                "scene": run.scene,
+                "variant": run.variant,
+                "adapter": run.adapter,
+                "gpu_timestamps": run.gpu_timestamps,
+                "passes_ms": run.median.0.iter()
+                    .map(|(name, ms)| (name.clone(), (*ms).into()))
+                    .collect::<serde_json::Map<_, _>>(),
+                "gi_ms": run.gi_ms(),
+                "other_ms": run.other_ms(),
+                "memory": {
+                    "coverage_bytes": run.memory.coverage_bytes,
+                    "screen_bytes": run.memory.screen_bytes,
+                    "frame_bytes": run.memory.frame_bytes,
+                    "gi_bytes": run.memory.gi_bytes(),
+                },
+            })).collect::<Vec<_>>(),
+        })
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn variants_are_default_or_a_stage() {
+        assert!(parse_variant("default").is_ok() && parse_variant("spatial").is_ok());
+        let err = parse_variant("denoise").unwrap_err();
+        assert!(err.contains("denoise") && err.contains("temporal"), "{err}");
+    }
+
+    /// The tiny mode: the benchmark runs end to end, so it cannot rot.
+    #[test]
+    fn tiny_run_reports_every_variant() {
+        if gi_gpu::GpuContext::new_or_skip("pc::tiny_run_reports_every_variant").is_none() {
+            return;
+        }
+        let report = run(&PcOptions {
+            scenes: vec!["cornell-box".into()],
+            size: (32, 24),
+            warmup: 1,
+            frames: 2,
+            variants: vec!["default".into(), "spatial".into()],
+            trace_scale: 2,
+        })
+        .unwrap();
+        assert_eq!(report.runs.len(), 2);
+        let table = report.table();
+        assert!(
+            table.contains("pc/trace") && table.contains("without spatial"),
+            "{table}"
+        );
+        assert!(report.runs[0].median.get("pc/spatial").is_some());
+        assert!(report.runs[1].median.get("pc/spatial").is_none());
+    }
+}
