@@ -105,7 +105,12 @@ pub struct RestirConfig {
     pub m_clamp: f32,
     /// Neighbours the spatial reuse tries.
     pub spatial_samples: u32,
-    /// Radius of the spatial reuse's disk, in trace pixels.
+    /// Radius of the spatial reuse's disk, in trace pixels. Each neighbour brings its whole
+    /// temporal history (M up to `m_clamp`) but one sample evaluated at this receiver, so
+    /// far neighbours, whose cosines and shift Jacobians differ most, add noise: on atrium
+    /// (96 x 72, lavapipe) the per-frame relative noise of the shaded irradiance was 0.86 with
+    /// 4 neighbours within 8 trace pixels, 0.50 with 3 within 3, 0.40 without spatial reuse
+    /// and 1.45 without any reuse.
     pub spatial_radius: f32,
     /// Bound of the reconnection shift's Jacobian (HSGI bounds the maximum).
     pub jacobian_max: f32,
@@ -133,8 +138,8 @@ impl Default for RestirConfig {
             multi_sample: true,
             boiling_filter: true,
             m_clamp: 20.0,
-            spatial_samples: 4,
-            spatial_radius: 8.0,
+            spatial_samples: 3,
+            spatial_radius: 3.0,
             jacobian_max: 10.0,
             shade_radius: 1,
             normal_cos: 0.906,
