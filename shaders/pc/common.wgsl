@@ -73,7 +73,7 @@ struct Surface {
     pad_b: u32,
 }
 
-// Mirror of `gi_tiers::pc::GpuReservoir`, 48 bytes.
+// Mirror of `gi_tiers::pc::GpuReservoir`, 64 bytes.
 struct Reservoir {
     // The sample point `y`, or for a sky sample its unit direction.
     position: vec3<f32>,
@@ -91,10 +91,18 @@ struct Reservoir {
     // direction of the occluded sample.
     occluder_distance: f32,
     occluder_direction: u32,
+    // What `radiance` is made of at a surface sample, so that reuse in later frames can
+    // refresh its indirect part from the cache as the cache converges: the emission and
+    // punctual direct light (RGB9E5), and the diffuse albedo (unorm8 rgb) that reflects the
+    // cache's indirect irradiance.
+    fixed_radiance: u32,
+    albedo: u32,
+    pad_a: u32,
+    pad_b: u32,
 }
 
 fn empty_reservoir() -> Reservoir {
-    return Reservoir(vec3(0.0), 0.0, vec3(0.0), 0.0, 0u, 0u, 0.0, 0u);
+    return Reservoir(vec3(0.0), 0.0, vec3(0.0), 0.0, 0u, 0u, 0.0, 0u, 0u, 0u, 0u, 0u);
 }
 
 fn is_sky_depth(depth: f32) -> bool {

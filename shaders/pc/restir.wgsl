@@ -19,16 +19,18 @@
 //   - `compose` (pass `pc/compose`): direct light plus diffuse and split-sum specular albedo
 //     times the denoised irradiance over pi.
 //
-// Bind group 0 only: binding 0 `u` (`gi::pc::common::PcUniforms`), then the buffers below.
+// Bind group 0: binding 0 `u` (`gi::pc::common::PcUniforms`), then the buffers below. Group 2:
+// the cache (`gi::cache::data`), read by `temporal` to refresh reused samples.
 
 #import gi::math::INV_PI
 #import gi::sampling::{sampler_new, sampler_next_f32, sampler_next_2d, concentric_disk}
 #import gi::camera::camera_ray
-#import gi::packing::unpack_unit_vector
+#import gi::packing::{unpack_unit_vector, unpack_rgb9e5}
+#import gi::cache::trace::cache_indirect_irradiance
 #import gi::pc::common::{
     PcUniforms, Surface, Reservoir, Combiner, empty_reservoir, is_sky_depth, has_surface,
     target_pdf, reconnection_jacobian, combiner_new, combiner_add, combiner_finish,
-    reservoir_irradiance, similar_surfaces, sample_direction, SAMPLE_OCCLUDED, FLAG_TEMPORAL,
+    reservoir_irradiance, similar_surfaces, sample_direction, SAMPLE_OCCLUDED, SAMPLE_SKY, FLAG_TEMPORAL,
     FLAG_SPATIAL, FLAG_SHADOW, FLAG_MULTI_SAMPLE, FLAG_BOILING, FLAG_HISTORY
 }
 
@@ -93,6 +95,20 @@ fn previous_trace_pixel(s: Surface) -> i32 {
     return best;
 }
 
+// `r` with its surface sample's indirect part read again from the cache: the radiance a
+// reservoir stored frames ago lags the cache while the cache converges (from below, after a
+// fill or a light change), and reusing it would darken the image by that lag.
+fn refreshed(r: Reservoir) -> Reservoir {
+    if (r.flags & SAMPLE_SKY) != 0u || r.albedo == 0u || r.w <= 0.0 {
+        return r;
+    }
+    var out = r;
+    let albedo = unpack4x8unorm(r.albedo).xyz;
+    let indirect = cache_indirect_irradiance(r.position, unpack_unit_vector(r.normal)).xyz;
+    out.radiance = unpack_rgb9e5(r.fixed_radiance) + albedo * INV_PI * indirect;
+    return out;
+}
+
 var<workgroup> boil_weight: array<f32, 64>;
 
 @compute @workgroup_size(8, 8)
@@ -115,7 +131,7 @@ fn temporal(@builtin(global_invocation_id) id: vec3<u32>, @builtin(local_invocat
             if (u.flags & history) == history {
                 let prev = previous_trace_pixel(s);
                 if prev >= 0 {
-                    let rp = temporal_prev[prev];
+                    let rp = refreshed(temporal_prev[prev]);
                     let source = surfaces_prev[prev].position;
                     let j = reconnection_jacobian(rp, source, s.position, u.jacobian_max);
                     combiner_add(&c, rp, min(rp.m, u.m_clamp), target_pdf(rp, s.position, n), j, sampler_next_f32(&sampler));

@@ -25,7 +25,7 @@
 #import gi::camera::camera_ray
 #import gi::scene::{triangles, lights, selection, sample_texture, emission, geometric_normal, triangle_uv, material_of}
 #import gi::lights::{LIGHT_DIRECTIONAL, light_incident, sky_radiance, sample_emitter}
-#import gi::packing::{pack_unit_vector, unpack_unit_vector}
+#import gi::packing::{pack_unit_vector, unpack_unit_vector, pack_rgb9e5}
 #import gi::cache::trace::cache_indirect_irradiance
 #import gi::pc::common::{
     PcUniforms, Surface, Reservoir, empty_reservoir, is_sky_depth, has_surface, luminance, SAMPLE_SKY,
@@ -89,6 +89,9 @@ struct HitShading {
     radiance: vec3<f32>,
     position: vec3<f32>,
     normal: vec3<f32>,
+    // Emission plus punctual direct light, and the diffuse albedo.
+    fixed_radiance: vec3<f32>,
+    albedo: vec3<f32>,
 }
 
 fn shade_hit(dir: vec3<f32>, triangle: u32, b: vec2<f32>) -> HitShading {
@@ -127,9 +130,10 @@ fn shade_hit(dir: vec3<f32>, triangle: u32, b: vec2<f32>) -> HitShading {
             irradiance += incident.irradiance * cos_l;
         }
     }
-    irradiance += cache_indirect_irradiance(p, ng).xyz;
     radiance += albedo * INV_PI * irradiance;
-    return HitShading(radiance, p, ng);
+    let fixed_radiance = radiance;
+    radiance += albedo * INV_PI * cache_indirect_irradiance(p, ng).xyz;
+    return HitShading(radiance, p, ng, fixed_radiance, albedo);
 }
 
 // Solid-angle pdf with which `sample_emitter` draws the point of emitter triangle `triangle`
@@ -194,6 +198,8 @@ fn trace(@builtin(global_invocation_id) id: vec3<u32>) {
             r.position = shaded.position;
             r.radiance = shaded.radiance;
             r.normal = pack_unit_vector(shaded.normal);
+            r.fixed_radiance = pack_rgb9e5(shaded.fixed_radiance);
+            r.albedo = pack4x8unorm(vec4(shaded.albedo, 0.0));
             if emitters_on {
                 pdf_emit = emitter_pdf(hit.triangle, hit.t, dir);
             }
@@ -218,6 +224,7 @@ fn trace(@builtin(global_invocation_id) id: vec3<u32>) {
             r.position = s.position + light.wi * light.distance;
             r.radiance = light.radiance;
             r.normal = pack_unit_vector(light.normal);
+            r.fixed_radiance = pack_rgb9e5(light.radiance);
             let p = luminance(r.radiance) * cos_x;
             let w = p / (cos_x * INV_PI + light.pdf);
             if w > 0.0 && w < FAR {

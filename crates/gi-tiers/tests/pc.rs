@@ -90,6 +90,10 @@ fn shared_structs_match_their_wgsl_layout() {
             flags,
             occluder_distance,
             occluder_direction,
+            fixed_radiance,
+            albedo,
+            pad_a,
+            pad_b,
         }),
         size_of::<GpuReservoir>(),
     );

@@ -69,7 +69,7 @@ pub struct PcUniforms {
     pub pad_c: u32,
 }
 
-/// Mirror of `Reservoir` in `shaders/pc/common.wgsl`, 48 bytes.
+/// Mirror of `Reservoir` in `shaders/pc/common.wgsl`, 64 bytes.
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
 pub struct GpuReservoir {
@@ -84,6 +84,12 @@ pub struct GpuReservoir {
     pub flags: u32,
     pub occluder_distance: f32,
     pub occluder_direction: u32,
+    /// RGB9E5 emission plus punctual direct light of a surface sample.
+    pub fixed_radiance: u32,
+    /// Unorm8 diffuse albedo of a surface sample (reflects the cache's indirect light).
+    pub albedo: u32,
+    pub pad_a: u32,
+    pub pad_b: u32,
 }
 
 /// Mirror of `Surface` in `shaders/pc/common.wgsl`, 32 bytes.
@@ -199,12 +205,16 @@ impl PcPipelines {
                 &trace_groups,
             )
         };
+        let mut restir_groups: Vec<Option<&wgpu::BindGroupLayout>> =
+            vec![None; CacheBuffers::BIND_GROUP as usize + 1];
+        restir_groups[0] = Some(&restir_layout);
+        restir_groups[CacheBuffers::BIND_GROUP as usize] = Some(&cache_layout);
         let reused = |entry: &str| {
             ctx.create_compute_pipeline_with_layouts(
                 &format!("pc/{entry}"),
                 &restir_module,
                 entry,
-                &[Some(&restir_layout)],
+                &restir_groups,
             )
         };
         Ok(Self {
@@ -718,6 +728,7 @@ impl Tier for PcTier {
             self.timer.compute_pass(ctx, &mut encoder, name, |pass| {
                 pass.set_pipeline(pipeline);
                 pass.set_bind_group(0, &restir_group, &[]);
+                pass.set_bind_group(CacheBuffers::BIND_GROUP, cache_group, &[]);
                 pass.dispatch_workgroups(trace_groups.0, trace_groups.1, 1);
             });
         }
@@ -733,6 +744,7 @@ impl Tier for PcTier {
             .compute_pass(ctx, &mut encoder, "pc/shade", |pass| {
                 pass.set_pipeline(&self.pipelines.shade);
                 pass.set_bind_group(0, &restir_group, &[]);
+                pass.set_bind_group(CacheBuffers::BIND_GROUP, cache_group, &[]);
                 pass.dispatch_workgroups(full_groups.0, full_groups.1, 1);
             });
         let prepared = self.prepared.as_mut().expect("prepared above");
@@ -764,6 +776,7 @@ impl Tier for PcTier {
             .compute_pass(ctx, &mut encoder, "pc/compose", |pass| {
                 pass.set_pipeline(&self.pipelines.compose);
                 pass.set_bind_group(0, &restir_group, &[]);
+                pass.set_bind_group(CacheBuffers::BIND_GROUP, cache_group, &[]);
                 pass.dispatch_workgroups(full_groups.0, full_groups.1, 1);
             });
         passes.extend(self.timer.finish(ctx, encoder).0);
