@@ -5,33 +5,45 @@
 // Real-Time Reconstruction for Path-Traced Global Illumination", HPG). One entry point per
 // dispatch, in frame order:
 //
-//   temporal_short  reproject the short history (bilinear 2 x 2 taps through the motion
+//   temporal_short  reproject the histories once (bilinear 2 x 2 taps through the motion
 //                   vector, each tap kept only if its previous depth and normal agree with
-//                   this pixel's) and blend this frame's noisy irradiance into it with
-//                   alpha = max(1 / (age + 1), 1 / short_history); store the history's age;
-//   temporal        reproject the long history (color from the previous frame's first a-trous
-//                   iteration, as SVGF feeds back, and the luminance moments) with the same
-//                   taps, clamp its color into mean +- clamp_sigma sigma of this frame's short
-//                   history over the 5 x 5 neighbourhood, and blend with
-//                   alpha = max(1 / (age + 1), 1 / long_history);
+//                   this pixel's): blend this frame's noisy irradiance into the short history
+//                   with alpha = max(1 / (age + 1), 1 / short_history), and leave the
+//                   reprojected long history (color, luminance moments, age) in `output`;
+//   temporal        clamp the reprojected long color into mean +- clamp_sigma sigma of this
+//                   frame's short history over the 5 x 5 neighbourhood and blend with
+//                   alpha = max(1 / (age + 1), 1 / long_history); store the long history
+//                   (color, as SVGF feeds back, is replaced by the first a-trous iteration's);
 //   variance        SVGF's luminance variance: from the temporal moments once the history is
 //                   variance_min_age frames old, else from a 7 x 7 bilateral (depth, normal)
 //                   estimate of the moments around the pixel;
 //   atrous          one a-trous iteration (5 x 5 B3-spline taps `step_px` apart) with SVGF's
 //                   normal, depth and luminance edge-stopping weights; the variance is
 //                   filtered with the squared weights. The first iteration also writes the
-//                   color history of the next frame.
+//                   color of the next frame's long history.
 //
 // Pixels are one storage-buffer entry each, row-major. Sky pixels (depth +inf) pass their
 // input through every pass, keep no history and never mix into their neighbours.
 //
-// Bind group 0: the frame's inputs and the histories (`gi_tiers::pc::denoise::Denoiser`);
-// group 1: this dispatch's uniforms, filter input and filter output.
+// Memory, 44 bytes per pixel (`gi_tiers::pc::denoise` explains the choice): the histories are
+// packed (short color RGB9E5; long color and age `pack_color64`; moments f16), and the filter
+// passes ping-pong between `output` (f32) and a `pack_color64` pair of buffers that are dead by
+// then: the previous short history (reprojected by `temporal_short`) and the previous normals
+// (read only by `temporal_short`, copied anew after the last pass). Which one a pass writes
+// follows from the parity of its place in the chain (`writes_full`), so that the last pass
+// writes `output`.
+//
+// Bind group 0: the frame's inputs, the histories and the filter buffers
+// (`gi_tiers::pc::denoise::Denoiser`); group 1: this dispatch's uniforms.
 
-#import gi::packing::unpack_unit_vector
+#import gi::packing::{unpack_unit_vector, pack_rgb9e5, unpack_rgb9e5}
 #import gi::math::luminance
 
 const INFINITY_BITS: u32 = 0x7f800000u;
+// Largest finite f16: packed values are clamped to it.
+const F16_MAX: f32 = 65504.0;
+// Most error of an RGB9E5 channel relative to the largest channel (half a mantissa step).
+const RGB9E5_ERROR: f32 = 1.0 / 512.0;
 // Least total bilinear weight of the kept reprojection taps for the history to be used (SVGF's
 // reference implementation's threshold).
 const MIN_REPROJECTION_WEIGHT: f32 = 0.01;
@@ -44,14 +56,19 @@ const LUMINANCE_EPSILON: f32 = 1e-10;
 const ATROUS_KERNEL: array<f32, 3> = array<f32, 3>(0.375, 0.25, 0.0625);
 // Taps of the 3 x 3 Gaussian that prefilters the center variance, by distance 0, 1.
 const GAUSSIAN_3X3: array<f32, 2> = array<f32, 2>(0.5, 0.25);
+// Places of the filter chain's writes (`writes_full`): `temporal` is write 0, `variance`
+// write 1, a-trous iteration i write 2 + i.
+const TEMPORAL_WRITE: u32 = 0u;
+const VARIANCE_WRITE: u32 = 1u;
+const FIRST_ATROUS_WRITE: u32 = 2u;
 
 // Mirror of `gi_tiers::pc::denoise::DenoiseUniforms`, 56 bytes.
 struct DenoiseUniforms {
     size_px: vec2<u32>,
     // Pixels between a-trous taps (2^iteration).
     step_px: u32,
-    // 1 on the first a-trous iteration: its output is the next frame's color history.
-    write_history: u32,
+    // A-trous iterations this frame: with the pass's place, where it reads and writes.
+    atrous_iterations: u32,
     // 0: no usable history (first frame, reset, temporal accumulation off).
     history_valid: u32,
     long_history: u32,
@@ -71,20 +88,173 @@ struct DenoiseUniforms {
 @group(0) @binding(2) var<storage, read> normal: array<u32>;
 @group(0) @binding(3) var<storage, read> motion: array<vec2<f32>>;
 @group(0) @binding(4) var<storage, read> previous_depth: array<f32>;
-@group(0) @binding(5) var<storage, read> previous_normal: array<u32>;
-// rgb: the previous frame's first a-trous output; w: its variance (unused here).
-@group(0) @binding(6) var<storage, read_write> history_color: array<vec4<f32>>;
-// rgb: short history; w: age, frames accumulated including this one (0 for sky).
-@group(0) @binding(7) var<storage, read> short_in: array<vec4<f32>>;
-@group(0) @binding(8) var<storage, read_write> short_out: array<vec4<f32>>;
-// Mean luminance and mean squared luminance of the long history.
-@group(0) @binding(9) var<storage, read> moments_in: array<vec2<f32>>;
-@group(0) @binding(10) var<storage, read_write> moments_out: array<vec2<f32>>;
+// Octahedral normals of the previous frame until `temporal_short` has run; then the second
+// word of the packed filter buffer (`store_filter`).
+@group(0) @binding(5) var<storage, read_write> previous_normal: array<u32>;
+// The previous frame's short history (RGB9E5) until `temporal_short` has run; then the first
+// word of the packed filter buffer.
+@group(0) @binding(6) var<storage, read_write> short_in: array<u32>;
+// This frame's short history, RGB9E5.
+@group(0) @binding(7) var<storage, read_write> short_out: array<u32>;
+// The long history, `pack_color64` (rgb, age); age = frames accumulated including the current
+// one (0 for sky). Read through the taps only by `temporal_short`.
+@group(0) @binding(8) var<storage, read_write> history: array<vec2<u32>>;
+// f16 (mean luminance, luminance variance) of the long history.
+@group(0) @binding(9) var<storage, read_write> moments: array<u32>;
+// `array<vec4<f32>>` for the caller (rgb irradiance, w its variance), kept as raw bits here:
+// the reprojected long history between `temporal_short` and `temporal` (`Reprojected`), then
+// the full-precision filter buffer, and the result after the last pass.
+@group(0) @binding(10) var<storage, read_write> output: array<vec4<u32>>;
 
-// Group 1. Filter buffers hold rgb irradiance and, in w, its luminance variance.
+// Group 1.
 @group(1) @binding(0) var<uniform> u: DenoiseUniforms;
-@group(1) @binding(1) var<storage, read> filter_in: array<vec4<f32>>;
-@group(1) @binding(2) var<storage, read_write> filter_out: array<vec4<f32>>;
+
+// IEEE half precision by hand: the builtins `pack2x16float` / `unpack2x16float` need naga's
+// `SHADER_FLOAT16_IN_FLOAT32`, which wgpu grants on llvmpipe only with `Features::SHADER_F16`,
+// and `gi_gpu` requests neither. Same results: round to nearest even (at most 2^-11 of the
+// value), subnormals kept; values are clamped to +-F16_MAX (no infinities).
+fn half_bits(x: f32) -> u32 {
+    let sign = (bitcast<u32>(x) >> 16u) & 0x8000u;
+    let a = min(abs(x), F16_MAX);
+    if a < 6.103515625e-5 {
+        // Below 2^-14: subnormal, steps of 2^-24 (`round` ties to even).
+        return sign | u32(round(a * 16777216.0));
+    }
+    // Rebias the exponent (127 -> 15) and round the 23-bit mantissa to 10 bits, ties to even;
+    // a carry into the exponent is the right result.
+    let rebiased = bitcast<u32>(a) - (112u << 23u);
+    return sign | ((rebiased + 0xfffu + ((rebiased >> 13u) & 1u)) >> 13u);
+}
+
+fn half_value(h: u32) -> f32 {
+    let sign = (h & 0x8000u) << 16u;
+    let exponent = (h >> 10u) & 0x1fu;
+    let mantissa = h & 0x3ffu;
+    if exponent == 0u {
+        return bitcast<f32>(sign | bitcast<u32>(f32(mantissa) * 5.9604644775390625e-8));
+    }
+    return bitcast<f32>(sign | ((exponent + 112u) << 23u) | (mantissa << 13u));
+}
+
+// Two halves in 32 bits, x in the low bits (the layout of `pack2x16float`).
+fn pack_half2(v: vec2<f32>) -> u32 {
+    return half_bits(v.x) | (half_bits(v.y) << 16u);
+}
+
+fn unpack_half2(packed: u32) -> vec2<f32> {
+    return vec2(half_value(packed & 0xffffu), half_value(packed >> 16u));
+}
+
+// A power of two, exactly (`exp2` need not be exact).
+fn power_of_two(exponent: i32) -> f32 {
+    return bitcast<f32>(u32(exponent + 127) << 23u);
+}
+
+// Non-negative rgb and one more non-negative value in 64 bits: three 16-bit mantissas sharing
+// a 5-bit exponent (RGB9E5's layout with 16-bit mantissas: at most 2^-17 of the largest
+// channel off, channels clamped to 65535), and the value as an f16 cut to 6 mantissa bits
+// (at most 2^-7 of itself off; integers exact to 128). x = r | g << 16,
+// y = b | exponent << 16 | value << 21.
+fn pack_color64(rgb: vec3<f32>, value: f32) -> vec2<u32> {
+    let c = clamp(rgb, vec3(0.0), vec3(65535.0));
+    let largest = max(max(c.r, c.g), c.b);
+    // The largest channel's power of two from its bits (exact, unlike `log2`); the mantissas
+    // then hold [2^15, 2^16) for it, unless it rounds up to 2^16.
+    var exponent = max(i32(bitcast<u32>(largest) >> 23u) - 127, -16) + 16;
+    if round(largest * power_of_two(31 - exponent)) >= 65536.0 {
+        exponent += 1;
+    }
+    let m = vec3<u32>(round(c * power_of_two(31 - exponent)));
+    let short_half = (half_bits(max(value, 0.0)) + 8u) >> 4u;
+    return vec2(m.r | (m.g << 16u), m.b | (u32(exponent) << 16u) | (short_half << 21u));
+}
+
+fn unpack_color64(packed: vec2<u32>) -> vec4<f32> {
+    let m = vec3(packed.x & 0xffffu, packed.x >> 16u, packed.y & 0xffffu);
+    let exponent = i32((packed.y >> 16u) & 0x1fu);
+    let rgb = vec3<f32>(m) * power_of_two(exponent - 31);
+    return vec4(rgb, half_value((packed.y >> 21u) << 4u));
+}
+
+// ---------------------------------------------------------------------------------------------
+// Packed histories and filter buffers
+// ---------------------------------------------------------------------------------------------
+
+// Long history of pixel `index`: rgb and age.
+fn load_history(index: u32) -> vec4<f32> {
+    return unpack_color64(history[index]);
+}
+
+fn store_history(index: u32, color: vec3<f32>, age: f32) {
+    history[index] = pack_color64(color, age);
+}
+
+// Mean luminance and mean squared luminance of pixel `index`'s long history (stored as mean
+// and variance: the variance keeps its precision in f16, the squared mean would not).
+fn load_moments(index: u32) -> vec2<f32> {
+    let m = unpack_half2(moments[index]);
+    return vec2(m.x, m.y + m.x * m.x);
+}
+
+// Stores mean and mean squared luminance, returns the variance.
+fn store_moments(index: u32, m: vec2<f32>) -> f32 {
+    let variance = max(m.y - m.x * m.x, 0.0);
+    moments[index] = pack_half2(vec2(m.x, variance));
+    return variance;
+}
+
+// The long history reprojected by `temporal_short` for `temporal`, in `output`.
+struct Reprojected {
+    // Whether enough taps were kept (else the history is dropped).
+    valid: bool,
+    color: vec3<f32>,
+    // Frames accumulated including this one.
+    age: f32,
+    // Mean luminance and mean squared luminance.
+    moments: vec2<f32>,
+}
+
+fn store_reprojected(index: u32, r: Reprojected) {
+    let variance = max(r.moments.y - r.moments.x * r.moments.x, 0.0);
+    let color = pack_color64(r.color, r.age);
+    output[index] = vec4(color, pack_half2(vec2(r.moments.x, variance)), u32(r.valid));
+}
+
+fn load_reprojected(index: u32) -> Reprojected {
+    let packed = output[index];
+    let color = unpack_color64(packed.xy);
+    let m = unpack_half2(packed.z);
+    return Reprojected(packed.w != 0u, color.rgb, color.w, vec2(m.x, m.y + m.x * m.x));
+}
+
+// Index of this frame's last filter write: the last a-trous iteration, or `temporal` without.
+fn last_write() -> u32 {
+    return select(FIRST_ATROUS_WRITE + u.atrous_iterations - 1u, TEMPORAL_WRITE, u.atrous_iterations == 0u);
+}
+
+// Whether filter write `place` goes to `output` (full precision), else to the packed pair.
+// They alternate so that each pass reads the other one, and the last write is `output`.
+fn writes_full(place: u32) -> bool {
+    return ((last_write() - place) & 1u) == 0u;
+}
+
+// Filter data (rgb, luminance variance) of pixel `index` as written by filter write `place`.
+fn load_filter(place: u32, index: u32) -> vec4<f32> {
+    if writes_full(place) {
+        return bitcast<vec4<f32>>(output[index]);
+    }
+    return unpack_color64(vec2(short_in[index], previous_normal[index]));
+}
+
+fn store_filter(place: u32, index: u32, value: vec4<f32>) {
+    if writes_full(place) {
+        output[index] = bitcast<vec4<u32>>(value);
+    } else {
+        let packed = pack_color64(value.rgb, value.w);
+        short_in[index] = packed.x;
+        previous_normal[index] = packed.y;
+    }
+}
 
 fn is_sky(z: f32) -> bool {
     return bitcast<u32>(z) == INFINITY_BITS;
@@ -200,8 +370,10 @@ fn temporal_short(@builtin(global_invocation_id) id: vec3<u32>) {
     let index = pixel_index(pixel);
     let x = noisy[index].rgb;
     let z = depth[index];
+    var long = Reprojected(false, vec3(0.0), 0.0, vec2(0.0));
     if is_sky(z) {
-        short_out[index] = vec4(x, 0.0);
+        short_out[index] = pack_rgb9e5(x);
+        store_reprojected(index, long);
         return;
     }
     let taps = reproject(pixel, index, z, unpack_unit_vector(normal[index]));
@@ -209,16 +381,26 @@ fn temporal_short(@builtin(global_invocation_id) id: vec3<u32>) {
     var short_color = x;
     var previous_age = 0.0;
     if total >= MIN_REPROJECTION_WEIGHT {
-        var previous = vec4(0.0);
+        var previous_short = vec3(0.0);
+        var previous_long = vec4(0.0);
+        var previous_moments = vec2(0.0);
         for (var k = 0u; k < 4u; k++) {
-            previous += taps.weights[k] * short_in[taps.pixels[k]];
+            let t = taps.pixels[k];
+            let w = taps.weights[k];
+            previous_short += w * unpack_rgb9e5(short_in[t]);
+            previous_long += w * load_history(t);
+            previous_moments += w * load_moments(t);
         }
-        previous /= total;
-        previous_age = previous.w;
+        previous_age = previous_long.w / total;
         let alpha = max(1.0 / (previous_age + 1.0), 1.0 / f32(u.short_history));
-        short_color = mix(previous.rgb, x, alpha);
+        short_color = mix(previous_short / total, x, alpha);
+        long.valid = true;
+        long.color = previous_long.rgb / total;
+        long.moments = previous_moments / total;
     }
-    short_out[index] = vec4(short_color, min(previous_age + 1.0, f32(u.long_history)));
+    short_out[index] = pack_rgb9e5(short_color);
+    long.age = min(previous_age + 1.0, f32(u.long_history));
+    store_reprojected(index, long);
 }
 
 // Per-channel statistics of a neighbourhood.
@@ -239,7 +421,7 @@ fn short_neighbourhood(pixel: vec2<i32>) -> ColorBox {
             if is_sky(depth_at(q)) {
                 continue;
             }
-            let s = short_out[pixel_index(q)].rgb;
+            let s = unpack_rgb9e5(short_out[pixel_index(q)]);
             sum += s;
             sum_sq += s * s;
             count += 1.0;
@@ -260,30 +442,26 @@ fn temporal(@builtin(global_invocation_id) id: vec3<u32>) {
     let x = noisy[index].rgb;
     let z = depth[index];
     let l = luminance(x);
+    // Only this pixel reads its reprojection, so its filter data may replace it.
+    let previous = load_reprojected(index);
     var color = x;
-    var moments = vec2(l, l * l);
-    if !is_sky(z) {
-        let taps = reproject(pixel, index, z, unpack_unit_vector(normal[index]));
-        let total = total_weight(taps);
-        if total >= MIN_REPROJECTION_WEIGHT {
-            var previous_color = vec3(0.0);
-            var previous_moments = vec2(0.0);
-            for (var k = 0u; k < 4u; k++) {
-                previous_color += taps.weights[k] * history_color[taps.pixels[k]].rgb;
-                previous_moments += taps.weights[k] * moments_in[taps.pixels[k]];
-            }
-            let box = short_neighbourhood(pixel);
-            let half_width = u.clamp_sigma * box.sigma;
-            let clamped = clamp(previous_color / total, box.mean - half_width, box.mean + half_width);
-            // `temporal_short` stored the age including this frame: alpha = 1 / (previous + 1).
-            let age = short_out[index].w;
-            let alpha = max(1.0 / age, 1.0 / f32(u.long_history));
-            color = mix(clamped, x, alpha);
-            moments = mix(previous_moments / total, moments, alpha);
-        }
+    var m = vec2(l, l * l);
+    if !is_sky(z) && previous.valid {
+        let box = short_neighbourhood(pixel);
+        // Widened by the short history's RGB9E5 rounding, so that a noise-free history is not
+        // pulled off by it.
+        let rounding = RGB9E5_ERROR * max(max(box.mean.r, box.mean.g), box.mean.b);
+        let half_width = u.clamp_sigma * box.sigma + rounding;
+        let clamped = clamp(previous.color, box.mean - half_width, box.mean + half_width);
+        // `temporal_short` stored the age including this frame: alpha = 1 / (previous + 1).
+        let alpha = max(1.0 / previous.age, 1.0 / f32(u.long_history));
+        color = mix(clamped, x, alpha);
+        m = mix(previous.moments, m, alpha);
     }
-    moments_out[index] = moments;
-    filter_out[index] = vec4(color, max(moments.y - moments.x * moments.x, 0.0));
+    let variance = store_moments(index, m);
+    // The first a-trous iteration, if any, replaces the color.
+    store_history(index, color, previous.age);
+    store_filter(TEMPORAL_WRITE, index, vec4(color, variance));
 }
 
 // ---------------------------------------------------------------------------------------------
@@ -297,14 +475,14 @@ fn variance(@builtin(global_invocation_id) id: vec3<u32>) {
     }
     let pixel = vec2<i32>(id.xy);
     let index = pixel_index(pixel);
-    let center = filter_in[index];
+    let center = load_filter(VARIANCE_WRITE - 1u, index);
     let z = depth[index];
     if is_sky(z) {
-        filter_out[index] = vec4(center.rgb, 0.0);
+        store_filter(VARIANCE_WRITE, index, vec4(center.rgb, 0.0));
         return;
     }
-    if short_out[index].w >= f32(u.variance_min_age) {
-        filter_out[index] = center;
+    if load_history(index).w >= f32(u.variance_min_age) {
+        store_filter(VARIANCE_WRITE, index, center);
         return;
     }
     // Young history: the moments of the 7 x 7 neighbourhood on the same surface.
@@ -323,13 +501,13 @@ fn variance(@builtin(global_invocation_id) id: vec3<u32>) {
             let distance_px = length(vec2<f32>(vec2(dx, dy)));
             let w_depth = abs(q_depth - z) / (phi_depth * max(distance_px, 1.0));
             let w = normal_weight(n, unpack_unit_vector(normal[qi]), u.normal_power) * exp(-w_depth);
-            sum += w * moments_out[qi];
+            sum += w * load_moments(qi);
             weight_sum += w;
         }
     }
     // The center has weight 1, so weight_sum >= 1.
     let m = sum / weight_sum;
-    filter_out[index] = vec4(center.rgb, max(m.y - m.x * m.x, 0.0));
+    store_filter(VARIANCE_WRITE, index, vec4(center.rgb, max(m.y - m.x * m.x, 0.0)));
 }
 
 // ---------------------------------------------------------------------------------------------
@@ -337,8 +515,9 @@ fn variance(@builtin(global_invocation_id) id: vec3<u32>) {
 // ---------------------------------------------------------------------------------------------
 
 // The center variance prefiltered with a 3 x 3 Gaussian over the non-sky pixels (SVGF: it
-// steadies the luminance weight against a noisy variance estimate).
-fn prefiltered_variance(pixel: vec2<i32>) -> f32 {
+// steadies the luminance weight against a noisy variance estimate); `input` is the filter
+// write to read.
+fn prefiltered_variance(input: u32, pixel: vec2<i32>) -> f32 {
     var sum = 0.0;
     var weight_sum = 0.0;
     for (var dy = -1; dy <= 1; dy++) {
@@ -348,7 +527,7 @@ fn prefiltered_variance(pixel: vec2<i32>) -> f32 {
                 continue;
             }
             let w = GAUSSIAN_3X3[abs(dx)] * GAUSSIAN_3X3[abs(dy)];
-            sum += w * filter_in[pixel_index(q)].w;
+            sum += w * load_filter(input, pixel_index(q)).w;
             weight_sum += w;
         }
     }
@@ -362,13 +541,16 @@ fn atrous(@builtin(global_invocation_id) id: vec3<u32>) {
     }
     let pixel = vec2<i32>(id.xy);
     let index = pixel_index(pixel);
-    let center = filter_in[index];
+    // Iteration i has step 2^i.
+    let place = FIRST_ATROUS_WRITE + firstTrailingBit(u.step_px);
+    let input = place - 1u;
+    let center = load_filter(input, index);
     let z = depth[index];
     var result = center;
     if !is_sky(z) {
         let n = unpack_unit_vector(normal[index]);
         let l = luminance(center.rgb);
-        let phi_luminance = u.luminance_sigma * sqrt(prefiltered_variance(pixel)) + LUMINANCE_EPSILON;
+        let phi_luminance = u.luminance_sigma * sqrt(prefiltered_variance(input, pixel)) + LUMINANCE_EPSILON;
         let phi_depth = u.depth_sigma * depth_derivative(pixel, z) * f32(u.step_px);
         let step = i32(u.step_px);
         // The center tap: every edge-stopping weight is 1.
@@ -387,7 +569,7 @@ fn atrous(@builtin(global_invocation_id) id: vec3<u32>) {
                     continue;
                 }
                 let qi = pixel_index(q);
-                let sample = filter_in[qi];
+                let sample = load_filter(input, qi);
                 let w_depth = abs(q_depth - z) / (phi_depth * length(vec2<f32>(vec2(dx, dy))));
                 let w_luminance = abs(luminance(sample.rgb) - l) / phi_luminance;
                 let w = ATROUS_KERNEL[abs(dx)] * ATROUS_KERNEL[abs(dy)]
@@ -400,8 +582,10 @@ fn atrous(@builtin(global_invocation_id) id: vec3<u32>) {
         }
         result = vec4(color_sum / weight_sum, variance_sum / (weight_sum * weight_sum));
     }
-    filter_out[index] = result;
-    if u.write_history != 0u {
-        history_color[index] = result;
+    store_filter(place, index, result);
+    if place == FIRST_ATROUS_WRITE {
+        // SVGF feeds the first iteration back as the long history's color; `temporal` wrote
+        // the age.
+        store_history(index, result.rgb, load_history(index).w);
     }
 }

@@ -14,6 +14,14 @@ use rand_pcg::Pcg32;
 
 const SIZE: (u32, u32) = (64, 64);
 const PIXELS: usize = (SIZE.0 * SIZE.1) as usize;
+/// Most error of one store of a color in 64 bits (16-bit mantissas sharing an exponent),
+/// relative to the largest channel: half a step of 2^-16 of the exponent's power of two. The
+/// long history, its reprojection and the packed filter buffer are stored so.
+const COLOR64_ERROR: f32 = 1.0 / 131072.0;
+/// The same for RGB9E5 (9-bit mantissas): the short history, which places the clamp box.
+const RGB9E5_ERROR: f32 = 1.0 / 512.0;
+/// f32 arithmetic of the passes, relative.
+const ARITHMETIC_ERROR: f32 = 1e-6;
 
 /// One frame's inputs, one entry per pixel, row-major.
 #[derive(Clone)]
@@ -165,7 +173,7 @@ fn uniforms_match_their_wgsl_layout() {
     let rust = rust_field_offsets!(DenoiseUniforms {
         size_px,
         step_px,
-        write_history,
+        atrous_iterations,
         history_valid,
         long_history,
         short_history,
@@ -230,25 +238,33 @@ fn constant_input_stays_constant_under_every_config() {
         }
     }
     for (name, config) in configs() {
+        // Errors relative to the pixel's largest channel. Without history only the packed
+        // filter buffer rounds (once: a constant stays what it was rounded to). With history
+        // the long history is also rounded when stored and when reprojected; the clamp box is
+        // widened by the short history's RGB9E5 rounding, which therefore does not show.
+        let stores = if config.temporal { 3.0 } else { 1.0 };
+        let bound = stores * COLOR64_ERROR + ARITHMETIC_ERROR;
         harness.denoiser.reset_history();
+        let mut worst = 0.0f32;
         for index in 0..6 {
             let output = harness.run(&frame, &config);
-            let mut worst = 0.0f32;
             for (pixel, out) in output.iter().enumerate() {
                 let expected = if frame.depth[pixel].is_finite() {
                     value
                 } else {
                     [7.0; 3]
                 };
+                let largest = expected.into_iter().fold(0.0f32, f32::max);
                 for c in 0..3 {
-                    worst = worst.max((out[c] - expected[c]).abs() / expected[c]);
+                    worst = worst.max((out[c] - expected[c]).abs() / largest);
                 }
             }
             assert!(
-                worst <= 1e-5,
-                "{name}, frame {index}: relative error {worst}"
+                worst <= bound,
+                "{name}, frame {index}: relative error {worst} > {bound}"
             );
         }
+        eprintln!("{name}: worst relative error {worst:e} (bound {bound:e})");
     }
 }
 
@@ -477,7 +493,9 @@ fn a_lighting_change_is_followed_as_fast_as_the_short_history() {
             .iter()
             .map(|o| (o[1] - after).abs())
             .fold(0.0f32, f32::max);
-        let allowed = (after - before) * keep.powi(k);
+        // Plus the short history's RGB9E5 rounding (it stops moving within a rounding of the
+        // new value) and the clamp box's widening by that rounding.
+        let allowed = (after - before) * keep.powi(k) + 2.0 * RGB9E5_ERROR * after;
         if k % 5 == 0 {
             eprintln!("frame {k} after the change: {left:.5} left, clamping allows {allowed:.5}");
         }
@@ -514,8 +532,11 @@ fn history_follows_the_motion_vectors() {
         let output = harness.run(&frame, &config);
         worst = worst.max(worst_relative_error(&output, &frame.noisy, |_| true));
     }
-    eprintln!("moving stripes: worst relative error {worst:e}");
-    assert!(worst <= 1e-5, "moving stripes: {worst}");
+    // The history is rounded when stored and when reprojected (no packed filter buffer
+    // without a-trous iterations).
+    let bound = 2.0 * COLOR64_ERROR + ARITHMETIC_ERROR;
+    eprintln!("moving stripes: worst relative error {worst:e} (bound {bound:e})");
+    assert!(worst <= bound, "moving stripes: {worst}");
 }
 
 #[test]
@@ -525,8 +546,8 @@ fn memory_is_counted_and_released() {
     };
     let harness = Harness::new(ctx);
     let bytes = harness.denoiser.memory_bytes();
-    // 120 bytes per pixel (see the module docs) and nine 256-byte uniform slots.
-    assert_eq!(bytes, 120 * PIXELS as u64 + 9 * 256);
+    // 44 bytes per pixel (see the module docs) and nine 256-byte uniform slots.
+    assert_eq!(bytes, 44 * PIXELS as u64 + 9 * 256);
     assert_eq!(harness.ctx.memory().bytes_with_prefix("pc.denoise."), bytes);
     harness.denoiser.release(&harness.ctx);
     assert_eq!(harness.ctx.memory().bytes_with_prefix("pc.denoise."), 0);

@@ -5,13 +5,13 @@
 //!
 //! Each frame [`Denoiser::record`] records, on full-resolution storage buffers:
 //!
-//! 1. `pc/denoise_temporal`, two dispatches. `temporal_short` reprojects the short history
+//! 1. `pc/denoise_temporal`, two dispatches. `temporal_short` reprojects the histories
 //!    through the motion vectors (bilinear 2 x 2 taps, each kept only if its previous depth and
-//!    normal agree with the pixel's) and blends the noisy input into it with
-//!    `alpha = max(1 / (age + 1), 1 / short_history)`. `temporal` reprojects the long history
-//!    (color and luminance moments) with the same taps, clamps its color into
-//!    `mean +- clamp_sigma sigma` of this frame's short history over the 5 x 5 neighbourhood,
-//!    and blends with `alpha = max(1 / (age + 1), 1 / long_history)`.
+//!    normal agree with the pixel's), blends the noisy input into the short one with
+//!    `alpha = max(1 / (age + 1), 1 / short_history)` and leaves the reprojected long history
+//!    (color, luminance moments, age) in the output buffer. `temporal` clamps the long
+//!    history's color into `mean +- clamp_sigma sigma` of this frame's short history over the
+//!    5 x 5 neighbourhood, and blends with `alpha = max(1 / (age + 1), 1 / long_history)`.
 //!    Why the short history and not the noisy input for the clamp box: its neighbourhood is
 //!    about `sqrt(short_history)` times less noisy, so the box is tight enough to catch stale
 //!    history, yet it follows a change within about `short_history` frames.
@@ -28,9 +28,28 @@
 //! camera): a camera closing in on a surface faster than
 //! [`DenoiseConfig::reprojection_depth_tolerance`] of its distance per frame loses the history.
 //!
-//! Memory: 120 bytes per pixel (about 250 MB at 1920 x 1080), all `f32`: the previous depth
-//! and normal (8), the color history (16), two short histories (32), two moment buffers (16),
-//! two filter buffers (32) and the output (16).
+//! Memory: 44 bytes per pixel (about 91 MB at 1920 x 1080; 120 before packing):
+//!
+//! - the previous depth (`f32`, 4: the reprojection test needs its precision) and normal
+//!   (octahedral `u32`, 4);
+//! - two short histories (4 each), RGB9E5: they only place the clamp box, which is widened by
+//!   their rounding (at most `2^-9` of the largest channel);
+//! - the long history (8): color as three 16-bit mantissas sharing a 5-bit exponent (at most
+//!   `2^-17` of the largest channel off) and the age as an 11-bit float (integers exact to
+//!   128; ages stop growing at 256, so `long_history` above 256 acts as 256);
+//! - the luminance moments (4): f16 mean and variance (the variance keeps its precision in
+//!   f16, the mean square would swamp small variances);
+//! - the output (`vec4<f32>`, 16).
+//!
+//! Nothing else is allocated: reprojecting every history once in `temporal_short` lets the
+//! long history and moments be updated in place (no ping-pong), the output holds the
+//! reprojected long history until `temporal` replaces it with its result, and the filter
+//! passes alternate between the output and a packed buffer (the long history's 64-bit format,
+//! the variance in place of the age) made of the previous short history and the previous
+//! normal, both dead once `temporal_short` has run (the normal is copied anew after the last
+//! pass). Which one a pass writes follows from the parity of its place in the chain, so that
+//! the last pass writes the output. Packed colors are non-negative and clamped to 65535
+//! (RGB9E5: 65408), f16 values to 65504.
 
 use std::num::NonZeroU64;
 
@@ -61,7 +80,8 @@ pub struct DenoiseConfig {
     /// `4 * 2^iterations` pixels) at about the same cost each.
     pub atrous_iterations: u32,
     /// Most frames the long history averages (HSGI: 50): higher is smoother in static views
-    /// and slower to follow changes the clamp does not catch.
+    /// and slower to follow changes the clamp does not catch. Above 256 it acts as 256 (the
+    /// stored age's precision).
     pub long_history: u32,
     /// Frames of the short history whose neighbourhood clamps the long one (HSGI: 10): lower
     /// follows lighting changes faster and clamps more noise into the result.
@@ -157,8 +177,9 @@ pub struct DenoiseUniforms {
     pub size_px: [u32; 2],
     /// Pixels between a-trous taps (`2^iteration`).
     pub step_px: u32,
-    /// 1 on the first a-trous iteration, whose output is the next frame's color history.
-    pub write_history: u32,
+    /// A-trous iterations this frame: with a pass's place in the filter chain, whether it
+    /// writes the output or the packed filter buffer.
+    pub atrous_iterations: u32,
     /// 0 when there is no usable history (first frame, reset, temporal accumulation off).
     pub history_valid: u32,
     pub long_history: u32,
@@ -178,7 +199,7 @@ impl DenoiseUniforms {
         Self {
             size_px: [size.0, size.1],
             step_px: 1,
-            write_history: 0,
+            atrous_iterations: config.atrous_iterations.min(MAX_ATROUS_ITERATIONS),
             history_valid: u32::from(history_valid),
             long_history: config.long_history,
             short_history: config.short_history,
@@ -194,10 +215,10 @@ impl DenoiseUniforms {
 }
 
 /// The four pipelines, one per entry point, sharing two bind group layouts: group 0 the
-/// frame's inputs and the histories, group 1 the dispatch's uniforms and filter buffers.
+/// frame's inputs, the histories and the filter buffers, group 1 the dispatch's uniforms.
 pub struct DenoisePipelines {
     frame_layout: wgpu::BindGroupLayout,
-    filter_layout: wgpu::BindGroupLayout,
+    uniform_layout: wgpu::BindGroupLayout,
     temporal_short: wgpu::ComputePipeline,
     temporal: wgpu::ComputePipeline,
     variance: wgpu::ComputePipeline,
@@ -207,10 +228,10 @@ pub struct DenoisePipelines {
 impl DenoisePipelines {
     pub fn new(ctx: &GpuContext, shaders: &ShaderLibrary) -> Result<Self, GpuError> {
         let module = shaders.create_module(ctx, "pc/denoise.wgsl", &[])?;
-        // The inputs, the previous depth and normal and the `_in` histories are read-only.
-        let writable = [6u32, 8, 10];
+        // The inputs and the previous depth are read-only; the previous normal and short
+        // history double as a filter buffer.
         let frame_entries: Vec<_> = (0..=10)
-            .map(|binding| storage_entry(binding, !writable.contains(&binding)))
+            .map(|binding| storage_entry(binding, binding < 5))
             .collect();
         let frame_layout = ctx
             .device
@@ -218,22 +239,18 @@ impl DenoisePipelines {
                 label: Some("pc/denoise.frame_layout"),
                 entries: &frame_entries,
             });
-        let filter_layout = ctx
-            .device
-            .create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
-                label: Some("pc/denoise.filter_layout"),
-                entries: &[
-                    uniform_entry(0),
-                    storage_entry(1, true),
-                    storage_entry(2, false),
-                ],
-            });
+        let uniform_layout =
+            ctx.device
+                .create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+                    label: Some("pc/denoise.uniform_layout"),
+                    entries: &[uniform_entry(0)],
+                });
         let pipeline = |entry: &str| {
             ctx.create_compute_pipeline_with_layouts(
                 &format!("pc/denoise_{entry}"),
                 &module,
                 entry,
-                &[Some(&frame_layout), Some(&filter_layout)],
+                &[Some(&frame_layout), Some(&uniform_layout)],
             )
         };
         Ok(Self {
@@ -242,7 +259,7 @@ impl DenoisePipelines {
             variance: pipeline("variance"),
             atrous: pipeline("atrous"),
             frame_layout,
-            filter_layout,
+            uniform_layout,
         })
     }
 }
@@ -286,8 +303,8 @@ impl<T> PingPong<T> {
     }
 }
 
-/// The denoiser of one image size: its histories, filter buffers and output (labels
-/// `pc.denoise.*`) and the bind groups over them and the sources it was made with.
+/// The denoiser of one image size: its histories and output (labels `pc.denoise.*`) and the
+/// bind groups over them and the sources it was made with.
 pub struct Denoiser {
     size: (u32, u32),
     source_depth: wgpu::Buffer,
@@ -295,26 +312,23 @@ pub struct Denoiser {
     /// Uniform slots: 0 for the temporal and variance passes, `1 + i` for a-trous iteration `i`.
     uniforms: wgpu::Buffer,
     previous_depth: wgpu::Buffer,
+    /// The previous normal; from `temporal_short` to the end of the frame, the second word of
+    /// the packed filter buffer.
     previous_normal: wgpu::Buffer,
-    /// rgb: the previous frame's first a-trous output (or temporal output without a-trous).
-    history_color: wgpu::Buffer,
-    /// rgb: short history; w: age in frames.
+    /// RGB9E5 short history; the previous frame's, once reprojected, is the first word of the
+    /// packed filter buffer.
     short_history: PingPong<wgpu::Buffer>,
-    /// Mean luminance and mean squared luminance of the long history.
-    moments: PingPong<wgpu::Buffer>,
-    /// rgb and luminance variance: `filtered[1]` holds the temporal output, then the
-    /// passes ping-pong between the two.
-    filtered: [wgpu::Buffer; 2],
+    /// Long history color and age (`pack_color64` in the shader): the previous frame's first
+    /// a-trous output, or the temporal output without a-trous.
+    history: wgpu::Buffer,
+    /// f16 mean luminance and luminance variance of the long history.
+    moments: wgpu::Buffer,
+    /// The reprojected long history, then the full-precision filter buffer, then the result.
     output: wgpu::Buffer,
-    /// Group 0 writing `short_history.pair[i]` and `moments.pair[i]`, flipped with them.
+    /// Group 0 writing `short_history.pair[i]`, flipped with it.
     frame_groups: PingPong<wgpu::BindGroup>,
-    /// Group 1 of the temporal pass (writes `filtered[1]`) and the variance pass
-    /// (`filtered[1]` to `filtered[0]`).
-    temporal_group: wgpu::BindGroup,
-    variance_group: wgpu::BindGroup,
-    /// Group 1 of a-trous iteration `i`: `[i][0]` writes the next filter buffer, `[i][1]`
-    /// (the last iteration) the output.
-    atrous_groups: Vec<[wgpu::BindGroup; 2]>,
+    /// Group 1 of each uniform slot.
+    uniform_groups: Vec<wgpu::BindGroup>,
     has_history: bool,
 }
 
@@ -339,10 +353,9 @@ impl Denoiser {
         );
         let previous_depth = buffer("pc.denoise.previous_depth", 4);
         let previous_normal = buffer("pc.denoise.previous_normal", 4);
-        let history_color = buffer("pc.denoise.history_color", 16);
-        let short_history = PingPong::new([0, 1].map(|_| buffer("pc.denoise.short_history", 16)));
-        let moments = PingPong::new([0, 1].map(|_| buffer("pc.denoise.moments", 8)));
-        let filtered = [0, 1].map(|_| buffer("pc.denoise.filtered", 16));
+        let short_history = PingPong::new([0, 1].map(|_| buffer("pc.denoise.short_history", 4)));
+        let history = buffer("pc.denoise.history", 8);
+        let moments = buffer("pc.denoise.moments", 4);
         let output = buffer("pc.denoise.output", 16);
 
         let frame_group = |write: usize| {
@@ -358,50 +371,31 @@ impl Denoiser {
                         sources.motion,
                         &previous_depth,
                         &previous_normal,
-                        &history_color,
                         &short_history.pair[1 - write],
                         &short_history.pair[write],
-                        &moments.pair[1 - write],
-                        &moments.pair[write],
+                        &history,
+                        &moments,
+                        &output,
                     ],
                 ),
             })
         };
         let frame_groups = PingPong::new([frame_group(0), frame_group(1)]);
-        let filter_group = |slot: u32, input: &wgpu::Buffer, output: &wgpu::Buffer| {
-            let uniform_binding = wgpu::BufferBinding {
-                buffer: &uniforms,
-                offset: UNIFORM_SLOT_BYTES * u64::from(slot),
-                size: NonZeroU64::new(size_of::<DenoiseUniforms>() as u64),
-            };
-            ctx.device.create_bind_group(&wgpu::BindGroupDescriptor {
-                label: Some("pc/denoise.filter_group"),
-                layout: &pipelines.filter_layout,
-                entries: &[
-                    wgpu::BindGroupEntry {
+        let uniform_groups = (0..=MAX_ATROUS_ITERATIONS)
+            .map(|slot| {
+                let binding = wgpu::BufferBinding {
+                    buffer: &uniforms,
+                    offset: UNIFORM_SLOT_BYTES * u64::from(slot),
+                    size: NonZeroU64::new(size_of::<DenoiseUniforms>() as u64),
+                };
+                ctx.device.create_bind_group(&wgpu::BindGroupDescriptor {
+                    label: Some("pc/denoise.uniform_group"),
+                    layout: &pipelines.uniform_layout,
+                    entries: &[wgpu::BindGroupEntry {
                         binding: 0,
-                        resource: wgpu::BindingResource::Buffer(uniform_binding),
-                    },
-                    wgpu::BindGroupEntry {
-                        binding: 1,
-                        resource: input.as_entire_binding(),
-                    },
-                    wgpu::BindGroupEntry {
-                        binding: 2,
-                        resource: output.as_entire_binding(),
-                    },
-                ],
-            })
-        };
-        let temporal_group = filter_group(0, &filtered[0], &filtered[1]);
-        let variance_group = filter_group(0, &filtered[1], &filtered[0]);
-        let atrous_groups = (0..MAX_ATROUS_ITERATIONS)
-            .map(|i| {
-                let input = &filtered[i as usize % 2];
-                [
-                    filter_group(1 + i, input, &filtered[(i as usize + 1) % 2]),
-                    filter_group(1 + i, input, &output),
-                ]
+                        resource: wgpu::BindingResource::Buffer(binding),
+                    }],
+                })
             })
             .collect();
         Self {
@@ -411,15 +405,12 @@ impl Denoiser {
             uniforms,
             previous_depth,
             previous_normal,
-            history_color,
             short_history,
+            history,
             moments,
-            filtered,
             output,
             frame_groups,
-            temporal_group,
-            variance_group,
-            atrous_groups,
+            uniform_groups,
             has_history: false,
         }
     }
@@ -442,44 +433,37 @@ impl Denoiser {
         let iterations = config.atrous_iterations.min(MAX_ATROUS_ITERATIONS);
         self.write_uniforms(ctx, config);
         self.short_history.swap();
-        self.moments.swap();
         self.frame_groups.swap();
         let workgroups = [
             self.size.0.div_ceil(TILE_GROUP),
             self.size.1.div_ceil(TILE_GROUP),
         ];
         let frame_group = self.frame_groups.current();
-        let dispatch = |pass: &mut wgpu::ComputePass<'_>,
-                        pipeline: &wgpu::ComputePipeline,
-                        filter_group: &wgpu::BindGroup| {
-            pass.set_pipeline(pipeline);
-            pass.set_bind_group(0, frame_group, &[]);
-            pass.set_bind_group(1, filter_group, &[]);
-            pass.dispatch_workgroups(workgroups[0], workgroups[1], 1);
-        };
+        let dispatch =
+            |pass: &mut wgpu::ComputePass<'_>, pipeline: &wgpu::ComputePipeline, slot: u32| {
+                pass.set_pipeline(pipeline);
+                pass.set_bind_group(0, frame_group, &[]);
+                pass.set_bind_group(1, &self.uniform_groups[slot as usize], &[]);
+                pass.dispatch_workgroups(workgroups[0], workgroups[1], 1);
+            };
         // One scope for both dispatches: wgpu orders dispatches of a pass with barriers, and
         // `temporal` reads the short history `temporal_short` wrote around each pixel.
         timer.compute_pass(ctx, encoder, "pc/denoise_temporal", |pass| {
-            dispatch(pass, &pipelines.temporal_short, &self.temporal_group);
-            dispatch(pass, &pipelines.temporal, &self.temporal_group);
+            dispatch(pass, &pipelines.temporal_short, 0);
+            dispatch(pass, &pipelines.temporal, 0);
         });
-        if iterations == 0 {
-            // The temporal output (or, without temporal accumulation, the input) is the result.
-            let bytes = self.output.size();
-            encoder.copy_buffer_to_buffer(&self.filtered[1], 0, &self.output, 0, bytes);
-            encoder.copy_buffer_to_buffer(&self.filtered[1], 0, &self.history_color, 0, bytes);
-        } else {
+        // Without a-trous iterations the temporal pass wrote the output and the history.
+        if iterations > 0 {
             timer.compute_pass(ctx, encoder, "pc/denoise_variance", |pass| {
-                dispatch(pass, &pipelines.variance, &self.variance_group);
+                dispatch(pass, &pipelines.variance, 0);
             });
             for i in 0..iterations {
-                let last = usize::from(i + 1 == iterations);
-                let group = &self.atrous_groups[i as usize][last];
                 timer.compute_pass(ctx, encoder, "pc/denoise_atrous", |pass| {
-                    dispatch(pass, &pipelines.atrous, group);
+                    dispatch(pass, &pipelines.atrous, 1 + i);
                 });
             }
         }
+        // After the last pass: the previous normal was a filter buffer until now.
         let bytes = self.previous_depth.size();
         encoder.copy_buffer_to_buffer(&self.source_depth, 0, &self.previous_depth, 0, bytes);
         encoder.copy_buffer_to_buffer(&self.source_normal, 0, &self.previous_normal, 0, bytes);
@@ -495,7 +479,6 @@ impl Denoiser {
                 0 => base,
                 _ => DenoiseUniforms {
                     step_px: 1 << (slot - 1),
-                    write_history: u32::from(slot == 1),
                     ..base
                 },
             };
@@ -507,7 +490,8 @@ impl Denoiser {
     }
 
     /// The denoised irradiance, `array<vec4<f32>>` (rgb; w holds the filter's luminance
-    /// variance estimate), valid once the recorded passes ran.
+    /// variance estimate), valid once the recorded passes ran and until the next
+    /// [`Denoiser::record`], which uses it as scratch.
     pub fn output(&self) -> &wgpu::Buffer {
         &self.output
     }
@@ -527,14 +511,12 @@ impl Denoiser {
             &self.uniforms,
             &self.previous_depth,
             &self.previous_normal,
-            &self.history_color,
-            &self.filtered[0],
-            &self.filtered[1],
+            &self.history,
+            &self.moments,
             &self.output,
         ]
         .into_iter()
         .chain(self.short_history.both())
-        .chain(self.moments.both())
     }
 
     /// Stops counting and destroys the buffers it owns (not the sources).
