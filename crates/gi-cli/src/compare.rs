@@ -20,8 +20,8 @@ pub struct CompareArgs {
     /// Bundled scene name (see `gi scenes`) or path to a .gltf/.glb file.
     #[arg(default_value = "cornell-box")]
     scene: String,
-    /// Comma-separated tiers to compare (default: every tier: reference, direct, path,
-    /// mobile).
+    /// Comma-separated tiers to compare (default: every tier: reference, direct, path, mobile,
+    /// pc).
     #[arg(long, value_delimiter = ',', value_parser = parse_tier)]
     tiers: Vec<TierKind>,
     #[command(flatten)]

@@ -15,7 +15,7 @@ use crate::{ViewArgs, parse_tier, tiers::render_tier};
 pub struct RenderArgs {
     /// Bundled scene name (see `gi scenes`) or path to a .gltf/.glb file.
     scene: String,
-    /// Tier to render with: reference, direct, path, mobile.
+    /// Tier to render with: reference, direct, path, mobile, pc.
     #[arg(long, value_parser = parse_tier, default_value = "reference")]
     tier: TierKind,
     #[command(flatten)]
