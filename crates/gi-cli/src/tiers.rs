@@ -115,7 +115,8 @@ pub struct TierRender {
     pub image: Image,
     /// Time of the measured frame in milliseconds (the sum of its passes).
     pub ms_per_frame: f64,
-    /// Named passes of the measured frame and their time in milliseconds.
+    /// Named passes of the measured frame and their time in milliseconds (a pass recorded
+    /// several times, summed).
     pub passes: BTreeMap<String, f64>,
     /// Bytes the tier owns after the measured frame.
     pub memory_bytes: u64,
@@ -270,7 +271,15 @@ pub fn render_tier(
     });
     Ok(TierRender {
         ms_per_frame: frame.ms_total(),
-        passes: frame.passes.iter().cloned().collect(),
+        // A pass recorded several times in a frame (the PC denoiser's a-trous iterations)
+        // reports its total, as `PassTimings::get` does.
+        passes: frame
+            .passes
+            .iter()
+            .fold(BTreeMap::new(), |mut passes, (name, ms)| {
+                *passes.entry(name.clone()).or_insert(0.0) += ms;
+                passes
+            }),
         memory_bytes: renderer.memory_bytes(),
         image: frame.image,
         stats: frame.stats,

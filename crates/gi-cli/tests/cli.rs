@@ -431,14 +431,22 @@ fn render_with_the_mobile_tier_reports_its_gi_time_and_memory() {
 /// The mobile tier's report: its GI time is the sum of its `cache/*` and `mobile/*` passes,
 /// within the frame's time, and its memory breakdown adds up.
 fn assert_mobile_report(mobile: &serde_json::Value, passes: &serde_json::Value, frame_ms: f64) {
+    assert_gi_report("mobile/", mobile, passes, frame_ms);
+}
+
+/// A GPU tier's GI report: its GI time is the sum of its `cache/*` passes and those starting
+/// with `prefix`, within the frame's time, and its memory breakdown adds up.
+fn assert_gi_report(
+    prefix: &str,
+    mobile: &serde_json::Value,
+    passes: &serde_json::Value,
+    frame_ms: f64,
+) {
     let passes = passes.as_object().expect("passes");
-    assert!(
-        passes.keys().any(|p| p.starts_with("mobile/")),
-        "{passes:?}"
-    );
+    assert!(passes.keys().any(|p| p.starts_with(prefix)), "{passes:?}");
     let gi_sum: f64 = passes
         .iter()
-        .filter(|(name, _)| name.starts_with("cache/") || name.starts_with("mobile/"))
+        .filter(|(name, _)| name.starts_with("cache/") || name.starts_with(prefix))
         .map(|(_, ms)| ms.as_f64().unwrap())
         .sum();
     let gi_ms = mobile["gi_ms"].as_f64().expect("gi_ms");
@@ -515,6 +523,85 @@ fn compare_with_the_mobile_tier_reports_its_gi_time_and_memory() {
     );
     for file in ["mobile.png", "mobile.exr", "mobile_error.png"] {
         assert!(dir.path().join("cmp").join(file).is_file(), "{file}");
+    }
+}
+
+#[test]
+fn render_with_the_pc_tier_reports_its_variant_gi_time_and_memory() {
+    if gi_gpu::GpuContext::new_or_skip("render_with_the_pc_tier").is_none() {
+        return;
+    }
+    let dir = tempfile::tempdir().unwrap();
+    let output = gi(
+        &[
+            "render",
+            "cornell-box",
+            "--tier",
+            "pc",
+            "--pc-without",
+            "spatial",
+            "--width",
+            "32",
+            "--height",
+            "24",
+            "--warmup",
+            "3",
+            "--out",
+            "pc.png",
+            "--stats",
+            "stats.json",
+        ],
+        dir.path(),
+    );
+    assert!(output.status.success(), "{}", stderr(&output));
+    let stdout = String::from_utf8_lossy(&output.stdout);
+    assert!(
+        stdout.contains("pc (without spatial, trace scale 2"),
+        "{stdout}"
+    );
+    let stats: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(dir.path().join("stats.json")).unwrap()).unwrap();
+    assert_eq!(stats["tier"], "pc");
+    assert!(stats["mobile"].is_null(), "{stats}");
+    let pc = &stats["pc"];
+    assert_eq!(pc["without"], "spatial");
+    assert_eq!(pc["trace_scale"], 2);
+    let passes = stats["passes"].as_object().unwrap();
+    assert!(passes.contains_key("pc/trace") && !passes.contains_key("pc/spatial"));
+    assert_gi_report(
+        "pc/",
+        pc,
+        &stats["passes"],
+        stats["ms_per_frame"].as_f64().unwrap(),
+    );
+    let image = gi_image::load(dir.path().join("pc.png")).unwrap();
+    assert_eq!((image.width, image.height), (32, 24));
+}
+
+#[test]
+fn unknown_pc_stages_and_trace_scales_are_clear_errors() {
+    let dir = tempfile::tempdir().unwrap();
+    for (flag, value, expect) in [
+        ("--pc-without", "denoise", "temporal"),
+        ("--pc-trace-scale", "4", "trace_scale"),
+    ] {
+        let output = gi(
+            &[
+                "render",
+                "cornell-box",
+                "--tier",
+                "pc",
+                flag,
+                value,
+                "--out",
+                "a.png",
+            ],
+            dir.path(),
+        );
+        assert!(!output.status.success());
+        let err = stderr(&output);
+        assert!(err.contains(value) && err.contains(expect), "{err}");
+        assert!(!dir.path().join("a.png").exists());
     }
 }
 
