@@ -18,6 +18,7 @@ pub mod mobile;
 mod path;
 pub mod pc;
 mod renderer;
+mod scene_state;
 mod tier;
 
 pub use cpu::CpuTier;

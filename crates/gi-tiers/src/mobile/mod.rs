@@ -15,12 +15,13 @@ pub use volume::{ProbeSample, ProbeVolume, VolumeError};
 use gi_cache::lighting::GpuSky;
 use gi_cache::{CacheLighting, RadianceCache, ScreenInputs, binning::dynamic_nodes};
 use gi_gpu::gbuffer::{GBuffer, GBufferInputs};
-use gi_gpu::{GpuCamera, GpuContext, GpuScene, GpuTimer, PassTimings, ShaderLibrary, wgpu};
+use gi_gpu::{GpuCamera, GpuContext, GpuTimer, PassTimings, ShaderLibrary, wgpu};
 use gi_image::Image;
 use gi_scene::SceneFrame;
 use glam::Vec3;
 
-use crate::path::{Accumulation, PathPipelines, PathUniforms};
+use crate::path::{Accumulation, PathPipelines};
+use crate::scene_state::{Followed, SceneState, read_image};
 use crate::tier::{FrameInput, FrameOutput, Tier, TierError, TierKind, TierSettings};
 use screen::{
     ScreenBuffers, ScreenLayout, ScreenPipelines, ScreenSources, ScreenStep, screen_uniforms,
@@ -109,15 +110,9 @@ pub struct MobileTier {
 
 /// What the tier uploaded for its scene.
 struct Prepared {
-    scene: GpuScene,
-    direct: Accumulation,
+    state: SceneState,
     screen: ScreenBuffers,
     dynamic_triangles: wgpu::Buffer,
-    /// The previous frame without its geometry ([`frame_history`]): the G-buffer's motion
-    /// vectors read its camera and node transforms, `prepare` its time, camera and lights.
-    previous: SceneFrame,
-    /// Triangles of the scene the upload was made for; another count means another scene.
-    triangle_count: usize,
 }
 
 impl MobileTier {
@@ -212,7 +207,7 @@ impl MobileTier {
         let (width, height) = (self.settings.width, self.settings.height);
         let gbuffer = self.gbuffer.read(ctx);
         let output: Vec<[f32; 4]> = ctx.read_buffer(&prepared.screen.output);
-        let direct: Vec<[f32; 4]> = ctx.read_buffer(&prepared.direct.mean);
+        let direct: Vec<[f32; 4]> = ctx.read_buffer(&prepared.state.direct.mean);
         let lite: Vec<u32> = ctx.read_buffer(&prepared.screen.lite);
         let history: Vec<[u32; 2]> =
             ctx.read_buffer(&prepared.screen.history[prepared.screen.current]);
@@ -279,67 +274,51 @@ impl MobileTier {
         }
     }
 
-    /// Makes the GPU state match `input`: the scene is uploaded once; a new time of an
-    /// animated scene updates the BVH and shading data; a camera move or a new time restarts
-    /// the direct-light accumulation (the GI keeps its history and reprojects it).
+    /// Makes the GPU state match `input` ([`SceneState`]): the scene is uploaded once and
+    /// follows animation, light edits and camera moves.
     fn prepare(&mut self, input: &FrameInput) -> Result<(), TierError> {
-        let frame = input.frame;
-        let unavailable = |e: gi_gpu::bvh::BvhError| TierError::Unavailable {
-            tier: "mobile",
-            reason: e.to_string(),
-        };
         let size = (self.settings.width, self.settings.height);
-        let same_scene = self.prepared.as_ref().is_some_and(|p| {
-            p.triangle_count == frame.triangles.len()
-                && p.previous.world_from_node.len() == frame.world_from_node.len()
-        });
-        if !same_scene {
-            if let Some(old) = self.prepared.take() {
-                old.release(&self.ctx);
+        let seed = self.settings.seed;
+        if let Some(prepared) = self.prepared.as_mut()
+            && prepared.state.holds(input.frame)
+        {
+            let followed = prepared.state.follow(
+                &self.ctx,
+                "mobile",
+                input,
+                &self.direct_pipelines,
+                size,
+                seed,
+            )?;
+            if followed == Followed::Replaced {
+                // The screen bind groups name the direct image: make them again (history is
+                // lost).
+                let mut prepared = self.prepared.take().expect("checked above");
+                let screen =
+                    self.screen_buffers(&prepared.state.direct, &prepared.dynamic_triangles);
+                std::mem::replace(&mut prepared.screen, screen).release(&self.ctx);
+                self.prepared = Some(prepared);
             }
-            let scene = GpuScene::upload(&self.ctx, input.scene, frame).map_err(unavailable)?;
-            let uniforms = PathUniforms::new(frame, &scene, size, self.settings.seed);
-            let direct = Accumulation::new(&self.ctx, &self.direct_pipelines, &scene, uniforms);
-            let dynamic_triangles = dynamic_triangle_bits(&self.ctx, input.scene, frame);
-            let screen = self.screen_buffers(&direct, &dynamic_triangles);
-            self.prepared = Some(Prepared {
-                previous: frame_history(frame),
-                scene,
-                direct,
-                screen,
-                dynamic_triangles,
-                triangle_count: frame.triangles.len(),
-            });
             return Ok(());
         }
-        let prepared = self.prepared.as_mut().expect("checked above");
-        // An animated frame, or lights edited between frames (a tool moving a light): the
-        // GPU scene's transforms and lights follow.
-        let moved = (prepared.previous.time_s != frame.time_s && input.scene.is_animated())
-            || prepared.previous.lights != frame.lights;
-        if prepared.previous.camera == frame.camera && !moved {
-            return Ok(());
-        }
-        let mut replaced = false;
-        if moved {
-            replaced = prepared
-                .scene
-                .update(&self.ctx, input.scene, frame)
-                .map_err(unavailable)?;
-        }
-        let uniforms = PathUniforms::new(frame, &prepared.scene, size, self.settings.seed);
-        if replaced {
-            let direct =
-                Accumulation::new(&self.ctx, &self.direct_pipelines, &prepared.scene, uniforms);
-            std::mem::replace(&mut prepared.direct, direct).release(&self.ctx);
-            // The screen bind groups name the direct image: make them again (history is lost).
-            let prepared = self.prepared.take().expect("checked above");
-            let screen = self.screen_buffers(&prepared.direct, &prepared.dynamic_triangles);
-            let old = std::mem::replace(&mut self.prepared.insert(prepared).screen, screen);
+        if let Some(old) = self.prepared.take() {
             old.release(&self.ctx);
-        } else {
-            prepared.direct.restart(uniforms);
         }
+        let state = SceneState::upload(
+            &self.ctx,
+            "mobile",
+            input,
+            &self.direct_pipelines,
+            size,
+            seed,
+        )?;
+        let dynamic_triangles = dynamic_triangle_bits(&self.ctx, input.scene, input.frame);
+        let screen = self.screen_buffers(&state.direct, &dynamic_triangles);
+        self.prepared = Some(Prepared {
+            state,
+            screen,
+            dynamic_triangles,
+        });
         Ok(())
     }
 
@@ -375,25 +354,9 @@ impl MobileTier {
 
 impl Prepared {
     fn release(self, ctx: &GpuContext) {
-        self.direct.release(ctx);
         self.screen.release(ctx);
         ctx.release_buffer(&self.dynamic_triangles);
-        self.scene.release(ctx);
-    }
-}
-
-/// What the next frame needs of `frame`: everything but its triangles and their attributes,
-/// which a copy per frame would cost megabytes on large scenes.
-pub(crate) fn frame_history(frame: &SceneFrame) -> SceneFrame {
-    SceneFrame {
-        time_s: frame.time_s,
-        triangles: Vec::new(),
-        attributes: Vec::new(),
-        lights: frame.lights.clone(),
-        camera: frame.camera,
-        sky: frame.sky,
-        exposure: frame.exposure,
-        world_from_node: frame.world_from_node.clone(),
+        self.state.release(ctx);
     }
 }
 
@@ -435,13 +398,9 @@ impl Tier for MobileTier {
     fn render(&mut self, input: &FrameInput) -> Result<FrameOutput, TierError> {
         let passes = self.advance(input)?;
         let prepared = self.prepared.as_ref().expect("prepared by advance");
-        let output: Vec<[f32; 4]> = self.ctx.read_buffer(&prepared.screen.output);
+        let size = (self.settings.width, self.settings.height);
         Ok(FrameOutput {
-            image: Image {
-                width: self.settings.width,
-                height: self.settings.height,
-                pixels: output.iter().map(|o| Vec3::from_slice(o)).collect(),
-            },
+            image: read_image(&self.ctx, &prepared.screen.output, size),
             passes,
             stats: None,
         })
@@ -465,8 +424,8 @@ impl Tier for MobileTier {
             &mut self.timer,
             &GBufferInputs {
                 frame,
-                scene: &prepared.scene,
-                previous: &prepared.previous,
+                scene: &prepared.state.scene,
+                previous: &prepared.state.previous,
             },
         );
         let cache_stats = self.cache.update(
@@ -476,8 +435,8 @@ impl Tier for MobileTier {
             &gi_cache::CacheInputs {
                 scene: input.scene,
                 frame,
-                gpu_scene: &prepared.scene,
-                bvh: &prepared.scene.bvh,
+                gpu_scene: &prepared.state.scene,
+                bvh: &prepared.state.scene.bvh,
                 camera_position: frame.camera.position,
                 gbuffer: Some(ScreenInputs::from_gbuffer(&self.gbuffer, &frame.camera)),
             },
@@ -492,7 +451,7 @@ impl Tier for MobileTier {
             &self.config.screen,
             screen.layout,
             camera,
-            GpuCamera::new(&prepared.previous.camera, size),
+            GpuCamera::new(&prepared.state.previous.camera, size),
             sky,
             self.frame_index,
             self.settings.seed,
@@ -536,11 +495,11 @@ impl Tier for MobileTier {
         );
         passes.0.extend(self.timer.finish(ctx, encoder).0);
 
-        if prepared.direct.samples < self.settings.spp {
-            let direct = prepared.direct.add_samples(
+        if prepared.state.direct.samples < self.settings.spp {
+            let direct = prepared.state.direct.add_samples(
                 ctx,
                 &self.direct_pipelines,
-                &prepared.scene,
+                &prepared.state.scene,
                 &mut self.timer,
                 1,
             );
@@ -558,10 +517,10 @@ impl Tier for MobileTier {
         );
         passes.0.extend(self.timer.finish(ctx, encoder).0);
 
-        prepared.previous = frame_history(frame);
+        prepared.state.finish_frame(frame);
         self.frame_index = self.frame_index.wrapping_add(1);
         if let Some(progress) = input.progress {
-            progress(prepared.direct.samples);
+            progress(prepared.state.direct.samples);
         }
         Ok(passes.0)
     }

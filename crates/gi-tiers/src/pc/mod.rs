@@ -25,10 +25,9 @@ use gi_gpu::gbuffer::{GBuffer, GBufferInputs};
 use gi_gpu::{GpuCamera, GpuContext, GpuError, GpuScene, GpuTimer, ShaderLibrary, wgpu};
 use gi_image::Image;
 use gi_scene::SceneFrame;
-use glam::Vec3;
 
-use crate::mobile::frame_history;
-use crate::path::{Accumulation, PathPipelines, PathUniforms};
+use crate::path::PathPipelines;
+use crate::scene_state::{SceneState, read_image};
 use crate::tier::{FrameInput, FrameOutput, Tier, TierError, TierKind, TierSettings};
 use denoise::{DenoisePipelines, DenoiseSources, Denoiser};
 
@@ -317,21 +316,16 @@ pub struct PcTier {
 
 /// What the tier uploaded for its scene.
 struct Prepared {
-    scene: GpuScene,
-    direct: Accumulation,
+    state: SceneState,
     buffers: PcBuffers,
     denoiser: Denoiser,
-    /// The previous frame without its geometry (`frame_history`).
-    previous: SceneFrame,
-    triangle_count: usize,
 }
 
 impl Prepared {
     fn release(self, ctx: &GpuContext) {
-        self.direct.release(ctx);
         self.buffers.release(ctx);
         self.denoiser.release(ctx);
-        self.scene.release(ctx);
+        self.state.release(ctx);
     }
 }
 
@@ -427,17 +421,9 @@ impl PcTier {
         let prepared = self.prepared.as_ref()?;
         let ctx = &self.ctx;
         let (width, height) = (self.settings.width, self.settings.height);
-        let read_image = |buffer: &wgpu::Buffer| Image {
-            width,
-            height,
-            pixels: ctx
-                .read_buffer::<[f32; 4]>(buffer)
-                .iter()
-                .map(|p| Vec3::from_slice(p))
-                .collect(),
-        };
-        let output = read_image(&prepared.buffers.output);
-        let direct = read_image(&prepared.direct.mean);
+        let read = |buffer: &wgpu::Buffer| read_image(ctx, buffer, (width, height));
+        let output = read(&prepared.buffers.output);
+        let direct = read(&prepared.state.direct.mean);
         let gi = Image {
             width,
             height,
@@ -450,8 +436,8 @@ impl PcTier {
         };
         Some(PcFrameData {
             gi,
-            noisy_irradiance: read_image(&prepared.buffers.irradiance),
-            irradiance: read_image(prepared.denoiser.output()),
+            noisy_irradiance: read(&prepared.buffers.irradiance),
+            irradiance: read(prepared.denoiser.output()),
             reservoirs: ctx.read_buffer(&prepared.buffers.resolved),
             trace_size: prepared.buffers.trace_size,
         })
@@ -487,7 +473,7 @@ impl PcTier {
             trace_scale: self.config.trace_scale,
             flags: bits,
             light_count: frame.lights.len() as u32,
-            default_material: prepared.scene.default_material,
+            default_material: prepared.state.scene.default_material,
             m_clamp: r.m_clamp,
             jacobian_max: r.jacobian_max,
             spatial_radius: r.spatial_radius,
@@ -498,75 +484,46 @@ impl PcTier {
             boil_factor: r.boil_factor,
             shadow_cos: r.shadow_cos,
             shadow_distance_ratio: r.shadow_distance_ratio,
-            emitter_count: prepared.scene.emitter_count,
+            emitter_count: prepared.state.scene.emitter_count,
             ..Default::default()
         }
     }
 
-    /// Makes the GPU state match `input`, as the mobile tier does: the scene is uploaded once;
-    /// a new time of an animated scene or edited lights update the GPU scene; a camera move or
-    /// a new time restarts the direct-light accumulation (the GI keeps its history).
+    /// Makes the GPU state match `input` ([`SceneState`]): the scene is uploaded once and
+    /// follows animation, light edits and camera moves. The bind groups naming the direct
+    /// light are made per frame, so a replaced accumulation needs nothing more.
     fn prepare(&mut self, input: &FrameInput) -> Result<(), TierError> {
-        let frame = input.frame;
-        let unavailable = |e: gi_gpu::bvh::BvhError| TierError::Unavailable {
-            tier: "pc",
-            reason: e.to_string(),
-        };
         let size = (self.settings.width, self.settings.height);
-        let same_scene = self.prepared.as_ref().is_some_and(|p| {
-            p.triangle_count == frame.triangles.len()
-                && p.previous.world_from_node.len() == frame.world_from_node.len()
+        let seed = self.settings.seed;
+        if let Some(prepared) = self.prepared.as_mut()
+            && prepared.state.holds(input.frame)
+        {
+            prepared
+                .state
+                .follow(&self.ctx, "pc", input, &self.direct_pipelines, size, seed)?;
+            return Ok(());
+        }
+        if let Some(old) = self.prepared.take() {
+            old.release(&self.ctx);
+        }
+        let state = SceneState::upload(&self.ctx, "pc", input, &self.direct_pipelines, size, seed)?;
+        let buffers = PcBuffers::new(&self.ctx, size, self.config.trace_scale);
+        let denoiser = Denoiser::new(
+            &self.ctx,
+            &self.denoise_pipelines,
+            size,
+            &DenoiseSources {
+                noisy: &buffers.irradiance,
+                depth: self.gbuffer.output("gbuffer.depth"),
+                normal: self.gbuffer.output("gbuffer.normal"),
+                motion: self.gbuffer.output("gbuffer.motion"),
+            },
+        );
+        self.prepared = Some(Prepared {
+            state,
+            buffers,
+            denoiser,
         });
-        if !same_scene {
-            if let Some(old) = self.prepared.take() {
-                old.release(&self.ctx);
-            }
-            let scene = GpuScene::upload(&self.ctx, input.scene, frame).map_err(unavailable)?;
-            let uniforms = PathUniforms::new(frame, &scene, size, self.settings.seed);
-            let direct = Accumulation::new(&self.ctx, &self.direct_pipelines, &scene, uniforms);
-            let buffers = PcBuffers::new(&self.ctx, size, self.config.trace_scale);
-            let denoiser = Denoiser::new(
-                &self.ctx,
-                &self.denoise_pipelines,
-                size,
-                &DenoiseSources {
-                    noisy: &buffers.irradiance,
-                    depth: self.gbuffer.output("gbuffer.depth"),
-                    normal: self.gbuffer.output("gbuffer.normal"),
-                    motion: self.gbuffer.output("gbuffer.motion"),
-                },
-            );
-            self.prepared = Some(Prepared {
-                previous: frame_history(frame),
-                scene,
-                direct,
-                buffers,
-                denoiser,
-                triangle_count: frame.triangles.len(),
-            });
-            return Ok(());
-        }
-        let prepared = self.prepared.as_mut().expect("checked above");
-        let moved = (prepared.previous.time_s != frame.time_s && input.scene.is_animated())
-            || prepared.previous.lights != frame.lights;
-        if prepared.previous.camera == frame.camera && !moved {
-            return Ok(());
-        }
-        let mut replaced = false;
-        if moved {
-            replaced = prepared
-                .scene
-                .update(&self.ctx, input.scene, frame)
-                .map_err(unavailable)?;
-        }
-        let uniforms = PathUniforms::new(frame, &prepared.scene, size, self.settings.seed);
-        if replaced {
-            let direct =
-                Accumulation::new(&self.ctx, &self.direct_pipelines, &prepared.scene, uniforms);
-            std::mem::replace(&mut prepared.direct, direct).release(&self.ctx);
-        } else {
-            prepared.direct.restart(uniforms);
-        }
         Ok(())
     }
 
@@ -574,7 +531,7 @@ impl PcTier {
         let b = &prepared.buffers;
         let cur = b.current;
         let mut entries = buffer_entries(0, [&b.uniforms]);
-        entries.extend(prepared.scene.bind_group_entries());
+        entries.extend(prepared.state.scene.bind_group_entries());
         entries.extend(buffer_entries(
             8,
             [
@@ -617,7 +574,7 @@ impl PcTier {
                 &b.resolved,
                 &b.irradiance,
                 prepared.denoiser.output(),
-                &prepared.direct.mean,
+                &prepared.state.direct.mean,
                 &b.output,
             ],
         ));
@@ -644,13 +601,9 @@ impl Tier for PcTier {
     fn render(&mut self, input: &FrameInput) -> Result<FrameOutput, TierError> {
         let passes = self.advance(input)?;
         let prepared = self.prepared.as_ref().expect("prepared by advance");
-        let output: Vec<[f32; 4]> = self.ctx.read_buffer(&prepared.buffers.output);
+        let size = (self.settings.width, self.settings.height);
         Ok(FrameOutput {
-            image: Image {
-                width: self.settings.width,
-                height: self.settings.height,
-                pixels: output.iter().map(|o| Vec3::from_slice(o)).collect(),
-            },
+            image: read_image(&self.ctx, &prepared.buffers.output, size),
             passes,
             stats: None,
         })
@@ -670,8 +623,8 @@ impl Tier for PcTier {
                 &mut self.timer,
                 &GBufferInputs {
                     frame,
-                    scene: &prepared.scene,
-                    previous: &prepared.previous,
+                    scene: &prepared.state.scene,
+                    previous: &prepared.state.previous,
                 },
             );
         }
@@ -684,8 +637,8 @@ impl Tier for PcTier {
                 &gi_cache::CacheInputs {
                     scene: input.scene,
                     frame,
-                    gpu_scene: &prepared.scene,
-                    bvh: &prepared.scene.bvh,
+                    gpu_scene: &prepared.state.scene,
+                    bvh: &prepared.state.scene.bvh,
                     camera_position: frame.camera.position,
                     gbuffer: Some(ScreenInputs::from_gbuffer(&self.gbuffer, &frame.camera)),
                 },
@@ -699,7 +652,7 @@ impl Tier for PcTier {
             prepared.denoiser.reset_history();
         }
         let prepared = self.prepared.as_ref().expect("prepared above");
-        let uniforms = self.uniforms(frame, &prepared.previous, prepared.buffers.history);
+        let uniforms = self.uniforms(frame, &prepared.state.previous, prepared.buffers.history);
         ctx.queue
             .write_buffer(&prepared.buffers.uniforms, 0, bytemuck::bytes_of(&uniforms));
         let trace_group = self.trace_bind_group(prepared);
@@ -714,7 +667,7 @@ impl Tier for PcTier {
             self.timer.compute_pass(ctx, &mut encoder, name, |pass| {
                 pass.set_pipeline(pipeline);
                 pass.set_bind_group(0, &trace_group, &[]);
-                pass.set_bind_group(BVH_BIND_GROUP, &prepared.scene.bvh.bind_group, &[]);
+                pass.set_bind_group(BVH_BIND_GROUP, &prepared.state.scene.bvh.bind_group, &[]);
                 pass.set_bind_group(CacheBuffers::BIND_GROUP, cache_group, &[]);
                 pass.dispatch_workgroups(trace_groups.0, trace_groups.1, 1);
             });
@@ -736,7 +689,7 @@ impl Tier for PcTier {
             .compute_pass(ctx, &mut encoder, "pc/shadow", |pass| {
                 pass.set_pipeline(&self.pipelines.shadow);
                 pass.set_bind_group(0, &trace_group, &[]);
-                pass.set_bind_group(BVH_BIND_GROUP, &prepared.scene.bvh.bind_group, &[]);
+                pass.set_bind_group(BVH_BIND_GROUP, &prepared.state.scene.bvh.bind_group, &[]);
                 pass.set_bind_group(CacheBuffers::BIND_GROUP, cache_group, &[]);
                 pass.dispatch_workgroups(trace_groups.0, trace_groups.1, 1);
             });
@@ -757,11 +710,11 @@ impl Tier for PcTier {
         );
         passes.extend(self.timer.finish(ctx, encoder).0);
 
-        if prepared.direct.samples < self.settings.spp {
-            let direct = prepared.direct.add_samples(
+        if prepared.state.direct.samples < self.settings.spp {
+            let direct = prepared.state.direct.add_samples(
                 ctx,
                 &self.direct_pipelines,
-                &prepared.scene,
+                &prepared.state.scene,
                 &mut self.timer,
                 1,
             );
@@ -782,12 +735,12 @@ impl Tier for PcTier {
         passes.extend(self.timer.finish(ctx, encoder).0);
 
         let prepared = self.prepared.as_mut().expect("prepared above");
-        prepared.previous = frame_history(frame);
+        prepared.state.finish_frame(frame);
         prepared.buffers.current = 1 - prepared.buffers.current;
         prepared.buffers.history = true;
         self.frame_index = self.frame_index.wrapping_add(1);
         if let Some(progress) = input.progress {
-            progress(prepared.direct.samples);
+            progress(prepared.state.direct.samples);
         }
         Ok(passes)
     }
