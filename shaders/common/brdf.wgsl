@@ -196,3 +196,16 @@ fn brdf_sample(brdf: Brdf, wo: vec3<f32>, u_lobe: f32, u: vec2<f32>) -> BrdfSamp
     }
     return bs;
 }
+
+// Not part of the reference's BRDF: for tiers that reflect a pre-integrated irradiance off
+// the specular lobe (split-sum), the lobe's directional albedo.
+// Directional albedo of the GGX specular lobe under uniform incident light: Karis's analytic
+// fit of the split-sum environment BRDF ("Physically Based Shading on Mobile", 2014).
+fn specular_albedo(f0: vec3<f32>, roughness: f32, n_dot_v: f32) -> vec3<f32> {
+    let c0 = vec4(-1.0, -0.0275, -0.572, 0.022);
+    let c1 = vec4(1.0, 0.0425, 1.04, -0.04);
+    let r = roughness * c0 + c1;
+    let a004 = min(r.x * r.x, exp2(-9.28 * n_dot_v)) * r.x + r.y;
+    let ab = vec2(-1.04, 1.04) * a004 + r.zw;
+    return f0 * ab.x + ab.y;
+}

@@ -23,6 +23,7 @@
 // the cache (`gi::cache::data`), read by `temporal` to refresh reused samples.
 
 #import gi::math::INV_PI
+#import gi::brdf::specular_albedo
 #import gi::sampling::{sampler_new, sampler_next_f32, sampler_next_2d, concentric_disk}
 #import gi::camera::camera_ray
 #import gi::packing::{unpack_unit_vector, unpack_rgb9e5}
@@ -293,17 +294,6 @@ fn shade(@builtin(global_invocation_id) id: vec3<u32>) {
 // ---------------------------------------------------------------------------------------------
 // compose
 // ---------------------------------------------------------------------------------------------
-
-// Directional albedo of the GGX specular lobe under uniform incident light: Karis's analytic
-// fit of the split-sum environment BRDF ("Physically Based Shading on Mobile", 2014).
-fn specular_albedo(f0: vec3<f32>, roughness: f32, n_dot_v: f32) -> vec3<f32> {
-    let c0 = vec4(-1.0, -0.0275, -0.572, 0.022);
-    let c1 = vec4(1.0, 0.0425, 1.04, -0.04);
-    let r = roughness * c0 + c1;
-    let a004 = min(r.x * r.x, exp2(-9.28 * n_dot_v)) * r.x + r.y;
-    let ab = vec2(-1.04, 1.04) * a004 + r.zw;
-    return f0 * ab.x + ab.y;
-}
 
 @compute @workgroup_size(8, 8)
 fn compose(@builtin(global_invocation_id) id: vec3<u32>) {

@@ -2,26 +2,20 @@
 //! scenes (irradiance under a known sky, dynamic history, probe scheduling, quality against
 //! the reference).
 
+mod common;
+
+use common::{open_ground, settings};
 use gi_gpu::{GpuContext, ShaderLibrary, rust_field_offsets, wgpu, wgsl_struct_layout};
 use gi_image::Image;
 use gi_reference::{Mode, Reference, RenderSettings};
-use gi_scene::{CameraView, Scene, Sky};
+use gi_scene::{CameraView, Scene};
 use gi_tiers::mobile::{
     GpuScreenProbe, MobileConfig, MobileFrameData, ScreenConfig, ScreenUniforms,
 };
-use gi_tiers::{FrameInput, MobileTier, Tier, TierError, TierSettings};
+use gi_tiers::{FrameInput, MobileTier, Tier, TierError};
 use glam::Vec3;
 use rand::Rng as _;
 use rand_pcg::Pcg32;
-
-fn settings(width: u32, height: u32) -> TierSettings {
-    TierSettings {
-        width,
-        height,
-        spp: 16,
-        seed: 7,
-    }
-}
 
 /// Renders `frames` frames of `scene` at time `time(i)` through `camera` and returns the tier.
 fn run(
@@ -256,25 +250,13 @@ fn lite_gbuffer_keeps_albedo_mask_and_an_unbiased_normal() {
 
 /// A scene of one grey ground quad (`half_m` on each side of the origin) under a constant sky
 /// of radiance 1, with no light: every point of the ground receives exactly pi.
-fn open_ground(half_m: f32, albedo: f32) -> Scene {
-    let mut scene = Scene {
-        name: "mobile-open-ground".into(),
-        sky: Sky::Constant {
-            radiance: Vec3::ONE,
-        },
-        exposure: 1.0,
-        ..Default::default()
-    };
-    scene.add_diffuse_quad(Vec3::ZERO, Vec3::Z * half_m, Vec3::X * half_m, albedo);
-    scene
-}
 
 #[test]
 fn open_ground_gathers_pi_times_the_sky() {
     let Some(ctx) = GpuContext::new_or_skip("open_ground_gathers_pi_times_the_sky") else {
         return;
     };
-    let scene = open_ground(20.0, 0.5);
+    let scene = open_ground("mobile-open-ground", 20.0, 0.5);
     let camera = CameraView::look_at(Vec3::new(0.0, 3.0, 3.0), Vec3::ZERO, 0.9);
     let config = MobileConfig {
         screen: ScreenConfig {
@@ -402,7 +384,7 @@ fn smartgi_mode_traces_one_probe_per_group_and_reprojects_the_rest() {
         return;
     };
     // The camera sees nothing but ground, so every fresh probe finds a surface.
-    let scene = open_ground(20.0, 0.5);
+    let scene = open_ground("mobile-open-ground", 20.0, 0.5);
     let camera = Some(CameraView::look_at(
         Vec3::new(0.0, 3.0, 1.0),
         Vec3::ZERO,

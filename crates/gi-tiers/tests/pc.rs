@@ -1,22 +1,16 @@
 //! The PC tier: its shared structs, the reservoir estimator under a known sky, and whole
 //! frames on small scenes.
 
+mod common;
+
+use common::{open_ground, settings};
 use gi_gpu::{GpuContext, ShaderLibrary, rust_field_offsets, wgsl_struct_layout};
 use gi_image::Image;
 use gi_reference::{Mode, Reference, RenderSettings};
 use gi_scene::{CameraView, Scene, Sky};
 use gi_tiers::pc::{GpuReservoir, GpuSurface, PC_STAGES, PcConfig, PcUniforms};
-use gi_tiers::{FrameInput, PcTier, Tier, TierError, TierSettings};
+use gi_tiers::{FrameInput, PcTier, Tier, TierError};
 use glam::Vec3;
-
-fn settings(width: u32, height: u32) -> TierSettings {
-    TierSettings {
-        width,
-        height,
-        spp: 16,
-        seed: 7,
-    }
-}
 
 /// Renders `frames` frames of `scene` through `camera` and returns the tier.
 fn run(
@@ -111,19 +105,6 @@ fn shared_structs_match_their_wgsl_layout() {
     );
 }
 
-fn open_ground(half_m: f32, albedo: f32) -> Scene {
-    let mut scene = Scene {
-        name: "pc-open-ground".into(),
-        sky: Sky::Constant {
-            radiance: Vec3::ONE,
-        },
-        exposure: 1.0,
-        ..Default::default()
-    };
-    scene.add_diffuse_quad(Vec3::ZERO, Vec3::Z * half_m, Vec3::X * half_m, albedo);
-    scene
-}
-
 /// Under a constant sky with nothing above the ground, every sample of every stage is exactly
 /// pi times the sky's radiance (a cosine-sampled sky sample weighs L cos W = pi L, and the
 /// reuse and shading only average such values), so the irradiance is pi up to float rounding
@@ -134,7 +115,7 @@ fn open_ground_gathers_pi_times_the_sky_in_every_configuration() {
         return;
     };
     drop(ctx);
-    let scene = open_ground(20.0, 0.5);
+    let scene = open_ground("pc-open-ground", 20.0, 0.5);
     let camera = CameraView::look_at(Vec3::new(0.0, 3.0, 3.0), Vec3::ZERO, 0.9);
     let mut configs = vec![("every stage", PcConfig::default())];
     for stage in PC_STAGES {
@@ -189,7 +170,7 @@ fn a_small_emitter_lights_the_ground_as_its_integral_says() {
         return;
     };
     drop(ctx);
-    let mut scene = open_ground(10.0, 0.0);
+    let mut scene = open_ground("pc-open-ground", 10.0, 0.0);
     scene.sky = Sky::Constant {
         radiance: Vec3::ZERO,
     };
