@@ -662,44 +662,36 @@ impl Tier for PcTier {
         let trace_groups = (tw.div_ceil(TILE), th.div_ceil(TILE));
         let (w, h) = (self.settings.width, self.settings.height);
         let full_groups = (w.div_ceil(TILE), h.div_ceil(TILE));
-        let traced: [(&str, &wgpu::ComputePipeline); 1] = [("pc/trace", &self.pipelines.trace)];
-        for (name, pipeline) in traced {
-            self.timer.compute_pass(ctx, &mut encoder, name, |pass| {
-                pass.set_pipeline(pipeline);
-                pass.set_bind_group(0, &trace_group, &[]);
-                pass.set_bind_group(BVH_BIND_GROUP, &prepared.state.scene.bvh.bind_group, &[]);
-                pass.set_bind_group(CacheBuffers::BIND_GROUP, cache_group, &[]);
-                pass.dispatch_workgroups(trace_groups.0, trace_groups.1, 1);
-            });
-        }
-        let mut reuse: Vec<(&str, &wgpu::ComputePipeline)> =
-            vec![("pc/temporal", &self.pipelines.temporal)];
+        // The passes in order: name, pipeline, whether it traces (BVH bound, the trace
+        // module's group 0) and whether it runs per trace pixel (else per pixel).
+        let p = &self.pipelines;
+        let mut steps = vec![
+            ("pc/trace", &p.trace, true, true),
+            ("pc/temporal", &p.temporal, false, true),
+        ];
         if self.config.restir.spatial {
-            reuse.push(("pc/spatial", &self.pipelines.spatial));
+            steps.push(("pc/spatial", &p.spatial, false, true));
         }
-        for (name, pipeline) in reuse {
+        steps.push(("pc/shadow", &p.shadow, true, true));
+        steps.push(("pc/shade", &p.shade, false, false));
+        for (name, pipeline, traces, per_trace_pixel) in steps {
             self.timer.compute_pass(ctx, &mut encoder, name, |pass| {
                 pass.set_pipeline(pipeline);
-                pass.set_bind_group(0, &restir_group, &[]);
+                if traces {
+                    pass.set_bind_group(0, &trace_group, &[]);
+                    pass.set_bind_group(BVH_BIND_GROUP, &prepared.state.scene.bvh.bind_group, &[]);
+                } else {
+                    pass.set_bind_group(0, &restir_group, &[]);
+                }
                 pass.set_bind_group(CacheBuffers::BIND_GROUP, cache_group, &[]);
-                pass.dispatch_workgroups(trace_groups.0, trace_groups.1, 1);
+                let groups = if per_trace_pixel {
+                    trace_groups
+                } else {
+                    full_groups
+                };
+                pass.dispatch_workgroups(groups.0, groups.1, 1);
             });
         }
-        self.timer
-            .compute_pass(ctx, &mut encoder, "pc/shadow", |pass| {
-                pass.set_pipeline(&self.pipelines.shadow);
-                pass.set_bind_group(0, &trace_group, &[]);
-                pass.set_bind_group(BVH_BIND_GROUP, &prepared.state.scene.bvh.bind_group, &[]);
-                pass.set_bind_group(CacheBuffers::BIND_GROUP, cache_group, &[]);
-                pass.dispatch_workgroups(trace_groups.0, trace_groups.1, 1);
-            });
-        self.timer
-            .compute_pass(ctx, &mut encoder, "pc/shade", |pass| {
-                pass.set_pipeline(&self.pipelines.shade);
-                pass.set_bind_group(0, &restir_group, &[]);
-                pass.set_bind_group(CacheBuffers::BIND_GROUP, cache_group, &[]);
-                pass.dispatch_workgroups(full_groups.0, full_groups.1, 1);
-            });
         let prepared = self.prepared.as_mut().expect("prepared above");
         prepared.denoiser.record(
             ctx,
