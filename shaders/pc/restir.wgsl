@@ -2,7 +2,7 @@
 // changes, GDC 2023, "PC / Console Solution"):
 //   - `temporal` (pass `pc/temporal`), per trace pixel: the initial reservoir combined with the
 //     previous frame's temporal reservoir of the same surface (found by the G-buffer's motion
-//     vector, checked by normal and tangent-plane distance), its M clamped to `m_clamp` (20)
+//     vector, checked by normal and tangent-plane distance), its M clamped to `m_clamp` (5)
 //     and its sample moved to this receiver with the reconnection shift's bounded Jacobian; then
 //     the boiling filter (a reservoir whose weight exceeds `boil_factor` times its workgroup's
 //     mean restarts from its initial sample). Its result is next frame's history.

@@ -52,7 +52,7 @@ impl TierKind {
     /// Still warm-up frames a measurement of this tier renders before its measured frames
     /// ([`crate::Renderer::warm_up`]): 63 for `mobile`, so the measured frame is the 64th of a
     /// still view, when its temporal filter (at most 32 frames of history per pixel, 64 per
-    /// probe face) has converged; 63 for `pc` too (its reservoirs count at most 20 frames, its
+    /// probe face) has converged; 63 for `pc` too (its reservoirs count at most 5 frames, its
     /// denoiser's long history 50, and the cache under both converges as the mobile tier's);
     /// 0 for the others. The path tier's progressive accumulation
     /// is controlled by its samples per pixel and frames instead, and the CPU tiers keep no
