@@ -9,7 +9,31 @@ use gi_scene::SceneFrame;
 use glam::Vec3;
 
 use crate::path::{Accumulation, PathPipelines, PathUniforms};
-use crate::tier::{FrameInput, TierError};
+use crate::tier::{FrameInput, TierError, TierKind, TierSettings};
+
+/// Checks what a GPU GI tier named `tier` needs of its settings on `ctx`: a usable image size
+/// and sample count, and an image whose one-`vec4<f32>`-per-pixel buffers fit the device's
+/// storage binding limit.
+pub(crate) fn check_frame_settings(
+    tier: &'static str,
+    settings: &TierSettings,
+    ctx: &GpuContext,
+) -> Result<(), TierError> {
+    crate::cpu::render_settings(TierKind::Reference, settings).validate()?;
+    let pixel_bytes = u64::from(settings.width) * u64::from(settings.height) * 16;
+    let limit = ctx.limits.max_storage_buffer_binding_size;
+    if pixel_bytes > limit {
+        return Err(TierError::Unavailable {
+            tier,
+            reason: format!(
+                "{}x{} needs {pixel_bytes} bytes per image buffer, over the device's \
+                 {limit}-byte storage binding limit",
+                settings.width, settings.height
+            ),
+        });
+    }
+    Ok(())
+}
 
 pub(crate) struct SceneState {
     pub(crate) scene: GpuScene,

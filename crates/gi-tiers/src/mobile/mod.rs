@@ -21,7 +21,7 @@ use gi_scene::SceneFrame;
 use glam::Vec3;
 
 use crate::path::{Accumulation, PathPipelines};
-use crate::scene_state::{Followed, SceneState, read_image};
+use crate::scene_state::{Followed, SceneState, check_frame_settings, read_image};
 use crate::tier::{FrameInput, FrameOutput, Tier, TierError, TierKind, TierSettings};
 use screen::{
     ScreenBuffers, ScreenLayout, ScreenPipelines, ScreenSources, ScreenStep, screen_uniforms,
@@ -127,17 +127,8 @@ impl MobileTier {
             tier: "mobile",
             reason,
         };
-        crate::cpu::render_settings(TierKind::Reference, &settings).validate()?;
+        check_frame_settings("mobile", &settings, &ctx)?;
         config.validate().map_err(unavailable)?;
-        let pixel_bytes = u64::from(settings.width) * u64::from(settings.height) * 16;
-        let limit = ctx.limits.max_storage_buffer_binding_size;
-        if pixel_bytes > limit {
-            return Err(unavailable(format!(
-                "{}x{} needs {pixel_bytes} bytes per image buffer, over the device's \
-                 {limit}-byte storage binding limit",
-                settings.width, settings.height
-            )));
-        }
         let shaders = ShaderLibrary::new();
         let gpu = |e: gi_gpu::GpuError| unavailable(e.to_string());
         let direct_pipelines = PathPipelines::new(&ctx, "direct").map_err(gpu)?;

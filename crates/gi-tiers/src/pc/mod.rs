@@ -27,7 +27,7 @@ use gi_image::Image;
 use gi_scene::SceneFrame;
 
 use crate::path::PathPipelines;
-use crate::scene_state::{SceneState, read_image};
+use crate::scene_state::{SceneState, check_frame_settings, read_image};
 use crate::tier::{FrameInput, FrameOutput, Tier, TierError, TierKind, TierSettings};
 use denoise::{DenoisePipelines, DenoiseSources, Denoiser};
 
@@ -338,17 +338,8 @@ impl PcTier {
         ctx: GpuContext,
     ) -> Result<Self, TierError> {
         let unavailable = |reason: String| TierError::Unavailable { tier: "pc", reason };
-        crate::cpu::render_settings(TierKind::Reference, &settings).validate()?;
+        check_frame_settings("pc", &settings, &ctx)?;
         config.validate().map_err(unavailable)?;
-        let pixel_bytes = u64::from(settings.width) * u64::from(settings.height) * 16;
-        let limit = ctx.limits.max_storage_buffer_binding_size;
-        if pixel_bytes > limit {
-            return Err(unavailable(format!(
-                "{}x{} needs {pixel_bytes} bytes per image buffer, over the device's \
-                 {limit}-byte storage binding limit",
-                settings.width, settings.height
-            )));
-        }
         let shaders = ShaderLibrary::new();
         let gpu = |e: GpuError| unavailable(e.to_string());
         let direct_pipelines = PathPipelines::new(&ctx, "direct").map_err(gpu)?;
@@ -713,9 +704,6 @@ impl Tier for PcTier {
             passes.extend(direct.0);
         }
 
-        let prepared = self.prepared.as_ref().expect("prepared above");
-        // The denoiser may have swapped its output: bind this frame's.
-        let restir_group = self.restir_bind_group(prepared);
         let mut encoder = ctx.create_encoder("pc/compose");
         self.timer
             .compute_pass(ctx, &mut encoder, "pc/compose", |pass| {
