@@ -21,6 +21,8 @@ const FLAG_MULTI_SAMPLE: u32 = 8u;
 const FLAG_BOILING: u32 = 16u;
 // The previous frame's surfaces and reservoirs are there to reuse.
 const FLAG_HISTORY: u32 = 32u;
+// Trace specular rays below `specular_max_roughness`.
+const FLAG_SPECULAR: u32 = 64u;
 
 // Bits of `Reservoir::flags`.
 const SAMPLE_SKY: u32 = 1u;
@@ -56,8 +58,13 @@ struct PcUniforms {
     shadow_distance_ratio: f32,
     // Emissive triangles in the scene's emitter table (0: no emitter candidates).
     emitter_count: u32,
-    pad_b: u32,
-    pad_c: u32,
+    specular_max_roughness: f32,
+    // Most frames the specular history averages.
+    specular_history: f32,
+    specular_clamp_sigma: f32,
+    pad_d: u32,
+    pad_e: u32,
+    pad_f: u32,
 }
 
 // One trace pixel's receiver: the G-buffer surface of the full-resolution pixel it picked
@@ -93,12 +100,58 @@ struct Reservoir {
     occluder_direction: u32,
     // What `radiance` is made of at a surface sample, so that reuse in later frames can
     // refresh its indirect part from the cache as the cache converges: the emission and
-    // punctual direct light (RGB9E5), and the diffuse albedo (unorm8 rgb) that reflects the
+    // punctual direct light (RGB9E5), and the albedo (unorm8 rgb: diffuse plus split-sum specular towards the receiver) that reflects the
     // cache's indirect irradiance.
     fixed_radiance: u32,
     albedo: u32,
     pad_a: u32,
     pad_b: u32,
+}
+
+// Mirror of `gi_tiers::pc::GpuSpecularSample`, 32 bytes: one trace pixel's specular ray.
+struct SpecularSample {
+    // The point the ray hit, or for a miss its unit direction (`SAMPLE_SKY`).
+    position: vec3<f32>,
+    // Solid-angle pdf with which the receiver's VNDF sampling drew the ray (0: no sample).
+    pdf: f32,
+    // Radiance arriving along the ray.
+    radiance: vec3<f32>,
+    flags: u32,
+}
+
+// IEEE half-precision bits of `x` (clamped to [0, 65000], rounded to nearest even, values
+// below half's normal range flushed to 0). Written out because WGSL's `pack2x16float` needs
+// a float16 capability some adapters lack.
+fn half_bits(x: f32) -> u32 {
+    let b = bitcast<u32>(clamp(x, 0.0, 65000.0));
+    let r = b + 0xfffu + ((b >> 13u) & 1u);
+    let e = i32(r >> 23u) - 112;
+    if e <= 0 {
+        return 0u;
+    }
+    return (u32(e) << 10u) | ((r >> 13u) & 0x3ffu);
+}
+
+fn half_value(h: u32) -> f32 {
+    let e = (h >> 10u) & 0x1fu;
+    if e == 0u {
+        return 0.0;
+    }
+    return bitcast<f32>(((e + 112u) << 23u) | ((h & 0x3ffu) << 13u));
+}
+
+// Four non-negative values as halves in two words.
+fn pack_half4(v: vec4<f32>) -> vec2<u32> {
+    return vec2(half_bits(v.x) | (half_bits(v.y) << 16u), half_bits(v.z) | (half_bits(v.w) << 16u));
+}
+
+fn unpack_half4(p: vec2<u32>) -> vec4<f32> {
+    return vec4(
+        half_value(p.x & 0xffffu),
+        half_value(p.x >> 16u),
+        half_value(p.y & 0xffffu),
+        half_value(p.y >> 16u),
+    );
 }
 
 fn empty_reservoir() -> Reservoir {

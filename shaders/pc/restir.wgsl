@@ -16,8 +16,10 @@
 //     spatial reuse" neighbour rule, applied here at shading time), each an estimate of its
 //     irradiance through the reconnection shift; their mean is the noisy, demodulated
 //     irradiance the denoiser filters. It also upsamples the trace resolution to full.
-//   - `compose` (pass `pc/compose`): direct light plus diffuse and split-sum specular albedo
-//     times the denoised irradiance over pi.
+//   - `compose` (pass `pc/compose`): direct light plus the diffuse albedo times the denoised
+//     irradiance over pi, plus the split-sum specular albedo times the reflected radiance: the
+//     traced specular (`pc/specular.wgsl`) on smooth surfaces, the irradiance over pi on rough
+//     ones, blended between 0.75 and 1 times `specular_max_roughness`.
 //
 // Bind group 0: binding 0 `u` (`gi::pc::common::PcUniforms`), then the buffers below. Group 2:
 // the cache (`gi::cache::data`), read by `temporal` to refresh reused samples.
@@ -32,7 +34,8 @@
     PcUniforms, Surface, Reservoir, Combiner, empty_reservoir, is_sky_depth, has_surface,
     target_pdf, reconnection_jacobian, combiner_new, combiner_add, combiner_finish,
     reservoir_irradiance, similar_surfaces, sample_direction, SAMPLE_OCCLUDED, SAMPLE_SKY, FLAG_TEMPORAL,
-    FLAG_SPATIAL, FLAG_SHADOW, FLAG_MULTI_SAMPLE, FLAG_BOILING, FLAG_HISTORY
+    FLAG_SPATIAL, FLAG_SHADOW, FLAG_MULTI_SAMPLE, FLAG_BOILING, FLAG_HISTORY, FLAG_SPECULAR,
+    unpack_half4
 }
 
 @group(0) @binding(0) var<uniform> u: PcUniforms;
@@ -57,6 +60,8 @@
 @group(0) @binding(21) var<storage, read> denoised: array<vec4<f32>>;
 @group(0) @binding(22) var<storage, read> direct_mean: array<vec4<f32>>;
 @group(0) @binding(23) var<storage, read_write> output: array<vec4<f32>>;
+// Per pixel: the traced specular's history (`pc/specular.wgsl`).
+@group(0) @binding(26) var<storage, read_write> specular_history: array<vec4<u32>>;
 
 fn trace_index(t: vec2<u32>) -> u32 {
     return t.y * u.trace_px.x + t.x;
@@ -315,5 +320,15 @@ fn compose(@builtin(global_invocation_id) id: vec3<u32>) {
     let diffuse = base * (1.0 - mr.x);
     let specular = specular_albedo(mix(vec3(0.04), base, mr.x), mr.y, max(dot(n, v), 0.0));
     let e = max(denoised[pixel].xyz, vec3(0.0));
-    output[pixel] = vec4(direct + (diffuse + specular) * e * INV_PI, 1.0);
+    var reflected = e * INV_PI;
+    let max_roughness = u.specular_max_roughness;
+    if (u.flags & FLAG_SPECULAR) != 0u && mr.y < max_roughness {
+        let h = specular_history[pixel];
+        let traced = unpack_half4(h.xy);
+        if traced.w > 0.0 {
+            let t = 1.0 - smoothstep(0.75 * max_roughness, max_roughness, mr.y);
+            reflected = mix(reflected, traced.xyz, t);
+        }
+    }
+    output[pixel] = vec4(direct + diffuse * e * INV_PI + specular * reflected, 1.0);
 }

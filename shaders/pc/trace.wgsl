@@ -5,7 +5,7 @@
 //     as the receiver, traces one cosine-distributed ray from it through the BVH and shades the
 //     hit: its emission, exact direct light from every punctual light (one shadow ray each)
 //     and the brick cache's indirect irradiance at the hit ("indirect lighting always from the
-//     cache system"), reflected by its diffuse albedo; a miss sees the sky. With emissive
+//     cache system"), reflected by its diffuse and split-sum specular albedo; a miss sees the sky. With emissive
 //     triangles in the scene a second candidate is a point drawn on them (next-event
 //     estimation); the two are combined by RIS into the pixel's initial reservoir (M = 1).
 //   - `shadow` (pass `pc/shadow`), HSGI's "ReSTIR GI shadow": one visibility ray from the
@@ -13,14 +13,18 @@
 //     back to its temporal reservoir (reused from its own rays, so with little visibility bias)
 //     and remembers the occluder's distance and the occluded direction for the multi-sample
 //     shading's neighbour test.
+//   - `specular_trace` (pass `pc/specular_trace`), HSGI's specular ray: at the same receiver,
+//     when its roughness is below `specular_max_roughness`, one ray along the mirror direction
+//     of a GGX visible normal (Heitz 2018), shaded at its hit as `trace` shades (the sky on a
+//     miss); `shaders/pc/specular.wgsl` resolves and accumulates them.
 //
 // Bind group 0: binding 0 `u` (`gi::pc::common::PcUniforms`), bindings 1-7 the scene
 // (`gi::scene`), then the buffers below. Group 1: the BVH (`gi::bvh`). Group 2: the cache
 // (`gi::cache::data`).
 
 #import gi::math::INV_PI
-#import gi::sampling::{sampler_new, sampler_next_f32, sampler_next_2d, cosine_hemisphere, frame_from_normal, frame_to_world}
-#import gi::brdf::{brdf_new, brdf_diffuse_albedo}
+#import gi::sampling::{sampler_new, sampler_next_f32, sampler_next_2d, cosine_hemisphere, frame_from_normal, frame_to_world, frame_to_local}
+#import gi::brdf::{brdf_new, brdf_diffuse_albedo, brdf_f0, specular_albedo, sample_ggx_vndf, brdf_specular_pdf}
 #import gi::bvh::{Ray, trace_closest, trace_any, BVH_MISS}
 #import gi::camera::camera_ray
 #import gi::scene::{triangles, lights, selection, sample_texture, emission, geometric_normal, triangle_uv, material_of}
@@ -28,9 +32,8 @@
 #import gi::packing::{pack_unit_vector, unpack_unit_vector, pack_rgb9e5}
 #import gi::cache::trace::cache_indirect_irradiance
 #import gi::pc::common::{
-    PcUniforms, Surface, Reservoir, empty_reservoir, is_sky_depth, has_surface, luminance, SAMPLE_SKY,
-    SAMPLE_OCCLUDED,
-    FLAG_SPATIAL, FLAG_SHADOW, FLAG_TEMPORAL
+    PcUniforms, Surface, Reservoir, SpecularSample, empty_reservoir, is_sky_depth, has_surface, luminance,
+    SAMPLE_SKY, SAMPLE_OCCLUDED, FLAG_SPATIAL, FLAG_SHADOW, FLAG_TEMPORAL
 }
 
 const FAR: f32 = 3.40282347e38;
@@ -49,6 +52,10 @@ const SHADOW_MARGIN: f32 = 1e-3;
 @group(0) @binding(13) var<storage, read> spatial: array<Reservoir>;
 // Per trace pixel: the reservoir the shading reads (written by `shadow`).
 @group(0) @binding(14) var<storage, read_write> resolved: array<Reservoir>;
+@group(0) @binding(15) var<storage, read> gbuffer_base_color: array<vec4<f32>>;
+@group(0) @binding(16) var<storage, read> gbuffer_metallic_roughness: array<vec2<f32>>;
+// Per trace pixel: the specular ray (written by `specular_trace`).
+@group(0) @binding(17) var<storage, read_write> specular_samples: array<SpecularSample>;
 
 // `p` pushed off its surface along `n` by a margin relative to its magnitude (the reference's
 // `offset_origin`).
@@ -83,13 +90,14 @@ fn pick_receiver(t: vec2<u32>, index: u32) -> Surface {
 }
 
 // Radiance leaving the point a ray along `dir` hit, towards the ray: emission, the punctual
-// lights' direct light (shadow rays) and the cache's indirect light, Lambertian. Also returns
-// the hit's geometric normal facing the ray (packed) in `normal`.
+// lights' direct light (shadow rays) and the cache's indirect light, reflected by the diffuse
+// albedo plus the split-sum specular albedo towards the ray. Also returns the hit's geometric
+// normal facing the ray.
 struct HitShading {
     radiance: vec3<f32>,
     position: vec3<f32>,
     normal: vec3<f32>,
-    // Emission plus punctual direct light, and the diffuse albedo.
+    // Emission plus punctual direct light, and the albedo (diffuse plus specular towards the ray).
     fixed_radiance: vec3<f32>,
     albedo: vec3<f32>,
 }
@@ -108,7 +116,11 @@ fn shade_hit(dir: vec3<f32>, triangle: u32, b: vec2<f32>) -> HitShading {
     let material = material_of(triangle, u.default_material);
     let base = material.base_color.xyz * sample_texture(material.base_color_texture, uv).xyz;
     let mr = sample_texture(material.metallic_roughness_texture, uv);
-    let albedo = brdf_diffuse_albedo(brdf_new(base, material.metallic * mr.z, material.roughness * mr.y));
+    let brdf = brdf_new(base, material.metallic * mr.z, material.roughness * mr.y);
+    // The hit reflects towards the ray its diffuse lobe and, by the split-sum approximation,
+    // its specular lobe: metals (no diffuse lobe) would otherwise reflect nothing.
+    let albedo = brdf_diffuse_albedo(brdf)
+        + specular_albedo(brdf_f0(brdf), sqrt(brdf.alpha), max(dot(ng, -dir), 0.0));
     var radiance = vec3(0.0);
     if front_facing || material.double_sided != 0u {
         radiance = emission(material, uv);
@@ -287,4 +299,48 @@ fn shadow(@builtin(global_invocation_id) id: vec3<u32>) {
     back.occluder_distance = hit.t;
     back.occluder_direction = pack_unit_vector(dir);
     resolved[index] = back;
+}
+
+@compute @workgroup_size(8, 8)
+fn specular_trace(@builtin(global_invocation_id) id: vec3<u32>) {
+    if any(id.xy >= u.trace_px) {
+        return;
+    }
+    let index = id.y * u.trace_px.x + id.x;
+    var sample = SpecularSample(vec3(0.0), 0.0, vec3(0.0), 0u);
+    let s = surfaces[index];
+    let mr = gbuffer_metallic_roughness[s.pixel];
+    if !has_surface(s) || !(mr.y < u.specular_max_roughness) {
+        specular_samples[index] = sample;
+        return;
+    }
+    let n = unpack_unit_vector(s.normal);
+    let frame = frame_from_normal(n);
+    let wo = frame_to_local(frame, normalize(u.camera.position - s.position));
+    let brdf = brdf_new(gbuffer_base_color[s.pixel].xyz, mr.x, mr.y);
+    var sampler = sampler_new(u.seed ^ vec2(0x9e3779b9u, 0u), index, u.frame_index);
+    let h = sample_ggx_vndf(wo, brdf.alpha, sampler_next_2d(&sampler));
+    let wi = 2.0 * dot(wo, h) * h - wo;
+    if wo.z <= 0.0 || wi.z <= 0.0 {
+        specular_samples[index] = sample;
+        return;
+    }
+    let pdf = brdf_specular_pdf(brdf, wo, wi);
+    if !(pdf > 0.0 && pdf < FAR) {
+        specular_samples[index] = sample;
+        return;
+    }
+    let dir = frame_to_world(frame, wi);
+    let hit = trace_closest(Ray(offset_origin(s.position, n), 0.0, dir, FAR));
+    if hit.triangle == BVH_MISS {
+        sample.position = dir;
+        sample.radiance = sky_radiance(u.sky, dir);
+        sample.flags = SAMPLE_SKY;
+    } else {
+        let shaded = shade_hit(dir, hit.triangle, hit.barycentrics);
+        sample.position = shaded.position;
+        sample.radiance = shaded.radiance;
+    }
+    sample.pdf = pdf;
+    specular_samples[index] = sample;
 }

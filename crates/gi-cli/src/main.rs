@@ -79,14 +79,19 @@ pub struct ViewArgs {
     #[arg(long, value_enum)]
     screen_probes: Option<ScreenProbes>,
     /// Switch one stage of the PC tier off, for ablations: temporal, spatial, shadow,
-    /// multi-sample, boiling, svgf or restir (all reuse off: one sample per trace pixel, the
-    /// same denoiser). Only the PC tier reads it.
+    /// multi-sample, boiling, svgf, restir (all reuse off: one sample per trace pixel, the
+    /// same denoiser) or specular (no specular rays: split-sum reflection of the diffuse
+    /// irradiance everywhere). Only the PC tier reads it.
     #[arg(long, value_name = "STAGE")]
     pc_without: Option<String>,
     /// Full-resolution pixels per trace pixel of the PC tier along each axis: 2 (the default)
     /// traces a quarter of the pixels, 1 all of them. Only the PC tier reads it.
     #[arg(long, value_name = "N")]
     pc_trace_scale: Option<u32>,
+    /// Roughness below which the PC tier traces specular rays (default 0.4, HSGI's); rougher
+    /// surfaces reflect the diffuse irradiance. Only the PC tier reads it.
+    #[arg(long, value_name = "R")]
+    pc_specular_roughness: Option<f32>,
 }
 
 /// Largest accepted image side, and largest pixel count (a 16K x 4K image).
@@ -142,7 +147,8 @@ impl ViewArgs {
 }
 
 impl ViewArgs {
-    /// The PC tier's configuration from `--pc-without` and `--pc-trace-scale`.
+    /// The PC tier's configuration from `--pc-without`, `--pc-trace-scale` and
+    /// `--pc-specular-roughness`.
     fn pc_config(&self) -> anyhow::Result<PcConfig> {
         let mut config = match &self.pc_without {
             Some(stage) => PcConfig::without(stage).map_err(anyhow::Error::msg)?,
@@ -150,6 +156,9 @@ impl ViewArgs {
         };
         if let Some(scale) = self.pc_trace_scale {
             config.trace_scale = scale;
+        }
+        if let Some(roughness) = self.pc_specular_roughness {
+            config.specular.max_roughness = roughness;
         }
         config.validate().map_err(anyhow::Error::msg)?;
         Ok(config)

@@ -180,6 +180,8 @@ pub struct PcReport {
     pub without: Option<String>,
     /// Full-resolution pixels per trace pixel along each axis.
     pub trace_scale: u32,
+    /// Roughness below which specular rays are traced (0 when they are off).
+    pub specular_max_roughness: f32,
     /// Milliseconds of the measured frame's GI passes (`cache/*` and `pc/*`).
     pub gi_ms: f64,
     /// Brick cache (coverage), resolution-dependent GI buffers (screen), the rest (frame).
@@ -196,10 +198,11 @@ impl PcReport {
             None => "every stage".to_string(),
         };
         format!(
-            "pc ({variant}, trace scale {}, measured after {warmup} warm-up frames): GI {:.2} ms \
-             of {ms_per_frame:.2} ms/frame (cache/* + pc/*); GI memory {:.2} MiB (coverage {:.2} \
+            "pc ({variant}, trace scale {}, specular rays below roughness {}, measured after \
+             {warmup} warm-up frames): GI {:.2} ms of {ms_per_frame:.2} ms/frame (cache/* + pc/*); GI memory {:.2} MiB (coverage {:.2} \
              + screen {:.2}), frame {:.2} MiB",
             self.trace_scale,
+            self.specular_max_roughness,
             self.gi_ms,
             mib(m.gi_bytes),
             mib(m.coverage_bytes),
@@ -266,6 +269,11 @@ pub fn render_tier(
     let pc = renderer.tier_as::<PcTier>().map(|pc| PcReport {
         without: request.pc_without.clone(),
         trace_scale: pc.config().trace_scale,
+        specular_max_roughness: if pc.config().specular.traced {
+            pc.config().specular.max_roughness
+        } else {
+            0.0
+        },
         gi_ms: frame.gi_ms(TierKind::Pc),
         memory: pc.memory().into(),
     });

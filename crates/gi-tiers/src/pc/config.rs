@@ -14,6 +14,7 @@ pub struct PcConfig {
     pub trace_scale: u32,
     pub restir: RestirConfig,
     pub denoise: DenoiseConfig,
+    pub specular: SpecularConfig,
 }
 
 impl Default for PcConfig {
@@ -23,12 +24,13 @@ impl Default for PcConfig {
             trace_scale: 2,
             restir: RestirConfig::default(),
             denoise: DenoiseConfig::default(),
+            specular: SpecularConfig::default(),
         }
     }
 }
 
 /// The stages [`PcConfig::without`] can switch off, for ablations.
-pub const PC_STAGES: [&str; 7] = [
+pub const PC_STAGES: [&str; 8] = [
     "temporal",
     "spatial",
     "shadow",
@@ -36,6 +38,7 @@ pub const PC_STAGES: [&str; 7] = [
     "boiling",
     "svgf",
     "restir",
+    "specular",
 ];
 
 impl PcConfig {
@@ -43,7 +46,8 @@ impl PcConfig {
     /// reuse (temporal, spatial, shadow ray, multi-sample shading, boiling filter): each
     /// pixel is shaded from its own trace pixel's single sample, the plain 1-sample-per-trace-
     /// pixel pipeline with the same denoiser. `svgf` switches off the whole denoiser
-    /// (temporal accumulation and the a-trous passes).
+    /// (temporal accumulation and the a-trous passes). `specular` traces no specular rays: every
+    /// surface reflects the diffuse irradiance through its split-sum specular albedo.
     pub fn without(stage: &str) -> Result<Self, String> {
         let mut config = Self::default();
         let r = &mut config.restir;
@@ -57,6 +61,7 @@ impl PcConfig {
                 config.denoise.temporal = false;
                 config.denoise.atrous_iterations = 0;
             }
+            "specular" => config.specular.traced = false,
             "restir" => {
                 r.temporal = false;
                 r.spatial = false;
@@ -83,7 +88,64 @@ impl PcConfig {
             ));
         }
         self.restir.validate()?;
-        self.denoise.validate()
+        self.denoise.validate()?;
+        self.specular.validate()
+    }
+}
+
+/// Traced specular reflections (HSGI, GDC 2023, "Specular Reflection": GGX VNDF rays below
+/// roughness 0.4, the diffuse result reused above, a blend between).
+#[derive(Clone, Debug, PartialEq)]
+pub struct SpecularConfig {
+    /// Trace specular rays. Off, every surface reflects the diffuse irradiance through its
+    /// split-sum specular albedo, which blurs every reflection to the irradiance's.
+    pub traced: bool,
+    /// Surfaces rougher than this reflect the diffuse irradiance; smoother ones trace one
+    /// GGX VNDF ray per trace pixel. Between 0.75 and 1 times it the two blend. HSGI traces
+    /// below 0.4. Higher values trace more surfaces (one more BVH ray per trace pixel on
+    /// each) and make wide lobes noisier.
+    pub max_roughness: f32,
+    /// Most frames the specular history averages. Longer histories are smoother on still
+    /// views and lag more behind moving reflections (the history follows the surface's
+    /// motion, not the reflection's).
+    pub history: f32,
+    /// The history is clamped to the resolved samples' 3 x 3 mean plus or minus this many
+    /// standard deviations: smaller values reject stale history sooner and keep more noise.
+    pub clamp_sigma: f32,
+}
+
+impl Default for SpecularConfig {
+    fn default() -> Self {
+        Self {
+            traced: true,
+            max_roughness: 0.4,
+            history: 16.0,
+            clamp_sigma: 2.0,
+        }
+    }
+}
+
+impl SpecularConfig {
+    pub fn validate(&self) -> Result<(), String> {
+        if !(self.max_roughness.is_finite() && (0.0..=1.0).contains(&self.max_roughness)) {
+            return Err(format!(
+                "specular max_roughness must be within 0..=1, not {}",
+                self.max_roughness
+            ));
+        }
+        if !(self.history.is_finite() && (1.0..=256.0).contains(&self.history)) {
+            return Err(format!(
+                "specular history must be within 1..=256 frames, not {}",
+                self.history
+            ));
+        }
+        if !(self.clamp_sigma.is_finite() && self.clamp_sigma > 0.0) {
+            return Err(format!(
+                "specular clamp_sigma must be positive and finite, not {}",
+                self.clamp_sigma
+            ));
+        }
+        Ok(())
     }
 }
 

@@ -4,17 +4,20 @@
 //!
 //! A frame: `gbuffer/primary` (ray-cast G-buffer), the cache update (`cache/*`, as the mobile
 //! tier's), `pc/trace` (one BVH ray per trace pixel, shaded at the hit with exact direct light
-//! and the cache's indirect light: `shaders/pc/trace.wgsl`), `pc/temporal`, `pc/spatial`,
+//! and the cache's indirect light: `shaders/pc/trace.wgsl`), `pc/specular_trace` (one GGX
+//! VNDF ray per trace pixel on surfaces smoother than [`SpecularConfig::max_roughness`]),
+//! `pc/temporal`, `pc/spatial`,
 //! `pc/shadow` (the reservoir passes), `pc/shade` (multi-sample shading to full resolution:
 //! `shaders/pc/restir.wgsl`), `pc/denoise_*` (temporal supersampling and SVGF:
-//! [`denoise`]), `direct/trace` + `direct/resolve` (direct light, accumulated while the view
+//! [`denoise`]), `pc/specular_resolve` and `pc/specular_temporal` (the specular rays to a
+//! per-pixel reflected radiance: `shaders/pc/specular.wgsl`), `direct/trace` + `direct/resolve` (direct light, accumulated while the view
 //! holds still, as the mobile tier does) and `pc/compose`. The GI's cost is the `cache/*` and
 //! `pc/*` passes.
 
 mod config;
 pub mod denoise;
 
-pub use config::{PC_STAGES, PcConfig, RestirConfig};
+pub use config::{PC_STAGES, PcConfig, RestirConfig, SpecularConfig};
 
 use bytemuck::{Pod, Zeroable};
 use gi_cache::lighting::GpuSky;
@@ -36,7 +39,7 @@ const TIMER_SCOPES: u32 = 48;
 /// Pixels per side of the passes' workgroups (`@workgroup_size(8, 8)`).
 const TILE: u32 = 8;
 
-/// Mirror of `PcUniforms` in `shaders/pc/common.wgsl`, 288 bytes.
+/// Mirror of `PcUniforms` in `shaders/pc/common.wgsl`, 304 bytes.
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
 pub struct PcUniforms {
@@ -64,8 +67,12 @@ pub struct PcUniforms {
     pub shadow_distance_ratio: f32,
     /// Emissive triangles in the scene's emitter table.
     pub emitter_count: u32,
-    pub pad_b: u32,
-    pub pad_c: u32,
+    pub specular_max_roughness: f32,
+    pub specular_history: f32,
+    pub specular_clamp_sigma: f32,
+    pub pad_d: u32,
+    pub pad_e: u32,
+    pub pad_f: u32,
 }
 
 /// Mirror of `Reservoir` in `shaders/pc/common.wgsl`, 64 bytes.
@@ -85,10 +92,24 @@ pub struct GpuReservoir {
     pub occluder_direction: u32,
     /// RGB9E5 emission plus punctual direct light of a surface sample.
     pub fixed_radiance: u32,
-    /// Unorm8 diffuse albedo of a surface sample (reflects the cache's indirect light).
+    /// Unorm8 albedo of a surface sample (diffuse plus split-sum specular towards the receiver) (reflects the cache's indirect light).
     pub albedo: u32,
     pub pad_a: u32,
     pub pad_b: u32,
+}
+
+/// Mirror of `SpecularSample` in `shaders/pc/common.wgsl`, 32 bytes: one trace pixel's
+/// specular ray.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
+pub struct GpuSpecularSample {
+    /// The hit point, or for a miss (flag bit 0) the ray's unit direction.
+    pub position: [f32; 3],
+    /// Solid-angle pdf of the ray's VNDF sample at its receiver; 0: no sample.
+    pub pdf: f32,
+    /// Radiance arriving along the ray.
+    pub radiance: [f32; 3],
+    pub flags: u32,
 }
 
 /// Mirror of `Surface` in `shaders/pc/common.wgsl`, 32 bytes.
@@ -113,6 +134,7 @@ mod flags {
     pub const MULTI_SAMPLE: u32 = 8;
     pub const BOILING: u32 = 16;
     pub const HISTORY: u32 = 32;
+    pub const SPECULAR: u32 = 64;
 }
 
 /// GPU memory of the PC tier by what it scales with.
@@ -156,6 +178,9 @@ struct PcPipelines {
     spatial: wgpu::ComputePipeline,
     shade: wgpu::ComputePipeline,
     compose: wgpu::ComputePipeline,
+    specular_trace: wgpu::ComputePipeline,
+    specular_resolve: wgpu::ComputePipeline,
+    specular_temporal: wgpu::ComputePipeline,
 }
 
 impl PcPipelines {
@@ -177,13 +202,16 @@ impl PcPipelines {
             (12, true),
             (13, true),
             (14, false),
+            (15, true),
+            (16, true),
+            (17, false),
         ] {
             entries.push(storage_entry(binding, read_only));
         }
         let trace_layout = layout("pc/trace.layout0", &entries);
         let mut entries = vec![uniform_entry(0)];
-        for binding in 8..=23 {
-            let written = matches!(binding, 16 | 18 | 20 | 23);
+        for binding in 8..=27 {
+            let written = matches!(binding, 16 | 18 | 20 | 23 | 25 | 26);
             entries.push(storage_entry(binding, !written));
         }
         let restir_layout = layout("pc/restir.layout0", &entries);
@@ -191,6 +219,7 @@ impl PcPipelines {
         let cache_layout = CacheBuffers::bind_group_layout(ctx);
         let trace_module = shaders.create_module(ctx, "pc/trace.wgsl", &[])?;
         let restir_module = shaders.create_module(ctx, "pc/restir.wgsl", &[])?;
+        let specular_module = shaders.create_module(ctx, "pc/specular.wgsl", &[])?;
         let mut trace_groups: Vec<Option<&wgpu::BindGroupLayout>> =
             vec![None; CacheBuffers::BIND_GROUP as usize + 1];
         trace_groups[0] = Some(&trace_layout);
@@ -208,10 +237,10 @@ impl PcPipelines {
             vec![None; CacheBuffers::BIND_GROUP as usize + 1];
         restir_groups[0] = Some(&restir_layout);
         restir_groups[CacheBuffers::BIND_GROUP as usize] = Some(&cache_layout);
-        let reused = |entry: &str| {
+        let reused = |module: &wgpu::ShaderModule, entry: &str| {
             ctx.create_compute_pipeline_with_layouts(
                 &format!("pc/{entry}"),
-                &restir_module,
+                module,
                 entry,
                 &restir_groups,
             )
@@ -219,10 +248,13 @@ impl PcPipelines {
         Ok(Self {
             trace: traced("trace"),
             shadow: traced("shadow"),
-            temporal: reused("temporal"),
-            spatial: reused("spatial"),
-            shade: reused("shade"),
-            compose: reused("compose"),
+            specular_trace: traced("specular_trace"),
+            temporal: reused(&restir_module, "temporal"),
+            spatial: reused(&restir_module, "spatial"),
+            shade: reused(&restir_module, "shade"),
+            compose: reused(&restir_module, "compose"),
+            specular_resolve: reused(&specular_module, "specular_resolve"),
+            specular_temporal: reused(&specular_module, "specular_temporal"),
             trace_layout,
             restir_layout,
         })
@@ -241,6 +273,13 @@ struct PcBuffers {
     resolved: wgpu::Buffer,
     irradiance: wgpu::Buffer,
     output: wgpu::Buffer,
+    /// Per trace pixel: this frame's specular ray.
+    specular_samples: wgpu::Buffer,
+    /// Per pixel: the resolved specular radiance (4 x f16).
+    specular_noisy: wgpu::Buffer,
+    /// Per pixel: the specular history (radiance and length in 4 x f16, the surface's
+    /// distance and normal), this frame's and the previous one.
+    specular_history: [wgpu::Buffer; 2],
     current: usize,
     /// Whether the other slot holds the previous frame's surfaces and reservoirs.
     history: bool,
@@ -275,6 +314,15 @@ impl PcBuffers {
             resolved: buffer("pc.resolved", reservoirs),
             irradiance: buffer("pc.irradiance", pixels * 16),
             output: buffer("pc.output", pixels * 16),
+            specular_samples: buffer(
+                "pc.specular_samples",
+                traced * size_of::<GpuSpecularSample>() as u64,
+            ),
+            specular_noisy: buffer("pc.specular_noisy", pixels * 8),
+            specular_history: [
+                buffer("pc.specular_history_a", pixels * 16),
+                buffer("pc.specular_history_b", pixels * 16),
+            ],
             current: 0,
             history: false,
         }
@@ -292,6 +340,10 @@ impl PcBuffers {
             &self.resolved,
             &self.irradiance,
             &self.output,
+            &self.specular_samples,
+            &self.specular_noisy,
+            &self.specular_history[0],
+            &self.specular_history[1],
         ] {
             ctx.release_buffer(buffer);
         }
@@ -447,6 +499,7 @@ impl PcTier {
             (r.multi_sample, flags::MULTI_SAMPLE),
             (r.boiling_filter, flags::BOILING),
             (history, flags::HISTORY),
+            (self.config.specular.traced, flags::SPECULAR),
         ] {
             if on {
                 bits |= bit;
@@ -476,6 +529,9 @@ impl PcTier {
             shadow_cos: r.shadow_cos,
             shadow_distance_ratio: r.shadow_distance_ratio,
             emitter_count: prepared.state.scene.emitter_count,
+            specular_max_roughness: self.config.specular.max_roughness,
+            specular_history: self.config.specular.history,
+            specular_clamp_sigma: self.config.specular.clamp_sigma,
             ..Default::default()
         }
     }
@@ -533,6 +589,9 @@ impl PcTier {
                 &b.temporal[cur],
                 &b.spatial,
                 &b.resolved,
+                self.gbuffer.output("gbuffer.base_color"),
+                self.gbuffer.output("gbuffer.metallic_roughness"),
+                &b.specular_samples,
             ],
         ));
         self.ctx
@@ -567,6 +626,10 @@ impl PcTier {
                 prepared.denoiser.output(),
                 &prepared.state.direct.mean,
                 &b.output,
+                &b.specular_samples,
+                &b.specular_noisy,
+                &b.specular_history[cur],
+                &b.specular_history[prev],
             ],
         ));
         self.ctx
@@ -656,15 +719,21 @@ impl Tier for PcTier {
         // The passes in order: name, pipeline, whether it traces (BVH bound, the trace
         // module's group 0) and whether it runs per trace pixel (else per pixel).
         let p = &self.pipelines;
-        let mut steps = vec![
-            ("pc/trace", &p.trace, true, true),
-            ("pc/temporal", &p.temporal, false, true),
-        ];
+        let specular = self.config.specular.traced;
+        let mut steps = vec![("pc/trace", &p.trace, true, true)];
+        if specular {
+            steps.push(("pc/specular_trace", &p.specular_trace, true, true));
+        }
+        steps.push(("pc/temporal", &p.temporal, false, true));
         if self.config.restir.spatial {
             steps.push(("pc/spatial", &p.spatial, false, true));
         }
         steps.push(("pc/shadow", &p.shadow, true, true));
         steps.push(("pc/shade", &p.shade, false, false));
+        if specular {
+            steps.push(("pc/specular_resolve", &p.specular_resolve, false, false));
+            steps.push(("pc/specular_temporal", &p.specular_temporal, false, false));
+        }
         for (name, pipeline, traces, per_trace_pixel) in steps {
             self.timer.compute_pass(ctx, &mut encoder, name, |pass| {
                 pass.set_pipeline(pipeline);

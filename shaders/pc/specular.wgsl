@@ -1,0 +1,196 @@
+// The PC tier's traced specular reflections after HSGI (GDC 2023, "PC / Console Solution",
+// "Specular Reflection"): `specular_trace` in `pc/trace.wgsl` traces one GGX VNDF ray per trace
+// pixel on surfaces smoother than `specular_max_roughness`; here they become a per-pixel
+// reflected radiance:
+//   - `specular_resolve` (pass `pc/specular_resolve`), per pixel: the rays of the 3 x 3 trace
+//     pixels around it whose receivers lie on its surface, each reconnected from this pixel to
+//     its hit and weighted by this pixel's specular lobe over the pdf it was drawn with, the
+//     ratio estimator of Stachowiak 2015 ("Stochastic Screen-Space Reflections"); the result
+//     is the lobe's mean incident radiance, demodulated from the lobe's albedo.
+//   - `specular_temporal` (pass `pc/specular_temporal`), per pixel: the resolved radiance
+//     averaged with the history found by the surface's motion vector (depth and normal
+//     checked), over up to `specular_history` frames, the history first clamped to the
+//     resolved neighbourhood's mean plus or minus `specular_clamp_sigma` standard deviations.
+// `compose` in `pc/restir.wgsl` multiplies it by the split-sum specular albedo.
+//
+// Bind group 0: the layout of `pc/restir.wgsl`; this file uses binding 0 `u`
+// (`gi::pc::common::PcUniforms`) and the buffers below.
+
+#import gi::brdf::{brdf_new, ggx_d, smith_g2}
+#import gi::sampling::{frame_from_normal, frame_to_local}
+#import gi::camera::camera_ray
+#import gi::packing::{pack_unit_vector, unpack_unit_vector}
+#import gi::pc::common::{
+    PcUniforms, Surface, SpecularSample, is_sky_depth, has_surface, similar_surfaces, pack_half4,
+    unpack_half4, SAMPLE_SKY, FLAG_MULTI_SAMPLE, FLAG_HISTORY
+}
+
+const FAR: f32 = 3.40282347e38;
+
+@group(0) @binding(0) var<uniform> u: PcUniforms;
+@group(0) @binding(8) var<storage, read> gbuffer_depth: array<f32>;
+@group(0) @binding(9) var<storage, read> gbuffer_normal: array<u32>;
+@group(0) @binding(10) var<storage, read> gbuffer_base_color: array<vec4<f32>>;
+@group(0) @binding(11) var<storage, read> gbuffer_metallic_roughness: array<vec2<f32>>;
+@group(0) @binding(12) var<storage, read> gbuffer_motion: array<vec2<f32>>;
+@group(0) @binding(13) var<storage, read> surfaces: array<Surface>;
+// Per trace pixel: this frame's specular rays.
+@group(0) @binding(24) var<storage, read> specular_samples: array<SpecularSample>;
+// Per pixel: the resolved radiance (rg, b and 1 where any ray contributed, as f16).
+@group(0) @binding(25) var<storage, read_write> specular_noisy: array<vec2<u32>>;
+// Per pixel: radiance (rg, b and history length as f16), the surface's distance from the
+// camera (f32 bits) and its packed normal; this frame's and the previous frame's.
+@group(0) @binding(26) var<storage, read_write> specular_history: array<vec4<u32>>;
+@group(0) @binding(27) var<storage, read> specular_history_prev: array<vec4<u32>>;
+
+// Whether pixel `pixel` (with G-buffer depth `depth`) takes traced specular.
+fn is_traced(pixel: u32, depth: f32) -> bool {
+    return !is_sky_depth(depth) && gbuffer_metallic_roughness[pixel].y < u.specular_max_roughness;
+}
+
+fn world_position(p: vec2<u32>, depth: f32) -> vec3<f32> {
+    let uv = (vec2<f32>(p) + 0.5) / vec2<f32>(u.size_px);
+    return u.camera.position + camera_ray(u.camera, uv) * depth;
+}
+
+@compute @workgroup_size(8, 8)
+fn specular_resolve(@builtin(global_invocation_id) id: vec3<u32>) {
+    if any(id.xy >= u.size_px) {
+        return;
+    }
+    let pixel = id.y * u.size_px.x + id.x;
+    let depth = gbuffer_depth[pixel];
+    if !is_traced(pixel, depth) {
+        specular_noisy[pixel] = vec2(0u);
+        return;
+    }
+    let x = world_position(id.xy, depth);
+    let me = Surface(x, gbuffer_normal[pixel], pixel, depth, 0u, 0u);
+    let frame = frame_from_normal(unpack_unit_vector(me.normal));
+    let wo = frame_to_local(frame, normalize(u.camera.position - x));
+    if wo.z <= 0.0 {
+        specular_noisy[pixel] = vec2(0u);
+        return;
+    }
+    let mr = gbuffer_metallic_roughness[pixel];
+    let alpha = brdf_new(gbuffer_base_color[pixel].xyz, mr.x, mr.y).alpha;
+    let a2 = alpha * alpha;
+    let t = vec2<i32>(id.xy / u.trace_scale);
+    var radius = 0;
+    if (u.flags & FLAG_MULTI_SAMPLE) != 0u {
+        radius = 1;
+    }
+    var weighted = vec3(0.0);
+    var weight_sum = 0.0;
+    // Every usable ray's radiance, unweighted: the fallback of a lobe so narrow that no ray
+    // lands in it this frame (a mirror between its trace pixels' receivers).
+    var plain = vec3(0.0);
+    var count = 0.0;
+    for (var dy = -radius; dy <= radius; dy++) {
+        for (var dx = -radius; dx <= radius; dx++) {
+            let q = t + vec2(dx, dy);
+            if any(q < vec2(0)) || any(q >= vec2<i32>(u.trace_px)) {
+                continue;
+            }
+            let qi = u32(q.y) * u.trace_px.x + u32(q.x);
+            let sample = specular_samples[qi];
+            if !(sample.pdf > 0.0) || !similar_surfaces(me, surfaces[qi], u.normal_cos, u.plane_tolerance) {
+                continue;
+            }
+            var wi_world = sample.position;
+            if (sample.flags & SAMPLE_SKY) == 0u {
+                wi_world = normalize(sample.position - x);
+            }
+            let wi = frame_to_local(frame, wi_world);
+            if wi.z <= 0.0 {
+                continue;
+            }
+            plain += sample.radiance;
+            count += 1.0;
+            // This pixel's lobe without Fresnel (the albedo carries it) times the cosine,
+            // over the pdf the ray was drawn with.
+            let h = normalize(wo + wi);
+            let w = ggx_d(h, a2) * smith_g2(wo.z, wi.z, a2) / (4.0 * wo.z * sample.pdf);
+            if w > 0.0 && w < FAR {
+                weighted += sample.radiance * w;
+                weight_sum += w;
+            }
+        }
+    }
+    var radiance = vec3(0.0);
+    var valid = 0.0;
+    if weight_sum > 0.0 {
+        radiance = weighted / weight_sum;
+        valid = 1.0;
+    } else if count > 0.0 {
+        radiance = plain / count;
+        valid = 1.0;
+    }
+    specular_noisy[pixel] = pack_half4(vec4(radiance, valid));
+}
+
+@compute @workgroup_size(8, 8)
+fn specular_temporal(@builtin(global_invocation_id) id: vec3<u32>) {
+    if any(id.xy >= u.size_px) {
+        return;
+    }
+    let pixel = id.y * u.size_px.x + id.x;
+    let depth = gbuffer_depth[pixel];
+    if !is_traced(pixel, depth) {
+        specular_history[pixel] = vec4(0u);
+        return;
+    }
+    let x = world_position(id.xy, depth);
+    let n = unpack_unit_vector(gbuffer_normal[pixel]);
+    let current = unpack_half4(specular_noisy[pixel]);
+
+    // The resolved neighbourhood's mean and standard deviation.
+    var m1 = vec3(0.0);
+    var m2 = vec3(0.0);
+    var count = 0.0;
+    let p = vec2<i32>(id.xy);
+    for (var dy = -1; dy <= 1; dy++) {
+        for (var dx = -1; dx <= 1; dx++) {
+            let q = p + vec2(dx, dy);
+            if any(q < vec2(0)) || any(q >= vec2<i32>(u.size_px)) {
+                continue;
+            }
+            let v = unpack_half4(specular_noisy[u32(q.y) * u.size_px.x + u32(q.x)]);
+            if v.w > 0.0 {
+                m1 += v.xyz;
+                m2 += v.xyz * v.xyz;
+                count += 1.0;
+            }
+        }
+    }
+
+    // The previous frame's history of this surface.
+    var history = vec3(0.0);
+    var length = 0.0;
+    let before = vec2<f32>(id.xy) + 0.5 + gbuffer_motion[pixel];
+    let q = vec2<i32>(floor(before));
+    if (u.flags & FLAG_HISTORY) != 0u && all(q >= vec2(0)) && all(q < vec2<i32>(u.size_px)) {
+        let h = specular_history_prev[u32(q.y) * u.size_px.x + u32(q.x)];
+        let stored = unpack_half4(h.xy);
+        let expected = distance(x, u.previous_camera.position);
+        let same_depth = abs(bitcast<f32>(h.z) - expected) <= 0.05 * expected;
+        let same_normal = dot(unpack_unit_vector(h.w), n) > 0.9;
+        if stored.w > 0.0 && same_depth && same_normal {
+            history = stored.xyz;
+            length = stored.w;
+            if count > 0.0 {
+                let mean = m1 / count;
+                let sigma = sqrt(max(m2 / count - mean * mean, vec3(0.0)));
+                let k = u.specular_clamp_sigma;
+                history = clamp(history, mean - k * sigma, mean + k * sigma);
+            }
+        }
+    }
+    var radiance = history;
+    if current.w > 0.0 {
+        length = min(length + 1.0, u.specular_history);
+        radiance = mix(history, current.xyz, 1.0 / length);
+    }
+    let packed = pack_half4(vec4(radiance, length));
+    specular_history[pixel] = vec4(packed, bitcast<u32>(distance(x, u.camera.position)), pack_unit_vector(n));
+}
