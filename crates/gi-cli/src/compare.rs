@@ -1,16 +1,16 @@
 //! `gi compare`: render tiers, measure them against a path-traced reference, print a table.
 
-use std::{collections::BTreeMap, path::PathBuf, time::Instant};
+use std::{collections::BTreeMap, path::PathBuf};
 
 use anyhow::{Context, Result};
 use clap::Args;
-use gi_image::Image;
+use gi_reference::cache::{self, CachedReference, ReferenceCache, ReferenceRequest};
 use serde::Serialize;
 
 use gi_tiers::TierKind;
 
 use crate::{
-    ViewArgs, cache, parse_tier,
+    ViewArgs, parse_tier,
     render::progress_bar,
     tiers::{MobileReport, PcReport, render_tier},
 };
@@ -30,11 +30,11 @@ pub struct CompareArgs {
     #[arg(long, default_value_t = 16)]
     spp: u32,
     /// Samples per pixel of the reference.
-    #[arg(long, default_value_t = 1024)]
+    #[arg(long, default_value_t = cache::DEFAULT_REFERENCE_SPP)]
     reference_spp: u32,
     /// Seed of the reference render (kept apart from `--seed` so a tier's noise is never
     /// correlated with the reference's).
-    #[arg(long, default_value_t = 0x5eed_0f_7e7e)]
+    #[arg(long, default_value_t = cache::REFERENCE_SEED)]
     reference_seed: u64,
     /// Folder for the images (default: out/<scene>).
     #[arg(long)]
@@ -96,36 +96,26 @@ struct CompareReport {
 }
 
 /// The reference image: from the cache when an identical render exists, else rendered now.
-fn reference_image(args: &CompareArgs, scene: &gi_scene::Scene) -> Result<(Image, f64, bool)> {
-    let mut request = args.view.request(args.reference_spp)?;
-    request.seed = args.reference_seed;
-    // The reference keeps no history; its cache key holds no warm-up.
-    request.warmup = None;
-    let key = cache::ReferenceKey::new(
+fn reference_image(args: &CompareArgs, scene: &gi_scene::Scene) -> Result<CachedReference> {
+    let request = args.view.request(args.reference_spp)?;
+    let reference = ReferenceRequest::new(
         scene,
-        &request.view(scene),
+        request.view(scene),
         request.time_s(scene),
         (request.width, request.height),
         request.spp,
-        request.seed,
+        args.reference_seed,
     );
-    let dir = args.cache_dir.clone().unwrap_or_else(cache::default_dir);
-    if !args.no_cache
-        && let Some(hit) = cache::load(&dir, &key)
-    {
-        return Ok((hit.image, hit.seconds, true));
-    }
+    let cache = ReferenceCache::new(args.cache_dir.clone().unwrap_or_else(cache::default_dir));
     let bar = progress_bar(request.spp, "reference");
-    let started = Instant::now();
-    let render = render_tier(scene, TierKind::Reference, &request, &|done| {
-        bar.set_position(u64::from(done))
-    })?;
+    let found = cache.get_or_render(
+        &reference,
+        !args.no_cache,
+        &|done| bar.set_position(u64::from(done)),
+        &|| false,
+    )?;
     bar.finish_and_clear();
-    let seconds = started.elapsed().as_secs_f64();
-    if let Err(error) = cache::store(&dir, &key, &render.image, seconds) {
-        tracing::warn!("reference not cached: {error:#}");
-    }
-    Ok((render.image, seconds, false))
+    found.context("the reference render stopped before it finished")
 }
 
 pub fn run(args: &CompareArgs) -> Result<()> {
@@ -143,7 +133,11 @@ pub fn run(args: &CompareArgs) -> Result<()> {
         .unwrap_or_else(|| PathBuf::from("out").join(&scene.name));
     std::fs::create_dir_all(&out_dir).with_context(|| format!("creating {}", out_dir.display()))?;
 
-    let (reference, reference_seconds, cached) = reference_image(args, &scene)?;
+    let CachedReference {
+        image: reference,
+        seconds: reference_seconds,
+        cached,
+    } = reference_image(args, &scene)?;
     // Named apart from the `reference` tier's own (low-spp) render.
     let truth = format!("reference_{}spp", args.reference_spp);
     gi_image::save(&reference, out_dir.join(format!("{truth}.exr")), 1.0)?;

@@ -1,7 +1,6 @@
 //! `gi`: render glTF scenes at a global-illumination tier, compare tiers against a path-traced
 //! reference, and manage the bundled scenes.
 
-mod cache;
 mod compare;
 mod debug_cache;
 mod render;

@@ -85,6 +85,7 @@
 
 mod accumulate;
 pub mod brdf;
+pub mod cache;
 mod integrator;
 mod irradiance;
 mod lights;
