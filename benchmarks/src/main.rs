@@ -9,7 +9,7 @@
 //!     --screen-probes both --json mobile.json
 //! gi-bench mobile-stability --size 320x240 --screen-probes both --json stability.json
 //! gi-bench pc --scenes cornell-box,atrium,glossy --size 1920x1080 --frames 64 \
-//!     --variants default,temporal,spatial,shadow,multi-sample,boiling,svgf,restir --json pc.json
+//!     --variants default,temporal,spatial,shadow,multi-sample,boiling,svgf,restir,specular --json pc.json
 //! ```
 
 mod cache_rays;
@@ -165,7 +165,7 @@ enum Command {
         #[arg(long, default_value_t = 64)]
         frames: u32,
         /// Comma-separated variants: default, or a stage to switch off (temporal, spatial,
-        /// shadow, multi-sample, boiling, svgf, restir).
+        /// shadow, multi-sample, boiling, svgf, restir, specular).
         #[arg(long, value_delimiter = ',', default_value = "default", value_parser = pc::parse_variant)]
         variants: Vec<String>,
         /// Full-resolution pixels per trace pixel along each axis (1 or 2).
