@@ -62,7 +62,9 @@ struct PcUniforms {
     // Most frames the specular history averages.
     specular_history: f32,
     specular_clamp_sigma: f32,
-    pad_d: u32,
+    // BVH segment length of a diffuse ray: the largest float, or in trace-probe mode the
+    // short ray beyond which the cache answers.
+    probe_ray_m: f32,
     pad_e: u32,
     pad_f: u32,
 }

@@ -8,6 +8,10 @@
 //     cache system"), reflected by its diffuse and split-sum specular albedo; a miss sees the sky. With emissive
 //     triangles in the scene a second candidate is a point drawn on them (next-event
 //     estimation); the two are combined by RIS into the pixel's initial reservoir (M = 1).
+//     In trace-probe mode (HSGI's "trace probe": a short ray, then radiance from probes) the
+//     BVH ray stops after `probe_ray_m`; past that the brick cache is traced from the
+//     segment's end and its radiance taken where it hits, the cache's voxels standing in for
+//     HSGI's probes.
 //   - `shadow` (pass `pc/shadow`), HSGI's "ReSTIR GI shadow": one visibility ray from the
 //     receiver to the sample the spatial reuse chose. Visible: kept. Occluded: the pixel falls
 //     back to its temporal reservoir (reused from its own rays, so with little visibility bias)
@@ -30,7 +34,8 @@
 #import gi::scene::{triangles, lights, selection, sample_texture, emission, geometric_normal, triangle_uv, material_of}
 #import gi::lights::{LIGHT_DIRECTIONAL, light_incident, sky_radiance, sample_emitter}
 #import gi::packing::{pack_unit_vector, unpack_unit_vector, pack_rgb9e5}
-#import gi::cache::trace::cache_indirect_irradiance
+#import gi::cache::data::cache
+#import gi::cache::trace::{CacheHit, cache_indirect_irradiance, cache_miss, cache_trace_from, cache_hit_radiance, cache_hit_normal}
 #import gi::pc::common::{
     PcUniforms, Surface, Reservoir, SpecularSample, empty_reservoir, is_sky_depth, has_surface, luminance,
     SAMPLE_SKY, SAMPLE_OCCLUDED, FLAG_SPATIAL, FLAG_SHADOW, FLAG_TEMPORAL
@@ -148,6 +153,33 @@ fn shade_hit(dir: vec3<f32>, triangle: u32, b: vec2<f32>) -> HitShading {
     return HitShading(radiance, p, ng, fixed_radiance, albedo);
 }
 
+// Most cache voxels of the receiver's own surface a far-field trace steps over.
+const FAR_FIELD_SELF_SKIPS: u32 = 4u;
+
+// Trace-probe mode's far field: the cache traced from the end of the ray's BVH segment (open
+// space, so nothing is skipped there). A grazing ray runs inside the coarse voxels of the
+// surface it left for a while; hits on voxels of that surface (within two voxels of its
+// tangent plane, normal within 45 degrees) are stepped over, or the surface would shade
+// itself.
+fn trace_far_field(origin: vec3<f32>, dir: vec3<f32>, n: vec3<f32>) -> CacheHit {
+    var start = u.probe_ray_m;
+    for (var k = 0u; k < FAR_FIELD_SELF_SKIPS; k++) {
+        var far = cache_trace_from(origin + dir * start, dir, FAR, false);
+        if !far.hit {
+            return far;
+        }
+        far.t += start;
+        let size = cache.levels[far.level].voxel_size_m;
+        let own_surface = abs(dot(dir * far.t, n)) < 2.0 * size
+            && abs(dot(cache_hit_normal(far), n)) > 0.7;
+        if !own_surface {
+            return far;
+        }
+        start = far.t + 1.8 * size;
+    }
+    return cache_miss(FAR);
+}
+
 // Solid-angle pdf with which `sample_emitter` draws the point of emitter triangle `triangle`
 // that a ray from the receiver along `dir` hit at distance `t` (the path tracer's
 // `emitter_pdf`); 0 for triangles outside the emitter table.
@@ -200,8 +232,18 @@ fn trace(@builtin(global_invocation_id) id: vec3<u32>) {
     if pdf_cos > 0.0 {
         var r = empty_reservoir();
         var pdf_emit = 0.0;
-        let hit = trace_closest(Ray(origin, 0.0, dir, FAR));
-        if hit.triangle == BVH_MISS {
+        let hit = trace_closest(Ray(origin, 0.0, dir, u.probe_ray_m));
+        var far = cache_miss(0.0);
+        if hit.triangle == BVH_MISS && u.probe_ray_m < FAR {
+            far = trace_far_field(origin, dir, n);
+        }
+        if far.hit {
+            // The cache's emission stays out when emitter samples cover the emitters.
+            r.position = origin + dir * far.t;
+            r.radiance = cache_hit_radiance(far, !emitters_on);
+            r.normal = pack_unit_vector(cache_hit_normal(far));
+            r.fixed_radiance = pack_rgb9e5(r.radiance);
+        } else if hit.triangle == BVH_MISS {
             r.position = dir;
             r.radiance = sky_radiance(u.sky, dir);
             r.flags = SAMPLE_SKY;
@@ -238,7 +280,9 @@ fn trace(@builtin(global_invocation_id) id: vec3<u32>) {
             r.normal = pack_unit_vector(light.normal);
             r.fixed_radiance = pack_rgb9e5(light.radiance);
             let p = luminance(r.radiance) * cos_x;
-            let w = p / (cos_x * INV_PI + light.pdf);
+            // The BVH ray reaches emitters within its segment only.
+            let pdf_ray = select(0.0, cos_x * INV_PI, light.distance <= u.probe_ray_m);
+            let w = p / (pdf_ray + light.pdf);
             if w > 0.0 && w < FAR {
                 weight_sum += w;
                 if sampler_next_f32(&sampler) * weight_sum < w {

@@ -9,6 +9,7 @@ mod tiers;
 use std::{path::PathBuf, process::ExitCode};
 
 use clap::{Args, Parser, Subcommand};
+use gi_tiers::pc::TraceMode;
 use gi_tiers::{PcConfig, TierKind};
 use tiers::{CameraChoice, RenderRequest, ScreenProbes};
 
@@ -91,6 +92,11 @@ pub struct ViewArgs {
     /// surfaces reflect the diffuse irradiance. Only the PC tier reads it.
     #[arg(long, value_name = "R")]
     pc_specular_roughness: Option<f32>,
+    /// What the PC tier's diffuse rays read: rays (the default: whole BVH rays) or probes
+    /// (HSGI's trace-probe mode: a short BVH ray, then the brick cache's radiance beyond it).
+    /// Only the PC tier reads it.
+    #[arg(long, value_name = "MODE", value_parser = parse_trace_mode)]
+    pc_trace_mode: Option<TraceMode>,
 }
 
 /// Largest accepted image side, and largest pixel count (a 16K x 4K image).
@@ -146,8 +152,8 @@ impl ViewArgs {
 }
 
 impl ViewArgs {
-    /// The PC tier's configuration from `--pc-without`, `--pc-trace-scale` and
-    /// `--pc-specular-roughness`.
+    /// The PC tier's configuration from `--pc-without`, `--pc-trace-scale`,
+    /// `--pc-specular-roughness` and `--pc-trace-mode`.
     fn pc_config(&self) -> anyhow::Result<PcConfig> {
         let mut config = match &self.pc_without {
             Some(stage) => PcConfig::without(stage).map_err(anyhow::Error::msg)?,
@@ -159,9 +165,16 @@ impl ViewArgs {
         if let Some(roughness) = self.pc_specular_roughness {
             config.specular.max_roughness = roughness;
         }
+        if let Some(mode) = self.pc_trace_mode {
+            config.trace_mode = mode;
+        }
         config.validate().map_err(anyhow::Error::msg)?;
         Ok(config)
     }
+}
+
+fn parse_trace_mode(s: &str) -> Result<TraceMode, String> {
+    s.parse()
 }
 
 fn parse_tier(s: &str) -> Result<TierKind, String> {

@@ -180,6 +180,8 @@ pub struct PcReport {
     pub without: Option<String>,
     /// Full-resolution pixels per trace pixel along each axis.
     pub trace_scale: u32,
+    /// What the diffuse rays read: `rays` or `probes` (trace-probe mode).
+    pub trace_mode: &'static str,
     /// Roughness below which specular rays are traced (0 when they are off).
     pub specular_max_roughness: f32,
     /// Milliseconds of the measured frame's GI passes (`cache/*` and `pc/*`).
@@ -198,10 +200,11 @@ impl PcReport {
             None => "every stage".to_string(),
         };
         format!(
-            "pc ({variant}, trace scale {}, specular rays below roughness {}, measured after \
-             {warmup} warm-up frames): GI {:.2} ms of {ms_per_frame:.2} ms/frame (cache/* + pc/*); GI memory {:.2} MiB (coverage {:.2} \
+            "pc ({variant}, trace scale {}, trace mode {}, specular rays below roughness {}, \
+             measured after {warmup} warm-up frames): GI {:.2} ms of {ms_per_frame:.2} ms/frame (cache/* + pc/*); GI memory {:.2} MiB (coverage {:.2} \
              + screen {:.2}), frame {:.2} MiB",
             self.trace_scale,
+            self.trace_mode,
             self.specular_max_roughness,
             self.gi_ms,
             mib(m.gi_bytes),
@@ -269,6 +272,7 @@ pub fn render_tier(
     let pc = renderer.tier_as::<PcTier>().map(|pc| PcReport {
         without: request.pc_without.clone(),
         trace_scale: pc.config().trace_scale,
+        trace_mode: pc.config().trace_mode.name(),
         specular_max_roughness: if pc.config().specular.traced {
             pc.config().specular.max_roughness
         } else {

@@ -8,7 +8,9 @@ use gi_gpu::{GpuContext, ShaderLibrary, rust_field_offsets, wgsl_struct_layout};
 use gi_image::Image;
 use gi_reference::{Mode, Reference, RenderSettings};
 use gi_scene::{CameraView, Scene, Sky};
-use gi_tiers::pc::{GpuReservoir, GpuSpecularSample, GpuSurface, PC_STAGES, PcConfig, PcUniforms};
+use gi_tiers::pc::{
+    GpuReservoir, GpuSpecularSample, GpuSurface, PC_STAGES, PcConfig, PcUniforms, TraceMode,
+};
 use gi_tiers::{FrameInput, PcTier, Tier, TierError};
 use glam::Vec3;
 
@@ -71,7 +73,7 @@ fn shared_structs_match_their_wgsl_layout() {
             specular_max_roughness,
             specular_history,
             specular_clamp_sigma,
-            pad_d,
+            probe_ray_m,
             pad_e,
             pad_f,
         }),
@@ -139,6 +141,11 @@ fn open_ground_gathers_pi_times_the_sky_in_every_configuration() {
     for stage in PC_STAGES {
         configs.push((stage, PcConfig::without(stage).unwrap()));
     }
+    let probes = PcConfig {
+        trace_mode: TraceMode::Probes,
+        ..PcConfig::default()
+    };
+    configs.push(("trace probes", probes));
     for (name, config) in configs {
         let tier = run(
             GpuContext::new().unwrap(),
@@ -237,8 +244,13 @@ fn a_small_emitter_lights_the_ground_as_its_integral_says() {
             (dir.y < 0.0).then(|| exact(eye - dir * (eye.y / dir.y)))
         })
         .collect();
+    // In trace-probe mode the BVH rays stop short of the emitter (1.5 m above, rays of
+    // 0.5 m): the emitter samples alone must then carry its light, at full MIS weight.
+    let mut probes = PcConfig::without("restir").unwrap();
+    probes.trace_mode = TraceMode::Probes;
     for (name, config, bound_extra) in [
         ("without reuse", PcConfig::without("restir").unwrap(), 0.0),
+        ("trace probes, without reuse", probes, 0.0),
         ("every stage", PcConfig::default(), 0.04),
     ] {
         let mut tier =
@@ -332,6 +344,17 @@ fn every_bundled_scene_renders_finite_and_accounts_its_memory() {
 fn unusable_settings_and_unknown_stages_are_refused_with_the_reason() {
     let err = PcConfig::without("denoise").unwrap_err();
     assert!(err.contains("denoise") && err.contains("spatial"), "{err}");
+    let err = "cones".parse::<TraceMode>().unwrap_err();
+    assert!(err.contains("cones") && err.contains("probes"), "{err}");
+    assert_eq!("probes".parse::<TraceMode>(), Ok(TraceMode::Probes));
+    let config = PcConfig {
+        probe_ray_m: -1.0,
+        ..PcConfig::default()
+    };
+    assert!(config.validate().unwrap_err().contains("probe_ray_m"));
+    let mut config = PcConfig::default();
+    config.specular.max_roughness = 1.5;
+    assert!(config.validate().unwrap_err().contains("max_roughness"));
     let Some(ctx) = GpuContext::new_or_skip("unusable_settings_are_refused") else {
         return;
     };

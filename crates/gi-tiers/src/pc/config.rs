@@ -12,6 +12,12 @@ pub struct PcConfig {
     /// Full-resolution pixels per trace pixel along each axis: 2 traces one ray per 2 x 2
     /// pixels (HSGI traces at 966 x 542 for a 1932 x 1084 frame), 1 one per pixel.
     pub trace_scale: u32,
+    /// What a diffuse ray reads beyond [`PcConfig::probe_ray_m`]: see [`TraceMode`].
+    pub trace_mode: TraceMode,
+    /// Length of a diffuse ray's BVH segment in [`TraceMode::Probes`], in meters (HSGI: "short
+    /// ray = probe size"). Longer segments find more near geometry exactly and cost more BVH
+    /// traversal; beyond them the brick cache answers.
+    pub probe_ray_m: f32,
     pub restir: RestirConfig,
     pub denoise: DenoiseConfig,
     pub specular: SpecularConfig,
@@ -22,9 +28,57 @@ impl Default for PcConfig {
         Self {
             cache: CacheConfig::default(),
             trace_scale: 2,
+            trace_mode: TraceMode::Rays,
+            probe_ray_m: 0.5,
             restir: RestirConfig::default(),
             denoise: DenoiseConfig::default(),
             specular: SpecularConfig::default(),
+        }
+    }
+}
+
+/// How the diffuse rays find the radiance they carry (HSGI, GDC 2023, "Trace Probe Mode").
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum TraceMode {
+    /// The whole ray through the BVH, its hit shaded with exact direct light plus the cache's
+    /// indirect light: the high-quality default.
+    #[default]
+    Rays,
+    /// A short BVH segment ([`PcConfig::probe_ray_m`]); a ray that hits nothing within it
+    /// reads the radiance beyond from the brick cache, traced on from the segment's end, the
+    /// cache's voxels standing in for HSGI's probes. HSGI switches to it "in critical scenes
+    /// for stability" (many bounces, small bright lights): pre-filtered far radiance instead
+    /// of far hits shaded one by one, and no BVH traversal of far geometry. What the cache
+    /// blurs (thin occluders, light leaking through coarse voxels) comes out softer or
+    /// brighter; on the bundled scenes it measured less accurate than `Rays` and no steadier
+    /// (benchmarks/RESULTS.md). Emitters beyond the segment are left to the emitter samples,
+    /// whose MIS weights account for the shorter rays.
+    Probes,
+}
+
+impl TraceMode {
+    /// The names `--pc-trace-mode` takes.
+    pub const NAMES: [&str; 2] = ["rays", "probes"];
+
+    pub fn name(self) -> &'static str {
+        match self {
+            Self::Rays => "rays",
+            Self::Probes => "probes",
+        }
+    }
+}
+
+impl std::str::FromStr for TraceMode {
+    type Err = String;
+
+    fn from_str(s: &str) -> Result<Self, String> {
+        match s {
+            "rays" => Ok(Self::Rays),
+            "probes" => Ok(Self::Probes),
+            other => Err(format!(
+                "unknown PC trace mode '{other}' (modes: {})",
+                Self::NAMES.join(", ")
+            )),
         }
     }
 }
@@ -85,6 +139,12 @@ impl PcConfig {
             return Err(format!(
                 "trace_scale must be 1 or 2, not {}",
                 self.trace_scale
+            ));
+        }
+        if !(self.probe_ray_m.is_finite() && self.probe_ray_m > 0.0) {
+            return Err(format!(
+                "probe_ray_m must be positive and finite, not {}",
+                self.probe_ray_m
             ));
         }
         self.restir.validate()?;

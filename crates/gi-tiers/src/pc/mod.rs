@@ -17,7 +17,7 @@
 mod config;
 pub mod denoise;
 
-pub use config::{PC_STAGES, PcConfig, RestirConfig, SpecularConfig};
+pub use config::{PC_STAGES, PcConfig, RestirConfig, SpecularConfig, TraceMode};
 
 use bytemuck::{Pod, Zeroable};
 use gi_cache::lighting::GpuSky;
@@ -70,7 +70,8 @@ pub struct PcUniforms {
     pub specular_max_roughness: f32,
     pub specular_history: f32,
     pub specular_clamp_sigma: f32,
-    pub pad_d: u32,
+    /// BVH segment length of a diffuse ray (`f32::MAX` unless in trace-probe mode).
+    pub probe_ray_m: f32,
     pub pad_e: u32,
     pub pad_f: u32,
 }
@@ -532,6 +533,10 @@ impl PcTier {
             specular_max_roughness: self.config.specular.max_roughness,
             specular_history: self.config.specular.history,
             specular_clamp_sigma: self.config.specular.clamp_sigma,
+            probe_ray_m: match self.config.trace_mode {
+                TraceMode::Rays => f32::MAX,
+                TraceMode::Probes => self.config.probe_ray_m,
+            },
             ..Default::default()
         }
     }
