@@ -171,6 +171,9 @@ enum Command {
         /// Full-resolution pixels per trace pixel along each axis (1 or 2).
         #[arg(long, default_value_t = 2)]
         trace_scale: u32,
+        /// What the diffuse rays read: rays, or probes (trace-probe mode).
+        #[arg(long, default_value = "rays", value_parser = |s: &str| s.parse::<gi_tiers::pc::TraceMode>())]
+        trace_mode: gi_tiers::pc::TraceMode,
         /// Also write the results as JSON to this file.
         #[arg(long)]
         json: Option<PathBuf>,
@@ -311,6 +314,7 @@ fn main() -> anyhow::Result<()> {
             frames,
             variants,
             trace_scale,
+            trace_mode,
             json,
         } => {
             let report = pc::run(&pc::PcOptions {
@@ -320,6 +324,7 @@ fn main() -> anyhow::Result<()> {
                 frames,
                 variants,
                 trace_scale,
+                trace_mode,
             })?;
             print!("{}", report.table());
             write_json(json, &report.json())

@@ -9,7 +9,7 @@
 
 use anyhow::Context;
 use gi_gpu::PassTimings;
-use gi_tiers::pc::{PC_STAGES, PcMemory};
+use gi_tiers::pc::{PC_STAGES, PcMemory, TraceMode};
 use gi_tiers::{CameraMode, PcConfig, PcTier, Renderer, TierKind, TierSettings};
 
 const MIB: f64 = (1 << 20) as f64;
@@ -35,6 +35,8 @@ pub struct PcOptions {
     pub frames: u32,
     pub variants: Vec<String>,
     pub trace_scale: u32,
+    /// What the diffuse rays read (`rays` or `probes`).
+    pub trace_mode: TraceMode,
 }
 
 /// One scene in one variant.
@@ -84,6 +86,7 @@ pub fn run(options: &PcOptions) -> anyhow::Result<PcReport> {
                 PcConfig::without(variant).map_err(anyhow::Error::msg)?
             };
             config.trace_scale = options.trace_scale;
+            config.trace_mode = options.trace_mode;
             let settings = TierSettings {
                 width: options.size.0,
                 height: options.size.1,
@@ -132,9 +135,15 @@ impl PcReport {
                 "CPU wall-clock"
             };
             out += &format!(
-                "{scene} {}x{}, trace scale {}, on {}: median of {} frames after {} still \
-                 warm-up frames ({clock}), ms\n\n| pass |",
-                o.size.0, o.size.1, o.trace_scale, runs[0].adapter, o.frames, o.warmup
+                "{scene} {}x{}, trace scale {}, trace mode {}, on {}: median of {} frames after \
+                 {} still warm-up frames ({clock}), ms\n\n| pass |",
+                o.size.0,
+                o.size.1,
+                o.trace_scale,
+                o.trace_mode.name(),
+                runs[0].adapter,
+                o.frames,
+                o.warmup
             );
             for run in &runs {
                 let label = if run.variant == "default" {
@@ -189,6 +198,7 @@ impl PcReport {
             "warmup": o.warmup,
             "frames": o.frames,
             "trace_scale": o.trace_scale,
+            "trace_mode": o.trace_mode.name(),
             "runs": self.runs.iter().map(|run| serde_json::json!({
                 "scene": run.scene,
                 "variant": run.variant,
@@ -234,6 +244,7 @@ mod tests {
             frames: 2,
             variants: vec!["default".into(), "spatial".into()],
             trace_scale: 2,
+            trace_mode: TraceMode::Rays,
         })
         .unwrap();
         assert_eq!(report.runs.len(), 2);
