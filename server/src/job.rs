@@ -1,0 +1,432 @@
+//! What a job is: the request a client posts, the normalized spec the service keeps, its state
+//! and its result.
+
+use std::collections::BTreeMap;
+
+use serde::{Deserialize, Serialize};
+
+use crate::{config::Config, error::ApiError};
+
+/// Defaults of a job's optional fields.
+pub const DEFAULT_WIDTH: u32 = 320;
+pub const DEFAULT_HEIGHT: u32 = 240;
+pub const DEFAULT_SPP: u32 = 16;
+pub const DEFAULT_SEED: u64 = 1;
+
+/// The body of `POST /v1/jobs`. Unknown fields are refused so a typo never silently renders
+/// something else.
+#[derive(Clone, Debug, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct JobRequest {
+    /// A bundled scene name, a scene of the configured scene folders, or an uploaded scene's id.
+    pub scene: String,
+    /// `auto` (the default), or a tier name: `reference`, `direct`, `path`, `mobile`, `pc`...
+    #[serde(default)]
+    pub tier: Option<String>,
+    pub width: Option<u32>,
+    pub height: Option<u32>,
+    /// Frames rendered after the warm-up; scene time advances by the scene's frame time per
+    /// frame and the last one is the image.
+    pub frames: Option<u32>,
+    /// Still warm-up frames before `frames` (default: the tier's own, e.g. 63 for `mobile`).
+    pub warmup: Option<u32>,
+    /// Samples per pixel for the path tracers, anti-aliasing samples for `direct`.
+    pub spp: Option<u32>,
+    pub seed: Option<u64>,
+    #[serde(default)]
+    pub camera: Option<CameraSpec>,
+    /// Measure the image against the path-traced reference.
+    #[serde(default)]
+    pub compare: bool,
+    /// Samples per pixel of the reference (default: the service's).
+    pub reference_spp: Option<u32>,
+}
+
+/// Which camera a job looks through.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(untagged)]
+pub enum CameraSpec {
+    /// `"default"` (the scene's default camera), `"path"` (the scene's camera path), or the
+    /// name of a camera node in the scene.
+    Named(String),
+    /// An explicit pinhole camera.
+    LookAt(LookAt),
+}
+
+/// A camera at `position` looking at `target` (+Y up), in world meters.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct LookAt {
+    pub position: [f32; 3],
+    pub target: [f32; 3],
+    /// Vertical field of view in degrees (default 50).
+    #[serde(default = "default_fov_deg")]
+    pub fov_deg: f32,
+}
+
+fn default_fov_deg() -> f32 {
+    50.0
+}
+
+/// A validated job: every field resolved to a value. Stored with the job.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct JobSpec {
+    pub scene: String,
+    /// The tier asked for (`auto` or a tier name).
+    pub tier: String,
+    pub width: u32,
+    pub height: u32,
+    pub frames: u32,
+    /// `None`: the tier's default warm-up.
+    pub warmup: Option<u32>,
+    pub spp: u32,
+    pub seed: u64,
+    pub camera: CameraSpec,
+    pub compare: bool,
+    /// Set when `compare` is.
+    pub reference_spp: Option<u32>,
+}
+
+impl JobRequest {
+    /// Checks every field against the service's limits and fills in the defaults. The scene
+    /// and tier names are checked by the caller, who knows the catalog and the GPU.
+    pub fn normalize(self, config: &Config) -> Result<JobSpec, ApiError> {
+        let width = self.width.unwrap_or(DEFAULT_WIDTH);
+        let height = self.height.unwrap_or(DEFAULT_HEIGHT);
+        let frames = self.frames.unwrap_or(1);
+        let spp = self.spp.unwrap_or(DEFAULT_SPP);
+        within("width", width, 1, config.max_width)?;
+        within("height", height, 1, config.max_height)?;
+        within("frames", frames, 1, config.max_frames)?;
+        if let Some(warmup) = self.warmup {
+            within("warmup", warmup, 0, config.max_frames)?;
+        }
+        within("spp", spp, 1, config.max_spp)?;
+        // The whole job is bounded, not only each field: warm-up and frames are both frames.
+        let all_frames = u64::from(frames) + u64::from(self.warmup.unwrap_or(0));
+        if all_frames > u64::from(config.max_frames) {
+            return Err(ApiError::invalid(
+                "limit_exceeded",
+                format!(
+                    "warmup + frames is {all_frames}, more than the {} this service renders per job",
+                    config.max_frames
+                ),
+            ));
+        }
+        let reference_spp = if self.compare {
+            let spp = self.reference_spp.unwrap_or(config.reference_spp);
+            within("reference_spp", spp, 1, config.max_spp)?;
+            Some(spp)
+        } else if self.reference_spp.is_some() {
+            return Err(ApiError::invalid(
+                "invalid_request",
+                "reference_spp is only used with \"compare\": true",
+            ));
+        } else {
+            None
+        };
+        let camera = self
+            .camera
+            .unwrap_or_else(|| CameraSpec::Named("default".to_string()));
+        if let CameraSpec::LookAt(look) = &camera {
+            look.validate()?;
+        }
+        Ok(JobSpec {
+            scene: self.scene,
+            tier: self.tier.unwrap_or_else(|| "auto".to_string()),
+            width,
+            height,
+            frames,
+            warmup: self.warmup,
+            spp,
+            seed: self.seed.unwrap_or(DEFAULT_SEED),
+            camera,
+            compare: self.compare,
+            reference_spp,
+        })
+    }
+}
+
+impl LookAt {
+    fn validate(&self) -> Result<(), ApiError> {
+        let finite = self
+            .position
+            .iter()
+            .chain(&self.target)
+            .all(|v| v.is_finite());
+        if !finite {
+            return Err(ApiError::invalid(
+                "invalid_camera",
+                "camera position and target must be finite numbers",
+            ));
+        }
+        let position = glam::Vec3::from(self.position);
+        let target = glam::Vec3::from(self.target);
+        if (target - position).length() < 1e-6 {
+            return Err(ApiError::invalid(
+                "invalid_camera",
+                "camera target must differ from its position",
+            ));
+        }
+        if !(self.fov_deg > 0.0 && self.fov_deg < 180.0) {
+            return Err(ApiError::invalid(
+                "invalid_camera",
+                format!("fov_deg {} is out of range (0, 180)", self.fov_deg),
+            ));
+        }
+        Ok(())
+    }
+}
+
+fn within(name: &str, value: u32, min: u32, max: u32) -> Result<(), ApiError> {
+    if (min..=max).contains(&value) {
+        Ok(())
+    } else {
+        Err(ApiError::invalid(
+            "limit_exceeded",
+            format!("{name} {value} is out of range ({min}..={max})"),
+        ))
+    }
+}
+
+/// Where a job is in its life.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum JobState {
+    Queued,
+    Running,
+    Done,
+    Failed,
+    Cancelled,
+}
+
+impl JobState {
+    pub const ALL: [JobState; 5] = [
+        JobState::Queued,
+        JobState::Running,
+        JobState::Done,
+        JobState::Failed,
+        JobState::Cancelled,
+    ];
+
+    pub fn name(self) -> &'static str {
+        match self {
+            JobState::Queued => "queued",
+            JobState::Running => "running",
+            JobState::Done => "done",
+            JobState::Failed => "failed",
+            JobState::Cancelled => "cancelled",
+        }
+    }
+
+    pub fn index(self) -> usize {
+        self as usize
+    }
+
+    /// Done, failed or cancelled: the job will not change any more.
+    pub fn is_final(self) -> bool {
+        matches!(
+            self,
+            JobState::Done | JobState::Failed | JobState::Cancelled
+        )
+    }
+}
+
+/// How far a running job is.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct Progress {
+    /// `warmup`, `frames`, `reference` or `direct`.
+    pub stage: &'static str,
+    /// Frames (or samples per pixel, for CPU renders) done in this stage, of `total`.
+    pub done: u32,
+    pub total: u32,
+    /// The whole job's share done, 0..1 (a rough estimate across stages).
+    pub fraction: f64,
+}
+
+/// Why a job failed.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct JobFailure {
+    pub code: String,
+    pub message: String,
+}
+
+/// What a finished job measured.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct JobResult {
+    /// The tier that rendered (what `auto` resolved to).
+    pub tier: String,
+    /// `gpu` or `cpu`, and the adapter for GPU tiers.
+    pub device: String,
+    pub width: u32,
+    pub height: u32,
+    /// Measured frames and the still warm-up frames rendered before them (0 for tiers
+    /// without history).
+    pub frames: u32,
+    pub warmup: u32,
+    /// The measured frame's time (the sum of its passes).
+    pub ms_per_frame: f64,
+    /// The measured frame's passes in milliseconds (a pass recorded several times, summed).
+    pub passes: BTreeMap<String, f64>,
+    /// The tier's GI passes (`cache/*` and the tier's own) for tiers that split them out.
+    pub gi_ms: Option<f64>,
+    /// Bytes the tier owned after the measured frame.
+    pub memory_bytes: u64,
+    pub samples_per_second: Option<f64>,
+    pub rays_per_second: Option<f64>,
+    /// Wall time of the whole tier render (warm-up and every frame).
+    pub render_seconds: f64,
+    /// Present when the job compared against the reference.
+    pub comparison: Option<Comparison>,
+}
+
+/// The image measured against the path-traced reference.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct Comparison {
+    pub rmse_srgb8: f64,
+    pub rmse_linear: f64,
+    pub rel_mse: f64,
+    /// `rmse_srgb8 / direct_rmse_srgb8`; null when the direct-only image matches the reference.
+    pub gain_vs_direct: Option<f64>,
+    pub direct_rmse_srgb8: f64,
+    pub reference_spp: u32,
+    pub reference_seed: u64,
+    /// How long the reference took when it was rendered.
+    pub reference_seconds: f64,
+    /// True when the reference came from the cache.
+    pub reference_cached: bool,
+}
+
+/// A job as stored in the data folder.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct JobRecord {
+    pub id: u64,
+    pub spec: JobSpec,
+    pub state: JobState,
+    pub submitted_at: String,
+    pub started_at: Option<String>,
+    pub finished_at: Option<String>,
+    /// Times the job started running (a crash or restart while it ran starts it again).
+    pub attempts: u32,
+    pub failure: Option<JobFailure>,
+    pub result: Option<JobResult>,
+}
+
+/// The image files of a finished job, as served under `/v1/jobs/{id}/`.
+pub const IMAGE_FILES: [&str; 4] = ["image.png", "image.exr", "reference.png", "error.png"];
+
+impl JobRecord {
+    /// The job as the API shows it: the record, its URL, its progress while running and the
+    /// URLs of its images once done.
+    pub fn view(&self, progress: Option<&Progress>) -> serde_json::Value {
+        let url = format!("/v1/jobs/{}", self.id);
+        let images: serde_json::Map<String, serde_json::Value> = if self.state == JobState::Done {
+            IMAGE_FILES
+                .iter()
+                .filter(|file| {
+                    self.spec.compare || !matches!(**file, "reference.png" | "error.png")
+                })
+                .map(|file| {
+                    let key = file.replace('.', "_");
+                    (key, format!("{url}/{file}").into())
+                })
+                .collect()
+        } else {
+            serde_json::Map::new()
+        };
+        serde_json::json!({
+            "id": self.id.to_string(),
+            "url": url,
+            "state": self.state,
+            "progress": if self.state == JobState::Running { progress } else { None },
+            "request": self.spec,
+            "submitted_at": self.submitted_at,
+            "started_at": self.started_at,
+            "finished_at": self.finished_at,
+            "attempts": self.attempts,
+            "error": self.failure,
+            "result": self.result,
+            "images": images,
+        })
+    }
+}
+
+/// The current time as RFC 3339 in UTC with milliseconds (`2026-11-22T12:00:00.123Z`).
+pub fn now_rfc3339() -> String {
+    let since_epoch = std::time::SystemTime::now()
+        .duration_since(std::time::UNIX_EPOCH)
+        .unwrap_or_default();
+    format_rfc3339(since_epoch.as_millis() as i64)
+}
+
+/// Formats milliseconds since the Unix epoch (UTC) as RFC 3339.
+fn format_rfc3339(millis: i64) -> String {
+    let days = millis.div_euclid(86_400_000);
+    let ms_of_day = millis.rem_euclid(86_400_000);
+    // Civil date from days since 1970-01-01 (Howard Hinnant's algorithm).
+    let z = days + 719_468;
+    let era = z.div_euclid(146_097);
+    let doe = z.rem_euclid(146_097);
+    let yoe = (doe - doe / 1460 + doe / 36_524 - doe / 146_096) / 365;
+    let doy = doe - (365 * yoe + yoe / 4 - yoe / 100);
+    let mp = (5 * doy + 2) / 153;
+    let day = doy - (153 * mp + 2) / 5 + 1;
+    let month = if mp < 10 { mp + 3 } else { mp - 9 };
+    let year = yoe + era * 400 + i64::from(month <= 2);
+    format!(
+        "{year:04}-{month:02}-{day:02}T{:02}:{:02}:{:02}.{:03}Z",
+        ms_of_day / 3_600_000,
+        ms_of_day / 60_000 % 60,
+        ms_of_day / 1000 % 60,
+        ms_of_day % 1000
+    )
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn rfc3339_dates_match_known_instants() {
+        assert_eq!(format_rfc3339(0), "1970-01-01T00:00:00.000Z");
+        // 2000-02-29 (a leap day of a century leap year) 12:34:56.789
+        assert_eq!(format_rfc3339(951_827_696_789), "2000-02-29T12:34:56.789Z");
+        assert_eq!(
+            format_rfc3339(1_798_761_599_000),
+            "2026-12-31T23:59:59.000Z"
+        );
+    }
+
+    #[test]
+    fn defaults_fill_in_and_limits_hold() {
+        let config = Config::with_data_dir("unused");
+        let request: JobRequest = serde_json::from_str(r#"{"scene": "cornell-box"}"#).unwrap();
+        let spec = request.normalize(&config).unwrap();
+        assert_eq!((spec.width, spec.height, spec.frames), (320, 240, 1));
+        assert_eq!(spec.tier, "auto");
+        assert_eq!(spec.camera, CameraSpec::Named("default".to_string()));
+        assert_eq!(spec.reference_spp, None);
+
+        let too_many: JobRequest =
+            serde_json::from_str(r#"{"scene": "x", "frames": 200, "warmup": 100}"#).unwrap();
+        let error = too_many.normalize(&config).unwrap_err();
+        assert_eq!(error.code, "limit_exceeded");
+    }
+
+    #[test]
+    fn cameras_parse_by_name_or_look_at() {
+        let named: CameraSpec = serde_json::from_str(r#""path""#).unwrap();
+        assert_eq!(named, CameraSpec::Named("path".to_string()));
+        let look: CameraSpec =
+            serde_json::from_str(r#"{"position": [0, 1, 5], "target": [0, 1, 0]}"#).unwrap();
+        assert_eq!(
+            look,
+            CameraSpec::LookAt(LookAt {
+                position: [0.0, 1.0, 5.0],
+                target: [0.0, 1.0, 0.0],
+                fov_deg: 50.0
+            })
+        );
+        assert!(serde_json::from_str::<CameraSpec>(r#"{"position": [0, 1, 5]}"#).is_err());
+    }
+}

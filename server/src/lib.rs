@@ -1,0 +1,164 @@
+//! The render service: queued render jobs over HTTP (axum + tokio), their error against the
+//! path-traced reference, and a web page to submit and inspect them.
+//!
+//! ```no_run
+//! # async fn demo() -> anyhow::Result<()> {
+//! let config = gi_server::Config::with_data_dir("gi-server-data");
+//! let server = gi_server::Server::start(config).await?;
+//! println!("listening on http://{}", server.local_addr());
+//! server.run(gi_server::shutdown_signal()).await?;
+//! # Ok(()) }
+//! ```
+//!
+//! Jobs and results live in the data folder; a restart (or a crash) finds queued jobs queued
+//! and runs interrupted ones again. GPU tiers run one job at a time on a GPU worker, CPU
+//! renders (the reference tier, and the references of comparisons) on a bounded pool, and
+//! references are cached in the folder `gi compare` uses.
+
+#![recursion_limit = "512"]
+
+mod api;
+pub mod config;
+mod error;
+pub mod job;
+mod metrics;
+mod openapi;
+mod runner;
+mod scenes;
+mod service;
+mod store;
+mod web;
+
+use std::{future::Future, net::SocketAddr, sync::Arc, time::Duration};
+
+use anyhow::Context;
+pub use api::ROUTES;
+pub use config::Config;
+use service::{GpuInfo, Service};
+use tokio::{net::TcpListener, task::JoinHandle};
+
+/// A started service: data folder recovered, GPU probed, socket bound, workers running.
+pub struct Server {
+    listener: TcpListener,
+    service: Arc<Service>,
+    workers: Vec<JoinHandle<()>>,
+}
+
+impl Server {
+    /// Opens the data folder (recovering its jobs), looks for a GPU, binds the address and
+    /// starts the workers. Requests are served once [`Server::run`] is called.
+    pub async fn start(config: Config) -> anyhow::Result<Self> {
+        config.validate().map_err(anyhow::Error::msg)?;
+        let store = store::Store::open(&config.data_dir)
+            .with_context(|| format!("opening the data folder {}", config.data_dir.display()))?;
+        let gpu = if config.no_gpu {
+            None
+        } else {
+            tokio::task::spawn_blocking(probe_gpu).await?
+        };
+        match &gpu {
+            Some(gpu) => tracing::info!(adapter = %gpu.name, hardware = gpu.hardware, "GPU found"),
+            None => {
+                tracing::warn!("no GPU adapter: GPU tiers are refused, auto renders on the CPU")
+            }
+        }
+        let listener = TcpListener::bind(config.bind)
+            .await
+            .with_context(|| format!("binding {}", config.bind))?;
+        let pool = config.reference_pool;
+        let (service, queued) =
+            tokio::task::spawn_blocking(move || Service::recover(config, store, gpu))
+                .await?
+                .context("reading the jobs of the data folder")?;
+        if !queued.is_empty() {
+            tracing::info!("{} jobs waiting from before the restart", queued.len());
+        }
+        let mut workers = vec![tokio::spawn(service.clone().gpu_worker())];
+        for _ in 0..pool {
+            workers.push(tokio::spawn(service.clone().cpu_worker()));
+        }
+        Ok(Self {
+            listener,
+            service,
+            workers,
+        })
+    }
+
+    /// The bound address (useful with port 0).
+    pub fn local_addr(&self) -> SocketAddr {
+        self.listener
+            .local_addr()
+            .expect("a bound listener has an address")
+    }
+
+    /// Serves requests until `shutdown` completes, then stops gracefully: no new connections,
+    /// open requests answered, running jobs stopped at their next frame (they run again after
+    /// the restart), all within the configured grace period.
+    pub async fn run(
+        self,
+        shutdown: impl Future<Output = ()> + Send + 'static,
+    ) -> anyhow::Result<()> {
+        let service = self.service.clone();
+        let grace = Duration::from_secs(service.config.shutdown_grace_s);
+        let stopping = service.clone();
+        let app = api::router(service.clone());
+        let serve = axum::serve(self.listener, app).with_graceful_shutdown(async move {
+            shutdown.await;
+            tracing::info!("shutting down");
+            stopping.shut_down();
+        });
+        serve.await.context("serving HTTP")?;
+        service.shut_down();
+        let workers = futures_join_all(self.workers);
+        if tokio::time::timeout(grace, workers).await.is_err() {
+            tracing::warn!(
+                "jobs still running after {} s; they run again after the restart",
+                grace.as_secs()
+            );
+        }
+        Ok(())
+    }
+}
+
+async fn futures_join_all(handles: Vec<JoinHandle<()>>) {
+    for handle in handles {
+        let _ = handle.await;
+    }
+}
+
+/// Completes on SIGTERM or Ctrl-C (SIGINT).
+pub async fn shutdown_signal() {
+    let ctrl_c = async {
+        let _ = tokio::signal::ctrl_c().await;
+    };
+    #[cfg(unix)]
+    let terminate = async {
+        match tokio::signal::unix::signal(tokio::signal::unix::SignalKind::terminate()) {
+            Ok(mut signal) => {
+                signal.recv().await;
+            }
+            Err(_) => std::future::pending::<()>().await,
+        }
+    };
+    #[cfg(not(unix))]
+    let terminate = std::future::pending::<()>();
+    tokio::select! {
+        () = ctrl_c => {},
+        () = terminate => {},
+    }
+}
+
+/// The GPU adapter, if any (blocking: it opens a device).
+fn probe_gpu() -> Option<GpuInfo> {
+    match gi_gpu::GpuContext::new() {
+        Ok(ctx) => Some(GpuInfo {
+            name: ctx.adapter_info.name.clone(),
+            device_type: format!("{:?}", ctx.adapter_info.device_type),
+            hardware: ctx.adapter_info.device_type != gi_gpu::wgpu::DeviceType::Cpu,
+        }),
+        Err(error) => {
+            tracing::warn!("no GPU: {error}");
+            None
+        }
+    }
+}

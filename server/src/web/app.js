@@ -1,0 +1,205 @@
+// The render service's web page: submit a job, follow it, compare its images with the
+// reference, browse past jobs. Talks only to the JSON API; text from the API is always set with
+// textContent, never as HTML (scene names come from uploads).
+"use strict";
+
+const $ = (id) => document.getElementById(id);
+let currentJob = null;
+let pollTimer = null;
+let oldestShown = null;
+
+async function api(path, options) {
+  const response = await fetch(path, options);
+  const body = await response.json().catch(() => null);
+  if (!response.ok) {
+    const message = body && body.error ? `${body.error.message} (${body.error.code})` : `HTTP ${response.status}`;
+    throw new Error(message);
+  }
+  return body;
+}
+
+function option(select, value, text) {
+  const element = document.createElement("option");
+  element.value = value;
+  element.textContent = text;
+  select.appendChild(element);
+}
+
+async function loadChoices() {
+  const [scenes, openapi, health] = await Promise.all([
+    api("/v1/scenes"), api("/openapi.json"), api("/healthz"),
+  ]);
+  for (const scene of scenes.scenes) {
+    option($("scene"), scene.name, scene.source === "uploaded" ? `${scene.name} (${scene.description})` : scene.name);
+  }
+  // The tiers come from the API's own schema, so new tiers appear without changing this page.
+  const request = openapi.components.schemas.JobRequest.properties;
+  for (const tier of request.tier.enum) option($("tier"), tier, tier);
+  $("width").max = request.width.maximum;
+  $("height").max = request.height.maximum;
+  $("spp").max = request.spp.maximum;
+  const gpu = health.gpu ? `GPU: ${health.gpu.name}${health.gpu.hardware ? "" : " (software)"}` : "no GPU: the auto, reference and direct tiers run on the CPU";
+  $("health").textContent = `version ${health.version} · ${gpu} · ${health.queue_depth} queued`;
+}
+
+function formRequest() {
+  const number = (id) => $(id).value === "" ? undefined : Number($(id).value);
+  const request = {
+    scene: $("scene").value,
+    tier: $("tier").value,
+    width: number("width"),
+    height: number("height"),
+    spp: number("spp"),
+    frames: number("frames"),
+    warmup: number("warmup"),
+    compare: $("compare").checked,
+  };
+  if (request.compare) request.reference_spp = number("reference_spp");
+  return request;
+}
+
+async function submit(event) {
+  event.preventDefault();
+  $("form-error").textContent = "";
+  $("submit").disabled = true;
+  try {
+    const accepted = await api("/v1/jobs", {
+      method: "POST",
+      headers: { "Content-Type": "application/json" },
+      body: JSON.stringify(formRequest()),
+    });
+    showJob(accepted.id);
+    refreshJobs();
+  } catch (error) {
+    $("form-error").textContent = error.message;
+  } finally {
+    $("submit").disabled = false;
+  }
+}
+
+function showJob(id) {
+  currentJob = id;
+  clearTimeout(pollTimer);
+  for (const img of ["img-tier", "img-reference", "img-error"]) $(img).removeAttribute("src");
+  $("metrics").tBodies[0].replaceChildren();
+  $("passes").tBodies[0].replaceChildren();
+  $("job").hidden = false;
+  poll();
+}
+
+function fixed(value, digits) {
+  return value === null || value === undefined ? "–" : Number(value).toFixed(digits);
+}
+
+function row(table, name, value, key) {
+  const tr = document.createElement("tr");
+  const th = document.createElement("th");
+  th.textContent = name;
+  const td = document.createElement("td");
+  td.className = "num";
+  td.textContent = value;
+  if (key) td.dataset.metric = key;
+  tr.append(th, td);
+  table.tBodies[0].appendChild(tr);
+}
+
+function render(job) {
+  const section = $("job");
+  section.dataset.state = job.state;
+  $("job-id").textContent = job.id;
+  $("job-state").textContent = job.state;
+  $("job-state").className = `state ${job.state}`;
+  const r = job.request;
+  $("job-summary").textContent = `${r.scene} · tier ${r.tier} · ${r.width}×${r.height} · ${r.spp} spp · ${r.frames} frame(s)` +
+    (r.compare ? ` · reference ${r.reference_spp} spp` : "");
+  const progress = job.state === "done" ? 1 : job.progress ? job.progress.fraction : 0;
+  $("job-progress").value = progress;
+  $("job-stage").textContent = job.progress ? `${job.progress.stage} ${job.progress.done}/${job.progress.total}` : "";
+  $("cancel").hidden = job.state !== "queued" && job.state !== "running";
+  $("job-error").textContent = job.error ? `${job.error.message} (${job.error.code})` : "";
+  if (job.state !== "done") return;
+
+  $("img-tier").src = job.images.image_png;
+  $("img-reference").closest("figure").hidden = !job.images.reference_png;
+  $("img-error").closest("figure").hidden = !job.images.error_png;
+  if (job.images.reference_png) $("img-reference").src = job.images.reference_png;
+  if (job.images.error_png) $("img-error").src = job.images.error_png;
+
+  const result = job.result;
+  const metrics = $("metrics");
+  metrics.tBodies[0].replaceChildren();
+  row(metrics, "tier used", `${result.tier} on ${result.device}`, "tier");
+  const c = result.comparison;
+  if (c) {
+    row(metrics, "rmse_srgb8", fixed(c.rmse_srgb8, 2), "rmse_srgb8");
+    row(metrics, "rmse_linear", fixed(c.rmse_linear, 4), "rmse_linear");
+    row(metrics, "gain_vs_direct", fixed(c.gain_vs_direct, 3), "gain_vs_direct");
+    row(metrics, "reference", `${c.reference_spp} spp${c.reference_cached ? " (cached)" : ""}, ${fixed(c.reference_seconds, 2)} s`, "reference_spp");
+  }
+  row(metrics, "ms per frame", fixed(result.ms_per_frame, 2), "ms_per_frame");
+  if (result.gi_ms !== null) row(metrics, "GI ms", fixed(result.gi_ms, 2), "gi_ms");
+  row(metrics, "memory", `${fixed(result.memory_bytes / 1048576, 2)} MiB`, "memory");
+  row(metrics, "frames", `${result.frames} after ${result.warmup} warm-up`, "frames");
+  row(metrics, "render time", `${fixed(result.render_seconds, 2)} s`, "render_seconds");
+  const passes = $("passes");
+  passes.tBodies[0].replaceChildren();
+  for (const [name, ms] of Object.entries(result.passes)) row(passes, name, `${fixed(ms, 3)} ms`);
+}
+
+async function poll() {
+  const id = currentJob;
+  try {
+    const job = await api(`/v1/jobs/${id}`);
+    if (id !== currentJob) return;
+    render(job);
+    if (job.state === "queued" || job.state === "running") {
+      pollTimer = setTimeout(poll, 400);
+    } else {
+      refreshJobs();
+    }
+  } catch (error) {
+    $("job-error").textContent = error.message;
+    pollTimer = setTimeout(poll, 2000);
+  }
+}
+
+function jobRow(job) {
+  const tr = document.createElement("tr");
+  tr.dataset.id = job.id;
+  const r = job.request;
+  const c = job.result && job.result.comparison;
+  const tier = job.result && job.result.tier !== r.tier ? `${r.tier} → ${job.result.tier}` : r.tier;
+  const cells = [job.id, r.scene, tier, `${r.width}×${r.height}`, job.state,
+    c ? fixed(c.rmse_srgb8, 2) : "", c ? fixed(c.gain_vs_direct, 3) : "",
+    new Date(job.submitted_at).toLocaleString()];
+  for (const text of cells) {
+    const td = document.createElement("td");
+    td.textContent = text;
+    tr.appendChild(td);
+  }
+  tr.addEventListener("click", () => showJob(job.id));
+  return tr;
+}
+
+async function refreshJobs(older) {
+  const before = older && oldestShown ? `&before=${oldestShown}` : "";
+  try {
+    const page = await api(`/v1/jobs?limit=20${before}`);
+    const body = $("jobs").tBodies[0];
+    if (!older) body.replaceChildren();
+    for (const job of page.jobs) body.appendChild(jobRow(job));
+    if (page.jobs.length) oldestShown = page.jobs[page.jobs.length - 1].id;
+    $("older").hidden = !page.next;
+  } catch (error) {
+    $("form-error").textContent = error.message;
+  }
+}
+
+$("job-form").addEventListener("submit", submit);
+$("cancel").addEventListener("click", async () => {
+  try { render(await api(`/v1/jobs/${currentJob}`, { method: "DELETE" })); } catch (error) { $("job-error").textContent = error.message; }
+});
+$("older").addEventListener("click", () => refreshJobs(true));
+loadChoices().catch((error) => { $("form-error").textContent = error.message; });
+refreshJobs();
+setInterval(() => { if (!document.hidden) refreshJobs(); }, 5000);
