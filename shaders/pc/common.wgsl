@@ -11,7 +11,7 @@
 
 #import gi::camera::Camera
 #import gi::lights::Sky
-#import gi::packing::unpack_unit_vector
+#import gi::packing::{unpack_unit_vector, unpack_rgb9e5}
 
 // Bits of `PcUniforms::flags`.
 const FLAG_TEMPORAL: u32 = 1u;
@@ -82,15 +82,15 @@ struct Surface {
     pad_b: u32,
 }
 
-// Mirror of `gi_tiers::pc::GpuReservoir`, 64 bytes.
+// Mirror of `gi_tiers::pc::GpuReservoir`, 48 bytes.
 struct Reservoir {
     // The sample point `y`, or for a sky sample its unit direction.
     position: vec3<f32>,
     // Unbiased contribution weight W (0: empty).
     w: f32,
     // Radiance leaving `y` towards the receiver (Lambertian, so towards any receiver on its
-    // side), or the sky's radiance along the direction.
-    radiance: vec3<f32>,
+    // side), or the sky's radiance along the direction (RGB9E5).
+    radiance: u32,
     // Samples behind it.
     m: f32,
     // Packed normal of the surface at `y`, on the side the ray arrived from; 0 for sky.
@@ -106,8 +106,6 @@ struct Reservoir {
     // cache's indirect irradiance.
     fixed_radiance: u32,
     albedo: u32,
-    pad_a: u32,
-    pad_b: u32,
 }
 
 // Mirror of `gi_tiers::pc::GpuSpecularSample`, 32 bytes: one trace pixel's specular ray.
@@ -157,7 +155,7 @@ fn unpack_half4(p: vec2<u32>) -> vec4<f32> {
 }
 
 fn empty_reservoir() -> Reservoir {
-    return Reservoir(vec3(0.0), 0.0, vec3(0.0), 0.0, 0u, 0u, 0.0, 0u, 0u, 0u, 0u, 0u);
+    return Reservoir(vec3(0.0), 0.0, 0u, 0.0, 0u, 0u, 0.0, 0u, 0u, 0u);
 }
 
 fn is_sky_depth(depth: f32) -> bool {
@@ -194,7 +192,7 @@ fn target_pdf(r: Reservoir, x: vec3<f32>, n: vec3<f32>) -> f32 {
     if (r.flags & SAMPLE_SKY) == 0u && dot(unpack_unit_vector(r.normal), -d.xyz) <= 0.0 {
         return 0.0;
     }
-    return luminance(r.radiance) * cos_x;
+    return luminance(unpack_rgb9e5(r.radiance)) * cos_x;
 }
 
 // Jacobian of the reconnection shift that moves `r`'s sample from receiver `old_receiver` to
@@ -276,7 +274,7 @@ fn reservoir_irradiance(r: Reservoir, source: vec3<f32>, x: vec3<f32>, n: vec3<f
     if (r.flags & SAMPLE_SKY) == 0u && dot(unpack_unit_vector(r.normal), -d.xyz) <= 0.0 {
         return vec3(0.0);
     }
-    return r.radiance * (cos_x * r.w * reconnection_jacobian(r, source, x, j_max));
+    return unpack_rgb9e5(r.radiance) * (cos_x * r.w * reconnection_jacobian(r, source, x, j_max));
 }
 
 // Whether two receivers lie on one surface for reuse: normals within the cone and `b` within

@@ -28,7 +28,7 @@
 #import gi::brdf::specular_albedo
 #import gi::sampling::{sampler_new, sampler_next_f32, sampler_next_2d, concentric_disk}
 #import gi::camera::camera_ray
-#import gi::packing::{unpack_unit_vector, unpack_rgb9e5}
+#import gi::packing::{unpack_unit_vector, pack_rgb9e5, unpack_rgb9e5}
 #import gi::cache::trace::cache_indirect_irradiance
 #import gi::pc::common::{
     PcUniforms, Surface, Reservoir, Combiner, empty_reservoir, is_sky_depth, has_surface,
@@ -111,7 +111,7 @@ fn refreshed(r: Reservoir) -> Reservoir {
     var out = r;
     let albedo = unpack4x8unorm(r.albedo).xyz;
     let indirect = cache_indirect_irradiance(r.position, unpack_unit_vector(r.normal)).xyz;
-    out.radiance = unpack_rgb9e5(r.fixed_radiance) + albedo * INV_PI * indirect;
+    out.radiance = pack_rgb9e5(unpack_rgb9e5(r.fixed_radiance) + albedo * INV_PI * indirect);
     return out;
 }
 

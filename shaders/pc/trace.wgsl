@@ -33,7 +33,7 @@
 #import gi::camera::camera_ray
 #import gi::scene::{triangles, lights, selection, sample_texture, emission, geometric_normal, triangle_uv, material_of}
 #import gi::lights::{LIGHT_DIRECTIONAL, light_incident, sky_radiance, sample_emitter}
-#import gi::packing::{pack_unit_vector, unpack_unit_vector, pack_rgb9e5}
+#import gi::packing::{pack_unit_vector, unpack_unit_vector, pack_rgb9e5, unpack_rgb9e5}
 #import gi::cache::data::cache
 #import gi::cache::trace::{CacheHit, cache_indirect_irradiance, cache_miss, cache_trace_from, cache_hit_radiance, cache_hit_normal}
 #import gi::pc::common::{
@@ -240,17 +240,17 @@ fn trace(@builtin(global_invocation_id) id: vec3<u32>) {
         if far.hit {
             // The cache's emission stays out when emitter samples cover the emitters.
             r.position = origin + dir * far.t;
-            r.radiance = cache_hit_radiance(far, !emitters_on);
+            r.radiance = pack_rgb9e5(cache_hit_radiance(far, !emitters_on));
             r.normal = pack_unit_vector(cache_hit_normal(far));
-            r.fixed_radiance = pack_rgb9e5(r.radiance);
+            r.fixed_radiance = r.radiance;
         } else if hit.triangle == BVH_MISS {
             r.position = dir;
-            r.radiance = sky_radiance(u.sky, dir);
+            r.radiance = pack_rgb9e5(sky_radiance(u.sky, dir));
             r.flags = SAMPLE_SKY;
         } else {
             let shaded = shade_hit(dir, hit.triangle, hit.barycentrics);
             r.position = shaded.position;
-            r.radiance = shaded.radiance;
+            r.radiance = pack_rgb9e5(shaded.radiance);
             r.normal = pack_unit_vector(shaded.normal);
             r.fixed_radiance = pack_rgb9e5(shaded.fixed_radiance);
             r.albedo = pack4x8unorm(vec4(shaded.albedo, 0.0));
@@ -258,7 +258,7 @@ fn trace(@builtin(global_invocation_id) id: vec3<u32>) {
                 pdf_emit = emitter_pdf(hit.triangle, hit.t, dir);
             }
         }
-        let p = luminance(r.radiance) * local.z;
+        let p = luminance(unpack_rgb9e5(r.radiance)) * local.z;
         let w = p / (pdf_cos + pdf_emit);
         if w > 0.0 && w < FAR {
             weight_sum += w;
@@ -276,10 +276,10 @@ fn trace(@builtin(global_invocation_id) id: vec3<u32>) {
             && !trace_any(Ray(origin, 0.0, light.wi, light.distance * (1.0 - SHADOW_MARGIN))) {
             var r = empty_reservoir();
             r.position = s.position + light.wi * light.distance;
-            r.radiance = light.radiance;
+            r.radiance = pack_rgb9e5(light.radiance);
             r.normal = pack_unit_vector(light.normal);
             r.fixed_radiance = pack_rgb9e5(light.radiance);
-            let p = luminance(r.radiance) * cos_x;
+            let p = luminance(unpack_rgb9e5(r.radiance)) * cos_x;
             // The BVH ray reaches emitters within its segment only.
             let pdf_ray = select(0.0, cos_x * INV_PI, light.distance <= u.probe_ray_m);
             let w = p / (pdf_ray + light.pdf);

@@ -92,8 +92,6 @@ fn shared_structs_match_their_wgsl_layout() {
             occluder_direction,
             fixed_radiance,
             albedo,
-            pad_a,
-            pad_b,
         }),
         size_of::<GpuReservoir>(),
     );

@@ -76,7 +76,7 @@ pub struct PcUniforms {
     pub pad_f: u32,
 }
 
-/// Mirror of `Reservoir` in `shaders/pc/common.wgsl`, 64 bytes.
+/// Mirror of `Reservoir` in `shaders/pc/common.wgsl`, 48 bytes.
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
 pub struct GpuReservoir {
@@ -84,7 +84,8 @@ pub struct GpuReservoir {
     pub position: [f32; 3],
     /// Unbiased contribution weight W.
     pub w: f32,
-    pub radiance: [f32; 3],
+    /// RGB9E5 radiance leaving the sample towards the receiver.
+    pub radiance: u32,
     pub m: f32,
     pub normal: u32,
     /// Bit 0: sky sample; bit 1: occluded (fell back to the temporal reservoir).
@@ -95,8 +96,6 @@ pub struct GpuReservoir {
     pub fixed_radiance: u32,
     /// Unorm8 albedo of a surface sample (diffuse plus split-sum specular towards the receiver) (reflects the cache's indirect light).
     pub albedo: u32,
-    pub pad_a: u32,
-    pub pad_b: u32,
 }
 
 /// Mirror of `SpecularSample` in `shaders/pc/common.wgsl`, 32 bytes: one trace pixel's
