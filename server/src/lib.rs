@@ -116,6 +116,7 @@ impl Server {
                 grace.as_secs()
             );
         }
+        tokio::task::spawn_blocking(move || service.requeue_running_blocking()).await?;
         Ok(())
     }
 }

@@ -2,10 +2,16 @@
 //! gi-tiers [`Renderer`], and measuring the image against the reference. Runs on the GPU
 //! worker or the CPU pool, never on the async runtime's threads.
 
-use std::{collections::BTreeMap, io, path::Path, sync::Arc, time::Instant};
+use std::{
+    collections::{BTreeMap, HashMap},
+    io,
+    path::Path,
+    sync::{Arc, Mutex},
+    time::Instant,
+};
 
 use gi_image::Image;
-use gi_reference::cache::{REFERENCE_SEED, ReferenceCache, ReferenceRequest};
+use gi_reference::cache::{REFERENCE_SEED, ReferenceCache, ReferenceKey, ReferenceRequest};
 use gi_scene::{CameraKey, CameraPath, CameraView, Scene};
 use gi_tiers::{CameraMode, CpuTier, Renderer, TierChoice, TierKind, TierSettings};
 
@@ -259,6 +265,31 @@ pub fn render_tier(
     }))
 }
 
+/// Where comparisons get their references: the cache shared with `gi compare`, and one lock
+/// per reference being made, so jobs comparing the same view at the same time wait for one
+/// path tracer and then read its image from the cache instead of each tracing it.
+pub struct References {
+    cache: ReferenceCache,
+    rendering: Mutex<HashMap<String, Arc<Mutex<()>>>>,
+}
+
+impl References {
+    pub fn new(cache: ReferenceCache) -> Self {
+        Self {
+            cache,
+            rendering: Mutex::new(HashMap::new()),
+        }
+    }
+
+    fn lock_for(&self, key: &ReferenceKey) -> Arc<Mutex<()>> {
+        let name = serde_json::to_string(key).unwrap_or_default();
+        let mut locks = self.rendering.lock().unwrap_or_else(|e| e.into_inner());
+        // Forget the locks nobody holds any more.
+        locks.retain(|_, lock| Arc::strong_count(lock) > 1);
+        locks.entry(name).or_default().clone()
+    }
+}
+
 /// The reference image of a comparison and its metrics.
 pub struct Compared {
     pub reference: Image,
@@ -272,7 +303,7 @@ pub fn compare(
     job: &PreparedJob,
     output: &TierOutput,
     reference_spp: u32,
-    cache: &ReferenceCache,
+    references: &References,
     progress: &(dyn Fn(Progress) + Sync),
     stop: &dyn Fn() -> bool,
     start: f64,
@@ -294,10 +325,14 @@ pub fn compare(
             fraction: start + reference_share * f64::from(done) / f64::from(reference_spp),
         })
     };
-    let Some(reference) = cache
-        .get_or_render(&request, true, &reference_progress, stop)
-        .map_err(|e| format!("reference: {e}"))?
-    else {
+    let lock = references.lock_for(&request.key());
+    let found = {
+        let _rendering = lock.lock().unwrap_or_else(|e| e.into_inner());
+        references
+            .cache
+            .get_or_render(&request, true, &reference_progress, stop)
+    };
+    let Some(reference) = found.map_err(|e| format!("reference: {e}"))? else {
         return Ok(None);
     };
     if stop() {

@@ -26,7 +26,7 @@ use crate::{
     error::ApiError,
     job::{JobFailure, JobRecord, JobRequest, JobSpec, JobState, Progress, now_rfc3339},
     metrics::Metrics,
-    runner::{self, PreparedJob, TierOutput, TierPlan},
+    runner::{self, PreparedJob, References, TierOutput, TierPlan},
     scenes::{SceneCatalog, SceneSource},
     store::Store,
 };
@@ -107,7 +107,7 @@ pub struct Service {
     pub catalog: SceneCatalog,
     pub gpu: Option<GpuInfo>,
     pub metrics: Metrics,
-    reference_cache: ReferenceCache,
+    references: References,
     inner: Mutex<Inner>,
     work_ready: Notify,
     shutting_down: AtomicBool,
@@ -173,7 +173,7 @@ impl Service {
             );
         }
         let service = Arc::new(Self {
-            reference_cache: ReferenceCache::new(cache_dir),
+            references: References::new(ReferenceCache::new(cache_dir)),
             config,
             store,
             catalog,
@@ -480,6 +480,34 @@ impl Service {
         self.work_ready.notify_waiters();
     }
 
+    /// After the workers stopped: jobs still marked running (stopped between their tier and
+    /// their comparison, or still running past the grace period) go back to the queue on disk
+    /// without counting the start, so the next start runs them again.
+    pub fn requeue_running_blocking(&self) {
+        let running: Vec<u64> = {
+            let mut inner = lock(&self.inner);
+            let ids: Vec<u64> = inner
+                .jobs
+                .values()
+                .filter(|e| e.record.state == JobState::Running)
+                .map(|e| e.record.id)
+                .collect();
+            for id in &ids {
+                if let Some(entry) = inner.jobs.get_mut(id) {
+                    entry.record.attempts = entry.record.attempts.saturating_sub(1);
+                    entry.record.started_at = None;
+                }
+                inner.set_state(*id, JobState::Queued);
+            }
+            ids
+        };
+        for id in running {
+            if let Err(error) = self.persist_blocking(id) {
+                tracing::error!(job = id, "storing the job failed: {error}");
+            }
+        }
+    }
+
     /// The GPU worker: one job at a time.
     pub async fn gpu_worker(self: Arc<Self>) {
         while let Some(id) = self.next_work(|inner| inner.gpu_queue.pop_front()).await {
@@ -615,7 +643,7 @@ impl Service {
                 &work.job,
                 &work.output,
                 work.reference_spp,
-                &service.reference_cache,
+                &service.references,
                 &|p| service.set_progress(id, p),
                 &stop,
                 0.5,

@@ -19,15 +19,33 @@ const TMP_SUFFIX: &str = ".tmp";
 #[derive(Debug)]
 pub struct Store {
     root: PathBuf,
+    /// Held (locked) while the store is open: two services writing one folder would overwrite
+    /// each other's jobs. The operating system releases it when the process ends, however it
+    /// ends.
+    _lock: fs::File,
 }
 
 impl Store {
-    /// Opens (creating if needed) the data folder at `root`.
+    /// Opens (creating if needed) the data folder at `root`; fails if another process has it
+    /// open.
     pub fn open(root: &Path) -> io::Result<Self> {
         fs::create_dir_all(root.join("jobs"))?;
         fs::create_dir_all(root.join("scenes"))?;
+        let lock = fs::OpenOptions::new()
+            .create(true)
+            .truncate(false)
+            .write(true)
+            .open(root.join("lock"))?;
+        lock.try_lock().map_err(|error| match error {
+            fs::TryLockError::WouldBlock => io::Error::new(
+                io::ErrorKind::WouldBlock,
+                "another gi-server is using this data folder",
+            ),
+            fs::TryLockError::Error(error) => error,
+        })?;
         Ok(Self {
             root: root.to_path_buf(),
+            _lock: lock,
         })
     }
 
@@ -177,5 +195,11 @@ mod tests {
         assert_eq!(problems.len(), 1, "{problems:?}");
         assert!(problems[0].contains("11"), "{problems:?}");
         assert!(!store.job_dir(7).join("job.json.3.tmp").exists());
+
+        // One process at a time.
+        let error = Store::open(dir.path()).unwrap_err();
+        assert!(error.to_string().contains("another gi-server"), "{error}");
+        drop(store);
+        assert!(Store::open(dir.path()).is_ok());
     }
 }

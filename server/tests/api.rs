@@ -57,6 +57,7 @@ fn every_tier_renders_compares_and_serves_its_images() {
         .iter()
         .map(|&tier| (submit(addr, &small_job(tier, true)), tier))
         .collect();
+    let mut references_rendered = 0;
     for (id, tier) in &jobs {
         let job = wait_final(addr, id, JOB_TIMEOUT);
         assert_eq!(job["state"], "done", "{tier}: {job}");
@@ -78,6 +79,9 @@ fn every_tier_renders_compares_and_serves_its_images() {
         assert_eq!(result["warmup"], if temporal { 2 } else { 0 }, "{tier}");
         let comparison = &result["comparison"];
         assert_eq!(comparison["reference_spp"], 8);
+        if comparison["reference_cached"] == false {
+            references_rendered += 1;
+        }
         let rmse = comparison["rmse_srgb8"].as_f64().unwrap();
         assert!(rmse.is_finite() && rmse >= 0.0, "{comparison}");
         assert!(comparison["rmse_linear"].as_f64().unwrap().is_finite());
@@ -98,7 +102,11 @@ fn every_tier_renders_compares_and_serves_its_images() {
         assert_images(addr, &job, true);
     }
 
-    // The references went into the cache `gi compare` reads, under the key it computes.
+    // Every job compared the same view: one path traced its reference, the others waited for
+    // it and read it from the cache.
+    assert_eq!(references_rendered, 1);
+
+    // The reference went into the cache `gi compare` reads, under the key it computes.
     let scene = gi_scene::load("cornell-box").unwrap();
     let request = ReferenceRequest::new(
         &scene,

@@ -112,6 +112,18 @@ fn a_killed_server_loses_no_job_and_a_terminated_one_stops_cleanly() {
     server.wait().unwrap();
 
     let (mut server, addr) = start(dir.path());
+    // A second service cannot take the same data folder.
+    let second = Command::new(env!("CARGO_BIN_EXE_gi-server"))
+        .args(["--bind", "127.0.0.1:0", "--no-gpu", "--data-dir"])
+        .arg(dir.path().join("data"))
+        .output()
+        .unwrap();
+    assert!(!second.status.success());
+    let stderr = String::from_utf8_lossy(&second.stderr);
+    assert!(
+        stderr.contains("another gi-server is using this data folder"),
+        "{stderr}"
+    );
     // The finished job is served as it was.
     let again = get(addr, &format!("/v1/jobs/{finished}")).json();
     assert_eq!(again, record);
