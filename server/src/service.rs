@@ -130,7 +130,7 @@ impl Service {
         store: Store,
         gpu: Option<GpuInfo>,
     ) -> std::io::Result<(Arc<Self>, Vec<u64>)> {
-        let (records, problems) = store.load_jobs()?;
+        let (records, problems, next_id) = store.load_jobs()?;
         for problem in problems {
             tracing::warn!("unreadable job left in place: {problem}");
         }
@@ -140,7 +140,7 @@ impl Service {
             .clone()
             .unwrap_or_else(gi_reference::cache::default_dir);
         let mut inner = Inner {
-            next_id: records.last().map_or(1, |r| r.id + 1),
+            next_id,
             ..Inner::default()
         };
         let mut changed = Vec::new();

@@ -67,16 +67,25 @@ impl Store {
         write_atomic(&dir.join("job.json"), &json)
     }
 
-    /// Every job record in the folder, in id order, and a message for each folder that held
-    /// no readable record (those are left alone for a person to look at).
-    pub fn load_jobs(&self) -> io::Result<(Vec<JobRecord>, Vec<String>)> {
+    /// Every job record in the folder, in id order; a message for each folder that held no
+    /// readable record (those are left alone for a person to look at); and the first id that
+    /// no folder uses, readable or not.
+    pub fn load_jobs(&self) -> io::Result<(Vec<JobRecord>, Vec<String>, u64)> {
         let mut records = Vec::new();
         let mut problems = Vec::new();
+        let mut next_id = 1;
         for entry in fs::read_dir(self.root.join("jobs"))? {
             let entry = entry?;
             let dir = entry.path();
             if !dir.is_dir() {
                 continue;
+            }
+            if let Some(id) = entry
+                .file_name()
+                .to_str()
+                .and_then(|name| name.parse::<u64>().ok())
+            {
+                next_id = next_id.max(id + 1);
             }
             remove_temporaries(&dir);
             let path = dir.join("job.json");
@@ -99,7 +108,7 @@ impl Store {
         }
         remove_temporaries(&self.scenes_dir());
         records.sort_by_key(|r| r.id);
-        Ok((records, problems))
+        Ok((records, problems, next_id))
     }
 }
 
@@ -189,8 +198,10 @@ mod tests {
         fs::create_dir_all(store.job_dir(11)).unwrap();
         fs::write(store.job_dir(11).join("job.json"), b"{\"id\": ").unwrap();
 
-        let (records, problems) = store.load_jobs().unwrap();
+        let (records, problems, next_id) = store.load_jobs().unwrap();
         assert_eq!(records.iter().map(|r| r.id).collect::<Vec<_>>(), [2, 7, 10]);
+        // The torn record's folder keeps its id: new jobs never write into it.
+        assert_eq!(next_id, 12);
         assert_eq!(records[0], record(2));
         assert_eq!(problems.len(), 1, "{problems:?}");
         assert!(problems[0].contains("11"), "{problems:?}");
