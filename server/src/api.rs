@@ -311,15 +311,20 @@ async fn upload_scene(
     let bytes = body?;
     let service_for_upload = service.clone();
     let name = query.name.unwrap_or_default();
-    let (scene, created) =
-        tokio::task::spawn_blocking(move || service_for_upload.catalog.upload(&bytes, &name))
-            .await
-            .map_err(|e| {
-                ApiError::invalid(
-                    "invalid_scene",
-                    format!("the scene could not be imported: {e}"),
-                )
-            })??;
+    let (scene, created) = tokio::task::spawn_blocking(move || {
+        service_for_upload.catalog.upload(
+            &bytes,
+            &name,
+            service_for_upload.config.max_upload_texels,
+        )
+    })
+    .await
+    .map_err(|e| {
+        ApiError::invalid(
+            "invalid_scene",
+            format!("the scene could not be imported: {e}"),
+        )
+    })??;
     if created {
         service.metrics.uploads.inc();
     }

@@ -61,6 +61,11 @@ pub struct Config {
     #[arg(long, env = "GI_SERVER_MAX_UPLOAD_BYTES", default_value_t = 64 << 20)]
     pub max_upload_bytes: usize,
 
+    /// Most texels in all the PNG textures of an uploaded scene, checked from their headers
+    /// before anything is decoded: each texel takes about 36 bytes while the scene loads.
+    #[arg(long, env = "GI_SERVER_MAX_UPLOAD_TEXELS", default_value_t = 1 << 24)]
+    pub max_upload_texels: u64,
+
     /// Most jobs waiting to run; a submission beyond it is answered 429 with Retry-After.
     #[arg(long, env = "GI_SERVER_MAX_QUEUE", default_value_t = 64)]
     pub max_queue: usize,

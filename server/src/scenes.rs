@@ -244,8 +244,14 @@ impl SceneCatalog {
 
     /// Validates an uploaded `.glb` and stores it. Blocking (it imports the whole scene).
     /// Returns the scene and whether it is new (false: the same file was uploaded before).
-    pub fn upload(&self, bytes: &[u8], name: &str) -> Result<(UploadedScene, bool), ApiError> {
-        check_glb(bytes).map_err(|message| ApiError::invalid("invalid_scene", message))?;
+    pub fn upload(
+        &self,
+        bytes: &[u8],
+        name: &str,
+        max_texels: u64,
+    ) -> Result<(UploadedScene, bool), ApiError> {
+        check_glb(bytes, max_texels)
+            .map_err(|message| ApiError::invalid("invalid_scene", message))?;
         let digest = Sha256::digest(bytes);
         let sha256: String = digest.iter().map(|b| format!("{b:02x}")).collect();
         let id = format!("{UPLOAD_PREFIX}{}", &sha256[..16]);
@@ -294,8 +300,10 @@ impl SceneCatalog {
 }
 
 /// Checks the GLB container before anything parses it: header, lengths, a JSON first chunk,
-/// and only embedded data (an external URI could name any file of this machine).
-fn check_glb(bytes: &[u8]) -> Result<(), String> {
+/// only embedded data (an external URI could name any file of this machine), and at most
+/// `max_texels` texels in its PNG images (a small, highly compressed PNG can claim a size that
+/// takes gigabytes to decode).
+fn check_glb(bytes: &[u8], max_texels: u64) -> Result<(), String> {
     let u32_at = |offset: usize| {
         bytes
             .get(offset..offset + 4)
@@ -336,7 +344,82 @@ fn check_glb(bytes: &[u8]) -> Result<(), String> {
             }
         }
     }
+    // The binary chunk, if any, follows the JSON chunk.
+    let bin_start = 20 + json_len;
+    let bin = match (u32_at(bin_start), u32_at(bin_start + 4)) {
+        (Some(len), Some(0x004E_4942)) => bytes.get(bin_start + 8..bin_start + 8 + len as usize),
+        _ => None,
+    };
+    let mut texels = 0u64;
+    let images = json.get("images").and_then(|v| v.as_array());
+    for (index, image) in images.into_iter().flatten().enumerate() {
+        let Some((width, height)) = png_size(&image_head(&json, image, bin)) else {
+            continue; // not a PNG: the importer decodes only PNG and refuses the rest
+        };
+        texels += u64::from(width) * u64::from(height);
+        if texels > max_texels {
+            return Err(format!(
+                "images[{index}] ({width} x {height}) brings the scene's textures to {texels} \
+                 texels, more than the {max_texels} this service accepts"
+            ));
+        }
+    }
     Ok(())
+}
+
+/// The first bytes of an image's data (enough for its header): from its buffer view in the
+/// binary chunk, or its base64 data URI. Empty when neither is readable.
+fn image_head(json: &serde_json::Value, image: &serde_json::Value, bin: Option<&[u8]>) -> Vec<u8> {
+    const HEAD: usize = 33;
+    if let Some(view) = image.get("bufferView").and_then(|v| v.as_u64()) {
+        let view = &json["bufferViews"][view as usize];
+        let offset = view["byteOffset"].as_u64().unwrap_or(0) as usize;
+        let length = view["byteLength"].as_u64().unwrap_or(0) as usize;
+        return bin
+            .and_then(|bin| bin.get(offset..offset.saturating_add(length.min(HEAD))))
+            .map(<[u8]>::to_vec)
+            .unwrap_or_default();
+    }
+    let uri = image.get("uri").and_then(|u| u.as_str()).unwrap_or("");
+    match uri.split_once(";base64,") {
+        Some((_, payload)) => decode_base64_prefix(payload, HEAD),
+        None => Vec::new(),
+    }
+}
+
+/// Decodes up to `max` bytes from the start of base64 `text` (stopping at anything else).
+fn decode_base64_prefix(text: &str, max: usize) -> Vec<u8> {
+    let value = |c: u8| match c {
+        b'A'..=b'Z' => Some(c - b'A'),
+        b'a'..=b'z' => Some(c - b'a' + 26),
+        b'0'..=b'9' => Some(c - b'0' + 52),
+        b'+' | b'-' => Some(62),
+        b'/' | b'_' => Some(63),
+        _ => None,
+    };
+    let mut out = Vec::new();
+    let (mut bits, mut count) = (0u32, 0u32);
+    for digit in text.bytes().map_while(value) {
+        bits = bits << 6 | u32::from(digit);
+        count += 6;
+        if count >= 8 {
+            count -= 8;
+            out.push((bits >> count) as u8);
+            if out.len() == max {
+                break;
+            }
+        }
+    }
+    out
+}
+
+/// Width and height from a PNG's header, or `None` if `head` does not start a PNG.
+fn png_size(head: &[u8]) -> Option<(u32, u32)> {
+    if head.len() < 24 || &head[..8] != b"\x89PNG\r\n\x1a\n" || &head[12..16] != b"IHDR" {
+        return None;
+    }
+    let be = |o: usize| u32::from_be_bytes([head[o], head[o + 1], head[o + 2], head[o + 3]]);
+    Some((be(16), be(20)))
 }
 
 #[cfg(test)]
@@ -379,14 +462,70 @@ mod tests {
 
     #[test]
     fn glb_containers_are_checked_before_import() {
-        assert!(check_glb(&glb(r#"{"asset": {"version": "2.0"}}"#)).is_ok());
-        assert!(check_glb(b"not a glb at all, certainly").is_err());
+        const TEXELS: u64 = 1 << 20;
+        assert!(check_glb(&glb(r#"{"asset": {"version": "2.0"}}"#), TEXELS).is_ok());
+        assert!(check_glb(b"not a glb at all, certainly", TEXELS).is_err());
         let mut truncated = glb(r#"{"asset": {"version": "2.0"}}"#);
         truncated.pop();
-        assert!(check_glb(&truncated).unwrap_err().contains("header says"));
+        assert!(
+            check_glb(&truncated, TEXELS)
+                .unwrap_err()
+                .contains("header says")
+        );
         let external = glb(
             r#"{"asset": {"version": "2.0"}, "buffers": [{"uri": "../../x.bin", "byteLength": 4}]}"#,
         );
-        assert!(check_glb(&external).unwrap_err().contains("external file"));
+        assert!(
+            check_glb(&external, TEXELS)
+                .unwrap_err()
+                .contains("external file")
+        );
+    }
+
+    /// The 33 first bytes of a PNG of `width` x `height` (signature and IHDR chunk).
+    fn png_head(width: u32, height: u32) -> Vec<u8> {
+        let mut head = b"\x89PNG\r\n\x1a\n\0\0\0\x0dIHDR".to_vec();
+        head.extend(width.to_be_bytes());
+        head.extend(height.to_be_bytes());
+        head.extend([8, 6, 0, 0, 0, 0, 0, 0, 0]);
+        head
+    }
+
+    fn encode_base64(bytes: &[u8]) -> String {
+        const ALPHABET: &[u8] = b"ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz0123456789+/";
+        let mut out = String::new();
+        for chunk in bytes.chunks(3) {
+            let n = chunk
+                .iter()
+                .enumerate()
+                .fold(0u32, |n, (i, &b)| n | u32::from(b) << (16 - 8 * i));
+            for i in 0..=chunk.len() {
+                out.push(ALPHABET[(n >> (18 - 6 * i) & 63) as usize] as char);
+            }
+        }
+        out
+    }
+
+    #[test]
+    fn huge_textures_are_refused_before_they_are_decoded() {
+        assert_eq!(
+            decode_base64_prefix(&encode_base64(b"hello!"), 64),
+            b"hello!"
+        );
+        assert_eq!(png_size(&png_head(640, 480)), Some((640, 480)));
+
+        let with_image = |width: u32, height: u32| {
+            let uri = format!(
+                "data:image/png;base64,{}",
+                encode_base64(&png_head(width, height))
+            );
+            glb(&format!(
+                r#"{{"asset": {{"version": "2.0"}}, "images": [{{"uri": "{uri}"}}]}}"#
+            ))
+        };
+        assert!(check_glb(&with_image(1024, 1024), 1 << 20).is_ok());
+        let error = check_glb(&with_image(1025, 1024), 1 << 20).unwrap_err();
+        assert!(error.contains("1025 x 1024"), "{error}");
+        assert!(check_glb(&with_image(100_000, 100_000), 1 << 24).is_err());
     }
 }

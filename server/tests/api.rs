@@ -459,6 +459,18 @@ fn bad_input_gets_the_right_4xx_and_changes_nothing() {
             ),
         ),
         (
+            "upload with a texture too large to decode",
+            422,
+            "invalid_scene",
+            request(
+                addr,
+                "POST",
+                "/v1/scenes",
+                &[("Content-Type", "model/gltf-binary")],
+                &glb_with_huge_texture(),
+            ),
+        ),
+        (
             "upload naming an outside file",
             422,
             "invalid_scene",
@@ -480,6 +492,9 @@ fn bad_input_gets_the_right_4xx_and_changes_nothing() {
             "{what}"
         );
     }
+    // The huge texture was refused from its header, before the importer saw it.
+    let (_, _, _, huge) = cases.iter().find(|c| c.0.contains("texture")).unwrap();
+    assert!(huge.text().contains("60000 x 60000"), "{}", huge.text());
     // Nothing was queued or stored by any of them, and the service still answers.
     let jobs = get(addr, "/v1/jobs").json();
     assert_eq!(jobs["total"], 0, "{jobs}");
@@ -499,6 +514,33 @@ fn bad_input_gets_the_right_4xx_and_changes_nothing() {
     let response = delete(addr, &format!("/v1/jobs/{id}"));
     assert_eq!(response.status, 409);
     assert_eq!(response.error_code(), "job_finished");
+}
+
+/// A GLB whose one image, in its binary chunk, is a PNG claiming 60000 x 60000 texels (only its
+/// header: the service must refuse it from that alone).
+fn glb_with_huge_texture() -> Vec<u8> {
+    let mut png = b"\x89PNG\r\n\x1a\n\0\0\0\x0dIHDR".to_vec();
+    png.extend(60_000u32.to_be_bytes());
+    png.extend(60_000u32.to_be_bytes());
+    png.extend([8, 6, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0]);
+    let mut json = format!(
+        r#"{{"asset":{{"version":"2.0"}},"buffers":[{{"byteLength":{n}}}],"bufferViews":[{{"buffer":0,"byteLength":{n}}}],"images":[{{"bufferView":0,"mimeType":"image/png"}}]}}"#,
+        n = png.len()
+    )
+    .into_bytes();
+    while !json.len().is_multiple_of(4) {
+        json.push(b' ');
+    }
+    let mut glb = b"glTF".to_vec();
+    glb.extend(2u32.to_le_bytes());
+    glb.extend(((20 + json.len() + 8 + png.len()) as u32).to_le_bytes());
+    glb.extend((json.len() as u32).to_le_bytes());
+    glb.extend(b"JSON");
+    glb.extend(json);
+    glb.extend((png.len() as u32).to_le_bytes());
+    glb.extend(b"BIN\0");
+    glb.extend(png);
+    glb
 }
 
 /// A GLB whose buffer points at a file outside the upload.
