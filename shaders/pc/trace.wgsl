@@ -362,7 +362,8 @@ fn specular_trace(@builtin(global_invocation_id) id: vec3<u32>) {
     let frame = frame_from_normal(n);
     let wo = frame_to_local(frame, normalize(u.camera.position - s.position));
     let brdf = brdf_new(gbuffer_base_color[s.pixel].xyz, mr.x, mr.y);
-    var sampler = sampler_new(u.seed ^ vec2(0x9e3779b9u, 0u), index, u.frame_index);
+    // A stream of its own (the temporal pass draws from `0x9e3779b9`).
+    var sampler = sampler_new(u.seed ^ vec2(0x6a09e667u, 0u), index, u.frame_index);
     let h = sample_ggx_vndf(wo, brdf.alpha, sampler_next_2d(&sampler));
     let wi = 2.0 * dot(wo, h) * h - wo;
     if wo.z <= 0.0 || wi.z <= 0.0 {
