@@ -119,41 +119,6 @@ struct SpecularSample {
     flags: u32,
 }
 
-// IEEE half-precision bits of `x` (clamped to [0, 65000], rounded to nearest even, values
-// below half's normal range flushed to 0). Written out because WGSL's `pack2x16float` needs
-// a float16 capability some adapters lack.
-fn half_bits(x: f32) -> u32 {
-    let b = bitcast<u32>(clamp(x, 0.0, 65000.0));
-    let r = b + 0xfffu + ((b >> 13u) & 1u);
-    let e = i32(r >> 23u) - 112;
-    if e <= 0 {
-        return 0u;
-    }
-    return (u32(e) << 10u) | ((r >> 13u) & 0x3ffu);
-}
-
-fn half_value(h: u32) -> f32 {
-    let e = (h >> 10u) & 0x1fu;
-    if e == 0u {
-        return 0.0;
-    }
-    return bitcast<f32>(((e + 112u) << 23u) | ((h & 0x3ffu) << 13u));
-}
-
-// Four non-negative values as halves in two words.
-fn pack_half4(v: vec4<f32>) -> vec2<u32> {
-    return vec2(half_bits(v.x) | (half_bits(v.y) << 16u), half_bits(v.z) | (half_bits(v.w) << 16u));
-}
-
-fn unpack_half4(p: vec2<u32>) -> vec4<f32> {
-    return vec4(
-        half_value(p.x & 0xffffu),
-        half_value(p.x >> 16u),
-        half_value(p.y & 0xffffu),
-        half_value(p.y >> 16u),
-    );
-}
-
 fn empty_reservoir() -> Reservoir {
     return Reservoir(vec3(0.0), 0.0, 0u, 0.0, 0u, 0u, 0.0, 0u, 0u, 0u);
 }

@@ -36,12 +36,12 @@
 // Bind group 0: the frame's inputs, the histories and the filter buffers
 // (`gi_tiers::pc::denoise::Denoiser`); group 1: this dispatch's uniforms.
 
-#import gi::packing::{unpack_unit_vector, pack_rgb9e5, unpack_rgb9e5}
+#import gi::packing::{
+    unpack_unit_vector, pack_rgb9e5, unpack_rgb9e5, pack_half2, unpack_half2, pack_color64, unpack_color64
+}
 #import gi::math::luminance
 
 const INFINITY_BITS: u32 = 0x7f800000u;
-// Largest finite f16: packed values are clamped to it.
-const F16_MAX: f32 = 65504.0;
 // Most error of an RGB9E5 channel relative to the largest channel (half a mantissa step).
 const RGB9E5_ERROR: f32 = 1.0 / 512.0;
 // Least total bilinear weight of the kept reprojection taps for the history to be used (SVGF's
@@ -108,73 +108,6 @@ struct DenoiseUniforms {
 
 // Group 1.
 @group(1) @binding(0) var<uniform> u: DenoiseUniforms;
-
-// IEEE half precision by hand: the builtins `pack2x16float` / `unpack2x16float` need naga's
-// `SHADER_FLOAT16_IN_FLOAT32`, which wgpu grants on llvmpipe only with `Features::SHADER_F16`,
-// and `gi_gpu` requests neither. Same results: round to nearest even (at most 2^-11 of the
-// value), subnormals kept; values are clamped to +-F16_MAX (no infinities).
-fn half_bits(x: f32) -> u32 {
-    let sign = (bitcast<u32>(x) >> 16u) & 0x8000u;
-    let a = min(abs(x), F16_MAX);
-    if a < 6.103515625e-5 {
-        // Below 2^-14: subnormal, steps of 2^-24 (`round` ties to even).
-        return sign | u32(round(a * 16777216.0));
-    }
-    // Rebias the exponent (127 -> 15) and round the 23-bit mantissa to 10 bits, ties to even;
-    // a carry into the exponent is the right result.
-    let rebiased = bitcast<u32>(a) - (112u << 23u);
-    return sign | ((rebiased + 0xfffu + ((rebiased >> 13u) & 1u)) >> 13u);
-}
-
-fn half_value(h: u32) -> f32 {
-    let sign = (h & 0x8000u) << 16u;
-    let exponent = (h >> 10u) & 0x1fu;
-    let mantissa = h & 0x3ffu;
-    if exponent == 0u {
-        return bitcast<f32>(sign | bitcast<u32>(f32(mantissa) * 5.9604644775390625e-8));
-    }
-    return bitcast<f32>(sign | ((exponent + 112u) << 23u) | (mantissa << 13u));
-}
-
-// Two halves in 32 bits, x in the low bits (the layout of `pack2x16float`).
-fn pack_half2(v: vec2<f32>) -> u32 {
-    return half_bits(v.x) | (half_bits(v.y) << 16u);
-}
-
-fn unpack_half2(packed: u32) -> vec2<f32> {
-    return vec2(half_value(packed & 0xffffu), half_value(packed >> 16u));
-}
-
-// A power of two, exactly (`exp2` need not be exact).
-fn power_of_two(exponent: i32) -> f32 {
-    return bitcast<f32>(u32(exponent + 127) << 23u);
-}
-
-// Non-negative rgb and one more non-negative value in 64 bits: three 16-bit mantissas sharing
-// a 5-bit exponent (RGB9E5's layout with 16-bit mantissas: at most 2^-17 of the largest
-// channel off, channels clamped to 65535), and the value as an f16 cut to 6 mantissa bits
-// (at most 2^-7 of itself off; integers exact to 128). x = r | g << 16,
-// y = b | exponent << 16 | value << 21.
-fn pack_color64(rgb: vec3<f32>, value: f32) -> vec2<u32> {
-    let c = clamp(rgb, vec3(0.0), vec3(65535.0));
-    let largest = max(max(c.r, c.g), c.b);
-    // The largest channel's power of two from its bits (exact, unlike `log2`); the mantissas
-    // then hold [2^15, 2^16) for it, unless it rounds up to 2^16.
-    var exponent = max(i32(bitcast<u32>(largest) >> 23u) - 127, -16) + 16;
-    if round(largest * power_of_two(31 - exponent)) >= 65536.0 {
-        exponent += 1;
-    }
-    let m = vec3<u32>(round(c * power_of_two(31 - exponent)));
-    let short_half = (half_bits(max(value, 0.0)) + 8u) >> 4u;
-    return vec2(m.r | (m.g << 16u), m.b | (u32(exponent) << 16u) | (short_half << 21u));
-}
-
-fn unpack_color64(packed: vec2<u32>) -> vec4<f32> {
-    let m = vec3(packed.x & 0xffffu, packed.x >> 16u, packed.y & 0xffffu);
-    let exponent = i32((packed.y >> 16u) & 0x1fu);
-    let rgb = vec3<f32>(m) * power_of_two(exponent - 31);
-    return vec4(rgb, half_value((packed.y >> 21u) << 4u));
-}
 
 // ---------------------------------------------------------------------------------------------
 // Packed histories and filter buffers

@@ -28,14 +28,13 @@
 #import gi::brdf::specular_albedo
 #import gi::sampling::{sampler_new, sampler_next_f32, sampler_next_2d, concentric_disk}
 #import gi::camera::camera_ray
-#import gi::packing::{unpack_unit_vector, pack_rgb9e5, unpack_rgb9e5}
+#import gi::packing::{unpack_unit_vector, pack_rgb9e5, unpack_rgb9e5, unpack_color64}
 #import gi::cache::trace::cache_indirect_irradiance
 #import gi::pc::common::{
     PcUniforms, Surface, Reservoir, Combiner, empty_reservoir, is_sky_depth, has_surface,
     target_pdf, reconnection_jacobian, combiner_new, combiner_add, combiner_finish,
     reservoir_irradiance, similar_surfaces, sample_direction, SAMPLE_OCCLUDED, SAMPLE_SKY, FLAG_TEMPORAL,
-    FLAG_SPATIAL, FLAG_SHADOW, FLAG_MULTI_SAMPLE, FLAG_BOILING, FLAG_HISTORY, FLAG_SPECULAR,
-    unpack_half4
+    FLAG_SPATIAL, FLAG_SHADOW, FLAG_MULTI_SAMPLE, FLAG_BOILING, FLAG_HISTORY, FLAG_SPECULAR
 }
 
 @group(0) @binding(0) var<uniform> u: PcUniforms;
@@ -324,7 +323,7 @@ fn compose(@builtin(global_invocation_id) id: vec3<u32>) {
     let max_roughness = u.specular_max_roughness;
     if (u.flags & FLAG_SPECULAR) != 0u && mr.y < max_roughness {
         let h = specular_history[pixel];
-        let traced = unpack_half4(h.xy);
+        let traced = unpack_color64(h.xy);
         if traced.w > 0.0 {
             let t = 1.0 - smoothstep(0.75 * max_roughness, max_roughness, mr.y);
             reflected = mix(reflected, traced.xyz, t);

@@ -19,10 +19,10 @@
 #import gi::brdf::{brdf_new, ggx_d, smith_g2}
 #import gi::sampling::{frame_from_normal, frame_to_local}
 #import gi::camera::camera_ray
-#import gi::packing::{pack_unit_vector, unpack_unit_vector}
+#import gi::packing::{pack_unit_vector, unpack_unit_vector, pack_color64, unpack_color64}
 #import gi::pc::common::{
-    PcUniforms, Surface, SpecularSample, is_sky_depth, has_surface, similar_surfaces, pack_half4,
-    unpack_half4, SAMPLE_SKY, FLAG_MULTI_SAMPLE, FLAG_HISTORY
+    PcUniforms, Surface, SpecularSample, is_sky_depth, has_surface, similar_surfaces, SAMPLE_SKY,
+    FLAG_MULTI_SAMPLE, FLAG_HISTORY
 }
 
 const FAR: f32 = 3.40282347e38;
@@ -36,9 +36,9 @@ const FAR: f32 = 3.40282347e38;
 @group(0) @binding(13) var<storage, read> surfaces: array<Surface>;
 // Per trace pixel: this frame's specular rays.
 @group(0) @binding(24) var<storage, read> specular_samples: array<SpecularSample>;
-// Per pixel: the resolved radiance (rg, b and 1 where any ray contributed, as f16).
+// Per pixel: the resolved radiance and 1 where any ray contributed (`pack_color64`).
 @group(0) @binding(25) var<storage, read_write> specular_noisy: array<vec2<u32>>;
-// Per pixel: radiance (rg, b and history length as f16), the surface's distance from the
+// Per pixel: radiance and history length (`pack_color64`), the surface's distance from the
 // camera (f32 bits) and its packed normal; this frame's and the previous frame's.
 @group(0) @binding(26) var<storage, read_write> specular_history: array<vec4<u32>>;
 @group(0) @binding(27) var<storage, read> specular_history_prev: array<vec4<u32>>;
@@ -126,7 +126,7 @@ fn specular_resolve(@builtin(global_invocation_id) id: vec3<u32>) {
         radiance = plain / count;
         valid = 1.0;
     }
-    specular_noisy[pixel] = pack_half4(vec4(radiance, valid));
+    specular_noisy[pixel] = pack_color64(radiance, valid);
 }
 
 @compute @workgroup_size(8, 8)
@@ -142,7 +142,7 @@ fn specular_temporal(@builtin(global_invocation_id) id: vec3<u32>) {
     }
     let x = world_position(id.xy, depth);
     let n = unpack_unit_vector(gbuffer_normal[pixel]);
-    let current = unpack_half4(specular_noisy[pixel]);
+    let current = unpack_color64(specular_noisy[pixel]);
 
     // The resolved neighbourhood's mean and standard deviation.
     var m1 = vec3(0.0);
@@ -155,7 +155,7 @@ fn specular_temporal(@builtin(global_invocation_id) id: vec3<u32>) {
             if any(q < vec2(0)) || any(q >= vec2<i32>(u.size_px)) {
                 continue;
             }
-            let v = unpack_half4(specular_noisy[u32(q.y) * u.size_px.x + u32(q.x)]);
+            let v = unpack_color64(specular_noisy[u32(q.y) * u.size_px.x + u32(q.x)]);
             if v.w > 0.0 {
                 m1 += v.xyz;
                 m2 += v.xyz * v.xyz;
@@ -171,7 +171,7 @@ fn specular_temporal(@builtin(global_invocation_id) id: vec3<u32>) {
     let q = vec2<i32>(floor(before));
     if (u.flags & FLAG_HISTORY) != 0u && all(q >= vec2(0)) && all(q < vec2<i32>(u.size_px)) {
         let h = specular_history_prev[u32(q.y) * u.size_px.x + u32(q.x)];
-        let stored = unpack_half4(h.xy);
+        let stored = unpack_color64(h.xy);
         let expected = distance(x, u.previous_camera.position);
         let same_depth = abs(bitcast<f32>(h.z) - expected) <= 0.05 * expected;
         let same_normal = dot(unpack_unit_vector(h.w), n) > 0.9;
@@ -191,6 +191,6 @@ fn specular_temporal(@builtin(global_invocation_id) id: vec3<u32>) {
         length = min(length + 1.0, u.specular_history);
         radiance = mix(history, current.xyz, 1.0 / length);
     }
-    let packed = pack_half4(vec4(radiance, length));
+    let packed = pack_color64(radiance, length);
     specular_history[pixel] = vec4(packed, bitcast<u32>(distance(x, u.camera.position)), pack_unit_vector(n));
 }

@@ -275,9 +275,9 @@ struct PcBuffers {
     output: wgpu::Buffer,
     /// Per trace pixel: this frame's specular ray.
     specular_samples: wgpu::Buffer,
-    /// Per pixel: the resolved specular radiance (4 x f16).
+    /// Per pixel: the resolved specular radiance (`pack_color64`: rgb and a validity flag).
     specular_noisy: wgpu::Buffer,
-    /// Per pixel: the specular history (radiance and length in 4 x f16, the surface's
+    /// Per pixel: the specular history (radiance and length in `pack_color64`, the surface's
     /// distance and normal), this frame's and the previous one.
     specular_history: [wgpu::Buffer; 2],
     current: usize,
