@@ -83,28 +83,6 @@ pub struct ReferenceKey {
 }
 
 impl ReferenceKey {
-    /// The key of a render of `scene` through `camera` at `time_s`.
-    pub fn new(
-        scene: &Scene,
-        camera: &CameraView,
-        time_s: f32,
-        (width, height): (u32, u32),
-        spp: u32,
-        seed: u64,
-    ) -> Self {
-        Self {
-            scene: scene.name.clone(),
-            scene_hash: format!("{:016x}", scene_hash(scene)),
-            camera: format!("{camera:?}"),
-            time_s,
-            width,
-            height,
-            spp,
-            seed,
-            version: env!("CARGO_PKG_VERSION").to_string(),
-        }
-    }
-
     /// File name of the entry without extension: the scene name (kept to its file-safe
     /// characters, so an uploaded scene's name cannot leave the folder) and the key's hash.
     fn file_stem(&self) -> String {
@@ -154,14 +132,17 @@ impl<'a> ReferenceRequest<'a> {
 
     /// The cache key of this render.
     pub fn key(&self) -> ReferenceKey {
-        ReferenceKey::new(
-            self.scene,
-            &self.view,
-            self.time_s,
-            (self.width, self.height),
-            self.spp,
-            self.seed,
-        )
+        ReferenceKey {
+            scene: self.scene.name.clone(),
+            scene_hash: format!("{:016x}", scene_hash(self.scene)),
+            camera: format!("{:?}", self.view),
+            time_s: self.time_s,
+            width: self.width,
+            height: self.height,
+            spp: self.spp,
+            seed: self.seed,
+            version: env!("CARGO_PKG_VERSION").to_string(),
+        }
     }
 
     /// The path tracer's settings: full transport with MIS, as the `reference` tier renders.
@@ -419,7 +400,7 @@ mod tests {
     fn scene_names_cannot_leave_the_cache_folder() {
         let mut scene = scene();
         scene.name = "../../etc/passwd".to_string();
-        let key = ReferenceKey::new(&scene, &scene.default_view(0.0), 0.0, (1, 1), 1, 1);
+        let key = ReferenceRequest::new(&scene, scene.default_view(0.0), 0.0, (1, 1), 1, 1).key();
         let stem = key.file_stem();
         assert!(!stem.contains('/') && !stem.contains(".."), "{stem}");
     }
