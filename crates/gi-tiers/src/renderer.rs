@@ -1,4 +1,5 @@
-//! The [`Renderer`] facade: a scene, a tier and a frame counter.
+//! The [`Renderer`] facade: a scene, a tier and a frame counter, and the creation of the tier
+//! a [`TierChoice`] asks for, trying the candidates of a [`Plan`] in order for `Auto`.
 
 use std::any::Any;
 
@@ -11,6 +12,7 @@ use crate::{
     mobile::{MobileConfig, MobileTier},
     path::GpuPathTier,
     pc::{PcConfig, PcTier},
+    select::{self, AdapterDescription, Plan, RunsOn},
     tier::{FrameInput, FrameOutput, Tier, TierChoice, TierError, TierKind, TierSettings},
 };
 
@@ -23,6 +25,24 @@ pub enum CameraMode {
     Path,
 }
 
+/// What [`TierChoice::Auto`] or [`TierChoice::AutoWithin`] chose, and why
+/// ([`Renderer::selection`]).
+#[derive(Clone, Debug, PartialEq)]
+pub struct Selection {
+    /// The tier that renders.
+    pub chosen: TierKind,
+    /// Where it runs.
+    pub runs_on: RunsOn,
+    /// Why the policy proposed it ([`select::Candidate::reason`]).
+    pub reason: String,
+    /// The candidates tried before it, each with the error that stopped its creation.
+    pub fallbacks: Vec<(TierKind, String)>,
+    /// The adapter the plan was made for (`name (type)`); `None` without one.
+    pub adapter: Option<String>,
+    /// The whole plan: every candidate and the tiers it left out, with reasons.
+    pub plan: Plan,
+}
+
 /// Renders the frames of one scene with one tier. Frame `i` shows the scene at time
 /// `scene.frame_time(i)`.
 pub struct Renderer {
@@ -33,10 +53,13 @@ pub struct Renderer {
     /// Still warm-up frames rendered so far ([`Renderer::warm_up`]); they show an existing
     /// frame again, so they do not advance `next_frame`.
     warm_up_frames: u32,
+    selection: Option<Selection>,
 }
 
 impl Renderer {
-    /// Creates the tier `choice` resolves to for `scene`.
+    /// Creates the tier `choice` resolves to for `scene`. `Auto` and `AutoWithin` open the
+    /// GPU context once, plan with [`select::plan`] and try the plan's candidates in order
+    /// ([`Renderer::from_plan`]); the other choices create their tier or fail.
     pub fn new(
         scene: Scene,
         choice: TierChoice,
@@ -44,6 +67,15 @@ impl Renderer {
         camera: CameraMode,
     ) -> Result<Self, TierError> {
         let tier: Box<dyn Tier> = match choice {
+            TierChoice::Auto | TierChoice::AutoWithin(_) => {
+                let ctx = GpuContext::new()
+                    .inspect_err(|e| tracing::info!("auto tier: no GPU context ({e})"))
+                    .ok();
+                let adapter = ctx.as_ref().map(AdapterDescription::from_context);
+                let plan = select::plan(adapter.as_ref(), &settings, choice.budget());
+                let adapter = adapter.map(|a| a.label());
+                return Self::create_planned(scene, plan, settings, camera, ctx, adapter);
+            }
             TierChoice::Mobile | TierChoice::Tier(TierKind::Mobile) => {
                 Box::new(MobileTier::open(settings, MobileConfig::default())?)
             }
@@ -53,17 +85,86 @@ impl Renderer {
             TierChoice::Path | TierChoice::Tier(TierKind::Path) => {
                 Box::new(GpuPathTier::open(TierKind::Path, settings)?)
             }
-            TierChoice::Auto => match hardware_gpu() {
-                Some(ctx) => Box::new(GpuPathTier::new(TierKind::Path, settings, ctx)?),
-                None => Box::new(CpuTier::new(TierKind::Reference, settings)?),
-            },
             TierChoice::Tier(TierKind::Direct) => match hardware_gpu() {
                 Some(ctx) => Box::new(GpuPathTier::new(TierKind::Direct, settings, ctx)?),
                 None => Box::new(CpuTier::new(TierKind::Direct, settings)?),
             },
-            TierChoice::Tier(kind) => Box::new(CpuTier::new(kind, settings)?),
+            TierChoice::Reference | TierChoice::Tier(TierKind::Reference) => {
+                Box::new(CpuTier::new(TierKind::Reference, settings)?)
+            }
         };
         Ok(Self::with_tier(scene, tier, camera))
+    }
+
+    /// Creates the first candidate of `plan` that can be created, trying them in order: a
+    /// candidate whose creation fails (no context, a limit, a pipeline that does not compile)
+    /// is logged with `tracing::warn!`, recorded in [`Selection::fallbacks`], and the next is
+    /// tried, each GPU candidate on a context of its own. For a plan [`select::plan`] made, or
+    /// one the caller edited (e.g. without `pc`). Fails with the last candidate's error.
+    pub fn from_plan(
+        scene: Scene,
+        plan: Plan,
+        settings: TierSettings,
+        camera: CameraMode,
+    ) -> Result<Self, TierError> {
+        Self::create_planned(scene, plan, settings, camera, None, None)
+    }
+
+    /// [`Renderer::from_plan`] with a context already open for the first GPU candidate.
+    fn create_planned(
+        scene: Scene,
+        plan: Plan,
+        settings: TierSettings,
+        camera: CameraMode,
+        mut ctx: Option<GpuContext>,
+        mut adapter: Option<String>,
+    ) -> Result<Self, TierError> {
+        let mut fallbacks = Vec::new();
+        let mut last_error = None;
+        for candidate in &plan.candidates {
+            let kind = candidate.kind;
+            let created = match candidate.runs_on {
+                RunsOn::Cpu => CpuTier::new(kind, settings).map(|t| Box::new(t) as Box<dyn Tier>),
+                RunsOn::Gpu => match ctx.take().map_or_else(GpuContext::new, Ok) {
+                    Ok(ctx) => {
+                        adapter
+                            .get_or_insert_with(|| AdapterDescription::from_context(&ctx).label());
+                        create_gpu_tier(kind, settings, ctx)
+                    }
+                    Err(e) => Err(TierError::Unavailable {
+                        tier: kind.name(),
+                        reason: e.to_string(),
+                    }),
+                },
+            };
+            match created {
+                Ok(tier) => {
+                    let mut renderer = Self::with_tier(scene, tier, camera);
+                    renderer.selection = Some(Selection {
+                        chosen: kind,
+                        runs_on: candidate.runs_on,
+                        reason: candidate.reason.clone(),
+                        fallbacks,
+                        adapter,
+                        plan,
+                    });
+                    return Ok(renderer);
+                }
+                Err(error) => {
+                    tracing::warn!(
+                        tier = kind.name(),
+                        runs_on = ?candidate.runs_on,
+                        "auto tier: {kind} could not be created, trying the next candidate: {error}"
+                    );
+                    fallbacks.push((kind, error.to_string()));
+                    last_error = Some(error);
+                }
+            }
+        }
+        Err(last_error.unwrap_or(TierError::Unavailable {
+            tier: "auto",
+            reason: "the plan has no candidates".to_string(),
+        }))
     }
 
     /// Renders `scene` with a tier the caller made, e.g. a [`MobileTier`] with another
@@ -75,6 +176,7 @@ impl Renderer {
             camera,
             next_frame: 0,
             warm_up_frames: 0,
+            selection: None,
         }
     }
 
@@ -95,6 +197,12 @@ impl Renderer {
 
     pub fn tier(&self) -> TierKind {
         self.tier.kind()
+    }
+
+    /// What `Auto` chose and why; `None` when the tier was asked for by name or made by the
+    /// caller.
+    pub fn selection(&self) -> Option<&Selection> {
+        self.selection.as_ref()
     }
 
     /// The tier as its concrete type, to reach what only that tier offers (the mobile tier's
@@ -227,4 +335,20 @@ fn hardware_gpu() -> Option<GpuContext> {
     GpuContext::new()
         .ok()
         .filter(|ctx| ctx.adapter_info.device_type != wgpu::DeviceType::Cpu)
+}
+
+/// The GPU version of `kind` on `ctx`, with its default configuration.
+fn create_gpu_tier(
+    kind: TierKind,
+    settings: TierSettings,
+    ctx: GpuContext,
+) -> Result<Box<dyn Tier>, TierError> {
+    Ok(match kind {
+        TierKind::Mobile => Box::new(MobileTier::new(settings, MobileConfig::default(), ctx)?),
+        TierKind::Pc => Box::new(PcTier::new(settings, PcConfig::default(), ctx)?),
+        // `reference` has no GPU version: GpuPathTier says so.
+        TierKind::Direct | TierKind::Path | TierKind::Reference => {
+            Box::new(GpuPathTier::new(kind, settings, ctx)?)
+        }
+    })
 }

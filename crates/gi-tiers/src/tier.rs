@@ -7,6 +7,8 @@ use gi_image::Image;
 use gi_reference::RenderStats;
 use gi_scene::{Scene, SceneFrame};
 
+use crate::select::FrameBudget;
+
 /// The tiers this build can run.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
 pub enum TierKind {
@@ -100,9 +102,14 @@ impl FromStr for TierKind {
 /// What a caller asks [`crate::Renderer::new`] for.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum TierChoice {
-    /// The best tier the machine runs: the GPU path tracer on a hardware GPU, else the CPU
-    /// reference (a software Vulkan adapter is slower than the CPU reference itself).
+    /// The best real-time GI tier for the adapter, without a frame budget: `pc` on a discrete
+    /// or virtual GPU, `mobile` on an integrated one, the CPU `reference` on a software
+    /// adapter or without one ([`crate::select`] has the whole policy).
+    /// [`crate::Renderer::selection`] says what it chose and why.
     Auto,
+    /// The best real-time GI tier whose estimated frame time on the adapter fits the budget;
+    /// `mobile` with a reason saying so when none fits ([`crate::select`]).
+    AutoWithin(FrameBudget),
     /// The mobile tier (surfel brick cache, probe volume, screen probes) with its default
     /// configuration; [`crate::Renderer::with_tier`] takes one configured otherwise.
     Mobile,
@@ -111,8 +118,26 @@ pub enum TierChoice {
     Pc,
     /// The GPU path tracer; `Unavailable` without a Vulkan adapter.
     Path,
+    /// The CPU path tracer (the ground truth); needs no GPU.
+    Reference,
     /// One tier by kind.
     Tier(TierKind),
+}
+
+impl TierChoice {
+    /// The frame budget of [`TierChoice::AutoWithin`], `None` for every other choice.
+    pub fn budget(self) -> Option<FrameBudget> {
+        match self {
+            TierChoice::AutoWithin(budget) => Some(budget),
+            _ => None,
+        }
+    }
+
+    /// True for the choices the policy decides ([`TierChoice::Auto`] and
+    /// [`TierChoice::AutoWithin`]).
+    pub fn is_auto(self) -> bool {
+        matches!(self, TierChoice::Auto | TierChoice::AutoWithin(_))
+    }
 }
 
 /// Settings shared by every tier.
