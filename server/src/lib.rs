@@ -156,6 +156,7 @@ fn probe_gpu() -> Option<GpuInfo> {
             name: ctx.adapter_info.name.clone(),
             device_type: format!("{:?}", ctx.adapter_info.device_type),
             hardware: ctx.adapter_info.device_type != gi_gpu::wgpu::DeviceType::Cpu,
+            adapter: gi_tiers::select::AdapterDescription::from_context(&ctx),
         }),
         Err(error) => {
             tracing::warn!("no GPU: {error}");

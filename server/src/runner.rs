@@ -13,7 +13,7 @@ use std::{
 use gi_image::Image;
 use gi_reference::cache::{REFERENCE_SEED, ReferenceCache, ReferenceKey, ReferenceRequest};
 use gi_scene::{CameraKey, CameraPath, CameraView, Scene};
-use gi_tiers::{CameraMode, CpuTier, Renderer, TierChoice, TierKind, TierSettings};
+use gi_tiers::{CameraMode, CpuTier, Renderer, TierChoice, TierKind, TierSettings, select::RunsOn};
 
 use crate::{
     error::ApiError,
@@ -238,7 +238,12 @@ pub fn render_tier(
         .iter()
         .any(|(name, _)| kind.is_gi_pass(name))
         .then(|| frame.gi_ms(kind));
+    // `auto` may have fallen back to the CPU reference on the GPU worker.
+    let on_cpu = renderer
+        .selection()
+        .is_some_and(|s| s.runs_on == RunsOn::Cpu);
     let device = match (&job.plan, &job.gpu_name) {
+        (TierPlan::Gpu(_), _) if on_cpu => "cpu".to_string(),
         (TierPlan::Gpu(_), Some(name)) => format!("gpu ({name})"),
         (TierPlan::Gpu(_), None) => "gpu".to_string(),
         (TierPlan::Cpu(_), _) => "cpu".to_string(),

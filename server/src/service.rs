@@ -18,7 +18,10 @@ use std::{
 
 use gi_reference::cache::ReferenceCache;
 use gi_scene::Scene;
-use gi_tiers::{TierChoice, TierKind};
+use gi_tiers::{
+    TierChoice, TierKind, TierSettings,
+    select::{self, AdapterDescription, RunsOn},
+};
 use tokio::sync::Notify;
 
 use crate::{
@@ -36,8 +39,11 @@ use crate::{
 pub struct GpuInfo {
     pub name: String,
     pub device_type: String,
-    /// False for a software adapter (lavapipe), on which `auto` picks the CPU reference.
+    /// False for a software adapter (lavapipe), on which `direct` runs on the CPU.
     pub hardware: bool,
+    /// What `auto` plans with ([`gi_tiers::select::plan`]).
+    #[serde(skip)]
+    pub adapter: AdapterDescription,
 }
 
 /// Which worker runs a job's tier.
@@ -197,7 +203,7 @@ impl Service {
             .collect();
         let mut ids = Vec::new();
         for (id, spec) in queued {
-            let lane = match service.plan(&spec.tier) {
+            let lane = match service.plan(&spec) {
                 Ok((_, lane)) => lane,
                 // Failed at run time, with the reason, like any job whose tier cannot run.
                 Err(_) => Lane::Gpu,
@@ -208,14 +214,25 @@ impl Service {
         Ok((service, ids))
     }
 
-    /// How a tier name is rendered here, or why it cannot be.
-    pub fn plan(&self, tier: &str) -> Result<(TierPlan, Lane), ApiError> {
+    /// How a job's tier is rendered here, or why it cannot be. `auto` is the library's
+    /// policy ([`select::plan`], no budget) for the service's adapter at the job's size: a GPU
+    /// choice goes to the GPU worker as [`TierChoice::Auto`] (which falls back as the library
+    /// does), the CPU reference to the CPU pool.
+    pub fn plan(&self, spec: &JobSpec) -> Result<(TierPlan, Lane), ApiError> {
+        let tier = spec.tier.as_str();
         let hardware = self.gpu.as_ref().is_some_and(|g| g.hardware);
         if tier == "auto" {
-            return Ok(if hardware {
-                (TierPlan::Gpu(TierChoice::Auto), Lane::Gpu)
-            } else {
-                (TierPlan::Cpu(TierKind::Reference), Lane::Cpu)
+            let settings = TierSettings {
+                width: spec.width,
+                height: spec.height,
+                spp: spec.spp,
+                seed: spec.seed,
+            };
+            let plan = select::plan(self.gpu.as_ref().map(|g| &g.adapter), &settings, None);
+            let chosen = plan.chosen();
+            return Ok(match chosen.runs_on {
+                RunsOn::Gpu => (TierPlan::Gpu(TierChoice::Auto), Lane::Gpu),
+                RunsOn::Cpu => (TierPlan::Cpu(chosen.kind), Lane::Cpu),
             });
         }
         let kind: TierKind = tier.parse().map_err(|_| {
@@ -281,7 +298,7 @@ impl Service {
     /// Validates a job request and queues it; answers the new job's record.
     pub async fn submit(self: &Arc<Self>, request: JobRequest) -> Result<JobRecord, ApiError> {
         let spec = request.normalize(&self.config)?;
-        let (_, lane) = self.plan(&spec.tier)?;
+        let (_, lane) = self.plan(&spec)?;
         let source = self.catalog.resolve(&spec.scene)?;
         let scene = self.load_scene(source).await?;
         runner::check_camera(&scene, &spec.camera)?;
@@ -681,7 +698,7 @@ impl Service {
     }
 
     async fn prepare(self: &Arc<Self>, spec: &JobSpec) -> Result<PreparedJob, ApiError> {
-        let (plan, _) = self.plan(&spec.tier)?;
+        let (plan, _) = self.plan(spec)?;
         let source = self.catalog.resolve(&spec.scene)?;
         let scene = self.load_scene(source).await?;
         let gpu_name = self.gpu.as_ref().map(|g| g.name.clone());

@@ -7,6 +7,10 @@ use std::time::Duration;
 
 use common::*;
 use gi_reference::cache::{REFERENCE_SEED, ReferenceCache, ReferenceRequest};
+use gi_tiers::{
+    TierSettings,
+    select::{self, AdapterDescription, RunsOn},
+};
 use serde_json::{Value, json};
 
 const JOB_TIMEOUT: Duration = Duration::from_secs(120);
@@ -42,15 +46,23 @@ fn assert_images(addr: std::net::SocketAddr, job: &Value, compared: bool) {
 
 #[test]
 fn every_tier_renders_compares_and_serves_its_images() {
-    let gpu = gi_gpu::GpuContext::new_or_skip(
+    let adapter = gi_gpu::GpuContext::new_or_skip(
         "every_tier_renders_compares_and_serves_its_images (GPU tiers)",
     )
-    .map(|ctx| ctx.adapter_info.device_type != gi_gpu::wgpu::DeviceType::Cpu);
+    .map(|ctx| AdapterDescription::from_context(&ctx));
+    // `auto` is the library's policy for this adapter at the job's size, with no budget.
+    let settings = TierSettings {
+        width: 32,
+        height: 24,
+        spp: 2,
+        seed: 0,
+    };
+    let auto = select::plan(adapter.as_ref(), &settings, None);
     let server = TestServer::start(|_| {});
     let addr = server.addr;
 
     let mut tiers = vec!["auto", "reference", "direct"];
-    if gpu.is_some() {
+    if adapter.is_some() {
         tiers.extend(["path", "mobile", "pc"]);
     }
     let jobs: Vec<(String, &str)> = tiers
@@ -64,9 +76,15 @@ fn every_tier_renders_compares_and_serves_its_images() {
         let result = &job["result"];
         let used = result["tier"].as_str().unwrap();
         match *tier {
-            // A hardware GPU runs the path tracer; a software one or none, the CPU reference.
-            "auto" if gpu == Some(true) => assert_eq!(used, "path"),
-            "auto" => assert_eq!(used, "reference"),
+            // pc on a discrete GPU, the CPU reference on a software adapter (lavapipe) or none.
+            "auto" => {
+                assert_eq!(used, auto.chosen().kind.name(), "{auto:?}");
+                let device = result["device"].as_str().unwrap();
+                match auto.chosen().runs_on {
+                    RunsOn::Gpu => assert!(device.starts_with("gpu"), "{device}"),
+                    RunsOn::Cpu => assert_eq!(device, "cpu"),
+                }
+            }
             _ => assert_eq!(used, *tier),
         }
         assert!(result["ms_per_frame"].as_f64().unwrap() > 0.0, "{result}");
@@ -75,7 +93,7 @@ fn every_tier_renders_compares_and_serves_its_images() {
             "{result}"
         );
         assert!(result["memory_bytes"].as_u64().unwrap() > 0, "{result}");
-        let temporal = matches!(*tier, "mobile" | "pc" | "path");
+        let temporal = matches!(used, "mobile" | "pc" | "path");
         assert_eq!(result["warmup"], if temporal { 2 } else { 0 }, "{tier}");
         let comparison = &result["comparison"];
         assert_eq!(comparison["reference_spp"], 8);
