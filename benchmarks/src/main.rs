@@ -1,4 +1,16 @@
-//! `gi-bench`: the product's benchmarks. Each subcommand prints a table and can write JSON.
+//! `gi-bench`: the product's benchmarks.
+//!
+//! Without a subcommand it runs the suite ([`suite`]): every scene x tier against a cached CPU
+//! reference, written as results.json, results.md, plots and contact sheets into `--out`, with
+//! an optional regression check against an earlier results.json:
+//!
+//! ```text
+//! gi-bench [--scenes cornell-box,atrium] [--tiers reference,direct,path,mobile,pc] \
+//!     [--size 1280x720] [--frames 16] [--warmup N] [--repeats 3] [--reference-spp 256] \
+//!     [--out bench-out] [--baseline old/results.json [--fail-on-regression]]
+//! ```
+//!
+//! The subcommands each measure one subsystem, print a table and can write JSON:
 //!
 //! ```text
 //! gi-bench rays --scene open-world --rays 1048576 --json rays.json
@@ -20,16 +32,24 @@ mod path;
 mod pc;
 mod rays;
 mod stability;
+mod suite;
 
 use std::path::PathBuf;
 
 use clap::{Parser, Subcommand};
 
 #[derive(Parser)]
-#[command(name = "gi-bench", version, about = "Benchmarks of the GI product")]
+#[command(
+    name = "gi-bench",
+    version,
+    about = "Benchmarks of the GI product: without a subcommand, the scenes x tiers suite",
+    args_conflicts_with_subcommands = true
+)]
 struct Cli {
     #[command(subcommand)]
-    command: Command,
+    command: Option<Command>,
+    #[command(flatten)]
+    suite: suite::SuiteArgs,
 }
 
 #[derive(Subcommand)]
@@ -221,13 +241,21 @@ enum Command {
         #[arg(long)]
         json: Option<PathBuf>,
     },
+    /// One scene of the suite, in its own process (the suite starts these).
+    #[command(hide = true)]
+    SuiteScene(suite::SceneArgs),
 }
 
 /// Screen-probe modes of a run (clap needs a named type for a parsed list).
 type ModeList = Vec<gi_tiers::mobile::ScreenProbeMode>;
 
 fn main() -> anyhow::Result<()> {
-    match Cli::parse().command {
+    let cli = Cli::parse();
+    let Some(command) = cli.command else {
+        return suite::run(&cli.suite);
+    };
+    match command {
+        Command::SuiteScene(args) => suite::run_scene(&args),
         Command::Rays {
             scene,
             rays,
@@ -363,7 +391,7 @@ fn main() -> anyhow::Result<()> {
 }
 
 /// Parses `WIDTHxHEIGHT` (each side at least 1).
-fn parse_size(size: &str) -> Result<(u32, u32), String> {
+pub(crate) fn parse_size(size: &str) -> Result<(u32, u32), String> {
     size.split_once(['x', 'X'])
         .and_then(|(w, h)| Some((w.trim().parse().ok()?, h.trim().parse().ok()?)))
         .filter(|&(w, h): &(u32, u32)| w > 0 && h > 0)
