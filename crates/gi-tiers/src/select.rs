@@ -15,8 +15,9 @@
 //!    storage binding size of its largest per-pixel buffer at the requested resolution). A tier
 //!    whose requirement the adapter misses is rejected with the limit and both values named.
 //! 3. **Cost.** A tier's frame time is estimated by [`estimate_ms`]: measured H100 frame costs
-//!    ([`H100_FRAME_COSTS`]) at the requested resolution, times the adapter class's slowdown
-//!    ([`slowdown`]).
+//!    ([`H100_FRAME_COSTS`]) at the requested resolution, times the adapter's slowdown
+//!    ([`slowdown`]): measured for the H100 itself and for software adapters, an assumption
+//!    per class for other GPUs.
 //! 4. **With a budget** ([`TierChoice::AutoWithin`](crate::TierChoice::AutoWithin)): the first
 //!    tier in quality order whose estimate fits. When none fits, `mobile`, the cheapest tier
 //!    with GI, with a reason that says it exceeds the budget (a frame over budget with GI is
@@ -278,42 +279,53 @@ pub struct FrameCost {
     pub source: &'static str,
 }
 
-/// Measured frame costs on an NVIDIA H100 (Vulkan), whole frames (G-buffer, direct light and
-/// GI), of the dearest bundled scene, at default settings and 1 sample per pixel.
+/// Measured frame costs on an NVIDIA H100 (Vulkan): whole frames (G-buffer, direct light and
+/// GI) at 1920x1080 and the default settings, scaled in proportion to the pixel count. The PC
+/// and mobile figures are frames along a moving camera, which re-trace the direct light every
+/// frame (a still view accumulates it and stops tracing it, so still frames cost less).
 pub const H100_FRAME_COSTS: [FrameCost; 3] = [
     FrameCost {
         kind: TierKind::Pc,
-        points: &[(2.0736, 4.7)],
-        source: "benchmarks/RESULTS.md, PC tier, cost per pass at 1920x1080: GI + gbuffer/primary \
-                 of open-world 3.708 ms, plus the direct tier's 1.0 ms at 1080p for its direct light",
+        points: &[(2.0736, 6.68)],
+        source: "benchmarks/RESULTS.md, benchmark suite: the auto example on atrium at \
+                 1920x1080 along its camera path, frame 31 (6.682 ms, direct light 1.04 ms of it)",
     },
     FrameCost {
         kind: TierKind::Mobile,
-        points: &[(2.0736, 2.5)],
-        source: "benchmarks/RESULTS.md, mobile tier, cost per pass at 1920x1080: GI + \
-                 gbuffer/primary of open-world 1.474 ms, plus the direct tier's 1.0 ms",
+        points: &[(2.0736, 1.89)],
+        source: "benchmarks/RESULTS.md, benchmark suite: the auto example on atrium at \
+                 1920x1080 along its camera path with a 2 ms budget, frame 31 (1.888 ms)",
     },
     FrameCost {
         kind: TierKind::Direct,
-        points: &[(2.0736, 1.0)],
-        source: "benchmarks/RESULTS.md has no GPU direct-tier time; assumed 1.0 ms at 1080p: \
-                 a third of the cheapest 1-spp `path/trace` there (cornell-box 2.08 ms), for \
-                 one camera ray and one shadow ray against the path's bounces",
+        points: &[(0.9216, 0.446)],
+        source: "benchmarks/RESULTS.md, benchmark suite at 1280x720: the direct tier's dearest \
+                 scene (open-world) 7.129 ms at 16 samples per pixel, 0.446 ms per sample",
     },
 ];
+
+/// Adapters whose speed was measured against [`H100_FRAME_COSTS`], by a case-insensitive
+/// substring of their name: `(name, slowdown, source)`. They take this factor instead of their
+/// class's assumption ([`slowdown`]).
+pub const MEASURED_ADAPTERS: [(&str, f64, &str); 1] = [(
+    "H100",
+    1.0,
+    "the GPU the cost table was measured on (benchmarks/RESULTS.md, benchmark suite)",
+)];
 
 /// How much slower a software adapter runs the GPU tiers than the H100 figures of
 /// [`H100_FRAME_COSTS`] say, measured on Mesa's lavapipe on a 2-core x86-64 CPU (2026-11-22):
 /// `gi compare cornell-box --tiers mobile,pc --width 320 --height 240 --spp 1
 /// --reference-spp 16 --warmup 8 --frames 4` gave 441.7 ms per `mobile` frame and 972.0 ms
-/// per `pc` frame, 4,770 and 5,584 times the H100 estimates at that size (0.093 and 0.174
-/// ms). At 160 x 120 the same command gave 304.0 and 434.0 ms, 13,100 and 9,970 times the
+/// per `pc` frame, 6,300 and 3,900 times the H100 estimates at that size (0.070 and 0.247
+/// ms). At 160 x 120 the same command gave 304.0 and 434.0 ms, 17,000 and 7,000 times the
 /// estimates: fixed per-frame costs (the brick cache's passes) dominate a tiny frame, which
-/// the H100's proportional model leaves out. So software frames are estimated too cheap at
-/// the smallest sizes, never real-time either way.
+/// the proportional model leaves out. So software frames are estimated too cheap at the
+/// smallest sizes, never real-time either way.
 pub const SOFTWARE_SLOWDOWN: f64 = 5000.0;
 
-/// How much slower than the H100 an adapter of `device_type` runs a frame:
+/// How much slower than the H100 `adapter` runs a frame: the measured factor of a
+/// [`MEASURED_ADAPTERS`] entry its name matches, else its class's:
 ///
 /// | class | factor | source |
 /// |---|---:|---|
@@ -322,21 +334,27 @@ pub const SOFTWARE_SLOWDOWN: f64 = 5000.0;
 /// | integrated | 16 | assumption: a quarter of the mid-range discrete GPU |
 /// | other (unknown) | 16 | assumption: unknown hardware is planned as the slow class |
 /// | software (`Cpu`) | 5000 ([`SOFTWARE_SLOWDOWN`]) | measured, lavapipe on 2 cores |
-pub fn slowdown(device_type: wgpu::DeviceType) -> f64 {
-    match device_type {
+pub fn slowdown(adapter: &AdapterDescription) -> f64 {
+    let name = adapter.name.to_lowercase();
+    if let Some((_, factor, _)) = MEASURED_ADAPTERS
+        .iter()
+        .find(|(known, _, _)| name.contains(&known.to_lowercase()))
+    {
+        return *factor;
+    }
+    match adapter.device_type {
         wgpu::DeviceType::DiscreteGpu | wgpu::DeviceType::VirtualGpu => 4.0,
         wgpu::DeviceType::IntegratedGpu | wgpu::DeviceType::Other => 16.0,
         wgpu::DeviceType::Cpu => SOFTWARE_SLOWDOWN,
     }
 }
 
-/// Estimated ms per frame of the GPU version of `kind` on an adapter of `device_type` at
-/// `settings`; `None` for tiers without a real-time estimate (`path`, `reference`). The direct
-/// tier scales with its samples per pixel; the temporal tiers add one direct sample per frame
-/// whatever `spp` is.
+/// Estimated ms per frame of the GPU version of `kind` on `adapter` at `settings`; `None` for
+/// tiers without a real-time estimate (`path`, `reference`). The direct tier scales with its
+/// samples per pixel; the temporal tiers add one direct sample per frame whatever `spp` is.
 pub fn estimate_ms(
     kind: TierKind,
-    device_type: wgpu::DeviceType,
+    adapter: &AdapterDescription,
     settings: &TierSettings,
 ) -> Option<f64> {
     let cost = H100_FRAME_COSTS.iter().find(|c| c.kind == kind)?;
@@ -354,7 +372,7 @@ pub fn estimate_ms(
     } else {
         1.0
     };
-    Some(h100_ms * samples * slowdown(device_type))
+    Some(h100_ms * samples * slowdown(adapter))
 }
 
 /// The real-time tiers, best first.
@@ -391,8 +409,7 @@ pub fn plan(
         match check_requirements(&req, &adapter.limits) {
             Ok(()) => runnable.push((
                 kind,
-                estimate_ms(kind, adapter.device_type, settings)
-                    .expect("real-time tiers have an estimate"),
+                estimate_ms(kind, adapter, settings).expect("real-time tiers have an estimate"),
             )),
             Err(missing) => rejected.push((kind, missing)),
         }

@@ -186,7 +186,7 @@ fn the_storage_binding_limit_depends_on_the_resolution() {
 #[test]
 fn a_budget_picks_the_best_tier_that_fits_and_says_so() {
     let discrete = adapter(wgpu::DeviceType::DiscreteGpu);
-    let ms = |kind| estimate_ms(kind, discrete.device_type, &SIZE_640).unwrap();
+    let ms = |kind| estimate_ms(kind, &discrete, &SIZE_640).unwrap();
     let (pc, mobile, direct) = (ms(TierKind::Pc), ms(TierKind::Mobile), ms(TierKind::Direct));
     assert!(pc > mobile && mobile > direct, "{pc} {mobile} {direct}");
 
@@ -237,12 +237,12 @@ fn when_nothing_fits_the_budget_mobile_is_chosen_and_the_reason_says_it_exceeds(
 fn a_larger_resolution_raises_the_estimates() {
     let discrete = adapter(wgpu::DeviceType::DiscreteGpu);
     for kind in [TierKind::Pc, TierKind::Mobile, TierKind::Direct] {
-        let small = estimate_ms(kind, discrete.device_type, &SIZE_640).unwrap();
-        let large = estimate_ms(kind, discrete.device_type, &SIZE_4K).unwrap();
+        let small = estimate_ms(kind, &discrete, &SIZE_640).unwrap();
+        let large = estimate_ms(kind, &discrete, &SIZE_4K).unwrap();
         assert!(large > small, "{kind}: {small} at 640x360, {large} at 4K");
     }
     // A budget that fits pc at 640x360 does not at 3840x2160.
-    let pc_small = estimate_ms(TierKind::Pc, discrete.device_type, &SIZE_640).unwrap();
+    let pc_small = estimate_ms(TierKind::Pc, &discrete, &SIZE_640).unwrap();
     let budget = Some(FrameBudget::from_ms(pc_small * 1.5));
     assert_eq!(
         plan(Some(&discrete), &SIZE_640, budget).chosen().kind,
@@ -396,7 +396,7 @@ fn auto_within_a_budget_renders_the_tier_the_plan_chose() {
     let adapter = AdapterDescription::from_context(&ctx);
     drop(ctx);
     // A budget between the mobile and pc estimates on this adapter: mobile where it runs.
-    let ms = |kind| estimate_ms(kind, adapter.device_type, &GPU_SETTINGS).unwrap();
+    let ms = |kind| estimate_ms(kind, &adapter, &GPU_SETTINGS).unwrap();
     let budget = FrameBudget::from_ms((ms(TierKind::Pc) + ms(TierKind::Mobile)) / 2.0);
     let plan = plan(Some(&adapter), &GPU_SETTINGS, Some(budget));
     let scene = gi_scene::load("cornell-box").unwrap();
@@ -482,4 +482,28 @@ fn a_candidate_that_cannot_be_created_falls_back_to_the_next() {
     };
     let scene = gi_scene::load("cornell-box").unwrap();
     assert!(Renderer::from_plan(scene, plan, GPU_SETTINGS, CameraMode::Default).is_err());
+}
+
+#[test]
+fn a_measured_adapter_takes_its_measured_factor_instead_of_its_class_assumption() {
+    let generic = adapter(wgpu::DeviceType::DiscreteGpu);
+    let h100 = AdapterDescription {
+        name: "NVIDIA H100 80GB HBM3".to_string(),
+        ..generic.clone()
+    };
+    assert_eq!(select::slowdown(&h100), 1.0);
+    assert_eq!(select::slowdown(&generic), 4.0);
+    let pc = |a: &AdapterDescription| estimate_ms(TierKind::Pc, a, &SIZE_640).unwrap();
+    assert!((pc(&generic) / pc(&h100) - 4.0).abs() < 1e-9);
+    // A budget between the two pc estimates: the H100 runs pc within it, a generic discrete
+    // GPU does not.
+    let budget = Some(FrameBudget::from_ms((pc(&generic) + pc(&h100)) / 2.0));
+    assert_eq!(
+        plan(Some(&h100), &SIZE_640, budget).chosen().kind,
+        TierKind::Pc
+    );
+    assert_ne!(
+        plan(Some(&generic), &SIZE_640, budget).chosen().kind,
+        TierKind::Pc
+    );
 }
