@@ -201,15 +201,16 @@ impl PassTimings {
         self.0.iter().map(|(_, ms)| ms).sum()
     }
 
-    /// Per pass name (in the first frame's order), the median over `frames` of that pass's
-    /// time; the product's timing statistic, robust to the odd frame that hits a clock change
-    /// or a driver stall.
+    /// Per pass name, the median over `frames` of that pass's time in a frame (all its runs
+    /// summed, as [`PassTimings::get`]); the product's timing statistic, robust to the odd frame
+    /// that hits a clock change or a driver stall. Every pass that ran in any frame is listed,
+    /// in order of first appearance, and a frame it did not run in counts 0 ms for it: a pass
+    /// that runs only in some frames (a re-voxelization when something moved, direct light
+    /// re-traced after a change) shows what it costs a typical frame instead of vanishing or
+    /// counting as if it ran every frame.
     pub fn median(frames: &[PassTimings]) -> PassTimings {
-        let Some(first) = frames.first() else {
-            return PassTimings::default();
-        };
         let mut names: Vec<&str> = Vec::new();
-        for (name, _) in &first.0 {
+        for (name, _) in frames.iter().flat_map(|frame| &frame.0) {
             if !names.contains(&name.as_str()) {
                 names.push(name);
             }
@@ -217,7 +218,8 @@ impl PassTimings {
         let rows = names
             .into_iter()
             .map(|name| {
-                let mut samples: Vec<f64> = frames.iter().filter_map(|f| f.get(name)).collect();
+                let mut samples: Vec<f64> =
+                    frames.iter().map(|f| f.get(name).unwrap_or(0.0)).collect();
                 samples.sort_by(f64::total_cmp);
                 let mid = samples.len() / 2;
                 let median = if samples.len() % 2 == 1 {
@@ -247,5 +249,37 @@ impl fmt::Display for PassTimings {
             writeln!(f, "{name:<width$}  {ms:>10.3}")?;
         }
         writeln!(f, "{:<width$}  {:>10.3}", "total", self.total_ms())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::PassTimings;
+
+    fn frame(passes: &[(&str, f64)]) -> PassTimings {
+        PassTimings(passes.iter().map(|(n, ms)| (n.to_string(), *ms)).collect())
+    }
+
+    #[test]
+    fn the_median_lists_passes_of_any_frame_and_counts_their_absence_as_zero() {
+        let frames = [
+            frame(&[("a", 1.0), ("b", 2.0), ("b", 1.0)]),
+            frame(&[("a", 3.0), ("c", 5.0)]),
+            frame(&[("a", 2.0), ("b", 4.0), ("c", 6.0)]),
+        ];
+        let median = PassTimings::median(&frames);
+        // "c" is missing from the first frame and still listed; "b" ran twice in frame 0.
+        assert_eq!(median, frame(&[("a", 2.0), ("b", 3.0), ("c", 5.0)]));
+        // A pass that ran in one frame of three has a median of 0: a typical frame lacks it.
+        let rare = [
+            frame(&[("a", 1.0)]),
+            frame(&[("a", 1.0), ("rare", 9.0)]),
+            frame(&[("a", 1.0)]),
+        ];
+        assert_eq!(
+            PassTimings::median(&rare),
+            frame(&[("a", 1.0), ("rare", 0.0)])
+        );
+        assert_eq!(PassTimings::median(&[]), PassTimings::default());
     }
 }
