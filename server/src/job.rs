@@ -353,49 +353,12 @@ impl JobRecord {
 
 /// The current time as RFC 3339 in UTC with milliseconds (`2026-11-22T12:00:00.123Z`).
 pub fn now_rfc3339() -> String {
-    let since_epoch = std::time::SystemTime::now()
-        .duration_since(std::time::UNIX_EPOCH)
-        .unwrap_or_default();
-    format_rfc3339(since_epoch.as_millis() as i64)
-}
-
-/// Formats milliseconds since the Unix epoch (UTC) as RFC 3339.
-fn format_rfc3339(millis: i64) -> String {
-    let days = millis.div_euclid(86_400_000);
-    let ms_of_day = millis.rem_euclid(86_400_000);
-    // Civil date from days since 1970-01-01 (Howard Hinnant's algorithm).
-    let z = days + 719_468;
-    let era = z.div_euclid(146_097);
-    let doe = z.rem_euclid(146_097);
-    let yoe = (doe - doe / 1460 + doe / 36_524 - doe / 146_096) / 365;
-    let doy = doe - (365 * yoe + yoe / 4 - yoe / 100);
-    let mp = (5 * doy + 2) / 153;
-    let day = doy - (153 * mp + 2) / 5 + 1;
-    let month = if mp < 10 { mp + 3 } else { mp - 9 };
-    let year = yoe + era * 400 + i64::from(month <= 2);
-    format!(
-        "{year:04}-{month:02}-{day:02}T{:02}:{:02}:{:02}.{:03}Z",
-        ms_of_day / 3_600_000,
-        ms_of_day / 60_000 % 60,
-        ms_of_day / 1000 % 60,
-        ms_of_day % 1000
-    )
+    humantime::format_rfc3339_millis(std::time::SystemTime::now()).to_string()
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
-
-    #[test]
-    fn rfc3339_dates_match_known_instants() {
-        assert_eq!(format_rfc3339(0), "1970-01-01T00:00:00.000Z");
-        // 2000-02-29 (a leap day of a century leap year) 12:34:56.789
-        assert_eq!(format_rfc3339(951_827_696_789), "2000-02-29T12:34:56.789Z");
-        assert_eq!(
-            format_rfc3339(1_798_761_599_000),
-            "2026-12-31T23:59:59.000Z"
-        );
-    }
 
     #[test]
     fn defaults_fill_in_and_limits_hold() {

@@ -429,10 +429,12 @@ pub fn plan(
     match budget {
         Some(budget) => {
             let fits = runnable.iter().position(|&(_, ms)| ms <= budget.ms());
+            // When nothing fits: mobile, the cheapest tier with GI, else the best that runs.
             let over = runnable
                 .iter()
-                .position(|&(kind, _)| kind == TierKind::Mobile);
-            if let Some(index) = fits {
+                .position(|&(kind, _)| kind == TierKind::Mobile)
+                .or((!runnable.is_empty()).then_some(0));
+            if let Some(index) = fits.or(over) {
                 let (kind, ms) = runnable[index];
                 for &(better, better_ms) in &runnable[..index] {
                     rejected.push((
@@ -442,32 +444,21 @@ pub fn plan(
                         ),
                     ));
                 }
-                candidates.push(Candidate {
-                    kind,
-                    runs_on: RunsOn::Gpu,
-                    reason: format!(
+                let reason = if fits.is_some() {
+                    format!(
                         "the best real-time tier within the {budget} budget on {label}: about \
                          {ms:.1} ms at {size}"
-                    ),
-                });
-                fallbacks_from(index, &mut candidates);
-            } else if let Some(index) = over.or((!runnable.is_empty()).then_some(0)) {
-                let (kind, ms) = runnable[index];
-                for &(better, better_ms) in &runnable[..index] {
-                    rejected.push((
-                        better,
-                        format!(
-                            "about {better_ms:.1} ms at {size} on {label}, over the {budget} budget"
-                        ),
-                    ));
-                }
+                    )
+                } else {
+                    format!(
+                        "no real-time tier fits the {budget} budget on {label} at {size}; the \
+                         cheapest with GI exceeds it at about {ms:.1} ms"
+                    )
+                };
                 candidates.push(Candidate {
                     kind,
                     runs_on: RunsOn::Gpu,
-                    reason: format!(
-                        "no real-time tier fits the {budget} budget on {label} at {size}; the \
-                         cheapest with GI exceeds it at about {ms:.1} ms"
-                    ),
+                    reason,
                 });
                 fallbacks_from(index, &mut candidates);
             }
