@@ -280,21 +280,22 @@ pub struct FrameCost {
 }
 
 /// Measured frame costs on an NVIDIA H100 (Vulkan): whole frames (G-buffer, direct light and
-/// GI) at 1920x1080 and the default settings, scaled in proportion to the pixel count. The PC
-/// and mobile figures are frames along a moving camera, which re-trace the direct light every
-/// frame (a still view accumulates it and stops tracing it, so still frames cost less).
+/// GI) at the default settings, scaled in proportion to the pixel count. The PC and mobile
+/// figures are medians over 64 frames of `dynamic`, whose moving objects make every frame
+/// re-voxelize them and re-trace the direct light, as a moving view does (a still view
+/// accumulates its direct light and stops tracing it, so still frames cost less).
 pub const H100_FRAME_COSTS: [FrameCost; 3] = [
     FrameCost {
         kind: TierKind::Pc,
-        points: &[(2.0736, 6.68)],
-        source: "benchmarks/RESULTS.md, benchmark suite: the auto example on atrium at \
-                 1920x1080 along its camera path, frame 31 (6.682 ms, direct light 1.04 ms of it)",
+        points: &[(2.0736, 4.73)],
+        source: "benchmarks/RESULTS.md, benchmark suite, `gi-bench pc --scenes dynamic --size \
+                 1920x1080 --frames 64`: GI 3.709 + gbuffer/primary 0.334 + direct 0.688 ms",
     },
     FrameCost {
         kind: TierKind::Mobile,
-        points: &[(2.0736, 1.89)],
-        source: "benchmarks/RESULTS.md, benchmark suite: the auto example on atrium at \
-                 1920x1080 along its camera path with a 2 ms budget, frame 31 (1.888 ms)",
+        points: &[(2.0736, 2.61)],
+        source: "benchmarks/RESULTS.md, benchmark suite, `gi-bench mobile --scenes dynamic --size \
+                 1920x1080 --frames 64`: GI 1.589 + gbuffer/primary 0.334 + direct 0.688 ms",
     },
     FrameCost {
         kind: TierKind::Direct,
@@ -317,8 +318,8 @@ pub const MEASURED_ADAPTERS: [(&str, f64, &str); 1] = [(
 /// [`H100_FRAME_COSTS`] say, measured on Mesa's lavapipe on a 2-core x86-64 CPU (2026-11-22):
 /// `gi compare cornell-box --tiers mobile,pc --width 320 --height 240 --spp 1
 /// --reference-spp 16 --warmup 8 --frames 4` gave 441.7 ms per `mobile` frame and 972.0 ms
-/// per `pc` frame, 6,300 and 3,900 times the H100 estimates at that size (0.070 and 0.247
-/// ms). At 160 x 120 the same command gave 304.0 and 434.0 ms, 17,000 and 7,000 times the
+/// per `pc` frame, 4,600 and 5,500 times the H100 estimates at that size (0.097 and 0.175
+/// ms). At 160 x 120 the same command gave 304.0 and 434.0 ms, 12,600 and 9,900 times the
 /// estimates: fixed per-frame costs (the brick cache's passes) dominate a tiny frame, which
 /// the proportional model leaves out. So software frames are estimated too cheap at the
 /// smallest sizes, never real-time either way.
