@@ -55,22 +55,7 @@ fn tier_label(cell: &Cell) -> String {
 /// The per-pass table of `tier`: a row per pass (in first-seen order over the scenes), a
 /// column per scene, each the mean over the repeats of the pass's median ms.
 pub fn pass_table(results: &Results, tier: &str) -> Option<String> {
-    let cells: Vec<&Cell> = results
-        .cells
-        .iter()
-        .filter(|c| c.tier == tier && !c.passes_ms.is_empty())
-        .collect();
-    if cells.is_empty() {
-        return None;
-    }
-    let mut passes: Vec<&str> = Vec::new();
-    for cell in &cells {
-        for pass in &cell.passes_ms {
-            if !passes.contains(&pass.name.as_str()) {
-                passes.push(&pass.name);
-            }
-        }
-    }
+    let (cells, passes) = results.pass_cells(tier)?;
     let mut out = String::from("| pass |");
     let mut rule = String::from("|---|");
     for cell in &cells {

@@ -206,20 +206,9 @@ where
 /// `passes_<tier>.png`: a bar per scene stacking the tier's passes' median ms, with a legend.
 /// `false` when no scene measured the tier.
 pub fn passes(results: &Results, tier: &str, path: &Path) -> Result<bool> {
-    let cells: Vec<&Cell> = results
-        .cells
-        .iter()
-        .filter(|c| c.tier == tier && !c.passes_ms.is_empty())
-        .collect();
-    if cells.is_empty() {
+    let Some((cells, names)) = results.pass_cells(tier) else {
         return Ok(false);
-    }
-    let mut names: Vec<&str> = Vec::new();
-    for pass in cells.iter().flat_map(|c| &c.passes_ms) {
-        if !names.contains(&pass.name.as_str()) {
-            names.push(&pass.name);
-        }
-    }
+    };
     let max_ms = cells
         .iter()
         .map(|c| c.passes_ms.iter().map(|p| p.ms.mean).sum::<f64>())

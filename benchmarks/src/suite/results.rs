@@ -34,6 +34,28 @@ pub struct Results {
     pub regressions: Option<crate::suite::regress::Comparison>,
 }
 
+impl Results {
+    /// The cells of `tier` that measured passes, in scene order, and every pass name among
+    /// them in first-seen order; `None` when no scene measured the tier.
+    pub fn pass_cells(&self, tier: &str) -> Option<(Vec<&Cell>, Vec<&str>)> {
+        let cells: Vec<&Cell> = self
+            .cells
+            .iter()
+            .filter(|c| c.tier == tier && !c.passes_ms.is_empty())
+            .collect();
+        if cells.is_empty() {
+            return None;
+        }
+        let mut names: Vec<&str> = Vec::new();
+        for pass in cells.iter().flat_map(|c| &c.passes_ms) {
+            if !names.contains(&pass.name.as_str()) {
+                names.push(&pass.name);
+            }
+        }
+        Some((cells, names))
+    }
+}
+
 /// wgpu's description of the adapter.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct Adapter {
