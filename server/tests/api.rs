@@ -434,35 +434,17 @@ fn bad_input_gets_the_right_4xx_and_changes_nothing() {
             "malformed upload",
             422,
             "invalid_scene",
-            request(
-                addr,
-                "POST",
-                "/v1/scenes",
-                &[("Content-Type", "model/gltf-binary")],
-                b"glTF but not really a binary glTF file",
-            ),
+            upload_glb(addr, b"glTF but not really a binary glTF file"),
         ),
         ("truncated upload", 422, "invalid_scene", {
             let glb = sample_glb("Box");
-            request(
-                addr,
-                "POST",
-                "/v1/scenes",
-                &[("Content-Type", "model/gltf-binary")],
-                &glb[..glb.len() - 100],
-            )
+            upload_glb(addr, &glb[..glb.len() - 100])
         }),
         (
             "oversized upload",
             413,
             "payload_too_large",
-            request(
-                addr,
-                "POST",
-                "/v1/scenes",
-                &[("Content-Type", "model/gltf-binary")],
-                &vec![0u8; 200 << 10],
-            ),
+            upload_glb(addr, &vec![0u8; 200 << 10]),
         ),
         (
             "upload of another type",
@@ -480,25 +462,13 @@ fn bad_input_gets_the_right_4xx_and_changes_nothing() {
             "upload with a texture too large to decode",
             422,
             "invalid_scene",
-            request(
-                addr,
-                "POST",
-                "/v1/scenes",
-                &[("Content-Type", "model/gltf-binary")],
-                &glb_with_huge_texture(),
-            ),
+            upload_glb(addr, &glb_with_huge_texture()),
         ),
         (
             "upload naming an outside file",
             422,
             "invalid_scene",
-            request(
-                addr,
-                "POST",
-                "/v1/scenes",
-                &[("Content-Type", "model/gltf-binary")],
-                &glb_with_external_buffer(),
-            ),
+            upload_glb(addr, &glb_with_external_buffer()),
         ),
     ];
     for (what, status, code, response) in &cases {

@@ -176,6 +176,17 @@ pub fn post_json(addr: SocketAddr, path: &str, body: &Value) -> Response {
     )
 }
 
+/// Uploads `body` to `/v1/scenes` as a binary glTF.
+pub fn upload_glb(addr: SocketAddr, body: &[u8]) -> Response {
+    request(
+        addr,
+        "POST",
+        "/v1/scenes",
+        &[("Content-Type", "model/gltf-binary")],
+        body,
+    )
+}
+
 /// Submits a job, asserting it was accepted; its id.
 pub fn submit(addr: SocketAddr, job: &Value) -> String {
     let response = post_json(addr, "/v1/jobs", job);
