@@ -382,12 +382,12 @@ impl CacheUpdateReport {
             mib(self.cache_bytes()),
             mib(self.lighting_bytes()),
         );
-        out += "| frame | time s | voxelized | queued | scheduled (new/near/far) | \
+        out += "| frame | time s | voxelized | queued | scheduled (new/near/far/settle) | \
                 cache GPU ms | cpu update ms |\n|---:|---:|---:|---:|---|---:|---:|\n";
         for (index, frame) in self.frames.iter().enumerate() {
             let s = frame.scheduled;
             out += &format!(
-                "| {index} | {:.3} | {} | {} | {} ({}/{}/{}) | {:.3} | {:.3} |\n",
+                "| {index} | {:.3} | {} | {} | {} ({}/{}/{}/{}) | {:.3} | {:.3} |\n",
                 frame.time_s,
                 frame.update.voxelized,
                 frame.update.queued_remaining,
@@ -395,6 +395,7 @@ impl CacheUpdateReport {
                 s.new,
                 s.near,
                 s.far,
+                s.settle,
                 PassRow::of(frame).cache_gpu_ms(),
                 frame.cpu_update_ms,
             );
@@ -421,6 +422,8 @@ impl CacheUpdateReport {
                 "voxelize_bricks_per_frame": config.voxelize_bricks_per_frame,
                 "screen_inject_bricks_per_frame": config.screen_inject_bricks_per_frame,
                 "light_bricks_per_frame": config.light_bricks_per_frame,
+                "settle_bricks_per_frame": config.settle_bricks_per_frame,
+                "settle_updates": config.settle_updates,
             },
             "screen_inject": self.options.screen_inject.map(|(w, h)| serde_json::json!({
                 "width": w,
@@ -463,6 +466,7 @@ impl CacheUpdateReport {
                         "new": f.scheduled.new,
                         "near": f.scheduled.near,
                         "far": f.scheduled.far,
+                        "settle": f.scheduled.settle,
                     },
                 })
             }).collect::<Vec<_>>(),

@@ -17,7 +17,7 @@
 #import gi::lights::Sky
 #import gi::cache::data::{
     cache, cache_brick_masks, cache_voxels, VoxelRef, VoxelSurface, cache_mask_cell,
-    cache_mask_test, cache_voxel_index, cache_voxel_normal
+    cache_mask_test, cache_voxel_index, cache_voxel_normal, cache_voxel_age
 }
 
 // Distance from a voxel's center to the point its sides are lit at, in voxel edges: half the
@@ -53,7 +53,9 @@ struct ScheduledBrick {
     level: u32,
     // Pool ID.
     brick_id: u32,
-    pad_a: u32,
+    // Cap of its voxels' ages in this update (`gi_cache::lighting::GpuScheduledBrick`): the
+    // uniforms' `max_age`, lower while the brick settles, 0 during a fill.
+    max_age: u32,
     pad_b: u32,
     pad_c: u32,
 }
@@ -78,6 +80,8 @@ struct ScheduledVoxel {
     // Its stored surface, as the pass found it, and that surface's normal.
     surface: VoxelSurface,
     n: vec3<f32>,
+    // Its brick's age cap in this update (`ScheduledBrick::max_age`).
+    max_age: u32,
 }
 
 // Whether thread `bit` of workgroup `scheduled` of a lighting pass has a voxel to update: the
@@ -96,7 +100,9 @@ fn scheduled_voxel(scheduled: u32, bit: u32) -> ScheduledVoxel {
     let voxel = brick.brick * 4 + vec3<i32>(cache_mask_cell(bit));
     let center = (vec3<f32>(voxel) + 0.5) * size_m;
     let surface = cache_voxels[cache_voxel_index(v)];
-    return ScheduledVoxel(v, voxel, brick.level, center, size_m, surface, cache_voxel_normal(surface));
+    return ScheduledVoxel(
+        v, voxel, brick.level, center, size_m, surface, cache_voxel_normal(surface), brick.max_age
+    );
 }
 
 // Index in `propagate_scratch` of side `side` of voxel `bit` of the `scheduled`-th brick.
@@ -104,11 +110,11 @@ fn propagate_scratch_slot(scheduled: u32, bit: u32, side: u32) -> u32 {
     return (scheduled * 64u + bit) * 2u + side;
 }
 
-// Age of a voxel after this frame's propagation: one update older, at most `max_age`. Both
-// `cache/propagate` (for the accumulation weight) and `cache/propagate_resolve` (to store it)
-// compute it from the same unchanged state.
-fn propagated_age(age: u32) -> u32 {
-    return min(age + 1u, lighting.max_age);
+// Age of voxel `lit` after this frame's propagation: one update older, at most its brick's
+// cap. Both `cache/propagate` (for the accumulation weight) and `cache/propagate_resolve` (to
+// store it) compute it from the same unchanged state.
+fn propagated_age(lit: ScheduledVoxel) -> u32 {
+    return min(cache_voxel_age(lit.surface) + 1u, lit.max_age);
 }
 
 // The point side `side_n` (the side's outward normal, the voxel normal or its opposite) of a

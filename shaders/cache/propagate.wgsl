@@ -34,7 +34,7 @@
 #import gi::bvh::{Ray, trace_any}
 #import gi::packing::{pack_rgb9e5, unpack_rgb9e5}
 #import gi::cache::data::{
-    cache_indirect, cache_side_slot, cache_side_normal, cache_voxel_age, CACHE_SIDE_COUNT
+    cache_indirect, cache_side_slot, cache_side_normal, CACHE_SIDE_COUNT
 }
 #import gi::cache::trace::{cache_trace, cache_hit_radiance}
 #import gi::cache::lighting::{
@@ -138,7 +138,7 @@ fn propagate(
         total += lane_sums[bit + 64u * l];
     }
     let lit = scheduled_voxel(group.x, bit);
-    let age = propagated_age(cache_voxel_age(lit.surface));
+    let age = propagated_age(lit);
     // Age 0 (max_age 0, during a fill) replaces without keeping history.
     let weight = 1.0 / f32(max(age, 1u));
     let slot = cache_side_slot(lit.v, side);

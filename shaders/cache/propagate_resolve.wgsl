@@ -13,7 +13,7 @@
 // Bind group 0: `gi::cache::lighting`; 2: the cache (`gi::cache::data`).
 
 #import gi::cache::data::{
-    cache_voxels, cache_indirect, cache_voxel_index, cache_side_slot, cache_voxel_age,
+    cache_voxels, cache_indirect, cache_voxel_index, cache_side_slot,
     CACHE_SIDE_COUNT
 }
 #import gi::cache::lighting::{
@@ -34,6 +34,6 @@ fn propagate_resolve(
         cache_indirect[cache_side_slot(lit.v, side)] =
             propagate_scratch[propagate_scratch_slot(group.x, bit, side)];
     }
-    let age = propagated_age(cache_voxel_age(lit.surface));
+    let age = propagated_age(lit);
     cache_voxels[cache_voxel_index(lit.v)].state = (lit.surface.state & ~0xffu) | age;
 }

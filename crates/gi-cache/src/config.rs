@@ -7,6 +7,10 @@
 
 use crate::layout::{BRICK_VOXELS, GROUP_BRICKS, MAX_LEVELS, SIDE_COUNT, VOXELS_PER_BRICK};
 
+/// Most bricks the lighting passes relight in one frame: one workgroup each, along the
+/// dispatch's x dimension (at least 65,535 on every adapter).
+pub const MAX_LIT_BRICKS: u32 = 65_535;
+
 /// How the cache is shaped and how much work it does per frame.
 ///
 /// Defaults: 7 levels of 32 x 16 x 32 bricks (128 x 64 x 128 voxels) each, finest voxels of
@@ -45,6 +49,18 @@ pub struct CacheConfig {
     /// (levels below [`CacheConfig::near_levels`]) gets its share first; HSGI refreshes its
     /// near field every 9 frames and its far field every 121.
     pub light_bricks_per_frame: u32,
+    /// Extra bricks relit per frame while some bricks are young (relit fewer than
+    /// [`CacheConfig::settle_updates`] times since they were voxelized), the fewest-relit and
+    /// finest first. Every update of a brick adds one bounce of light, so after a scene loads
+    /// or the view jumps the round-robin alone leaves the cache dark for seconds (one update
+    /// per brick every 20 frames on a 10,000-brick scene); the extra budget settles it in
+    /// about a second and stops costing once every brick is settled. 0 turns it off.
+    pub settle_bricks_per_frame: u32,
+    /// Updates after which a brick counts as settled (see
+    /// [`CacheConfig::settle_bricks_per_frame`]). A young brick's updates are also weighed at
+    /// least 1/2 ([`crate::lighting::SETTLE_MAX_AGE`]) so that its light follows the bounces it
+    /// gains; 0 turns settling off altogether.
+    pub settle_updates: u32,
     /// Levels counted as near field for the update schedule.
     pub near_levels: u32,
     /// Hemisphere rays per voxel side per indirect update. More rays lower the noise of each
@@ -65,6 +81,8 @@ impl Default for CacheConfig {
             voxelize_bricks_per_frame: 512,
             screen_inject_bricks_per_frame: 2048,
             light_bricks_per_frame: 512,
+            settle_bricks_per_frame: 1536,
+            settle_updates: 8,
             near_levels: 3,
             gather_rays_per_side: 4,
             max_age: 32,
@@ -144,6 +162,17 @@ impl CacheConfig {
                 "max_age",
                 self.max_age.to_string(),
                 "must fit the 8-bit age",
+            );
+        }
+        let lit = u64::from(self.light_bricks_per_frame) + u64::from(self.settle_bricks_per_frame);
+        if lit > u64::from(MAX_LIT_BRICKS) {
+            return invalid(
+                "settle_bricks_per_frame",
+                self.settle_bricks_per_frame.to_string(),
+                &format!(
+                    "with `light_bricks_per_frame` ({}) must stay within {MAX_LIT_BRICKS} bricks per frame (one workgroup each)",
+                    self.light_bricks_per_frame
+                ),
             );
         }
         if self.near_levels > self.levels {

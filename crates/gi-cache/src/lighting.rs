@@ -36,7 +36,7 @@
 //! buffers at `gi::scene`'s bindings 1 to 7, the scheduled bricks at binding 8, the scratch at
 //! binding 9), group 1 the BVH (not used by `cache/propagate_resolve`), group 2 the cache.
 
-use std::collections::HashSet;
+use std::collections::{HashMap, HashSet};
 
 use bytemuck::{Pod, Zeroable};
 use gi_gpu::binding::{buffer_entries, storage_entry, uniform_entry};
@@ -57,6 +57,12 @@ pub const NEAR_REFRESH_RATIO: u32 = 13;
 /// sky: each update then weighs at least 1/4, so stale light fades by (3/4)^n over n updates,
 /// at the cost of 4-update noise while lights keep changing (a moving light).
 pub const CHANGED_MAX_AGE: u32 = 4;
+
+/// Accumulation cap of a settling brick's updates ([`LightSchedule::settling`]): every update
+/// of a young brick gathers one bounce more than the last, so a long mean would hold it near
+/// its first, darkest updates; weighing each new one at least 1/2 follows the rising light, and
+/// once settled the ages grow back by one per update towards [`CacheConfig::max_age`].
+pub const SETTLE_MAX_AGE: u32 = 2;
 
 /// Surfel sides per voxel, one `cache/propagate` workgroup row each.
 const CACHE_SIDES: u32 = crate::layout::SIDE_COUNT;
@@ -168,17 +174,20 @@ pub struct GpuScheduledBrick {
     pub level: u32,
     /// Pool ID.
     pub brick_id: u32,
-    pub pad_a: u32,
+    /// Cap of its voxels' ages in this update: the uniforms' `max_age`, at most
+    /// [`SETTLE_MAX_AGE`] while the brick settles ([`LightSchedule::settling`]).
+    pub max_age: u32,
     pub pad_b: u32,
     pub pad_c: u32,
 }
 
-/// The GPU entry of a scheduled brick.
-fn scheduled_brick(b: &ResidentBrick) -> GpuScheduledBrick {
+/// The GPU entry of a brick scheduled with age cap `max_age`.
+fn scheduled_brick(b: &ResidentBrick, max_age: u32) -> GpuScheduledBrick {
     GpuScheduledBrick {
         brick: b.brick.to_array(),
         level: b.level,
         brick_id: b.brick_id,
+        max_age,
         ..Default::default()
     }
 }
@@ -192,17 +201,51 @@ pub struct ScheduleCounts {
     pub near: u32,
     /// Resident far-field bricks relit.
     pub far: u32,
+    /// Young bricks relit from the settling budget
+    /// ([`CacheConfig::settle_bricks_per_frame`]).
+    pub settle: u32,
 }
 
 impl ScheduleCounts {
     /// Bricks relit this frame.
     pub fn total(&self) -> u32 {
-        self.new + self.near + self.far
+        self.new + self.near + self.far + self.settle
     }
 }
 
-/// Picks the bricks relit each frame, up to a budget: the newly voxelized bricks first (they
-/// have no lighting yet), then round-robins over the resident near-field and far-field bricks.
+/// What [`LightSchedule::pick`] may spend in one frame.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct ScheduleBudget {
+    /// Bricks relit in every frame: new ones first, then the round-robin
+    /// ([`CacheConfig::light_bricks_per_frame`]).
+    pub bricks: u32,
+    /// Levels below this are the near field ([`CacheConfig::near_levels`]).
+    pub near_levels: u32,
+    /// Extra bricks for young ones ([`CacheConfig::settle_bricks_per_frame`]).
+    pub settle_bricks: u32,
+    /// Updates after which a brick is settled ([`CacheConfig::settle_updates`]).
+    pub settle_updates: u32,
+}
+
+impl ScheduleBudget {
+    pub fn new(config: &CacheConfig) -> Self {
+        Self {
+            bricks: config.light_bricks_per_frame,
+            near_levels: config.near_levels,
+            settle_bricks: config.settle_bricks_per_frame,
+            settle_updates: config.settle_updates,
+        }
+    }
+
+    /// Most bricks one frame relights.
+    pub fn max_bricks(&self) -> u32 {
+        self.bricks.saturating_add(self.settle_bricks)
+    }
+}
+
+/// Picks the bricks relit each frame: the newly voxelized bricks first (they have no lighting
+/// yet), then a round-robin over the resident near-field and far-field bricks, up to
+/// [`ScheduleBudget::bricks`]; then, from a budget of its own, young bricks.
 ///
 /// The budget left after new bricks is split so that a near brick comes round
 /// [`NEAR_REFRESH_RATIO`] times as often as a far brick: with `N_near` and `N_far` resident
@@ -211,31 +254,49 @@ impl ScheduleCounts {
 /// and whatever a field cannot use (it has fewer bricks than its share) goes to the other. Each
 /// field's round-robin walks its bricks in pool-ID order from where the last frame stopped, so
 /// bricks that come and go between frames neither reset nor stall it.
+///
+/// Settling: the schedule counts each brick's updates since it was voxelized (up to
+/// [`ScheduleBudget::settle_updates`]). Every update adds a bounce, so a brick with few updates
+/// still misses light that a converged one has; up to [`ScheduleBudget::settle_bricks`] such
+/// young bricks are relit on top of the round-robin, the fewest-updated first, then finer
+/// levels (whose lighting the tiers read near the camera), then by pool ID. Updates during a
+/// fill do not count, since the next update replaces their lighting (see [`FILL_FRACTION`]),
+/// but they do spend the settling budget: each of their gathers still carries the light one
+/// bounce further for the next.
 #[derive(Clone, Debug, Default)]
 pub struct LightSchedule {
     near_cursor: Option<u32>,
     far_cursor: Option<u32>,
     far_credit: f64,
+    /// Updates of each resident brick (by pool ID) since it was voxelized, up to
+    /// `settle_updates`; a brick missing here has none.
+    updates: HashMap<u32, u32>,
+    /// Bricks of the last [`LightSchedule::pick`] that were young when picked.
+    settling: HashSet<u32>,
 }
 
 impl LightSchedule {
     /// This frame's bricks: `new_bricks` (voxelized this frame) first, then resident bricks
     /// from `resident` (every allocated brick, in any order; new ones are skipped there), at
-    /// most `budget` in all and none twice. Levels below `near_levels` are the near field.
+    /// most `budget.bricks`, then up to `budget.settle_bricks` young ones; none twice. While
+    /// `filling` the updates are not counted.
     pub fn pick(
         &mut self,
-        budget: u32,
-        near_levels: u32,
+        budget: &ScheduleBudget,
         new_bricks: &[ResidentBrick],
         resident: &[ResidentBrick],
+        filling: bool,
     ) -> (Vec<ResidentBrick>, ScheduleCounts) {
-        let budget = budget as usize;
-        let mut picked: Vec<ResidentBrick> = new_bricks.iter().take(budget).copied().collect();
+        let total = budget.bricks as usize;
+        let mut picked: Vec<ResidentBrick> = new_bricks.iter().take(total).copied().collect();
+        for b in new_bricks {
+            self.updates.remove(&b.brick_id);
+        }
         let fresh: HashSet<u32> = picked.iter().map(|b| b.brick_id).collect();
         let mut near: Vec<ResidentBrick> = Vec::new();
         let mut far: Vec<ResidentBrick> = Vec::new();
         for b in resident.iter().filter(|b| !fresh.contains(&b.brick_id)) {
-            if b.level < near_levels {
+            if b.level < budget.near_levels {
                 near.push(*b);
             } else {
                 far.push(*b);
@@ -245,8 +306,11 @@ impl LightSchedule {
         near.dedup_by_key(|b| b.brick_id);
         far.sort_unstable_by_key(|b| b.brick_id);
         far.dedup_by_key(|b| b.brick_id);
+        // Bricks released since the last frame.
+        let ids: HashSet<u32> = resident.iter().map(|b| b.brick_id).collect();
+        self.updates.retain(|id, _| ids.contains(id));
 
-        let remaining = budget - picked.len();
+        let remaining = total - picked.len();
         let near_demand = f64::from(NEAR_REFRESH_RATIO) * near.len() as f64;
         let far_demand = far.len() as f64;
         let mut far_count = 0;
@@ -260,14 +324,66 @@ impl LightSchedule {
         let near_count = (remaining - far_count).min(near.len());
         far_count = (remaining - near_count).min(far.len());
 
-        let counts = ScheduleCounts {
+        let mut counts = ScheduleCounts {
             new: picked.len() as u32,
             near: near_count as u32,
             far: far_count as u32,
+            settle: 0,
         };
         round_robin(&near, &mut self.near_cursor, near_count, &mut picked);
         round_robin(&far, &mut self.far_cursor, far_count, &mut picked);
+        let settled = budget.settle_updates;
+        let updates = |b: &ResidentBrick| self.updates.get(&b.brick_id).copied().unwrap_or(0);
+        if budget.settle_bricks > 0 {
+            let lit: HashSet<u32> = picked.iter().map(|b| b.brick_id).collect();
+            let mut young: Vec<(u32, ResidentBrick)> = near
+                .iter()
+                .chain(&far)
+                .filter(|b| !lit.contains(&b.brick_id))
+                .map(|b| (updates(b), *b))
+                .filter(|&(n, _)| n < settled)
+                .collect();
+            let take = (budget.settle_bricks as usize).min(young.len());
+            if take > 0 {
+                let near_levels = budget.near_levels;
+                let key = |&(n, b): &(u32, ResidentBrick)| {
+                    (b.level >= near_levels, n, b.level, b.brick_id)
+                };
+                if take < young.len() {
+                    young.select_nth_unstable_by_key(take - 1, key);
+                    young.truncate(take);
+                }
+                young.sort_unstable_by_key(key);
+                picked.extend(young.iter().map(|&(_, b)| b));
+                counts.settle = take as u32;
+            }
+        }
+        self.settling.clear();
+        for b in &picked {
+            let n = self.updates.entry(b.brick_id).or_insert(0);
+            if *n < settled {
+                self.settling.insert(b.brick_id);
+                if !filling {
+                    *n += 1;
+                }
+            }
+        }
         (picked, counts)
+    }
+
+    /// Whether brick `brick_id` was young (fewer than `settle_updates` updates) when the last
+    /// [`LightSchedule::pick`] picked it.
+    pub fn settling(&self, brick_id: u32) -> bool {
+        self.settling.contains(&brick_id)
+    }
+
+    /// Resident bricks (of `resident`) relit fewer than `settle_updates` times since they were
+    /// voxelized.
+    pub fn young_bricks(&self, resident: &[ResidentBrick], settle_updates: u32) -> usize {
+        resident
+            .iter()
+            .filter(|b| self.updates.get(&b.brick_id).copied().unwrap_or(0) < settle_updates)
+            .count()
     }
 }
 
@@ -425,12 +541,13 @@ impl CacheLighting {
         );
         let bricks = ctx.create_buffer(
             "cache.lighting.bricks",
-            u64::from(config.light_bricks_per_frame.max(1)) * size_of::<GpuScheduledBrick>() as u64,
+            u64::from(ScheduleBudget::new(config).max_bricks().max(1))
+                * size_of::<GpuScheduledBrick>() as u64,
             wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_DST,
         );
         let scratch = ctx.create_buffer(
             "cache.lighting.scratch",
-            u64::from(config.light_bricks_per_frame.max(1)) * SCRATCH_BYTES_PER_BRICK,
+            u64::from(ScheduleBudget::new(config).max_bricks().max(1)) * SCRATCH_BYTES_PER_BRICK,
             wgpu::BufferUsages::STORAGE,
         );
         let all_uniforms = ctx.create_buffer(
@@ -486,11 +603,12 @@ impl CacheLighting {
         encoder: &mut wgpu::CommandEncoder,
         inputs: &LightingInputs<'_>,
     ) -> ScheduleCounts {
+        let filling = is_filling(inputs.new_bricks.len(), inputs.resident.len());
         let (bricks, counts) = self.schedule.pick(
-            self.config.light_bricks_per_frame,
-            self.config.near_levels,
+            &ScheduleBudget::new(&self.config),
             inputs.new_bricks,
             inputs.resident,
+            filling,
         );
         self.last_counts = counts;
         // A change of the lights or the sky caps the accumulation for `max_age` updates, so
@@ -505,7 +623,7 @@ impl CacheLighting {
         if bricks.is_empty() {
             return counts;
         }
-        let max_age = if is_filling(inputs.new_bricks.len(), inputs.resident.len()) {
+        let max_age = if filling {
             0
         } else if self.fast_updates_left > 0 {
             self.fast_updates_left -= 1;
@@ -513,7 +631,20 @@ impl CacheLighting {
         } else {
             self.config.max_age
         };
-        let gpu_bricks: Vec<GpuScheduledBrick> = bricks.iter().map(scheduled_brick).collect();
+        let gpu_bricks: Vec<GpuScheduledBrick> = bricks
+            .iter()
+            .map(|b| {
+                let young = self.schedule.settling(b.brick_id);
+                scheduled_brick(
+                    b,
+                    if young {
+                        max_age.min(SETTLE_MAX_AGE)
+                    } else {
+                        max_age
+                    },
+                )
+            })
+            .collect();
         ctx.queue
             .write_buffer(&self.bricks, 0, bytemuck::cast_slice(&gpu_bricks));
         let uniforms = GpuLightingUniforms {
@@ -586,7 +717,7 @@ impl CacheLighting {
             .resident
             .iter()
             .take(65_535)
-            .map(scheduled_brick)
+            .map(|b| scheduled_brick(b, uniforms.max_age))
             .collect();
         if all.is_empty() {
             return;
@@ -694,6 +825,16 @@ mod tests {
 
     use super::*;
 
+    /// `bricks` per frame, levels 0 to 2 near, no settling budget.
+    fn round_robin_only(bricks: u32) -> ScheduleBudget {
+        ScheduleBudget {
+            bricks,
+            near_levels: 3,
+            settle_bricks: 0,
+            settle_updates: 8,
+        }
+    }
+
     fn bricks(levels: &[(u32, u32)]) -> Vec<ResidentBrick> {
         let mut out = Vec::new();
         let mut id = 1;
@@ -715,7 +856,7 @@ mod tests {
         let resident = bricks(&[(0, 10), (4, 10)]);
         let new = vec![resident[3], resident[15]];
         let mut schedule = LightSchedule::default();
-        let (picked, counts) = schedule.pick(8, 3, &new, &resident);
+        let (picked, counts) = schedule.pick(&round_robin_only(8), &new, &resident, false);
         println!("{counts:?}");
         assert_eq!(&picked[..2], &new[..]);
         assert_eq!(picked.len(), 8);
@@ -723,7 +864,7 @@ mod tests {
         let unique: HashSet<u32> = picked.iter().map(|b| b.brick_id).collect();
         assert_eq!(unique.len(), picked.len());
         // A budget larger than the cache lights everything once.
-        let (all, _) = schedule.pick(100, 3, &[], &resident);
+        let (all, _) = schedule.pick(&round_robin_only(100), &[], &resident, false);
         assert_eq!(all.len(), resident.len());
     }
 
@@ -736,7 +877,7 @@ mod tests {
         let mut visits = vec![0u32; resident.len() + 1];
         let frames = 2000;
         for _ in 0..frames {
-            let (picked, counts) = schedule.pick(40, 3, &[], &resident);
+            let (picked, counts) = schedule.pick(&round_robin_only(40), &[], &resident, false);
             assert_eq!(counts.total(), 40);
             for b in picked {
                 visits[b.brick_id as usize] += 1;
@@ -758,5 +899,66 @@ mod tests {
             "{ratio}"
         );
         assert!(visits[1..].iter().all(|&v| v > 0));
+    }
+
+    #[test]
+    fn young_bricks_get_the_settling_budget_until_settled() {
+        // 100 near and 100 far bricks, 10 per frame and 30 more for young ones, settled after
+        // 3 updates: 600 updates settle them all, which takes 20 frames from the settling
+        // budget alone and no fewer than 15 with the round-robin's help.
+        let resident = bricks(&[(0, 50), (2, 50), (4, 100)]);
+        let budget = ScheduleBudget {
+            bricks: 10,
+            near_levels: 3,
+            settle_bricks: 30,
+            settle_updates: 3,
+        };
+        let mut schedule = LightSchedule::default();
+        // A fill spends the settling budget, but its updates do not count.
+        let (picked, counts) = schedule.pick(&budget, &resident[..10], &resident, true);
+        assert_eq!((picked.len(), counts.new, counts.settle), (40, 10, 30));
+        assert_eq!(schedule.young_bricks(&resident, 3), 200);
+
+        let mut updates = vec![0u32; resident.len() + 1];
+        let mut frames = 0;
+        while schedule.young_bricks(&resident, 3) > 0 {
+            let (picked, counts) = schedule.pick(&budget, &[], &resident, false);
+            frames += 1;
+            assert!(frames <= 20, "still young after {frames} frames");
+            assert_eq!(picked.len() as u32, counts.total());
+            let unique: HashSet<u32> = picked.iter().map(|b| b.brick_id).collect();
+            assert_eq!(
+                unique.len(),
+                picked.len(),
+                "a brick twice in frame {frames}"
+            );
+            if frames == 1 {
+                // The fewest-updated first, then the finer levels: level 0 before level 2.
+                let settling = &picked[counts.total() as usize - counts.settle as usize..];
+                assert_eq!(counts.settle, 30);
+                assert!(settling.iter().all(|b| b.level == 0), "{settling:?}");
+            }
+            for b in picked {
+                updates[b.brick_id as usize] += 1;
+            }
+        }
+        assert!(frames >= 15, "{frames}");
+        assert!(updates[1..].iter().all(|&n| n >= 3), "{updates:?}");
+        // Settled: only the round-robin's budget is spent.
+        let (picked, counts) = schedule.pick(&budget, &[], &resident, false);
+        assert_eq!((picked.len(), counts.settle), (10, 0));
+
+        // A brick voxelized again (a dynamic object moved) is young again: lit as new, then
+        // from the settling budget until it has its 3 updates.
+        let moved = [resident[150]];
+        let (_, counts) = schedule.pick(&budget, &moved, &resident, false);
+        assert_eq!((counts.new, counts.settle), (1, 0));
+        for expected in [1, 1, 0] {
+            let (picked, counts) = schedule.pick(&budget, &[], &resident, false);
+            assert_eq!(counts.settle, expected);
+            if expected == 1 {
+                assert_eq!(picked.last(), Some(&moved[0]));
+            }
+        }
     }
 }
