@@ -258,11 +258,11 @@ impl ScheduleBudget {
 /// Settling: the schedule counts each brick's updates since it was voxelized (up to
 /// [`ScheduleBudget::settle_updates`]). Every update adds a bounce, so a brick with few updates
 /// still misses light that a converged one has; up to [`ScheduleBudget::settle_bricks`] such
-/// young bricks are relit on top of the round-robin, the fewest-updated first, then finer
-/// levels (whose lighting the tiers read near the camera), then by pool ID. Updates during a
-/// fill do not count, since the next update replaces their lighting (see [`FILL_FRACTION`]),
-/// but they do spend the settling budget: each of their gathers still carries the light one
-/// bounce further for the next.
+/// young bricks are relit on top of the round-robin: near-field ones first, then the
+/// fewest-updated, then finer levels (whose lighting the tiers read near the camera), then by
+/// pool ID. Updates during a fill do not count, since the next update replaces their lighting
+/// (see [`FILL_FRACTION`]), but they do spend the settling budget: each of their gathers still
+/// carries the light one bounce further for the next.
 #[derive(Clone, Debug, Default)]
 pub struct LightSchedule {
     near_cursor: Option<u32>,
