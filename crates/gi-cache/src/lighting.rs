@@ -306,9 +306,12 @@ impl LightSchedule {
         near.dedup_by_key(|b| b.brick_id);
         far.sort_unstable_by_key(|b| b.brick_id);
         far.dedup_by_key(|b| b.brick_id);
-        // Bricks released since the last frame.
-        let ids: HashSet<u32> = resident.iter().map(|b| b.brick_id).collect();
-        self.updates.retain(|id, _| ids.contains(id));
+        // Forget bricks released since the last frame (new ones were forgotten above).
+        let is_resident = |list: &[ResidentBrick], id: u32| {
+            list.binary_search_by_key(&id, |b| b.brick_id).is_ok()
+        };
+        self.updates
+            .retain(|&id, _| is_resident(&near, id) || is_resident(&far, id));
 
         let remaining = total - picked.len();
         let near_demand = f64::from(NEAR_REFRESH_RATIO) * near.len() as f64;
@@ -379,7 +382,8 @@ impl LightSchedule {
 
     /// Resident bricks (of `resident`) relit fewer than `settle_updates` times since they were
     /// voxelized.
-    pub fn young_bricks(&self, resident: &[ResidentBrick], settle_updates: u32) -> usize {
+    #[cfg(test)]
+    fn young_bricks(&self, resident: &[ResidentBrick], settle_updates: u32) -> usize {
         resident
             .iter()
             .filter(|b| self.updates.get(&b.brick_id).copied().unwrap_or(0) < settle_updates)
@@ -700,8 +704,8 @@ impl CacheLighting {
         counts
     }
 
-    /// Records `cache/inject_all`: the direct light of every resident brick (up to 65,535, one
-    /// dispatch row), so a light that moved or switched shows in the whole cache at once
+    /// Records `cache/inject_all`: the direct light of every resident brick (up to
+    /// [`MAX_LIT_BRICKS`](crate::config::MAX_LIT_BRICKS), one dispatch row), so a light that moved or switched shows in the whole cache at once
     /// rather than over the schedule's cycle (HSGI relights its far field every 121 frames).
     /// Direct injection is cheap next to propagation (one shadow ray per light and side); the
     /// indirect light follows through the schedule, its ages pulled down by the change.
@@ -716,7 +720,7 @@ impl CacheLighting {
         let all: Vec<GpuScheduledBrick> = inputs
             .resident
             .iter()
-            .take(65_535)
+            .take(crate::config::MAX_LIT_BRICKS as usize)
             .map(|b| scheduled_brick(b, uniforms.max_age))
             .collect();
         if all.is_empty() {

@@ -455,25 +455,25 @@ fn thin_wall_interior_stays_dark_at_the_default_shape() {
     check_thin_wall(&thin_wall_means(&ctx, &config));
 }
 
-/// Lights thin-wall's cache with `config` (32 frames) and returns the mean luminance `(cache,
-/// reference, reference noise)` of the irradiance on the thin wall's inner face, its outer
-/// face, the interior floor and the outdoor ground: the reference is the mean of two independent
-/// estimates, its noise half their relative difference.
-fn thin_wall_means(ctx: &GpuContext, config: &CacheConfig) -> Vec<(f32, f32, f32)> {
+/// Thin-wall's scene at time 0 and its cache lit with `config` for `frames` frames, with the
+/// median pass times of the last half.
+fn lit_thin_wall(
+    ctx: &GpuContext,
+    config: &CacheConfig,
+    frames: u32,
+) -> (Scene, SceneFrame, LitCache, PassTimings) {
     let scene = gi_scene::load("thin-wall").unwrap();
     let frame = scene.evaluate(0.0, None);
     let mut lit = LitCache::new(ctx, config, &scene, &frame);
-    assert_eq!(lit.cpu.dropped_for_pool, 0, "the pool is too small");
-    let frames = 32;
     let timings = run_frames(ctx, &mut lit, &frame.sky, frames);
-    println!(
-        "thin-wall: {} bricks, {frames} frames; median of the last {}:\n{timings}",
-        lit.bricks.len(),
-        frames / 2
-    );
+    (scene, frame, lit, timings)
+}
 
-    // The thin wall spans x in [0, 0.05], z in [-3, 3], y in [0, 2.8]; the room is x < 0.
-    let groups = [
+/// The four groups of points thin-wall's tests read: the thin wall's inner face, its outer
+/// face, the interior floor and the outdoor ground. The thin wall spans x in [0, 0.05], z in
+/// [-3, 3], y in [0, 2.8]; the room is x < 0.
+fn thin_wall_groups() -> [(&'static str, Vec<(Vec3, Vec3)>); 4] {
+    [
         (
             "thin wall, inner face",
             grid(
@@ -518,7 +518,22 @@ fn thin_wall_means(ctx: &GpuContext, config: &CacheConfig) -> Vec<(f32, f32, f32
                 Vec3::Y,
             ),
         ),
-    ];
+    ]
+}
+
+/// Lights thin-wall's cache with `config` (32 frames) and returns the mean luminance `(cache,
+/// reference, reference noise)` of the irradiance on [`thin_wall_groups`]: the reference is the
+/// mean of two independent estimates, its noise half their relative difference.
+fn thin_wall_means(ctx: &GpuContext, config: &CacheConfig) -> Vec<(f32, f32, f32)> {
+    let frames = 32;
+    let (scene, frame, lit, timings) = lit_thin_wall(ctx, config, frames);
+    assert_eq!(lit.cpu.dropped_for_pool, 0, "the pool is too small");
+    println!(
+        "thin-wall: {} bricks, {frames} frames; median of the last {}:\n{timings}",
+        lit.bricks.len(),
+        frames / 2
+    );
+    let groups = thin_wall_groups();
     let reference = Reference::new(&scene, frame.clone());
     let mut means = Vec::new();
     for (name, points) in &groups {
@@ -548,26 +563,9 @@ fn thin_wall_means(ctx: &GpuContext, config: &CacheConfig) -> Vec<(f32, f32, f32
 /// Mean luminance of the cache's irradiance over thin-wall's interior floor and the inner face
 /// of its wall (the room lit through its door) after `frames` lighting frames with `config`.
 fn thin_wall_interior(ctx: &GpuContext, config: &CacheConfig, frames: u32) -> f32 {
-    let scene = gi_scene::load("thin-wall").unwrap();
-    let frame = scene.evaluate(0.0, None);
-    let mut lit = LitCache::new(ctx, config, &scene, &frame);
-    run_frames(ctx, &mut lit, &frame.sky, frames);
-    let mut points = grid(
-        Vec3::new(-3.5, 0.0, -2.5),
-        Vec3::X * 2.7,
-        Vec3::Z * 5.0,
-        6,
-        10,
-        Vec3::Y,
-    );
-    points.extend(grid(
-        Vec3::new(0.0, 0.3, -2.5),
-        Vec3::Y * 2.2,
-        Vec3::Z * 5.0,
-        6,
-        10,
-        Vec3::NEG_X,
-    ));
+    let (_, _, lit, _) = lit_thin_wall(ctx, config, frames);
+    let [(_, inner_wall), _, (_, floor), _] = thin_wall_groups();
+    let points: Vec<(Vec3, Vec3)> = floor.into_iter().chain(inner_wall).collect();
     mean_luminance(&cache_irradiance(ctx, &lit, &points))
 }
 
@@ -609,7 +607,7 @@ fn settling_brings_a_young_cache_nearer_its_converged_light() {
     // mechanism. Both start dark and rise towards the converged light with every update a
     // brick gets; four times the updates, weighed at least 1/2 while young, must close at least
     // half the gap the round-robin leaves, and must not overshoot. Measured on the software
-    // adapter: round-robin 0.0419, settling 0.0865, converged 0.1063 (gaps 61% and 19%); 0.0545
+    // adapter: round-robin 0.0419, settling 0.0864, converged 0.1063 (gaps 61% and 19%); 0.0545
     // when young bricks' updates were averaged like settled ones' (a gap of 49%).
     let gap = |e: f32| (converged - e) / converged;
     assert!(
