@@ -1,5 +1,6 @@
 //! `gi-bench pc`: what a frame of the PC tier costs and how much memory it holds, per scene and
-//! pipeline variant (the default, or one stage switched off: the ablation's cost column), in
+//! pipeline variant (the default, one stage switched off, or `with-<stage>` one switched on
+//! that is off by default: the ablation's cost column), in
 //! the form of HSGI's per-pass table.
 //!
 //! Each run makes a PC tier for the scene's default camera, renders a still warm-up
@@ -9,20 +10,43 @@
 
 use anyhow::Context;
 use gi_gpu::PassTimings;
-use gi_tiers::pc::{PC_STAGES, PcMemory, TraceMode};
+use gi_tiers::pc::{PC_OPTIONAL_STAGES, PC_STAGES, PcMemory, TraceMode};
 use gi_tiers::{CameraMode, PcConfig, PcTier, Renderer, TierKind, TierSettings};
 
 const MIB: f64 = (1 << 20) as f64;
 
-/// A pipeline variant: `default`, or the name of a stage to switch off ([`PC_STAGES`]).
+/// A pipeline variant: `default`, the name of a stage to switch off ([`PC_STAGES`]), or
+/// `with-` and the name of one to switch on ([`PC_OPTIONAL_STAGES`]).
 pub fn parse_variant(value: &str) -> Result<String, String> {
-    if value == "default" || PC_STAGES.contains(&value) {
+    let switched_on = value
+        .strip_prefix("with-")
+        .is_some_and(|stage| PC_OPTIONAL_STAGES.contains(&stage));
+    if value == "default" || PC_STAGES.contains(&value) || switched_on {
         Ok(value.to_string())
     } else {
         Err(format!(
-            "unknown variant `{value}` (expected default or one of {})",
-            PC_STAGES.join(", ")
+            "unknown variant `{value}` (expected default, one of {} or with-{})",
+            PC_STAGES.join(", "),
+            PC_OPTIONAL_STAGES.join(", with-")
         ))
+    }
+}
+
+/// The configuration of a variant [`parse_variant`] accepted.
+fn variant_config(variant: &str) -> Result<PcConfig, String> {
+    match variant.strip_prefix("with-") {
+        _ if variant == "default" => Ok(PcConfig::default()),
+        Some(stage) => PcConfig::with(stage),
+        None => PcConfig::without(variant),
+    }
+}
+
+/// A variant's column label.
+fn variant_label(variant: &str) -> String {
+    match variant.strip_prefix("with-") {
+        _ if variant == "default" => "default".to_string(),
+        Some(stage) => format!("with {stage}"),
+        None => format!("without {variant}"),
     }
 }
 
@@ -80,11 +104,7 @@ pub fn run(options: &PcOptions) -> anyhow::Result<PcReport> {
     for name in &options.scenes {
         let scene = gi_scene::load(name).with_context(|| format!("loading {name}"))?;
         for variant in &options.variants {
-            let mut config = if variant == "default" {
-                PcConfig::default()
-            } else {
-                PcConfig::without(variant).map_err(anyhow::Error::msg)?
-            };
+            let mut config = variant_config(variant).map_err(anyhow::Error::msg)?;
             config.trace_scale = options.trace_scale;
             config.trace_mode = options.trace_mode;
             let settings = TierSettings {
@@ -146,12 +166,7 @@ impl PcReport {
                 o.warmup
             );
             for run in &runs {
-                let label = if run.variant == "default" {
-                    "default".to_string()
-                } else {
-                    format!("without {}", run.variant)
-                };
-                out += &format!(" {label} |");
+                out += &format!(" {} |", variant_label(&run.variant));
             }
             out += &format!("\n|---|{}\n", "---:|".repeat(runs.len()));
             let mut names: Vec<&str> = Vec::new();
@@ -226,9 +241,18 @@ mod tests {
 
     #[test]
     fn variants_are_default_or_a_stage() {
-        assert!(parse_variant("default").is_ok() && parse_variant("spatial").is_ok());
+        for good in ["default", "spatial", "with-temporal"] {
+            assert!(parse_variant(good).is_ok(), "{good}");
+            assert!(variant_config(good).is_ok(), "{good}");
+        }
+        assert!(variant_config("with-temporal").unwrap().restir.temporal);
+        assert!(!variant_config("default").unwrap().restir.temporal);
         let err = parse_variant("denoise").unwrap_err();
-        assert!(err.contains("denoise") && err.contains("temporal"), "{err}");
+        assert!(
+            err.contains("denoise") && err.contains("with-temporal"),
+            "{err}"
+        );
+        assert!(parse_variant("with-spatial").is_err());
     }
 
     /// The tiny mode: the benchmark runs end to end, so it cannot rot.
@@ -242,18 +266,23 @@ mod tests {
             size: (32, 24),
             warmup: 1,
             frames: 2,
-            variants: vec!["default".into(), "spatial".into()],
+            variants: vec!["default".into(), "spatial".into(), "with-temporal".into()],
             trace_scale: 2,
             trace_mode: TraceMode::Rays,
         })
         .unwrap();
-        assert_eq!(report.runs.len(), 2);
+        assert_eq!(report.runs.len(), 3);
         let table = report.table();
         assert!(
-            table.contains("pc/trace") && table.contains("without spatial"),
+            table.contains("pc/trace")
+                && table.contains("without spatial")
+                && table.contains("with temporal"),
             "{table}"
         );
         assert!(report.runs[0].median.get("pc/spatial").is_some());
         assert!(report.runs[1].median.get("pc/spatial").is_none());
+        // Temporal reuse is off by default: its pass runs only when switched on.
+        assert!(report.runs[0].median.get("pc/temporal").is_none());
+        assert!(report.runs[2].median.get("pc/temporal").is_some());
     }
 }

@@ -1,12 +1,14 @@
 // The PC tier's reservoir passes and shading (ReSTIR GI, Ouyang et al. 2021, with HSGI's
 // changes, GDC 2023, "PC / Console Solution"):
-//   - `temporal` (pass `pc/temporal`), per trace pixel: the initial reservoir combined with the
-//     previous frame's temporal reservoir of the same surface (found by the G-buffer's motion
+//   - `temporal` (pass `pc/temporal`, only with temporal reuse, off by default:
+//     `gi_tiers::pc::RestirConfig::temporal` says why), per trace pixel: the initial
+//     reservoir combined with the previous frame's temporal reservoir of the same surface (found by the G-buffer's motion
 //     vector, checked by normal and tangent-plane distance), its M clamped to `m_clamp` (5)
 //     and its sample moved to this receiver with the reconnection shift's bounded Jacobian; then
 //     the boiling filter (a reservoir whose weight exceeds `boil_factor` times its workgroup's
 //     mean restarts from its initial sample). Its result is next frame's history.
-//   - `spatial` (pass `pc/spatial`), per trace pixel: `spatial_samples` neighbours within
+//   - `spatial` (pass `pc/spatial`), per trace pixel, from the temporal reservoirs or without
+//     temporal reuse the initial ones: `spatial_samples` neighbours within
 //     `spatial_radius` trace pixels, kept when they lie on the same surface (heuristic
 //     selection by normal and plane distance), combined with the Jacobian and no visibility
 //     (the biased reuse; the shadow pass restores visibility).

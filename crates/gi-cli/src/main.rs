@@ -82,8 +82,12 @@ pub struct ViewArgs {
     /// multi-sample, boiling, svgf, restir (all reuse off: one sample per trace pixel, the
     /// same denoiser) or specular (no specular rays: split-sum reflection of the diffuse
     /// irradiance everywhere). Only the PC tier reads it.
-    #[arg(long, value_name = "STAGE")]
+    #[arg(long, value_name = "STAGE", conflicts_with = "pc_with")]
     pc_without: Option<String>,
+    /// Switch one stage of the PC tier on that is off by default, for ablations: temporal
+    /// (temporal reuse with its boiling filter). Only the PC tier reads it.
+    #[arg(long, value_name = "STAGE")]
+    pc_with: Option<String>,
     /// Full-resolution pixels per trace pixel of the PC tier along each axis: 2 (the default)
     /// traces a quarter of the pixels, 1 all of them. Only the PC tier reads it.
     #[arg(long, value_name = "N")]
@@ -147,17 +151,19 @@ impl ViewArgs {
             mobile: ScreenProbes::mobile_config(self.screen_probes),
             pc: self.pc_config()?,
             pc_without: self.pc_without.clone(),
+            pc_with: self.pc_with.clone(),
         })
     }
 }
 
 impl ViewArgs {
-    /// The PC tier's configuration from `--pc-without`, `--pc-trace-scale`,
+    /// The PC tier's configuration from `--pc-without` or `--pc-with`, `--pc-trace-scale`,
     /// `--pc-specular-roughness` and `--pc-trace-mode`.
     fn pc_config(&self) -> anyhow::Result<PcConfig> {
-        let mut config = match &self.pc_without {
-            Some(stage) => PcConfig::without(stage).map_err(anyhow::Error::msg)?,
-            None => PcConfig::default(),
+        let mut config = match (&self.pc_without, &self.pc_with) {
+            (Some(stage), _) => PcConfig::without(stage).map_err(anyhow::Error::msg)?,
+            (None, Some(stage)) => PcConfig::with(stage).map_err(anyhow::Error::msg)?,
+            (None, None) => PcConfig::default(),
         };
         if let Some(scale) = self.pc_trace_scale {
             config.trace_scale = scale;

@@ -89,9 +89,10 @@ pub struct RenderRequest {
     /// The mobile tier's configuration (ignored by the other tiers).
     pub mobile: MobileConfig,
     /// The PC tier's configuration (ignored by the other tiers), and the stage it has
-    /// switched off (`--pc-without`), if any.
+    /// switched off (`--pc-without`) or on (`--pc-with`), if any.
     pub pc: PcConfig,
     pub pc_without: Option<String>,
+    pub pc_with: Option<String>,
 }
 
 impl RenderRequest {
@@ -176,8 +177,10 @@ impl From<PcMemory> for MobileMemoryReport {
 /// The PC tier's GI cost and memory breakdown, in the JSON reports.
 #[derive(Clone, Debug, Serialize)]
 pub struct PcReport {
-    /// The stage switched off (`--pc-without`), or null for the default pipeline.
+    /// The stage switched off (`--pc-without`), or null.
     pub without: Option<String>,
+    /// The stage switched on that is off by default (`--pc-with`), or null.
+    pub with: Option<String>,
     /// Full-resolution pixels per trace pixel along each axis.
     pub trace_scale: u32,
     /// What the diffuse rays read: `rays` or `probes` (trace-probe mode).
@@ -195,9 +198,10 @@ impl PcReport {
     pub fn line(&self, ms_per_frame: f64, warmup: u32) -> String {
         let mib = |bytes: u64| bytes as f64 / (1 << 20) as f64;
         let m = &self.memory;
-        let variant = match &self.without {
-            Some(stage) => format!("without {stage}"),
-            None => "every stage".to_string(),
+        let variant = match (&self.without, &self.with) {
+            (Some(stage), _) => format!("without {stage}"),
+            (None, Some(stage)) => format!("with {stage}"),
+            (None, None) => "default stages".to_string(),
         };
         format!(
             "pc ({variant}, trace scale {}, trace mode {}, specular rays below roughness {}, \
@@ -271,6 +275,7 @@ pub fn render_tier(
     });
     let pc = renderer.tier_as::<PcTier>().map(|pc| PcReport {
         without: request.pc_without.clone(),
+        with: request.pc_with.clone(),
         trace_scale: pc.config().trace_scale,
         trace_mode: pc.config().trace_mode.name(),
         specular_max_roughness: if pc.config().specular.traced {

@@ -583,6 +583,7 @@ fn unknown_pc_stages_and_trace_scales_are_clear_errors() {
     let dir = tempfile::tempdir().unwrap();
     for (flag, value, expect) in [
         ("--pc-without", "denoise", "temporal"),
+        ("--pc-with", "spatial", "on by default"),
         ("--pc-trace-scale", "4", "trace_scale"),
     ] {
         let output = gi(

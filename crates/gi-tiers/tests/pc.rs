@@ -9,7 +9,8 @@ use gi_image::Image;
 use gi_reference::{Mode, Reference, RenderSettings};
 use gi_scene::{CameraView, Scene, Sky};
 use gi_tiers::pc::{
-    GpuReservoir, GpuSpecularSample, GpuSurface, PC_STAGES, PcConfig, PcUniforms, TraceMode,
+    GpuReservoir, GpuSpecularSample, GpuSurface, PC_OPTIONAL_STAGES, PC_STAGES, PcConfig,
+    PcUniforms, TraceMode,
 };
 use gi_tiers::{FrameInput, PcTier, Tier, TierError};
 use glam::Vec3;
@@ -139,6 +140,9 @@ fn open_ground_gathers_pi_times_the_sky_in_every_configuration() {
     for stage in PC_STAGES {
         configs.push((stage, PcConfig::without(stage).unwrap()));
     }
+    for stage in PC_OPTIONAL_STAGES {
+        configs.push((stage, PcConfig::with(stage).unwrap()));
+    }
     let probes = PcConfig {
         trace_mode: TraceMode::Probes,
         ..PcConfig::default()
@@ -184,9 +188,10 @@ fn open_ground_gathers_pi_times_the_sky_in_every_configuration() {
 /// which the test sums on the CPU over a fine grid of the emitter. Without reuse the tier's
 /// estimate is unbiased (a BVH ray and an emitter sample combined by RIS with MIS weights),
 /// so the mean ratio of its per-pixel estimates to the exact values over frames is 1 within
-/// 4 standard errors of that mean (measured 1.0006, standard error 0.005); with every stage on
-/// (ReSTIR's biased reuse, the bounded Jacobian, the boiling filter and the denoiser) within 4%
-/// more (measured 0.989; with the earlier M clamp of 20 each stage off in turn measured
+/// 4 standard errors of that mean (measured 1.0006, standard error 0.005); with the default
+/// stages (ReSTIR's biased spatial reuse, the bounded Jacobian and the denoiser) and with
+/// temporal reuse and its boiling filter switched on as well, within 4% more (measured 0.989
+/// with temporal reuse; with the earlier M clamp of 20 each stage off in turn measured
 /// 0.983-0.997).
 #[test]
 fn a_small_emitter_lights_the_ground_as_its_integral_says() {
@@ -250,6 +255,11 @@ fn a_small_emitter_lights_the_ground_as_its_integral_says() {
         ("without reuse", PcConfig::without("restir").unwrap(), 0.0),
         ("trace probes, without reuse", probes, 0.0),
         ("every stage", PcConfig::default(), 0.04),
+        (
+            "with temporal reuse",
+            PcConfig::with("temporal").unwrap(),
+            0.04,
+        ),
     ] {
         let mut tier =
             PcTier::new(settings(width, rows), config, GpuContext::new().unwrap()).unwrap();
@@ -266,7 +276,7 @@ fn a_small_emitter_lights_the_ground_as_its_integral_says() {
                 continue;
             }
             let data = tier.frame_data().unwrap();
-            let image = if name == "every stage" {
+            let image = if matches!(name, "every stage" | "with temporal reuse") {
                 &data.irradiance
             } else {
                 &data.noisy_irradiance
@@ -304,7 +314,7 @@ fn every_bundled_scene_renders_finite_and_accounts_its_memory() {
     drop(ctx);
     for (name, _) in gi_scene::BUNDLED_SCENES {
         let scene = gi_scene::load(name).unwrap();
-        let mut config = PcConfig::default();
+        let mut config = PcConfig::with("temporal").unwrap();
         config.restir.spatial = false;
         let tier = run(
             GpuContext::new().unwrap(),
@@ -338,10 +348,40 @@ fn every_bundled_scene_renders_finite_and_accounts_its_memory() {
     }
 }
 
+/// Temporal reuse is off by default: its two reservoir buffers then hold one reservoir each
+/// (they are never read), and switched on 48 bytes per trace pixel each.
+#[test]
+fn the_temporal_reservoirs_take_memory_only_with_temporal_reuse() {
+    let Some(ctx) = GpuContext::new_or_skip("the_temporal_reservoirs_take_memory") else {
+        return;
+    };
+    drop(ctx);
+    let scene = gi_scene::load("cornell-box").unwrap();
+    let size = (40, 30);
+    let memory = |config| {
+        run(GpuContext::new().unwrap(), &scene, config, size, 2, None)
+            .memory()
+            .screen_bytes
+    };
+    let without = memory(PcConfig::default());
+    let with = memory(PcConfig::with("temporal").unwrap());
+    let trace_pixels = (size.0 / 2 * size.1 / 2) as u64;
+    let reservoir = size_of::<GpuReservoir>() as u64;
+    // The unused buffers hold one reservoir each (a binding's least size).
+    assert_eq!(with - without, 2 * (trace_pixels - 1) * reservoir);
+}
+
 #[test]
 fn unusable_settings_and_unknown_stages_are_refused_with_the_reason() {
     let err = PcConfig::without("denoise").unwrap_err();
     assert!(err.contains("denoise") && err.contains("spatial"), "{err}");
+    let err = PcConfig::with("spatial").unwrap_err();
+    assert!(
+        err.contains("on by default") && err.contains("temporal"),
+        "{err}"
+    );
+    let err = PcConfig::with("denoise").unwrap_err();
+    assert!(err.contains("unknown") && err.contains("temporal"), "{err}");
     let err = "cones".parse::<TraceMode>().unwrap_err();
     assert!(err.contains("cones") && err.contains("probes"), "{err}");
     assert_eq!("probes".parse::<TraceMode>(), Ok(TraceMode::Probes));

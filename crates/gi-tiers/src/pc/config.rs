@@ -83,7 +83,12 @@ impl std::str::FromStr for TraceMode {
     }
 }
 
-/// The stages [`PcConfig::without`] can switch off, for ablations.
+/// The stages [`PcConfig::with`] can switch on, for ablations: off by default because they
+/// did not earn their place (see [`RestirConfig::temporal`]).
+pub const PC_OPTIONAL_STAGES: [&str; 1] = ["temporal"];
+
+/// The stages [`PcConfig::without`] can switch off, for ablations. `temporal` and `boiling`
+/// are off by default already (the boiling filter acts on the temporal reservoirs only).
 pub const PC_STAGES: [&str; 8] = [
     "temporal",
     "spatial",
@@ -127,6 +132,31 @@ impl PcConfig {
                 return Err(format!(
                     "unknown PC tier stage '{other}' (stages: {})",
                     PC_STAGES.join(", ")
+                ));
+            }
+        }
+        Ok(config)
+    }
+
+    /// The default with `stage` switched on: one of [`PC_OPTIONAL_STAGES`]. `temporal` turns
+    /// on temporal reuse with its boiling filter.
+    pub fn with(stage: &str) -> Result<Self, String> {
+        let mut config = Self::default();
+        match stage {
+            "temporal" => {
+                config.restir.temporal = true;
+                config.restir.boiling_filter = true;
+            }
+            other if PC_STAGES.contains(&other) => {
+                return Err(format!(
+                    "PC tier stage '{other}' is on by default (stages off by default: {})",
+                    PC_OPTIONAL_STAGES.join(", ")
+                ));
+            }
+            other => {
+                return Err(format!(
+                    "unknown PC tier stage '{other}' (stages off by default: {})",
+                    PC_OPTIONAL_STAGES.join(", ")
                 ));
             }
         }
@@ -212,7 +242,14 @@ impl SpecularConfig {
 /// ReSTIR GI's knobs (Ouyang et al. 2021; HSGI, GDC 2023).
 #[derive(Clone, Debug, PartialEq)]
 pub struct RestirConfig {
-    /// Reuse the previous frame's reservoir of the same surface.
+    /// Reuse the previous frame's reservoir of the same surface. Off by default: it halves
+    /// the noise of each frame's shaded irradiance but correlates it from frame to frame, and
+    /// the denoiser's temporal accumulation averages correlated frames less well. On atrium
+    /// (96 x 64, lavapipe, 128 still frames) the frame's variance fell from 1.16 to 0.50 while
+    /// the variance of 16-frame means rose from 0.073 to 0.086 (lag-1 autocorrelation 0.29);
+    /// after the denoiser every scene measured equal or better without it (H100, 1280 x 720:
+    /// atrium 7.79 -> 7.57, thin-wall 21.24 -> 20.90, cornell-box and glossy within 0.01),
+    /// also along a moving camera, and with every M clamp tried (benchmarks/RESULTS.md).
     pub temporal: bool,
     /// Reuse neighbours' reservoirs.
     pub spatial: bool,
@@ -221,7 +258,8 @@ pub struct RestirConfig {
     pub shadow_ray: bool,
     /// Shade each pixel from the reservoirs of the trace pixels around it.
     pub multi_sample: bool,
-    /// Restart reservoirs much brighter than their neighbourhood.
+    /// Restart temporal reservoirs much brighter than their neighbourhood (acts only with
+    /// temporal reuse).
     pub boiling_filter: bool,
     /// Most samples the temporal history counts. ReSTIR GI and HSGI use 20; here a history of M
     /// frames trails the brick cache by about M frames while the cache still converges (the
@@ -263,11 +301,11 @@ pub struct RestirConfig {
 impl Default for RestirConfig {
     fn default() -> Self {
         Self {
-            temporal: true,
+            temporal: false,
             spatial: true,
             shadow_ray: true,
             multi_sample: true,
-            boiling_filter: true,
+            boiling_filter: false,
             m_clamp: 5.0,
             spatial_samples: 3,
             spatial_radius: 3.0,

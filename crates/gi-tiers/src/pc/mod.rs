@@ -17,7 +17,9 @@
 mod config;
 pub mod denoise;
 
-pub use config::{PC_STAGES, PcConfig, RestirConfig, SpecularConfig, TraceMode};
+pub use config::{
+    PC_OPTIONAL_STAGES, PC_STAGES, PcConfig, RestirConfig, SpecularConfig, TraceMode,
+};
 
 use bytemuck::{Pod, Zeroable};
 use gi_cache::lighting::GpuSky;
@@ -286,13 +288,16 @@ struct PcBuffers {
 }
 
 impl PcBuffers {
-    fn new(ctx: &GpuContext, size: (u32, u32), trace_scale: u32) -> Self {
+    /// Without temporal reuse the temporal reservoirs are never read: they hold one each.
+    fn new(ctx: &GpuContext, size: (u32, u32), trace_scale: u32, temporal: bool) -> Self {
         let trace_size = (size.0.div_ceil(trace_scale), size.1.div_ceil(trace_scale));
         let traced = u64::from(trace_size.0) * u64::from(trace_size.1);
         let pixels = u64::from(size.0) * u64::from(size.1);
         let storage = wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC;
         let buffer = |label: &str, bytes: u64| ctx.create_buffer(label, bytes.max(16), storage);
         let reservoirs = traced * size_of::<GpuReservoir>() as u64;
+        // A binding holds at least one element.
+        let one = size_of::<GpuReservoir>() as u64;
         let surfaces = traced * size_of::<GpuSurface>() as u64;
         Self {
             trace_size,
@@ -307,8 +312,8 @@ impl PcBuffers {
             ],
             initial: buffer("pc.initial", reservoirs),
             temporal: [
-                buffer("pc.temporal_a", reservoirs),
-                buffer("pc.temporal_b", reservoirs),
+                buffer("pc.temporal_a", if temporal { reservoirs } else { one }),
+                buffer("pc.temporal_b", if temporal { reservoirs } else { one }),
             ],
             spatial: buffer("pc.spatial", reservoirs),
             resolved: buffer("pc.resolved", reservoirs),
@@ -558,7 +563,12 @@ impl PcTier {
             old.release(&self.ctx);
         }
         let state = SceneState::upload(&self.ctx, "pc", input, &self.direct_pipelines, size, seed)?;
-        let buffers = PcBuffers::new(&self.ctx, size, self.config.trace_scale);
+        let buffers = PcBuffers::new(
+            &self.ctx,
+            size,
+            self.config.trace_scale,
+            self.config.restir.temporal,
+        );
         let denoiser = Denoiser::new(
             &self.ctx,
             &self.denoise_pipelines,
@@ -728,7 +738,11 @@ impl Tier for PcTier {
         if specular {
             steps.push(("pc/specular_trace", &p.specular_trace, true, true));
         }
-        steps.push(("pc/temporal", &p.temporal, false, true));
+        // Without temporal reuse the spatial reuse and the shadow pass read the initial
+        // reservoirs.
+        if self.config.restir.temporal {
+            steps.push(("pc/temporal", &p.temporal, false, true));
+        }
         if self.config.restir.spatial {
             steps.push(("pc/spatial", &p.spatial, false, true));
         }
