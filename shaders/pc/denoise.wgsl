@@ -27,11 +27,11 @@
 //
 // Memory, 44 bytes per pixel (`gi_tiers::pc::denoise` explains the choice): the histories are
 // packed (short color RGB9E5; long color and age `pack_color64`; moments f16), and the filter
-// passes ping-pong, packed with `pack_color64`, between the first half of `output` and a pair
-// of buffers that are dead by then: the previous short history (reprojected by
-// `temporal_short`) and the previous normals (read only by `temporal_short`, copied anew after
-// the last pass). Which one a pass writes follows from its place in the chain
-// (`filter_place`); the last pass writes `output` at full precision.
+// passes ping-pong between `output` (f32) and a `pack_color64` pair of buffers that are dead by
+// then: the previous short history (reprojected by `temporal_short`) and the previous normals
+// (read only by `temporal_short`, copied anew after the last pass). Which one a pass writes
+// follows from the parity of its place in the chain (`writes_full`), so that the last pass
+// writes `output`.
 //
 // Bind group 0: the frame's inputs, the histories and the filter buffers
 // (`gi_tiers::pc::denoise::Denoiser`); group 1: this dispatch's uniforms.
@@ -56,7 +56,7 @@ const LUMINANCE_EPSILON: f32 = 1e-10;
 const ATROUS_KERNEL: array<f32, 3> = array<f32, 3>(0.375, 0.25, 0.0625);
 // Taps of the 3 x 3 Gaussian that prefilters the center variance, by distance 0, 1.
 const GAUSSIAN_3X3: array<f32, 2> = array<f32, 2>(0.5, 0.25);
-// Places of the filter chain's writes (`filter_place`): `temporal` is write 0, `variance`
+// Places of the filter chain's writes (`writes_full`): `temporal` is write 0, `variance`
 // write 1, a-trous iteration i write 2 + i.
 const TEMPORAL_WRITE: u32 = 0u;
 const VARIANCE_WRITE: u32 = 1u;
@@ -165,63 +165,27 @@ fn last_write() -> u32 {
     return select(FIRST_ATROUS_WRITE + u.atrous_iterations - 1u, TEMPORAL_WRITE, u.atrous_iterations == 0u);
 }
 
-// Where filter write `place` goes. The last write goes to `output` at full precision; the
-// others are packed (`pack_color64`, 8 bytes a pixel, so that the a-trous taps read half the
-// bytes) and alternate, so that each pass reads the other place, between the packed pair
-// (`short_in`, `previous_normal`) and the first half of `output` (two pixels per element).
-// The write before the last goes to the pair, since the last one overwrites `output`; and
-// `temporal`, which reads its pixel's reprojection from `output`, never packs into `output`
-// (another pixel's reprojection shares the element): where the alternation would put it
-// there, it writes `output` at full precision instead, in place of its own reprojection.
-const FILTER_FULL: u32 = 0u;
-const FILTER_PAIR: u32 = 1u;
-const FILTER_PACKED_OUTPUT: u32 = 2u;
-
-fn filter_place(place: u32) -> u32 {
-    let last = last_write();
-    if place == last {
-        return FILTER_FULL;
-    }
-    if ((last - 1u - place) & 1u) == 0u {
-        return FILTER_PAIR;
-    }
-    return select(FILTER_PACKED_OUTPUT, FILTER_FULL, place == TEMPORAL_WRITE);
+// Whether filter write `place` goes to `output` (full precision), else to the packed pair.
+// They alternate so that each pass reads the other one, and the last write is `output`.
+fn writes_full(place: u32) -> bool {
+    return ((last_write() - place) & 1u) == 0u;
 }
 
 // Filter data (rgb, luminance variance) of pixel `index` as written by filter write `place`.
 fn load_filter(place: u32, index: u32) -> vec4<f32> {
-    switch filter_place(place) {
-        case FILTER_FULL: {
-            return bitcast<vec4<f32>>(output[index]);
-        }
-        case FILTER_PAIR: {
-            return unpack_color64(vec2(short_in[index], previous_normal[index]));
-        }
-        default: {
-            let both = output[index >> 1u];
-            return unpack_color64(select(both.xy, both.zw, (index & 1u) != 0u));
-        }
+    if writes_full(place) {
+        return bitcast<vec4<f32>>(output[index]);
     }
+    return unpack_color64(vec2(short_in[index], previous_normal[index]));
 }
 
 fn store_filter(place: u32, index: u32, value: vec4<f32>) {
-    switch filter_place(place) {
-        case FILTER_FULL: {
-            output[index] = bitcast<vec4<u32>>(value);
-        }
-        case FILTER_PAIR: {
-            let packed = pack_color64(value.rgb, value.w);
-            short_in[index] = packed.x;
-            previous_normal[index] = packed.y;
-        }
-        default: {
-            // Each word of the element is its own memory location: the neighbouring pixel
-            // writes the other two.
-            let packed = pack_color64(value.rgb, value.w);
-            let word = (index & 1u) * 2u;
-            output[index >> 1u][word] = packed.x;
-            output[index >> 1u][word + 1u] = packed.y;
-        }
+    if writes_full(place) {
+        output[index] = bitcast<vec4<u32>>(value);
+    } else {
+        let packed = pack_color64(value.rgb, value.w);
+        short_in[index] = packed.x;
+        previous_normal[index] = packed.y;
     }
 }
 
