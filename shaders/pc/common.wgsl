@@ -65,7 +65,9 @@ struct PcUniforms {
     // BVH segment length of a diffuse ray: the largest float, or in trace-probe mode the
     // short ray beyond which the cache answers.
     probe_ray_m: f32,
-    pad_e: u32,
+    // Multi-sample shading skips a neighbour whose sample lies nearer its receiver than this
+    // times the two receivers' distance (0: never).
+    shade_contact_ratio: f32,
     pad_f: u32,
 }
 

@@ -15,7 +15,9 @@
 //   - `shade` (pass `pc/shade`), per full-resolution pixel, HSGI's multi-sample shading: the
 //     pixel is shaded from every reservoir of the (2 shade_radius + 1)^2 trace pixels around
 //     it whose receiver lies on its surface and that passes the shadow test (HSGI's "post
-//     spatial reuse" neighbour rule, applied here at shading time), each an estimate of its
+//     spatial reuse" neighbour rule, applied here at shading time) and whose sample lies at
+//     least `shade_contact_ratio` times the two receivers' distance from its own receiver
+//     (near contacts a neighbour's short ray sees another scene), each an estimate of its
 //     irradiance through the reconnection shift; their mean is the noisy, demodulated
 //     irradiance the denoiser filters. It also upsamples the trace resolution to full.
 //   - `compose` (pass `pc/compose`): direct light plus the diffuse albedo times the denoised
@@ -278,8 +280,14 @@ fn shade(@builtin(global_invocation_id) id: vec3<u32>) {
                 continue;
             }
             let rq = resolved[qi];
-            if shadow_test && qi != center_index && !shadow_compatible(center, rq, x) {
-                continue;
+            if qi != center_index {
+                if shadow_test && !shadow_compatible(center, rq, x) {
+                    continue;
+                }
+                let reach = sample_direction(rq, sq.position).w;
+                if reach < u.shade_contact_ratio * distance(sq.position, x) {
+                    continue;
+                }
             }
             sum += reservoir_irradiance(rq, sq.position, x, n, u.jacobian_max);
             count += 1.0;

@@ -75,7 +75,7 @@ fn shared_structs_match_their_wgsl_layout() {
             specular_history,
             specular_clamp_sigma,
             probe_ray_m,
-            pad_e,
+            shade_contact_ratio,
             pad_f,
         }),
         size_of::<PcUniforms>(),
@@ -393,6 +393,17 @@ fn unusable_settings_and_unknown_stages_are_refused_with_the_reason() {
     let mut config = PcConfig::default();
     config.specular.max_roughness = 1.5;
     assert!(config.validate().unwrap_err().contains("max_roughness"));
+    for ratio in [-1.0, f32::NAN] {
+        let mut config = PcConfig::default();
+        config.restir.shade_contact_ratio = ratio;
+        assert!(
+            config
+                .validate()
+                .unwrap_err()
+                .contains("shade_contact_ratio"),
+            "{ratio}"
+        );
+    }
     let Some(ctx) = GpuContext::new_or_skip("unusable_settings_are_refused") else {
         return;
     };

@@ -74,7 +74,9 @@ pub struct PcUniforms {
     pub specular_clamp_sigma: f32,
     /// BVH segment length of a diffuse ray (`f32::MAX` unless in trace-probe mode).
     pub probe_ray_m: f32,
-    pub pad_e: u32,
+    /// Multi-sample shading skips a neighbour whose sample lies nearer its receiver than this
+    /// times the two receivers' distance (0: never).
+    pub shade_contact_ratio: f32,
     pub pad_f: u32,
 }
 
@@ -541,6 +543,7 @@ impl PcTier {
                 TraceMode::Rays => f32::MAX,
                 TraceMode::Probes => self.config.probe_ray_m,
             },
+            shade_contact_ratio: r.shade_contact_ratio,
             ..Default::default()
         }
     }
