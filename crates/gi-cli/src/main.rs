@@ -78,10 +78,10 @@ pub struct ViewArgs {
     /// rest reprojected). Only the mobile tier reads it.
     #[arg(long, value_enum)]
     screen_probes: Option<ScreenProbes>,
-    /// Switch one stage of the PC tier off, for ablations: temporal, spatial, shadow,
-    /// multi-sample, boiling, svgf, restir (all reuse off: one sample per trace pixel, the
-    /// same denoiser) or specular (no specular rays: split-sum reflection of the diffuse
-    /// irradiance everywhere). Only the PC tier reads it.
+    /// Switch one stage of the PC tier off, for ablations: spatial, shadow, multi-sample,
+    /// svgf, restir (all reuse off: one sample per trace pixel, the same denoiser) or
+    /// specular (no specular rays: split-sum reflection of the diffuse irradiance
+    /// everywhere); temporal and boiling are off by default. Only the PC tier reads it.
     #[arg(long, value_name = "STAGE", conflicts_with = "pc_with")]
     pc_without: Option<String>,
     /// Switch one stage of the PC tier on that is off by default, for ablations: temporal

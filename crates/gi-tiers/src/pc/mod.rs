@@ -6,8 +6,8 @@
 //! tier's), `pc/trace` (one BVH ray per trace pixel, shaded at the hit with exact direct light
 //! and the cache's indirect light: `shaders/pc/trace.wgsl`), `pc/specular_trace` (one GGX
 //! VNDF ray per trace pixel on surfaces smoother than [`SpecularConfig::max_roughness`]),
-//! `pc/temporal`, `pc/spatial`,
-//! `pc/shadow` (the reservoir passes), `pc/shade` (multi-sample shading to full resolution:
+//! `pc/temporal` (only with temporal reuse, off by default: [`RestirConfig::temporal`]),
+//! `pc/spatial`, `pc/shadow` (the reservoir passes), `pc/shade` (multi-sample shading to full resolution:
 //! `shaders/pc/restir.wgsl`), `pc/denoise_*` (temporal supersampling and SVGF:
 //! [`denoise`]), `pc/specular_resolve` and `pc/specular_temporal` (the specular rays to a
 //! per-pixel reflected radiance: `shaders/pc/specular.wgsl`), `direct/trace` + `direct/resolve` (direct light, accumulated while the view
