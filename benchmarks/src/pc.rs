@@ -34,8 +34,10 @@ pub fn parse_variant(value: &str) -> Result<String, String> {
 
 /// The configuration of a variant [`parse_variant`] accepted.
 fn variant_config(variant: &str) -> Result<PcConfig, String> {
+    if variant == "default" {
+        return Ok(PcConfig::default());
+    }
     match variant.strip_prefix("with-") {
-        _ if variant == "default" => Ok(PcConfig::default()),
         Some(stage) => PcConfig::with(stage),
         None => PcConfig::without(variant),
     }
@@ -43,8 +45,10 @@ fn variant_config(variant: &str) -> Result<PcConfig, String> {
 
 /// A variant's column label.
 fn variant_label(variant: &str) -> String {
+    if variant == "default" {
+        return variant.to_string();
+    }
     match variant.strip_prefix("with-") {
-        _ if variant == "default" => "default".to_string(),
         Some(stage) => format!("with {stage}"),
         None => format!("without {variant}"),
     }

@@ -247,9 +247,10 @@ pub struct RestirConfig {
     /// the denoiser's temporal accumulation averages correlated frames less well. On atrium
     /// (96 x 64, lavapipe, 128 still frames) the frame's variance fell from 1.16 to 0.50 while
     /// the variance of 16-frame means rose from 0.073 to 0.086 (lag-1 autocorrelation 0.29);
-    /// after the denoiser every scene measured equal or better without it (H100, 1280 x 720:
-    /// atrium 7.79 -> 7.57, thin-wall 21.24 -> 20.90, cornell-box and glossy within 0.01),
-    /// also along a moving camera, and with every M clamp tried (benchmarks/RESULTS.md).
+    /// after the denoiser it lost on atrium and thin-wall and tied elsewhere (H100, 1280 x 720,
+    /// rmse_srgb8 without / with: atrium 7.51 / 7.79, thin-wall 20.11 / 20.87, cornell-box
+    /// 3.99 / 3.96, glossy 9.35 / 9.32), also along a moving camera and with every M clamp
+    /// tried (benchmarks/RESULTS.md).
     pub temporal: bool,
     /// Reuse neighbours' reservoirs.
     pub spatial: bool,
