@@ -382,6 +382,13 @@ fn unusable_settings_and_unknown_stages_are_refused_with_the_reason() {
     );
     let err = PcConfig::with("denoise").unwrap_err();
     assert!(err.contains("unknown") && err.contains("temporal"), "{err}");
+    for stage in ["temporal", "boiling"] {
+        let err = PcConfig::without(stage).unwrap_err();
+        assert!(
+            err.contains("off by default") && err.contains("--pc-with"),
+            "{err}"
+        );
+    }
     let err = "cones".parse::<TraceMode>().unwrap_err();
     assert!(err.contains("cones") && err.contains("probes"), "{err}");
     assert_eq!("probes".parse::<TraceMode>(), Ok(TraceMode::Probes));

@@ -87,14 +87,12 @@ impl std::str::FromStr for TraceMode {
 /// did not earn their place (see [`RestirConfig::temporal`]).
 pub const PC_OPTIONAL_STAGES: [&str; 1] = ["temporal"];
 
-/// The stages [`PcConfig::without`] can switch off, for ablations. `temporal` and `boiling`
-/// are off by default already (the boiling filter acts on the temporal reservoirs only).
-pub const PC_STAGES: [&str; 8] = [
-    "temporal",
+/// The stages [`PcConfig::without`] can switch off, for ablations. Temporal reuse and its
+/// boiling filter are off by default ([`PC_OPTIONAL_STAGES`]).
+pub const PC_STAGES: [&str; 6] = [
     "spatial",
     "shadow",
     "multi-sample",
-    "boiling",
     "svgf",
     "restir",
     "specular",
@@ -102,7 +100,7 @@ pub const PC_STAGES: [&str; 8] = [
 
 impl PcConfig {
     /// The default with `stage` switched off: one of [`PC_STAGES`]. `restir` switches off all
-    /// reuse (temporal, spatial, shadow ray, multi-sample shading, boiling filter): each
+    /// reuse (spatial, shadow ray, multi-sample shading; temporal reuse is off already): each
     /// pixel is shaded from its own trace pixel's single sample, the plain 1-sample-per-trace-
     /// pixel pipeline with the same denoiser. `svgf` switches off the whole denoiser
     /// (temporal accumulation and the a-trous passes). `specular` traces no specular rays: every
@@ -111,27 +109,30 @@ impl PcConfig {
         let mut config = Self::default();
         let r = &mut config.restir;
         match stage {
-            "temporal" => r.temporal = false,
             "spatial" => r.spatial = false,
             "shadow" => r.shadow_ray = false,
             "multi-sample" => r.multi_sample = false,
-            "boiling" => r.boiling_filter = false,
+            "temporal" | "boiling" => {
+                return Err(format!(
+                    "PC tier stage '{stage}' is off by default (`PcConfig::with(\"temporal\")`, \
+                     `--pc-with temporal`, switches temporal reuse and its boiling filter on)"
+                ));
+            }
             "svgf" => {
                 config.denoise.temporal = false;
                 config.denoise.atrous_iterations = 0;
             }
             "specular" => config.specular.traced = false,
             "restir" => {
-                r.temporal = false;
                 r.spatial = false;
                 r.shadow_ray = false;
                 r.multi_sample = false;
-                r.boiling_filter = false;
             }
             other => {
                 return Err(format!(
-                    "unknown PC tier stage '{other}' (stages: {})",
-                    PC_STAGES.join(", ")
+                    "unknown PC tier stage '{other}' (stages: {}; off by default: {})",
+                    PC_STAGES.join(", "),
+                    PC_OPTIONAL_STAGES.join(", ")
                 ));
             }
         }
