@@ -31,6 +31,7 @@ mod mobile_stability;
 mod path;
 mod pc;
 mod rays;
+mod settle;
 mod stability;
 mod suite;
 
@@ -160,6 +161,9 @@ enum Command {
         /// Screen probes: hsgi, smartgi or both (one run each).
         #[arg(long, default_value = "hsgi", value_parser = mobile::parse_modes)]
         screen_probes: ModeList,
+        /// Seconds of still frames for the GPU's clock to settle before timing (as for `pc`).
+        #[arg(long, default_value_t = 2.0, value_parser = parse_settle)]
+        settle_s: f64,
         /// Also write the results as JSON to this file.
         #[arg(long)]
         json: Option<PathBuf>,
@@ -195,6 +199,11 @@ enum Command {
         /// What the diffuse rays read: rays, or probes (trace-probe mode).
         #[arg(long, default_value = "rays", value_parser = |s: &str| s.parse::<gi_tiers::pc::TraceMode>())]
         trace_mode: gi_tiers::pc::TraceMode,
+        /// After the warm-up, keep rendering still frames for at least this many seconds and
+        /// until the GI time of two 16-frame windows agrees within 2% (at most 5 times as
+        /// long), so an idle GPU's clock has climbed before frames are timed; 0 times at once.
+        #[arg(long, default_value_t = 2.0, value_parser = parse_settle)]
+        settle_s: f64,
         /// Also write the results as JSON to this file.
         #[arg(long)]
         json: Option<PathBuf>,
@@ -324,6 +333,7 @@ fn main() -> anyhow::Result<()> {
             warmup,
             frames,
             screen_probes,
+            settle_s,
             json,
         } => {
             let report = mobile::run(&mobile::MobileOptions {
@@ -332,6 +342,7 @@ fn main() -> anyhow::Result<()> {
                 warmup: warmup.unwrap_or(gi_tiers::TierKind::Mobile.default_warmup()),
                 frames,
                 modes: screen_probes,
+                settle_s,
             })?;
             print!("{}", report.table());
             write_json(json, &report.json())
@@ -344,6 +355,7 @@ fn main() -> anyhow::Result<()> {
             variants,
             trace_scale,
             trace_mode,
+            settle_s,
             json,
         } => {
             let report = pc::run(&pc::PcOptions {
@@ -354,6 +366,7 @@ fn main() -> anyhow::Result<()> {
                 variants,
                 trace_scale,
                 trace_mode,
+                settle_s,
             })?;
             print!("{}", report.table());
             write_json(json, &report.json())
@@ -389,6 +402,15 @@ fn main() -> anyhow::Result<()> {
             write_json(json, &report.json())
         }
     }
+}
+
+/// Parses `--settle-s`: finite seconds within 0..=60.
+fn parse_settle(value: &str) -> Result<f64, String> {
+    value
+        .parse::<f64>()
+        .ok()
+        .filter(|s| (0.0..=60.0).contains(s))
+        .ok_or_else(|| format!("expected seconds within 0..=60, not `{value}`"))
 }
 
 /// Parses `WIDTHxHEIGHT` (each side at least 1).

@@ -2,8 +2,9 @@
 //! scene and screen-probe mode, in the form of HSGI's per-pass table.
 //!
 //! Each run makes a mobile tier for the scene's default camera, renders a still warm-up
-//! ([`Renderer::warm_up`], by default [`TierKind::default_warmup`] frames showing frame 0) and
-//! then measures `frames` frames (scene time advancing, so animated scenes move). Each pass's
+//! ([`Renderer::warm_up`], by default [`TierKind::default_warmup`] frames showing frame 0), then
+//! still frames until the GPU's clock has settled ([`crate::settle`]), and then measures
+//! `frames` frames (scene time advancing, so animated scenes move). Each pass's
 //! figure is its median over the measured frames ([`PassTimings::median`]); the GI cost is the
 //! sum of the `cache/*` and `mobile/*` medians ([`TierKind::is_gi_pass`]), the frame's other
 //! passes (G-buffer, direct light) are listed apart. Memory is the tier's own breakdown after
@@ -18,6 +19,8 @@ use gi_tiers::{
 
 /// The GI memory bar of the issue: 32 MB, read as 32 * 10^6 bytes (the stricter reading).
 pub const GI_MEMORY_BAR_BYTES: u64 = 32_000_000;
+
+use crate::settle::{self, GiSpread, Settled};
 
 const MIB: f64 = (1 << 20) as f64;
 
@@ -79,6 +82,9 @@ pub struct MobileOptions {
     /// Measured frames after the warm-up (at least 1).
     pub frames: u32,
     pub modes: Vec<ScreenProbeMode>,
+    /// Least seconds of still frames after the warm-up for the GPU's clock to settle
+    /// ([`settle::settle`]); 0 measures at once.
+    pub settle_s: f64,
 }
 
 /// One scene in one screen-probe mode.
@@ -89,6 +95,10 @@ pub struct MobileRun {
     pub gpu_timestamps: bool,
     /// Median milliseconds per pass over the measured frames, in the first frame's order.
     pub median: PassTimings,
+    /// How the measured frames' GI time spread.
+    pub spread: GiSpread,
+    /// The still frames rendered for the clock after the warm-up.
+    pub settled: Settled,
     pub memory: MobileMemory,
 }
 
@@ -137,6 +147,7 @@ pub fn run(options: &MobileOptions) -> anyhow::Result<MobileReport> {
             let mut renderer =
                 mobile_renderer(scene.clone(), options.size, mode, CameraMode::Default)?;
             renderer.warm_up(options.warmup, None)?;
+            let settled = settle::settle(&mut renderer, TierKind::Mobile, options.settle_s)?;
             let mut frames = Vec::new();
             for _ in 0..options.frames {
                 frames.push(PassTimings(renderer.advance_frame(None)?));
@@ -148,6 +159,8 @@ pub fn run(options: &MobileOptions) -> anyhow::Result<MobileReport> {
                 adapter: tier.context().adapter_info.name.clone(),
                 gpu_timestamps: tier.context().supports_timestamps(),
                 median: PassTimings::median(&frames),
+                spread: GiSpread::of(TierKind::Mobile, &frames),
+                settled,
                 memory: tier.memory(),
             });
         }
@@ -172,7 +185,7 @@ impl MobileReport {
             };
             out += &format!(
                 "{} {}x{}, {} screen probes, on {}: median of {} frames after {} still \
-                 warm-up frames ({clock})\n\n| pass | ms |\n|---|---:|\n",
+                 warm-up frames and {} ({clock})\n\n| pass | ms |\n|---|---:|\n",
                 run.scene,
                 o.size.0,
                 o.size.1,
@@ -180,11 +193,16 @@ impl MobileReport {
                 run.adapter,
                 o.frames,
                 o.warmup,
+                run.settled.describe(),
             );
             for (name, ms) in run.gi_passes() {
                 out += &format!("| {name} | {ms:.3} |\n");
             }
             out += &format!("| **GI (cache/* + mobile/*)** | **{:.3}** |\n", run.gi_ms());
+            out += &format!(
+                "| GI per frame, 10th / 90th percentile | {:.3} / {:.3} |\n",
+                run.spread.p10, run.spread.p90
+            );
             for (name, ms) in run.other_passes() {
                 out += &format!("| {name} | {ms:.3} |\n");
             }
@@ -220,6 +238,7 @@ impl MobileReport {
             "width": o.size.0,
             "height": o.size.1,
             "warmup": o.warmup,
+            "settle_s": o.settle_s,
             "frames": o.frames,
             "gi_memory_bar_bytes": GI_MEMORY_BAR_BYTES,
             "runs": self.runs.iter().map(|run| serde_json::json!({
@@ -231,6 +250,8 @@ impl MobileReport {
                     .map(|(name, ms)| (name.clone(), (*ms).into()))
                     .collect::<serde_json::Map<_, _>>(),
                 "gi_ms": run.gi_ms(),
+                "gi_spread_ms": run.spread.json(),
+                "settle": run.settled.json(),
                 "other_ms": run.other_ms(),
                 "memory": memory_json(&run.memory),
             })).collect::<Vec<_>>(),

@@ -4,7 +4,8 @@
 //! the form of HSGI's per-pass table.
 //!
 //! Each run makes a PC tier for the scene's default camera, renders a still warm-up
-//! ([`Renderer::warm_up`]) and measures `frames` frames; each pass's figure is its median over
+//! ([`Renderer::warm_up`]), then still frames until the GPU's clock has settled
+//! ([`crate::settle`]), and measures `frames` frames; each pass's figure is its median over
 //! them ([`PassTimings::median`]) and the GI cost is the sum of the `cache/*` and `pc/*`
 //! medians ([`TierKind::is_gi_pass`]).
 
@@ -12,6 +13,8 @@ use anyhow::Context;
 use gi_gpu::PassTimings;
 use gi_tiers::pc::{PC_OPTIONAL_STAGES, PC_STAGES, PcMemory, TraceMode};
 use gi_tiers::{CameraMode, PcConfig, PcTier, Renderer, TierKind, TierSettings};
+
+use crate::settle::{self, GiSpread, Settled};
 
 const MIB: f64 = (1 << 20) as f64;
 
@@ -65,6 +68,9 @@ pub struct PcOptions {
     pub trace_scale: u32,
     /// What the diffuse rays read (`rays` or `probes`).
     pub trace_mode: TraceMode,
+    /// Least seconds of still frames after the warm-up for the GPU's clock to settle
+    /// ([`settle::settle`]); 0 measures at once.
+    pub settle_s: f64,
 }
 
 /// One scene in one variant.
@@ -74,6 +80,10 @@ pub struct PcRun {
     pub adapter: String,
     pub gpu_timestamps: bool,
     pub median: PassTimings,
+    /// How the measured frames' GI time spread.
+    pub spread: GiSpread,
+    /// The still frames rendered for the clock after the warm-up.
+    pub settled: Settled,
     pub memory: PcMemory,
 }
 
@@ -121,6 +131,7 @@ pub fn run(options: &PcOptions) -> anyhow::Result<PcReport> {
             let mut renderer =
                 Renderer::with_tier(scene.clone(), Box::new(tier), CameraMode::Default);
             renderer.warm_up(options.warmup, None)?;
+            let settled = settle::settle(&mut renderer, TierKind::Pc, options.settle_s)?;
             let mut frames = Vec::new();
             for _ in 0..options.frames {
                 frames.push(PassTimings(renderer.advance_frame(None)?));
@@ -134,6 +145,8 @@ pub fn run(options: &PcOptions) -> anyhow::Result<PcReport> {
                 adapter: tier.context().adapter_info.name.clone(),
                 gpu_timestamps: tier.context().supports_timestamps(),
                 median: PassTimings::median(&frames),
+                spread: GiSpread::of(TierKind::Pc, &frames),
+                settled,
                 memory: tier.memory(),
             });
         }
@@ -160,7 +173,7 @@ impl PcReport {
             };
             out += &format!(
                 "{scene} {}x{}, trace scale {}, trace mode {}, on {}: median of {} frames after \
-                 {} still warm-up frames ({clock}), ms\n\n| pass |",
+                 {} still warm-up frames ({clock}), ms\n\n",
                 o.size.0,
                 o.size.1,
                 o.trace_scale,
@@ -169,6 +182,14 @@ impl PcReport {
                 o.frames,
                 o.warmup
             );
+            for run in &runs {
+                out += &format!(
+                    "- {}: {}\n",
+                    variant_label(&run.variant),
+                    run.settled.describe()
+                );
+            }
+            out += "\n| pass |";
             for run in &runs {
                 out += &format!(" {} |", variant_label(&run.variant));
             }
@@ -195,6 +216,8 @@ impl PcReport {
                 out += &row(name, &|run| run.median.get(name));
             }
             out += &row("**GI (cache/* + pc/*)**", &|run| Some(run.gi_ms()));
+            out += &row("GI per frame, 10th percentile", &|run| Some(run.spread.p10));
+            out += &row("GI per frame, 90th percentile", &|run| Some(run.spread.p90));
             for name in names.iter().filter(|n| !TierKind::Pc.is_gi_pass(n)) {
                 out += &row(name, &|run| run.median.get(name));
             }
@@ -215,6 +238,7 @@ impl PcReport {
             "width": o.size.0,
             "height": o.size.1,
             "warmup": o.warmup,
+            "settle_s": o.settle_s,
             "frames": o.frames,
             "trace_scale": o.trace_scale,
             "trace_mode": o.trace_mode.name(),
@@ -227,6 +251,8 @@ impl PcReport {
                     .map(|(name, ms)| (name.clone(), (*ms).into()))
                     .collect::<serde_json::Map<_, _>>(),
                 "gi_ms": run.gi_ms(),
+                "gi_spread_ms": run.spread.json(),
+                "settle": run.settled.json(),
                 "other_ms": run.other_ms(),
                 "memory": {
                     "coverage_bytes": run.memory.coverage_bytes,
@@ -273,6 +299,7 @@ mod tests {
             variants: vec!["default".into(), "spatial".into(), "with-temporal".into()],
             trace_scale: 2,
             trace_mode: TraceMode::Rays,
+            settle_s: 0.0,
         })
         .unwrap();
         assert_eq!(report.runs.len(), 3);

@@ -45,6 +45,8 @@ fn mobile_benchmark_reports_gi_passes_and_memory() {
             "3",
             "--screen-probes",
             "both",
+            "--settle-s",
+            "0.001",
         ],
         &json,
     );
@@ -56,6 +58,7 @@ fn mobile_benchmark_reports_gi_passes_and_memory() {
     let report = read_json(&json);
     assert_eq!(report["frames"], 3);
     assert_eq!(report["warmup"], 2);
+    assert_eq!(report["settle_s"], 0.001);
     let runs = report["runs"].as_array().expect("runs");
     // Two scenes in both modes.
     let keys: Vec<(String, String)> = runs
@@ -90,6 +93,16 @@ fn mobile_benchmark_reports_gi_passes_and_memory() {
         );
         let other = run["other_ms"].as_f64().unwrap();
         assert!((gi + other - all).abs() <= 1e-9 * all, "{run}");
+        // The per-frame GI spread is ordered, and the clock settling rendered whole
+        // 16-frame windows (at 0.001 s, one window, or two when the first was fast).
+        let spread = |q: &str| run["gi_spread_ms"][q].as_f64().unwrap();
+        assert!(
+            0.0 < spread("p10") && spread("p10") <= spread("median"),
+            "{run}"
+        );
+        assert!(spread("median") <= spread("p90"), "{run}");
+        let settled = run["settle"]["frames"].as_u64().unwrap();
+        assert!(settled >= 16 && settled % 16 == 0, "{run}");
         let memory = &run["memory"];
         let bytes = |field: &str| memory[field].as_u64().unwrap_or_else(|| panic!("{field}"));
         assert!(
@@ -190,4 +203,11 @@ fn mobile_benchmarks_reject_bad_input_clearly() {
         "4",
     ]);
     assert!(err.contains("--converged-frames"), "{err}");
+    for bad in ["-1", "61", "NaN", "soon"] {
+        let err = run(&["pc", &format!("--settle-s={bad}")]);
+        assert!(
+            err.contains(&format!("expected seconds within 0..=60, not `{bad}`")),
+            "{err}"
+        );
+    }
 }

@@ -273,13 +273,21 @@ impl Renderer {
             return Ok(());
         }
         for done in 1..=frames {
-            self.still(None, |tier, input| tier.advance(input))?;
-            self.warm_up_frames += 1;
+            self.warm_up_frame()?;
             if let Some(progress) = progress {
                 progress(done);
             }
         }
         Ok(())
+    }
+
+    /// One still warm-up frame as [`Renderer::warm_up`] renders them, for any tier, returning
+    /// its passes: for a caller that warms up until something it measures settles (a
+    /// benchmark waiting for the GPU's clock to climb).
+    pub fn warm_up_frame(&mut self) -> Result<Vec<(String, f64)>, TierError> {
+        let passes = self.still(None, |tier, input| tier.advance(input))?;
+        self.warm_up_frames += 1;
+        Ok(passes)
     }
 
     /// Renders the next frame through `render` (the tier's `render` or `advance`) without
