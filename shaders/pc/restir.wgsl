@@ -51,20 +51,20 @@
 @group(0) @binding(13) var<storage, read> surfaces: array<Surface>;
 @group(0) @binding(14) var<storage, read> surfaces_prev: array<Surface>;
 @group(0) @binding(15) var<storage, read> initial: array<Reservoir>;
-// Per trace pixel: this frame's temporal reservoirs (the next frame's history), the previous
-// frame's, the spatial reuse's and the shadow pass's.
+// Per trace pixel: this frame's temporal reservoirs (the next frame's history) and the
+// previous frame's; the resolved reservoirs, which `spatial` writes and the shadow pass
+// (`pc/trace.wgsl`) then updates in place, and which `shade` reads.
 @group(0) @binding(16) var<storage, read_write> temporal_out: array<Reservoir>;
 @group(0) @binding(17) var<storage, read> temporal_prev: array<Reservoir>;
-@group(0) @binding(18) var<storage, read_write> spatial_out: array<Reservoir>;
-@group(0) @binding(19) var<storage, read> resolved: array<Reservoir>;
+@group(0) @binding(18) var<storage, read_write> resolved: array<Reservoir>;
 // Per pixel: the multi-sample shading's irradiance (rgb), the denoised one, the direct light's
 // running mean, the output image.
-@group(0) @binding(20) var<storage, read_write> irradiance: array<vec4<f32>>;
-@group(0) @binding(21) var<storage, read> denoised: array<vec4<f32>>;
-@group(0) @binding(22) var<storage, read> direct_mean: array<vec4<f32>>;
-@group(0) @binding(23) var<storage, read_write> output: array<vec4<f32>>;
+@group(0) @binding(19) var<storage, read_write> irradiance: array<vec4<f32>>;
+@group(0) @binding(20) var<storage, read> denoised: array<vec4<f32>>;
+@group(0) @binding(21) var<storage, read> direct_mean: array<vec4<f32>>;
+@group(0) @binding(22) var<storage, read_write> output: array<vec4<f32>>;
 // Per pixel: the traced specular's history (`pc/specular.wgsl`).
-@group(0) @binding(26) var<storage, read_write> specular_history: array<vec4<u32>>;
+@group(0) @binding(25) var<storage, read_write> specular_history: array<vec4<u32>>;
 
 fn trace_index(t: vec2<u32>) -> u32 {
     return t.y * u.trace_px.x + t.x;
@@ -193,7 +193,7 @@ fn spatial(@builtin(global_invocation_id) id: vec3<u32>) {
     let index = trace_index(id.xy);
     let s = surfaces[index];
     if !has_surface(s) {
-        spatial_out[index] = empty_reservoir();
+        resolved[index] = empty_reservoir();
         return;
     }
     let n = unpack_unit_vector(s.normal);
@@ -217,7 +217,7 @@ fn spatial(@builtin(global_invocation_id) id: vec3<u32>) {
         let j = reconnection_jacobian(rq, sq.position, s.position, u.jacobian_max);
         combiner_add(&c, rq, rq.m, target_pdf(rq, s.position, n), j, u_select);
     }
-    spatial_out[index] = combiner_finish(c);
+    resolved[index] = combiner_finish(c);
 }
 
 // ---------------------------------------------------------------------------------------------

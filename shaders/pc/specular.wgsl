@@ -35,13 +35,13 @@ const FAR: f32 = 3.40282347e38;
 @group(0) @binding(12) var<storage, read> gbuffer_motion: array<vec2<f32>>;
 @group(0) @binding(13) var<storage, read> surfaces: array<Surface>;
 // Per trace pixel: this frame's specular rays.
-@group(0) @binding(24) var<storage, read> specular_samples: array<SpecularSample>;
+@group(0) @binding(23) var<storage, read> specular_samples: array<SpecularSample>;
 // Per pixel: the resolved radiance and 1 where any ray contributed (`pack_color64`).
-@group(0) @binding(25) var<storage, read_write> specular_noisy: array<vec2<u32>>;
+@group(0) @binding(24) var<storage, read_write> specular_noisy: array<vec2<u32>>;
 // Per pixel: radiance and history length (`pack_color64`), the surface's distance from the
 // camera (f32 bits) and its packed normal; this frame's and the previous frame's.
-@group(0) @binding(26) var<storage, read_write> specular_history: array<vec4<u32>>;
-@group(0) @binding(27) var<storage, read> specular_history_prev: array<vec4<u32>>;
+@group(0) @binding(25) var<storage, read_write> specular_history: array<vec4<u32>>;
+@group(0) @binding(26) var<storage, read> specular_history_prev: array<vec4<u32>>;
 
 // Whether pixel `pixel` (with G-buffer depth `depth`) takes traced specular.
 fn is_traced(pixel: u32, depth: f32) -> bool {

@@ -52,15 +52,16 @@ const SHADOW_MARGIN: f32 = 1e-3;
 @group(0) @binding(10) var<storage, read_write> surfaces: array<Surface>;
 // Per trace pixel: the initial reservoir (written by `trace`).
 @group(0) @binding(11) var<storage, read_write> initial: array<Reservoir>;
-// Per trace pixel: the temporal and spatial reuse's results (read by `shadow`).
+// Per trace pixel: the temporal reuse's result (read by `shadow`).
 @group(0) @binding(12) var<storage, read> temporal: array<Reservoir>;
-@group(0) @binding(13) var<storage, read> spatial: array<Reservoir>;
-// Per trace pixel: the reservoir the shading reads (written by `shadow`).
-@group(0) @binding(14) var<storage, read_write> resolved: array<Reservoir>;
-@group(0) @binding(15) var<storage, read> gbuffer_base_color: array<vec4<f32>>;
-@group(0) @binding(16) var<storage, read> gbuffer_metallic_roughness: array<vec2<f32>>;
+// Per trace pixel: the reservoir the shading reads. With spatial reuse, `pc/spatial` wrote
+// its result here and `shadow` updates it in place (each invocation reads and writes only its
+// own element); without, `shadow` writes it.
+@group(0) @binding(13) var<storage, read_write> resolved: array<Reservoir>;
+@group(0) @binding(14) var<storage, read> gbuffer_base_color: array<vec4<f32>>;
+@group(0) @binding(15) var<storage, read> gbuffer_metallic_roughness: array<vec2<f32>>;
 // Per trace pixel: the specular ray (written by `specular_trace`).
-@group(0) @binding(17) var<storage, read_write> specular_samples: array<SpecularSample>;
+@group(0) @binding(16) var<storage, read_write> specular_samples: array<SpecularSample>;
 
 // `p` pushed off its surface along `n` by a margin relative to its magnitude (the reference's
 // `offset_origin`).
@@ -314,7 +315,7 @@ fn shadow(@builtin(global_invocation_id) id: vec3<u32>) {
     }
     let fallback = r;
     if (u.flags & FLAG_SPATIAL) != 0u {
-        r = spatial[index];
+        r = resolved[index];
     }
     let s = surfaces[index];
     if (u.flags & FLAG_SHADOW) == 0u || !has_surface(s) || r.w <= 0.0 {

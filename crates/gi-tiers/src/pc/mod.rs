@@ -204,18 +204,17 @@ impl PcPipelines {
             (10, false),
             (11, false),
             (12, true),
-            (13, true),
-            (14, false),
+            (13, false),
+            (14, true),
             (15, true),
-            (16, true),
-            (17, false),
+            (16, false),
         ] {
             entries.push(storage_entry(binding, read_only));
         }
         let trace_layout = layout("pc/trace.layout0", &entries);
         let mut entries = vec![uniform_entry(0)];
-        for binding in 8..=27 {
-            let written = matches!(binding, 16 | 18 | 20 | 23 | 25 | 26);
+        for binding in 8..=26 {
+            let written = matches!(binding, 16 | 18 | 19 | 22 | 24 | 25);
             entries.push(storage_entry(binding, !written));
         }
         let restir_layout = layout("pc/restir.layout0", &entries);
@@ -273,7 +272,7 @@ struct PcBuffers {
     surfaces: [wgpu::Buffer; 2],
     initial: wgpu::Buffer,
     temporal: [wgpu::Buffer; 2],
-    spatial: wgpu::Buffer,
+    /// Per trace pixel: the spatial reuse's result, then the shadow pass's (in place).
     resolved: wgpu::Buffer,
     irradiance: wgpu::Buffer,
     output: wgpu::Buffer,
@@ -317,7 +316,6 @@ impl PcBuffers {
                 buffer("pc.temporal_a", if temporal { reservoirs } else { one }),
                 buffer("pc.temporal_b", if temporal { reservoirs } else { one }),
             ],
-            spatial: buffer("pc.spatial", reservoirs),
             resolved: buffer("pc.resolved", reservoirs),
             irradiance: buffer("pc.irradiance", pixels * 16),
             output: buffer("pc.output", pixels * 16),
@@ -343,7 +341,6 @@ impl PcBuffers {
             &self.initial,
             &self.temporal[0],
             &self.temporal[1],
-            &self.spatial,
             &self.resolved,
             &self.irradiance,
             &self.output,
@@ -604,7 +601,6 @@ impl PcTier {
                 &b.surfaces[cur],
                 &b.initial,
                 &b.temporal[cur],
-                &b.spatial,
                 &b.resolved,
                 self.gbuffer.output("gbuffer.base_color"),
                 self.gbuffer.output("gbuffer.metallic_roughness"),
@@ -637,7 +633,6 @@ impl PcTier {
                 &b.initial,
                 &b.temporal[cur],
                 &b.temporal[prev],
-                &b.spatial,
                 &b.resolved,
                 &b.irradiance,
                 prepared.denoiser.output(),
