@@ -12,8 +12,8 @@
 // contributes the reflected radiance of the side it sees (albedo / pi x its direct + indirect
 // irradiance), a miss the sky: E = pi mean(L). Light emitted by emissive triangles is not taken
 // from the hit voxels' emission but sampled directly (next-event estimation through the
-// scene's emitter table, `rays_per_side` samples from the side point with BVH shadow rays,
-// E = mean(Le cos / pdf)): a small bright emitter is then found by every sample instead of by
+// scene's emitter table, `rays_per_side` samples taken at the side's surface, half a voxel
+// out from its center, with BVH shadow rays from the side point, E = mean(Le cos / pdf)): a small bright emitter is then found by every sample instead of by
 // the rare ray that hits its voxel, and nothing is counted twice (`cache/inject` adds only
 // punctual lights). The sum is the side's indirect irradiance, accumulated over updates with
 // weight 1 / age (age = min(age + 1, max_age)).
@@ -63,17 +63,29 @@ fn bounced_radiance(origin: vec3<f32>, dir: vec3<f32>) -> vec3<f32> {
     return sky_radiance(lighting.sky, dir);
 }
 
-// One next-event sample of the emissive triangles at `x` for a surface of normal `n`: the
-// irradiance estimate Le cos / pdf, 0 when the sample is shadowed or behind the surface.
-fn emitter_irradiance(x: vec3<f32>, n: vec3<f32>, sampler: ptr<function, Sampler>) -> vec3<f32> {
+// One next-event sample of the emissive triangles for a surface of normal `n` at `surface`:
+// the irradiance estimate Le cos / pdf there, 0 when the sample is behind the surface or the
+// shadow ray from `origin` (the side point, off the surface's own voxels) to it is blocked.
+// The estimate is taken at the surface, not at the side point: the side point lies most of a
+// voxel towards the light, and an emitter a few voxels away would read that much nearer (the
+// cornell-box's ceiling light lit its floor 6% too brightly so).
+fn emitter_irradiance(
+    surface: vec3<f32>,
+    origin: vec3<f32>,
+    n: vec3<f32>,
+    sampler: ptr<function, Sampler>,
+) -> vec3<f32> {
     let u_select = sampler_next_f32(sampler);
     let u_point = sampler_next_2d(sampler);
-    let light = sample_emitter(x, u_select, u_point, lighting.emitter_count, lighting.default_material);
+    let light = sample_emitter(surface, u_select, u_point, lighting.emitter_count, lighting.default_material);
     let cos_theta = dot(light.wi, n);
     if light.pdf <= 0.0 || cos_theta <= 0.0 || all(light.radiance == vec3<f32>(0.0)) {
         return vec3<f32>(0.0);
     }
-    if trace_any(Ray(x, 0.0, light.wi, light.distance * (1.0 - SHADOW_MARGIN))) {
+    let to_light = surface + light.wi * light.distance - origin;
+    let distance = length(to_light);
+    if dot(to_light, n) <= 0.0
+        || trace_any(Ray(origin, 0.0, to_light / distance, distance * (1.0 - SHADOW_MARGIN))) {
         return vec3<f32>(0.0);
     }
     return light.radiance * (cos_theta / light.pdf);
@@ -119,12 +131,15 @@ fn propagate(
         // voxel, which the trace skips: where the surface lies on a voxel boundary that
         // neighbour holds the same surface.
         let x = side_point(lit.center, lit.size_m, n_side);
+        // Where the side's surface lies for a lookup: `cache_irradiance` reads the voxel whose
+        // center is half a voxel behind the point it is asked for.
+        let surface = lit.center + n_side * (0.5 * lit.size_m);
         var sampler = side_sampler(lit.level, lit.voxel, side, lane);
         for (var i = lane; i < rays; i += RAY_LANES) {
             let dir = frame_to_world(frame, cosine_hemisphere(sampler_next_2d(&sampler)));
             sum += bounced_radiance(x, dir) * PI;
             if lighting.emitter_count > 0u {
-                sum += emitter_irradiance(x, n_side, &sampler);
+                sum += emitter_irradiance(surface, x, n_side, &sampler);
             }
         }
     }
