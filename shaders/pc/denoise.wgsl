@@ -13,14 +13,15 @@
 //   temporal        clamp the reprojected long color into mean +- clamp_sigma sigma of this
 //                   frame's short history over the 5 x 5 neighbourhood and blend with
 //                   alpha = max(1 / (age + 1), 1 / long_history); store the long history
-//                   (color, as SVGF feeds back, is replaced by the first a-trous iteration's);
+//                   (with `feedback`, as SVGF does, the first a-trous iteration replaces its
+//                   color);
 //   variance        SVGF's luminance variance: from the temporal moments once the history is
 //                   variance_min_age frames old, else from a 7 x 7 bilateral (depth, normal)
 //                   estimate of the moments around the pixel;
 //   atrous          one a-trous iteration (5 x 5 B3-spline taps `step_px` apart) with SVGF's
 //                   normal, depth and luminance edge-stopping weights; the variance is
-//                   filtered with the squared weights. The first iteration also writes the
-//                   color of the next frame's long history.
+//                   filtered with the squared weights. With `feedback` the first iteration
+//                   also writes the color of the next frame's long history.
 //
 // Pixels are one storage-buffer entry each, row-major. Sky pixels (depth +inf) pass their
 // input through every pass, keep no history and never mix into their neighbours.
@@ -62,7 +63,7 @@ const TEMPORAL_WRITE: u32 = 0u;
 const VARIANCE_WRITE: u32 = 1u;
 const FIRST_ATROUS_WRITE: u32 = 2u;
 
-// Mirror of `gi_tiers::pc::denoise::DenoiseUniforms`, 56 bytes.
+// Mirror of `gi_tiers::pc::denoise::DenoiseUniforms`, 64 bytes.
 struct DenoiseUniforms {
     size_px: vec2<u32>,
     // Pixels between a-trous taps (2^iteration).
@@ -80,6 +81,9 @@ struct DenoiseUniforms {
     normal_power: f32,
     depth_sigma: f32,
     luminance_sigma: f32,
+    // 1: the first a-trous iteration's color becomes the long history (SVGF's feedback).
+    feedback: u32,
+    pad: u32,
 }
 
 // Group 0.
@@ -516,7 +520,7 @@ fn atrous(@builtin(global_invocation_id) id: vec3<u32>) {
         result = vec4(color_sum / weight_sum, variance_sum / (weight_sum * weight_sum));
     }
     store_filter(place, index, result);
-    if place == FIRST_ATROUS_WRITE {
+    if place == FIRST_ATROUS_WRITE && u.feedback != 0u {
         // SVGF feeds the first iteration back as the long history's color; `temporal` wrote
         // the age.
         store_history(index, result.rgb, load_history(index).w);

@@ -161,6 +161,13 @@ fn configs() -> Vec<(String, DenoiseConfig)> {
             ));
         }
     }
+    configs.push((
+        "SVGF's feedback".to_owned(),
+        DenoiseConfig {
+            feedback: true,
+            ..DenoiseConfig::default()
+        },
+    ));
     configs
 }
 
@@ -184,6 +191,8 @@ fn uniforms_match_their_wgsl_layout() {
         normal_power,
         depth_sigma,
         luminance_sigma,
+        feedback,
+        pad,
     });
     assert_eq!(wgsl.members, rust);
     assert_eq!(wgsl.size as usize, size_of::<DenoiseUniforms>());
@@ -358,7 +367,20 @@ fn atrous_does_not_bleed_across_normal_or_depth_edges() {
         ("depth edge", 10.0, Vec3::Z, true),
         ("no geometric edge (control)", 2.0, Vec3::Z, false),
     ];
-    for (name, right_depth, right_normal, holds) in cases {
+    // With SVGF's feedback every frame's filter compounds, so a leak would grow frame after
+    // frame and the control bleeds far: the stricter test. The default (no feedback) must
+    // hold the edges too.
+    let default = DenoiseConfig::default();
+    let feedback = DenoiseConfig {
+        feedback: true,
+        ..DenoiseConfig::default()
+    };
+    let runs = cases
+        .iter()
+        .map(|case| (case, &feedback))
+        .chain(cases.iter().take(2).map(|case| (case, &default)));
+    for (&(name, right_depth, right_normal, holds), config) in runs {
+        let name = format!("{name}, feedback {}", config.feedback);
         let mut rng = Pcg32::new(5, 0x0a02_bdbf_7bb3_c0a7);
         harness.denoiser.reset_history();
         let mut output = Vec::new();
@@ -371,7 +393,7 @@ fn atrous_does_not_bleed_across_normal_or_depth_edges() {
             }
             // Noise loosens the luminance weight, so that only geometry can stop the blur.
             frame.add_noise(&mut rng, 0.5);
-            output = harness.run(&frame, &DenoiseConfig::default());
+            output = harness.run(&frame, config);
         }
         // The worst relative deviation of a column's mean (over the rows) from its half's
         // value, among the columns two or more pixels from the edge.
@@ -551,4 +573,67 @@ fn memory_is_counted_and_released() {
     assert_eq!(harness.ctx.memory().bytes_with_prefix("pc.denoise."), bytes);
     harness.denoiser.release(&harness.ctx);
     assert_eq!(harness.ctx.memory().bytes_with_prefix("pc.denoise."), 0);
+}
+
+/// SVGF's feedback re-filters the history every frame, so over a long history the first
+/// a-trous kernel compounds into a wide blur: a bright stripe across a flat surface loses its
+/// peak to its darker surroundings. Without feedback (the default) the history is the plain
+/// temporal mean and only this frame's filter blurs it. The stripe is 5 pixels wide (Gaussian
+/// of 4 px), three times brighter at its peak than the surface, with 50% noise; the loss at
+/// the peak is measured per row over the last 16 of 80 frames, and the difference between
+/// the two configurations must exceed four standard errors of its mean over the rows.
+#[test]
+fn feedback_compounds_the_blur_and_is_off_by_default() {
+    let Some(ctx) = GpuContext::new_or_skip("feedback_compounds_the_blur_and_is_off_by_default")
+    else {
+        return;
+    };
+    assert!(!DenoiseConfig::default().feedback);
+    let profile = |x: u32| 1.0 + 2.0 * (-((x as f32 - 32.0) / 4.0).powi(2)).exp();
+    let mut harness = Harness::new(ctx);
+    let mut peak_loss = |config: &DenoiseConfig| {
+        harness.denoiser.reset_history();
+        let mut rng = Pcg32::new(31, 0x0a02_bdbf_7bb3_c0a7);
+        let mut per_row = vec![0.0f64; SIZE.1 as usize];
+        for index in 0..80 {
+            let mut frame = Frame::flat([1.0; 3], 2.0, Vec3::Z);
+            for (pixel, color) in frame.noisy.iter_mut().enumerate() {
+                let v = profile(column(pixel));
+                *color = [v, v, v, 0.0];
+            }
+            frame.add_noise(&mut rng, 0.5);
+            let output = harness.run(&frame, config);
+            if index >= 64 {
+                for (pixel, color) in output.iter().enumerate() {
+                    if column(pixel) == 32 {
+                        let row = pixel / SIZE.0 as usize;
+                        per_row[row] += f64::from(1.0 - color[1] / profile(32)) / 16.0;
+                    }
+                }
+            }
+        }
+        per_row
+    };
+    let without = peak_loss(&DenoiseConfig::default());
+    let with = peak_loss(&DenoiseConfig {
+        feedback: true,
+        ..DenoiseConfig::default()
+    });
+    let differences: Vec<f64> = with.iter().zip(&without).map(|(a, b)| a - b).collect();
+    let n = differences.len() as f64;
+    let mean = differences.iter().sum::<f64>() / n;
+    let sd = (differences.iter().map(|d| (d - mean).powi(2)).sum::<f64>() / (n - 1.0)).sqrt();
+    let (loss_without, loss_with) = (
+        without.iter().sum::<f64>() / n,
+        with.iter().sum::<f64>() / n,
+    );
+    eprintln!(
+        "peak loss: {loss_without:.4} without feedback, {loss_with:.4} with; difference {mean:.4} \
+         (standard error {:.4})",
+        sd / n.sqrt()
+    );
+    assert!(
+        mean > 4.0 * sd / n.sqrt(),
+        "feedback did not blur more: {mean} vs {sd}"
+    );
 }
