@@ -12,6 +12,8 @@ use std::time::Instant;
 use gi_gpu::PassTimings;
 use gi_tiers::{Renderer, TierError, TierKind};
 
+use crate::suite::median;
+
 /// Frames per window whose median GI time is compared with the previous window's.
 const WINDOW: usize = 16;
 /// Two windows whose medians differ by at most this fraction are steady.
@@ -39,16 +41,6 @@ pub fn gi_ms(kind: TierKind, passes: &[(String, f64)]) -> f64 {
         .sum()
 }
 
-fn median(values: &mut [f64]) -> f64 {
-    values.sort_by(f64::total_cmp);
-    let mid = values.len() / 2;
-    if values.len() % 2 == 1 {
-        values[mid]
-    } else {
-        0.5 * (values[mid - 1] + values[mid])
-    }
-}
-
 /// Renders still warm-up frames ([`Renderer::warm_up_frame`]) for at least `min_seconds` and
 /// until the median GI time of the last [`WINDOW`] frames is within 2% of the window's before,
 /// giving up after 5 times `min_seconds`. `min_seconds` 0 renders nothing.
@@ -74,7 +66,7 @@ pub fn settle(
         }
         settled.frames += WINDOW as u32;
         settled.seconds = start.elapsed().as_secs_f64();
-        let current = median(&mut window);
+        let current = median(&window);
         let steady = previous.is_some_and(|p| (current - p).abs() <= STEADY_TOLERANCE * p);
         if steady && settled.seconds >= min_seconds {
             return Ok(settled);
@@ -102,7 +94,8 @@ impl GiSpread {
     /// Over `frames` (at least one), GI passes as `kind` counts them.
     pub fn of(kind: TierKind, frames: &[PassTimings]) -> Self {
         let mut sums: Vec<f64> = frames.iter().map(|f| gi_ms(kind, &f.0)).collect();
-        let median = median(&mut sums);
+        sums.sort_by(f64::total_cmp);
+        let median = median(&sums);
         let at = |q: f64| sums[((sums.len() - 1) as f64 * q).round() as usize];
         Self {
             p10: at(0.1),

@@ -37,6 +37,8 @@ mod plots;
 pub mod regress;
 mod results;
 
+pub(crate) use results::median;
+
 use std::{
     collections::BTreeMap,
     io::{BufRead, BufReader, Read},
