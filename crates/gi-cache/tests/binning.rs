@@ -105,3 +105,28 @@ fn indexed_binning_matches_a_scan_of_every_triangle_on_the_dynamic_scene() {
     compare("dynamic", 0.0);
     compare("dynamic", 0.25);
 }
+
+/// `TriangleIndex::update` keeps the index for an unchanged frame and rebuilds it when a
+/// triangle moved: after each update the bins are the scan's for the frame given.
+#[test]
+fn update_follows_a_moved_triangle() {
+    let scene = gi_scene::load("cornell-box").unwrap();
+    let config = CacheConfig::default();
+    let level = 0;
+    let mut frame = scene.evaluate(0.0, None);
+    let window = ClipmapWindows::new(&config, frame.camera.position).window(level);
+    let mut index = TriangleIndex::new(&config, &CacheScene::new(&scene, &frame));
+    let before = index.bin_region(level, &window, &window);
+    // The same frame again: the same bins.
+    index.update(&config, &CacheScene::new(&scene, &frame));
+    assert_eq!(index.bin_region(level, &window, &window), before);
+    // Move the first triangle by a metre: the bins follow it.
+    let offset = glam::Vec3A::new(0.0, 1.0, 0.0);
+    let t = &mut frame.triangles[0];
+    (t.v0, t.v1, t.v2) = (t.v0 + offset, t.v1 + offset, t.v2 + offset);
+    let moved = CacheScene::new(&scene, &frame);
+    index.update(&config, &moved);
+    let after = index.bin_region(level, &window, &window);
+    assert_ne!(after, before, "the moved triangle's bins did not change");
+    assert_eq!(after, brute_force(&config, &moved, level, &window));
+}

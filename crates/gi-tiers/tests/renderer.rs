@@ -242,3 +242,77 @@ fn the_mobile_gi_cost_counts_cache_and_mobile_passes_only() {
         assert_eq!(frame.gi_ms(kind), 0.0, "{kind}");
     }
 }
+
+/// A tier that renders nothing and keeps a description of every frame it was given.
+struct Recorder {
+    frames: std::sync::Arc<std::sync::Mutex<Vec<String>>>,
+}
+
+impl gi_tiers::Tier for Recorder {
+    fn kind(&self) -> TierKind {
+        TierKind::Direct
+    }
+
+    fn is_temporal(&self) -> bool {
+        true
+    }
+
+    fn render(&mut self, input: &gi_tiers::FrameInput) -> Result<gi_tiers::FrameOutput, TierError> {
+        self.frames
+            .lock()
+            .unwrap()
+            .push(format!("{:?}", input.frame));
+        Ok(gi_tiers::FrameOutput {
+            image: gi_image::Image::new(1, 1),
+            passes: Vec::new(),
+            stats: None,
+        })
+    }
+
+    fn memory_bytes(&self) -> u64 {
+        0
+    }
+}
+
+/// Every frame the renderer hands a tier is the scene evaluated at that frame's time through
+/// that frame's camera, whether it evaluated it afresh (an animated scene) or reused the last
+/// evaluation of a scene without animation with a new time and camera; an edit through
+/// `scene_mut` reaches the next frame.
+#[test]
+fn each_frame_is_the_scene_at_its_time_and_camera() {
+    for name in ["atrium", "dynamic"] {
+        let scene = gi_scene::load(name).unwrap();
+        let frames = std::sync::Arc::new(std::sync::Mutex::new(Vec::new()));
+        let recorder = Recorder {
+            frames: frames.clone(),
+        };
+        let mut renderer = Renderer::with_tier(scene, Box::new(recorder), CameraMode::Path);
+        let expected = |renderer: &Renderer, index: u32| {
+            let scene = renderer.scene();
+            let time = scene.frame_time(index);
+            format!("{:?}", scene.evaluate(time, Some(scene.path_view(time))))
+        };
+        let mut wanted = Vec::new();
+        for index in 0..3 {
+            wanted.push(expected(&renderer, index));
+            renderer.advance_frame(None).unwrap();
+        }
+        renderer.warm_up_frame().unwrap();
+        wanted.push(expected(&renderer, 3));
+        // Brighten the first light between frames.
+        renderer.scene_mut().lights[0].intensity *= 2.0;
+        wanted.push(expected(&renderer, 3));
+        renderer.render_frame(None).unwrap();
+        let got = frames.lock().unwrap().clone();
+        assert_eq!(got.len(), wanted.len(), "{name}");
+        for (index, (got, wanted)) in got.iter().zip(&wanted).enumerate() {
+            assert!(
+                got == wanted,
+                "{name}: frame {index} differs from its evaluation"
+            );
+        }
+        // The camera moves along the path, so the frames differ.
+        assert_ne!(got[0], got[1], "{name}");
+        assert_ne!(got[3], got[4], "{name}: the edit did not reach the frame");
+    }
+}
