@@ -17,10 +17,10 @@ use gi_tiers::{
     mobile::{MobileMemory, ScreenConfig, ScreenProbeMode},
 };
 
+use crate::settle::{self, GiSpread, Settled};
+
 /// The GI memory bar of the issue: 32 MB, read as 32 * 10^6 bytes (the stricter reading).
 pub const GI_MEMORY_BAR_BYTES: u64 = 32_000_000;
-
-use crate::settle::{self, GiSpread, Settled};
 
 const MIB: f64 = (1 << 20) as f64;
 
@@ -105,7 +105,7 @@ pub struct MobileRun {
 impl MobileRun {
     /// Sum of the GI passes' medians (`cache/*` and `mobile/*`).
     pub fn gi_ms(&self) -> f64 {
-        self.gi_passes().map(|(_, ms)| ms).sum()
+        settle::gi_ms(TierKind::Mobile, &self.median.0)
     }
 
     /// Sum of the other passes' medians.

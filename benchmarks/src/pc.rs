@@ -89,7 +89,7 @@ pub struct PcRun {
 
 impl PcRun {
     pub fn gi_ms(&self) -> f64 {
-        self.passes(true).map(|(_, ms)| ms).sum()
+        settle::gi_ms(TierKind::Pc, &self.median.0)
     }
 
     pub fn other_ms(&self) -> f64 {
