@@ -198,14 +198,73 @@ fn brdf_sample(brdf: Brdf, wo: vec3<f32>, u_lobe: f32, u: vec2<f32>) -> BrdfSamp
 }
 
 // Not part of the reference's BRDF: for tiers that reflect a pre-integrated irradiance off
-// the specular lobe (split-sum), the lobe's directional albedo.
-// Directional albedo of the GGX specular lobe under uniform incident light: Karis's analytic
-// fit of the split-sum environment BRDF ("Physically Based Shading on Mobile", 2014).
+// the specular lobe (split-sum), the lobe's directional albedo, `f0 * scale + bias`, with
+// `scale` and `bias` fitted to this BRDF's lobe as Chebyshev series of total degree 7 in
+// `1 - 2 sqrt(n_dot_v)` and `2 roughness - 1`. The same numbers as
+// `gi_reference::brdf::specular_albedo`, whose documentation gives the fit and its accuracy.
 fn specular_albedo(f0: vec3<f32>, roughness: f32, n_dot_v: f32) -> vec3<f32> {
-    let c0 = vec4(-1.0, -0.0275, -0.572, 0.022);
-    let c1 = vec4(1.0, 0.0425, 1.04, -0.04);
-    let r = roughness * c0 + c1;
-    let a004 = min(r.x * r.x, exp2(-9.28 * n_dot_v)) * r.x + r.y;
-    let ab = vec2(-1.04, 1.04) * a004 + r.zw;
-    return f0 * ab.x + ab.y;
+    let s = chebyshev8(2.0 * clamp(roughness, 0.0, 1.0) - 1.0);
+    let u = chebyshev8(1.0 - 2.0 * sqrt(clamp(n_dot_v, 0.0, 1.0)));
+    let scale = max(chebyshev_series(SPLIT_SUM_SCALE, s, u), 0.0);
+    let bias = max(chebyshev_series(SPLIT_SUM_BIAS, s, u), 0.0);
+    return clamp(f0 * scale + bias, vec3(0.0), vec3(1.0));
 }
+
+// Chebyshev polynomials T_0 .. T_3 (column 0) and T_4 .. T_7 (column 1) at `t`.
+fn chebyshev8(t: f32) -> mat2x4<f32> {
+    let t2 = 2.0 * t * t - 1.0;
+    let t3 = 2.0 * t * t2 - t;
+    let t4 = 2.0 * t * t3 - t2;
+    let t5 = 2.0 * t * t4 - t3;
+    let t6 = 2.0 * t * t5 - t4;
+    let t7 = 2.0 * t * t6 - t5;
+    return mat2x4<f32>(vec4(1.0, t, t2, t3), vec4(t4, t5, t6, t7));
+}
+
+// sum over i, j of c_ij T_i(s) T_j(u), the 8 x 8 coefficients given as three 4 x 4 blocks
+// (rows i 0-3 with columns j 0-3, rows 0-3 with columns 4-7, rows 4-7 with columns 0-3; the
+// fourth block lies beyond total degree 7), each a matrix whose column j holds c_ij for i.
+fn chebyshev_series(c: array<mat4x4<f32>, 3>, s: mat2x4<f32>, u: mat2x4<f32>) -> f32 {
+    return dot(s[0], c[0] * u[0]) + dot(s[0], c[1] * u[1]) + dot(s[1], c[2] * u[0]);
+}
+
+const SPLIT_SUM_SCALE = array<mat4x4<f32>, 3>(
+    mat4x4<f32>(
+        vec4(0.695826, 0.02037893, -0.1091826, 0.001745045),
+        vec4(-0.0939191, 0.4753757, -0.02628074, -0.002336864),
+        vec4(-0.007253255, 0.06656231, -0.0485239, 0.0214149),
+        vec4(0.03258678, -0.0568239, 0.008506081, 0.02595344),
+    ),
+    mat4x4<f32>(
+        vec4(0.01138073, -0.02645664, 0.02066753, 0.001481546),
+        vec4(-0.004810217, 0.005105534, 0.005070956, 0.0),
+        vec4(-0.00235433, 0.004106875, 0.0, 0.0),
+        vec4(0.0001578477, 0.0, 0.0, 0.0),
+    ),
+    mat4x4<f32>(
+        vec4(0.02069847, -0.006833719, 0.0005364465, -0.0001088997),
+        vec4(0.01085124, -0.009815245, 0.002162264, 0.0),
+        vec4(0.01299602, -0.006416843, 0.0, 0.0),
+        vec4(-0.008473429, 0.0, 0.0, 0.0),
+    ),
+);
+const SPLIT_SUM_BIAS = array<mat4x4<f32>, 3>(
+    mat4x4<f32>(
+        vec4(0.1601111, -0.1968825, 0.05821342, 0.003291604),
+        vec4(0.2110313, -0.2640488, 0.08562985, -0.001142065),
+        vec4(0.03034847, -0.04160867, 0.02282378, -0.009141448),
+        vec4(-0.03569983, 0.04679883, -0.01480777, -0.004767473),
+    ),
+    mat4x4<f32>(
+        vec4(-0.01428187, 0.02027525, -0.01285597, 0.001280627),
+        vec4(0.002558735, -0.004149094, -0.00146033, 0.0),
+        vec4(0.001204421, -0.002310157, 0.0, 0.0),
+        vec4(-0.0001726828, 0.0, 0.0, 0.0),
+    ),
+    mat4x4<f32>(
+        vec4(-0.01234614, 0.004489176, 0.0004320694, 1.38812e-5),
+        vec4(-0.01677431, 0.007124086, 0.0005474531, 0.0),
+        vec4(-0.003219636, 0.003201276, 0.0, 0.0),
+        vec4(0.002357659, 0.0, 0.0, 0.0),
+    ),
+);

@@ -3,7 +3,7 @@
 // reference's implementation of the same functions.
 //
 // - `brdf_parity`: one `BrdfCase` in, one `BrdfResult` out: BRDF construction, eval, pdf,
-//   lobe probability and a sample, plus the warps, the power heuristic and the frame.
+//   lobe probability, a sample and the split-sum specular albedo, plus the warps, the power heuristic and the frame.
 // - `sampler_parity`: per (seed low, seed high, pixel, sample) the first SEQUENCE_LENGTH
 //   numbers of `sampler_next_f32`.
 // - `pcg32_parity`: per (state low, high, stream low, high) the first SEQUENCE_LENGTH raw
@@ -11,7 +11,7 @@
 
 #import gi::brdf::{
     brdf_new, brdf_eval, brdf_pdf, brdf_sample, brdf_specular_probability, brdf_f0,
-    brdf_diffuse_albedo
+    brdf_diffuse_albedo, specular_albedo
 }
 #import gi::math::luminance
 #import gi::sampling::{
@@ -68,7 +68,8 @@ struct BrdfResult {
     base_luminance: f32,
     // `wo` read as frame coordinates, taken to world space.
     world: vec3<f32>,
-    pad: f32,
+    // Green channel of `specular_albedo(f0, roughness, wo.z)` (the channels share the fit).
+    split_sum_albedo: f32,
 }
 
 @group(0) @binding(0) var<storage, read> cases: array<BrdfCase>;
@@ -105,7 +106,7 @@ fn brdf_parity(@builtin(global_invocation_id) id: vec3<u32>) {
         frame_to_local(frame, c.wo),
         luminance(c.base),
         frame_to_world(frame, c.wo),
-        0.0,
+        specular_albedo(brdf_f0(brdf), c.roughness, c.wo.z).y,
     );
 }
 

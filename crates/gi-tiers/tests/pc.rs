@@ -6,7 +6,7 @@ mod common;
 use common::{open_ground, settings};
 use gi_gpu::{GpuContext, ShaderLibrary, rust_field_offsets, wgsl_struct_layout};
 use gi_image::Image;
-use gi_reference::{Mode, Reference, RenderSettings};
+use gi_reference::{Mode, Reference, RenderSettings, brdf::specular_albedo};
 use gi_scene::{CameraView, Scene, Sky};
 use gi_tiers::pc::{
     GpuReservoir, GpuSpecularSample, GpuSurface, PC_OPTIONAL_STAGES, PC_STAGES, PcConfig,
@@ -482,19 +482,6 @@ fn cornell_box_meets_the_quality_bar() {
     assert!(pc <= 0.40 * baseline);
 }
 
-/// Karis's fit of the split-sum specular albedo, as `gi::brdf::specular_albedo` computes it.
-fn specular_albedo(f0: f32, roughness: f32, n_dot_v: f32) -> f32 {
-    let r = [
-        1.0 - roughness,
-        roughness * -0.0275 + 0.0425,
-        roughness * -0.572 + 1.04,
-        roughness * 0.022 - 0.04,
-    ];
-    let a004 = (r[0] * r[0]).min((-9.28 * n_dot_v).exp2()) * r[0] + r[1];
-    let ab = [-1.04 * a004 + r[2], 1.04 * a004 + r[3]];
-    f0 * ab[0] + ab[1]
-}
-
 /// A smooth white metal ground under a black sky and a large emitter of radiance `L` facing
 /// it: every ray of a pixel whose whole specular lobe falls on the emitter hits it, so the
 /// traced reflection is exactly `L` and the GI (the metal has no diffuse lobe) is the
@@ -541,7 +528,8 @@ fn a_smooth_metal_reflects_an_emitter_exactly() {
             let reflected = Vec3::new(dir.x, -dir.y, dir.z);
             let q = p + reflected * (emitter_y / reflected.y);
             let inside = q.x.abs().max(q.z.abs()) < emitter_half - 1.5;
-            expected.push(inside.then(|| specular_albedo(1.0, roughness, -dir.y) * radiance));
+            expected
+                .push(inside.then(|| specular_albedo(Vec3::ONE, roughness, -dir.y).y * radiance));
         }
     }
     let inside = expected.iter().flatten().count();
