@@ -5,18 +5,18 @@
 // each surfel side, HSGI's surfel being "voxel + normal").
 //
 // Two 256-thread workgroups per scheduled brick, one per surfel side (`workgroup_id.y`), four
-// threads per voxel sharing its rays. For each side of every occupied voxel (normals +n and
-// -n), `rays_per_side` cosine-distributed directions about the
-// side's normal are traced through the cache from the point just outside the surfel on that
-// side (`gi::cache::lighting::side_point`, half a voxel diagonal off the center). A hit
-// contributes the reflected radiance of the side it sees (albedo / pi x its direct + indirect
-// irradiance), a miss the sky: E = pi mean(L). Light emitted by emissive triangles is not taken
-// from the hit voxels' emission but sampled directly (next-event estimation through the
-// scene's emitter table, `rays_per_side` samples taken at the side's surface, half a voxel
-// out from its center, with BVH shadow rays from the side point, E = mean(Le cos / pdf)): a small bright emitter is then found by every sample instead of by
-// the rare ray that hits its voxel, and nothing is counted twice (`cache/inject` adds only
-// punctual lights). The sum is the side's indirect irradiance, accumulated over updates with
-// weight 1 / age (age = min(age + 1, max_age)).
+// threads per voxel sharing its rays. For each side of every occupied voxel (normals +n and -n),
+// `rays_per_side` cosine-distributed directions about the side's normal are traced through the
+// cache from the point just outside the surfel on that side (`gi::cache::lighting::side_point`,
+// half a voxel diagonal off the center). A hit contributes the reflected radiance of the side it
+// sees (albedo / pi x its direct + indirect irradiance), a miss the sky: E = pi mean(L). Light
+// emitted by emissive triangles is not taken from the hit voxels' emission but sampled directly
+// (next-event estimation through the scene's emitter table, `rays_per_side` samples taken at the
+// side's surface, half a voxel out from its center, with BVH shadow rays from the side point, E =
+// mean(Le cos / pdf)): a small bright emitter is then found by every sample instead of by the rare
+// ray that hits its voxel, and nothing is counted twice (`cache/inject` adds only punctual
+// lights). The sum is the side's indirect irradiance, accumulated over updates with weight 1 / age
+// (age = min(age + 1, max_age)).
 //
 // A gather from last frame's lighting (HSGI's and SmartGI's "previous frame" bounce): this pass
 // writes nothing the cache's rays read. The accumulated value goes to `propagate_scratch` and

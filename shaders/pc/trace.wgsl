@@ -5,9 +5,10 @@
 //     as the receiver, traces one cosine-distributed ray from it through the BVH and shades the
 //     hit: its emission, exact direct light from every punctual light (one shadow ray each)
 //     and the brick cache's indirect irradiance at the hit ("indirect lighting always from the
-//     cache system"), reflected by its diffuse and split-sum specular albedo; a miss sees the sky. With emissive
-//     triangles in the scene a second candidate is a point drawn on them (next-event
-//     estimation); the two are combined by RIS into the pixel's initial reservoir (M = 1).
+//     cache system"), reflected by its diffuse and split-sum specular albedo; a miss sees the
+//     sky. With emissive triangles in the scene a second candidate is a point drawn on them
+//     (next-event estimation); the two are combined by RIS into the pixel's initial reservoir
+//     (M = 1).
 //     In trace-probe mode (HSGI's "trace probe": a short ray, then radiance from probes) the
 //     BVH ray stops after `probe_ray_m`; past that the brick cache is traced from the
 //     segment's end and its radiance taken where it hits, the cache's voxels standing in for

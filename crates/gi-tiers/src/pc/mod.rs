@@ -98,7 +98,8 @@ pub struct GpuReservoir {
     pub occluder_direction: u32,
     /// RGB9E5 emission plus punctual direct light of a surface sample.
     pub fixed_radiance: u32,
-    /// Unorm8 albedo of a surface sample (diffuse plus split-sum specular towards the receiver) (reflects the cache's indirect light).
+    /// Unorm8 albedo of a surface sample, diffuse plus split-sum specular towards the receiver:
+    /// what reflects the cache's indirect light.
     pub albedo: u32,
 }
 
