@@ -21,7 +21,7 @@
 //!     --screen-probes both --json mobile.json
 //! gi-bench mobile-stability --size 320x240 --screen-probes both --json stability.json
 //! gi-bench pc --scenes cornell-box,atrium,glossy --size 1920x1080 --frames 64 \
-//!     --variants default,with-temporal,spatial,shadow,multi-sample,svgf,restir,specular --json pc.json
+//!     --variants default,with-temporal,spatial,shadow,multi-sample,svgf,restir,specular,rough-specular --json pc.json
 //! ```
 
 mod cache_rays;
@@ -189,8 +189,8 @@ enum Command {
         #[arg(long, default_value_t = 64)]
         frames: u32,
         /// Comma-separated variants: default, a stage to switch off (spatial, shadow,
-        /// multi-sample, svgf, restir, specular; temporal and boiling are off by default), or
-        /// with-temporal (temporal reuse and its boiling filter switched on).
+        /// multi-sample, svgf, restir, specular, rough-specular; temporal and boiling are off
+        /// by default), or with-temporal (temporal reuse and its boiling filter switched on).
         #[arg(long, value_delimiter = ',', default_value = "default", value_parser = pc::parse_variant)]
         variants: Vec<String>,
         /// Full-resolution pixels per trace pixel along each axis (1 or 2).

@@ -23,6 +23,16 @@ const FLAG_BOILING: u32 = 16u;
 const FLAG_HISTORY: u32 = 32u;
 // Trace specular rays below `specular_max_roughness`.
 const FLAG_SPECULAR: u32 = 64u;
+// Rougher surfaces (all surfaces without `FLAG_SPECULAR`) reflect the diffuse irradiance
+// reshaped by their lobe: HSGI's reuse of the diffuse result (`pc/restir.wgsl`, `shade`).
+const FLAG_REUSE_SPECULAR: u32 = 128u;
+
+// What a pixel's specular reflection comes from (`specular_kind`).
+const SPECULAR_NONE: u32 = 0u;
+// A traced GGX VNDF ray (`pc/trace.wgsl`, `pc/specular.wgsl`).
+const SPECULAR_TRACED: u32 = 1u;
+// The diffuse samples weighted by the lobe (`pc/restir.wgsl`, `shade`).
+const SPECULAR_REUSED: u32 = 2u;
 
 // Bits of `Reservoir::flags`.
 const SAMPLE_SKY: u32 = 1u;
@@ -68,7 +78,9 @@ struct PcUniforms {
     // Multi-sample shading skips a neighbour whose sample lies nearer its receiver than this
     // times the two receivers' distance (0: never).
     shade_contact_ratio: f32,
-    pad_f: u32,
+    // Roughness above which the reused reflection blends linearly to the irradiance over pi,
+    // reached at roughness 1 (1: no blend).
+    specular_diffuse_from: f32,
 }
 
 // One trace pixel's receiver: the G-buffer surface of the full-resolution pixel it picked
@@ -131,6 +143,19 @@ fn is_sky_depth(depth: f32) -> bool {
 
 fn luminance(c: vec3<f32>) -> f32 {
     return dot(c, vec3(0.2126, 0.7152, 0.0722));
+}
+
+// The source of the specular reflection of a pixel with G-buffer depth `depth` and roughness
+// `roughness`, under shader flags `flags`: traced below `max_roughness`, reused from the
+// diffuse samples from it up, none for the sky or a stage switched off.
+fn specular_kind(flags: u32, max_roughness: f32, depth: f32, roughness: f32) -> u32 {
+    if is_sky_depth(depth) {
+        return SPECULAR_NONE;
+    }
+    if roughness < max_roughness {
+        return select(SPECULAR_NONE, SPECULAR_TRACED, (flags & FLAG_SPECULAR) != 0u);
+    }
+    return select(SPECULAR_NONE, SPECULAR_REUSED, (flags & FLAG_REUSE_SPECULAR) != 0u);
 }
 
 fn has_surface(s: Surface) -> bool {

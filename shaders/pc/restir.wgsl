@@ -19,26 +19,33 @@
 //     least `shade_contact_ratio` times the two receivers' distance from its own receiver
 //     (near contacts a neighbour's short ray sees another scene), each an estimate of its
 //     irradiance through the reconnection shift; their mean is the noisy, demodulated
-//     irradiance the denoiser filters. It also upsamples the trace resolution to full.
+//     irradiance the denoiser filters. It also upsamples the trace resolution to full. On a
+//     rough pixel (from `specular_max_roughness` up) the same estimates weighted by the
+//     pixel's specular lobe give HSGI's reuse of the diffuse result for the reflection: the
+//     ratio of the lobe-weighted light to the light, per channel, which `pc/specular.wgsl`
+//     accumulates over time.
 //   - `compose` (pass `pc/compose`): direct light plus the diffuse albedo times the denoised
 //     irradiance over pi, plus the split-sum specular albedo times the reflected radiance: the
-//     traced specular (`pc/specular.wgsl`) on smooth surfaces, the irradiance over pi on rough
-//     ones, blended between 0.75 and 1 times `specular_max_roughness`.
+//     traced specular (`pc/specular.wgsl`) on smooth surfaces, blended to the irradiance over
+//     pi between 0.75 and 1 times `specular_max_roughness`; on rough ones the irradiance over
+//     pi times the accumulated lobe ratio, blended to 1 from `specular_diffuse_from` to
+//     roughness 1.
 //
 // Bind group 0: binding 0 `u` (`gi::pc::common::PcUniforms`), then the buffers below. Group 2:
 // the cache (`gi::cache::data`), read by `temporal` to refresh reused samples.
 
-#import gi::math::INV_PI
-#import gi::brdf::specular_albedo
-#import gi::sampling::{sampler_new, sampler_next_f32, sampler_next_2d, concentric_disk}
+#import gi::math::{PI, INV_PI}
+#import gi::brdf::{brdf_new, specular_albedo, ggx_d, smith_g2}
+#import gi::sampling::{sampler_new, sampler_next_f32, sampler_next_2d, concentric_disk, Frame, frame_from_normal, frame_to_local}
 #import gi::camera::camera_ray
-#import gi::packing::{unpack_unit_vector, pack_rgb9e5, unpack_rgb9e5, unpack_color64}
+#import gi::packing::{unpack_unit_vector, pack_rgb9e5, unpack_rgb9e5, pack_color64, unpack_color64}
 #import gi::cache::trace::cache_indirect_irradiance
 #import gi::pc::common::{
     PcUniforms, Surface, Reservoir, Combiner, empty_reservoir, is_sky_depth, has_surface,
     target_pdf, reconnection_jacobian, combiner_new, combiner_add, combiner_finish,
-    reservoir_irradiance, similar_surfaces, sample_direction, SAMPLE_OCCLUDED, SAMPLE_SKY, FLAG_TEMPORAL,
-    FLAG_SPATIAL, FLAG_SHADOW, FLAG_MULTI_SAMPLE, FLAG_BOILING, FLAG_HISTORY, FLAG_SPECULAR
+    reservoir_irradiance, similar_surfaces, sample_direction, specular_kind, SAMPLE_OCCLUDED, SAMPLE_SKY,
+    FLAG_TEMPORAL, FLAG_SPATIAL, FLAG_SHADOW, FLAG_MULTI_SAMPLE, FLAG_BOILING, FLAG_HISTORY,
+    SPECULAR_NONE, SPECULAR_TRACED, SPECULAR_REUSED
 }
 
 @group(0) @binding(0) var<uniform> u: PcUniforms;
@@ -63,7 +70,10 @@
 @group(0) @binding(20) var<storage, read> denoised: array<vec4<f32>>;
 @group(0) @binding(21) var<storage, read> direct_mean: array<vec4<f32>>;
 @group(0) @binding(22) var<storage, read_write> output: array<vec4<f32>>;
-// Per pixel: the traced specular's history (`pc/specular.wgsl`).
+// Per pixel: the specular input of this frame (`shade` writes the reused reflection's ratio
+// of rough pixels; `pc/specular.wgsl` the traced radiance of smooth ones) and the history of
+// either (`pc/specular.wgsl`).
+@group(0) @binding(24) var<storage, read_write> specular_noisy: array<vec2<u32>>;
 @group(0) @binding(25) var<storage, read_write> specular_history: array<vec4<u32>>;
 
 fn trace_index(t: vec2<u32>) -> u32 {
@@ -243,6 +253,35 @@ fn shadow_compatible(center: Reservoir, nb: Reservoir, x: vec3<f32>) -> bool {
     return !(toward && d.w > u.shadow_distance_ratio * center.occluder_distance);
 }
 
+// A rough pixel's specular lobe for the reused reflection (HSGI's "reuse diffuse tracing
+// result"): the lobe without Fresnel times the cosine, `D G2 / (4 n.v)`, in the frame of the
+// normal, and `pi` over its albedo, so that light arriving alike from every direction gives
+// a ratio of 1.
+struct Lobe {
+    frame: Frame,
+    wo: vec3<f32>,
+    a2: f32,
+    scale: f32,
+}
+
+fn lobe_new(n: vec3<f32>, v: vec3<f32>, roughness: f32) -> Lobe {
+    let frame = frame_from_normal(n);
+    let alpha = brdf_new(vec3(0.0), 0.0, roughness).alpha;
+    let n_dot_v = dot(n, v);
+    let albedo = specular_albedo(vec3(1.0), roughness, n_dot_v).x;
+    return Lobe(frame, frame_to_local(frame, v), alpha * alpha, PI / max(albedo, 1e-4));
+}
+
+// The lobe's weight of a sample arriving from `d`, relative to the cosine's.
+fn lobe_weight(l: Lobe, d: vec3<f32>) -> f32 {
+    let wi = frame_to_local(l.frame, d);
+    if wi.z <= 0.0 || l.wo.z <= 0.0 {
+        return 0.0;
+    }
+    let h = normalize(l.wo + wi);
+    return ggx_d(h, l.a2) * smith_g2(l.wo.z, wi.z, l.a2) / (4.0 * l.wo.z * wi.z) * l.scale;
+}
+
 @compute @workgroup_size(8, 8)
 fn shade(@builtin(global_invocation_id) id: vec3<u32>) {
     if any(id.xy >= u.size_px) {
@@ -252,10 +291,13 @@ fn shade(@builtin(global_invocation_id) id: vec3<u32>) {
     let depth = gbuffer_depth[pixel];
     if is_sky_depth(depth) {
         irradiance[pixel] = vec4(0.0);
+        specular_noisy[pixel] = vec2(0u);
         return;
     }
+    let kind = specular_kind(u.flags, u.specular_max_roughness, depth, gbuffer_metallic_roughness[pixel].y);
     let uv = (vec2<f32>(id.xy) + 0.5) / vec2<f32>(u.size_px);
-    let x = u.camera.position + camera_ray(u.camera, uv) * depth;
+    let ray = camera_ray(u.camera, uv);
+    let x = u.camera.position + ray * depth;
     let me = Surface(x, gbuffer_normal[pixel], pixel, depth, 0u, 0u);
     let n = unpack_unit_vector(me.normal);
     let t = vec2<i32>(id.xy / u.trace_scale);
@@ -266,7 +308,13 @@ fn shade(@builtin(global_invocation_id) id: vec3<u32>) {
         radius = i32(u.shade_radius);
     }
     let shadow_test = (u.flags & FLAG_SHADOW) != 0u;
+    let reused = kind == SPECULAR_REUSED;
+    var lobe: Lobe;
+    if reused {
+        lobe = lobe_new(n, -ray, gbuffer_metallic_roughness[pixel].y);
+    }
     var sum = vec3(0.0);
+    var lobe_sum = vec3(0.0);
     var count = 0.0;
     for (var dy = -radius; dy <= radius; dy++) {
         for (var dx = -radius; dx <= radius; dx++) {
@@ -289,7 +337,11 @@ fn shade(@builtin(global_invocation_id) id: vec3<u32>) {
                     continue;
                 }
             }
-            sum += reservoir_irradiance(rq, sq.position, x, n, u.jacobian_max);
+            let e = reservoir_irradiance(rq, sq.position, x, n, u.jacobian_max);
+            sum += e;
+            if reused {
+                lobe_sum += e * lobe_weight(lobe, sample_direction(rq, x).xyz);
+            }
             count += 1.0;
         }
     }
@@ -299,10 +351,22 @@ fn shade(@builtin(global_invocation_id) id: vec3<u32>) {
         let s = surfaces[center_index];
         if has_surface(s) {
             sum = reservoir_irradiance(center, s.position, x, n, u.jacobian_max);
+            if reused {
+                lobe_sum = sum * lobe_weight(lobe, sample_direction(center, x).xyz);
+            }
         }
         count = 1.0;
     }
     irradiance[pixel] = vec4(sum / count, 1.0);
+    // The reused reflection's ratio, per channel: the lobe-weighted light over the light
+    // (1 where no light arrived: nothing to reshape).
+    if reused {
+        let lit = sum > vec3(0.0);
+        let ratio = select(vec3(1.0), lobe_sum / max(sum, vec3(1e-30)), lit);
+        specular_noisy[pixel] = pack_color64(ratio, f32(SPECULAR_REUSED));
+    } else if kind == SPECULAR_NONE {
+        specular_noisy[pixel] = vec2(0u);
+    }
 }
 
 // ---------------------------------------------------------------------------------------------
@@ -331,12 +395,16 @@ fn compose(@builtin(global_invocation_id) id: vec3<u32>) {
     let e = max(denoised[pixel].xyz, vec3(0.0));
     var reflected = e * INV_PI;
     let max_roughness = u.specular_max_roughness;
-    if (u.flags & FLAG_SPECULAR) != 0u && mr.y < max_roughness {
-        let h = specular_history[pixel];
-        let traced = unpack_color64(h.xy);
-        if traced.w > 0.0 {
+    let kind = specular_kind(u.flags, max_roughness, depth, mr.y);
+    if kind != SPECULAR_NONE {
+        let h = unpack_color64(specular_history[pixel].xy);
+        if h.w > 0.0 && kind == SPECULAR_TRACED {
             let t = 1.0 - smoothstep(0.75 * max_roughness, max_roughness, mr.y);
-            reflected = mix(reflected, traced.xyz, t);
+            reflected = mix(reflected, h.xyz, t);
+        } else if h.w > 0.0 {
+            let start = u.specular_diffuse_from;
+            let t = select(0.0, clamp((mr.y - start) / (1.0 - start), 0.0, 1.0), start < 1.0);
+            reflected *= mix(h.xyz, vec3(1.0), t);
         }
     }
     output[pixel] = vec4(direct + diffuse * e * INV_PI + specular * reflected, 1.0);

@@ -11,7 +11,11 @@
 //     averaged with the history found by the surface's motion vector (depth and normal
 //     checked), over up to `specular_history` frames, the history first clamped to the
 //     resolved neighbourhood's mean plus or minus `specular_clamp_sigma` standard deviations.
-// `compose` in `pc/restir.wgsl` multiplies it by the split-sum specular albedo.
+//     Rough pixels go through it too: their input is the lobe ratio of the reused diffuse
+//     samples (`shade` in `pc/restir.wgsl`), and neither the clamp's neighbourhood nor the
+//     history mixes the two kinds (a ratio's history stores its distance negated).
+// `compose` in `pc/restir.wgsl` multiplies the radiance by the split-sum specular albedo, and
+// the irradiance over pi by the ratio.
 //
 // Bind group 0: the layout of `pc/restir.wgsl`; this file uses binding 0 `u`
 // (`gi::pc::common::PcUniforms`) and the buffers below.
@@ -21,8 +25,8 @@
 #import gi::camera::camera_ray
 #import gi::packing::{pack_unit_vector, unpack_unit_vector, pack_color64, unpack_color64}
 #import gi::pc::common::{
-    PcUniforms, Surface, SpecularSample, is_sky_depth, has_surface, similar_surfaces, SAMPLE_SKY,
-    FLAG_MULTI_SAMPLE, FLAG_HISTORY
+    PcUniforms, Surface, SpecularSample, has_surface, similar_surfaces, specular_kind, SAMPLE_SKY,
+    FLAG_MULTI_SAMPLE, FLAG_HISTORY, SPECULAR_NONE, SPECULAR_TRACED, SPECULAR_REUSED
 }
 
 const FAR: f32 = 3.40282347e38;
@@ -36,16 +40,18 @@ const FAR: f32 = 3.40282347e38;
 @group(0) @binding(13) var<storage, read> surfaces: array<Surface>;
 // Per trace pixel: this frame's specular rays.
 @group(0) @binding(23) var<storage, read> specular_samples: array<SpecularSample>;
-// Per pixel: the resolved radiance and 1 where any ray contributed (`pack_color64`).
+// Per pixel: this frame's input and its kind (`pack_color64`): the resolved radiance and
+// `SPECULAR_TRACED` where any ray contributed, or the reused lobe ratio and `SPECULAR_REUSED`
+// (`shade` in `pc/restir.wgsl`), or 0.
 @group(0) @binding(24) var<storage, read_write> specular_noisy: array<vec2<u32>>;
 // Per pixel: radiance and history length (`pack_color64`), the surface's distance from the
 // camera (f32 bits) and its packed normal; this frame's and the previous frame's.
 @group(0) @binding(25) var<storage, read_write> specular_history: array<vec4<u32>>;
 @group(0) @binding(26) var<storage, read> specular_history_prev: array<vec4<u32>>;
 
-// Whether pixel `pixel` (with G-buffer depth `depth`) takes traced specular.
-fn is_traced(pixel: u32, depth: f32) -> bool {
-    return !is_sky_depth(depth) && gbuffer_metallic_roughness[pixel].y < u.specular_max_roughness;
+// Where the specular reflection of pixel `pixel` (with G-buffer depth `depth`) comes from.
+fn kind_of(pixel: u32, depth: f32) -> u32 {
+    return specular_kind(u.flags, u.specular_max_roughness, depth, gbuffer_metallic_roughness[pixel].y);
 }
 
 fn world_position(p: vec2<u32>, depth: f32) -> vec3<f32> {
@@ -60,8 +66,8 @@ fn specular_resolve(@builtin(global_invocation_id) id: vec3<u32>) {
     }
     let pixel = id.y * u.size_px.x + id.x;
     let depth = gbuffer_depth[pixel];
-    if !is_traced(pixel, depth) {
-        specular_noisy[pixel] = vec2(0u);
+    // `shade` wrote the other pixels' input.
+    if kind_of(pixel, depth) != SPECULAR_TRACED {
         return;
     }
     let x = world_position(id.xy, depth);
@@ -126,7 +132,7 @@ fn specular_resolve(@builtin(global_invocation_id) id: vec3<u32>) {
         radiance = plain / count;
         valid = 1.0;
     }
-    specular_noisy[pixel] = pack_color64(radiance, valid);
+    specular_noisy[pixel] = pack_color64(radiance, valid * f32(SPECULAR_TRACED));
 }
 
 @compute @workgroup_size(8, 8)
@@ -136,7 +142,8 @@ fn specular_temporal(@builtin(global_invocation_id) id: vec3<u32>) {
     }
     let pixel = id.y * u.size_px.x + id.x;
     let depth = gbuffer_depth[pixel];
-    if !is_traced(pixel, depth) {
+    let kind = kind_of(pixel, depth);
+    if kind == SPECULAR_NONE {
         specular_history[pixel] = vec4(0u);
         return;
     }
@@ -155,8 +162,9 @@ fn specular_temporal(@builtin(global_invocation_id) id: vec3<u32>) {
             if any(q < vec2(0)) || any(q >= vec2<i32>(u.size_px)) {
                 continue;
             }
+            // The input's value is its kind (0: none).
             let v = unpack_color64(specular_noisy[u32(q.y) * u.size_px.x + u32(q.x)]);
-            if v.w > 0.0 {
+            if v.w == f32(kind) {
                 m1 += v.xyz;
                 m2 += v.xyz * v.xyz;
                 count += 1.0;
@@ -173,7 +181,9 @@ fn specular_temporal(@builtin(global_invocation_id) id: vec3<u32>) {
         let h = specular_history_prev[u32(q.y) * u.size_px.x + u32(q.x)];
         let stored = unpack_color64(h.xy);
         let expected = distance(x, u.previous_camera.position);
-        let same_depth = abs(bitcast<f32>(h.z) - expected) <= 0.05 * expected;
+        // A reused ratio's history stores its distance negated: never mixed with radiance.
+        let signed = select(expected, -expected, kind == SPECULAR_REUSED);
+        let same_depth = abs(bitcast<f32>(h.z) - signed) <= 0.05 * expected;
         let same_normal = dot(unpack_unit_vector(h.w), n) > 0.9;
         if stored.w > 0.0 && same_depth && same_normal {
             history = stored.xyz;
@@ -192,5 +202,7 @@ fn specular_temporal(@builtin(global_invocation_id) id: vec3<u32>) {
         radiance = mix(history, current.xyz, 1.0 / length);
     }
     let packed = pack_color64(radiance, length);
-    specular_history[pixel] = vec4(packed, bitcast<u32>(distance(x, u.camera.position)), pack_unit_vector(n));
+    let d = distance(x, u.camera.position);
+    let signed = select(d, -d, kind == SPECULAR_REUSED);
+    specular_history[pixel] = vec4(packed, bitcast<u32>(signed), pack_unit_vector(n));
 }

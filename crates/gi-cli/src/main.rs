@@ -79,9 +79,11 @@ pub struct ViewArgs {
     #[arg(long, value_enum)]
     screen_probes: Option<ScreenProbes>,
     /// Switch one stage of the PC tier off, for ablations: spatial, shadow, multi-sample,
-    /// svgf, restir (all reuse off: one sample per trace pixel, the same denoiser) or
-    /// specular (no specular rays: split-sum reflection of the diffuse irradiance
-    /// everywhere); temporal and boiling are off by default. Only the PC tier reads it.
+    /// svgf, restir (all reuse off: one sample per trace pixel, the same denoiser), specular
+    /// (no specular rays: the smooth surfaces reflect the irradiance over pi) or
+    /// rough-specular (the rough surfaces reflect the irradiance over pi, not the diffuse
+    /// samples weighted by their lobe); temporal and boiling are off by default. Only the PC
+    /// tier reads it.
     #[arg(long, value_name = "STAGE", conflicts_with = "pc_with")]
     pc_without: Option<String>,
     /// Switch one stage of the PC tier on that is off by default, for ablations: temporal
@@ -96,6 +98,11 @@ pub struct ViewArgs {
     /// surfaces reflect the diffuse irradiance. Only the PC tier reads it.
     #[arg(long, value_name = "R")]
     pc_specular_roughness: Option<f32>,
+    /// Roughness above which the PC tier's reflection of the rough surfaces (the diffuse
+    /// samples weighted by the lobe) blends linearly to the irradiance over pi, reached at 1
+    /// (default 1: never; HSGI blends from 0.8). Only the PC tier reads it.
+    #[arg(long, value_name = "R")]
+    pc_specular_diffuse_from: Option<f32>,
     /// What the PC tier's diffuse rays read: rays (the default: whole BVH rays) or probes
     /// (HSGI's trace-probe mode: a short BVH ray, then the brick cache's radiance beyond it).
     /// Only the PC tier reads it.
@@ -158,7 +165,7 @@ impl ViewArgs {
 
 impl ViewArgs {
     /// The PC tier's configuration from `--pc-without` or `--pc-with`, `--pc-trace-scale`,
-    /// `--pc-specular-roughness` and `--pc-trace-mode`.
+    /// `--pc-specular-roughness`, `--pc-specular-diffuse-from` and `--pc-trace-mode`.
     fn pc_config(&self) -> anyhow::Result<PcConfig> {
         let mut config = match (&self.pc_without, &self.pc_with) {
             (Some(stage), _) => PcConfig::without(stage).map_err(anyhow::Error::msg)?,
@@ -170,6 +177,9 @@ impl ViewArgs {
         }
         if let Some(roughness) = self.pc_specular_roughness {
             config.specular.max_roughness = roughness;
+        }
+        if let Some(roughness) = self.pc_specular_diffuse_from {
+            config.specular.diffuse_from = roughness;
         }
         if let Some(mode) = self.pc_trace_mode {
             config.trace_mode = mode;

@@ -89,13 +89,14 @@ pub const PC_OPTIONAL_STAGES: [&str; 1] = ["temporal"];
 
 /// The stages [`PcConfig::without`] can switch off, for ablations. Temporal reuse and its
 /// boiling filter are off by default ([`PC_OPTIONAL_STAGES`]).
-pub const PC_STAGES: [&str; 6] = [
+pub const PC_STAGES: [&str; 7] = [
     "spatial",
     "shadow",
     "multi-sample",
     "svgf",
     "restir",
     "specular",
+    "rough-specular",
 ];
 
 impl PcConfig {
@@ -103,8 +104,10 @@ impl PcConfig {
     /// reuse (spatial, shadow ray, multi-sample shading; temporal reuse is off already): each
     /// pixel is shaded from its own trace pixel's single sample, the plain 1-sample-per-trace-
     /// pixel pipeline with the same denoiser. `svgf` switches off the whole denoiser
-    /// (temporal accumulation and the a-trous passes). `specular` traces no specular rays: every
-    /// surface reflects the diffuse irradiance through its split-sum specular albedo.
+    /// (temporal accumulation and the a-trous passes). `specular` traces no specular rays: the
+    /// smooth surfaces reflect the irradiance over pi through their split-sum specular albedo.
+    /// `rough-specular` does not reuse the diffuse samples for the rough surfaces' reflection:
+    /// they reflect the irradiance over pi.
     pub fn without(stage: &str) -> Result<Self, String> {
         let mut config = Self::default();
         let r = &mut config.restir;
@@ -123,6 +126,7 @@ impl PcConfig {
                 config.denoise.atrous_iterations = 0;
             }
             "specular" => config.specular.traced = false,
+            "rough-specular" => config.specular.reuse_diffuse = false,
             "restir" => {
                 r.spatial = false;
                 r.shadow_ray = false;
@@ -184,18 +188,37 @@ impl PcConfig {
     }
 }
 
-/// Traced specular reflections (HSGI, GDC 2023, "Specular Reflection": GGX VNDF rays below
-/// roughness 0.4, the diffuse result reused above, a blend between).
+/// Specular reflections (HSGI, GDC 2023, "Specular Reflection": GGX VNDF rays below
+/// roughness 0.4, the diffuse result reused above, a blend toward diffuse above 0.8, here a
+/// setting that measured worse).
 #[derive(Clone, Debug, PartialEq)]
 pub struct SpecularConfig {
-    /// Trace specular rays. Off, every surface reflects the diffuse irradiance through its
-    /// split-sum specular albedo, which blurs every reflection to the irradiance's.
+    /// Trace specular rays below [`SpecularConfig::max_roughness`]. Off, those surfaces
+    /// reflect the diffuse irradiance over pi through their split-sum specular albedo, which
+    /// blurs every reflection to the irradiance's.
     pub traced: bool,
-    /// Surfaces rougher than this reflect the diffuse irradiance; smoother ones trace one
-    /// GGX VNDF ray per trace pixel. Between 0.75 and 1 times it the two blend. HSGI traces
-    /// below 0.4. Higher values trace more surfaces (one more BVH ray per trace pixel on
-    /// each) and make wide lobes noisier.
+    /// Surfaces rougher than this reflect the diffuse result; smoother ones trace one GGX
+    /// VNDF ray per trace pixel. Between 0.75 and 1 times it the traced reflection blends to
+    /// the irradiance over pi. HSGI traces below 0.4. Higher values trace more surfaces (one
+    /// more BVH ray per trace pixel on each) and make wide lobes noisier.
     pub max_roughness: f32,
+    /// Reuse the diffuse samples for the rough surfaces' reflection (HSGI's "reuse diffuse
+    /// tracing result"): the multi-sample shading weights each reservoir sample it shades a
+    /// pixel with by the pixel's specular lobe, and the ratio of that lobe-weighted light to
+    /// the irradiance (over the lobe's albedo, so 1 for light from every direction alike)
+    /// is accumulated over time like the traced reflection and scales the denoised
+    /// irradiance over pi. Off, rough surfaces reflect the irradiance over pi itself: light
+    /// the lobe cannot see, such as a ceiling light in a wall's reflection at a grazing view,
+    /// then reflects as if it could. H100, 1280 x 720, rmse_srgb8 with / without: glossy
+    /// 7.91 / 9.23, cornell-box 3.60 / 3.64, atrium 7.40 / 7.09, thin-wall 19.86 / 19.79, for
+    /// about 0.1 ms at 1080p (benchmarks/RESULTS.md).
+    pub reuse_diffuse: bool,
+    /// Roughness above which the reused reflection blends linearly to the irradiance over pi,
+    /// reached at roughness 1; 1 never blends. HSGI blends toward diffuse above 0.8; here the
+    /// blend only lost: H100, 1280 x 720, rmse_srgb8 at 0.8 / 1: cornell-box 3.64 / 3.60
+    /// (seeds 2 and 3: 3.66 / 3.62, 3.65 / 3.61), glossy 7.91 / 7.90, atrium 7.40 / 7.41,
+    /// thin-wall 19.86 / 19.87 (benchmarks/RESULTS.md).
+    pub diffuse_from: f32,
     /// Most frames the specular history averages. Longer histories are smoother on still
     /// views and lag more behind moving reflections (the history follows the surface's
     /// motion, not the reflection's).
@@ -210,6 +233,8 @@ impl Default for SpecularConfig {
         Self {
             traced: true,
             max_roughness: 0.4,
+            reuse_diffuse: true,
+            diffuse_from: 1.0,
             history: 16.0,
             clamp_sigma: 2.0,
         }
@@ -222,6 +247,12 @@ impl SpecularConfig {
             return Err(format!(
                 "specular max_roughness must be within 0..=1, not {}",
                 self.max_roughness
+            ));
+        }
+        if !(self.diffuse_from.is_finite() && (0.0..=1.0).contains(&self.diffuse_from)) {
+            return Err(format!(
+                "specular diffuse_from must be within 0..=1, not {}",
+                self.diffuse_from
             ));
         }
         if !(self.history.is_finite() && (1.0..=256.0).contains(&self.history)) {

@@ -10,7 +10,8 @@
 //! `pc/spatial`, `pc/shadow` (the reservoir passes), `pc/shade` (multi-sample shading to full resolution:
 //! `shaders/pc/restir.wgsl`), `pc/denoise_*` (temporal supersampling and SVGF:
 //! [`denoise`]), `pc/specular_resolve` and `pc/specular_temporal` (the specular rays to a
-//! per-pixel reflected radiance: `shaders/pc/specular.wgsl`), `direct/trace` + `direct/resolve` (direct light, accumulated while the view
+//! per-pixel reflected radiance, and the rough surfaces' lobe ratio from `pc/shade` over
+//! time: `shaders/pc/specular.wgsl`), `direct/trace` + `direct/resolve` (direct light, accumulated while the view
 //! holds still, as the mobile tier does) and `pc/compose`. The GI's cost is the `cache/*` and
 //! `pc/*` passes.
 
@@ -77,7 +78,8 @@ pub struct PcUniforms {
     /// Multi-sample shading skips a neighbour whose sample lies nearer its receiver than this
     /// times the two receivers' distance (0: never).
     pub shade_contact_ratio: f32,
-    pub pad_f: u32,
+    /// Roughness above which the reused rough reflection blends to the irradiance over pi.
+    pub specular_diffuse_from: f32,
 }
 
 /// Mirror of `Reservoir` in `shaders/pc/common.wgsl`, 48 bytes.
@@ -140,6 +142,7 @@ mod flags {
     pub const BOILING: u32 = 16;
     pub const HISTORY: u32 = 32;
     pub const SPECULAR: u32 = 64;
+    pub const REUSE_SPECULAR: u32 = 128;
 }
 
 /// GPU memory of the PC tier by what it scales with.
@@ -505,6 +508,7 @@ impl PcTier {
             (r.boiling_filter, flags::BOILING),
             (history, flags::HISTORY),
             (self.config.specular.traced, flags::SPECULAR),
+            (self.config.specular.reuse_diffuse, flags::REUSE_SPECULAR),
         ] {
             if on {
                 bits |= bit;
@@ -542,7 +546,7 @@ impl PcTier {
                 TraceMode::Probes => self.config.probe_ray_m,
             },
             shade_contact_ratio: r.shade_contact_ratio,
-            ..Default::default()
+            specular_diffuse_from: self.config.specular.diffuse_from,
         }
     }
 
@@ -749,6 +753,8 @@ impl Tier for PcTier {
         steps.push(("pc/shade", &p.shade, false, false));
         if specular {
             steps.push(("pc/specular_resolve", &p.specular_resolve, false, false));
+        }
+        if specular || self.config.specular.reuse_diffuse {
             steps.push(("pc/specular_temporal", &p.specular_temporal, false, false));
         }
         for (name, pipeline, traces, per_trace_pixel) in steps {
