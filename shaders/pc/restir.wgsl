@@ -359,9 +359,10 @@ fn shade(@builtin(global_invocation_id) id: vec3<u32>) {
     }
     irradiance[pixel] = vec4(sum / count, 1.0);
     // The reused reflection's ratio, per channel: the lobe-weighted light over the light
-    // (1 where no light arrived: nothing to reshape).
+    // (1 where no light arrived, or where the shading normal faces away from the view, as at
+    // a smooth-shaded silhouette: nothing to reshape, no lobe to reshape it by).
     if reused {
-        let lit = sum > vec3(0.0);
+        let lit = sum > vec3(0.0) & vec3(dot(n, -ray) > 0.0);
         let ratio = select(vec3(1.0), lobe_sum / max(sum, vec3(1e-30)), lit);
         specular_noisy[pixel] = pack_color64(ratio, f32(SPECULAR_REUSED));
     } else if kind == SPECULAR_NONE {
