@@ -105,6 +105,12 @@ fn schlick(f0: vec3<f32>, cos_theta: f32) -> vec3<f32> {
     return f0 + (vec3<f32>(1.0) - f0) * m;
 }
 
+// The GGX specular lobe without Fresnel, `D G2 / (4 cos_o cos_i)`, for half vector `h` and
+// the cosines of both directions (both positive).
+fn ggx_lobe(h: vec3<f32>, cos_o: f32, cos_i: f32, a2: f32) -> f32 {
+    return ggx_d(h, a2) * smith_g2(cos_o, cos_i, a2) / (4.0 * cos_o * cos_i);
+}
+
 // The BRDF value; zero unless both directions are above the surface.
 fn brdf_eval(brdf: Brdf, wo: vec3<f32>, wi: vec3<f32>) -> vec3<f32> {
     if wo.z <= 0.0 || wi.z <= 0.0 {
@@ -112,7 +118,7 @@ fn brdf_eval(brdf: Brdf, wo: vec3<f32>, wi: vec3<f32>) -> vec3<f32> {
     }
     let h = normalize_like_reference(wo + wi);
     let a2 = brdf.alpha * brdf.alpha;
-    let specular = ggx_d(h, a2) * smith_g2(wo.z, wi.z, a2) / (4.0 * wo.z * wi.z);
+    let specular = ggx_lobe(h, wo.z, wi.z, a2);
     return brdf_diffuse_albedo(brdf) / PI + schlick(brdf_f0(brdf), dot(wo, h)) * specular;
 }
 

@@ -35,7 +35,7 @@
 // the cache (`gi::cache::data`), read by `temporal` to refresh reused samples.
 
 #import gi::math::{PI, INV_PI}
-#import gi::brdf::{brdf_new, specular_albedo, ggx_d, smith_g2}
+#import gi::brdf::{brdf_new, specular_albedo, ggx_lobe}
 #import gi::sampling::{sampler_new, sampler_next_f32, sampler_next_2d, concentric_disk, Frame, frame_from_normal, frame_to_local}
 #import gi::camera::camera_ray
 #import gi::packing::{unpack_unit_vector, pack_rgb9e5, unpack_rgb9e5, pack_color64, unpack_color64}
@@ -278,8 +278,7 @@ fn lobe_weight(l: Lobe, d: vec3<f32>) -> f32 {
     if wi.z <= 0.0 || l.wo.z <= 0.0 {
         return 0.0;
     }
-    let h = normalize(l.wo + wi);
-    return ggx_d(h, l.a2) * smith_g2(l.wo.z, wi.z, l.a2) / (4.0 * l.wo.z * wi.z) * l.scale;
+    return ggx_lobe(normalize(l.wo + wi), l.wo.z, wi.z, l.a2) * l.scale;
 }
 
 @compute @workgroup_size(8, 8)

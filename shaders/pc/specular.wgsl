@@ -20,7 +20,7 @@
 // Bind group 0: the layout of `pc/restir.wgsl`; this file uses binding 0 `u`
 // (`gi::pc::common::PcUniforms`) and the buffers below.
 
-#import gi::brdf::{brdf_new, ggx_d, smith_g2}
+#import gi::brdf::{brdf_new, ggx_lobe}
 #import gi::sampling::{frame_from_normal, frame_to_local}
 #import gi::camera::camera_ray
 #import gi::packing::{pack_unit_vector, unpack_unit_vector, pack_color64, unpack_color64}
@@ -116,7 +116,7 @@ fn specular_resolve(@builtin(global_invocation_id) id: vec3<u32>) {
             // This pixel's lobe without Fresnel (the albedo carries it) times the cosine,
             // over the pdf the ray was drawn with.
             let h = normalize(wo + wi);
-            let w = ggx_d(h, a2) * smith_g2(wo.z, wi.z, a2) / (4.0 * wo.z * sample.pdf);
+            let w = ggx_lobe(h, wo.z, wi.z, a2) * wi.z / sample.pdf;
             if w > 0.0 && w < FAR {
                 weighted += sample.radiance * w;
                 weight_sum += w;

@@ -3,7 +3,8 @@
 // reference's implementation of the same functions.
 //
 // - `brdf_parity`: one `BrdfCase` in, one `BrdfResult` out: BRDF construction, eval, pdf,
-//   lobe probability, a sample and the split-sum specular albedo, plus the warps, the power heuristic and the frame.
+//   lobe probability, a sample and the split-sum specular albedo, plus the warps, the power
+//   heuristic and the frame.
 // - `sampler_parity`: per (seed low, seed high, pixel, sample) the first SEQUENCE_LENGTH
 //   numbers of `sampler_next_f32`.
 // - `pcg32_parity`: per (state low, high, stream low, high) the first SEQUENCE_LENGTH raw

@@ -400,6 +400,12 @@ fn unusable_settings_and_unknown_stages_are_refused_with_the_reason() {
     let mut config = PcConfig::default();
     config.specular.max_roughness = 1.5;
     assert!(config.validate().unwrap_err().contains("max_roughness"));
+    for roughness in [1.5, -0.1, f32::NAN] {
+        let mut config = PcConfig::default();
+        config.specular.diffuse_from = roughness;
+        let err = config.validate().unwrap_err();
+        assert!(err.contains("diffuse_from"), "{roughness}: {err}");
+    }
     for ratio in [-1.0, f32::NAN] {
         let mut config = PcConfig::default();
         config.restir.shade_contact_ratio = ratio;
