@@ -106,6 +106,14 @@ pub trait CacheLightingHook: Send {
         encoder: &mut wgpu::CommandEncoder,
         frame: &CacheFrame<'_>,
     );
+
+    /// Whether the lighting is still converging after the last update: many bricks young
+    /// (each update adds a bounce) or the lights just changed. Temporal filters that read
+    /// the cache should keep short histories then, or they average its darker, staler
+    /// updates. False unless the hook says otherwise.
+    fn converging(&self) -> bool {
+        false
+    }
 }
 
 /// What one update did.
@@ -137,6 +145,10 @@ pub struct CacheUpdateStats {
     /// The update was a fill ([`crate::lighting::is_filling`]): its lighting keeps no history,
     /// and temporal filters that read the cache should restart theirs.
     pub filling: bool,
+    /// The lighting is still converging after a fill or a change of the lights
+    /// ([`CacheLightingHook::converging`]): temporal filters that read the cache should keep
+    /// short histories.
+    pub converging: bool,
 }
 
 /// The cache's state.
@@ -350,6 +362,7 @@ impl RadianceCache {
                 frame_index: self.frame_index,
             };
             lighting.record(ctx, timer, encoder, &frame);
+            stats.converging = stats.filling || lighting.converging();
             self.lighting = Some(lighting);
         }
         stats.queued_remaining = self.queue.len() as u32;

@@ -64,6 +64,11 @@ pub const CHANGED_MAX_AGE: u32 = 4;
 /// once settled the ages grow back by one per update towards [`CacheConfig::max_age`].
 pub const SETTLE_MAX_AGE: u32 = 2;
 
+/// The lighting counts as converging ([`CacheLightingHook::converging`]) while at least one
+/// resident brick in `CONVERGING_FRACTION` is young (fewer than
+/// [`CacheConfig::settle_updates`] updates).
+pub const CONVERGING_FRACTION: usize = 16;
+
 /// Surfel sides per voxel, one `cache/propagate` workgroup row each.
 const CACHE_SIDES: u32 = crate::layout::SIDE_COUNT;
 
@@ -382,7 +387,6 @@ impl LightSchedule {
 
     /// Resident bricks (of `resident`) relit fewer than `settle_updates` times since they were
     /// voxelized.
-    #[cfg(test)]
     fn young_bricks(&self, resident: &[ResidentBrick], settle_updates: u32) -> usize {
         resident
             .iter()
@@ -481,6 +485,9 @@ pub struct CacheLighting {
     updates: u32,
     /// The schedule of the last update.
     last_counts: ScheduleCounts,
+    /// Whether the last update left the lighting converging
+    /// ([`CacheLightingHook::converging`]).
+    converging: bool,
     /// The lights and sky of the last update, as bits ([`light_key`]).
     light_key: Vec<u32>,
     /// Updates left with the accumulation capped at [`CHANGED_MAX_AGE`].
@@ -578,6 +585,7 @@ impl CacheLighting {
             config: config.clone(),
             updates: 0,
             last_counts: ScheduleCounts::default(),
+            converging: false,
             light_key: Vec::new(),
             fast_updates_left: 0,
         })
@@ -615,6 +623,12 @@ impl CacheLighting {
             filling,
         );
         self.last_counts = counts;
+        let young = if self.config.settle_updates == 0 {
+            0
+        } else {
+            self.schedule
+                .young_bricks(inputs.resident, self.config.settle_updates)
+        };
         // A change of the lights or the sky caps the accumulation for `max_age` updates, so
         // history that no longer holds fades within a few updates; ages then grow back by one
         // per update, and so does the smoothing.
@@ -624,6 +638,9 @@ impl CacheLighting {
             self.fast_updates_left = self.config.max_age;
         }
         self.light_key = key;
+        self.converging = filling
+            || self.fast_updates_left > 0
+            || young * CONVERGING_FRACTION >= inputs.resident.len().max(1);
         if bricks.is_empty() {
             return counts;
         }
@@ -820,6 +837,10 @@ impl CacheLightingHook for CacheLighting {
             encoder,
             &LightingInputs::from_frame(frame),
         );
+    }
+
+    fn converging(&self) -> bool {
+        self.converging
     }
 }
 

@@ -7,11 +7,13 @@ use gi_cache::cpu_voxelize::closest_point_barycentrics;
 use gi_cache::layout::{
     SIDE_BACK, SIDE_COUNT, SIDE_FRONT, mask_cell, side_normal, side_slot, voxel_index,
 };
-use gi_cache::lighting::{GpuLightingUniforms, GpuScheduledBrick, GpuSky, side_point};
+use gi_cache::lighting::{
+    CONVERGING_FRACTION, GpuLightingUniforms, GpuScheduledBrick, GpuSky, side_point,
+};
 use gi_cache::packing::{unpack_rgb9e5, unpack_unit_vector};
 use gi_cache::{
-    CacheBuffers, CacheConfig, CacheInputs, CacheLighting, CacheTracer, CpuCache, LightingInputs,
-    RadianceCache, ResidentBrick, ScheduleCounts,
+    CacheBuffers, CacheConfig, CacheInputs, CacheLighting, CacheLightingHook, CacheTracer,
+    CpuCache, LightingInputs, RadianceCache, ResidentBrick, ScheduleCounts,
 };
 use gi_gpu::{
     GpuContext, GpuScene, GpuTimer, PassTimings, ShaderLibrary, rust_field_offsets,
@@ -955,6 +957,66 @@ fn sunlit_floor_and_wall(
         .map(|f| f.slot)
         .collect();
     (scene, lit, wall, floor)
+}
+
+#[test]
+fn the_lighting_converges_until_its_bricks_settle_and_again_after_a_light_change() {
+    let Some(ctx) = GpuContext::new_or_skip("the_lighting_converges_until_its_bricks_settle")
+    else {
+        return;
+    };
+    // A brick is young for its first 3 updates; 8 bricks relit per frame by the round-robin
+    // and 8 more while some are young.
+    let config = CacheConfig {
+        light_bricks_per_frame: 8,
+        settle_bricks_per_frame: 8,
+        settle_updates: 3,
+        ..small_config()
+    };
+    let (scene, mut lit, _, _) = sunlit_floor_and_wall(&ctx, &config);
+    let bricks = lit.bricks.len();
+    assert!(
+        bricks >= 16,
+        "{bricks} bricks: too few to watch them settle"
+    );
+    // Young until their third update, converging while at least one brick in
+    // `CONVERGING_FRACTION` is young. The settling budget goes to young bricks first, so all
+    // have settled after 3 * bricks / 8 frames (the first, a fill, counts no update).
+    let settled_by = (3 * bricks).div_ceil(8) + 1;
+    let mut states = Vec::new();
+    for _ in 0..settled_by + 4 {
+        lit.frame(&ctx, &scene.sky);
+        states.push(lit.lighting.converging());
+    }
+    let first_settled = states.iter().position(|&c| !c);
+    println!("{bricks} bricks; converging per frame: {states:?}");
+    let first_settled = first_settled.expect("the lighting never settled");
+    assert!(states[0], "the first update (a fill) is not converging");
+    // Each frame relights 16 bricks: three updates of all but one in `CONVERGING_FRACTION`
+    // take at least this many frames.
+    let least = 3 * (bricks - bricks / CONVERGING_FRACTION) / 16;
+    assert!(
+        first_settled >= least,
+        "settled after {first_settled} frames, before its bricks could have 3 updates ({least})"
+    );
+    assert!(
+        states[first_settled..].iter().all(|&c| !c),
+        "converging again without a change: {states:?}"
+    );
+    // A change of the lights caps the cache's ages for `max_age` updates: converging for as
+    // long, then settled.
+    let sky = switch_the_light_off(&ctx, &scene, &mut lit);
+    let after: Vec<bool> = (0..config.max_age + 2)
+        .map(|_| {
+            lit.frame(&ctx, &sky);
+            lit.lighting.converging()
+        })
+        .collect();
+    let changed = config.max_age as usize;
+    assert!(
+        after[..changed].iter().all(|&c| c) && after[changed..].iter().all(|&c| !c),
+        "after the light change: {after:?}"
+    );
 }
 
 /// The scene of [`sunlit_floor_and_wall`] without its light, uploaded into `lit`.

@@ -775,13 +775,20 @@ impl Tier for PcTier {
                 pass.dispatch_workgroups(groups.0, groups.1, 1);
             });
         }
+        // While the cache's light converges (after a fill, a jump or a change of the lights)
+        // the long history would average its darker, staler frames: it keeps the short
+        // history's length until the cache has settled, then grows back a frame at a time.
+        let mut denoise = self.config.denoise.clone();
+        if cache_stats.converging {
+            denoise.long_history = denoise.short_history;
+        }
         let prepared = self.prepared.as_mut().expect("prepared above");
         prepared.denoiser.record(
             ctx,
             &mut self.timer,
             &mut encoder,
             &self.denoise_pipelines,
-            &self.config.denoise,
+            &denoise,
         );
         passes.extend(self.timer.finish(ctx, encoder).0);
 
