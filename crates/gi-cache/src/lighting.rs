@@ -209,6 +209,9 @@ pub struct ScheduleCounts {
     /// Young bricks relit from the settling budget
     /// ([`CacheConfig::settle_bricks_per_frame`]).
     pub settle: u32,
+    /// Resident bricks still young after this frame (fewer than
+    /// [`CacheConfig::settle_updates`] updates); not part of [`ScheduleCounts::total`].
+    pub young: u32,
 }
 
 impl ScheduleCounts {
@@ -337,6 +340,7 @@ impl LightSchedule {
             near: near_count as u32,
             far: far_count as u32,
             settle: 0,
+            young: 0,
         };
         round_robin(&near, &mut self.near_cursor, near_count, &mut picked);
         round_robin(&far, &mut self.far_cursor, far_count, &mut picked);
@@ -376,6 +380,13 @@ impl LightSchedule {
                 }
             }
         }
+        // Every resident brick is in `fresh`, `near` or `far`, and only resident ones have
+        // updates counted; a brick without a count has had none.
+        if settled > 0 {
+            let settled_bricks = self.updates.values().filter(|&&n| n >= settled).count();
+            let resident_bricks = fresh.len() + near.len() + far.len();
+            counts.young = resident_bricks.saturating_sub(settled_bricks) as u32;
+        }
         (picked, counts)
     }
 
@@ -387,6 +398,7 @@ impl LightSchedule {
 
     /// Resident bricks (of `resident`) relit fewer than `settle_updates` times since they were
     /// voxelized.
+    #[cfg(test)]
     fn young_bricks(&self, resident: &[ResidentBrick], settle_updates: u32) -> usize {
         resident
             .iter()
@@ -623,12 +635,6 @@ impl CacheLighting {
             filling,
         );
         self.last_counts = counts;
-        let young = if self.config.settle_updates == 0 {
-            0
-        } else {
-            self.schedule
-                .young_bricks(inputs.resident, self.config.settle_updates)
-        };
         // A change of the lights or the sky caps the accumulation for `max_age` updates, so
         // history that no longer holds fades within a few updates; ages then grow back by one
         // per update, and so does the smoothing.
@@ -640,7 +646,7 @@ impl CacheLighting {
         self.light_key = key;
         self.converging = filling
             || self.fast_updates_left > 0
-            || young * CONVERGING_FRACTION >= inputs.resident.len().max(1);
+            || counts.young as usize * CONVERGING_FRACTION >= inputs.resident.len().max(1);
         if bricks.is_empty() {
             return counts;
         }
@@ -943,6 +949,7 @@ mod tests {
         let (picked, counts) = schedule.pick(&budget, &resident[..10], &resident, true);
         assert_eq!((picked.len(), counts.new, counts.settle), (40, 10, 30));
         assert_eq!(schedule.young_bricks(&resident, 3), 200);
+        assert_eq!(counts.young, 200);
 
         let mut updates = vec![0u32; resident.len() + 1];
         let mut frames = 0;
@@ -950,6 +957,7 @@ mod tests {
             let (picked, counts) = schedule.pick(&budget, &[], &resident, false);
             frames += 1;
             assert!(frames <= 20, "still young after {frames} frames");
+            assert_eq!(counts.young as usize, schedule.young_bricks(&resident, 3));
             assert_eq!(picked.len() as u32, counts.total());
             let unique: HashSet<u32> = picked.iter().map(|b| b.brick_id).collect();
             assert_eq!(
