@@ -3,6 +3,7 @@
 
 mod compare;
 mod debug_cache;
+mod error;
 mod render;
 mod tiers;
 
@@ -33,6 +34,9 @@ enum Command {
     /// Render what the brick radiance cache holds for a scene (albedo, normals, radiance,
     /// occupancy per level) and report its size.
     DebugCache(debug_cache::DebugCacheArgs),
+    /// Measure a saved render against a saved reference; with a second render of another seed,
+    /// split its error into noise and bias.
+    Error(error::ErrorArgs),
     /// List the bundled scenes.
     Scenes,
     /// Load a scene and report its content and BVH build time.
@@ -217,6 +221,7 @@ fn run(cli: Cli) -> anyhow::Result<()> {
         Command::Render(args) => render::run(&args),
         Command::Compare(args) => compare::run(&args),
         Command::DebugCache(args) => debug_cache::run(&args),
+        Command::Error(args) => error::run(&args),
         Command::Scenes => {
             let dir = gi_scene::bundled_scene_dir();
             for (name, description) in gi_scene::BUNDLED_SCENES {

@@ -656,3 +656,78 @@ fn unknown_screen_probes_and_bad_warm_ups_are_clear_errors() {
     assert_fails_with(&output, "--warmup 2000000");
     assert!(!dir.path().join("a.png").exists());
 }
+
+#[test]
+fn error_splits_two_seeds_into_noise_and_bias_and_rejects_bad_input() {
+    let dir = tempfile::tempdir().unwrap();
+    let code = |c: u8| gi_image::tonemap::srgb8_to_linear(c);
+    // Reference code 100; renders 106 +- 3 with orthogonal sign patterns: bias 6, noise 3.
+    let reference = gi_image::Image::from_fn(8, 2, |_, _| glam::Vec3::splat(code(100)));
+    let render = |pattern: [i32; 4]| {
+        gi_image::Image::from_fn(8, 2, |x, _| {
+            glam::Vec3::splat(code((106 + 3 * pattern[(x % 4) as usize]) as u8))
+        })
+    };
+    let path = |name: &str| dir.path().join(name);
+    gi_image::write_exr(&reference, path("ref.exr")).unwrap();
+    gi_image::write_exr(&render([1, 1, -1, -1]), path("a.exr")).unwrap();
+    gi_image::write_exr(&render([1, -1, 1, -1]), path("b.exr")).unwrap();
+    let output = gi(
+        &[
+            "error",
+            "--reference",
+            "ref.exr",
+            "a.exr",
+            "--second",
+            "b.exr",
+        ],
+        dir.path(),
+    );
+    assert!(output.status.success(), "{}", stderr(&output));
+    let stdout = String::from_utf8_lossy(&output.stdout);
+    let value = |key: &str| -> f64 {
+        let line = stdout
+            .lines()
+            .find(|l| l.split_whitespace().next() == Some(key))
+            .unwrap_or_else(|| panic!("no {key} in:\n{stdout}"));
+        let field = line.split_whitespace().nth(1).unwrap();
+        field.trim_end_matches('%').parse().unwrap()
+    };
+    assert!(
+        (value("rmse_srgb8") - 45f64.sqrt()).abs() < 1e-3,
+        "{stdout}"
+    );
+    assert!((value("noise_srgb8") - 3.0).abs() < 1e-3, "{stdout}");
+    assert!((value("bias_srgb8") - 6.0).abs() < 1e-3, "{stdout}");
+    assert!(value("luminance_bias") > 0.0, "{stdout}");
+
+    assert_fails_with(
+        &gi(
+            &["error", "--reference", "missing.exr", "a.exr"],
+            dir.path(),
+        ),
+        "missing.exr",
+    );
+    gi_image::write_exr(&gi_image::Image::new(4, 2), path("small.exr")).unwrap();
+    assert_fails_with(
+        &gi(
+            &["error", "--reference", "ref.exr", "small.exr"],
+            dir.path(),
+        ),
+        "size",
+    );
+    assert_fails_with(
+        &gi(
+            &[
+                "error",
+                "--reference",
+                "ref.exr",
+                "a.exr",
+                "--exposure",
+                "0",
+            ],
+            dir.path(),
+        ),
+        "--exposure",
+    );
+}

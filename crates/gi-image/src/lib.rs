@@ -47,6 +47,7 @@ pub use crate::heatmap::{
 pub use crate::image::Image;
 pub use crate::io::{FileFormat, load, read_exr, read_png, save, write_exr, write_png};
 pub use crate::metrics::{
-    Comparison, REL_MSE_EPSILON, compare, gain_vs_direct, rel_mse, rmse_linear, rmse_srgb8,
+    Comparison, ErrorSplit, REL_MSE_EPSILON, compare, error_split_srgb8, gain_vs_direct,
+    luminance_bias, rel_mse, rmse_linear, rmse_srgb8,
 };
 pub use crate::tonemap::{srgb_eotf, srgb_oetf, to_srgb8};

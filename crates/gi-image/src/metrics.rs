@@ -99,6 +99,65 @@ pub fn compare(image: &Image, reference: &Image, exposure: f32) -> Result<Compar
     })
 }
 
+/// The error of a renderer split into its noise and its bias, from two renders of one view
+/// with independent random seeds ([`error_split_srgb8`]), in 8-bit sRGB levels.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct ErrorSplit {
+    /// [`rmse_srgb8`] of the first render against the reference.
+    pub rmse_a: f64,
+    /// [`rmse_srgb8`] of the second render against the reference.
+    pub rmse_b: f64,
+    /// RMS of one render's deviation from the renderer's expected image: the square root of
+    /// half the mean squared difference of the two renders.
+    pub noise: f64,
+    /// RMS error of the expected image against the reference: the square root of the mean
+    /// squared error less the noise's share (0 where noise explains all the error).
+    pub bias: f64,
+}
+
+/// Splits the error of a renderer into noise and bias: `a` and `b` are two renders of one view
+/// that differ only in their random seeds. For each 8-bit code `x = mu + e` with `e` zero-mean
+/// and independent between the renders, `E[(a - b)^2] / 2 = var(e)` and
+/// `E[(a - r)^2] = (mu - r)^2 + var(e)`, averaged over pixels and channels as [`rmse_srgb8`]
+/// averages. Noise that the two renders share (a seed-independent pattern) counts as bias.
+pub fn error_split_srgb8(
+    reference: &Image,
+    a: &Image,
+    b: &Image,
+    exposure: f32,
+) -> Result<ErrorSplit, ImageError> {
+    check_comparable(reference, a)?;
+    check_comparable(reference, b)?;
+    let rmse_a = rmse_srgb8(a, reference, exposure)?;
+    let rmse_b = rmse_srgb8(b, reference, exposure)?;
+    let noise = rmse_srgb8(a, b, exposure)? / std::f64::consts::SQRT_2;
+    let mse = (rmse_a * rmse_a + rmse_b * rmse_b) / 2.0;
+    Ok(ErrorSplit {
+        rmse_a,
+        rmse_b,
+        noise,
+        bias: (mse - noise * noise).max(0.0).sqrt(),
+    })
+}
+
+/// Mean luminance (Rec. 709 weights, linear) of `image` over that of `reference`, less 1: the
+/// image's overall brightness error, `0.01` for 1% too bright. Linear, so unlike a mean over
+/// 8-bit images it does not lose the light that clipping at white removes. `None` when the
+/// reference is black.
+pub fn luminance_bias(image: &Image, reference: &Image) -> Result<Option<f64>, ImageError> {
+    check_comparable(image, reference)?;
+    check_finite(image, "image")?;
+    check_finite(reference, "reference")?;
+    let luminance = |img: &Image| -> f64 {
+        img.pixels
+            .iter()
+            .map(|p| p.as_dvec3().dot(glam::DVec3::new(0.2126, 0.7152, 0.0722)))
+            .sum()
+    };
+    let total = luminance(reference);
+    Ok((total > 0.0).then(|| luminance(image) / total - 1.0))
+}
+
 /// Checks that two images can be compared: consistent buffers, same size and
 /// at least one pixel.
 pub(crate) fn check_comparable(a: &Image, b: &Image) -> Result<(), ImageError> {
@@ -159,6 +218,55 @@ mod tests {
 
     fn constant(w: u32, h: u32, v: Vec3) -> Image {
         Image::from_fn(w, h, |_, _| v)
+    }
+
+    /// An image whose 8-bit codes (exposure 1) are `code(x, y)` in every channel.
+    fn from_codes(w: u32, h: u32, code: impl Fn(u32, u32) -> i32) -> Image {
+        Image::from_fn(w, h, |x, y| {
+            Vec3::splat(crate::tonemap::srgb8_to_linear(code(x, y) as u8))
+        })
+    }
+
+    #[test]
+    fn error_split_recovers_a_known_bias_and_noise() {
+        // Codes: reference 100; the renders 100 + 6 (bias) + 3 s, with s = +-1 patterns of
+        // period 4 that are orthogonal (mean of their product 0) and zero-mean, as independent
+        // noise is in expectation.
+        let pattern_a = |x: u32| [1, 1, -1, -1][(x % 4) as usize];
+        let pattern_b = |x: u32| [1, -1, 1, -1][(x % 4) as usize];
+        let reference = from_codes(8, 2, |_, _| 100);
+        let a = from_codes(8, 2, |x, _| 106 + 3 * pattern_a(x));
+        let b = from_codes(8, 2, |x, _| 106 + 3 * pattern_b(x));
+        let split = error_split_srgb8(&reference, &a, &b, 1.0).unwrap();
+        let close = |x: f64, y: f64| (x - y).abs() < 1e-9;
+        assert!(close(split.rmse_a, 45f64.sqrt()), "{split:?}");
+        assert!(close(split.rmse_b, 45f64.sqrt()), "{split:?}");
+        assert!(close(split.noise, 3.0), "{split:?}");
+        assert!(close(split.bias, 6.0), "{split:?}");
+        // Identical renders: no noise, all of the error is bias.
+        let same = error_split_srgb8(&reference, &a, &a, 1.0).unwrap();
+        assert_eq!(same.noise, 0.0);
+        assert!(close(same.bias, same.rmse_a));
+        // Sizes must agree.
+        assert!(error_split_srgb8(&reference, &a, &Image::new(4, 2), 1.0).is_err());
+    }
+
+    #[test]
+    fn luminance_bias_is_linear_and_ignores_clipping() {
+        let reference = constant(4, 2, Vec3::new(2.0, 2.0, 2.0));
+        // 10% brighter in linear light, although both encode to white.
+        let brighter = constant(4, 2, Vec3::new(2.2, 2.2, 2.2));
+        let bias = luminance_bias(&brighter, &reference).unwrap().unwrap();
+        assert!((bias - 0.1).abs() < 1e-6, "{bias}");
+        assert_eq!(rmse_srgb8(&brighter, &reference, 1.0).unwrap(), 0.0);
+        // Green weighs most: a green-only excess moves the mean by its weight.
+        let green = constant(4, 2, Vec3::new(2.0, 2.2, 2.0));
+        let bias = luminance_bias(&green, &reference).unwrap().unwrap();
+        assert!((bias - 0.07152).abs() < 1e-6, "{bias}");
+        assert_eq!(luminance_bias(&reference, &Image::new(4, 2)).unwrap(), None);
+        let mut nan = reference.clone();
+        nan.set(1, 1, Vec3::splat(f32::NAN));
+        assert!(luminance_bias(&nan, &reference).is_err());
     }
 
     #[test]
