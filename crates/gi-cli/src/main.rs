@@ -284,9 +284,19 @@ fn main() -> ExitCode {
     match run(cli) {
         Ok(()) => ExitCode::SUCCESS,
         Err(error) => {
-            // One line: the error and its causes, outermost first.
-            let causes: Vec<String> = error.chain().map(|c| c.to_string()).collect();
-            eprintln!("error: {}", causes.join(": "));
+            // One line: the error and its causes, outermost first; a cause that an outer
+            // message already quotes (as `ImageError` quotes its I/O error) is not repeated.
+            let mut line = String::new();
+            for cause in error.chain().map(|c| c.to_string()) {
+                if line.contains(&cause) {
+                    continue;
+                }
+                if !line.is_empty() {
+                    line.push_str(": ");
+                }
+                line.push_str(&cause);
+            }
+            eprintln!("error: {line}");
             ExitCode::FAILURE
         }
     }

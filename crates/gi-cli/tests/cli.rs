@@ -701,12 +701,17 @@ fn error_splits_two_seeds_into_noise_and_bias_and_rejects_bad_input() {
     assert!((value("bias_srgb8") - 6.0).abs() < 1e-3, "{stdout}");
     assert!(value("luminance_bias") > 0.0, "{stdout}");
 
-    assert_fails_with(
-        &gi(
-            &["error", "--reference", "missing.exr", "a.exr"],
-            dir.path(),
-        ),
-        "missing.exr",
+    let missing = gi(
+        &["error", "--reference", "missing.exr", "a.exr"],
+        dir.path(),
+    );
+    assert_fails_with(&missing, "missing.exr");
+    // The I/O error that the image error quotes is not repeated as its cause.
+    assert_eq!(
+        stderr(&missing).matches("os error").count(),
+        1,
+        "{}",
+        stderr(&missing)
     );
     gi_image::write_exr(&gi_image::Image::new(4, 2), path("small.exr")).unwrap();
     assert_fails_with(
