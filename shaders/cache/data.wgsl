@@ -30,6 +30,10 @@ const CACHE_SIDE_COUNT: u32 = 2u;
 const CACHE_SIDE_FRONT: u32 = 0u;
 const CACHE_SIDE_BACK: u32 = 1u;
 const CACHE_STATE_DYNAMIC: u32 = 256u;
+// `gi_cache::layout::STATE_BOX_SHIFT` and `BOX_STEPS`: where the state holds the box around
+// the voxel's geometry, and its steps per voxel edge.
+const CACHE_STATE_BOX_SHIFT: u32 = 9u;
+const CACHE_BOX_STEPS: u32 = 8u;
 const CACHE_INV_PI: f32 = 0.3183098861837907;
 
 // One level's window: world brick coordinate of its lowest corner and its voxel edge.
@@ -50,7 +54,7 @@ struct CacheUniforms {
 }
 
 // Mirror of `gi_cache::VoxelSurface`: albedo rgb + coverage a (unorm8), packed unit normal,
-// RGB9E5 emission, state (bits 0-7 age, bit 8 dynamic).
+// RGB9E5 emission, state (bits 0-7 age, bit 8 dynamic, bits 9-26 the geometry box).
 struct VoxelSurface {
     albedo: u32,
     normal: u32,

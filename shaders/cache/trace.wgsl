@@ -7,7 +7,9 @@
 // Traversal, per clipmap level (finest first):
 //   - cells of 16 voxels (a group): skipped in one step when the group mask is 0;
 //   - cells of 4 voxels (a brick): skipped when their bit of the group mask is clear;
-//   - voxels: a hit when their bit of the brick mask is set.
+//   - voxels: a hit when their bit of the brick mask is set and the ray meets the box around
+//     the voxel's geometry (`cache_ray_meets_box`), so that a surface's voxels reaching into
+//     free space (a door jamb's, up to a voxel into the opening) do not narrow the opening.
 // An occupied cell is entered at the same point (descend); a step that leaves the parent cell
 // goes back up to the coarsest scale whose cell changed. Leaving a level's window continues in
 // the next coarser level from the same boundary point, whose voxel there is the fine voxel's
@@ -26,7 +28,7 @@
     cache_level_of_point, cache_link_index, cache_group_index, cache_voxel_at, cache_voxel_index,
     cache_voxel_normal, cache_side_radiance, cache_side_seen_by_ray,
     cache_side_normal, cache_side_slot, cache_direct, cache_indirect, CACHE_SIDE_FRONT,
-    CACHE_SIDE_BACK
+    CACHE_SIDE_BACK, CACHE_STATE_BOX_SHIFT, CACHE_BOX_STEPS
 }
 #import gi::packing::unpack_rgb9e5
 
@@ -172,8 +174,11 @@ fn cache_trace_from(origin: vec3<f32>, dir: vec3<f32>, t_max: f32, skip_origin_v
             let is_origin = skip_origin && level == origin_level && all(vox == origin_voxel);
             if cache_mask_test(brick_mask, bit) && !is_origin {
                 let v = VoxelRef(brick_id, bit);
-                let n = cache_voxel_normal(cache_voxels[cache_voxel_index(v)]);
-                return CacheHit(t, level, v, face, cache_side_seen_by_ray(n, dir), true);
+                let surface = cache_voxels[cache_voxel_index(v)];
+                if cache_ray_meets_box(origin, dir, inv_dir, moving, vox, cache.levels[level].voxel_size_m, surface.state) {
+                    let n = cache_voxel_normal(surface);
+                    return CacheHit(t, level, v, face, cache_side_seen_by_ray(n, dir), true);
+                }
             }
         }
         if occupied {
@@ -202,6 +207,42 @@ fn cache_trace_from(origin: vec3<f32>, dir: vec3<f32>, t_max: f32, skip_origin_v
         vox = next;
     }
     return cache_miss(t_max);
+}
+
+// True when the ray `origin + t * dir` meets the box around the geometry of voxel `vox` (edge
+// `s`) that the voxel's `state` holds (`gi_cache::layout::geometry_box_bits`, bounds in eighths
+// of the edge from the voxel's lowest corner; zero bits are the whole voxel), widened by a
+// thousandth of the edge against rounding. Only called for voxels the ray is inside of, so
+// the whole line can be tested. A ray that meets the voxel's geometry meets its box; one that
+// passes beside it (through a door's opening along its jamb) goes on.
+fn cache_ray_meets_box(
+    origin: vec3<f32>,
+    dir: vec3<f32>,
+    inv_dir: vec3<f32>,
+    moving: vec3<bool>,
+    vox: vec3<i32>,
+    s: f32,
+    state: u32,
+) -> bool {
+    let bits = state >> CACHE_STATE_BOX_SHIFT;
+    if bits == 0u {
+        return true;
+    }
+    let lo_steps = vec3<u32>(bits & 7u, (bits >> 6u) & 7u, (bits >> 12u) & 7u);
+    let hi_steps = CACHE_BOX_STEPS - vec3<u32>((bits >> 3u) & 7u, (bits >> 9u) & 7u, (bits >> 15u) & 7u);
+    let step = s / f32(CACHE_BOX_STEPS);
+    let margin = 1e-3 * s;
+    let lo = vec3<f32>(vox) * s + vec3<f32>(lo_steps) * step - margin;
+    let hi = vec3<f32>(vox) * s + vec3<f32>(hi_steps) * step + margin;
+    let inside = (origin >= lo) & (origin <= hi);
+    if any(!moving & !inside) {
+        return false;
+    }
+    let ta = (lo - origin) * inv_dir;
+    let tb = (hi - origin) * inv_dir;
+    let t_near = select(vec3(-CACHE_TRACE_FAR), min(ta, tb), moving);
+    let t_far = select(vec3(CACHE_TRACE_FAR), max(ta, tb), moving);
+    return max(max(t_near.x, t_near.y), t_near.z) <= min(min(t_far.x, t_far.y), t_far.z);
 }
 
 // Distance along `origin + t * dir` at which the ray leaves `level`'s window (0 when it is never

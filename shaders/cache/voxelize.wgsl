@@ -6,11 +6,12 @@
 // `gi_cache::cpu_voxelize`, computed in the same f32 order: occupancy by a triangle-box
 // separating axis test (half-open along the world axes), normal from the area vectors of
 // the triangles clipped to the voxel, coverage from their area projected on that normal,
-// albedo and emission from the material at the closest triangle point to the voxel center.
+// albedo and emission from the material at the closest triangle point to the voxel center,
+// the box around the clipped triangles in the state (`gi_cache::layout::geometry_box_bits`).
 // The voxel's sides and age start at 0; occupancy is gathered with workgroup atomics and
 // written once per brick.
 
-#import gi::cache::data::{cache, cache_brick_masks, cache_voxels, cache_direct, cache_indirect, cache_mask_cell, VoxelSurface, CACHE_STATE_DYNAMIC, CACHE_SIDE_COUNT}
+#import gi::cache::data::{cache, cache_brick_masks, cache_voxels, cache_direct, cache_indirect, cache_mask_cell, VoxelSurface, CACHE_STATE_DYNAMIC, CACHE_SIDE_COUNT, CACHE_STATE_BOX_SHIFT, CACHE_BOX_STEPS}
 #import gi::scene::{triangles, sample_texture, emission, triangle_uv, material_of, geometric_normal}
 #import gi::brdf::{brdf_new, brdf_diffuse_albedo}
 #import gi::packing::{pack_unit_vector, pack_rgb9e5}
@@ -37,7 +38,7 @@ struct VoxelizeJob {
 // (`gi_cache::binning::TRIANGLE_DYNAMIC_BIT`).
 const TRIANGLE_DYNAMIC_BIT: u32 = 0x80000000u;
 // `gi_cache::cpu_voxelize::NORMAL_CANCEL_FRACTION`.
-const NORMAL_CANCEL_FRACTION: f32 = 1e-3;
+const NORMAL_CANCEL_FRACTION: f32 = 0.5;
 
 @group(0) @binding(0) var<uniform> voxelize_uniforms: VoxelizeUniforms;
 @group(0) @binding(8) var<storage, read> jobs: array<VoxelizeJob>;
@@ -86,8 +87,22 @@ fn triangle_box_overlap(a: vec3<f32>, b: vec3<f32>, c: vec3<f32>, center: vec3<f
     return true;
 }
 
-// `gi_cache::cpu_voxelize::clipped_area_vector`: Sutherland-Hodgman against the six faces.
+// A triangle clipped to a voxel: its area vector and the bounds of the clipped polygon
+// relative to the voxel center (lo > hi when nothing is left).
+struct Clipped {
+    area: vec3<f32>,
+    lo: vec3<f32>,
+    hi: vec3<f32>,
+}
+
+// `gi_cache::cpu_voxelize::clipped_area_vector`.
 fn clipped_area_vector(a: vec3<f32>, b: vec3<f32>, c: vec3<f32>, center: vec3<f32>, half: f32) -> vec3<f32> {
+    return clip_to_box(a, b, c, center, half).area;
+}
+
+// `gi_cache::cpu_voxelize::clip_to_box`: Sutherland-Hodgman against the six faces.
+fn clip_to_box(a: vec3<f32>, b: vec3<f32>, c: vec3<f32>, center: vec3<f32>, half: f32) -> Clipped {
+    let empty = Clipped(vec3(0.0), vec3(half), vec3(-half));
     var polygon: array<vec3<f32>, 10>;
     polygon[0] = a - center;
     polygon[1] = b - center;
@@ -116,14 +131,33 @@ fn clipped_area_vector(a: vec3<f32>, b: vec3<f32>, c: vec3<f32>, center: vec3<f3
         polygon = clipped;
         count = n;
         if count < 3u {
-            return vec3(0.0);
+            return empty;
         }
     }
     var sum = vec3(0.0);
-    for (var i = 1u; i + 1u < count; i++) {
-        sum += cross(polygon[i] - polygon[0], polygon[i + 1u] - polygon[0]);
+    var lo = polygon[0];
+    var hi = polygon[0];
+    for (var i = 1u; i < count; i++) {
+        lo = min(lo, polygon[i]);
+        hi = max(hi, polygon[i]);
+        if i + 1u < count {
+            sum += cross(polygon[i] - polygon[0], polygon[i + 1u] - polygon[0]);
+        }
     }
-    return sum * 0.5;
+    return Clipped(sum * 0.5, lo, hi);
+}
+
+// `gi_cache::layout::geometry_box_bits`: the state bits of the box [lo, hi] (relative to the
+// voxel center) around a voxel's geometry, rounded outwards to eighths of the voxel edge.
+fn geometry_box_bits(lo: vec3<f32>, hi: vec3<f32>, half: f32) -> u32 {
+    let steps = f32(CACHE_BOX_STEPS);
+    var bits = 0u;
+    for (var axis = 0u; axis < 3u; axis++) {
+        let a = u32(clamp(floor((lo[axis] + half) / (2.0 * half) * steps - 1e-3), 0.0, steps - 1.0));
+        let b = max(u32(clamp(ceil((hi[axis] + half) / (2.0 * half) * steps + 1e-3), 1.0, steps)), a + 1u);
+        bits |= (a | ((CACHE_BOX_STEPS - b) << 3u)) << (CACHE_STATE_BOX_SHIFT + 6u * axis);
+    }
+    return bits;
 }
 
 // `gi_cache::cpu_voxelize::closest_point_barycentrics` (Ericson, 5.1.5).
@@ -184,6 +218,9 @@ fn voxelize(@builtin(workgroup_id) workgroup: vec3<u32>, @builtin(local_invocati
 
     var area_sum = vec3(0.0);
     var area_total = 0.0;
+    // Bounds of the clipped triangles (relative to `center`); empty while lo > hi.
+    var box_lo = vec3(half);
+    var box_hi = vec3(-half);
     var dynamic = false;
     var found = false;
     var closest_distance_sq = 0.0;
@@ -200,7 +237,10 @@ fn voxelize(@builtin(workgroup_id) workgroup: vec3<u32>, @builtin(local_invocati
             continue;
         }
         dynamic = dynamic || (reference & TRIANGLE_DYNAMIC_BIT) != 0u;
-        let area = clipped_area_vector(a, b, c, center, half);
+        let clip = clip_to_box(a, b, c, center, half);
+        let area = clip.area;
+        box_lo = min(box_lo, clip.lo);
+        box_hi = max(box_hi, clip.hi);
         area_sum += area;
         area_total += length(area);
         let w = closest_point_barycentrics(a, b, c, center);
@@ -244,7 +284,8 @@ fn voxelize(@builtin(workgroup_id) workgroup: vec3<u32>, @builtin(local_invocati
             pack4x8unorm(vec4(albedo, coverage)),
             pack_unit_vector(normal),
             pack_rgb9e5(emission(material, uv)),
-            select(0u, CACHE_STATE_DYNAMIC, dynamic),
+            select(0u, CACHE_STATE_DYNAMIC, dynamic)
+                | select(0u, geometry_box_bits(box_lo, box_hi, half), all(box_lo <= box_hi)),
         );
         atomicOr(&occupancy[bit >> 5u], 1u << (bit & 31u));
     }

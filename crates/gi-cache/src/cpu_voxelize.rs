@@ -10,25 +10,39 @@
 //!   layers. Degenerate (zero-area) triangles occupy nothing.
 //! - **Normal**: the sum of the overlapping triangles' area vectors *clipped to the voxel*
 //!   (area-weighted geometric normals, weighted by the area inside the voxel), normalized. When
-//!   the sum nearly cancels (the two faces of a wall thinner than a voxel), the closest
-//!   triangle's geometric normal.
+//!   the sum is less than [`NORMAL_CANCEL_FRACTION`] of the summed areas (facing surfaces
+//!   cancel: the two faces of a wall thinner than a voxel, also where such a wall stands on a
+//!   floor), the closest triangle's geometric normal.
 //! - **Coverage** (albedo.a): the clipped area projected on the normal, over `s^2`, at most 1:
 //!   the fraction of rays along the normal through the voxel that hit the surface.
 //! - **Albedo, emission**: the material of the triangle whose closest point is nearest to `c`
 //!   (first in list order on ties), evaluated at that point: diffuse albedo
 //!   `base * (1 - metallic)` (textured base color and metallic, as `gi::brdf`), emission as
 //!   the reference's `emission` (either side).
-//! - **State**: [`STATE_DYNAMIC`] when an overlapping triangle belongs to a dynamic node; age 0.
+//! - **State**: [`STATE_DYNAMIC`] when an overlapping triangle belongs to a dynamic node; age 0;
+//!   the box around the overlapping triangles clipped to the voxel
+//!   ([`crate::layout::geometry_box_bits`]; the whole voxel when they only touch it).
 
 use gi_scene::{Material, Texture};
 use glam::{IVec3, Vec2, Vec3, Vec4};
 
 use crate::binning::{CacheScene, TRIANGLE_DYNAMIC_BIT};
-use crate::layout::{BRICK_VOXELS, STATE_DYNAMIC, VOXELS_PER_BRICK, VoxelSurface, mask_cell};
+use crate::layout::{
+    BRICK_VOXELS, STATE_DYNAMIC, VOXELS_PER_BRICK, VoxelSurface, geometry_box_bits, mask_cell,
+};
 use crate::packing::{pack_rgb9e5, pack_unit_vector, pack4x8unorm};
 
 /// Where the area-vector sum counts as cancelled: below this fraction of the summed areas.
-pub const NORMAL_CANCEL_FRACTION: f32 = 1e-3;
+///
+/// Surfaces meeting at a right angle keep their mean normal (the sum is 0.71 of the areas at
+/// an edge, 0.58 at a corner); surfaces facing each other do not. Where a 5 cm wall stands on
+/// the floor (thin-wall), one voxel holds both faces of the wall and the floor: the faces
+/// cancel and the floor's normal (0.33 of the areas) would remain, so that a ray from inside
+/// the room, reading the side that faces it along that normal, saw the sunlit floor outside
+/// (the cache's irradiance inside that room was twice the reference's without sky light).
+/// The wall's closest face keeps the two sides of the wall apart. Below 1e-3 (its earlier
+/// value) only a thin wall alone counted as cancelled.
+pub const NORMAL_CANCEL_FRACTION: f32 = 0.5;
 
 /// True when triangle `v` overlaps the box of half edge `half` centered at `center`
 /// (half-open along the world axes, closed along the others; see the module docs).
@@ -67,6 +81,14 @@ pub fn triangle_box_overlap(v: [Vec3; 3], center: Vec3, half: f32) -> bool {
 /// Area vector (area times unit geometric normal) of triangle `v` clipped to the box of half
 /// edge `half` centered at `center` (Sutherland-Hodgman against the six faces).
 pub fn clipped_area_vector(v: [Vec3; 3], center: Vec3, half: f32) -> Vec3 {
+    clip_to_box(v, center, half).0
+}
+
+/// Triangle `v` clipped to the box of half edge `half` centered at `center`: its area vector
+/// and the bounds `(lo, hi)` of the clipped polygon relative to `center` (`lo > hi` when
+/// nothing of it is left).
+pub fn clip_to_box(v: [Vec3; 3], center: Vec3, half: f32) -> (Vec3, Vec3, Vec3) {
+    let empty = (Vec3::ZERO, Vec3::splat(half), Vec3::splat(-half));
     let mut polygon: Vec<Vec3> = v.iter().map(|p| *p - center).collect();
     for axis in 0..3 {
         for sign in [1.0f32, -1.0] {
@@ -85,15 +107,20 @@ pub fn clipped_area_vector(v: [Vec3; 3], center: Vec3, half: f32) -> Vec3 {
             }
             polygon = clipped;
             if polygon.len() < 3 {
-                return Vec3::ZERO;
+                return empty;
             }
         }
     }
     let mut sum = Vec3::ZERO;
-    for i in 1..polygon.len() - 1 {
-        sum += (polygon[i] - polygon[0]).cross(polygon[i + 1] - polygon[0]);
+    let (mut lo, mut hi) = (polygon[0], polygon[0]);
+    for i in 1..polygon.len() {
+        lo = lo.min(polygon[i]);
+        hi = hi.max(polygon[i]);
+        if i + 1 < polygon.len() {
+            sum += (polygon[i] - polygon[0]).cross(polygon[i + 1] - polygon[0]);
+        }
     }
-    sum * 0.5
+    (sum * 0.5, lo, hi)
 }
 
 /// Barycentric weights `(w0, w1, w2)` of the point of triangle `v` closest to `p` (Ericson,
@@ -175,6 +202,9 @@ fn voxelize_voxel(
 ) -> Option<VoxelSurface> {
     let mut area_sum = Vec3::ZERO;
     let mut area_total = 0.0f32;
+    // Bounds of the clipped triangles (relative to `center`); empty while `lo > hi`.
+    let mut box_lo = Vec3::splat(half);
+    let mut box_hi = Vec3::splat(-half);
     let mut dynamic = false;
     // (squared distance, triangle index, barycentrics) of the closest overlapping triangle.
     let mut closest: Option<(f32, u32, Vec3)> = None;
@@ -186,7 +216,9 @@ fn voxelize_voxel(
             continue;
         }
         dynamic |= reference & TRIANGLE_DYNAMIC_BIT != 0;
-        let area = clipped_area_vector(v, center, half);
+        let (area, lo, hi) = clip_to_box(v, center, half);
+        box_lo = box_lo.min(lo);
+        box_hi = box_hi.max(hi);
         area_sum += area;
         area_total += area.length();
         overlapping.push(area);
@@ -212,7 +244,12 @@ fn voxelize_voxel(
         albedo: pack4x8unorm(albedo.extend(coverage)),
         normal: pack_unit_vector(normal),
         emission: pack_rgb9e5(emission),
-        state: if dynamic { STATE_DYNAMIC } else { 0 },
+        state: if dynamic { STATE_DYNAMIC } else { 0 }
+            | if box_lo.cmple(box_hi).all() {
+                geometry_box_bits(box_lo, box_hi, half)
+            } else {
+                0
+            },
     })
 }
 
@@ -274,7 +311,41 @@ mod tests {
             (area - Vec3::new(0.0, -0.875, 0.0)).length() < 1e-5,
             "{area}"
         );
+        let (_, lo, hi) = clip_to_box(tri, Vec3::new(0.0, 0.5, 0.0), 0.5);
+        assert_eq!(
+            (lo, hi),
+            (Vec3::new(-0.5, -0.5, -0.5), Vec3::new(0.5, -0.5, 0.5))
+        );
         let b = closest_point_barycentrics(tri, Vec3::new(0.0, 3.0, -5.0));
         assert!((b - Vec3::new(0.5, 0.5, 0.0)).length() < 1e-6, "{b}");
+    }
+
+    /// A door's jamb (the plane x = 0.3 of a unit voxel, facing +x into the opening) fills
+    /// the voxel's occupancy but only the slab next to it in the box: rays through the rest of
+    /// the voxel pass.
+    #[test]
+    fn the_geometry_box_holds_the_clipped_triangles_and_little_more() {
+        let jamb = [
+            Vec3::new(0.3, -2.0, -2.0),
+            Vec3::new(0.3, 2.0, -2.0),
+            Vec3::new(0.3, 0.0, 3.0),
+        ];
+        let (center, half) = (Vec3::splat(0.5), 0.5);
+        assert!(triangle_box_overlap(jamb, center, half));
+        let (_, lo, hi) = clip_to_box(jamb, center, half);
+        let (box_lo, box_hi) = crate::layout::geometry_box(geometry_box_bits(lo, hi, half));
+        // x in eighths: 0.3 lies in [2/8, 3/8]; y and z span the voxel.
+        assert_eq!(box_lo, glam::UVec3::new(2, 0, 0));
+        assert_eq!(box_hi, glam::UVec3::new(3, 8, 8));
+        // A plane on an eighth is rounded outwards to a slab an eighth thick.
+        let on_step = jamb.map(|p| Vec3::new(0.25, p.y, p.z));
+        let (_, lo, hi) = clip_to_box(on_step, center, half);
+        let (box_lo, box_hi) = crate::layout::geometry_box(geometry_box_bits(lo, hi, half));
+        assert!(box_lo.x <= 2 && box_hi.x >= 2 && box_hi.x - box_lo.x <= 2);
+        // Zero bits are the whole voxel.
+        assert_eq!(
+            crate::layout::geometry_box(0),
+            (glam::UVec3::ZERO, glam::UVec3::splat(8))
+        );
     }
 }

@@ -120,8 +120,55 @@ pub struct VoxelSurface {
     /// Emitted radiance (W/(sr m^2)), RGB9E5 (`gi::packing::pack_rgb9e5`).
     pub emission: u32,
     /// Bits 0-7: age (lighting updates accumulated, saturating at `max_age`); bit 8: the voxel
-    /// holds a dynamic (moving) object's surface; bits 9-31 reserved (zero).
+    /// holds a dynamic (moving) object's surface; bits 9-26: the box around the voxel's
+    /// geometry ([`geometry_box_bits`]; all zero is the whole voxel); bits 27-31 reserved
+    /// (zero).
     pub state: u32,
+}
+
+/// First `VoxelSurface::state` bit of the geometry box.
+pub const STATE_BOX_SHIFT: u32 = 9;
+/// Steps per voxel edge of the geometry box's bounds.
+pub const BOX_STEPS: u32 = 8;
+
+/// `VoxelSurface::state` bits (already shifted) of the box `[lo, hi]` around the geometry in a
+/// voxel of half edge `half`, `lo` and `hi` relative to its center: per axis (x, y, z, 6 bits
+/// each from [`STATE_BOX_SHIFT`]) 3 bits of the lower bound in eighths of the voxel edge,
+/// rounded down, and 3 bits of `8 -` the upper bound, rounded up, so the stored box holds the
+/// geometry and all zero bits are the whole voxel. A box is at least an eighth thick.
+///
+/// A ray through an occupied voxel hits it only where it meets this box
+/// (`gi::cache::trace::cache_ray_meets_box`). Every ray that meets the geometry inside the
+/// voxel meets its box, so no ray passes a surface it hits; a ray passing beside the surface
+/// (through a door's opening next to its jamb, whose voxels reach up to a voxel into the
+/// opening) goes on.
+pub fn geometry_box_bits(lo: glam::Vec3, hi: glam::Vec3, half: f32) -> u32 {
+    let steps = BOX_STEPS as f32;
+    let mut bits = 0u32;
+    for axis in 0..3u32 {
+        let to_steps = |x: f32| (x + half) / (2.0 * half) * steps;
+        // Rounded outwards, with a margin for the rounding of the clipped vertices.
+        let (lo, hi) = (lo[axis as usize], hi[axis as usize]);
+        let a = (to_steps(lo) - 1e-3).floor().clamp(0.0, steps - 1.0) as u32;
+        let b = ((to_steps(hi) + 1e-3).ceil().clamp(1.0, steps) as u32).max(a + 1);
+        bits |= (a | ((BOX_STEPS - b) << 3)) << (STATE_BOX_SHIFT + 6 * axis);
+    }
+    bits
+}
+
+/// The box (`(lo, hi)` in eighths of the voxel edge from its lowest corner) that
+/// `VoxelSurface::state` holds: the inverse of [`geometry_box_bits`] up to its rounding.
+pub fn geometry_box(state: u32) -> (glam::UVec3, glam::UVec3) {
+    let bits = state >> STATE_BOX_SHIFT;
+    let field = |axis: u32, shift: u32| (bits >> (6 * axis + shift)) & 7;
+    (
+        glam::UVec3::new(field(0, 0), field(1, 0), field(2, 0)),
+        glam::UVec3::new(
+            BOX_STEPS - field(0, 3),
+            BOX_STEPS - field(1, 3),
+            BOX_STEPS - field(2, 3),
+        ),
+    )
 }
 
 /// `VoxelSurface::state` bit of voxels that hold part of a moving object.
