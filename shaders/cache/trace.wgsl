@@ -175,7 +175,8 @@ fn cache_trace_from(origin: vec3<f32>, dir: vec3<f32>, t_max: f32, skip_origin_v
             if cache_mask_test(brick_mask, bit) && !is_origin {
                 let v = VoxelRef(brick_id, bit);
                 let surface = cache_voxels[cache_voxel_index(v)];
-                if cache_ray_meets_box(origin, dir, inv_dir, moving, vox, cache.levels[level].voxel_size_m, surface.state) {
+                let s = cache.levels[level].voxel_size_m;
+                if cache_ray_meets_box(origin, dir, inv_dir, moving, vox, s, surface.state) {
                     let n = cache_voxel_normal(surface);
                     return CacheHit(t, level, v, face, cache_side_seen_by_ray(n, dir), true);
                 }
@@ -229,7 +230,8 @@ fn cache_ray_meets_box(
         return true;
     }
     let lo_steps = vec3<u32>(bits & 7u, (bits >> 6u) & 7u, (bits >> 12u) & 7u);
-    let hi_steps = CACHE_BOX_STEPS - vec3<u32>((bits >> 3u) & 7u, (bits >> 9u) & 7u, (bits >> 15u) & 7u);
+    let hi_steps =
+        CACHE_BOX_STEPS - vec3<u32>((bits >> 3u) & 7u, (bits >> 9u) & 7u, (bits >> 15u) & 7u);
     let step = s / f32(CACHE_BOX_STEPS);
     let margin = 1e-3 * s;
     let lo = vec3<f32>(vox) * s + vec3<f32>(lo_steps) * step - margin;

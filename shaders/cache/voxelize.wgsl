@@ -11,7 +11,10 @@
 // The voxel's sides and age start at 0; occupancy is gathered with workgroup atomics and
 // written once per brick.
 
-#import gi::cache::data::{cache, cache_brick_masks, cache_voxels, cache_direct, cache_indirect, cache_mask_cell, VoxelSurface, CACHE_STATE_DYNAMIC, CACHE_SIDE_COUNT, CACHE_STATE_BOX_SHIFT, CACHE_BOX_STEPS}
+#import gi::cache::data::{
+    cache, cache_brick_masks, cache_voxels, cache_direct, cache_indirect, cache_mask_cell,
+    VoxelSurface, CACHE_STATE_DYNAMIC, CACHE_SIDE_COUNT, CACHE_STATE_BOX_SHIFT, CACHE_BOX_STEPS
+}
 #import gi::scene::{triangles, sample_texture, emission, triangle_uv, material_of, geometric_normal}
 #import gi::brdf::{brdf_new, brdf_diffuse_albedo}
 #import gi::packing::{pack_unit_vector, pack_rgb9e5}
@@ -153,8 +156,10 @@ fn geometry_box_bits(lo: vec3<f32>, hi: vec3<f32>, half: f32) -> u32 {
     let steps = f32(CACHE_BOX_STEPS);
     var bits = 0u;
     for (var axis = 0u; axis < 3u; axis++) {
-        let a = u32(clamp(floor((lo[axis] + half) / (2.0 * half) * steps - 1e-3), 0.0, steps - 1.0));
-        let b = max(u32(clamp(ceil((hi[axis] + half) / (2.0 * half) * steps + 1e-3), 1.0, steps)), a + 1u);
+        let lo_steps = (lo[axis] + half) / (2.0 * half) * steps;
+        let hi_steps = (hi[axis] + half) / (2.0 * half) * steps;
+        let a = u32(clamp(floor(lo_steps - 1e-3), 0.0, steps - 1.0));
+        let b = max(u32(clamp(ceil(hi_steps + 1e-3), 1.0, steps)), a + 1u);
         bits |= (a | ((CACHE_BOX_STEPS - b) << 3u)) << (CACHE_STATE_BOX_SHIFT + 6u * axis);
     }
     return bits;

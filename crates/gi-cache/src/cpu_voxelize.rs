@@ -286,6 +286,7 @@ pub fn material_at(scene: &CacheScene<'_>, triangle: u32, b: Vec3) -> (Vec3, Vec
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::layout::geometry_box;
 
     #[test]
     fn overlap_is_half_open_along_the_world_axes() {
@@ -333,19 +334,16 @@ mod tests {
         let (center, half) = (Vec3::splat(0.5), 0.5);
         assert!(triangle_box_overlap(jamb, center, half));
         let (_, lo, hi) = clip_to_box(jamb, center, half);
-        let (box_lo, box_hi) = crate::layout::geometry_box(geometry_box_bits(lo, hi, half));
+        let (box_lo, box_hi) = geometry_box(geometry_box_bits(lo, hi, half));
         // x in eighths: 0.3 lies in [2/8, 3/8]; y and z span the voxel.
         assert_eq!(box_lo, glam::UVec3::new(2, 0, 0));
         assert_eq!(box_hi, glam::UVec3::new(3, 8, 8));
         // A plane on an eighth is rounded outwards to a slab an eighth thick.
         let on_step = jamb.map(|p| Vec3::new(0.25, p.y, p.z));
         let (_, lo, hi) = clip_to_box(on_step, center, half);
-        let (box_lo, box_hi) = crate::layout::geometry_box(geometry_box_bits(lo, hi, half));
+        let (box_lo, box_hi) = geometry_box(geometry_box_bits(lo, hi, half));
         assert!(box_lo.x <= 2 && box_hi.x >= 2 && box_hi.x - box_lo.x <= 2);
         // Zero bits are the whole voxel.
-        assert_eq!(
-            crate::layout::geometry_box(0),
-            (glam::UVec3::ZERO, glam::UVec3::splat(8))
-        );
+        assert_eq!(geometry_box(0), (glam::UVec3::ZERO, glam::UVec3::splat(8)));
     }
 }

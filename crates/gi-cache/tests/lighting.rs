@@ -647,8 +647,8 @@ fn check_thin_wall(means: &[(f32, f32, f32)]) {
     // 0.94 after 32 frames, still converging: one bounce per update; 0.79 and 0.87 while the
     // door's jamb voxels narrowed the opening, 0.50 and 0.67 when lighting was stored per axis
     // face, whose hidden faces darkened the room's edges), its outer wall and the outdoor
-    // ground within 3% of it. These checks hold at every window
-    // shape; `THIN_WALL_RATIOS` pins the 16 x 8 x 16 figures.
+    // ground within 3% of it. These checks hold at every window shape; `THIN_WALL_RATIOS`
+    // pins the 16 x 8 x 16 figures.
     assert!(means[0].0 < 1.5 * means[0].1 && means[2].0 < 1.5 * means[2].1);
     assert!(inner_outer_cache < 2.0 * inner_outer_reference);
     assert!(means[0].0 > 0.5 * means[0].1 && means[2].0 > 0.5 * means[2].1);
@@ -843,15 +843,16 @@ fn cornell_box_irradiance_matches_the_reference() {
 const CORNELL_MAX_ERROR_ALL: f32 = 0.40;
 
 /// The same over points farther than 1.5 voxels from any other surface: measured 0.1022,
-/// reference noise 0.0343, bound their sum rounded up (0.1377 before the geometry box; 0.1586 with emitter samples at the side
-/// point; 0.160 to 0.171 depending on the run before that; 0.176 per axis face).
+/// reference noise 0.0343, bound their sum rounded up (0.1377 before the geometry box; 0.1586
+/// with emitter samples at the side point; 0.160 to 0.171 depending on the run before that;
+/// 0.176 per axis face).
 const CORNELL_MAX_ERROR_AWAY_FROM_EDGES: f32 = 0.14;
 
 /// Largest |bias| (the cache's mean irradiance over the reference's, minus 1) over the points
-/// away from edges. Measured +0.006 (+0.017 before the geometry box); it was +0.057 while emitter samples were taken at the side
-/// point, which this bound catches. The reference's noise in a mean over 117 points is about
-/// 0.0343 / sqrt(117) = 0.003, so the bound leaves room for that and for another adapter's
-/// rounding.
+/// away from edges. Measured +0.006 (+0.017 before the geometry box); it was +0.057 while
+/// emitter samples were taken at the side point, which this bound catches. The reference's
+/// noise in a mean over 117 points is about 0.0343 / sqrt(117) = 0.003, so the bound leaves
+/// room for that and for another adapter's rounding.
 const CORNELL_MAX_BIAS_AWAY_FROM_EDGES: f32 = 0.03;
 
 // ---------------------------------------------------------------------------------------------
