@@ -325,7 +325,8 @@ fn cache_hit_normal(hit: CacheHit) -> vec3<f32> {
 const CACHE_IRRADIANCE_MIN_AGREEMENT: f32 = 0.5;
 
 // Irradiance (rgb) at surface point `p` with unit normal `n`, and in w whether the cache has a
-// voxel there (1) or not (0, rgb 0), at the finest level whose window holds `p`.
+// voxel there (1) or not (0, rgb 0), at the finest level whose window holds `p` and that has a
+// voxel there.
 //
 // Interpolation: trilinear over the 2 x 2 x 2 voxels around the point half a voxel behind the
 // surface (`p - n * s / 2`, where the surface's own voxels are). Each occupied voxel gives the
@@ -356,11 +357,21 @@ fn cache_side_irradiance_of(v: VoxelRef, side: u32, with_direct: bool) -> vec3<f
     return e;
 }
 
+// `cache_irradiance` or `cache_indirect_irradiance`. A point near the edge of its level's window
+// can find no voxel at that level: the surface's own voxels lie behind it, outside the window.
+// The lookup then falls back to the coarser levels, whose windows hold it.
 fn cache_irradiance_of(p: vec3<f32>, n: vec3<f32>, with_direct: bool) -> vec4<f32> {
-    let level = cache_level_of_point(p);
-    if level >= cache.level_count {
-        return vec4(0.0);
+    for (var level = cache_level_of_point(p); level < cache.level_count; level++) {
+        let e = cache_irradiance_at_level(p, n, level, with_direct);
+        if e.w > 0.0 {
+            return e;
+        }
     }
+    return vec4(0.0);
+}
+
+// `cache_irradiance_of` at one level.
+fn cache_irradiance_at_level(p: vec3<f32>, n: vec3<f32>, level: u32, with_direct: bool) -> vec4<f32> {
     let s = cache.levels[level].voxel_size_m;
     let q = (p - n * (0.5 * s)) / s - 0.5;
     let base = vec3<i32>(floor(q));

@@ -6,7 +6,8 @@
 // `gi_cache::cpu_voxelize`, computed in the same f32 order: occupancy by a triangle-box
 // separating axis test (half-open along the world axes), normal from the area vectors of
 // the triangles clipped to the voxel, coverage from their area projected on that normal,
-// albedo and emission from the material at the closest triangle point to the voxel center,
+// albedo from the material at the closest triangle point to the voxel center, emission as the
+// emitted power of the clipped triangles over the cross-section of their box along the normal,
 // the box around the clipped triangles in the state (`gi_cache::layout::geometry_box_bits`).
 // The voxel's sides and age start at 0; occupancy is gathered with workgroup atomics and
 // written once per brick.
@@ -165,6 +166,17 @@ fn geometry_box_bits(lo: vec3<f32>, hi: vec3<f32>, half: f32) -> u32 {
     return bits;
 }
 
+// `gi_cache::layout::box_cross_section`: the area the stored box (state bits `box_bits`, 0 the
+// whole voxel) of a voxel of edge `s` shows along unit direction `n`.
+fn box_cross_section(box_bits: u32, n: vec3<f32>, s: f32) -> f32 {
+    let bits = box_bits >> CACHE_STATE_BOX_SHIFT;
+    let lo = vec3<u32>(bits & 7u, (bits >> 6u) & 7u, (bits >> 12u) & 7u);
+    let hi = CACHE_BOX_STEPS - vec3<u32>((bits >> 3u) & 7u, (bits >> 9u) & 7u, (bits >> 15u) & 7u);
+    let e = vec3<f32>(hi - lo) * (s / f32(CACHE_BOX_STEPS));
+    let a = abs(n);
+    return a.x * e.y * e.z + a.y * e.x * e.z + a.z * e.x * e.y;
+}
+
 // `gi_cache::cpu_voxelize::closest_point_barycentrics` (Ericson, 5.1.5).
 fn closest_point_barycentrics(a: vec3<f32>, b: vec3<f32>, c: vec3<f32>, p: vec3<f32>) -> vec3<f32> {
     let ab = b - a;
@@ -269,16 +281,28 @@ fn voxelize(@builtin(workgroup_id) workgroup: vec3<u32>, @builtin(local_invocati
         } else {
             normal = geometric_normal(triangles[closest_triangle]);
         }
-        // Second pass for the coverage: the clipped areas projected on the final normal.
+        // Second pass for the coverage and the emission: the clipped areas projected on the
+        // final normal.
         var projected = 0.0;
+        var emitted = vec3(0.0);
         for (var i = 0u; i < job.triangle_count; i++) {
             let index = brick_triangles[job.first_triangle + i] & ~TRIANGLE_DYNAMIC_BIT;
             let tri = triangles[index];
             if triangle_box_overlap(tri.pa.xyz, tri.pb.xyz, tri.pc.xyz, center, half) {
-                projected += abs(dot(clipped_area_vector(tri.pa.xyz, tri.pb.xyz, tri.pc.xyz, center, half), normal));
+                let area = abs(dot(clipped_area_vector(tri.pa.xyz, tri.pb.xyz, tri.pc.xyz, center, half), normal));
+                projected += area;
+                let material = material_of(index, voxelize_uniforms.default_material);
+                if any(material.emissive != vec3(0.0)) {
+                    let w = closest_point_barycentrics(tri.pa.xyz, tri.pb.xyz, tri.pc.xyz, center);
+                    emitted += emission(material, triangle_uv(tri, w.x, w.y, w.z)) * area;
+                }
             }
         }
         let coverage = min(projected / (4.0 * half * half), 1.0);
+        var box_bits = 0u;
+        if all(box_lo <= box_hi) {
+            box_bits = geometry_box_bits(box_lo, box_hi, half);
+        }
         let tri = triangles[closest_triangle];
         let uv = triangle_uv(tri, closest_b.x, closest_b.y, closest_b.z);
         let material = material_of(closest_triangle, voxelize_uniforms.default_material);
@@ -288,9 +312,8 @@ fn voxelize(@builtin(workgroup_id) workgroup: vec3<u32>, @builtin(local_invocati
         surface = VoxelSurface(
             pack4x8unorm(vec4(albedo, coverage)),
             pack_unit_vector(normal),
-            pack_rgb9e5(emission(material, uv)),
-            select(0u, CACHE_STATE_DYNAMIC, dynamic)
-                | select(0u, geometry_box_bits(box_lo, box_hi, half), all(box_lo <= box_hi)),
+            pack_rgb9e5(emitted / box_cross_section(box_bits, normal, 2.0 * half)),
+            select(0u, CACHE_STATE_DYNAMIC, dynamic) | box_bits,
         );
         atomicOr(&occupancy[bit >> 5u], 1u << (bit & 31u));
     }

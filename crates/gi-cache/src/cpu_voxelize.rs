@@ -15,10 +15,18 @@
 //!   floor), the closest triangle's geometric normal.
 //! - **Coverage** (albedo.a): the clipped area projected on the normal, over `s^2`, at most 1:
 //!   the fraction of rays along the normal through the voxel that hit the surface.
-//! - **Albedo, emission**: the material of the triangle whose closest point is nearest to `c`
-//!   (first in list order on ties), evaluated at that point: diffuse albedo
-//!   `base * (1 - metallic)` (textured base color and metallic, as `gi::brdf`), emission as
-//!   the reference's `emission` (either side).
+//! - **Albedo**: the material of the triangle whose closest point is nearest to `c` (first in
+//!   list order on ties), evaluated at that point: diffuse albedo `base * (1 - metallic)`
+//!   (textured base color and metallic, as `gi::brdf`).
+//! - **Emission**: the emitted power of the voxel's triangles spread over the cross-section of
+//!   its stored box along the normal ([`crate::layout::box_cross_section`]): the sum of each
+//!   triangle's emission (the reference's `emission`, either side, at the triangle's point
+//!   closest to `c`) times its clipped area projected on the normal, over that cross-section.
+//!   A ray along the normal through the box then carries the emitter's mean radiance over the
+//!   box's face. An emitter covering part of a voxel does not shine with its full radiance
+//!   from the whole voxel: the cornell-box ceiling panel (0.18 m²) lit the mobile tier's
+//!   probes as a 1 m² panel at the 0.5 m level under the earlier rule (the closest
+//!   triangle's emission).
 //! - **State**: [`STATE_DYNAMIC`] when an overlapping triangle belongs to a dynamic node; age 0;
 //!   the box around the overlapping triangles clipped to the voxel
 //!   ([`crate::layout::geometry_box_bits`]; the whole voxel when they only touch it).
@@ -28,7 +36,8 @@ use glam::{IVec3, Vec2, Vec3, Vec4};
 
 use crate::binning::{CacheScene, TRIANGLE_DYNAMIC_BIT};
 use crate::layout::{
-    BRICK_VOXELS, STATE_DYNAMIC, VOXELS_PER_BRICK, VoxelSurface, geometry_box_bits, mask_cell,
+    BRICK_VOXELS, STATE_DYNAMIC, VOXELS_PER_BRICK, VoxelSurface, box_cross_section,
+    geometry_box_bits, mask_cell,
 };
 use crate::packing::{pack_rgb9e5, pack_unit_vector, pack4x8unorm};
 
@@ -221,8 +230,8 @@ fn voxelize_voxel(
         box_hi = box_hi.max(hi);
         area_sum += area;
         area_total += area.length();
-        overlapping.push(area);
         let b = closest_point_barycentrics(v, center);
+        overlapping.push((index, area, b));
         let point = v[0] * b.x + v[1] * b.y + v[2] * b.z;
         let distance_sq = (point - center).length_squared();
         if closest.is_none_or(|(d, _, _)| distance_sq < d) {
@@ -237,19 +246,28 @@ fn voxelize_voxel(
         let [a, b, c] = scene.vertices(triangle);
         (b - a).cross(c - a).normalize_or(Vec3::Y)
     };
-    let projected: f32 = overlapping.iter().map(|a| a.dot(normal).abs()).sum();
+    let mut projected = 0.0f32;
+    let mut emitted = Vec3::ZERO;
+    for &(index, area, b) in &overlapping {
+        let area = area.dot(normal).abs();
+        projected += area;
+        let (_, emission) = material_at(scene, index, b);
+        if emission != Vec3::ZERO {
+            emitted += emission * area;
+        }
+    }
     let coverage = (projected / (4.0 * half * half)).min(1.0);
-    let (albedo, emission) = material_at(scene, triangle, b);
+    let (albedo, _) = material_at(scene, triangle, b);
+    let box_bits = if box_lo.cmple(box_hi).all() {
+        geometry_box_bits(box_lo, box_hi, half)
+    } else {
+        0
+    };
     Some(VoxelSurface {
         albedo: pack4x8unorm(albedo.extend(coverage)),
         normal: pack_unit_vector(normal),
-        emission: pack_rgb9e5(emission),
-        state: if dynamic { STATE_DYNAMIC } else { 0 }
-            | if box_lo.cmple(box_hi).all() {
-                geometry_box_bits(box_lo, box_hi, half)
-            } else {
-                0
-            },
+        emission: pack_rgb9e5(emitted / box_cross_section(box_bits, normal, 2.0 * half)),
+        state: if dynamic { STATE_DYNAMIC } else { 0 } | box_bits,
     })
 }
 

@@ -171,6 +171,16 @@ pub fn geometry_box(state: u32) -> (glam::UVec3, glam::UVec3) {
     )
 }
 
+/// The area that the box stored in `state` ([`geometry_box`]; the whole voxel when its bits
+/// are 0) of a voxel of edge `s` shows along unit direction `n`: the sum over the box's faces
+/// of their area times `|n|` along their axis.
+pub fn box_cross_section(state: u32, n: glam::Vec3, s: f32) -> f32 {
+    let (lo, hi) = geometry_box(state);
+    let e = (hi - lo).as_vec3() * (s / BOX_STEPS as f32);
+    let a = n.abs();
+    a.x * e.y * e.z + a.y * e.x * e.z + a.z * e.x * e.y
+}
+
 /// `VoxelSurface::state` bit of voxels that hold part of a moving object.
 pub const STATE_DYNAMIC: u32 = 1 << 8;
 /// `VoxelSurface::state` mask of the age.

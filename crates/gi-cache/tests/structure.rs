@@ -1,6 +1,9 @@
 //! The cache's CPU structure: allocator, windows, link grid and masks, the CPU-filled cache.
 
-use gi_cache::layout::{GROUP_BRICKS, NO_BRICK, STATE_DYNAMIC, join_mask, side_slot};
+use gi_cache::binning::CacheScene;
+use gi_cache::layout::{
+    GROUP_BRICKS, NO_BRICK, STATE_DYNAMIC, box_cross_section, join_mask, side_slot,
+};
 use gi_cache::packing::{unpack_rgb9e5, unpack_unit_vector};
 use gi_cache::{BrickAllocator, CacheBuffers, CacheConfig, ClipmapWindows, CpuCache, FreeError};
 use gi_gpu::GpuContext;
@@ -110,6 +113,65 @@ fn cpu_cache_of_the_cornell_box_holds_its_surfaces() {
         }
     }
     assert!(found > 1000);
+}
+
+/// The ceiling panel of cornell-box (0.18 m², 5 mm below the ceiling) covers only part of
+/// its voxels. Each level's voxels together emit the panel's power: emission times the
+/// cross-section of the voxel's box along its normal, summed, equals the panel's radiance
+/// times its area, within RGB9E5 rounding, where the voxels face the way the panel does. Under
+/// the earlier rule (every voxel nearest the panel shone with its full radiance) the 0.5 m
+/// level emitted several times as much.
+#[test]
+fn cached_emitters_keep_their_power_at_every_level() {
+    let scene = load("cornell-box");
+    let frame = scene.evaluate(0.0, None);
+    let config = CacheConfig::default();
+    // Windows centered in the room, so that every level holds the whole panel.
+    let cache = CpuCache::build(&config, &scene, &frame, Vec3::new(0.0, 1.0, 0.0)).unwrap();
+    let cache_scene = CacheScene::new(&scene, &frame);
+    let mut radiance = Vec3::ZERO;
+    let mut area = 0.0f32;
+    for (index, attributes) in frame.attributes.iter().enumerate() {
+        let emissive = scene.materials[attributes.material as usize].emissive;
+        if emissive != Vec3::ZERO {
+            let [a, b, c] = cache_scene.vertices(index as u32);
+            area += 0.5 * (b - a).cross(c - a).length();
+            radiance = emissive;
+        }
+    }
+    assert!(area > 0.1 && radiance.max_element() > 1.0);
+    let power = radiance * area;
+    for level in 0..config.levels {
+        let s = config.voxel_size_at(level);
+        let mut cached = Vec3::ZERO;
+        let mut voxels = 0;
+        for b in cache.bricks.iter().filter(|b| b.level == level) {
+            let mask = cache.structure.brick_mask(b.id);
+            for bit in (0..64).filter(|bit| mask & (1 << bit) != 0) {
+                let v = cache.surface(b.id, bit);
+                let e = unpack_rgb9e5(v.emission);
+                if e != Vec3::ZERO {
+                    let n = unpack_unit_vector(v.normal);
+                    cached += e * box_cross_section(v.state, n, s);
+                    voxels += 1;
+                    // No voxel shines brighter than the panel.
+                    assert!(e.cmple(radiance * 1.01).all(), "level {level}: {e}");
+                }
+            }
+        }
+        eprintln!(
+            "level {level} ({s} m voxels): {voxels} emitting voxels, power {cached} of {power}"
+        );
+        // Up to 0.5 m voxels, the panel's voxels face down with it. Coarser voxels hold the
+        // walls' corners too (the 2 m level the whole room), and their normals lean away from
+        // the panel's: what they emit along their normals is its power times the cosine
+        // between the two, down to nothing where the room's faces cancel.
+        let (low, high) = if s <= 0.5 { (0.99, 1.01) } else { (0.0, 1.01) };
+        assert!(
+            cached.cmpge(power * low).all() && cached.cmple(power * high).all(),
+            "level {level}: {cached} emitted, the panel {power}"
+        );
+    }
 }
 
 #[test]

@@ -6,7 +6,7 @@
 //!   slab-test reference; the same rays traced in lanes (`trace_shared`, one lane per clipmap
 //!   level) find the same hits;
 //! - `cache_irradiance` returns the side values written into a hand-built cache, at a concave
-//!   corner too;
+//!   corner too, and falls back to a coarser level at a window's boundary;
 //! - a voxelized wall face inside its voxels: rays crossing it hit, rays along it through the
 //!   rest of those voxels (a door's opening beside its jamb) pass;
 //! - voxelized bundled scenes: hit distances agree with the scene's BVH within one voxel
@@ -516,6 +516,54 @@ fn irradiance_in_a_concave_corner_comes_from_the_sides_not_from_hidden_faces() {
     let values = tracer.irradiance(&ctx, &buffers, &queries);
     println!("corner irradiance: {values:?}, expected {expected:?}");
     check_irradiance(&values, &expected);
+    buffers.release(&ctx);
+}
+
+/// A wall whose face lies on level 0's window boundary (x = -4 m), voxelized only in level 1
+/// beyond it: a point on the face is inside level 0's window, but the voxels its lookup reads
+/// (half a voxel behind the face) are outside it. The lookup falls back to level 1. Before the
+/// fallback it found no voxel and the point read black.
+#[test]
+fn irradiance_at_a_window_boundary_falls_back_to_the_coarser_level() {
+    let Some((ctx, tracer)) =
+        setup("irradiance_at_a_window_boundary_falls_back_to_the_coarser_level")
+    else {
+        return;
+    };
+    let mut cache = HandCache::new();
+    let (front, back) = (Vec3::new(2.0, 4.0, 1.0), Vec3::new(0.5, 0.125, 0.25));
+    let s1 = cache.voxel_size(1);
+    // Level 1's voxels at x in [-4.5, -4): x index -9.
+    for y in -2..2 {
+        for z in -2..2 {
+            let v = cache.set_voxel(1, IVec3::new(-9, y, z), Vec3::X);
+            cache.set_side(v, SIDE_FRONT, front * 0.5, front * 0.5);
+            cache.set_side(v, SIDE_BACK, back * 0.5, back * 0.5);
+        }
+    }
+    // A level 0 floor inside the window, to show a point that level 0 covers still reads it.
+    let floor = Vec3::new(1.0, 0.5, 0.25);
+    for x in -16..-12 {
+        for z in -2..2 {
+            let v = cache.set_voxel(0, IVec3::new(x, -8, z), Vec3::Y);
+            cache.set_side(v, SIDE_FRONT, floor, Vec3::ZERO);
+            cache.set_side(v, SIDE_BACK, Vec3::ZERO, Vec3::ZERO);
+        }
+    }
+    let queries = vec![
+        // On the wall's face, inside level 0's window: level 1's front.
+        (Vec3::new(-4.0 + 1e-4, 0.1, 0.2), Vec3::X),
+        (Vec3::new(-4.0 + 1e-4, -0.6, -0.3), Vec3::X),
+        // Behind it, looking back: level 1's back side (level 0 does not hold the point).
+        (Vec3::new(-4.0 - s1, 0.1, 0.2), Vec3::NEG_X),
+        // On the level 0 floor next to the boundary: level 0.
+        (Vec3::new(-3.6, -1.75, 0.1), Vec3::Y),
+        // Nothing at either level.
+        (Vec3::new(-3.0, 1.5, 0.1), Vec3::X),
+    ];
+    let expected = [Some(front), Some(front), Some(back), Some(floor), None];
+    let buffers = cache.upload(&ctx);
+    check_irradiance(&tracer.irradiance(&ctx, &buffers, &queries), &expected);
     buffers.release(&ctx);
 }
 
