@@ -1,5 +1,6 @@
 //! Lighting the cache (`cache/inject`, `cache/propagate`, `cache/propagate_resolve`): direct
-//! injection against the analytic irradiance, convergence against the reference's irradiance,
+//! injection against the analytic irradiance, a white furnace against its exact irradiance,
+//! convergence against the reference's irradiance,
 //! bit-identical results from identical inputs, reaction to a changed light, and the passes' GPU
 //! times.
 
@@ -1212,4 +1213,112 @@ fn lighting_pass_times_on_bundled_scenes() {
         );
     }
     println!("adapter: {}", ctx.adapter_info.name);
+}
+
+// ---------------------------------------------------------------------------------------------
+// Furnace.
+// ---------------------------------------------------------------------------------------------
+
+/// A closed cube whose six inward faces all emit `le` and reflect `albedo`: every point inside
+/// receives the same irradiance, `pi le / (1 - albedo)` (the radiance everywhere inside is
+/// `L = le + albedo E / pi` and `E = pi L`).
+fn furnace_scene(le: f32, albedo: f32) -> (Scene, Vec3) {
+    let center = Vec3::new(0.011, 0.023, 0.037);
+    let h = 0.7;
+    let mut builder = SceneBuilder::new(Sky::default());
+    for n in [
+        Vec3::X,
+        Vec3::NEG_X,
+        Vec3::Y,
+        Vec3::NEG_Y,
+        Vec3::Z,
+        Vec3::NEG_Z,
+    ] {
+        let u = n.any_orthonormal_vector() * h;
+        builder.quad(center - n * h, u, n.cross(u), albedo);
+        builder.scene.materials.last_mut().unwrap().emissive = Vec3::splat(le);
+    }
+    (builder.scene, center)
+}
+
+/// Ratio of the cache's mean irradiance over the front sides of the furnace's flat-wall voxels
+/// to the exact `pi le / (1 - albedo)`, every 8th frame from frame 48 to 96 (each an
+/// independent window of the accumulation's 8 updates).
+fn furnace_ratios(ctx: &GpuContext, le: f32, albedo: f32) -> Vec<f32> {
+    let (scene, center) = furnace_scene(le, albedo);
+    let mut frame = scene.evaluate(0.0, None);
+    frame.camera.position = center;
+    let config = CacheConfig {
+        light_bricks_per_frame: 512,
+        max_age: 8,
+        ..small_config()
+    };
+    let mut lit = LitCache::new(ctx, &config, &scene, &frame);
+    let exact = std::f32::consts::PI * le / (1.0 - albedo);
+    // Voxels of one wall (edge and corner voxels hold two or three walls, and their averaged
+    // normals lean off every wall's: what reaches their surface point differs).
+    let sides: Vec<Side> = voxel_sides(&lit.cpu)
+        .into_iter()
+        .filter(|s| s.side == SIDE_FRONT && s.normal.abs().max_element() > 0.99)
+        .collect();
+    assert!(sides.len() > 2000, "{} sides", sides.len());
+    let mut ratios = Vec::new();
+    for f in 1..=96 {
+        lit.frame(ctx, &scene.sky);
+        if f >= 48 && f % 8 == 0 {
+            let (direct, indirect) = lit.read_sides(ctx);
+            let sum: f32 = sides
+                .iter()
+                .map(|s| luminance(direct[s.slot] + indirect[s.slot]))
+                .sum();
+            ratios.push(sum / sides.len() as f32 / exact);
+        }
+    }
+    ratios
+}
+
+fn mean_and_standard_error(values: &[f32]) -> (f32, f32) {
+    let n = values.len() as f32;
+    let mean = values.iter().sum::<f32>() / n;
+    let variance = values.iter().map(|v| (v - mean).powi(2)).sum::<f32>() / (n - 1.0);
+    (mean, (variance / n).sqrt())
+}
+
+/// White furnace: a closed cube of emitting, reflecting walls, without sky or lights.
+/// - With albedo 0 the cache holds only the emitters' next-event samples: pi le within 4
+///   standard errors of the mean over the windows.
+/// - With albedo 0.5 every bounce adds half the light again (`1 / (1 - albedo)` in all): the
+///   gather and the accumulation lose no energy. The two runs draw the same random numbers,
+///   so their difference is measured per window, and must be 0 within 4 standard errors of
+///   its mean over the windows.
+///
+/// Found by this test: the emitters' samples read 1.3% low (0.9887 +- 0.0021; 2.2% with 32
+/// rays per side). A sample's shadow ray leaves from the side point, most of a voxel off the
+/// wall, and an emitter point below that point's plane (the strip of a neighbouring wall next
+/// to the edge, where `1 / d^2` is largest) counted as blocked although the surface sees it.
+/// Since those count: 1.0004 +- 0.0018, and cornell-box's cache test is unchanged.
+#[test]
+fn furnace_propagation_keeps_the_energy_of_every_bounce() {
+    let Some(ctx) = GpuContext::new_or_skip("furnace_propagation_keeps_the_energy_of_every_bounce")
+    else {
+        return;
+    };
+    let le = 0.5;
+    let black = furnace_ratios(&ctx, le, 0.0);
+    let grey = furnace_ratios(&ctx, le, 0.5);
+    let (mean_black, se_black) = mean_and_standard_error(&black);
+    let differences: Vec<f32> = grey.iter().zip(&black).map(|(g, b)| g - b).collect();
+    let (difference, se_difference) = mean_and_standard_error(&differences);
+    println!(
+        "furnace: albedo 0 {mean_black:.4} +- {se_black:.4} of pi le ({black:?}); albedo 0.5 \
+         {grey:?}; difference {difference:.4} +- {se_difference:.4}"
+    );
+    assert!(
+        difference.abs() <= 4.0 * se_difference,
+        "albedo 0.5 against 0: {difference} (standard error {se_difference})"
+    );
+    assert!(
+        (mean_black - 1.0).abs() <= 4.0 * se_black,
+        "emitters' samples: {mean_black} of pi le (standard error {se_black})"
+    );
 }
