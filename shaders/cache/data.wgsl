@@ -183,6 +183,21 @@ fn cache_side_normal(n: vec3<f32>, side: u32) -> vec3<f32> {
     return select(-n, n, side == CACHE_SIDE_FRONT);
 }
 
+// The box around a voxel's geometry that its state holds (`gi_cache::layout::geometry_box`):
+// bounds in steps of 1 / CACHE_BOX_STEPS of the voxel edge from its lowest corner; all-zero
+// bits are the whole voxel.
+struct CacheGeometryBox {
+    lo: vec3<u32>,
+    hi: vec3<u32>,
+}
+
+fn cache_geometry_box(state: u32) -> CacheGeometryBox {
+    let bits = state >> CACHE_STATE_BOX_SHIFT;
+    let lo = vec3<u32>(bits & 7u, (bits >> 6u) & 7u, (bits >> 12u) & 7u);
+    let hi = CACHE_BOX_STEPS - vec3<u32>((bits >> 3u) & 7u, (bits >> 9u) & 7u, (bits >> 15u) & 7u);
+    return CacheGeometryBox(lo, hi);
+}
+
 fn cache_voxel_albedo(s: VoxelSurface) -> vec3<f32> {
     return unpack4x8unorm(s.albedo).rgb;
 }

@@ -28,7 +28,7 @@
     cache_level_of_point, cache_link_index, cache_group_index, cache_voxel_at, cache_voxel_index,
     cache_voxel_normal, cache_side_radiance, cache_side_seen_by_ray,
     cache_side_normal, cache_side_slot, cache_direct, cache_indirect, CACHE_SIDE_FRONT,
-    CACHE_SIDE_BACK, CACHE_STATE_BOX_SHIFT, CACHE_BOX_STEPS
+    CACHE_SIDE_BACK, CACHE_STATE_BOX_SHIFT, CACHE_BOX_STEPS, cache_geometry_box
 }
 #import gi::packing::unpack_rgb9e5
 
@@ -225,17 +225,14 @@ fn cache_ray_meets_box(
     s: f32,
     state: u32,
 ) -> bool {
-    let bits = state >> CACHE_STATE_BOX_SHIFT;
-    if bits == 0u {
+    if (state >> CACHE_STATE_BOX_SHIFT) == 0u {
         return true;
     }
-    let lo_steps = vec3<u32>(bits & 7u, (bits >> 6u) & 7u, (bits >> 12u) & 7u);
-    let hi_steps =
-        CACHE_BOX_STEPS - vec3<u32>((bits >> 3u) & 7u, (bits >> 9u) & 7u, (bits >> 15u) & 7u);
+    let geometry = cache_geometry_box(state);
     let step = s / f32(CACHE_BOX_STEPS);
     let margin = 1e-3 * s;
-    let lo = vec3<f32>(vox) * s + vec3<f32>(lo_steps) * step - margin;
-    let hi = vec3<f32>(vox) * s + vec3<f32>(hi_steps) * step + margin;
+    let lo = vec3<f32>(vox) * s + vec3<f32>(geometry.lo) * step - margin;
+    let hi = vec3<f32>(vox) * s + vec3<f32>(geometry.hi) * step + margin;
     let inside = (origin >= lo) & (origin <= hi);
     if any(!moving & !inside) {
         return false;

@@ -14,7 +14,8 @@
 
 #import gi::cache::data::{
     cache, cache_brick_masks, cache_voxels, cache_direct, cache_indirect, cache_mask_cell,
-    VoxelSurface, CACHE_STATE_DYNAMIC, CACHE_SIDE_COUNT, CACHE_STATE_BOX_SHIFT, CACHE_BOX_STEPS
+    VoxelSurface, CACHE_STATE_DYNAMIC, CACHE_SIDE_COUNT, CACHE_STATE_BOX_SHIFT, CACHE_BOX_STEPS,
+    cache_geometry_box
 }
 #import gi::scene::{triangles, sample_texture, emission, triangle_uv, material_of, geometric_normal}
 #import gi::brdf::{brdf_new, brdf_diffuse_albedo}
@@ -169,10 +170,8 @@ fn geometry_box_bits(lo: vec3<f32>, hi: vec3<f32>, half: f32) -> u32 {
 // `gi_cache::layout::box_cross_section`: the area the stored box (state bits `box_bits`, 0 the
 // whole voxel) of a voxel of edge `s` shows along unit direction `n`.
 fn box_cross_section(box_bits: u32, n: vec3<f32>, s: f32) -> f32 {
-    let bits = box_bits >> CACHE_STATE_BOX_SHIFT;
-    let lo = vec3<u32>(bits & 7u, (bits >> 6u) & 7u, (bits >> 12u) & 7u);
-    let hi = CACHE_BOX_STEPS - vec3<u32>((bits >> 3u) & 7u, (bits >> 9u) & 7u, (bits >> 15u) & 7u);
-    let e = vec3<f32>(hi - lo) * (s / f32(CACHE_BOX_STEPS));
+    let geometry = cache_geometry_box(box_bits);
+    let e = vec3<f32>(geometry.hi - geometry.lo) * (s / f32(CACHE_BOX_STEPS));
     let a = abs(n);
     return a.x * e.y * e.z + a.y * e.x * e.z + a.z * e.x * e.y;
 }

@@ -6,7 +6,8 @@
 
 use gi_cache::cpu_voxelize::closest_point_barycentrics;
 use gi_cache::layout::{
-    SIDE_BACK, SIDE_COUNT, SIDE_FRONT, mask_cell, side_normal, side_slot, voxel_index,
+    FACE_DIRECTIONS, SIDE_BACK, SIDE_COUNT, SIDE_FRONT, mask_cell, side_normal, side_slot,
+    voxel_index,
 };
 use gi_cache::lighting::{
     CONVERGING_FRACTION, GpuLightingUniforms, GpuScheduledBrick, GpuSky, side_point,
@@ -1226,14 +1227,7 @@ fn furnace_scene(le: f32, albedo: f32) -> (Scene, Vec3) {
     let center = Vec3::new(0.011, 0.023, 0.037);
     let h = 0.7;
     let mut builder = SceneBuilder::new(Sky::default());
-    for n in [
-        Vec3::X,
-        Vec3::NEG_X,
-        Vec3::Y,
-        Vec3::NEG_Y,
-        Vec3::Z,
-        Vec3::NEG_Z,
-    ] {
+    for n in FACE_DIRECTIONS {
         let u = n.any_orthonormal_vector() * h;
         builder.quad(center - n * h, u, n.cross(u), albedo);
         builder.scene.materials.last_mut().unwrap().emissive = Vec3::splat(le);
