@@ -17,6 +17,9 @@
 //   binding 4: `cache_voxels` array<VoxelSurface>, per brick ID * 64 + voxel bit
 //   binding 5: `cache_direct` array<u32>, per voxel index * 2 + side: RGB9E5 direct irradiance
 //   binding 6: `cache_indirect` array<u32>, same indexing: RGB9E5 indirect irradiance
+//   binding 7: `cache_emitted` array<u32>, same indexing: RGB9E5, the part of the indirect
+//              irradiance that emissive triangles give directly (accumulated alongside it);
+//              one placeholder element unless `gi_cache::CacheConfig::keep_emitted`
 // The storage buffers are read_write so update passes and queries share one module and one
 // layout; queries only read them.
 #define_import_path gi::cache::data
@@ -75,6 +78,13 @@ struct VoxelRef {
 @group(2) @binding(4) var<storage, read_write> cache_voxels: array<VoxelSurface>;
 @group(2) @binding(5) var<storage, read_write> cache_direct: array<u32>;
 @group(2) @binding(6) var<storage, read_write> cache_indirect: array<u32>;
+@group(2) @binding(7) var<storage, read_write> cache_emitted: array<u32>;
+
+// Whether the cache keeps the emitted part of its sides' indirect irradiance (`cache_emitted`
+// holds every side rather than a placeholder).
+fn cache_keeps_emitted() -> bool {
+    return arrayLength(&cache_emitted) > 1u;
+}
 
 // Bit of cell `c` (each component 0..3) in a 64-bit brick or group mask.
 fn cache_mask_bit(c: vec3<u32>) -> u32 {
@@ -165,7 +175,7 @@ fn cache_voxel_index(v: VoxelRef) -> u32 {
     return v.brick_id * 64u + v.bit;
 }
 
-// Index of side `side` of voxel `v` in `cache_direct` / `cache_indirect`.
+// Index of side `side` of voxel `v` in `cache_direct`, `cache_indirect` and `cache_emitted`.
 fn cache_side_slot(v: VoxelRef, side: u32) -> u32 {
     return cache_voxel_index(v) * CACHE_SIDE_COUNT + side;
 }

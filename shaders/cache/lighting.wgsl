@@ -10,14 +10,15 @@
 //              textures, texels, the emitter table, selection probabilities, punctual lights
 //   binding 8: `scheduled_bricks` array<ScheduledBrick>, one workgroup each
 //   binding 9: `propagate_scratch` array<u32>, per scheduled brick * 128 + voxel bit * 2 + side:
-//              the side's new RGB9E5 indirect irradiance, written by `cache/propagate` and
-//              copied into `cache_indirect` by `cache/propagate_resolve`
+//              the side's new RGB9E5 indirect irradiance, followed by its emitted part when the
+//              cache keeps it (`propagate_scratch_slot`), written by `cache/propagate` and copied
+//              into `cache_indirect` (and `cache_emitted`) by `cache/propagate_resolve`
 #define_import_path gi::cache::lighting
 
 #import gi::lights::Sky
 #import gi::cache::data::{
     cache, cache_brick_masks, cache_voxels, VoxelRef, VoxelSurface, cache_mask_cell,
-    cache_mask_test, cache_voxel_index, cache_voxel_normal, cache_voxel_age
+    cache_mask_test, cache_voxel_index, cache_voxel_normal, cache_voxel_age, cache_keeps_emitted
 }
 
 // Distance from a voxel's center to the point its sides are lit at, in voxel edges: half the
@@ -105,9 +106,11 @@ fn scheduled_voxel(scheduled: u32, bit: u32) -> ScheduledVoxel {
     );
 }
 
-// Index in `propagate_scratch` of side `side` of voxel `bit` of the `scheduled`-th brick.
+// Index in `propagate_scratch` of side `side` of voxel `bit` of the `scheduled`-th brick: its
+// indirect irradiance, and at the next index its emitted part when the cache keeps that.
 fn propagate_scratch_slot(scheduled: u32, bit: u32, side: u32) -> u32 {
-    return (scheduled * 64u + bit) * 2u + side;
+    let stride = select(1u, 2u, cache_keeps_emitted());
+    return ((scheduled * 64u + bit) * 2u + side) * stride;
 }
 
 // Age of voxel `lit` after this frame's propagation: one update older, at most its brick's

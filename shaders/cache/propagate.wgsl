@@ -16,7 +16,9 @@
 // mean(Le cos / pdf)): a small bright emitter is then found by every sample instead of by the rare
 // ray that hits its voxel, and nothing is counted twice (`cache/inject` adds only punctual
 // lights). The sum is the side's indirect irradiance, accumulated over updates with weight 1 / age
-// (age = min(age + 1, max_age)).
+// (age = min(age + 1, max_age)). When the cache keeps it, the emitters' samples alone are
+// accumulated the same way into `cache_emitted`: a caller that samples the emitters itself at a surface point (the PC tier at
+// its rays' hits) takes `cache_indirect - cache_emitted`, the light that arrives after a bounce.
 //
 // A gather from last frame's lighting (HSGI's and SmartGI's "previous frame" bounce): this pass
 // writes nothing the cache's rays read. The accumulated value goes to `propagate_scratch` and
@@ -34,7 +36,8 @@
 #import gi::bvh::{Ray, trace_any}
 #import gi::packing::{pack_rgb9e5, unpack_rgb9e5}
 #import gi::cache::data::{
-    cache_indirect, cache_side_slot, cache_side_normal, CACHE_SIDE_COUNT
+    cache_indirect, cache_emitted, cache_keeps_emitted, cache_side_slot, cache_side_normal,
+    CACHE_SIDE_COUNT
 }
 #import gi::cache::trace::{cache_trace, cache_hit_radiance}
 #import gi::cache::lighting::{
@@ -98,8 +101,10 @@ fn emitter_irradiance(
 // frame (512 bricks x 64 voxels x 2 sides) to hide that latency otherwise.
 const RAY_LANES: u32 = 4u;
 
-// Each thread's share of its side's irradiance sum (bounced x pi + emitted), by thread index.
+// Each thread's share of its side's irradiance sum (bounced x pi + emitted), and of its emitted
+// part, by thread index.
 var<workgroup> lane_sums: array<vec3<f32>, 256>;
+var<workgroup> lane_emitted: array<vec3<f32>, 256>;
 
 // The random sequence of lane `lane` of side `side` of world voxel `voxel` at `level` for this
 // update. Keyed by the side's place in the world rather than its pool slot, so the result does
@@ -124,6 +129,7 @@ fn propagate(
     let occupied = scheduled_voxel_occupied(group.x, bit);
     let rays = max(lighting.rays_per_side, 1u);
     var sum = vec3<f32>(0.0);
+    var emitted = vec3<f32>(0.0);
     if occupied {
         let lit = scheduled_voxel(group.x, bit);
         let n_side = cache_side_normal(lit.n, side);
@@ -140,18 +146,21 @@ fn propagate(
             let dir = frame_to_world(frame, cosine_hemisphere(sampler_next_2d(&sampler)));
             sum += bounced_radiance(x, dir) * PI;
             if lighting.emitter_count > 0u {
-                sum += emitter_irradiance(surface, x, n_side, &sampler);
+                emitted += emitter_irradiance(surface, x, n_side, &sampler);
             }
         }
     }
-    lane_sums[thread] = sum;
+    lane_sums[thread] = sum + emitted;
+    lane_emitted[thread] = emitted;
     workgroupBarrier();
     if !occupied || lane != 0u {
         return;
     }
     var total = vec3<f32>(0.0);
+    var total_emitted = vec3<f32>(0.0);
     for (var l = 0u; l < RAY_LANES; l++) {
         total += lane_sums[bit + 64u * l];
+        total_emitted += lane_emitted[bit + 64u * l];
     }
     let lit = scheduled_voxel(group.x, bit);
     let age = propagated_age(lit);
@@ -160,6 +169,11 @@ fn propagate(
     let slot = cache_side_slot(lit.v, side);
     let irradiance = total / f32(rays);
     let history = unpack_rgb9e5(cache_indirect[slot]);
-    propagate_scratch[propagate_scratch_slot(group.x, bit, side)] =
-        pack_rgb9e5(mix(history, irradiance, weight));
+    let scratch = propagate_scratch_slot(group.x, bit, side);
+    propagate_scratch[scratch] = pack_rgb9e5(mix(history, irradiance, weight));
+    if cache_keeps_emitted() {
+        let emitted_history = unpack_rgb9e5(cache_emitted[slot]);
+        propagate_scratch[scratch + 1u] =
+            pack_rgb9e5(mix(emitted_history, total_emitted / f32(rays), weight));
+    }
 }

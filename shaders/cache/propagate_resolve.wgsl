@@ -7,13 +7,14 @@
 // the order the workgroups run in.
 //
 // One 64-thread workgroup per scheduled brick, one thread per voxel: for every occupied voxel,
-// both sides' new indirect irradiance is copied into `cache_indirect` and the voxel's age
-// advanced as `cache/propagate` weighed it (`propagated_age` of the same, unchanged state).
+// both sides' new indirect irradiance (and its emitted part, when the cache keeps it) are copied
+// into `cache_indirect` (and `cache_emitted`), and the voxel's age advanced as `cache/propagate` weighed it (`propagated_age`
+// of the same, unchanged state).
 //
 // Bind group 0: `gi::cache::lighting`; 2: the cache (`gi::cache::data`).
 
 #import gi::cache::data::{
-    cache_voxels, cache_indirect, cache_voxel_index, cache_side_slot,
+    cache_voxels, cache_indirect, cache_emitted, cache_keeps_emitted, cache_voxel_index, cache_side_slot,
     CACHE_SIDE_COUNT
 }
 #import gi::cache::lighting::{
@@ -31,8 +32,12 @@ fn propagate_resolve(
     }
     let lit = scheduled_voxel(group.x, bit);
     for (var side = 0u; side < CACHE_SIDE_COUNT; side++) {
-        cache_indirect[cache_side_slot(lit.v, side)] =
-            propagate_scratch[propagate_scratch_slot(group.x, bit, side)];
+        let slot = cache_side_slot(lit.v, side);
+        let scratch = propagate_scratch_slot(group.x, bit, side);
+        cache_indirect[slot] = propagate_scratch[scratch];
+        if cache_keeps_emitted() {
+            cache_emitted[slot] = propagate_scratch[scratch + 1u];
+        }
     }
     let age = propagated_age(lit);
     cache_voxels[cache_voxel_index(lit.v)].state = (lit.surface.state & ~0xffu) | age;

@@ -27,7 +27,7 @@
     cache_mask_bit, cache_mask_test, cache_face_index, cache_voxel_of_point, cache_in_window,
     cache_level_of_point, cache_link_index, cache_group_index, cache_voxel_at, cache_voxel_index,
     cache_voxel_normal, cache_side_radiance, cache_side_seen_by_ray,
-    cache_side_normal, cache_side_slot, cache_direct, cache_indirect, CACHE_SIDE_FRONT,
+    cache_side_normal, cache_side_slot, cache_direct, cache_indirect, cache_emitted, cache_keeps_emitted, CACHE_SIDE_FRONT,
     CACHE_SIDE_BACK, CACHE_STATE_BOX_SHIFT, CACHE_BOX_STEPS, cache_geometry_box
 }
 #import gi::packing::unpack_rgb9e5
@@ -335,31 +335,39 @@ const CACHE_IRRADIANCE_MIN_AGREEMENT: f32 = 0.5;
 // side, lit from outside the corner. When none qualifies, the voxel containing `p` or else its
 // neighbour behind `p` along `-n` is used as is.
 fn cache_irradiance(p: vec3<f32>, n: vec3<f32>) -> vec4<f32> {
-    return cache_irradiance_of(p, n, true);
-}
-
-// `cache_irradiance` without the punctual lights' direct irradiance (`cache_direct`): what a
-// caller that lights the point itself (with shadow rays) adds to it.
-fn cache_indirect_irradiance(p: vec3<f32>, n: vec3<f32>) -> vec4<f32> {
     return cache_irradiance_of(p, n, false);
 }
 
-// Irradiance of side `side` of `v`, with or without its direct part.
-fn cache_side_irradiance_of(v: VoxelRef, side: u32, with_direct: bool) -> vec3<f32> {
-    let slot = cache_side_slot(v, side);
-    var e = unpack_rgb9e5(cache_indirect[slot]);
-    if with_direct {
-        e += unpack_rgb9e5(cache_direct[slot]);
-    }
-    return e;
+// `cache_irradiance` without the punctual lights' direct irradiance (`cache_direct`) and without
+// what emissive triangles give directly (`cache_emitted`): the light that arrives after at least
+// one bounce, or from the sky. What a caller that lights the point itself from the punctual
+// lights and the emitters (with shadow rays) adds to it. Needs a cache that keeps the emitted
+// part (`gi_cache::CacheConfig::keep_emitted`); without, the emitters' light stays in.
+fn cache_bounced_irradiance(p: vec3<f32>, n: vec3<f32>) -> vec4<f32> {
+    return cache_irradiance_of(p, n, true);
 }
 
-// `cache_irradiance` or `cache_indirect_irradiance`. A point near the edge of its level's window
+// Irradiance of side `side` of `v`: all of it, or only its bounced part. The emitted part was
+// accumulated alongside the indirect irradiance it is part of, with the same weights, so their
+// difference differs from the bounced light only by their rounding.
+fn cache_side_irradiance_of(v: VoxelRef, side: u32, bounced_only: bool) -> vec3<f32> {
+    let slot = cache_side_slot(v, side);
+    let indirect = unpack_rgb9e5(cache_indirect[slot]);
+    if bounced_only {
+        if cache_keeps_emitted() {
+            return max(indirect - unpack_rgb9e5(cache_emitted[slot]), vec3(0.0));
+        }
+        return indirect;
+    }
+    return indirect + unpack_rgb9e5(cache_direct[slot]);
+}
+
+// `cache_irradiance` or `cache_bounced_irradiance`. A point near the edge of its level's window
 // can find no voxel at that level: the surface's own voxels lie behind it, outside the window.
 // The lookup then falls back to the coarser levels, whose windows hold it.
-fn cache_irradiance_of(p: vec3<f32>, n: vec3<f32>, with_direct: bool) -> vec4<f32> {
+fn cache_irradiance_of(p: vec3<f32>, n: vec3<f32>, bounced_only: bool) -> vec4<f32> {
     for (var level = cache_level_of_point(p); level < cache.level_count; level++) {
-        let e = cache_irradiance_at_level(p, n, level, with_direct);
+        let e = cache_irradiance_at_level(p, n, level, bounced_only);
         if e.w > 0.0 {
             return e;
         }
@@ -368,7 +376,7 @@ fn cache_irradiance_of(p: vec3<f32>, n: vec3<f32>, with_direct: bool) -> vec4<f3
 }
 
 // `cache_irradiance_of` at one level.
-fn cache_irradiance_at_level(p: vec3<f32>, n: vec3<f32>, level: u32, with_direct: bool) -> vec4<f32> {
+fn cache_irradiance_at_level(p: vec3<f32>, n: vec3<f32>, level: u32, bounced_only: bool) -> vec4<f32> {
     let s = cache.levels[level].voxel_size_m;
     let q = (p - n * (0.5 * s)) / s - 0.5;
     let base = vec3<i32>(floor(q));
@@ -387,7 +395,7 @@ fn cache_irradiance_at_level(p: vec3<f32>, n: vec3<f32>, level: u32, with_direct
         }
         let w3 = select(1.0 - f, f, offset == vec3(1u));
         let w = w3.x * w3.y * w3.z * abs(agreement);
-        sum += w * cache_side_irradiance_of(v, select(CACHE_SIDE_BACK, CACHE_SIDE_FRONT, agreement >= 0.0), with_direct);
+        sum += w * cache_side_irradiance_of(v, select(CACHE_SIDE_BACK, CACHE_SIDE_FRONT, agreement >= 0.0), bounced_only);
         weight += w;
     }
     if weight > 1e-6 {
@@ -401,5 +409,5 @@ fn cache_irradiance_at_level(p: vec3<f32>, n: vec3<f32>, level: u32, with_direct
         return vec4(0.0);
     }
     let agreement = dot(cache_voxel_normal(cache_voxels[cache_voxel_index(v)]), n);
-    return vec4(cache_side_irradiance_of(v, select(CACHE_SIDE_BACK, CACHE_SIDE_FRONT, agreement >= 0.0), with_direct), 1.0);
+    return vec4(cache_side_irradiance_of(v, select(CACHE_SIDE_BACK, CACHE_SIDE_FRONT, agreement >= 0.0), bounced_only), 1.0);
 }

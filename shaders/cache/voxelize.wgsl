@@ -13,7 +13,7 @@
 // written once per brick.
 
 #import gi::cache::data::{
-    cache, cache_brick_masks, cache_voxels, cache_direct, cache_indirect, cache_mask_cell,
+    cache, cache_brick_masks, cache_voxels, cache_direct, cache_indirect, cache_emitted, cache_keeps_emitted, cache_mask_cell,
     VoxelSurface, CACHE_STATE_DYNAMIC, CACHE_SIDE_COUNT, CACHE_STATE_BOX_SHIFT, CACHE_BOX_STEPS,
     cache_geometry_box
 }
@@ -321,6 +321,9 @@ fn voxelize(@builtin(workgroup_id) workgroup: vec3<u32>, @builtin(local_invocati
     for (var side = 0u; side < CACHE_SIDE_COUNT; side++) {
         cache_direct[voxel_index * CACHE_SIDE_COUNT + side] = 0u;
         cache_indirect[voxel_index * CACHE_SIDE_COUNT + side] = 0u;
+        if cache_keeps_emitted() {
+            cache_emitted[voxel_index * CACHE_SIDE_COUNT + side] = 0u;
+        }
     }
 
     workgroupBarrier();

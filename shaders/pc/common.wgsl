@@ -115,9 +115,9 @@ struct Reservoir {
     occluder_distance: f32,
     occluder_direction: u32,
     // What `radiance` is made of at a surface sample, so that reuse in later frames can
-    // refresh its indirect part from the cache as the cache converges: the emission and
-    // punctual direct light (RGB9E5), and the albedo (unorm8 rgb: diffuse plus split-sum
-    // specular towards the receiver) that reflects the cache's indirect irradiance.
+    // refresh its indirect part from the cache as the cache converges: the emission and the
+    // punctual lights' and emitters' direct light (RGB9E5), and the albedo (unorm8 rgb: diffuse
+    // plus split-sum specular towards the receiver) that reflects the cache's bounced light.
     fixed_radiance: u32,
     albedo: u32,
 }

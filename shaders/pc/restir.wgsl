@@ -39,7 +39,7 @@
 #import gi::sampling::{sampler_new, sampler_next_f32, sampler_next_2d, concentric_disk, Frame, frame_from_normal, frame_to_local}
 #import gi::camera::camera_ray
 #import gi::packing::{unpack_unit_vector, pack_rgb9e5, unpack_rgb9e5, pack_color64, unpack_color64}
-#import gi::cache::trace::cache_indirect_irradiance
+#import gi::cache::trace::cache_bounced_irradiance
 #import gi::pc::common::{
     PcUniforms, Surface, Reservoir, Combiner, empty_reservoir, is_sky_depth, has_surface,
     target_pdf, reconnection_jacobian, combiner_new, combiner_add, combiner_finish,
@@ -123,7 +123,7 @@ fn refreshed(r: Reservoir) -> Reservoir {
     }
     var out = r;
     let albedo = unpack4x8unorm(r.albedo).xyz;
-    let indirect = cache_indirect_irradiance(r.position, unpack_unit_vector(r.normal)).xyz;
+    let indirect = cache_bounced_irradiance(r.position, unpack_unit_vector(r.normal)).xyz;
     out.radiance = pack_rgb9e5(unpack_rgb9e5(r.fixed_radiance) + albedo * INV_PI * indirect);
     return out;
 }

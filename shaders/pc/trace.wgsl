@@ -4,8 +4,9 @@
 //     pixel of its block (jittered per frame: HSGI's "canonical sample coverage, 2x2 jitter")
 //     as the receiver, traces one cosine-distributed ray from it through the BVH and shades the
 //     hit: its emission, exact direct light from every punctual light (one shadow ray each)
-//     and the brick cache's indirect irradiance at the hit ("indirect lighting always from the
-//     cache system"), reflected by its diffuse and split-sum specular albedo; a miss sees the
+//     and from the emissive triangles (one point drawn on them by their power, one shadow ray),
+//     and the brick cache's irradiance at the hit less those two ("indirect lighting always from
+//     the cache system"), reflected by its diffuse and split-sum specular albedo; a miss sees the
 //     sky. With emissive triangles in the scene a second candidate is a point drawn on them
 //     (next-event estimation); the two are combined by RIS into the pixel's initial reservoir
 //     (M = 1).
@@ -28,7 +29,7 @@
 // (`gi::cache::data`).
 
 #import gi::math::INV_PI
-#import gi::sampling::{sampler_new, sampler_next_f32, sampler_next_2d, cosine_hemisphere, frame_from_normal, frame_to_world, frame_to_local}
+#import gi::sampling::{Sampler, sampler_new, sampler_next_f32, sampler_next_2d, cosine_hemisphere, frame_from_normal, frame_to_world, frame_to_local}
 #import gi::brdf::{brdf_new, brdf_diffuse_albedo, brdf_f0, specular_albedo, sample_ggx_vndf, brdf_specular_pdf}
 #import gi::bvh::{Ray, trace_closest, trace_any, BVH_MISS}
 #import gi::camera::camera_ray
@@ -36,7 +37,7 @@
 #import gi::lights::{LIGHT_DIRECTIONAL, light_incident, sky_radiance, sample_emitter}
 #import gi::packing::{pack_unit_vector, unpack_unit_vector, pack_rgb9e5, unpack_rgb9e5}
 #import gi::cache::data::cache
-#import gi::cache::trace::{CacheHit, cache_indirect_irradiance, cache_miss, cache_trace_from, cache_hit_radiance, cache_hit_normal}
+#import gi::cache::trace::{CacheHit, cache_bounced_irradiance, cache_miss, cache_trace_from, cache_hit_radiance, cache_hit_normal}
 #import gi::pc::common::{
     PcUniforms, Surface, Reservoir, SpecularSample, empty_reservoir, is_sky_depth, has_surface, luminance,
     SAMPLE_SKY, SAMPLE_OCCLUDED, FLAG_SPATIAL, FLAG_SHADOW, FLAG_TEMPORAL
@@ -96,20 +97,25 @@ fn pick_receiver(t: vec2<u32>, index: u32) -> Surface {
     return Surface(vec3(0.0), 0u, 0u, 0.0, 0u, 0u);
 }
 
-// Radiance leaving the point a ray along `dir` hit, towards the ray: emission, the punctual
-// lights' direct light (shadow rays) and the cache's indirect light, reflected by the diffuse
-// albedo plus the split-sum specular albedo towards the ray. Also returns the hit's geometric
-// normal facing the ray.
+// Radiance leaving the point a ray along `dir` hit, towards the ray: emission, the direct light
+// of the punctual lights (shadow rays) and of the emitters (one next-event sample with a shadow
+// ray, drawn from `sampler`), and the cache's bounced light (`cache_bounced_irradiance`: the
+// cache's emitted part would count the emitters twice), reflected by the diffuse albedo plus the
+// split-sum specular albedo towards the ray. Also returns the hit's geometric normal facing the
+// ray. The cache's estimate of the emitters' light is taken over a voxel side and interpolated,
+// so at a hit near an edge or a contact shadow it is wrong by the voxel's extent; the sample is
+// exact in expectation wherever the ray lands.
 struct HitShading {
     radiance: vec3<f32>,
     position: vec3<f32>,
     normal: vec3<f32>,
-    // Emission plus punctual direct light, and the albedo (diffuse plus specular towards the ray).
+    // Emission plus the punctual lights' and emitters' direct light, and the albedo (diffuse
+    // plus specular towards the ray).
     fixed_radiance: vec3<f32>,
     albedo: vec3<f32>,
 }
 
-fn shade_hit(dir: vec3<f32>, triangle: u32, b: vec2<f32>) -> HitShading {
+fn shade_hit(dir: vec3<f32>, triangle: u32, b: vec2<f32>, sampler: ptr<function, Sampler>) -> HitShading {
     let tri = triangles[triangle];
     let b0 = 1.0 - b.x - b.y;
     let p = tri.pa.xyz + (tri.pb.xyz - tri.pa.xyz) * b.x + (tri.pc.xyz - tri.pa.xyz) * b.y;
@@ -149,9 +155,18 @@ fn shade_hit(dir: vec3<f32>, triangle: u32, b: vec2<f32>) -> HitShading {
             irradiance += incident.irradiance * cos_l;
         }
     }
+    if u.emitter_count > 0u {
+        let u_select = sampler_next_f32(sampler);
+        let light = sample_emitter(p, u_select, sampler_next_2d(sampler), u.emitter_count, u.default_material);
+        let cos_l = dot(light.wi, ng);
+        if light.pdf > 0.0 && cos_l > 0.0 && any(light.radiance > vec3(0.0))
+            && !trace_any(Ray(origin, 0.0, light.wi, light.distance * (1.0 - SHADOW_MARGIN))) {
+            irradiance += light.radiance * (cos_l / light.pdf);
+        }
+    }
     radiance += albedo * INV_PI * irradiance;
     let fixed_radiance = radiance;
-    radiance += albedo * INV_PI * cache_indirect_irradiance(p, ng).xyz;
+    radiance += albedo * INV_PI * cache_bounced_irradiance(p, ng).xyz;
     return HitShading(radiance, p, ng, fixed_radiance, albedo);
 }
 
@@ -250,7 +265,7 @@ fn trace(@builtin(global_invocation_id) id: vec3<u32>) {
             r.radiance = pack_rgb9e5(sky_radiance(u.sky, dir));
             r.flags = SAMPLE_SKY;
         } else {
-            let shaded = shade_hit(dir, hit.triangle, hit.barycentrics);
+            let shaded = shade_hit(dir, hit.triangle, hit.barycentrics, &sampler);
             r.position = shaded.position;
             r.radiance = pack_rgb9e5(shaded.radiance);
             r.normal = pack_unit_vector(shaded.normal);
@@ -384,7 +399,7 @@ fn specular_trace(@builtin(global_invocation_id) id: vec3<u32>) {
         sample.radiance = sky_radiance(u.sky, dir);
         sample.flags = SAMPLE_SKY;
     } else {
-        let shaded = shade_hit(dir, hit.triangle, hit.barycentrics);
+        let shaded = shade_hit(dir, hit.triangle, hit.barycentrics, &sampler);
         sample.position = shaded.position;
         sample.radiance = shaded.radiance;
     }

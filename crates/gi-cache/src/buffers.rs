@@ -10,6 +10,7 @@
 //! | 4 | `cache.voxels` | [`VoxelSurface`] per brick ID x 64 + voxel bit | 1024 per brick |
 //! | 5 | `cache.direct` | RGB9E5 direct irradiance per voxel x 2 + side | 512 per brick |
 //! | 6 | `cache.indirect` | RGB9E5 indirect irradiance, same indexing | 512 per brick |
+//! | 7 | `cache.emitted` | RGB9E5, the part of the indirect irradiance emitters give directly, same indexing ([`CacheConfig::keep_emitted`]; else 4 bytes) | 512 per brick |
 //!
 //! Every buffer is created through [`GpuContext`], so it is counted under its label; all are
 //! `STORAGE | COPY_DST | COPY_SRC` so they can be uploaded and read back by tests.
@@ -42,7 +43,11 @@ pub struct CacheBuffers {
     pub direct: wgpu::Buffer,
     /// `cache.indirect`: indirect irradiance per voxel side.
     pub indirect: wgpu::Buffer,
-    /// The seven buffers bound as `shaders/cache/data.wgsl` declares them.
+    /// `cache.emitted`: per voxel side, the part of `indirect` that emissive triangles give
+    /// directly (next-event samples), accumulated alongside it; a 4-byte placeholder unless
+    /// [`CacheConfig::keep_emitted`].
+    pub emitted: wgpu::Buffer,
+    /// The eight buffers bound as `shaders/cache/data.wgsl` declares them.
     pub bind_group: wgpu::BindGroup,
 }
 
@@ -55,11 +60,14 @@ impl CacheBuffers {
     /// The bind group index `gi::cache::data` declares.
     pub const BIND_GROUP: u32 = 2;
 
-    /// The layout of bind group 2: a uniform at binding 0 and six read-write storage buffers,
+    /// Storage buffers of the bind group (bindings 1 to 7).
+    pub const STORAGE_BUFFERS: u32 = 7;
+
+    /// The layout of bind group 2: a uniform at binding 0 and seven read-write storage buffers,
     /// visible to compute stages.
     pub fn bind_group_layout(ctx: &GpuContext) -> wgpu::BindGroupLayout {
         let mut entries = vec![uniform_entry(0)];
-        entries.extend((1..=6).map(|binding| storage_entry(binding, false)));
+        entries.extend((1..=Self::STORAGE_BUFFERS).map(|binding| storage_entry(binding, false)));
         ctx.device
             .create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
                 label: Some("cache.bind_group_layout"),
@@ -68,7 +76,7 @@ impl CacheBuffers {
     }
 
     /// Bytes of each buffer for `config`, in binding order (uniforms first).
-    pub fn sizes(config: &CacheConfig) -> [u64; 7] {
+    pub fn sizes(config: &CacheConfig) -> [u64; 8] {
         let levels = u64::from(config.levels);
         let ids = u64::from(config.pool_bricks) + 1;
         let voxels = ids * u64::from(VOXELS_PER_BRICK);
@@ -80,6 +88,11 @@ impl CacheBuffers {
             voxels * size_of::<VoxelSurface>() as u64,
             voxels * u64::from(SIDE_COUNT) * 4,
             voxels * u64::from(SIDE_COUNT) * 4,
+            if config.keep_emitted {
+                voxels * u64::from(SIDE_COUNT) * 4
+            } else {
+                4
+            },
         ]
     }
 
@@ -94,6 +107,7 @@ impl CacheBuffers {
             voxels,
             direct,
             indirect,
+            emitted,
         ] = Self::sizes(config);
         let uniforms = ctx.create_buffer(
             "cache.uniforms",
@@ -107,6 +121,7 @@ impl CacheBuffers {
         let voxels = storage("cache.voxels", voxels);
         let direct = storage("cache.direct", direct);
         let indirect = storage("cache.indirect", indirect);
+        let emitted = storage("cache.emitted", emitted);
         let layout = Self::bind_group_layout(ctx);
         let bind_group = ctx.device.create_bind_group(&wgpu::BindGroupDescriptor {
             label: Some("cache.bind_group"),
@@ -119,6 +134,7 @@ impl CacheBuffers {
                 &voxels,
                 &direct,
                 &indirect,
+                &emitted,
             ]
             .iter()
             .zip(0..)
@@ -136,6 +152,7 @@ impl CacheBuffers {
             voxels,
             direct,
             indirect,
+            emitted,
             bind_group,
         }
     }
@@ -181,7 +198,7 @@ impl CacheBuffers {
         bytes
     }
 
-    /// Bytes of all seven buffers.
+    /// Bytes of all eight buffers.
     pub fn bytes(&self) -> u64 {
         [
             &self.uniforms,
@@ -191,6 +208,7 @@ impl CacheBuffers {
             &self.voxels,
             &self.direct,
             &self.indirect,
+            &self.emitted,
         ]
         .iter()
         .map(|b| b.size())
@@ -220,6 +238,7 @@ impl CacheBuffers {
             &self.voxels,
             &self.direct,
             &self.indirect,
+            &self.emitted,
         ] {
             ctx.release_buffer(buffer);
         }

@@ -193,8 +193,8 @@ pub struct RadianceCache {
     pub lighting: Option<Box<dyn CacheLightingHook>>,
 }
 
-/// Storage buffers `cache/voxelize` binds: seven of the scene, two of its own, six of the cache.
-const VOXELIZE_STORAGE_BUFFERS: u32 = 15;
+/// Storage buffers `cache/voxelize` binds: seven of the scene, two of its own, seven of the cache.
+const VOXELIZE_STORAGE_BUFFERS: u32 = 16;
 
 impl RadianceCache {
     /// Validates `config` against itself and the device, creates the buffers (counted under
@@ -210,6 +210,7 @@ impl RadianceCache {
             "cache.voxels",
             "cache.direct",
             "cache.indirect",
+            "cache.emitted",
         ];
         for (label, bytes) in labels.into_iter().zip(CacheBuffers::sizes(config)) {
             if bytes > limit {

@@ -69,6 +69,12 @@ pub struct CacheConfig {
     /// Cap of the temporal accumulation weight `1 / min(age, max_age)`: higher values converge
     /// to a smoother result but follow lighting changes more slowly.
     pub max_age: u32,
+    /// Also keep, per voxel side, the part of the indirect irradiance that the emissive
+    /// triangles give directly (`cache.emitted`, 512 bytes per brick more), so that a caller
+    /// that samples the emitters itself can read the bounced light alone
+    /// (`cache_bounced_irradiance` in `shaders/cache/trace.wgsl`). The PC tier does, at its
+    /// rays' hits; off, the buffer is a 4-byte placeholder and the lighting does not track it.
+    pub keep_emitted: bool,
 }
 
 impl Default for CacheConfig {
@@ -86,6 +92,7 @@ impl Default for CacheConfig {
             near_levels: 3,
             gather_rays_per_side: 4,
             max_age: 32,
+            keep_emitted: false,
         }
     }
 }
@@ -222,18 +229,21 @@ impl CacheConfig {
     }
 
     /// Bytes one pooled brick costs: its 64-bit occupancy mask, 16 bytes of surface per voxel
-    /// and two RGB9E5 irradiances (direct, indirect) per voxel side: 8 + 64 x 32 = 2056.
-    pub fn bytes_per_brick() -> u64 {
-        8 + VOXELS_PER_BRICK as u64 * (16 + 2 * 4 * SIDE_COUNT as u64)
+    /// and two RGB9E5 irradiances (direct, indirect) per voxel side: 8 + 64 x 32 = 2056; with
+    /// [`CacheConfig::keep_emitted`] a third (the emitted part): 2568.
+    pub fn bytes_per_brick(&self) -> u64 {
+        let irradiances = if self.keep_emitted { 3 } else { 2 };
+        8 + VOXELS_PER_BRICK as u64 * (16 + irradiances * 4 * SIDE_COUNT as u64)
     }
 
     /// Bytes of everything the cache allocates on the GPU for this configuration: the pool
     /// (including the unused brick 0), the link grids and the group masks.
     pub fn gpu_bytes(&self) -> u64 {
-        let pool = (u64::from(self.pool_bricks) + 1) * Self::bytes_per_brick();
+        let pool = (u64::from(self.pool_bricks) + 1) * self.bytes_per_brick();
         let link = u64::from(self.levels) * u64::from(self.bricks_per_level()) * 4;
         let groups = u64::from(self.levels) * u64::from(self.groups_per_level()) * 8;
-        pool + link + groups
+        let placeholder = if self.keep_emitted { 0 } else { 4 };
+        pool + link + groups + placeholder
     }
 }
 
@@ -256,7 +266,12 @@ mod tests {
             config.gpu_bytes()
         );
         assert_eq!(config.level_extent_m(0), [8.0, 4.0, 8.0]);
-        assert_eq!(CacheConfig::bytes_per_brick(), 2056);
+        assert_eq!(config.bytes_per_brick(), 2056);
+        let keeping = CacheConfig {
+            keep_emitted: true,
+            ..config.clone()
+        };
+        assert_eq!(keeping.bytes_per_brick(), 2568);
         assert_eq!(config.pool_bricks, 12288);
     }
 

@@ -184,6 +184,10 @@ impl CpuCache {
             .write_buffer(&buffers.direct, 0, bytemuck::cast_slice(&self.direct));
         ctx.queue
             .write_buffer(&buffers.indirect, 0, bytemuck::cast_slice(&self.indirect));
+        // No emitter samples: all of the indirect irradiance counts as bounced.
+        let emitted = vec![0u32; (buffers.emitted.size() / 4) as usize];
+        ctx.queue
+            .write_buffer(&buffers.emitted, 0, bytemuck::cast_slice(&emitted));
     }
 
     /// Filled bricks per level.

@@ -14,7 +14,8 @@
 //!   `cache.lighting.scratch`. Every update adds one bounce, so the cache converges to all
 //!   bounces.
 //! - `cache/propagate_resolve` (`shaders/cache/propagate_resolve.wgsl`): copies the scratch into
-//!   `cache_indirect` and advances the voxels' ages.
+//!   `cache_indirect` (and, with `CacheConfig::keep_emitted`, the emitter samples' part of it
+//!   into `cache_emitted`) and advances the voxels' ages.
 //!
 //! Propagation gathers from last frame's lighting: `cache/propagate` writes nothing that its own
 //! rays read (neither `cache_indirect` nor the ages), so every workgroup sees the cache as the
@@ -462,15 +463,17 @@ impl<'a> LightingInputs<'a> {
 }
 
 /// Bytes of `cache.lighting.scratch` per scheduled brick: 64 voxels x 2 sides, one RGB9E5
-/// irradiance each (the age needs no room: the resolve recomputes it from the unchanged state).
+/// irradiance each (the age needs no room: the resolve recomputes it from the unchanged state);
+/// twice that with [`CacheConfig::keep_emitted`] (the emitted part too).
 pub const SCRATCH_BYTES_PER_BRICK: u64 = 64 * 2 * 4;
 
 /// The cache's lighting technique: the `cache/inject`, `cache/propagate` and
 /// `cache/propagate_resolve` pipelines, the schedule, the per-frame brick list and the
-/// propagation's scratch. Memory: the uniforms (96 bytes) and, per brick of
-/// [`CacheConfig::light_bricks_per_frame`], 32 bytes of brick list and
-/// [`SCRATCH_BYTES_PER_BRICK`] (512) of scratch, counted under `cache.lighting.*` (the default
-/// 512 bricks: 272 KiB).
+/// propagation's scratch. Memory: the uniforms (96 bytes) and, per brick of the schedule's
+/// largest frame ([`ScheduleBudget::max_bricks`]: [`CacheConfig::light_bricks_per_frame`] plus
+/// the settling budget), 32 bytes of brick list and [`SCRATCH_BYTES_PER_BRICK`] (512; 1024 with
+/// [`CacheConfig::keep_emitted`]) of scratch, counted under `cache.lighting.*` (the default
+/// 2048 bricks: 1.1 MB; 2.2 MB keeping the emitted part).
 pub struct CacheLighting {
     /// Entry point `inject` of `cache/inject.wgsl`.
     inject: wgpu::ComputePipeline,
@@ -484,7 +487,8 @@ pub struct CacheLighting {
     /// `cache.lighting.bricks`: [`GpuScheduledBrick`] per scheduled brick.
     bricks: wgpu::Buffer,
     /// `cache.lighting.scratch`: per scheduled brick, voxel and side, the new RGB9E5 indirect
-    /// irradiance `cache/propagate` computed, stored by `cache/propagate_resolve`.
+    /// irradiance `cache/propagate` computed (and its emitted part, when the cache keeps it),
+    /// stored by `cache/propagate_resolve`.
     scratch: wgpu::Buffer,
     /// `cache.lighting.all_uniforms` and `cache.lighting.all_bricks`: the uniforms and brick
     /// list of `cache/inject_all`, which relights every resident brick's direct light in the
@@ -570,7 +574,9 @@ impl CacheLighting {
         );
         let scratch = ctx.create_buffer(
             "cache.lighting.scratch",
-            u64::from(ScheduleBudget::new(config).max_bricks().max(1)) * SCRATCH_BYTES_PER_BRICK,
+            u64::from(ScheduleBudget::new(config).max_bricks().max(1))
+                * SCRATCH_BYTES_PER_BRICK
+                * if config.keep_emitted { 2 } else { 1 },
             wgpu::BufferUsages::STORAGE,
         );
         let all_uniforms = ctx.create_buffer(

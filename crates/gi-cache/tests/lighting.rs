@@ -1235,28 +1235,40 @@ fn furnace_scene(le: f32, albedo: f32) -> (Scene, Vec3) {
     (builder.scene, center)
 }
 
-/// Ratio of the cache's mean irradiance over the front sides of the furnace's flat-wall voxels
-/// to the exact `pi le / (1 - albedo)`, every 8th frame from frame 48 to 96 (each an
-/// independent window of the accumulation's 8 updates).
-fn furnace_ratios(ctx: &GpuContext, le: f32, albedo: f32) -> Vec<f32> {
+/// One accumulation window of the furnace: the cache's mean irradiance over the front sides of
+/// the flat-wall voxels, as a ratio to the exact `pi le / (1 - albedo)`, and those sides'
+/// packed `cache_indirect` and `cache_emitted` values in world order.
+struct FurnaceWindow {
+    ratio: f32,
+    indirect: Vec<u32>,
+    emitted: Vec<u32>,
+}
+
+/// The furnace's windows: every 8th frame from frame 48 to 96 (each an independent window of
+/// the accumulation's 8 updates).
+fn furnace_windows(ctx: &GpuContext, le: f32, albedo: f32) -> Vec<FurnaceWindow> {
     let (scene, center) = furnace_scene(le, albedo);
     let mut frame = scene.evaluate(0.0, None);
     frame.camera.position = center;
     let config = CacheConfig {
         light_bricks_per_frame: 512,
         max_age: 8,
+        keep_emitted: true,
         ..small_config()
     };
     let mut lit = LitCache::new(ctx, &config, &scene, &frame);
     let exact = std::f32::consts::PI * le / (1.0 - albedo);
     // Voxels of one wall (edge and corner voxels hold two or three walls, and their averaged
     // normals lean off every wall's: what reaches their surface point differs).
-    let sides: Vec<Side> = voxel_sides(&lit.cpu)
+    let mut sides: Vec<Side> = voxel_sides(&lit.cpu)
         .into_iter()
         .filter(|s| s.side == SIDE_FRONT && s.normal.abs().max_element() > 0.99)
         .collect();
     assert!(sides.len() > 2000, "{} sides", sides.len());
-    let mut ratios = Vec::new();
+    // In world order: bricks the same distance from the camera get their pool slots in any
+    // order, so two runs are compared side by side by place.
+    sides.sort_by_key(|s| (s.level, s.voxel.to_array()));
+    let mut windows = Vec::new();
     for f in 1..=96 {
         lit.frame(ctx, &scene.sky);
         if f >= 48 && f % 8 == 0 {
@@ -1265,10 +1277,18 @@ fn furnace_ratios(ctx: &GpuContext, le: f32, albedo: f32) -> Vec<f32> {
                 .iter()
                 .map(|s| luminance(direct[s.slot] + indirect[s.slot]))
                 .sum();
-            ratios.push(sum / sides.len() as f32 / exact);
+            let packed = |buffer| {
+                let all: Vec<u32> = ctx.read_buffer(buffer);
+                sides.iter().map(|s| all[s.slot]).collect()
+            };
+            windows.push(FurnaceWindow {
+                ratio: sum / sides.len() as f32 / exact,
+                indirect: packed(&lit.buffers.indirect),
+                emitted: packed(&lit.buffers.emitted),
+            });
         }
     }
-    ratios
+    windows
 }
 
 fn mean_and_standard_error(values: &[f32]) -> (f32, f32) {
@@ -1280,11 +1300,14 @@ fn mean_and_standard_error(values: &[f32]) -> (f32, f32) {
 
 /// White furnace: a closed cube of emitting, reflecting walls, without sky or lights.
 /// - With albedo 0 the cache holds only the emitters' next-event samples: pi le within 4
-///   standard errors of the mean over the windows.
+///   standard errors of the mean over the windows, and every side's emitted part
+///   (`cache_emitted`) is all of its indirect irradiance, bit for bit.
 /// - With albedo 0.5 every bounce adds half the light again (`1 / (1 - albedo)` in all): the
 ///   gather and the accumulation lose no energy. The two runs draw the same random numbers,
 ///   so their difference is measured per window, and must be 0 within 4 standard errors of
-///   its mean over the windows.
+///   its mean over the windows. Their emitted parts are the same samples, so they must be
+///   identical: the bounced light (what the PC tier reads at its hits, which samples the
+///   emitters itself) is then exactly the albedo's share.
 ///
 /// Found by this test: the emitters' samples read 1.3% low (0.9887 +- 0.0021; 2.2% with 32
 /// rays per side). A sample's shadow ray leaves from the side point, most of a voxel off the
@@ -1298,8 +1321,10 @@ fn furnace_propagation_keeps_the_energy_of_every_bounce() {
         return;
     };
     let le = 0.5;
-    let black = furnace_ratios(&ctx, le, 0.0);
-    let grey = furnace_ratios(&ctx, le, 0.5);
+    let black_windows = furnace_windows(&ctx, le, 0.0);
+    let grey_windows = furnace_windows(&ctx, le, 0.5);
+    let ratios = |windows: &[FurnaceWindow]| windows.iter().map(|w| w.ratio).collect::<Vec<_>>();
+    let (black, grey) = (ratios(&black_windows), ratios(&grey_windows));
     let (mean_black, se_black) = mean_and_standard_error(&black);
     let differences: Vec<f32> = grey.iter().zip(&black).map(|(g, b)| g - b).collect();
     let (difference, se_difference) = mean_and_standard_error(&differences);
@@ -1315,4 +1340,16 @@ fn furnace_propagation_keeps_the_energy_of_every_bounce() {
         (mean_black - 1.0).abs() <= 4.0 * se_black,
         "emitters' samples: {mean_black} of pi le (standard error {se_black})"
     );
+    for (black, grey) in black_windows.iter().zip(&grey_windows) {
+        assert!(black.emitted.iter().any(|&e| e != 0));
+        assert_eq!(
+            black.emitted, black.indirect,
+            "albedo 0: all indirect light is emitted"
+        );
+        assert_eq!(
+            black.emitted, grey.emitted,
+            "the emitted part depends on the albedo"
+        );
+        assert_ne!(grey.emitted, grey.indirect);
+    }
 }

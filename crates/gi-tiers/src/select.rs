@@ -194,10 +194,10 @@ pub fn requirements(kind: TierKind, settings: &TierSettings) -> Option<Requireme
         TierKind::Reference => None,
         TierKind::Direct | TierKind::Path => Some(path),
         // The screen-probe passes' layouts (mobile/screen.rs): 18 storage buffers of their own,
-        // the probe volume's 3 and the brick cache's 6; three groups (the cache's is group 2);
+        // the probe volume's 3 and the brick cache's 7; three groups (the cache's is group 2);
         // `cache/propagate` runs 256 invocations in x.
         TierKind::Mobile => Some(Requirements {
-            storage_buffers_per_stage: 27,
+            storage_buffers_per_stage: 28,
             bind_groups: 3,
             invocations_per_workgroup: 256,
             workgroup_size_x: 256,
@@ -216,9 +216,9 @@ pub fn requirements(kind: TierKind, settings: &TierSettings) -> Option<Requireme
             .max()
             .unwrap_or(0) as u64;
             // The trace passes' layouts (pc/mod.rs): the scene's 7 storage buffers and 10 of
-            // their own, the BVH's 4 and the brick cache's 6; the cache passes as for mobile.
+            // their own, the BVH's 4 and the brick cache's 7; the cache passes as for mobile.
             Some(Requirements {
-                storage_buffers_per_stage: 27,
+                storage_buffers_per_stage: 28,
                 bind_groups: 3,
                 invocations_per_workgroup: 256,
                 workgroup_size_x: 256,

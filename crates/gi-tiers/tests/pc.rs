@@ -7,10 +7,10 @@ use common::{open_ground, settings};
 use gi_gpu::{GpuContext, ShaderLibrary, rust_field_offsets, wgsl_struct_layout};
 use gi_image::Image;
 use gi_reference::{Mode, Reference, RenderSettings, brdf::specular_albedo};
-use gi_scene::{CameraView, Scene, Sky};
+use gi_scene::{CameraView, Scene, SceneFrame, Sky};
 use gi_tiers::pc::{
     GpuReservoir, GpuSpecularSample, GpuSurface, PC_OPTIONAL_STAGES, PC_STAGES, PcConfig,
-    PcUniforms, TraceMode,
+    PcFrameData, PcUniforms, TraceMode,
 };
 use gi_tiers::{FrameInput, PcTier, Tier, TierError};
 use glam::Vec3;
@@ -36,6 +36,36 @@ fn run(
         .unwrap();
     }
     tier
+}
+
+/// Runs `config` on `frame` of `scene` for 24 still frames and measures each of the last 16 with
+/// `measure`: returns the measurements' mean, their sample standard deviation and their count.
+fn still_frame_statistic(
+    config: PcConfig,
+    size: (u32, u32),
+    scene: &Scene,
+    frame: &SceneFrame,
+    mut measure: impl FnMut(&PcFrameData) -> f64,
+) -> (f64, f64, f64) {
+    let mut tier =
+        PcTier::new(settings(size.0, size.1), config, GpuContext::new().unwrap()).unwrap();
+    let mut values = Vec::new();
+    for index in 0..24 {
+        tier.advance(&FrameInput {
+            scene,
+            frame,
+            index,
+            progress: None,
+        })
+        .unwrap();
+        if index >= 8 {
+            values.push(measure(&tier.frame_data().unwrap()));
+        }
+    }
+    let n = values.len() as f64;
+    let mean = values.iter().sum::<f64>() / n;
+    let spread = (values.iter().map(|m| (m - mean).powi(2)).sum::<f64>() / (n - 1.0)).sqrt();
+    (mean, spread, n)
 }
 
 #[test]
@@ -261,41 +291,109 @@ fn a_small_emitter_lights_the_ground_as_its_integral_says() {
             0.04,
         ),
     ] {
-        let mut tier =
-            PcTier::new(settings(width, rows), config, GpuContext::new().unwrap()).unwrap();
-        let mut frame_means = Vec::new();
-        for index in 0..24 {
-            tier.advance(&FrameInput {
-                scene: &scene,
-                frame: &frame,
-                index,
-                progress: None,
-            })
-            .unwrap();
-            if index < 8 {
-                continue;
-            }
-            let data = tier.frame_data().unwrap();
-            let image = if matches!(name, "every stage" | "with temporal reuse") {
-                &data.irradiance
-            } else {
-                &data.noisy_irradiance
-            };
-            let ratios: Vec<f64> = expected
-                .iter()
-                .zip(&image.pixels)
-                .filter_map(|(e, got)| e.filter(|e| *e > 0.05).map(|e| f64::from(got.y / e)))
-                .collect();
-            assert!(ratios.len() > 200, "{name}: {} ground pixels", ratios.len());
-            frame_means.push(ratios.iter().sum::<f64>() / ratios.len() as f64);
-        }
-        let n = frame_means.len() as f64;
-        let mean = frame_means.iter().sum::<f64>() / n;
-        let spread =
-            (frame_means.iter().map(|m| (m - mean).powi(2)).sum::<f64>() / (n - 1.0)).sqrt();
+        let (mean, spread, n) =
+            still_frame_statistic(config, (width, rows), &scene, &frame, |data| {
+                let image = if matches!(name, "every stage" | "with temporal reuse") {
+                    &data.irradiance
+                } else {
+                    &data.noisy_irradiance
+                };
+                let ratios: Vec<f64> = expected
+                    .iter()
+                    .zip(&image.pixels)
+                    .filter_map(|(e, got)| e.filter(|e| *e > 0.05).map(|e| f64::from(got.y / e)))
+                    .collect();
+                assert!(ratios.len() > 200, "{name}: {} ground pixels", ratios.len());
+                ratios.iter().sum::<f64>() / ratios.len() as f64
+            });
         let bound = 4.0 * spread / n.sqrt() + bound_extra;
         println!(
             "{name}: estimate / exact {mean:.4} over {n} frames, frame spread {spread:.4}, bound {bound:.4}"
+        );
+        assert!(
+            (mean - 1.0).abs() <= bound,
+            "{name}: ratio {mean:.4}, bound {bound:.4}"
+        );
+    }
+}
+
+/// An emitter's light reaches the ground only by a bounce off a wall, and the PC tier gathers
+/// it as the reference does. The ground behind the emitter (which faces the wall and is black
+/// on its back) sees no emitter and reflects nothing; its light comes from rays that hit the
+/// wall, where `pc/trace` samples the emitter itself and takes only the cache's bounced light
+/// (`cache_bounced_irradiance`). Counting the cache's own estimate of the emitter's light there
+/// as well would double the ground's light; leaving the emitter out would darken it to the
+/// wall's bounced light, about nothing here. The bound: 4 standard errors of the mean over the
+/// frames plus 4 of the reference's own noise in the mean (two independent estimates a point).
+#[test]
+fn an_emitters_light_bounced_off_a_wall_is_counted_once() {
+    let Some(ctx) = GpuContext::new_or_skip("an_emitters_light_bounced_off_a_wall") else {
+        return;
+    };
+    drop(ctx);
+    let mut scene = open_ground("pc-bounce-wall", 4.0, 0.0);
+    scene.sky = Sky::Constant {
+        radiance: Vec3::ZERO,
+    };
+    // A white wall at x = 1 facing -x, and an emitter at x = 0.2 facing it (+x).
+    scene.add_diffuse_quad(Vec3::new(1.0, 1.0, 0.0), Vec3::Z * 1.5, Vec3::Y, 0.8);
+    scene.add_diffuse_quad(Vec3::new(0.2, 0.6, 0.0), Vec3::Y * 0.2, Vec3::Z * 0.2, 0.0);
+    scene.materials.last_mut().unwrap().emissive = Vec3::splat(20.0);
+    let camera = CameraView::look_at(Vec3::new(-2.0, 2.0, 1.5), Vec3::new(-0.6, 0.0, 0.0), 0.9);
+    let (width, rows) = (32u32, 24u32);
+    let frame = scene.evaluate(0.0, Some(camera));
+    let reference = Reference::new(&scene, frame.clone());
+    // Per pixel on the ground behind the emitter's plane: the reference's two estimates.
+    let expected: Vec<Option<(f32, f32)>> = (0..rows)
+        .flat_map(|y| (0..width).map(move |x| (x, y)))
+        .enumerate()
+        .map(|(i, (x, y))| {
+            let dir = frame.camera.ray_direction(
+                (x as f32 + 0.5) / width as f32,
+                (y as f32 + 0.5) / rows as f32,
+                width as f32 / rows as f32,
+            );
+            let eye = frame.camera.position;
+            let p = eye - dir * (eye.y / dir.y);
+            (dir.y < 0.0 && p.x < 0.1 && p.x > -3.0 && p.z.abs() < 3.0).then(|| {
+                let estimate = |seed| reference.irradiance(p, Vec3::Y, 256, seed).y;
+                (estimate(2 * i as u64), estimate(2 * i as u64 + 1))
+            })
+        })
+        .collect();
+    let kept: Vec<(usize, f32, f32)> = expected
+        .iter()
+        .enumerate()
+        .filter_map(|(i, e)| e.map(|(a, b)| (i, 0.5 * (a + b), 0.5 * (a - b))))
+        .filter(|(_, r, _)| *r > 0.02)
+        .collect();
+    assert!(kept.len() > 150, "{} ground pixels", kept.len());
+    let count = kept.len() as f64;
+    // Standard error of the mean ratio from the reference's noise: each pixel's estimate r
+    // has the variance of (a - b) / 2.
+    let reference_se = kept
+        .iter()
+        .map(|(_, r, d)| f64::from(d / r).powi(2))
+        .sum::<f64>()
+        .sqrt()
+        / count;
+    for (name, config) in [
+        ("without reuse", PcConfig::without("restir").unwrap()),
+        ("every stage", PcConfig::default()),
+    ] {
+        let (mean, spread, n) =
+            still_frame_statistic(config, (width, rows), &scene, &frame, |data| {
+                let pixels = &data.noisy_irradiance.pixels;
+                let sum: f64 = kept
+                    .iter()
+                    .map(|&(i, r, _)| f64::from(pixels[i].y / r))
+                    .sum();
+                sum / count
+            });
+        let bound = 4.0 * (spread / n.sqrt() + reference_se);
+        println!(
+            "{name}: estimate / reference {mean:.4} over {n} frames, frame spread {spread:.4}, \
+             reference noise {reference_se:.4}, bound {bound:.4}"
         );
         assert!(
             (mean - 1.0).abs() <= bound,

@@ -26,7 +26,11 @@ pub struct PcConfig {
 impl Default for PcConfig {
     fn default() -> Self {
         Self {
-            cache: CacheConfig::default(),
+            // The hits sample the emitters themselves and read the cache's bounced light.
+            cache: CacheConfig {
+                keep_emitted: true,
+                ..CacheConfig::default()
+            },
             trace_scale: 2,
             trace_mode: TraceMode::Rays,
             probe_ray_m: 0.5,

@@ -3,9 +3,11 @@
 //! Console Solution"; ReSTIR GI, Ouyang et al. 2021; SVGF, Schied et al. 2017).
 //!
 //! A frame: `gbuffer/primary` (ray-cast G-buffer), the cache update (`cache/*`, as the mobile
-//! tier's), `pc/trace` (one BVH ray per trace pixel, shaded at the hit with exact direct light
-//! and the cache's indirect light: `shaders/pc/trace.wgsl`), `pc/specular_trace` (one GGX
-//! VNDF ray per trace pixel on surfaces smoother than [`SpecularConfig::max_roughness`]),
+//! tier's), `pc/trace` (one BVH ray per trace pixel, shaded at the hit with exact direct light,
+//! one sample of the emitters included, and the cache's bounced light: `shaders/pc/trace.wgsl`;
+//! the tier's cache keeps its emitted part apart for that,
+//! [`gi_cache::CacheConfig::keep_emitted`]), `pc/specular_trace` (one GGX VNDF ray per trace
+//! pixel on surfaces smoother than [`SpecularConfig::max_roughness`]),
 //! `pc/temporal` (only with temporal reuse, off by default: [`RestirConfig::temporal`]),
 //! `pc/spatial`, `pc/shadow` (the reservoir passes), `pc/shade` (multi-sample shading to full resolution:
 //! `shaders/pc/restir.wgsl`), `pc/denoise_*` (temporal supersampling and SVGF:
@@ -98,10 +100,10 @@ pub struct GpuReservoir {
     pub flags: u32,
     pub occluder_distance: f32,
     pub occluder_direction: u32,
-    /// RGB9E5 emission plus punctual direct light of a surface sample.
+    /// RGB9E5 emission plus the punctual lights' and emitters' direct light of a surface sample.
     pub fixed_radiance: u32,
     /// Unorm8 albedo of a surface sample, diffuse plus split-sum specular towards the receiver:
-    /// what reflects the cache's indirect light.
+    /// what reflects the cache's bounced light.
     pub albedo: u32,
 }
 
