@@ -38,19 +38,20 @@ fn run(
     tier
 }
 
-/// Runs `config` on `frame` of `scene` for 24 still frames and measures each of the last 16 with
-/// `measure`: returns the measurements' mean, their sample standard deviation and their count.
+/// Runs `config` on `frame` of `scene` for 8 still frames and `measured` more, measuring each of
+/// these with `measure`: returns the measurements' mean, their sample standard deviation and
+/// their count.
 fn still_frame_statistic(
     config: PcConfig,
     size: (u32, u32),
-    scene: &Scene,
-    frame: &SceneFrame,
+    (scene, frame): (&Scene, &SceneFrame),
+    measured: u32,
     mut measure: impl FnMut(&PcFrameData) -> f64,
 ) -> (f64, f64, f64) {
     let mut tier =
         PcTier::new(settings(size.0, size.1), config, GpuContext::new().unwrap()).unwrap();
     let mut values = Vec::new();
-    for index in 0..24 {
+    for index in 0..8 + measured {
         tier.advance(&FrameInput {
             scene,
             frame,
@@ -292,7 +293,7 @@ fn a_small_emitter_lights_the_ground_as_its_integral_says() {
         ),
     ] {
         let (mean, spread, n) =
-            still_frame_statistic(config, (width, rows), &scene, &frame, |data| {
+            still_frame_statistic(config, (width, rows), (&scene, &frame), 16, |data| {
                 let image = if matches!(name, "every stage" | "with temporal reuse") {
                     &data.irradiance
                 } else {
@@ -325,6 +326,8 @@ fn a_small_emitter_lights_the_ground_as_its_integral_says() {
 /// as well would double the ground's light; leaving the emitter out would darken it to the
 /// wall's bounced light, about nothing here. The bound: 4 standard errors of the mean over the
 /// frames plus 4 of the reference's own noise in the mean (two independent estimates a point).
+/// Measured on lavapipe: 1.019 without reuse (bound 0.194), 1.081 with every stage (0.213); a
+/// throwaway shader that also read the cache's emitted part at the hits gave 2.03.
 #[test]
 fn an_emitters_light_bounced_off_a_wall_is_counted_once() {
     let Some(ctx) = GpuContext::new_or_skip("an_emitters_light_bounced_off_a_wall") else {
@@ -340,7 +343,7 @@ fn an_emitters_light_bounced_off_a_wall_is_counted_once() {
     scene.add_diffuse_quad(Vec3::new(0.2, 0.6, 0.0), Vec3::Y * 0.2, Vec3::Z * 0.2, 0.0);
     scene.materials.last_mut().unwrap().emissive = Vec3::splat(20.0);
     let camera = CameraView::look_at(Vec3::new(-2.0, 2.0, 1.5), Vec3::new(-0.6, 0.0, 0.0), 0.9);
-    let (width, rows) = (32u32, 24u32);
+    let (width, rows) = (64u32, 48u32);
     let frame = scene.evaluate(0.0, Some(camera));
     let reference = Reference::new(&scene, frame.clone());
     // Per pixel on the ground behind the emitter's plane: the reference's two estimates.
@@ -367,7 +370,7 @@ fn an_emitters_light_bounced_off_a_wall_is_counted_once() {
         .filter_map(|(i, e)| e.map(|(a, b)| (i, 0.5 * (a + b), 0.5 * (a - b))))
         .filter(|(_, r, _)| *r > 0.02)
         .collect();
-    assert!(kept.len() > 150, "{} ground pixels", kept.len());
+    assert!(kept.len() > 600, "{} ground pixels", kept.len());
     let count = kept.len() as f64;
     // Standard error of the mean ratio from the reference's noise: each pixel's estimate r
     // has the variance of (a - b) / 2.
@@ -382,7 +385,7 @@ fn an_emitters_light_bounced_off_a_wall_is_counted_once() {
         ("every stage", PcConfig::default()),
     ] {
         let (mean, spread, n) =
-            still_frame_statistic(config, (width, rows), &scene, &frame, |data| {
+            still_frame_statistic(config, (width, rows), (&scene, &frame), 40, |data| {
                 let pixels = &data.noisy_irradiance.pixels;
                 let sum: f64 = kept
                     .iter()
