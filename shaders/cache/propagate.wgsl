@@ -17,8 +17,9 @@
 // ray that hits its voxel, and nothing is counted twice (`cache/inject` adds only punctual
 // lights). The sum is the side's indirect irradiance, accumulated over updates with weight 1 / age
 // (age = min(age + 1, max_age)). When the cache keeps it, the emitters' samples alone are
-// accumulated the same way into `cache_emitted`: a caller that samples the emitters itself at a surface point (the PC tier at
-// its rays' hits) takes `cache_indirect - cache_emitted`, the light that arrives after a bounce.
+// accumulated the same way into `cache_emitted`: a caller that samples the emitters itself at a
+// surface point (the PC tier at its rays' hits) takes `cache_indirect - cache_emitted`, the
+// light that arrives after a bounce.
 //
 // A gather from last frame's lighting (HSGI's and SmartGI's "previous frame" bounce): this pass
 // writes nothing the cache's rays read. The accumulated value goes to `propagate_scratch` and

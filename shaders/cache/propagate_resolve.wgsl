@@ -8,14 +8,14 @@
 //
 // One 64-thread workgroup per scheduled brick, one thread per voxel: for every occupied voxel,
 // both sides' new indirect irradiance (and its emitted part, when the cache keeps it) are copied
-// into `cache_indirect` (and `cache_emitted`), and the voxel's age advanced as `cache/propagate` weighed it (`propagated_age`
-// of the same, unchanged state).
+// into `cache_indirect` (and `cache_emitted`), and the voxel's age advanced as `cache/propagate`
+// weighed it (`propagated_age` of the same, unchanged state).
 //
 // Bind group 0: `gi::cache::lighting`; 2: the cache (`gi::cache::data`).
 
 #import gi::cache::data::{
-    cache_voxels, cache_indirect, cache_emitted, cache_keeps_emitted, cache_voxel_index, cache_side_slot,
-    CACHE_SIDE_COUNT
+    cache_voxels, cache_indirect, cache_emitted, cache_keeps_emitted, cache_voxel_index,
+    cache_side_slot, CACHE_SIDE_COUNT
 }
 #import gi::cache::lighting::{
     scheduled_voxel, scheduled_voxel_occupied, propagate_scratch, propagate_scratch_slot,

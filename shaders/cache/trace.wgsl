@@ -27,8 +27,9 @@
     cache_mask_bit, cache_mask_test, cache_face_index, cache_voxel_of_point, cache_in_window,
     cache_level_of_point, cache_link_index, cache_group_index, cache_voxel_at, cache_voxel_index,
     cache_voxel_normal, cache_side_radiance, cache_side_seen_by_ray,
-    cache_side_normal, cache_side_slot, cache_direct, cache_indirect, cache_emitted, cache_keeps_emitted, CACHE_SIDE_FRONT,
-    CACHE_SIDE_BACK, CACHE_STATE_BOX_SHIFT, CACHE_BOX_STEPS, cache_geometry_box
+    cache_side_normal, cache_side_slot, cache_direct, cache_indirect, cache_emitted,
+    cache_keeps_emitted, CACHE_SIDE_FRONT, CACHE_SIDE_BACK, CACHE_STATE_BOX_SHIFT, CACHE_BOX_STEPS,
+    cache_geometry_box
 }
 #import gi::packing::unpack_rgb9e5
 

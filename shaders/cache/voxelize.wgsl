@@ -13,9 +13,9 @@
 // written once per brick.
 
 #import gi::cache::data::{
-    cache, cache_brick_masks, cache_voxels, cache_direct, cache_indirect, cache_emitted, cache_keeps_emitted, cache_mask_cell,
-    VoxelSurface, CACHE_STATE_DYNAMIC, CACHE_SIDE_COUNT, CACHE_STATE_BOX_SHIFT, CACHE_BOX_STEPS,
-    cache_geometry_box
+    cache, cache_brick_masks, cache_voxels, cache_direct, cache_indirect, cache_emitted,
+    cache_keeps_emitted, cache_mask_cell, VoxelSurface, CACHE_STATE_DYNAMIC, CACHE_SIDE_COUNT,
+    CACHE_STATE_BOX_SHIFT, CACHE_BOX_STEPS, cache_geometry_box
 }
 #import gi::scene::{triangles, sample_texture, emission, triangle_uv, material_of, geometric_normal}
 #import gi::brdf::{brdf_new, brdf_diffuse_albedo}

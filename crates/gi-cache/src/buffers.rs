@@ -10,7 +10,7 @@
 //! | 4 | `cache.voxels` | [`VoxelSurface`] per brick ID x 64 + voxel bit | 1024 per brick |
 //! | 5 | `cache.direct` | RGB9E5 direct irradiance per voxel x 2 + side | 512 per brick |
 //! | 6 | `cache.indirect` | RGB9E5 indirect irradiance, same indexing | 512 per brick |
-//! | 7 | `cache.emitted` | RGB9E5, the part of the indirect irradiance emitters give directly, same indexing ([`CacheConfig::keep_emitted`]; else 4 bytes) | 512 per brick |
+//! | 7 | `cache.emitted` | RGB9E5 emitters' part of the indirect, same indexing | 512 per brick (4 bytes without [`CacheConfig::keep_emitted`]) |
 //!
 //! Every buffer is created through [`GpuContext`], so it is counted under its label; all are
 //! `STORAGE | COPY_DST | COPY_SRC` so they can be uploaded and read back by tests.
