@@ -34,7 +34,7 @@
 #import gi::bvh::{Ray, trace_closest, trace_any, BVH_MISS}
 #import gi::camera::camera_ray
 #import gi::scene::{triangles, lights, selection, sample_texture, emission, geometric_normal, triangle_uv, material_of}
-#import gi::lights::{LIGHT_DIRECTIONAL, light_incident, sky_radiance, sample_emitter}
+#import gi::lights::{LIGHT_DIRECTIONAL, EmitterSample, light_incident, sky_radiance, sample_emitter}
 #import gi::packing::{pack_unit_vector, unpack_unit_vector, pack_rgb9e5, unpack_rgb9e5}
 #import gi::cache::data::cache
 #import gi::cache::trace::{CacheHit, cache_bounced_irradiance, cache_miss, cache_trace_from, cache_hit_radiance, cache_hit_normal}
@@ -97,6 +97,24 @@ fn pick_receiver(t: vec2<u32>, index: u32) -> Surface {
     return Surface(vec3(0.0), 0u, 0u, 0.0, 0u, 0u);
 }
 
+// One point drawn on the emitters by their power (`sample_emitter`) for a surface at `p` with
+// normal `n`, its shadow ray leaving from `origin`; pdf 0 when it cannot light the surface:
+// behind it, black, or occluded.
+fn visible_emitter_sample(
+    p: vec3<f32>,
+    n: vec3<f32>,
+    origin: vec3<f32>,
+    sampler: ptr<function, Sampler>,
+) -> EmitterSample {
+    let u_select = sampler_next_f32(sampler);
+    var light = sample_emitter(p, u_select, sampler_next_2d(sampler), u.emitter_count, u.default_material);
+    if !(light.pdf > 0.0 && dot(light.wi, n) > 0.0 && any(light.radiance > vec3(0.0)))
+        || trace_any(Ray(origin, 0.0, light.wi, light.distance * (1.0 - SHADOW_MARGIN))) {
+        light.pdf = 0.0;
+    }
+    return light;
+}
+
 // Radiance leaving the point a ray along `dir` hit, towards the ray: emission, the direct light
 // of the punctual lights (shadow rays) and of the emitters (one next-event sample with a shadow
 // ray, drawn from `sampler`), and the cache's bounced light (`cache_bounced_irradiance`: the
@@ -156,12 +174,9 @@ fn shade_hit(dir: vec3<f32>, triangle: u32, b: vec2<f32>, sampler: ptr<function,
         }
     }
     if u.emitter_count > 0u {
-        let u_select = sampler_next_f32(sampler);
-        let light = sample_emitter(p, u_select, sampler_next_2d(sampler), u.emitter_count, u.default_material);
-        let cos_l = dot(light.wi, ng);
-        if light.pdf > 0.0 && cos_l > 0.0 && any(light.radiance > vec3(0.0))
-            && !trace_any(Ray(origin, 0.0, light.wi, light.distance * (1.0 - SHADOW_MARGIN))) {
-            irradiance += light.radiance * (cos_l / light.pdf);
+        let light = visible_emitter_sample(p, ng, origin, sampler);
+        if light.pdf > 0.0 {
+            irradiance += light.radiance * (dot(light.wi, ng) / light.pdf);
         }
     }
     radiance += albedo * INV_PI * irradiance;
@@ -286,11 +301,9 @@ fn trace(@builtin(global_invocation_id) id: vec3<u32>) {
 
     // The emitter sample.
     if emitters_on {
-        let u_select = sampler_next_f32(&sampler);
-        let light = sample_emitter(s.position, u_select, sampler_next_2d(&sampler), u.emitter_count, u.default_material);
-        let cos_x = dot(light.wi, n);
-        if light.pdf > 0.0 && cos_x > 0.0 && any(light.radiance > vec3(0.0))
-            && !trace_any(Ray(origin, 0.0, light.wi, light.distance * (1.0 - SHADOW_MARGIN))) {
+        let light = visible_emitter_sample(s.position, n, origin, &sampler);
+        if light.pdf > 0.0 {
+            let cos_x = dot(light.wi, n);
             var r = empty_reservoir();
             r.position = s.position + light.wi * light.distance;
             r.radiance = pack_rgb9e5(light.radiance);

@@ -214,6 +214,15 @@ fn open_ground_gathers_pi_times_the_sky_in_every_configuration() {
     }
 }
 
+/// A black ground of half-size `half_m` under a black sky: what lights it, the test adds.
+fn unlit_ground(name: &str, half_m: f32) -> Scene {
+    let mut scene = open_ground(name, half_m, 0.0);
+    scene.sky = Sky::Constant {
+        radiance: Vec3::ZERO,
+    };
+    scene
+}
+
 /// A black ground under a small square emitter and a black sky: the irradiance of every
 /// ground point is the emitter's radiance integrated over its solid angle, cos-weighted,
 /// which the test sums on the CPU over a fine grid of the emitter. Without reuse the tier's
@@ -230,10 +239,7 @@ fn a_small_emitter_lights_the_ground_as_its_integral_says() {
         return;
     };
     drop(ctx);
-    let mut scene = open_ground("pc-open-ground", 10.0, 0.0);
-    scene.sky = Sky::Constant {
-        radiance: Vec3::ZERO,
-    };
+    let mut scene = unlit_ground("pc-open-ground", 10.0);
     let (height, half, radiance) = (1.5f32, 0.25f32, 8.0f32);
     // Facing down (X x Z = -Y), emitting `radiance` from its front only.
     scene.add_diffuse_quad(
@@ -335,10 +341,7 @@ fn an_emitters_light_bounced_off_a_wall_is_counted_once() {
         return;
     };
     drop(ctx);
-    let mut scene = open_ground("pc-bounce-wall", 4.0, 0.0);
-    scene.sky = Sky::Constant {
-        radiance: Vec3::ZERO,
-    };
+    let mut scene = unlit_ground("pc-bounce-wall", 4.0);
     // A white wall at x = 1 facing -x, and an emitter at x = 0.2 facing it (+x).
     scene.add_diffuse_quad(Vec3::new(1.0, 1.0, 0.0), Vec3::Z * 1.5, Vec3::Y, 0.8);
     scene.add_diffuse_quad(Vec3::new(0.2, 0.6, 0.0), Vec3::Y * 0.2, Vec3::Z * 0.2, 0.0);
