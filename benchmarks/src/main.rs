@@ -24,6 +24,18 @@
 //!     --variants default,with-temporal,spatial,shadow,multi-sample,svgf,restir,specular,rough-specular --json pc.json
 //! ```
 
+/// `print!` that ends quietly when the reader has gone (`gi-bench ... | head`): the rest of
+/// the output is dropped, the benchmark still finishes and writes its files. Other write
+/// errors are returned.
+macro_rules! out {
+    ($($arg:tt)*) => {
+        $crate::quiet_broken_pipe({
+            use std::io::Write as _;
+            write!(std::io::stdout().lock(), $($arg)*)
+        })?
+    };
+}
+
 mod cache_rays;
 mod cache_update;
 mod mobile;
@@ -273,7 +285,7 @@ fn main() -> anyhow::Result<()> {
             json,
         } => {
             let report = rays::run(&scene, rays, repeats.max(1))?;
-            print!("{}", report.table());
+            out!("{}", report.table());
             write_json(json, &report.json())
         }
         Command::CacheRays {
@@ -283,7 +295,7 @@ fn main() -> anyhow::Result<()> {
             json,
         } => {
             let report = cache_rays::run(&scene, rays, repeats.max(1))?;
-            print!("{}", report.table());
+            out!("{}", report.table());
             write_json(json, &report.json())
         }
         Command::CacheUpdate {
@@ -312,7 +324,7 @@ fn main() -> anyhow::Result<()> {
                 screen_inject: screen_inject.then_some(size),
             };
             let report = cache_update::run(&options)?;
-            print!("{}", report.table());
+            out!("{}", report.table());
             write_json(json, &report.json())
         }
         Command::Path {
@@ -324,7 +336,7 @@ fn main() -> anyhow::Result<()> {
             json,
         } => {
             let report = path::run(&scene, (width, height), spp, frames)?;
-            print!("{}", report.table());
+            out!("{}", report.table());
             write_json(json, &report.json())
         }
         Command::Mobile {
@@ -344,7 +356,7 @@ fn main() -> anyhow::Result<()> {
                 modes: screen_probes,
                 settle_s,
             })?;
-            print!("{}", report.table());
+            out!("{}", report.table());
             write_json(json, &report.json())
         }
         Command::Pc {
@@ -368,7 +380,7 @@ fn main() -> anyhow::Result<()> {
                 trace_mode,
                 settle_s,
             })?;
-            print!("{}", report.table());
+            out!("{}", report.table());
             write_json(json, &report.json())
         }
         Command::MobileStability {
@@ -398,7 +410,7 @@ fn main() -> anyhow::Result<()> {
                 converged_frames,
                 settle_k,
             })?;
-            print!("{}", report.table());
+            out!("{}", report.table());
             write_json(json, &report.json())
         }
     }
@@ -424,7 +436,15 @@ pub(crate) fn parse_size(size: &str) -> Result<(u32, u32), String> {
 fn write_json(path: Option<PathBuf>, value: &serde_json::Value) -> anyhow::Result<()> {
     if let Some(path) = path {
         std::fs::write(&path, serde_json::to_string_pretty(value)?)?;
-        println!("wrote {}", path.display());
+        out!("wrote {}\n", path.display());
     }
     Ok(())
+}
+
+/// A write to standard output that failed only because its reader is gone counts as done.
+fn quiet_broken_pipe(result: std::io::Result<()>) -> std::io::Result<()> {
+    match result {
+        Err(error) if error.kind() == std::io::ErrorKind::BrokenPipe => Ok(()),
+        other => other,
+    }
 }

@@ -228,22 +228,22 @@ pub fn run(args: &SuiteArgs) -> Result<()> {
     }
     let written = write_outputs(&results, &args.out)?;
 
-    println!("{}", markdown::scene_tier_table(&results));
+    out!("{}\n", markdown::scene_tier_table(&results));
     if let Some(comparison) = &results.regressions {
-        print!("{}", markdown::regression_section(comparison));
+        out!("{}", markdown::regression_section(comparison));
     }
     for failure in &results.failures {
         let what = failure
             .tier
             .as_ref()
             .map_or(failure.scene.clone(), |t| format!("{}/{t}", failure.scene));
-        println!("FAILED {what}: {}", failure.error);
+        out!("FAILED {what}: {}\n", failure.error);
     }
-    println!("\nwrote into {}:", args.out.display());
+    out!("\nwrote into {}:\n", args.out.display());
     for file in &written {
-        println!("  {file}");
+        out!("  {file}\n");
     }
-    println!("  images/ (each tier's image and error map, each scene's reference)");
+    out!("  images/ (each tier's image and error map, each scene's reference)\n");
 
     let flagged = results.regressions.as_ref().map_or(0, |c| c.flagged.len());
     match (results.failures.len(), flagged) {

@@ -215,19 +215,19 @@ pub fn run(args: &CompareArgs) -> Result<()> {
         },
         tiers: reports,
     };
-    print_table(&report);
+    print_table(&report)?;
     let json = args
         .json
         .clone()
         .unwrap_or_else(|| out_dir.join("compare.json"));
     std::fs::write(&json, serde_json::to_string_pretty(&report)?)
         .with_context(|| format!("writing {}", json.display()))?;
-    println!("images and JSON: {}", out_dir.display());
+    outln!("images and JSON: {}", out_dir.display());
     Ok(())
 }
 
-fn print_table(report: &CompareReport) {
-    println!(
+fn print_table(report: &CompareReport) -> std::io::Result<()> {
+    outln!(
         "{} {}x{}, {} spp per tier; reference {} spp ({:.1} s{})",
         report.scene,
         report.width,
@@ -241,15 +241,20 @@ fn print_table(report: &CompareReport) {
             ""
         }
     );
-    println!(
+    outln!(
         "{:<10} {:>10} {:>11} {:>14} {:>11} {:>10}",
-        "tier", "rmse_srgb8", "rmse_linear", "gain_vs_direct", "ms/frame", "memory_MB"
+        "tier",
+        "rmse_srgb8",
+        "rmse_linear",
+        "gain_vs_direct",
+        "ms/frame",
+        "memory_MB"
     );
     for tier in &report.tiers {
         let gain = tier
             .gain_vs_direct
             .map_or("-".to_string(), |g| format!("{g:.3}"));
-        println!(
+        outln!(
             "{:<10} {:>10.2} {:>11.4} {:>14} {:>11.1} {:>10.2}",
             tier.tier,
             tier.rmse_srgb8,
@@ -261,10 +266,11 @@ fn print_table(report: &CompareReport) {
     }
     for tier in &report.tiers {
         if let Some(mobile) = &tier.mobile {
-            println!("{}", mobile.line(tier.ms_per_frame, tier.warmup));
+            outln!("{}", mobile.line(tier.ms_per_frame, tier.warmup));
         }
         if let Some(pc) = &tier.pc {
-            println!("{}", pc.line(tier.ms_per_frame, tier.warmup));
+            outln!("{}", pc.line(tier.ms_per_frame, tier.warmup));
         }
     }
+    Ok(())
 }

@@ -121,38 +121,40 @@ pub fn run(args: &DebugCacheArgs) -> anyhow::Result<()> {
     let stats = cache.stats();
     let memory = ctx.memory();
     let mib = |bytes: u64| bytes as f64 / (1024.0 * 1024.0);
-    println!("scene          {}", scene.name);
-    println!("view           {view} ({width}x{height})");
-    println!(
+    outln!("scene          {}", scene.name);
+    outln!("view           {view} ({width}x{height})");
+    outln!(
         "levels         {} x {:?} bricks, voxels {} m to {} m",
         config.levels,
         config.level_bricks,
         config.voxel_size_at(0),
         config.voxel_size_at(config.levels - 1)
     );
-    println!(
+    outln!(
         "bricks         {} of {} in the pool, {} still queued",
-        stats.allocated_bricks, config.pool_bricks, stats.queued_bricks
+        stats.allocated_bricks,
+        config.pool_bricks,
+        stats.queued_bricks
     );
-    println!("per level      {:?}", stats.bricks_per_level);
-    println!(
+    outln!("per level      {:?}", stats.bricks_per_level);
+    outln!(
         "dropped        {} (bricks with geometry left out: pool full)",
         stats.dropped_for_pool
     );
-    println!(
+    outln!(
         "memory         {:.2} MiB on the GPU ({:.3} MiB of it lighting)",
         mib(memory.bytes_with_prefix("cache.")),
         mib(memory.bytes_with_prefix("cache.lighting"))
     );
-    println!(
+    outln!(
         "updated        {} frames in {update_s:.2} s (voxelization and lighting on the GPU)",
         args.frames
     );
-    println!("last frame     ms per pass ({:?} timer):", timer.mode());
+    outln!("last frame     ms per pass ({:?} timer):", timer.mode());
     for (pass, ms) in &last.0 {
-        println!("  {pass:<18} {ms:>10.3}");
+        outln!("  {pass:<18} {ms:>10.3}");
     }
-    println!("wrote          {}", out.display());
+    outln!("wrote          {}", out.display());
     cache.release_buffers(&ctx);
     gpu_scene.release(&ctx);
     Ok(())

@@ -34,19 +34,19 @@ pub fn run(args: &ErrorArgs) -> anyhow::Result<()> {
     let reference = load(&args.reference)?;
     let image = load(&args.image)?;
     let measured = gi_image::compare(&image, &reference, args.exposure)?;
-    println!("rmse_srgb8     {:.3}", measured.rmse_srgb8);
-    println!("rmse_linear    {:.5}", measured.rmse_linear);
-    println!("rel_mse        {:.5}", measured.rel_mse);
+    outln!("rmse_srgb8     {:.3}", measured.rmse_srgb8);
+    outln!("rmse_linear    {:.5}", measured.rmse_linear);
+    outln!("rel_mse        {:.5}", measured.rel_mse);
     match gi_image::luminance_bias(&image, &reference)? {
-        Some(bias) => println!("luminance_bias {:+.3}%", 100.0 * bias),
-        None => println!("luminance_bias - (black reference)"),
+        Some(bias) => outln!("luminance_bias {:+.3}%", 100.0 * bias),
+        None => outln!("luminance_bias - (black reference)"),
     }
     if let Some(path) = &args.second {
         let second = load(path)?;
         let split = gi_image::error_split_srgb8(&reference, &image, &second, args.exposure)?;
-        println!("second_rmse    {:.3}", split.rmse_b);
-        println!("noise_srgb8    {:.3}", split.noise);
-        println!("bias_srgb8     {:.3}", split.bias);
+        outln!("second_rmse    {:.3}", split.rmse_b);
+        outln!("noise_srgb8    {:.3}", split.noise);
+        outln!("bias_srgb8     {:.3}", split.bias);
     }
     Ok(())
 }

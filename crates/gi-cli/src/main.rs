@@ -1,6 +1,18 @@
 //! `gi`: render glTF scenes at a global-illumination tier, compare tiers against a path-traced
 //! reference, and manage the bundled scenes.
 
+/// `println!` that ends quietly when the reader has gone (`gi ... | head`): the rest of the
+/// output is dropped, the work still finishes and writes its files. Other write errors are
+/// returned.
+macro_rules! outln {
+    ($($arg:tt)*) => {
+        $crate::quiet_broken_pipe({
+            use std::io::Write as _;
+            writeln!(std::io::stdout().lock(), $($arg)*)
+        })?
+    };
+}
+
 mod compare;
 mod debug_cache;
 mod error;
@@ -225,11 +237,11 @@ fn run(cli: Cli) -> anyhow::Result<()> {
         Command::Scenes => {
             let dir = gi_scene::bundled_scene_dir();
             for (name, description) in gi_scene::BUNDLED_SCENES {
-                println!("{name:<12} {description}");
+                outln!("{name:<12} {description}");
             }
             match dir {
-                Some(dir) => println!("\nscene files: {}", dir.display()),
-                None => println!("\nscene files: not found (scenes are generated in memory)"),
+                Some(dir) => outln!("\nscene files: {}", dir.display()),
+                None => outln!("\nscene files: not found (scenes are generated in memory)"),
             }
             Ok(())
         }
@@ -239,7 +251,7 @@ fn run(cli: Cli) -> anyhow::Result<()> {
                 .or_else(gi_scene::bundled_scene_dir)
                 .unwrap_or_else(|| PathBuf::from("scenes"));
             for path in gi_scene::generate::write_all(&dir)? {
-                println!("wrote {}", path.display());
+                outln!("wrote {}", path.display());
             }
             Ok(())
         }
@@ -256,21 +268,21 @@ fn info(name: &str) -> anyhow::Result<()> {
         .iter()
         .filter(|m| m.emissive != glam::Vec3::ZERO)
         .count();
-    println!("scene        {}", scene.name);
-    println!("nodes        {}", scene.nodes.len());
-    println!("triangles    {}", frame.triangles.len());
-    println!(
+    outln!("scene        {}", scene.name);
+    outln!("nodes        {}", scene.nodes.len());
+    outln!("triangles    {}", frame.triangles.len());
+    outln!(
         "materials    {} ({emissive} emissive)",
         scene.materials.len()
     );
-    println!("textures     {}", scene.textures.len());
-    println!("lights       {} punctual", frame.lights.len());
-    println!("cameras      {}", scene.cameras.len());
-    println!("animated     {}", scene.is_animated());
-    println!("camera path  {}", scene.camera_path.is_some());
-    println!("sky          {:?}", scene.sky);
-    println!("exposure     {}", scene.exposure);
-    println!(
+    outln!("textures     {}", scene.textures.len());
+    outln!("lights       {} punctual", frame.lights.len());
+    outln!("cameras      {}", scene.cameras.len());
+    outln!("animated     {}", scene.is_animated());
+    outln!("camera path  {}", scene.camera_path.is_some());
+    outln!("sky          {:?}", scene.sky);
+    outln!("exposure     {}", scene.exposure);
+    outln!(
         "bvh          CWBVH, {} nodes, built in {:.2} ms",
         bvh.node_count(),
         bvh.build_time.as_secs_f64() * 1e3
@@ -299,5 +311,13 @@ fn main() -> ExitCode {
             eprintln!("error: {line}");
             ExitCode::FAILURE
         }
+    }
+}
+
+/// A write to standard output that failed only because its reader is gone counts as done.
+fn quiet_broken_pipe(result: std::io::Result<()>) -> std::io::Result<()> {
+    match result {
+        Err(error) if error.kind() == std::io::ErrorKind::BrokenPipe => Ok(()),
+        other => other,
     }
 }

@@ -131,7 +131,7 @@ pub fn run(args: &RenderArgs) -> Result<()> {
         }
         _ => String::new(),
     };
-    println!(
+    outln!(
         "{} {} {}x{} {} spp: {:.1} ms{throughput} -> {}",
         report.scene,
         report.tier,
@@ -142,10 +142,10 @@ pub fn run(args: &RenderArgs) -> Result<()> {
         args.out.display()
     );
     if let Some(mobile) = &report.mobile {
-        println!("{}", mobile.line(report.ms_per_frame, report.warmup));
+        outln!("{}", mobile.line(report.ms_per_frame, report.warmup));
     }
     if let Some(pc) = &report.pc {
-        println!("{}", pc.line(report.ms_per_frame, report.warmup));
+        outln!("{}", pc.line(report.ms_per_frame, report.warmup));
     }
     if let Some(path) = &args.stats {
         std::fs::write(path, serde_json::to_string_pretty(&report)?)

@@ -736,3 +736,21 @@ fn error_splits_two_seeds_into_noise_and_bias_and_rejects_bad_input() {
         "--exposure",
     );
 }
+
+/// `gi scenes | head -1`: a reader that closes the pipe early ends the output, not in a panic.
+/// The pipe's read end is closed before `gi` starts, so every write meets a gone reader.
+#[test]
+fn a_reader_that_closes_the_pipe_early_ends_the_output_quietly() {
+    let dir = tempfile::tempdir().unwrap();
+    let (reader, writer) = std::io::pipe().unwrap();
+    drop(reader);
+    let output = Command::new(env!("CARGO_BIN_EXE_gi"))
+        .arg("scenes")
+        .current_dir(dir.path())
+        .env_remove("RUST_LOG")
+        .stdout(writer)
+        .output()
+        .expect("gi runs");
+    assert!(output.status.success(), "{}", stderr(&output));
+    assert!(stderr(&output).is_empty(), "{}", stderr(&output));
+}
