@@ -8,7 +8,9 @@
 
 use std::borrow::Cow;
 use std::collections::{BTreeMap, HashMap, HashSet};
+use std::hash::{Hash, Hasher};
 use std::path::Path;
+use std::sync::{LazyLock, Mutex, OnceLock};
 
 use naga_oil::compose::{
     ComposableModuleDescriptor, Composer, ComposerError, NagaModuleDescriptor, ShaderLanguage,
@@ -34,10 +36,23 @@ pub const SHADER_CAPABILITIES: naga::valid::Capabilities =
         .union(naga::valid::Capabilities::CUBE_ARRAY_TEXTURES)
         .union(naga::valid::Capabilities::SHADER_INT64);
 
+/// What determines a composed module: the library's sources (their fingerprint), the entry
+/// file and the shader defs.
+type ComposeKey = (u64, String, Vec<(String, ShaderDefValue)>);
+
+/// The modules composed in this process. Composing is most of the cost of creating a tier
+/// (naga_oil parses and validates every imported module again for each entry file), so a
+/// tier created again in the same process (a service's renderer per job, a benchmark's
+/// variants) reuses them. Only successful compositions are kept.
+static COMPOSED: LazyLock<Mutex<HashMap<ComposeKey, naga::Module>>> =
+    LazyLock::new(|| Mutex::new(HashMap::new()));
+
 /// All WGSL sources of the product, by path relative to `shaders/` (e.g. `"bvh/trace.wgsl"`).
 #[derive(Clone, Debug)]
 pub struct ShaderLibrary {
     sources: BTreeMap<String, Cow<'static, str>>,
+    /// The hash of every `(path, source)`, computed on first use.
+    fingerprint: OnceLock<u64>,
 }
 
 impl Default for ShaderLibrary {
@@ -66,7 +81,14 @@ impl ShaderLibrary {
             .iter()
             .map(|(path, source)| ((*path).to_owned(), Cow::Borrowed(*source)))
             .collect();
-        Self { sources }
+        Self::from_sources(sources)
+    }
+
+    fn from_sources(sources: BTreeMap<String, Cow<'static, str>>) -> Self {
+        Self {
+            sources,
+            fingerprint: OnceLock::new(),
+        }
     }
 
     /// Every `.wgsl` file under `dir`, read now.
@@ -77,7 +99,7 @@ impl ShaderLibrary {
             line: 0,
             message: err.to_string(),
         })?;
-        Ok(Self { sources })
+        Ok(Self::from_sources(sources))
     }
 
     /// This library with `source` added as `path`, replacing any file of that path. Lets tests
@@ -85,6 +107,7 @@ impl ShaderLibrary {
     pub fn with_source(mut self, path: &str, source: impl Into<String>) -> Self {
         self.sources
             .insert(path.to_owned(), Cow::Owned(source.into()));
+        self.fingerprint = OnceLock::new();
         self
     }
 
@@ -108,7 +131,39 @@ impl ShaderLibrary {
     /// `defs`, and validates the result. Works on import modules too, keeping all their items;
     /// that also checks that naga_oil can import every identifier the module declares
     /// (identifiers ending in a digit, such as `v0`, cannot be imported from a module).
+    ///
+    /// The same sources, file and defs composed before in this process give the module kept
+    /// then.
     pub fn compose(
+        &self,
+        path: &str,
+        defs: &[(&str, ShaderDefValue)],
+    ) -> Result<naga::Module, GpuError> {
+        let key: ComposeKey = (
+            self.fingerprint(),
+            path.to_owned(),
+            defs.iter()
+                .map(|(name, value)| ((*name).to_owned(), *value))
+                .collect(),
+        );
+        let composed = || COMPOSED.lock().unwrap_or_else(|e| e.into_inner());
+        if let Some(module) = composed().get(&key) {
+            return Ok(module.clone());
+        }
+        let module = self.compose_uncached(path, defs)?;
+        composed().insert(key, module.clone());
+        Ok(module)
+    }
+
+    fn fingerprint(&self) -> u64 {
+        *self.fingerprint.get_or_init(|| {
+            let mut hasher = std::hash::DefaultHasher::new();
+            self.sources.hash(&mut hasher);
+            hasher.finish()
+        })
+    }
+
+    fn compose_uncached(
         &self,
         path: &str,
         defs: &[(&str, ShaderDefValue)],
@@ -119,7 +174,8 @@ impl ShaderLibrary {
             message: "no such shader file in the library".to_owned(),
         })?;
         let mut composer = Composer::default().with_capabilities(SHADER_CAPABILITIES);
-        self.add_imports(&mut composer, source, &mut HashSet::new())?;
+        let modules = self.modules_by_import_path();
+        self.add_imports(&mut composer, &modules, source, &mut HashSet::new())?;
         composer
             .make_naga_module(NagaModuleDescriptor {
                 source,
@@ -167,10 +223,10 @@ impl ShaderLibrary {
     fn add_imports(
         &self,
         composer: &mut Composer,
+        modules: &HashMap<String, &str>,
         source: &str,
         added: &mut HashSet<String>,
     ) -> Result<(), GpuError> {
-        let modules = self.modules_by_import_path();
         let (_, imports, _) = naga_oil::compose::get_preprocessor_data(source);
         for import in imports {
             let Some(path) = modules.get(&import.import) else {
@@ -181,7 +237,7 @@ impl ShaderLibrary {
                 continue;
             }
             let module_source = self.source(path).unwrap_or_default();
-            self.add_imports(composer, module_source, added)?;
+            self.add_imports(composer, modules, module_source, added)?;
             let added_module = composer
                 .add_composable_module(ComposableModuleDescriptor {
                     source: module_source,

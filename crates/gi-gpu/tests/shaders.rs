@@ -191,3 +191,41 @@ fn frame_uniforms_match_their_wgsl_layout() {
     assert_eq!(wgsl.size as usize, size_of::<FrameUniforms>());
     assert_eq!(size_of::<FrameUniforms>() % wgsl.align as usize, 0);
 }
+
+/// Composed modules are kept for the process by the library's sources, file and defs: the
+/// same sources give the kept module again, and a changed import is composed anew, not
+/// answered with the module kept for the old one.
+#[test]
+fn a_changed_import_is_composed_again() {
+    let library = |size: u32| {
+        ShaderLibrary::new()
+            .with_source(
+                "test/size.wgsl",
+                format!("#define_import_path gi::test_size\nconst SIZE: u32 = {size}u;\n"),
+            )
+            .with_source(
+                "test/sized.wgsl",
+                "#import gi::test_size::SIZE\n\
+                 @compute @workgroup_size(SIZE)\n\
+                 fn main() {}\n",
+            )
+    };
+    let size = |library: &ShaderLibrary| {
+        library
+            .compose("test/sized.wgsl", &[])
+            .unwrap()
+            .entry_points[0]
+            .workgroup_size
+    };
+    assert_eq!(size(&library(4)), [4, 1, 1]);
+    assert_eq!(size(&library(4)), [4, 1, 1]);
+    assert_eq!(size(&library(8)), [8, 1, 1]);
+    // One library changed after it composed.
+    let changed = library(4);
+    assert_eq!(size(&changed), [4, 1, 1]);
+    let changed = changed.with_source(
+        "test/size.wgsl",
+        "#define_import_path gi::test_size\nconst SIZE: u32 = 16u;\n",
+    );
+    assert_eq!(size(&changed), [16, 1, 1]);
+}
