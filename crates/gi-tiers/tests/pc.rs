@@ -69,6 +69,18 @@ fn still_frame_statistic(
     (mean, spread, n)
 }
 
+/// `config` with the brick cache's settling off, for scenes where the bounced light that the
+/// hits read from the cache is nothing: no surface above the ground for a ray to hit, or an
+/// emitter's light that bounces once at most (off a white wall onto black surfaces; a metal's
+/// diffuse albedo is black), which the hits sample themselves. Settling would relight 1536
+/// young bricks more per frame for the first frames there, most of the software adapter's
+/// time. Measured with and without it: the same ratios to within their noise (small emitter
+/// without reuse 1.0015 both; the bounced light 1.019 both; the rough metal 0.944 and 0.942).
+fn unsettled(mut config: PcConfig) -> PcConfig {
+    config.cache.settle_bricks_per_frame = 0;
+    config
+}
+
 #[test]
 fn shared_structs_match_their_wgsl_layout() {
     let module = ShaderLibrary::new().compose("pc/restir.wgsl", &[]).unwrap();
@@ -183,7 +195,7 @@ fn open_ground_gathers_pi_times_the_sky_in_every_configuration() {
         let tier = run(
             GpuContext::new().unwrap(),
             &scene,
-            config,
+            unsettled(config),
             (48, 32),
             6,
             Some(camera),
@@ -298,8 +310,12 @@ fn a_small_emitter_lights_the_ground_as_its_integral_says() {
             0.04,
         ),
     ] {
-        let (mean, spread, n) =
-            still_frame_statistic(config, (width, rows), (&scene, &frame), 16, |data| {
+        let (mean, spread, n) = still_frame_statistic(
+            unsettled(config),
+            (width, rows),
+            (&scene, &frame),
+            16,
+            |data| {
                 let image = if matches!(name, "every stage" | "with temporal reuse") {
                     &data.irradiance
                 } else {
@@ -312,7 +328,8 @@ fn a_small_emitter_lights_the_ground_as_its_integral_says() {
                     .collect();
                 assert!(ratios.len() > 200, "{name}: {} ground pixels", ratios.len());
                 ratios.iter().sum::<f64>() / ratios.len() as f64
-            });
+            },
+        );
         let bound = 4.0 * spread / n.sqrt() + bound_extra;
         println!(
             "{name}: estimate / exact {mean:.4} over {n} frames, frame spread {spread:.4}, bound {bound:.4}"
@@ -386,7 +403,7 @@ fn an_emitters_light_bounced_off_a_wall_is_counted_once() {
         / count;
     // Without reuse the shaded irradiance is each pixel's own one-sample estimate, unbiased: the
     // hits' shading is what is measured (every stage shades its hits the same way).
-    let config = PcConfig::without("restir").unwrap();
+    let config = unsettled(PcConfig::without("restir").unwrap());
     let (mean, spread, n) =
         still_frame_statistic(config, (width, rows), (&scene, &frame), 40, |data| {
             let pixels = &data.noisy_irradiance.pixels;
@@ -631,7 +648,7 @@ fn ground_points(camera: &CameraView, (width, height): (u32, u32)) -> Vec<(Vec3,
 /// light the cache gives the emitter's face (under 1% together). The same scene without
 /// specular rays reflects the irradiance over pi instead, which the emitter's finite extent
 /// keeps below `L`: the test tells the two apart. Measured: mean ratio 1.000 (worst pixel off
-/// by 1e-7) traced, 0.895 without specular rays.
+/// by 1e-7) traced, 0.889 without specular rays (0.895 with the cache's settling on).
 #[test]
 fn a_smooth_metal_reflects_an_emitter_exactly() {
     let Some(ctx) = GpuContext::new_or_skip("a_smooth_metal_reflects_an_emitter_exactly") else {
@@ -664,7 +681,7 @@ fn a_smooth_metal_reflects_an_emitter_exactly() {
         let tier = run(
             GpuContext::new().unwrap(),
             &scene,
-            config,
+            unsettled(config),
             (width, height),
             8,
             Some(camera),
@@ -705,7 +722,8 @@ fn a_smooth_metal_reflects_an_emitter_exactly() {
 /// is 4 standard errors of the mean per-pixel ratio, from the ratios' measured spread with
 /// each 3 x 3 block of pixels counted as one sample (they share their reservoirs), plus 2%
 /// for the ratio estimator's own bias. Measured after 12 / 24 / 48 frames: 1.021 / 0.944 /
-/// 0.971 (tolerance 0.09 / 0.08 / 0.09); the irradiance over pi 1.90 / 1.99 / 2.00.
+/// 0.971 (tolerance 0.09 / 0.08 / 0.09); the irradiance over pi 1.90 / 1.99 / 2.00. With the
+/// cache's settling off, as the test runs, after 24 frames: 0.942 (tolerance 0.091), 2.02.
 #[test]
 fn a_rough_metal_reflects_the_light_its_lobe_sees() {
     let Some(ctx) = GpuContext::new_or_skip("a_rough_metal_reflects_the_light_its_lobe_sees")
@@ -754,7 +772,7 @@ fn a_rough_metal_reflects_the_light_its_lobe_sees() {
         let tier = run(
             GpuContext::new().unwrap(),
             &scene,
-            config,
+            unsettled(config),
             (width, height),
             24,
             Some(camera),
