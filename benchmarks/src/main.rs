@@ -19,7 +19,8 @@
 //! gi-bench path --scene atrium --width 1920 --height 1080 --spp 4 --json path.json
 //! gi-bench mobile --scenes cornell-box,atrium,thin-wall --size 1920x1080 --frames 64 \
 //!     --screen-probes both --json mobile.json
-//! gi-bench mobile-stability --size 320x240 --screen-probes both --json stability.json
+//! gi-bench stability --size 320x240 --screen-probes both --json stability.json
+//! gi-bench stability --tier pc --size 320x240 --json pc-stability.json
 //! gi-bench pc --scenes cornell-box,atrium,glossy --size 1920x1080 --frames 64 \
 //!     --variants default,with-temporal,spatial,shadow,multi-sample,svgf,restir,specular,rough-specular --json pc.json
 //! ```
@@ -39,13 +40,13 @@ macro_rules! out {
 mod cache_rays;
 mod cache_update;
 mod mobile;
-mod mobile_stability;
 mod path;
 mod pc;
 mod rays;
 mod settle;
 mod stability;
 mod suite;
+mod tier_stability;
 
 use std::path::PathBuf;
 
@@ -220,23 +221,28 @@ enum Command {
         #[arg(long)]
         json: Option<PathBuf>,
     },
-    /// Temporal stability of the mobile tier's GI term: flicker (mean absolute frame-to-frame
-    /// change of its luminance on static pixels, still, animated and along a camera path) and
-    /// settle time after a light turns (frames until within k x the converged noise of the
-    /// converged image).
-    MobileStability {
+    /// Temporal stability of a GPU GI tier's GI term (the mobile tier's by default):
+    /// flicker (mean absolute frame-to-frame change of its luminance on static pixels, still,
+    /// animated and along a camera path) and settle time after a light turns (frames until
+    /// within k x the converged noise of the converged image).
+    #[command(alias = "mobile-stability")]
+    Stability {
+        /// The tier: mobile or pc (the PC tier at its defaults).
+        #[arg(long, default_value = "mobile", value_parser = ["mobile", "pc"])]
+        tier: String,
         /// Image size, WIDTHxHEIGHT. Every frame is read back, so keep it small.
         #[arg(long, default_value = "320x240", value_parser = parse_size)]
         size: (u32, u32),
-        /// Still warm-up frames before each case (default: the mobile tier's 63).
+        /// Still warm-up frames before each case (default: the tier's own, 63).
         #[arg(long)]
         warmup: Option<u32>,
         /// Measured frames of each flicker case.
         #[arg(long, default_value_t = 32)]
         frames: u32,
-        /// Screen probes: hsgi, smartgi or both (one run each).
-        #[arg(long, default_value = "hsgi", value_parser = mobile::parse_modes)]
-        screen_probes: ModeList,
+        /// The mobile tier's screen probes: hsgi, smartgi or both (one run each; default
+        /// hsgi).
+        #[arg(long, value_parser = mobile::parse_modes)]
+        screen_probes: Option<ModeList>,
         /// Scene of the still and animated flicker cases, seen by its still default camera.
         #[arg(long, default_value = "dynamic")]
         still_scene: String,
@@ -383,7 +389,8 @@ fn main() -> anyhow::Result<()> {
             out!("{}", report.table());
             write_json(json, &report.json())
         }
-        Command::MobileStability {
+        Command::Stability {
+            tier,
             size,
             warmup,
             frames,
@@ -397,11 +404,23 @@ fn main() -> anyhow::Result<()> {
             settle_k,
             json,
         } => {
-            let report = mobile_stability::run(&mobile_stability::StabilityOptions {
+            let (kind, variants) = match (tier.as_str(), screen_probes) {
+                ("pc", None) => (gi_tiers::TierKind::Pc, vec![tier_stability::Variant::Pc]),
+                ("pc", Some(_)) => anyhow::bail!("--screen-probes applies to the mobile tier only"),
+                (_, modes) => (
+                    gi_tiers::TierKind::Mobile,
+                    modes
+                        .unwrap_or_else(|| vec![gi_tiers::mobile::ScreenProbeMode::Hsgi])
+                        .into_iter()
+                        .map(tier_stability::Variant::Mobile)
+                        .collect(),
+                ),
+            };
+            let report = tier_stability::run(&tier_stability::StabilityOptions {
                 size,
-                warmup: warmup.unwrap_or(gi_tiers::TierKind::Mobile.default_warmup()),
+                warmup: warmup.unwrap_or(kind.default_warmup()),
                 frames,
-                modes: screen_probes,
+                variants,
                 still_scene,
                 path_scene,
                 settle_scene,

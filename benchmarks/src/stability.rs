@@ -41,19 +41,31 @@ pub struct GiFrame<'a> {
     pub depth: &'a [f32],
 }
 
-impl<'a> GiFrame<'a> {
-    /// The mobile tier's frame data.
-    pub fn of(data: &'a gi_tiers::mobile::MobileFrameData) -> Self {
-        Self {
-            width: data.gi.width,
-            height: data.gi.height,
-            gi: &data.gi.pixels,
-            dynamic: &data.dynamic,
-            motion: &data.motion,
-            depth: &data.depth,
+/// A frame's GI term and G-buffer data, owned: what a tier's frame data is read into.
+#[derive(Clone, Debug)]
+pub struct OwnedGiFrame {
+    pub width: u32,
+    pub height: u32,
+    pub gi: Vec<Vec3>,
+    pub dynamic: Vec<bool>,
+    pub motion: Vec<[f32; 2]>,
+    pub depth: Vec<f32>,
+}
+
+impl OwnedGiFrame {
+    pub fn view(&self) -> GiFrame<'_> {
+        GiFrame {
+            width: self.width,
+            height: self.height,
+            gi: &self.gi,
+            dynamic: &self.dynamic,
+            motion: &self.motion,
+            depth: &self.depth,
         }
     }
+}
 
+impl<'a> GiFrame<'a> {
     fn pixels(&self) -> usize {
         self.width as usize * self.height as usize
     }
@@ -220,37 +232,15 @@ mod tests {
     use super::*;
 
     /// A `w x h` still frame of constant depth 2 with no motion and nothing dynamic.
-    struct Owned {
-        width: u32,
-        height: u32,
-        gi: Vec<Vec3>,
-        dynamic: Vec<bool>,
-        motion: Vec<[f32; 2]>,
-        depth: Vec<f32>,
-    }
-
-    impl Owned {
-        fn new(width: u32, height: u32, gi: impl Fn(usize) -> f32) -> Self {
-            let n = (width * height) as usize;
-            Self {
-                width,
-                height,
-                gi: (0..n).map(|i| Vec3::splat(gi(i))).collect(),
-                dynamic: vec![false; n],
-                motion: vec![[0.0; 2]; n],
-                depth: vec![2.0; n],
-            }
-        }
-
-        fn frame(&self) -> GiFrame<'_> {
-            GiFrame {
-                width: self.width,
-                height: self.height,
-                gi: &self.gi,
-                dynamic: &self.dynamic,
-                motion: &self.motion,
-                depth: &self.depth,
-            }
+    fn still(width: u32, height: u32, gi: impl Fn(usize) -> f32) -> OwnedGiFrame {
+        let n = (width * height) as usize;
+        OwnedGiFrame {
+            width,
+            height,
+            gi: (0..n).map(|i| Vec3::splat(gi(i))).collect(),
+            dynamic: vec![false; n],
+            motion: vec![[0.0; 2]; n],
+            depth: vec![2.0; n],
         }
     }
 
@@ -263,30 +253,30 @@ mod tests {
 
     #[test]
     fn a_still_frame_does_not_change_and_a_uniform_step_is_measured_exactly() {
-        let before = Owned::new(4, 3, |_| 1.0);
-        let same = static_change(&before.frame(), &before.frame(), DEPTH_TOLERANCE);
+        let before = still(4, 3, |_| 1.0);
+        let same = static_change(&before.view(), &before.view(), DEPTH_TOLERANCE);
         assert_eq!(same.pixels, 12);
         assert_eq!(same.mean_abs_change(), 0.0);
         // Alternate +-0.1 around 1: flicker 0.1, relative 0.1.
-        let after = Owned::new(4, 3, |i| if i % 2 == 0 { 1.1 } else { 0.9 });
-        let change = static_change(&after.frame(), &before.frame(), DEPTH_TOLERANCE);
+        let after = still(4, 3, |i| if i % 2 == 0 { 1.1 } else { 0.9 });
+        let change = static_change(&after.view(), &before.view(), DEPTH_TOLERANCE);
         assert!((change.mean_abs_change() - 0.1).abs() < 1e-6, "{change:?}");
         assert!((change.relative().unwrap() - 0.1).abs() < 1e-6);
     }
 
     #[test]
     fn dynamic_sky_and_disoccluded_pixels_are_left_out() {
-        let before = Owned::new(4, 1, |_| 1.0);
-        let mut after = Owned::new(4, 1, |_| 5.0);
+        let before = still(4, 1, |_| 1.0);
+        let mut after = still(4, 1, |_| 5.0);
         after.dynamic[0] = true; // moving object now
         after.depth[2] = f32::INFINITY; // sky
         after.depth[3] = 3.0; // another surface than before (2.0): disocclusion
-        let mut before_dynamic = Owned::new(4, 1, |_| 1.0);
+        let mut before_dynamic = still(4, 1, |_| 1.0);
         before_dynamic.dynamic[1] = true; // moving object before
-        let change = static_change(&after.frame(), &before.frame(), DEPTH_TOLERANCE);
+        let change = static_change(&after.view(), &before.view(), DEPTH_TOLERANCE);
         assert_eq!(change.pixels, 1, "only pixel 1 is static in both");
         assert!((change.mean_abs_change() - 4.0).abs() < 1e-6);
-        let change = static_change(&after.frame(), &before_dynamic.frame(), DEPTH_TOLERANCE);
+        let change = static_change(&after.view(), &before_dynamic.view(), DEPTH_TOLERANCE);
         assert_eq!(change.pixels, 0);
         assert_eq!(change.relative(), None);
     }
@@ -295,22 +285,22 @@ mod tests {
     fn motion_vectors_compare_each_pixel_with_where_it_was() {
         // The image moved one pixel right between the frames: pixel x now shows what pixel
         // x - 1 showed. With its motion vector the change is zero; without it, it is not.
-        let before = Owned::new(5, 1, |i| i as f32);
-        let mut after = Owned::new(5, 1, |i| i as f32 - 1.0);
+        let before = still(5, 1, |i| i as f32);
+        let mut after = still(5, 1, |i| i as f32 - 1.0);
         for m in &mut after.motion {
             *m = [-1.0, 0.0];
         }
-        let change = static_change(&after.frame(), &before.frame(), DEPTH_TOLERANCE);
+        let change = static_change(&after.view(), &before.view(), DEPTH_TOLERANCE);
         assert_eq!(change.pixels, 4, "pixel 0 came from outside the frame");
         assert!(change.mean_abs_change() < 1e-6, "{change:?}");
-        let still = Owned::new(5, 1, |i| i as f32 - 1.0);
-        let wrong = static_change(&still.frame(), &before.frame(), DEPTH_TOLERANCE);
+        let still = still(5, 1, |i| i as f32 - 1.0);
+        let wrong = static_change(&still.view(), &before.view(), DEPTH_TOLERANCE);
         assert!((wrong.mean_abs_change() - 1.0).abs() < 1e-6);
         // Sub-pixel motion rounds to the nearest previous pixel.
         for m in &mut after.motion {
             *m = [-0.7, 0.3];
         }
-        let change = static_change(&after.frame(), &before.frame(), DEPTH_TOLERANCE);
+        let change = static_change(&after.view(), &before.view(), DEPTH_TOLERANCE);
         assert!(change.mean_abs_change() < 1e-6, "{change:?}");
     }
 

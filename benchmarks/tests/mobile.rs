@@ -1,5 +1,5 @@
-//! `gi-bench mobile` and `gi-bench mobile-stability` in a tiny mode, so they keep building and
-//! running in CI.
+//! `gi-bench mobile` and `gi-bench stability` (`mobile-stability`, and `--tier pc`) in a tiny
+//! mode, so they keep building and running in CI.
 
 use std::process::{Command, Output};
 
@@ -204,6 +204,16 @@ fn mobile_benchmarks_reject_bad_input_clearly() {
         "4",
     ]);
     assert!(err.contains("--converged-frames"), "{err}");
+    let err = run(&["stability", "--tier", "pc", "--screen-probes", "hsgi"]);
+    assert!(
+        err.contains("--screen-probes applies to the mobile tier only"),
+        "{err}"
+    );
+    let err = run(&["stability", "--tier", "path"]);
+    assert!(
+        err.contains("'path'") && err.contains("mobile, pc"),
+        "{err}"
+    );
     for bad in ["-1", "61", "NaN", "soon"] {
         let err = run(&["pc", &format!("--settle-s={bad}")]);
         assert!(
@@ -211,4 +221,51 @@ fn mobile_benchmarks_reject_bad_input_clearly() {
             "{err}"
         );
     }
+}
+
+#[test]
+fn pc_stability_benchmark_reports_flicker_and_settle() {
+    if GpuContext::new_or_skip("pc_stability_benchmark_reports_flicker_and_settle").is_none() {
+        return;
+    }
+    let json = std::path::Path::new(env!("CARGO_TARGET_TMPDIR")).join("gi-bench-pc-stability.json");
+    let (_, stdout) = gi_bench(
+        &[
+            "stability",
+            "--tier",
+            "pc",
+            "--size",
+            "24x16",
+            "--warmup",
+            "1",
+            "--frames",
+            "2",
+            "--path-scene",
+            "cornell-box",
+            "--settle-scene",
+            "atrium",
+            "--settle-frames",
+            "4",
+            "--converged-frames",
+            "2",
+        ],
+        &json,
+    );
+    assert!(stdout.contains("| pc | still | dynamic |"), "{stdout}");
+    let report = read_json(&json);
+    let runs = report["runs"].as_array().expect("runs");
+    assert_eq!(runs.len(), 1);
+    let run = &runs[0];
+    assert_eq!(run["tier"], "pc");
+    assert!(run["screen_probes"].is_null(), "{run}");
+    for case in run["flicker"].as_array().unwrap() {
+        assert!(case["pixels"].as_u64().unwrap() > 0, "{case}");
+        let change = case["mean_abs_change"].as_f64().unwrap();
+        assert!(change.is_finite() && change >= 0.0, "{case}");
+    }
+    let settle = &run["settle"];
+    assert_eq!(settle["scene"], "atrium");
+    // Four frames after the turn, the last two converged: two errors.
+    assert_eq!(settle["errors"].as_array().unwrap().len(), 2);
+    assert!(settle["light_change"].as_f64().unwrap() > 0.0, "{settle}");
 }

@@ -47,6 +47,17 @@ pub fn dynamic_nodes(scene: &Scene) -> Vec<bool> {
         .collect()
 }
 
+/// `dynamic[triangle]` for each triangle of `frame`: its node is moved by an animation
+/// ([`dynamic_nodes`]).
+pub fn dynamic_triangles(scene: &Scene, frame: &SceneFrame) -> Vec<bool> {
+    let dynamic = dynamic_nodes(scene);
+    frame
+        .attributes
+        .iter()
+        .map(|a| dynamic.get(a.node as usize).copied().unwrap_or(false))
+        .collect()
+}
+
 /// A scene frame as the cache sees it: the triangles with their dynamic flags.
 pub struct CacheScene<'a> {
     pub scene: &'a Scene,

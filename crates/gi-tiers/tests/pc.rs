@@ -452,6 +452,17 @@ fn every_bundled_scene_renders_finite_and_accounts_its_memory() {
                 .all(|p| p.is_finite() && p.min_element() >= -1e-5),
             "{name}: non-finite or negative GI"
         );
+        // The G-buffer's view of the frame: no pixel of a static scene shows something an
+        // animation moves (`dynamic_pixels_follow_the_moving_objects` checks the animated one).
+        let pixels = data.gi.pixels.len();
+        assert_eq!(
+            (data.depth.len(), data.motion.len(), data.dynamic.len()),
+            (pixels, pixels, pixels),
+            "{name}"
+        );
+        if !scene.is_animated() {
+            assert!(data.dynamic.iter().all(|d| !d), "{name}: dynamic pixels");
+        }
         // Without spatial reuse the shaded reservoirs are the temporal ones: M is clamped.
         let most = data.reservoirs.iter().map(|r| r.m).fold(0.0, f32::max);
         assert!(most <= config.restir.m_clamp + 1.0, "{name}: M {most}");
@@ -466,6 +477,42 @@ fn every_bundled_scene_renders_finite_and_accounts_its_memory() {
             "{memory:?}"
         );
     }
+}
+
+/// The frame data marks the pixels that show something an animation moves: on `dynamic`, a
+/// few pixels (its moving objects are small: about 0.15% of the view), never the sky, and not
+/// the same ones half a second later, as the objects move.
+#[test]
+fn dynamic_pixels_follow_the_moving_objects() {
+    let Some(ctx) = GpuContext::new_or_skip("dynamic_pixels_follow_the_moving_objects") else {
+        return;
+    };
+    let scene = gi_scene::load("dynamic").unwrap();
+    let config = PcConfig::without("restir").unwrap();
+    let mut tier = PcTier::new(settings(160, 120), config, ctx).unwrap();
+    let mut masks = Vec::new();
+    for index in 0..2 {
+        let frame = scene.evaluate(index as f32 * 0.5, None);
+        tier.advance(&FrameInput {
+            scene: &scene,
+            frame: &frame,
+            index,
+            progress: None,
+        })
+        .unwrap();
+        let data = tier.frame_data().unwrap();
+        let moving = data.dynamic.iter().filter(|d| **d).count();
+        assert!(moving > 0, "frame {index}: no dynamic pixel");
+        assert!(
+            data.dynamic
+                .iter()
+                .zip(&data.depth)
+                .all(|(d, depth)| !d || depth.is_finite()),
+            "frame {index}: a sky pixel counted as dynamic"
+        );
+        masks.push(data.dynamic);
+    }
+    assert_ne!(masks[0], masks[1], "the dynamic pixels did not move");
 }
 
 /// Temporal reuse is off by default: its two reservoir buffers then hold one reservoir each

@@ -13,7 +13,7 @@ pub use screen::{GpuScreenProbe, ScreenUniforms};
 pub use volume::{ProbeSample, ProbeVolume, VolumeError};
 
 use gi_cache::lighting::GpuSky;
-use gi_cache::{CacheLighting, RadianceCache, ScreenInputs, binning::dynamic_nodes};
+use gi_cache::{CacheLighting, RadianceCache, ScreenInputs, binning::dynamic_triangles};
 use gi_gpu::gbuffer::{GBuffer, GBufferInputs};
 use gi_gpu::{GpuCamera, GpuContext, GpuTimer, PassTimings, ShaderLibrary, wgpu};
 use gi_image::Image;
@@ -358,14 +358,9 @@ fn dynamic_triangle_bits(
     scene: &gi_scene::Scene,
     frame: &SceneFrame,
 ) -> wgpu::Buffer {
-    let dynamic = dynamic_nodes(scene);
     let mut bits = vec![0u32; frame.triangles.len().div_ceil(32).max(1)];
-    for (index, attributes) in frame.attributes.iter().enumerate() {
-        if dynamic
-            .get(attributes.node as usize)
-            .copied()
-            .unwrap_or(false)
-        {
+    for (index, dynamic) in dynamic_triangles(scene, frame).into_iter().enumerate() {
+        if dynamic {
             bits[index / 32] |= 1 << (index % 32);
         }
     }

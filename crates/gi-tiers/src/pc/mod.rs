@@ -26,10 +26,12 @@ pub use config::{
 
 use bytemuck::{Pod, Zeroable};
 use gi_cache::lighting::GpuSky;
-use gi_cache::{CacheBuffers, CacheLighting, RadianceCache, ScreenInputs};
+use gi_cache::{
+    CacheBuffers, CacheLighting, RadianceCache, ScreenInputs, binning::dynamic_triangles,
+};
 use gi_gpu::binding::{buffer_entries, storage_entry, uniform_entry};
 use gi_gpu::bvh::{BVH_BIND_GROUP, GpuBvh};
-use gi_gpu::gbuffer::{GBuffer, GBufferInputs};
+use gi_gpu::gbuffer::{GBUFFER_MISS, GBuffer, GBufferInputs};
 use gi_gpu::{GpuCamera, GpuContext, GpuError, GpuScene, GpuTimer, ShaderLibrary, wgpu};
 use gi_image::Image;
 use gi_scene::SceneFrame;
@@ -176,6 +178,13 @@ pub struct PcFrameData {
     /// The trace pixels' resolved reservoirs (row-major, `trace_size`).
     pub reservoirs: Vec<GpuReservoir>,
     pub trace_size: (u32, u32),
+    /// Per pixel, from the G-buffer: distance along the pixel's unit ray, `+inf` for sky.
+    pub depth: Vec<f32>,
+    /// Per pixel, from the G-buffer: previous pixel position minus this pixel's center, in
+    /// pixels.
+    pub motion: Vec<[f32; 2]>,
+    /// Per pixel: it shows a triangle that an animation moves.
+    pub dynamic: Vec<bool>,
 }
 
 /// The compute pipelines of `pc/trace.wgsl` and `pc/restir.wgsl` and their layouts.
@@ -381,6 +390,8 @@ struct Prepared {
     state: SceneState,
     buffers: PcBuffers,
     denoiser: Denoiser,
+    /// Per triangle of the uploaded frame: moved by an animation (for [`PcFrameData`]).
+    dynamic_triangles: Vec<bool>,
 }
 
 impl Prepared {
@@ -487,12 +498,24 @@ impl PcTier {
                 .map(|(o, d)| *o - *d)
                 .collect(),
         };
+        let gbuffer = self.gbuffer.read(ctx);
+        let dynamic = gbuffer
+            .triangle
+            .iter()
+            .map(|&t| {
+                let moved = prepared.dynamic_triangles.get(t as usize);
+                t != GBUFFER_MISS && moved.copied().unwrap_or(false)
+            })
+            .collect();
         Some(PcFrameData {
             gi,
             noisy_irradiance: read(&prepared.buffers.irradiance),
             irradiance: read(prepared.denoiser.output()),
             reservoirs: ctx.read_buffer(&prepared.buffers.resolved),
             trace_size: prepared.buffers.trace_size,
+            depth: gbuffer.depth,
+            motion: gbuffer.motion,
+            dynamic,
         })
     }
 
@@ -591,6 +614,7 @@ impl PcTier {
             state,
             buffers,
             denoiser,
+            dynamic_triangles: dynamic_triangles(input.scene, input.frame),
         });
         Ok(())
     }

@@ -1,6 +1,7 @@
-//! `gi-bench mobile-stability`: how steady the mobile tier's GI term is and how fast it
-//! follows a lighting change, with the metrics of [`crate::stability`] (their definitions are
-//! in its docs). Every case first renders a still warm-up of frame 0.
+//! `gi-bench stability` (also `mobile-stability`): how steady a GPU GI tier's GI term is and
+//! how fast it follows a lighting change, with the metrics of [`crate::stability`] (their
+//! definitions are in its docs): the mobile tier in each screen-probe mode asked for, or the
+//! PC tier at its defaults. Every case first renders a still warm-up of frame 0.
 //!
 //! Flicker, over `frames` measured frames after the warm-up:
 //! - `still`: the still scene frozen at frame 0 (every frame the same view): the tier's own
@@ -24,23 +25,24 @@
 
 use anyhow::{Context, bail};
 use gi_scene::LightKind;
-use gi_tiers::{CameraMode, Renderer, mobile::ScreenProbeMode};
+use gi_tiers::{CameraMode, PcConfig, PcTier, Renderer, TierSettings, mobile::ScreenProbeMode};
 use glam::Quat;
 
 use crate::mobile::{mobile, mobile_renderer};
 use crate::stability::{
-    Change, DEPTH_TOLERANCE, GiFrame, frame_to_frame_noise, luminance_image, mean_abs_difference,
-    mean_image, settle_frames, static_change,
+    Change, DEPTH_TOLERANCE, OwnedGiFrame, frame_to_frame_noise, luminance_image,
+    mean_abs_difference, mean_image, settle_frames, static_change,
 };
 
-/// What `gi-bench mobile-stability` runs.
+/// What `gi-bench stability` runs.
 #[derive(Clone, Debug)]
 pub struct StabilityOptions {
     pub size: (u32, u32),
     pub warmup: u32,
     /// Measured frames of each flicker case.
     pub frames: u32,
-    pub modes: Vec<ScreenProbeMode>,
+    /// One run each.
+    pub variants: Vec<Variant>,
     /// Scene of the `still` and `animated` flicker cases (default `dynamic`).
     pub still_scene: String,
     /// Scene of the `camera path` flicker case; it needs a camera path.
@@ -80,8 +82,62 @@ pub struct Settle {
     pub settle_frames: Option<usize>,
 }
 
+/// The tier a run measures, and for the mobile tier its screen probes.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Variant {
+    Mobile(ScreenProbeMode),
+    /// The PC tier's default configuration.
+    Pc,
+}
+
+impl Variant {
+    pub fn tier(self) -> &'static str {
+        match self {
+            Variant::Mobile(_) => "mobile",
+            Variant::Pc => "pc",
+        }
+    }
+
+    /// The mobile tier's screen-probe mode; `None` for the PC tier.
+    pub fn screen_probes(self) -> Option<&'static str> {
+        match self {
+            Variant::Mobile(mode) => Some(mode.name()),
+            Variant::Pc => None,
+        }
+    }
+
+    /// `mobile hsgi`, `mobile smartgi`, `pc`.
+    pub fn name(self) -> String {
+        match self.screen_probes() {
+            Some(mode) => format!("{} {mode}", self.tier()),
+            None => self.tier().to_owned(),
+        }
+    }
+
+    fn renderer(
+        self,
+        scene: &gi_scene::Scene,
+        size: (u32, u32),
+        camera: CameraMode,
+    ) -> anyhow::Result<Renderer> {
+        match self {
+            Variant::Mobile(mode) => mobile_renderer(scene.clone(), size, mode, camera),
+            Variant::Pc => {
+                let settings = TierSettings {
+                    width: size.0,
+                    height: size.1,
+                    spp: 1,
+                    seed: 1,
+                };
+                let tier = PcTier::open(settings, PcConfig::default())?;
+                Ok(Renderer::with_tier(scene.clone(), Box::new(tier), camera))
+            }
+        }
+    }
+}
+
 pub struct StabilityRun {
-    pub mode: ScreenProbeMode,
+    pub variant: Variant,
     pub flicker: Vec<FlickerCase>,
     pub settle: Settle,
 }
@@ -107,11 +163,11 @@ pub fn run(options: &StabilityOptions) -> anyhow::Result<StabilityReport> {
         options.path_scene
     );
     let settle_scene = load(&options.settle_scene)?;
+    anyhow::ensure!(!options.variants.is_empty(), "nothing to measure");
     let mut runs = Vec::new();
-    for &mode in &options.modes {
-        let renderer = |scene: &gi_scene::Scene, camera| {
-            mobile_renderer(scene.clone(), options.size, mode, camera)
-        };
+    for &variant in &options.variants {
+        let renderer =
+            |scene: &gi_scene::Scene, camera| variant.renderer(scene, options.size, camera);
         let flicker = vec![
             FlickerCase {
                 case: "still",
@@ -131,7 +187,7 @@ pub fn run(options: &StabilityOptions) -> anyhow::Result<StabilityReport> {
         ];
         let settle = settle(&mut renderer(&settle_scene, CameraMode::Default)?, options)?;
         runs.push(StabilityRun {
-            mode,
+            variant,
             flicker,
             settle,
         });
@@ -142,10 +198,29 @@ pub fn run(options: &StabilityOptions) -> anyhow::Result<StabilityReport> {
     })
 }
 
-fn frame_data(renderer: &Renderer) -> anyhow::Result<gi_tiers::mobile::MobileFrameData> {
-    mobile(renderer)
-        .frame_data()
-        .context("the mobile tier returned no frame data after a frame")
+/// The GI term and G-buffer data of the frame the tier rendered last.
+fn frame_data(renderer: &Renderer) -> anyhow::Result<OwnedGiFrame> {
+    let missing = || "the tier returned no frame data after a frame";
+    if let Some(tier) = renderer.tier_as::<PcTier>() {
+        let data = tier.frame_data().with_context(missing)?;
+        return Ok(OwnedGiFrame {
+            width: data.gi.width,
+            height: data.gi.height,
+            gi: data.gi.pixels,
+            dynamic: data.dynamic,
+            motion: data.motion,
+            depth: data.depth,
+        });
+    }
+    let data = mobile(renderer).frame_data().with_context(missing)?;
+    Ok(OwnedGiFrame {
+        width: data.gi.width,
+        height: data.gi.height,
+        gi: data.gi.pixels,
+        dynamic: data.dynamic,
+        motion: data.motion,
+        depth: data.depth,
+    })
 }
 
 /// Warms up, then measures `options.frames` frames, advancing scene time when `advance`.
@@ -169,8 +244,8 @@ fn flicker(
         }
         let current = frame_data(renderer)?;
         total.add(static_change(
-            &GiFrame::of(&current),
-            &GiFrame::of(&previous),
+            &current.view(),
+            &previous.view(),
             DEPTH_TOLERANCE,
         ));
         previous = current;
@@ -203,14 +278,14 @@ fn settle(renderer: &mut Renderer, options: &StabilityOptions) -> anyhow::Result
         "the settle scene must be static; {name} is animated (try atrium or thin-wall)"
     );
     renderer.warm_up(options.warmup.max(1), None)?;
-    let before = luminance_image(&frame_data(renderer)?.gi.pixels);
+    let before = luminance_image(&frame_data(renderer)?.gi);
     turn_first_light(renderer.scene_mut(), options.light_turn_deg)?;
     let mut frames = Vec::new();
     let mut last = None;
     for _ in 0..options.settle_frames {
         renderer.warm_up(1, None)?;
         let data = frame_data(renderer)?;
-        frames.push(luminance_image(&data.gi.pixels));
+        frames.push(luminance_image(&data.gi));
         last = Some(data);
     }
     let last = last.expect("at least two frames");
@@ -255,7 +330,7 @@ impl StabilityReport {
     pub fn table(&self) -> String {
         let o = &self.options;
         let mut out = format!(
-            "mobile tier {}x{}, {} still warm-up frames, flicker over {} frames; settle: light \
+            "{}x{}, {} still warm-up frames, flicker over {} frames; settle: light \
              turned {} deg, {} frames, converged = mean of the last {}, threshold = {} x their \
              frame-to-frame noise\n\n",
             o.size.0,
@@ -267,14 +342,14 @@ impl StabilityReport {
             o.converged_frames,
             o.settle_k,
         );
-        out += "| screen probes | case | scene | static pixels | flicker (mean abs dL) | \
+        out += "| tier | case | scene | static pixels | flicker (mean abs dL) | \
                 mean L | relative |\n|---|---|---|---:|---:|---:|---:|\n";
         for run in &self.runs {
             for case in &run.flicker {
                 let c = &case.change;
                 out += &format!(
                     "| {} | {} | {} | {} | {:.5} | {:.5} | {} |\n",
-                    run.mode.name(),
+                    run.variant.name(),
                     case.case,
                     case.scene,
                     c.pixels,
@@ -285,13 +360,13 @@ impl StabilityReport {
                 );
             }
         }
-        out += "\n| screen probes | scene | light change | noise | threshold | converged drift | \
+        out += "\n| tier | scene | light change | noise | threshold | converged drift | \
                 settle frames |\n|---|---|---:|---:|---:|---:|---:|\n";
         for run in &self.runs {
             let s = &run.settle;
             out += &format!(
                 "| {} | {} | {:.5} | {:.5} | {:.5} | {:.5} | {} |\n",
-                run.mode.name(),
+                run.variant.name(),
                 s.scene,
                 s.light_change,
                 s.noise,
@@ -304,7 +379,7 @@ impl StabilityReport {
                 out += &format!(
                     "\nwarning ({}): turning the light changed the converged GI by no more \
                      than the threshold; the settle time measures nothing\n",
-                    run.mode.name()
+                    run.variant.name()
                 );
             }
             if s.converged_drift > s.threshold {
@@ -312,7 +387,7 @@ impl StabilityReport {
                     "\nwarning ({}): the GI still drifted by more than the threshold between \
                      the converged window and the one before it; the settle time is a lower \
                      bound (raise --settle-frames)\n",
-                    run.mode.name()
+                    run.variant.name()
                 );
             }
         }
@@ -334,7 +409,8 @@ impl StabilityReport {
                 "k": o.settle_k,
             },
             "runs": self.runs.iter().map(|run| serde_json::json!({
-                "screen_probes": run.mode.name(),
+                "tier": run.variant.tier(),
+                "screen_probes": run.variant.screen_probes(),
                 "flicker": run.flicker.iter().map(|case| serde_json::json!({
                     "case": case.case,
                     "scene": case.scene,
