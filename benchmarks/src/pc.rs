@@ -111,6 +111,23 @@ pub struct PcReport {
 }
 
 /// Renders every scene in every variant and measures it.
+/// A renderer of `scene` with a PC tier of `config` at `size`.
+pub fn pc_renderer(
+    scene: gi_scene::Scene,
+    size: (u32, u32),
+    config: PcConfig,
+    camera: CameraMode,
+) -> anyhow::Result<Renderer> {
+    let settings = TierSettings {
+        width: size.0,
+        height: size.1,
+        spp: 1,
+        seed: 1,
+    };
+    let tier = PcTier::open(settings, config)?;
+    Ok(Renderer::with_tier(scene, Box::new(tier), camera))
+}
+
 pub fn run(options: &PcOptions) -> anyhow::Result<PcReport> {
     anyhow::ensure!(options.frames >= 1, "--frames must be at least 1");
     anyhow::ensure!(!options.scenes.is_empty(), "--scenes names no scene");
@@ -121,15 +138,8 @@ pub fn run(options: &PcOptions) -> anyhow::Result<PcReport> {
             let mut config = variant_config(variant).map_err(anyhow::Error::msg)?;
             config.trace_scale = options.trace_scale;
             config.trace_mode = options.trace_mode;
-            let settings = TierSettings {
-                width: options.size.0,
-                height: options.size.1,
-                spp: 1,
-                seed: 1,
-            };
-            let tier = PcTier::open(settings, config)?;
             let mut renderer =
-                Renderer::with_tier(scene.clone(), Box::new(tier), CameraMode::Default);
+                pc_renderer(scene.clone(), options.size, config, CameraMode::Default)?;
             renderer.warm_up(options.warmup, None)?;
             let settled = settle::settle(&mut renderer, TierKind::Pc, options.settle_s)?;
             let mut frames = Vec::new();

@@ -164,18 +164,13 @@ mod tests {
             return;
         };
         let scene = gi_scene::load("cornell-box").unwrap();
-        let tier = gi_tiers::PcTier::open(
-            gi_tiers::TierSettings {
-                width: 16,
-                height: 12,
-                spp: 1,
-                seed: 1,
-            },
+        let mut renderer = crate::pc::pc_renderer(
+            scene,
+            (16, 12),
             gi_tiers::PcConfig::default(),
+            gi_tiers::CameraMode::Default,
         )
         .unwrap();
-        let mut renderer =
-            Renderer::with_tier(scene, Box::new(tier), gi_tiers::CameraMode::Default);
         let none = settle(&mut renderer, TierKind::Pc, 0.0).unwrap();
         assert_eq!(none.frames, 0);
         assert_eq!(renderer.warm_up_frames(), 0);

@@ -25,10 +25,11 @@
 
 use anyhow::{Context, bail};
 use gi_scene::LightKind;
-use gi_tiers::{CameraMode, PcConfig, PcTier, Renderer, TierSettings, mobile::ScreenProbeMode};
+use gi_tiers::{CameraMode, PcConfig, PcTier, Renderer, mobile::ScreenProbeMode};
 use glam::Quat;
 
 use crate::mobile::{mobile, mobile_renderer};
+use crate::pc::pc_renderer;
 use crate::stability::{
     Change, DEPTH_TOLERANCE, OwnedGiFrame, frame_to_frame_noise, luminance_image,
     mean_abs_difference, mean_image, settle_frames, static_change,
@@ -122,16 +123,7 @@ impl Variant {
     ) -> anyhow::Result<Renderer> {
         match self {
             Variant::Mobile(mode) => mobile_renderer(scene.clone(), size, mode, camera),
-            Variant::Pc => {
-                let settings = TierSettings {
-                    width: size.0,
-                    height: size.1,
-                    spp: 1,
-                    seed: 1,
-                };
-                let tier = PcTier::open(settings, PcConfig::default())?;
-                Ok(Renderer::with_tier(scene.clone(), Box::new(tier), camera))
-            }
+            Variant::Pc => pc_renderer(scene.clone(), size, PcConfig::default(), camera),
         }
     }
 }
