@@ -21,6 +21,7 @@
 //!     --screen-probes both --json mobile.json
 //! gi-bench stability --size 320x240 --screen-probes both --json stability.json
 //! gi-bench stability --tier pc --size 320x240 --json pc-stability.json
+//! gi-bench churn --tier pc --rounds 100 --size 640x360 --sharing dedicated --json churn.json
 //! gi-bench pc --scenes cornell-box,atrium,glossy --size 1920x1080 --frames 64 \
 //!     --variants default,with-temporal,spatial,shadow,multi-sample,svgf,restir,specular,rough-specular --json pc.json
 //! ```
@@ -39,6 +40,7 @@ macro_rules! out {
 
 mod cache_rays;
 mod cache_update;
+mod churn;
 mod mobile;
 mod path;
 mod pc;
@@ -269,6 +271,34 @@ enum Command {
         #[arg(long)]
         json: Option<PathBuf>,
     },
+    /// Creates renderers one after another in one process, as the render service does job
+    /// after job: each round opens a GPU context, creates the tier, renders its frames and
+    /// drops them. Reports each creation's time, resident memory, and the round that failed
+    /// if one did.
+    Churn {
+        /// The tier: pc or mobile (at its defaults).
+        #[arg(long, default_value = "pc", value_parser = ["pc", "mobile"])]
+        tier: String,
+        /// Bundled scene name or glTF path.
+        #[arg(long, default_value = "cornell-box")]
+        scene: String,
+        /// Image size, WIDTHxHEIGHT. Lavapipe wants a tiny one.
+        #[arg(long, default_value = "640x360", value_parser = parse_size)]
+        size: (u32, u32),
+        /// Renderers to create, one after another.
+        #[arg(long, default_value_t = 100)]
+        rounds: u32,
+        /// Frames each renderer renders before it is dropped.
+        #[arg(long, default_value_t = 2)]
+        frames: u32,
+        /// Device sharing of each round's context: auto (shared on hardware adapters),
+        /// shared, or dedicated (a device opened and destroyed every round).
+        #[arg(long, default_value = "auto", value_parser = churn::parse_sharing)]
+        sharing: gi_gpu::DeviceSharing,
+        /// Also write the results as JSON to this file.
+        #[arg(long)]
+        json: Option<PathBuf>,
+    },
     /// One scene of the suite, in its own process (the suite starts these).
     #[command(hide = true)]
     SuiteScene(suite::SceneArgs),
@@ -385,6 +415,26 @@ fn main() -> anyhow::Result<()> {
                 trace_scale,
                 trace_mode,
                 settle_s,
+            })?;
+            out!("{}", report.table());
+            write_json(json, &report.json())
+        }
+        Command::Churn {
+            tier,
+            scene,
+            size,
+            rounds,
+            frames,
+            sharing,
+            json,
+        } => {
+            let report = churn::run(&churn::ChurnOptions {
+                tier: tier.parse().map_err(anyhow::Error::msg)?,
+                scene,
+                size,
+                rounds,
+                frames,
+                sharing,
             })?;
             out!("{}", report.table());
             write_json(json, &report.json())

@@ -1,7 +1,8 @@
 //! `gi-bench cache-update` in a tiny mode, so the benchmark keeps building and running in CI.
 
-use std::process::Command;
+mod common;
 
+use common::gi_bench_json;
 use gi_gpu::GpuContext;
 
 #[test]
@@ -10,11 +11,10 @@ fn cache_update_benchmark_runs_and_writes_json() {
     if GpuContext::new_or_skip("cache_update_benchmark_runs_and_writes_json").is_none() {
         return;
     }
-    let json = std::path::Path::new(env!("CARGO_TARGET_TMPDIR")).join("gi-bench-cache-update.json");
     // A small pool and few levels keep the lighting passes short on a software adapter; the
     // G-buffer is tiny.
-    let output = Command::new(env!("CARGO_BIN_EXE_gi-bench"))
-        .args([
+    let (stdout, report) = gi_bench_json(
+        &[
             "cache-update",
             "--scene",
             "cornell-box",
@@ -27,21 +27,10 @@ fn cache_update_benchmark_runs_and_writes_json() {
             "--screen-inject",
             "--size",
             "16x8",
-        ])
-        .arg("--json")
-        .arg(&json)
-        .output()
-        .expect("gi-bench starts");
-    let stdout = String::from_utf8_lossy(&output.stdout);
-    assert!(
-        output.status.success(),
-        "gi-bench failed:\n{stdout}\n{}",
-        String::from_utf8_lossy(&output.stderr)
+        ],
+        "gi-bench-cache-update.json",
     );
     assert!(stdout.contains("| cache/propagate |"), "{stdout}");
-    let report: serde_json::Value =
-        serde_json::from_str(&std::fs::read_to_string(&json).expect("JSON written"))
-            .expect("JSON parses");
     assert_eq!(report["frames"], 3);
     assert_eq!(report["config"]["levels"], 2);
     // The fill frame voxelizes the whole box, and screen injection skips bricks voxelized in

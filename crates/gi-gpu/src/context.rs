@@ -1,7 +1,12 @@
 //! The headless wgpu context: adapter choice, device creation, tracked resource creation and
 //! read-back.
+//!
+//! A process opens one device per adapter and feature set and shares it between its contexts
+//! (see [`GpuContext::with_options`]): drivers do not promise that a process may create and
+//! destroy devices without end, and a service renders job after job.
 
-use std::sync::{Arc, mpsc};
+use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
+use std::sync::{Arc, Mutex, mpsc};
 
 use wgpu::util::DeviceExt;
 
@@ -33,6 +38,28 @@ pub struct GpuOptions {
     /// (for [`GpuTimer`](crate::GpuTimer)); add `SHADER_INT64` only for shaders that use
     /// `u64`, since every enabled feature is one more thing a smaller adapter may lack.
     pub optional_features: wgpu::Features,
+    /// Whether the context shares the process's device for these options or opens its own.
+    pub sharing: DeviceSharing,
+}
+
+/// Whether a context shares a device with the process's other contexts
+/// ([`GpuContext::with_options`]).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum DeviceSharing {
+    /// [`Shared`](Self::Shared) on a hardware adapter, [`Dedicated`](Self::Dedicated) on a
+    /// software one (lavapipe). A software adapter runs each queue's work on the CPU, one
+    /// command buffer at a time, so contexts on different threads render in parallel only on
+    /// devices of their own; opening one costs little there.
+    #[default]
+    Auto,
+    /// One device per adapter and feature set for the whole process, opened by the first
+    /// context that asks and kept until the process ends or the device is lost. Drivers do
+    /// not promise that a process may create and destroy devices without end (on the H100 a
+    /// process stopped finding the adapter after about 30), and a service renders job after
+    /// job; creating a tier also skips the device's start-up.
+    Shared,
+    /// A device of the context's own, destroyed with the context's last resource.
+    Dedicated,
 }
 
 impl Default for GpuOptions {
@@ -44,6 +71,7 @@ impl Default for GpuOptions {
             optional_features: wgpu::Features::TIMESTAMP_QUERY
                 | wgpu::Features::TIMESTAMP_QUERY_INSIDE_ENCODERS
                 | wgpu::Features::TIMESTAMP_QUERY_INSIDE_PASSES,
+            sharing: DeviceSharing::Auto,
         }
     }
 }
@@ -59,6 +87,10 @@ impl GpuOptions {
 }
 
 /// A headless Vulkan device and queue, with memory accounting of the resources made through it.
+///
+/// Contexts opened with the same options share one device and queue ([`Self::with_options`]);
+/// each has its own memory accounting. A tier owns its context, so the memory a tier reports
+/// is its own even when other tiers of the process render on the same device.
 pub struct GpuContext {
     /// The logical device.
     pub device: wgpu::Device,
@@ -71,7 +103,54 @@ pub struct GpuContext {
     /// Limits of the device (the adapter's own limits).
     pub limits: wgpu::Limits,
     pub(crate) memory: Arc<MemoryTracker>,
+    /// Which device this is, among those this process opened: `wgpu::Device`'s own equality
+    /// compares ids that restart with every instance.
+    serial: u64,
 }
+
+/// The next device serial ([`GpuContext::shares_device_with`]).
+static NEXT_SERIAL: AtomicU64 = AtomicU64::new(0);
+
+/// A device the process keeps open for every context that asks for the same adapter and
+/// features, until the device is lost.
+struct SharedDevice {
+    key: DeviceKey,
+    device: wgpu::Device,
+    queue: wgpu::Queue,
+    adapter_info: wgpu::AdapterInfo,
+    features: wgpu::Features,
+    limits: wgpu::Limits,
+    /// Set by the device-lost callback: the next context opens a new device.
+    lost: Arc<AtomicBool>,
+    serial: u64,
+}
+
+/// What decides which shared device serves a context: the options that change the device.
+/// Required limits do not: the device always has the adapter's own limits, and each context
+/// checks its requirement against them.
+#[derive(Clone, Debug, PartialEq, Eq)]
+struct DeviceKey {
+    adapter_name: Option<String>,
+    required_features: wgpu::Features,
+    optional_features: wgpu::Features,
+}
+
+impl DeviceKey {
+    fn of(options: &GpuOptions) -> Self {
+        Self {
+            adapter_name: options
+                .adapter_name
+                .as_ref()
+                .map(|name| name.to_lowercase()),
+            required_features: options.required_features,
+            optional_features: options.optional_features,
+        }
+    }
+}
+
+/// The devices this process has open, one per [`DeviceKey`]. The lock is held while a device
+/// is opened, so concurrent first contexts open it once.
+static SHARED_DEVICES: Mutex<Vec<SharedDevice>> = Mutex::new(Vec::new());
 
 impl GpuContext {
     /// Opens the best Vulkan adapter (or the one named by [`ADAPTER_ENV`]) with the default
@@ -80,49 +159,70 @@ impl GpuContext {
         Self::with_options(&GpuOptions::from_env())
     }
 
-    /// Opens a Vulkan adapter chosen and checked by `options`. Blocks until the device exists.
+    /// A context on a Vulkan adapter chosen and checked by `options`. Blocks until the device
+    /// exists.
+    ///
+    /// With [`DeviceSharing::Shared`] (the default on hardware adapters) the first context
+    /// for an adapter and feature set opens the device; later ones, from any thread, share it,
+    /// each with a memory account of its own. A shared device stays open for the life of the
+    /// process. When it is lost (a driver reset), the next context opens a new one.
     pub fn with_options(options: &GpuOptions) -> Result<Self, GpuError> {
-        let mut instance_desc = wgpu::InstanceDescriptor::new_without_display_handle_from_env();
-        instance_desc.backends = wgpu::Backends::VULKAN;
-        let instance = wgpu::Instance::new(instance_desc);
-        let adapters = pollster::block_on(instance.enumerate_adapters(wgpu::Backends::VULKAN));
-        let adapter = pick_adapter(adapters, options.adapter_name.as_deref()).ok_or_else(|| {
-            GpuError::NoAdapter {
-                filter: options.adapter_name.clone(),
-            }
-        })?;
-        let adapter_info = adapter.get_info();
-        let adapter_limits = adapter.limits();
-        check_limits(&options.required_limits, &adapter_limits)?;
-
-        let adapter_features = adapter.features();
-        let missing = options.required_features - adapter_features;
-        if !missing.is_empty() {
-            return Err(GpuError::MissingFeature(missing));
+        if options.sharing == DeviceSharing::Dedicated {
+            return Ok(Self::on(&open_device(options)?));
         }
-        let features = options.required_features | (options.optional_features & adapter_features);
+        let key = DeviceKey::of(options);
+        let mut devices = SHARED_DEVICES
+            .lock()
+            .unwrap_or_else(std::sync::PoisonError::into_inner);
+        devices.retain(|d| !d.lost.load(Ordering::Acquire));
+        let shareable = |d: &SharedDevice| {
+            options.sharing == DeviceSharing::Shared
+                || d.adapter_info.device_type != wgpu::DeviceType::Cpu
+        };
+        if let Some(shared) = devices.iter().find(|d| d.key == key && shareable(d)) {
+            check_limits(&options.required_limits, &shared.limits)?;
+            return Ok(Self::on(shared));
+        }
+        let opened = open_device(options)?;
+        let context = Self::on(&opened);
+        if shareable(&opened) {
+            devices.push(opened);
+        }
+        Ok(context)
+    }
 
-        let (device, queue) = pollster::block_on(adapter.request_device(&wgpu::DeviceDescriptor {
-            label: Some("gi_gpu.device"),
-            required_features: features,
-            required_limits: adapter_limits.clone(),
-            ..Default::default()
-        }))
-        .map_err(|e| GpuError::RequestDevice(e.to_string()))?;
-        tracing::info!(
-            adapter = %adapter_info.name,
-            device_type = ?adapter_info.device_type,
-            driver = %adapter_info.driver_info,
-            "GPU context created"
-        );
-        Ok(Self {
+    /// A context on a device the caller opened, e.g. an engine's own, so the tiers render on
+    /// it. Its features and limits are the device's; nothing is checked here, and a tier
+    /// whose needs the device misses fails at its creation.
+    pub fn from_device(adapter: &wgpu::Adapter, device: wgpu::Device, queue: wgpu::Queue) -> Self {
+        Self {
+            features: device.features(),
+            limits: device.limits(),
             device,
             queue,
-            adapter_info,
-            features,
-            limits: adapter_limits,
+            adapter_info: adapter.get_info(),
             memory: Arc::default(),
-        })
+            serial: NEXT_SERIAL.fetch_add(1, Ordering::Relaxed),
+        }
+    }
+
+    /// A new context, with its own memory account, on `shared`'s device.
+    fn on(shared: &SharedDevice) -> Self {
+        Self {
+            device: shared.device.clone(),
+            queue: shared.queue.clone(),
+            adapter_info: shared.adapter_info.clone(),
+            features: shared.features,
+            limits: shared.limits.clone(),
+            memory: Arc::default(),
+            serial: shared.serial,
+        }
+    }
+
+    /// Whether `self` and `other` render on the same device: contexts this crate opened on
+    /// one shared device do. Contexts made with [`Self::from_device`] share with none.
+    pub fn shares_device_with(&self, other: &GpuContext) -> bool {
+        self.serial == other.serial
     }
 
     /// A context for a GPU test, or `None` when the test should be skipped. With no adapter it
@@ -364,6 +464,65 @@ impl GpuContext {
         staging.destroy();
         Ok(values)
     }
+}
+
+/// Opens a device as `options` ask: the adapter, its limits checked, the features enabled.
+/// Its device-lost callback logs the loss and marks the device lost.
+fn open_device(options: &GpuOptions) -> Result<SharedDevice, GpuError> {
+    let mut instance_desc = wgpu::InstanceDescriptor::new_without_display_handle_from_env();
+    instance_desc.backends = wgpu::Backends::VULKAN;
+    let instance = wgpu::Instance::new(instance_desc);
+    let adapters = pollster::block_on(instance.enumerate_adapters(wgpu::Backends::VULKAN));
+    let adapter = pick_adapter(adapters, options.adapter_name.as_deref()).ok_or_else(|| {
+        GpuError::NoAdapter {
+            filter: options.adapter_name.clone(),
+        }
+    })?;
+    let adapter_info = adapter.get_info();
+    let adapter_limits = adapter.limits();
+    check_limits(&options.required_limits, &adapter_limits)?;
+
+    let adapter_features = adapter.features();
+    let missing = options.required_features - adapter_features;
+    if !missing.is_empty() {
+        return Err(GpuError::MissingFeature(missing));
+    }
+    let features = options.required_features | (options.optional_features & adapter_features);
+
+    let (device, queue) = pollster::block_on(adapter.request_device(&wgpu::DeviceDescriptor {
+        label: Some("gi_gpu.device"),
+        required_features: features,
+        required_limits: adapter_limits.clone(),
+        ..Default::default()
+    }))
+    .map_err(|e| GpuError::RequestDevice(e.to_string()))?;
+    tracing::info!(
+        adapter = %adapter_info.name,
+        device_type = ?adapter_info.device_type,
+        driver = %adapter_info.driver_info,
+        sharing = ?options.sharing,
+        "GPU device opened"
+    );
+    let lost = Arc::new(AtomicBool::new(false));
+    let lost_flag = Arc::clone(&lost);
+    device.set_device_lost_callback(move |reason, message| {
+        lost_flag.store(true, Ordering::Release);
+        if reason == wgpu::DeviceLostReason::Destroyed {
+            tracing::info!("GPU device destroyed; the next context opens a new one");
+        } else {
+            tracing::error!(%message, "GPU device lost; the next context opens a new one");
+        }
+    });
+    Ok(SharedDevice {
+        key: DeviceKey::of(options),
+        device,
+        queue,
+        adapter_info,
+        features,
+        limits: adapter_limits,
+        lost,
+        serial: NEXT_SERIAL.fetch_add(1, Ordering::Relaxed),
+    })
 }
 
 /// The adapter whose name contains `filter` (case-insensitive), else the best by device type;

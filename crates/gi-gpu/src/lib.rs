@@ -55,7 +55,7 @@ mod shaders;
 mod timer;
 
 pub use camera::GpuCamera;
-pub use context::{ADAPTER_ENV, GpuContext, GpuOptions, REQUIRE_GPU_ENV};
+pub use context::{ADAPTER_ENV, DeviceSharing, GpuContext, GpuOptions, REQUIRE_GPU_ENV};
 pub use error::GpuError;
 pub use frame::FrameUniforms;
 pub use gbuffer::{GBuffer, GBufferData, GBufferInputs};

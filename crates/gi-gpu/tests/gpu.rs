@@ -1,7 +1,7 @@
 //! Tests of the GPU context, read-back, timers and memory accounting on a real adapter
 //! (lavapipe in CI). Without an adapter they skip loudly, or fail when `GI_REQUIRE_GPU` is set.
 
-use gi_gpu::{GpuContext, GpuError, GpuOptions, GpuTimer, ShaderLibrary, TimerMode};
+use gi_gpu::{DeviceSharing, GpuContext, GpuError, GpuOptions, GpuTimer, ShaderLibrary, TimerMode};
 
 /// An odd count, so the last workgroup is partial and the shader's bounds check matters.
 const COUNT: usize = 1000;
@@ -52,16 +52,9 @@ impl Doubler {
     }
 }
 
-#[test]
-fn a_compute_shader_doubles_a_buffer() {
-    let Some(ctx) = GpuContext::new_or_skip("a_compute_shader_doubles_a_buffer") else {
-        return;
-    };
-    eprintln!(
-        "adapter: {} ({:?})",
-        ctx.adapter_info.name, ctx.adapter_info.device_type
-    );
-    let doubler = Doubler::new(&ctx);
+/// Doubles `ctx`'s fresh buffer once and checks the result: the context's device works.
+fn assert_doubles(ctx: &GpuContext) {
+    let doubler = Doubler::new(ctx);
     let mut encoder = ctx.create_encoder("test/double");
     {
         let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
@@ -75,6 +68,18 @@ fn a_compute_shader_doubles_a_buffer() {
         ctx.read_buffer::<f32>(&doubler.values),
         Doubler::expected(2.0)
     );
+}
+
+#[test]
+fn a_compute_shader_doubles_a_buffer() {
+    let Some(ctx) = GpuContext::new_or_skip("a_compute_shader_doubles_a_buffer") else {
+        return;
+    };
+    eprintln!(
+        "adapter: {} ({:?})",
+        ctx.adapter_info.name, ctx.adapter_info.device_type
+    );
+    assert_doubles(&ctx);
 }
 
 #[test]
@@ -218,6 +223,115 @@ fn options_reject_unknown_adapters_and_unmet_limits() {
         ),
         "{err}"
     );
+}
+
+#[test]
+fn contexts_share_one_device_and_keep_their_own_memory_accounts() {
+    let Some(auto) =
+        GpuContext::new_or_skip("contexts_share_one_device_and_keep_their_own_memory_accounts")
+    else {
+        return;
+    };
+    // By default hardware adapters share a device and software ones (lavapipe) do not.
+    let hardware = auto.adapter_info.device_type != wgpu::DeviceType::Cpu;
+    assert_eq!(
+        auto.shares_device_with(&GpuContext::new().unwrap()),
+        hardware
+    );
+
+    let shared = GpuOptions {
+        sharing: DeviceSharing::Shared,
+        ..GpuOptions::from_env()
+    };
+    let first = GpuContext::with_options(&shared).unwrap();
+    let second = GpuContext::with_options(&shared).unwrap();
+    let options = shared.clone();
+    let from_thread = std::thread::spawn(move || GpuContext::with_options(&options))
+        .join()
+        .unwrap()
+        .unwrap();
+    assert!(first.shares_device_with(&second));
+    assert!(first.shares_device_with(&from_thread));
+    assert_eq!(auto.shares_device_with(&first), hardware);
+
+    let buffer = first.create_buffer("test.own", 4096, wgpu::BufferUsages::STORAGE);
+    assert_eq!(first.memory().bytes_with_prefix("test.own"), 4096);
+    assert_eq!(second.memory().total_bytes(), 0, "another context's buffer");
+    assert!(
+        !second.release_buffer(&buffer),
+        "not the second context's to release"
+    );
+    assert!(first.release_buffer(&buffer));
+
+    // Options that change the device get a device of their own; `Dedicated` always does.
+    let without_timestamps = GpuContext::with_options(&GpuOptions {
+        optional_features: wgpu::Features::empty(),
+        ..shared.clone()
+    })
+    .unwrap();
+    assert!(!without_timestamps.shares_device_with(&first));
+    assert!(!without_timestamps.supports_timestamps());
+    let dedicated = GpuContext::with_options(&GpuOptions {
+        sharing: DeviceSharing::Dedicated,
+        ..shared
+    })
+    .unwrap();
+    assert!(!dedicated.shares_device_with(&first));
+    assert_doubles(&dedicated);
+    assert_doubles(&second);
+}
+
+#[test]
+fn a_destroyed_shared_device_is_replaced_by_the_next_context() {
+    if GpuContext::new_or_skip("a_destroyed_shared_device_is_replaced_by_the_next_context")
+        .is_none()
+    {
+        return;
+    }
+    // Options no other test uses, so destroying their device disturbs no other test.
+    let options = GpuOptions {
+        optional_features: wgpu::Features::TIMESTAMP_QUERY,
+        sharing: DeviceSharing::Shared,
+        ..GpuOptions::from_env()
+    };
+    let lost = GpuContext::with_options(&options).unwrap();
+    assert!(
+        GpuContext::with_options(&options)
+            .unwrap()
+            .shares_device_with(&lost)
+    );
+    lost.device.destroy();
+    // The device-lost callback runs when the device is polled.
+    let _ = lost.device.poll(wgpu::PollType::wait_indefinitely());
+    let next = GpuContext::with_options(&options).unwrap();
+    assert!(!next.shares_device_with(&lost));
+    assert_doubles(&next);
+    assert!(
+        GpuContext::with_options(&options)
+            .unwrap()
+            .shares_device_with(&next)
+    );
+}
+
+#[test]
+fn a_context_renders_on_a_device_the_caller_opened() {
+    if GpuContext::new_or_skip("a_context_renders_on_a_device_the_caller_opened").is_none() {
+        return;
+    }
+    let instance = wgpu::Instance::new(wgpu::InstanceDescriptor {
+        backends: wgpu::Backends::VULKAN,
+        ..wgpu::InstanceDescriptor::new_without_display_handle_from_env()
+    });
+    let adapter =
+        pollster::block_on(instance.request_adapter(&wgpu::RequestAdapterOptions::default()))
+            .unwrap();
+    let (device, queue) =
+        pollster::block_on(adapter.request_device(&wgpu::DeviceDescriptor::default())).unwrap();
+    let ctx = GpuContext::from_device(&adapter, device.clone(), queue);
+    assert!(!ctx.shares_device_with(&GpuContext::new().unwrap()));
+    assert_eq!(ctx.limits, device.limits());
+    assert_eq!(ctx.adapter_info.name, adapter.get_info().name);
+    assert_doubles(&ctx);
 }
 
 #[test]

@@ -9,28 +9,35 @@ use gi_scene::SceneFrame;
 use glam::Vec3;
 
 use crate::path::{Accumulation, PathPipelines, PathUniforms};
+use crate::select;
 use crate::tier::{FrameInput, TierError, TierKind, TierSettings};
 
-/// Checks what a GPU GI tier named `tier` needs of its settings on `ctx`: a usable image size
-/// and sample count, and an image whose one-`vec4<f32>`-per-pixel buffers fit the device's
-/// storage binding limit.
+/// Checks what the GPU tier `kind` needs of its settings on `ctx`: a usable image size and
+/// sample count, an image whose one-`vec4<f32>`-per-pixel buffers fit the device's storage
+/// binding limit, and the tier's other [`select::requirements`] (a device the caller opened,
+/// e.g. an engine's, may have smaller limits than the adapter's own).
 pub(crate) fn check_frame_settings(
-    tier: &'static str,
+    kind: TierKind,
     settings: &TierSettings,
     ctx: &GpuContext,
 ) -> Result<(), TierError> {
+    let unavailable = |reason: String| TierError::Unavailable {
+        tier: kind.name(),
+        reason,
+    };
     crate::cpu::render_settings(TierKind::Reference, settings).validate()?;
     let pixel_bytes = u64::from(settings.width) * u64::from(settings.height) * 16;
     let limit = ctx.limits.max_storage_buffer_binding_size;
     if pixel_bytes > limit {
-        return Err(TierError::Unavailable {
-            tier,
-            reason: format!(
-                "{}x{} needs {pixel_bytes} bytes per image buffer, over the device's \
-                 {limit}-byte storage binding limit",
-                settings.width, settings.height
-            ),
-        });
+        return Err(unavailable(format!(
+            "{}x{} needs {pixel_bytes} bytes per image buffer, over the device's \
+             {limit}-byte storage binding limit",
+            settings.width, settings.height
+        )));
+    }
+    if let Some(requirements) = select::requirements(kind, settings) {
+        select::check_requirements(&requirements, &ctx.limits)
+            .map_err(|reason| unavailable(format!("on this device: {reason}")))?;
     }
     Ok(())
 }

@@ -479,6 +479,58 @@ fn every_bundled_scene_renders_finite_and_accounts_its_memory() {
     }
 }
 
+/// An engine's own device: the PC tier renders on it when its limits suffice, and is refused
+/// with the limit named when they do not (WebGPU's default limits bind 8 storage buffers per
+/// stage; the tier's layouts bind 28).
+#[test]
+fn the_tier_renders_on_a_device_the_caller_opened_or_names_the_limit_it_lacks() {
+    if GpuContext::new_or_skip(
+        "the_tier_renders_on_a_device_the_caller_opened_or_names_the_limit_it_lacks",
+    )
+    .is_none()
+    {
+        return;
+    }
+    let instance = gi_gpu::wgpu::Instance::new(gi_gpu::wgpu::InstanceDescriptor {
+        backends: gi_gpu::wgpu::Backends::VULKAN,
+        ..gi_gpu::wgpu::InstanceDescriptor::new_without_display_handle_from_env()
+    });
+    let adapter = pollster::block_on(instance.request_adapter(&Default::default())).unwrap();
+    let engine_context = |limits: gi_gpu::wgpu::Limits| {
+        let (device, queue) =
+            pollster::block_on(adapter.request_device(&gi_gpu::wgpu::DeviceDescriptor {
+                required_limits: limits,
+                ..Default::default()
+            }))
+            .unwrap();
+        GpuContext::from_device(&adapter, device, queue)
+    };
+
+    let small = engine_context(gi_gpu::wgpu::Limits::default());
+    let message = match PcTier::new(settings(32, 24), PcConfig::default(), small) {
+        Err(TierError::Unavailable { reason, .. }) => reason,
+        Err(other) => panic!("{other}"),
+        Ok(_) => panic!("a device with 8 storage buffers per stage was accepted"),
+    };
+    assert!(
+        message.contains("max_storage_buffers_per_shader_stage") && message.contains("28"),
+        "{message}"
+    );
+
+    let scene = gi_scene::load("cornell-box").unwrap();
+    let tier = run(
+        engine_context(adapter.limits()),
+        &scene,
+        PcConfig::default(),
+        (32, 24),
+        2,
+        None,
+    );
+    let gi = tier.frame_data().unwrap().gi;
+    assert!(gi.pixels.iter().all(|p| p.is_finite()));
+    assert!(gi.pixels.iter().any(|p| p.max_element() > 0.0), "no light");
+}
+
 /// The frame data marks the pixels that show something an animation moves: on `dynamic`, a
 /// few pixels (its moving objects are small: about 0.15% of the view), never the sky, and not
 /// the same ones half a second later, as the objects move.

@@ -127,7 +127,7 @@ impl MobileTier {
             tier: "mobile",
             reason,
         };
-        check_frame_settings("mobile", &settings, &ctx)?;
+        check_frame_settings(TierKind::Mobile, &settings, &ctx)?;
         config.validate().map_err(unavailable)?;
         let shaders = ShaderLibrary::new();
         let gpu = |e: gi_gpu::GpuError| unavailable(e.to_string());

@@ -72,17 +72,7 @@ impl GpuPathTier {
         if !matches!(kind, TierKind::Path | TierKind::Direct) {
             return Err(unavailable("it has no GPU version".to_string()));
         }
-        crate::cpu::render_settings(TierKind::Reference, &settings).validate()?;
-        // Each accumulation buffer holds one vec4 per pixel in a single storage binding.
-        let buffer_bytes = u64::from(settings.width) * u64::from(settings.height) * 16;
-        let limit = ctx.limits.max_storage_buffer_binding_size;
-        if buffer_bytes > limit {
-            return Err(unavailable(format!(
-                "{}x{} needs {buffer_bytes} bytes per accumulation buffer, over the device's \
-                 {limit}-byte storage binding limit",
-                settings.width, settings.height
-            )));
-        }
+        crate::scene_state::check_frame_settings(kind, &settings, &ctx)?;
         let pipelines =
             PathPipelines::new(&ctx, kind.name()).map_err(|e| unavailable(e.to_string()))?;
         let timer = GpuTimer::new(&ctx, kind.name(), TIMER_SCOPES);

@@ -411,7 +411,7 @@ impl PcTier {
         ctx: GpuContext,
     ) -> Result<Self, TierError> {
         let unavailable = |reason: String| TierError::Unavailable { tier: "pc", reason };
-        check_frame_settings("pc", &settings, &ctx)?;
+        check_frame_settings(TierKind::Pc, &settings, &ctx)?;
         config.validate().map_err(unavailable)?;
         let shaders = ShaderLibrary::new();
         let gpu = |e: GpuError| unavailable(e.to_string());
