@@ -13,6 +13,8 @@
 //!   converged value is the mean of the last frames of the run ([`mean_image`]), the noise the
 //!   mean frame-to-frame change over those frames ([`mean_abs_difference`] of consecutive
 //!   frames), and the error of a frame its [`mean_abs_difference`] from the converged value.
+//!   Also the frames until the error first reaches the run's error floor ([`error_floor`],
+//!   [`frames_to_floor`]), which noise correlated over many frames does not hold back.
 
 use glam::Vec3;
 
@@ -227,9 +229,54 @@ pub fn settle_frames(errors: &[f64], threshold: f64) -> Option<usize> {
     }
 }
 
+/// Fraction of the errors of a settle run's later part at or under its error floor
+/// ([`error_floor`]).
+pub const FLOOR_QUANTILE: f64 = 0.9;
+
+/// The error floor of a settle run: how far single frames of the settled GI lie from the
+/// converged value, the [`FLOOR_QUANTILE`] quantile of the errors from the middle of the run
+/// to `2 x converged_frames` before the converged window (`errors` ends where that window
+/// begins). Noise that is correlated over many frames (the brick cache's, each brick relit
+/// every few dozen frames) keeps single frames further from a short converged mean than the
+/// frame-to-frame noise says; the floor measures that. Frames that close to the window share
+/// its noise and read low, so they are left out. `None` when that part of the run is empty.
+pub fn error_floor(errors: &[f64], converged_frames: usize) -> Option<f64> {
+    let end = errors.len().checked_sub(2 * converged_frames)?;
+    let start = errors.len() / 2;
+    if start >= end {
+        return None;
+    }
+    let mut later = errors[start..end].to_vec();
+    later.sort_by(f64::total_cmp);
+    let index = ((later.len() - 1) as f64 * FLOOR_QUANTILE).round() as usize;
+    Some(later[index])
+}
+
+/// Frames until the error first reaches `floor` ([`error_floor`]): frame 1 is the first after
+/// the change. `None` when no frame does.
+pub fn frames_to_floor(errors: &[f64], floor: f64) -> Option<usize> {
+    errors.iter().position(|e| *e <= floor).map(|i| i + 1)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn the_floor_is_the_later_errors_quantile_and_reached_once() {
+        // A decay from 1.0 onto a floor alternating 0.1 and 0.2, then the frames near the
+        // converged window, which read low.
+        let mut errors: Vec<f64> = (0..20).map(|i| 1.0 / (1.0 + i as f64)).collect();
+        errors.extend((0..40).map(|i| if i % 2 == 0 { 0.1 } else { 0.2 }));
+        errors.extend([0.01; 8]);
+        let floor = error_floor(&errors, 4).unwrap();
+        assert_eq!(floor, 0.2);
+        // 1 / (1 + i) <= 0.2 from i = 4: the fifth frame.
+        assert_eq!(frames_to_floor(&errors, floor), Some(5));
+        assert_eq!(frames_to_floor(&[1.0, 0.5], 0.1), None);
+        assert_eq!(error_floor(&errors[..10], 4), None);
+        assert_eq!(error_floor(&[], 4), None);
+    }
 
     /// A `w x h` still frame of constant depth 2 with no motion and nothing dynamic.
     fn still(width: u32, height: u32, gi: impl Fn(usize) -> f32) -> OwnedGiFrame {

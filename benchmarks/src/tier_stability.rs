@@ -22,6 +22,10 @@
 //! absolute luminance differences over the pixels that see a static surface. When the mean of
 //! the window before the converged one still differs from it by more than the threshold
 //! (`converged_drift`), the GI had not converged and the settle time is a lower bound.
+//! Noise correlated over many frames holds single frames further from the converged value than
+//! the frame-to-frame noise, so the settle time can end up measuring that noise rather than the
+//! change; the error floor (the 90th percentile of the later frames' errors) and the frames
+//! until the error first reaches it measure the change alone.
 
 use anyhow::{Context, bail};
 use gi_scene::LightKind;
@@ -31,8 +35,8 @@ use glam::Quat;
 use crate::mobile::{mobile, mobile_renderer};
 use crate::pc::pc_renderer;
 use crate::stability::{
-    Change, DEPTH_TOLERANCE, OwnedGiFrame, frame_to_frame_noise, luminance_image,
-    mean_abs_difference, mean_image, settle_frames, static_change,
+    Change, DEPTH_TOLERANCE, OwnedGiFrame, error_floor, frame_to_frame_noise, frames_to_floor,
+    luminance_image, mean_abs_difference, mean_image, settle_frames, static_change,
 };
 
 /// What `gi-bench stability` runs.
@@ -81,6 +85,10 @@ pub struct Settle {
     /// Error of frame 1, 2, ... after the change (before the converged window).
     pub errors: Vec<f64>,
     pub settle_frames: Option<usize>,
+    /// The error floor of the settled GI ([`crate::stability::error_floor`]).
+    pub floor: Option<f64>,
+    /// Frames until the error first reaches the floor.
+    pub floor_frames: Option<usize>,
 }
 
 /// The tier a run measures, and for the mobile tier its screen probes.
@@ -306,7 +314,10 @@ fn settle(renderer: &mut Renderer, options: &StabilityOptions) -> anyhow::Result
         0.0
     };
     let black = vec![0.0; converged.len()];
+    let floor = error_floor(&errors, options.converged_frames as usize);
     Ok(Settle {
+        floor,
+        floor_frames: floor.and_then(|floor| frames_to_floor(&errors, floor)),
         scene: name,
         converged_luminance: mean_abs_difference(&converged, &black, &mask),
         light_change: mean_abs_difference(&before, &converged, &mask),
@@ -353,11 +364,12 @@ impl StabilityReport {
             }
         }
         out += "\n| tier | scene | light change | noise | threshold | converged drift | \
-                settle frames |\n|---|---|---:|---:|---:|---:|---:|\n";
+                settle frames | error floor | frames to the floor |\n\
+                |---|---|---:|---:|---:|---:|---:|---:|---:|\n";
         for run in &self.runs {
             let s = &run.settle;
             out += &format!(
-                "| {} | {} | {:.5} | {:.5} | {:.5} | {:.5} | {} |\n",
+                "| {} | {} | {:.5} | {:.5} | {:.5} | {:.5} | {} | {} | {} |\n",
                 run.variant.name(),
                 s.scene,
                 s.light_change,
@@ -366,6 +378,8 @@ impl StabilityReport {
                 s.converged_drift,
                 s.settle_frames
                     .map_or("not settled".to_owned(), |n| n.to_string()),
+                s.floor.map_or("-".to_owned(), |f| format!("{f:.5}")),
+                s.floor_frames.map_or("-".to_owned(), |n| n.to_string()),
             );
             if s.light_change <= s.threshold {
                 out += &format!(
@@ -419,6 +433,8 @@ impl StabilityReport {
                     "threshold": run.settle.threshold,
                     "converged_drift": run.settle.converged_drift,
                     "settle_frames": run.settle.settle_frames,
+                    "floor": run.settle.floor,
+                    "floor_frames": run.settle.floor_frames,
                     "errors": run.settle.errors,
                 },
             })).collect::<Vec<_>>(),

@@ -137,7 +137,7 @@ fn mobile_stability_benchmark_reports_flicker_and_settle() {
             "--settle-scene",
             "thin-wall",
             "--settle-frames",
-            "6",
+            "16",
             "--converged-frames",
             "3",
         ],
@@ -165,8 +165,19 @@ fn mobile_stability_benchmark_reports_flicker_and_settle() {
     }
     let settle = &run["settle"];
     assert_eq!(settle["scene"], "thin-wall");
-    // Six frames after the turn, the last three converged: three errors.
-    assert_eq!(settle["errors"].as_array().unwrap().len(), 3);
+    // Sixteen frames after the turn, the last three converged: thirteen errors. The floor is
+    // taken over errors 7 (the middle) to 7 (six before the converged window): the seventh.
+    let errors: Vec<f64> = settle["errors"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|e| e.as_f64().unwrap())
+        .collect();
+    assert_eq!(errors.len(), 13);
+    assert_eq!(settle["floor"].as_f64(), Some(errors[6]), "{settle}");
+    let to_floor = settle["floor_frames"].as_u64().unwrap() as usize;
+    assert!((1..=7).contains(&to_floor), "{settle}");
+    assert!(errors[..to_floor - 1].iter().all(|&e| e > errors[6]), "{settle}");
     let noise = settle["noise"].as_f64().unwrap();
     assert!(
         (settle["threshold"].as_f64().unwrap() - 2.0 * noise).abs() <= 1e-12,

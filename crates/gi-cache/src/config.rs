@@ -50,11 +50,12 @@ pub struct CacheConfig {
     /// near field every 9 frames and its far field every 121.
     pub light_bricks_per_frame: u32,
     /// Extra bricks relit per frame while some bricks are young (relit fewer than
-    /// [`CacheConfig::settle_updates`] times since they were voxelized): the near field first,
-    /// then the fewest-relit, then the finest. Every update of a brick adds one bounce of light, so after a scene loads
-    /// or the view jumps the round-robin alone leaves the cache dark for seconds (one update
-    /// per brick every 20 frames on a 10,000-brick scene); the extra budget settles it in
-    /// about a second and stops costing once every brick is settled. 0 turns it off.
+    /// [`CacheConfig::settle_updates`] times since they were voxelized or the lights last
+    /// changed): the near field first, then the fewest-relit, then the finest. Every update of
+    /// a brick adds one bounce of light, so after a scene loads, the view jumps or the lights
+    /// change the round-robin alone leaves the cache dark or stale for seconds (one update per
+    /// brick every 20 frames on a 10,000-brick scene); the extra budget settles it in about a
+    /// second and stops costing once every brick is settled. 0 turns it off.
     pub settle_bricks_per_frame: u32,
     /// Updates after which a brick counts as settled (see
     /// [`CacheConfig::settle_bricks_per_frame`]). A young brick's updates are also weighed at

@@ -264,8 +264,8 @@ impl ScheduleBudget {
 /// field's round-robin walks its bricks in pool-ID order from where the last frame stopped, so
 /// bricks that come and go between frames neither reset nor stall it.
 ///
-/// Settling: the schedule counts each brick's updates since it was voxelized (up to
-/// [`ScheduleBudget::settle_updates`]). Every update adds a bounce, so a brick with few updates
+/// Settling: the schedule counts each brick's updates since it was voxelized or the lights
+/// last changed ([`LightSchedule::unsettle`]), up to [`ScheduleBudget::settle_updates`]. Every update adds a bounce, so a brick with few updates
 /// still misses light that a converged one has; up to [`ScheduleBudget::settle_bricks`] such
 /// young bricks are relit on top of the round-robin: near-field ones first, then the
 /// fewest-updated, then finer levels (whose lighting the tiers read near the camera), then by
@@ -391,6 +391,15 @@ impl LightSchedule {
         (picked, counts)
     }
 
+    /// Makes every brick young again, as if none had had an update: after the lights change,
+    /// the indirect light of every brick holds bounces of the old lights, and as a young brick
+    /// each gets the settling budget and weighs its next `settle_updates` updates at least
+    /// 1/2 ([`SETTLE_MAX_AGE`]), so the old light fades as `(1/2)^n` rather than with the
+    /// round-robin's visits at `1/age`.
+    pub fn unsettle(&mut self) {
+        self.updates.clear();
+    }
+
     /// Whether brick `brick_id` was young (fewer than `settle_updates` updates) when the last
     /// [`LightSchedule::pick`] picked it.
     pub fn settling(&self, brick_id: u32) -> bool {
@@ -508,6 +517,8 @@ pub struct CacheLighting {
     light_key: Vec<u32>,
     /// Updates left with the accumulation capped at [`CHANGED_MAX_AGE`].
     fast_updates_left: u32,
+    /// Whether the last update's lights or sky differed from the one's before.
+    lights_were_changing: bool,
 }
 
 impl CacheLighting {
@@ -606,6 +617,7 @@ impl CacheLighting {
             converging: false,
             light_key: Vec::new(),
             fast_updates_left: 0,
+            lights_were_changing: false,
         })
     }
 
@@ -633,14 +645,6 @@ impl CacheLighting {
         encoder: &mut wgpu::CommandEncoder,
         inputs: &LightingInputs<'_>,
     ) -> ScheduleCounts {
-        let filling = is_filling(inputs.new_bricks.len(), inputs.resident.len());
-        let (bricks, counts) = self.schedule.pick(
-            &ScheduleBudget::new(&self.config),
-            inputs.new_bricks,
-            inputs.resident,
-            filling,
-        );
-        self.last_counts = counts;
         // A change of the lights or the sky caps the accumulation for `max_age` updates, so
         // history that no longer holds fades within a few updates; ages then grow back by one
         // per update, and so does the smoothing.
@@ -649,7 +653,22 @@ impl CacheLighting {
         if lights_changed {
             self.fast_updates_left = self.config.max_age;
         }
+        // Once the lights hold still after a change, every brick settles again
+        // ([`LightSchedule::unsettle`]): the round-robin alone reaches a brick every
+        // resident / budget updates, and most had no update within the capped ones above.
+        if self.lights_were_changing && !lights_changed {
+            self.schedule.unsettle();
+        }
+        self.lights_were_changing = lights_changed;
         self.light_key = key;
+        let filling = is_filling(inputs.new_bricks.len(), inputs.resident.len());
+        let (bricks, counts) = self.schedule.pick(
+            &ScheduleBudget::new(&self.config),
+            inputs.new_bricks,
+            inputs.resident,
+            filling,
+        );
+        self.last_counts = counts;
         self.converging = filling
             || self.fast_updates_left > 0
             || counts.young as usize * CONVERGING_FRACTION >= inputs.resident.len().max(1);
@@ -999,5 +1018,13 @@ mod tests {
                 assert_eq!(picked.last(), Some(&moved[0]));
             }
         }
+
+        // After a change of the lights every brick is young again and is relit from the
+        // settling budget until it has its 3 updates, as after the fill.
+        schedule.unsettle();
+        assert_eq!(schedule.young_bricks(&resident, 3), 200);
+        let (picked, counts) = schedule.pick(&budget, &[], &resident, false);
+        assert_eq!((picked.len(), counts.settle, counts.young), (40, 30, 200));
+        assert!(picked.iter().all(|b| schedule.settling(b.brick_id)));
     }
 }

@@ -1011,19 +1011,83 @@ fn the_lighting_converges_until_its_bricks_settle_and_again_after_a_light_change
         states[first_settled..].iter().all(|&c| !c),
         "converging again without a change: {states:?}"
     );
-    // A change of the lights caps the cache's ages for `max_age` updates: converging for as
-    // long, then settled.
+    // A change of the lights caps the cache's ages for `max_age` updates, and from the next
+    // update, the lights holding still, every brick is young again: converging until both
+    // are over, then settled.
     let sky = switch_the_light_off(&ctx, &scene, &mut lit);
-    let after: Vec<bool> = (0..config.max_age + 2)
-        .map(|_| {
-            lit.frame(&ctx, &sky);
-            lit.lighting.converging()
-        })
-        .collect();
+    let mut after = Vec::new();
+    let mut young = Vec::new();
+    for _ in 0..config.max_age as usize + settled_by + 2 {
+        lit.frame(&ctx, &sky);
+        after.push(lit.lighting.converging());
+        young.push(lit.lighting.last_counts().young as usize);
+    }
+    println!("after the light change: converging {after:?}, young {young:?}");
+    assert_eq!(
+        young[1], bricks,
+        "every brick young once the lights hold still"
+    );
     let changed = config.max_age as usize;
+    let settled_again = after.iter().position(|&c| !c).expect("never settled again");
     assert!(
-        after[..changed].iter().all(|&c| c) && after[changed..].iter().all(|&c| !c),
-        "after the light change: {after:?}"
+        settled_again >= changed && settled_again <= changed.max(settled_by + 1),
+        "settled again after {settled_again} updates: {after:?}"
+    );
+    assert!(
+        after[settled_again..].iter().all(|&c| !c),
+        "converging again without a change: {after:?}"
+    );
+}
+
+/// After a change of the lights the old light leaves every brick's indirect light within a
+/// few of its own updates, however long the round-robin takes to come round: the bricks settle
+/// again from the settling budget, each update weighing at least 1/2.
+#[test]
+fn a_light_change_leaves_every_brick_within_a_few_updates() {
+    let Some(ctx) = GpuContext::new_or_skip("a_light_change_leaves_every_brick") else {
+        return;
+    };
+    // One brick a frame from the round-robin: it alone would come round each brick once per
+    // `bricks` frames. Eight more while some are young, and young for 8 updates.
+    let config = CacheConfig {
+        light_bricks_per_frame: 1,
+        settle_bricks_per_frame: 8,
+        settle_updates: 8,
+        max_age: 32,
+        ..small_config()
+    };
+    let (scene, mut lit, wall, _) = sunlit_floor_and_wall(&ctx, &config);
+    let bricks = lit.bricks.len();
+    // Settled, and past the fill's fast updates.
+    let settled_by = 8 * bricks.div_ceil(9) + 1;
+    run_frames(&ctx, &mut lit, &scene.sky, settled_by as u32 + 40);
+    assert!(!lit.lighting.converging());
+    let mean = |values: &[Vec3]| {
+        wall.iter().map(|&s| luminance(values[s])).sum::<f32>() / wall.len() as f32
+    };
+    let lit_wall = mean(&lit.read_sides(&ctx).1);
+    assert!(lit_wall > 0.05, "{lit_wall}");
+
+    let sky = switch_the_light_off(&ctx, &scene, &mut lit);
+    // Each update at weight 1/2 halves the old light a brick holds, less what it gathers back
+    // from the floor's equally stale bounce (the wall-floor-wall loop returns a small share,
+    // which slows the halving to about 0.55 an update); 6 updates leave under 3%. With 9
+    // bricks a frame that takes 6 * bricks / 9 frames, and one more for the change itself,
+    // where the lights have not yet held still.
+    let within = (6 * bricks).div_ceil(9) + 2;
+    let mut fraction = Vec::new();
+    for _ in 0..within {
+        lit.frame(&ctx, &sky);
+        fraction.push(mean(&lit.read_sides(&ctx).1) / lit_wall);
+    }
+    println!(
+        "{bricks} bricks; the wall's indirect light after switching off, per frame, as a \
+         fraction of before: {fraction:.3?}"
+    );
+    let last = *fraction.last().unwrap();
+    assert!(
+        last < 0.05,
+        "{last} of the old light left after {within} frames"
     );
 }
 
