@@ -37,8 +37,6 @@
 //! buffers at `gi::scene`'s bindings 1 to 7, the scheduled bricks at binding 8, the scratch at
 //! binding 9), group 1 the BVH (not used by `cache/propagate_resolve`), group 2 the cache.
 
-use std::collections::{HashMap, HashSet};
-
 use bytemuck::{Pod, Zeroable};
 use gi_gpu::binding::{buffer_entries, storage_entry, uniform_entry};
 use gi_gpu::bvh::GpuBvh;
@@ -277,12 +275,30 @@ pub struct LightSchedule {
     near_cursor: Option<u32>,
     far_cursor: Option<u32>,
     far_credit: f64,
-    /// Updates of each resident brick (by pool ID) since it was voxelized, up to
-    /// `settle_updates`; a brick missing here has none.
-    updates: HashMap<u32, u32>,
-    /// Bricks of the last [`LightSchedule::pick`] that were young when picked.
-    settling: HashSet<u32>,
+    /// Updates of each resident brick, by pool ID, since it was voxelized or the lights last
+    /// changed, up to `settle_updates`; 0 for a brick with none and for an ID not resident.
+    /// Pool IDs are dense (below the pool's size), so these are arrays indexed by ID: the
+    /// schedule runs every frame over every resident brick (12,288 at the default pool).
+    updates: Vec<u32>,
+    /// Whether each brick (by pool ID) of the last [`LightSchedule::pick`] was young when
+    /// picked.
+    settling: Vec<bool>,
+    /// Scratch of [`LightSchedule::pick`], by pool ID: what the frame's lists made of it.
+    class: Vec<u8>,
+    /// Scratch of [`LightSchedule::pick`], by pool ID: the brick's place in `resident`.
+    place: Vec<u32>,
 }
+
+/// [`LightSchedule::class`]: not resident this frame.
+const ABSENT: u8 = 0;
+/// [`LightSchedule::class`]: a new brick picked first.
+const FRESH: u8 = 1;
+/// [`LightSchedule::class`]: a resident near-field brick.
+const NEAR: u8 = 2;
+/// [`LightSchedule::class`]: a resident far-field brick.
+const FAR: u8 = 3;
+/// Flag of [`LightSchedule::class`]: picked this frame.
+const PICKED: u8 = 0x80;
 
 impl LightSchedule {
     /// This frame's bricks: `new_bricks` (voxelized this frame) first, then resident bricks
@@ -297,30 +313,50 @@ impl LightSchedule {
         filling: bool,
     ) -> (Vec<ResidentBrick>, ScheduleCounts) {
         let total = budget.bricks as usize;
+        let ids = new_bricks
+            .iter()
+            .chain(resident)
+            .map(|b| b.brick_id as usize + 1)
+            .max()
+            .unwrap_or(0)
+            .max(self.updates.len());
+        self.updates.resize(ids, 0);
+        self.settling.resize(ids, false);
+        self.class.clear();
+        self.class.resize(ids, ABSENT);
+        self.place.resize(ids, 0);
+
         let mut picked: Vec<ResidentBrick> = new_bricks.iter().take(total).copied().collect();
         for b in new_bricks {
-            self.updates.remove(&b.brick_id);
+            self.updates[b.brick_id as usize] = 0;
         }
-        let fresh: HashSet<u32> = picked.iter().map(|b| b.brick_id).collect();
-        let mut near: Vec<ResidentBrick> = Vec::new();
-        let mut far: Vec<ResidentBrick> = Vec::new();
-        for b in resident.iter().filter(|b| !fresh.contains(&b.brick_id)) {
-            if b.level < budget.near_levels {
-                near.push(*b);
-            } else {
-                far.push(*b);
+        for b in &picked {
+            self.class[b.brick_id as usize] = FRESH;
+        }
+        let mut fresh = picked.len();
+        for (i, b) in resident.iter().enumerate() {
+            let id = b.brick_id as usize;
+            if self.class[id] == ABSENT {
+                self.class[id] = if b.level < budget.near_levels {
+                    NEAR
+                } else {
+                    FAR
+                };
+                self.place[id] = i as u32;
             }
         }
-        near.sort_unstable_by_key(|b| b.brick_id);
-        near.dedup_by_key(|b| b.brick_id);
-        far.sort_unstable_by_key(|b| b.brick_id);
-        far.dedup_by_key(|b| b.brick_id);
-        // Forget bricks released since the last frame (new ones were forgotten above).
-        let is_resident = |list: &[ResidentBrick], id: u32| {
-            list.binary_search_by_key(&id, |b| b.brick_id).is_ok()
-        };
-        self.updates
-            .retain(|&id, _| is_resident(&near, id) || is_resident(&far, id));
+        // Both fields in pool-ID order, each brick once; bricks released since the last frame
+        // (not resident now) are forgotten.
+        let mut near: Vec<ResidentBrick> = Vec::new();
+        let mut far: Vec<ResidentBrick> = Vec::new();
+        for (id, class) in self.class.iter().enumerate() {
+            match *class {
+                NEAR => near.push(resident[self.place[id] as usize]),
+                FAR => far.push(resident[self.place[id] as usize]),
+                ABSENT => self.updates[id] = 0,
+                _ => {}
+            }
+        }
 
         let remaining = total - picked.len();
         let near_demand = f64::from(NEAR_REFRESH_RATIO) * near.len() as f64;
@@ -346,14 +382,15 @@ impl LightSchedule {
         round_robin(&near, &mut self.near_cursor, near_count, &mut picked);
         round_robin(&far, &mut self.far_cursor, far_count, &mut picked);
         let settled = budget.settle_updates;
-        let updates = |b: &ResidentBrick| self.updates.get(&b.brick_id).copied().unwrap_or(0);
         if budget.settle_bricks > 0 {
-            let lit: HashSet<u32> = picked.iter().map(|b| b.brick_id).collect();
+            for b in &picked {
+                self.class[b.brick_id as usize] |= PICKED;
+            }
             let mut young: Vec<(u32, ResidentBrick)> = near
                 .iter()
                 .chain(&far)
-                .filter(|b| !lit.contains(&b.brick_id))
-                .map(|b| (updates(b), *b))
+                .filter(|b| self.class[b.brick_id as usize] & PICKED == 0)
+                .map(|b| (self.updates[b.brick_id as usize], *b))
                 .filter(|&(n, _)| n < settled)
                 .collect();
             let take = (budget.settle_bricks as usize).min(young.len());
@@ -371,22 +408,21 @@ impl LightSchedule {
                 counts.settle = take as u32;
             }
         }
-        self.settling.clear();
+        self.settling.fill(false);
         for b in &picked {
-            let n = self.updates.entry(b.brick_id).or_insert(0);
-            if *n < settled {
-                self.settling.insert(b.brick_id);
+            let id = b.brick_id as usize;
+            if self.updates[id] < settled {
+                self.settling[id] = true;
                 if !filling {
-                    *n += 1;
+                    self.updates[id] += 1;
                 }
             }
         }
-        // Every resident brick is in `fresh`, `near` or `far`, and only resident ones have
-        // updates counted; a brick without a count has had none.
+        // Only resident bricks have updates counted.
         if settled > 0 {
-            let settled_bricks = self.updates.values().filter(|&&n| n >= settled).count();
-            let resident_bricks = fresh.len() + near.len() + far.len();
-            counts.young = resident_bricks.saturating_sub(settled_bricks) as u32;
+            let settled_bricks = self.updates.iter().filter(|&&n| n >= settled).count();
+            fresh += near.len() + far.len();
+            counts.young = fresh.saturating_sub(settled_bricks) as u32;
         }
         (picked, counts)
     }
@@ -397,13 +433,16 @@ impl LightSchedule {
     /// 1/2 ([`SETTLE_MAX_AGE`]), so the old light fades as `(1/2)^n` rather than with the
     /// round-robin's visits at `1/age`.
     pub fn unsettle(&mut self) {
-        self.updates.clear();
+        self.updates.fill(0);
     }
 
     /// Whether brick `brick_id` was young (fewer than `settle_updates` updates) when the last
     /// [`LightSchedule::pick`] picked it.
     pub fn settling(&self, brick_id: u32) -> bool {
-        self.settling.contains(&brick_id)
+        self.settling
+            .get(brick_id as usize)
+            .copied()
+            .unwrap_or(false)
     }
 
     /// Resident bricks (of `resident`) relit fewer than `settle_updates` times since they were
@@ -412,7 +451,9 @@ impl LightSchedule {
     fn young_bricks(&self, resident: &[ResidentBrick], settle_updates: u32) -> usize {
         resident
             .iter()
-            .filter(|b| self.updates.get(&b.brick_id).copied().unwrap_or(0) < settle_updates)
+            .filter(|b| {
+                self.updates.get(b.brick_id as usize).copied().unwrap_or(0) < settle_updates
+            })
             .count()
     }
 }
@@ -877,6 +918,8 @@ impl CacheLightingHook for CacheLighting {
 
 #[cfg(test)]
 mod tests {
+    use std::collections::HashSet;
+
     use glam::IVec3;
 
     use super::*;
