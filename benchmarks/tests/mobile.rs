@@ -177,7 +177,10 @@ fn mobile_stability_benchmark_reports_flicker_and_settle() {
     assert_eq!(settle["floor"].as_f64(), Some(errors[6]), "{settle}");
     let to_floor = settle["floor_frames"].as_u64().unwrap() as usize;
     assert!((1..=7).contains(&to_floor), "{settle}");
-    assert!(errors[..to_floor - 1].iter().all(|&e| e > errors[6]), "{settle}");
+    assert!(
+        errors[..to_floor - 1].iter().all(|&e| e > errors[6]),
+        "{settle}"
+    );
     let noise = settle["noise"].as_f64().unwrap();
     assert!(
         (settle["threshold"].as_f64().unwrap() - 2.0 * noise).abs() <= 1e-12,
