@@ -88,8 +88,8 @@ impl GpuOptions {
 
 /// A headless Vulkan device and queue, with memory accounting of the resources made through it.
 ///
-/// Contexts opened with the same options share one device and queue ([`Self::with_options`]);
-/// each has its own memory accounting. A tier owns its context, so the memory a tier reports
+/// On a hardware adapter, contexts opened with the same options share one device and queue
+/// ([`Self::with_options`], [`DeviceSharing`]); each has its own memory accounting. A tier owns its context, so the memory a tier reports
 /// is its own even when other tiers of the process render on the same device.
 pub struct GpuContext {
     /// The logical device.
