@@ -137,9 +137,9 @@ fn mobile_stability_benchmark_reports_flicker_and_settle() {
             "--settle-scene",
             "thin-wall",
             "--settle-frames",
-            "16",
+            "11",
             "--converged-frames",
-            "3",
+            "2",
         ],
         &json,
     );
@@ -165,20 +165,20 @@ fn mobile_stability_benchmark_reports_flicker_and_settle() {
     }
     let settle = &run["settle"];
     assert_eq!(settle["scene"], "thin-wall");
-    // Sixteen frames after the turn, the last three converged: thirteen errors. The floor is
-    // taken over errors 7 (the middle) to 7 (six before the converged window): the seventh.
+    // Eleven frames after the turn, the last two converged: nine errors. The floor is taken
+    // over errors 5 (the middle) to 5 (four before the converged window): the fifth.
     let errors: Vec<f64> = settle["errors"]
         .as_array()
         .unwrap()
         .iter()
         .map(|e| e.as_f64().unwrap())
         .collect();
-    assert_eq!(errors.len(), 13);
-    assert_eq!(settle["floor"].as_f64(), Some(errors[6]), "{settle}");
+    assert_eq!(errors.len(), 9);
+    assert_eq!(settle["floor"].as_f64(), Some(errors[4]), "{settle}");
     let to_floor = settle["floor_frames"].as_u64().unwrap() as usize;
-    assert!((1..=7).contains(&to_floor), "{settle}");
+    assert!((1..=5).contains(&to_floor), "{settle}");
     assert!(
-        errors[..to_floor - 1].iter().all(|&e| e > errors[6]),
+        errors[..to_floor - 1].iter().all(|&e| e > errors[4]),
         "{settle}"
     );
     let noise = settle["noise"].as_f64().unwrap();
