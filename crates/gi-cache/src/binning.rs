@@ -149,7 +149,8 @@ pub fn bin_triangles(
 
 /// Fill order of bricks: finer levels first, then nearer bricks (distance from the camera to
 /// the brick center in bricks of its level). Smaller keys fill first; when the pool runs out,
-/// what is left unfilled is the coarse and far end of this order.
+/// what is left unfilled is the coarse and far end of this order. Bricks at the same distance
+/// tie here: [`fill_order`] breaks the ties.
 pub fn fill_priority(
     config: &CacheConfig,
     level: u32,
@@ -161,6 +162,26 @@ pub fn fill_priority(
         level,
         (center - camera_position).length() / config.brick_size_at(level),
     )
+}
+
+/// [`fill_priority`]'s order of `(level, brick)` entries as a total order: ties (bricks at the
+/// same distance, which a symmetric view has many of) go by brick coordinates, z, then y, then
+/// x. The fill order decides which pool ID a brick gets and so when the lighting schedule's
+/// round-robin reaches it: with ties left to the order the entries arrived in (hash order, which
+/// differs from run to run) the same scene lit the same way gave different images.
+pub fn fill_order(
+    config: &CacheConfig,
+    camera_position: Vec3,
+    a: (u32, IVec3),
+    b: (u32, IVec3),
+) -> std::cmp::Ordering {
+    let (ka, kb) = (
+        fill_priority(config, a.0, a.1, camera_position),
+        fill_priority(config, b.0, b.1, camera_position),
+    );
+    ka.0.cmp(&kb.0)
+        .then(ka.1.total_cmp(&kb.1))
+        .then_with(|| (a.1.z, a.1.y, a.1.x).cmp(&(b.1.z, b.1.y, b.1.x)))
 }
 
 /// A frame's triangles prepared for binning, with a grid of triangle lists per level so a

@@ -24,7 +24,7 @@ use gi_scene::{Scene, SceneFrame};
 use glam::{IVec3, Mat4, Vec3};
 
 use crate::alloc::BrickAllocator;
-use crate::binning::{CacheScene, TriangleIndex, fill_priority};
+use crate::binning::{CacheScene, TriangleIndex, fill_order};
 use crate::buffers::{CacheBuffers, cache_uniforms};
 use crate::clipmap::{BrickBox, ClipmapWindows};
 use crate::config::{CacheConfig, ConfigError};
@@ -505,13 +505,7 @@ impl RadianceCache {
             .filter(|entry| !self.queued.contains(entry))
             .copied()
             .collect();
-        candidates.sort_by(|a, b| {
-            let (ka, kb) = (
-                fill_priority(config, a.0, a.1, camera),
-                fill_priority(config, b.0, b.1, camera),
-            );
-            ka.0.cmp(&kb.0).then(ka.1.total_cmp(&kb.1))
-        });
+        candidates.sort_by(|&a, &b| fill_order(config, camera, a, b));
         for entry in candidates.into_iter().take(free) {
             self.dropped.remove(&entry);
             stats.requeued_dropped += u32::from(self.enqueue(entry.0, entry.1));
@@ -532,10 +526,9 @@ impl RadianceCache {
             .retain(|(level, brick)| windows.window(*level).contains(*brick));
         self.queued = self.queue.iter().copied().collect();
         let config = &self.config;
-        let key = |&(level, brick): &(u32, IVec3)| fill_priority(config, level, brick, camera);
         // Sorted farthest first, so the batch pops off the end.
         self.queue
-            .sort_by(|a, b| key(b).0.cmp(&key(a).0).then(key(b).1.total_cmp(&key(a).1)));
+            .sort_by(|&a, &b| fill_order(config, camera, b, a));
         let take = (self.config.voxelize_bricks_per_frame as usize).min(self.queue.len());
         let batch: Vec<(u32, IVec3)> = self.queue.split_off(self.queue.len() - take);
         for entry in &batch {
@@ -606,13 +599,7 @@ impl RadianceCache {
             .iter()
             .flatten()
             .filter(|(l, _)| *l > level)
-            .max_by(|a, b| {
-                let (ka, kb) = (
-                    fill_priority(config, a.0, a.1, camera),
-                    fill_priority(config, b.0, b.1, camera),
-                );
-                ka.0.cmp(&kb.0).then(ka.1.total_cmp(&kb.1))
-            })
+            .max_by(|&&a, &&b| fill_order(config, camera, a, b))
             .copied()?;
         self.release(victim.0, victim.1);
         self.dropped.insert(victim);

@@ -411,11 +411,7 @@ fn thin_wall_interior_stays_dark() {
     };
     // Windows of 16 x 8 x 16 bricks: the room at 6.25 and 12.5 cm voxels (the 5 cm wall is one
     // voxel thick either way), the outdoors up to 32 m, about 2300 bricks.
-    let config = CacheConfig {
-        level_bricks: [16, 8, 16],
-        ..converging_config(4)
-    };
-    let means = thin_wall_means(&ctx, &config);
+    let means = thin_wall_means(converged_thin_wall(&ctx));
     check_thin_wall(&means);
     for (i, (&(cache, reference, noise), expected)) in
         means.iter().zip(THIN_WALL_RATIOS).enumerate()
@@ -459,21 +455,7 @@ fn thin_wall_interior_stays_dark_at_the_default_shape() {
         return;
     };
     let config = converging_config(CacheConfig::default().levels);
-    check_thin_wall(&thin_wall_means(&ctx, &config));
-}
-
-/// Thin-wall's scene at time 0 and its cache lit with `config` for `frames` frames, with the
-/// median pass times of the last half.
-fn lit_thin_wall(
-    ctx: &GpuContext,
-    config: &CacheConfig,
-    frames: u32,
-) -> (Scene, SceneFrame, LitCache, PassTimings) {
-    let scene = gi_scene::load("thin-wall").unwrap();
-    let frame = scene.evaluate(0.0, None);
-    let mut lit = LitCache::new(ctx, config, &scene, &frame);
-    let timings = run_frames(ctx, &mut lit, &frame.sky, frames);
-    (scene, frame, lit, timings)
+    check_thin_wall(&thin_wall_means(thin_wall_cache_means(&ctx, &config, 32)));
 }
 
 /// The four groups of points thin-wall's tests read: the thin wall's inner face, its outer
@@ -528,23 +510,45 @@ fn thin_wall_groups() -> [(&'static str, Vec<(Vec3, Vec3)>); 4] {
     ]
 }
 
-/// Lights thin-wall's cache with `config` (32 frames) and returns the mean luminance `(cache,
-/// reference, reference noise)` of the irradiance on [`thin_wall_groups`]: the reference is the
-/// mean of two independent estimates, its noise half their relative difference.
-fn thin_wall_means(ctx: &GpuContext, config: &CacheConfig) -> Vec<(f32, f32, f32)> {
-    let frames = 32;
-    let (scene, frame, lit, timings) = lit_thin_wall(ctx, config, frames);
+/// Lights thin-wall's cache with `config` for `frames` frames and returns the mean luminance of
+/// its irradiance on each of [`thin_wall_groups`].
+fn thin_wall_cache_means(ctx: &GpuContext, config: &CacheConfig, frames: u32) -> [f32; 4] {
+    let scene = gi_scene::load("thin-wall").unwrap();
+    let frame = scene.evaluate(0.0, None);
+    let mut lit = LitCache::new(ctx, config, &scene, &frame);
+    let timings = run_frames(ctx, &mut lit, &frame.sky, frames);
     assert_eq!(lit.cpu.dropped_for_pool, 0, "the pool is too small");
     println!(
         "thin-wall: {} bricks, {frames} frames; median of the last {}:\n{timings}",
         lit.bricks.len(),
         frames / 2
     );
-    let groups = thin_wall_groups();
-    let reference = Reference::new(&scene, frame.clone());
+    thin_wall_groups().map(|(_, points)| mean_luminance(&cache_irradiance(ctx, &lit, &points)))
+}
+
+/// [`thin_wall_cache_means`] of the converging configuration at 16 x 8 x 16-brick windows
+/// (about 2300 bricks, every one relit every frame) after 32 frames. Two tests read it, so a
+/// test process lights it once: it is the suite's longest lighting run on the software
+/// adapter. Lighting is deterministic, so which test's context lights it does not matter.
+fn converged_thin_wall(ctx: &GpuContext) -> [f32; 4] {
+    static MEANS: std::sync::OnceLock<[f32; 4]> = std::sync::OnceLock::new();
+    *MEANS.get_or_init(|| {
+        let config = CacheConfig {
+            level_bricks: [16, 8, 16],
+            ..converging_config(4)
+        };
+        thin_wall_cache_means(ctx, &config, 32)
+    })
+}
+
+/// The mean luminance `(cache, reference, reference noise)` of the irradiance on
+/// [`thin_wall_groups`], given the cache's means: the reference is the mean of two independent
+/// estimates, its noise half their relative difference.
+fn thin_wall_means(cache_means: [f32; 4]) -> Vec<(f32, f32, f32)> {
+    let scene = gi_scene::load("thin-wall").unwrap();
+    let reference = Reference::new(&scene, scene.evaluate(0.0, None));
     let mut means = Vec::new();
-    for (name, points) in &groups {
-        let cache = cache_irradiance(ctx, &lit, points);
+    for ((name, points), c) in thin_wall_groups().into_iter().zip(cache_means) {
         // Two independent reference estimates: their mean, and half their relative difference
         // as the reference's noise.
         let estimate = |seed: u64| {
@@ -556,7 +560,7 @@ fn thin_wall_means(ctx: &GpuContext, config: &CacheConfig) -> Vec<(f32, f32, f32
             mean_luminance(&truth)
         };
         let (a, b) = (estimate(0), estimate(1));
-        let (c, r) = (mean_luminance(&cache), 0.5 * (a + b));
+        let r = 0.5 * (a + b);
         let noise = (a - b).abs() / (2.0 * r);
         println!(
             "{name:>22}: cache {c:8.4}  reference {r:8.4}  ratio {:.4}  reference noise {noise:.4}",
@@ -568,12 +572,10 @@ fn thin_wall_means(ctx: &GpuContext, config: &CacheConfig) -> Vec<(f32, f32, f32
 }
 
 /// Mean luminance of the cache's irradiance over thin-wall's interior floor and the inner face
-/// of its wall (the room lit through its door) after `frames` lighting frames with `config`.
-fn thin_wall_interior(ctx: &GpuContext, config: &CacheConfig, frames: u32) -> f32 {
-    let (_, _, lit, _) = lit_thin_wall(ctx, config, frames);
-    let [(_, inner_wall), _, (_, floor), _] = thin_wall_groups();
-    let points: Vec<(Vec3, Vec3)> = floor.into_iter().chain(inner_wall).collect();
-    mean_luminance(&cache_irradiance(ctx, &lit, &points))
+/// of its wall (the room lit through its door; as many points each) from
+/// [`thin_wall_cache_means`].
+fn thin_wall_interior(cache_means: [f32; 4]) -> f32 {
+    0.5 * (cache_means[0] + cache_means[2])
 }
 
 #[test]
@@ -590,12 +592,9 @@ fn settling_brings_a_young_cache_nearer_its_converged_light() {
         level_bricks: [16, 8, 16],
         ..Default::default()
     };
-    let converged = CacheConfig {
-        level_bricks: shape.level_bricks,
-        settle_bricks_per_frame: 0,
-        ..converging_config(shape.levels)
-    };
-    let converged = thin_wall_interior(&ctx, &converged, 32);
+    // Every brick relit every frame for 32 frames: the round-robin takes all of them, so the
+    // settling budget has none left to add.
+    let converged = thin_wall_interior(converged_thin_wall(&ctx));
     let young = |settle_bricks_per_frame| {
         let config = CacheConfig {
             light_bricks_per_frame: 128,
@@ -603,7 +602,7 @@ fn settling_brings_a_young_cache_nearer_its_converged_light() {
             settle_updates: 8,
             ..shape.clone()
         };
-        thin_wall_interior(&ctx, &config, 24)
+        thin_wall_interior(thin_wall_cache_means(&ctx, &config, 24))
     };
     let (round_robin, settling) = (young(0), young(384));
     println!(
@@ -614,8 +613,11 @@ fn settling_brings_a_young_cache_nearer_its_converged_light() {
     // mechanism. Both start dark and rise towards the converged light with every update a
     // brick gets; four times the updates, weighed at least 1/2 while young, must close at least
     // half the gap the round-robin leaves, and must not overshoot. Measured on the software
-    // adapter: round-robin 0.0419, settling 0.0864, converged 0.1063 (gaps 61% and 19%); 0.0545
-    // when young bricks' updates were averaged like settled ones' (a gap of 49%).
+    // adapter: round-robin 0.0562, settling 0.0904, converged 0.1135 (gaps 50% and 20%). Until
+    // the fill order broke distance ties by position, the round-robin's figure changed from run
+    // to run (0.0541 and 0.0562 seen): which bricks it had reached depended on their pool IDs.
+    // An earlier build, whose young bricks' updates were averaged like settled ones', read a
+    // gap of 49% for settling.
     let gap = |e: f32| (converged - e) / converged;
     assert!(
         gap(round_robin) > 0.1,
@@ -868,33 +870,53 @@ fn identical_inputs_give_bit_identical_lighting() {
     };
     // Two caches of the same scene, lit frame by frame in alternation: every frame's gather
     // reads other bricks' indirect light, so a propagation that saw values written earlier in
-    // its own dispatch would make the two differ with the order their workgroups ran in.
+    // its own dispatch would make the two differ with the order their workgroups ran in. Each
+    // relights part of its bricks a frame (round-robin and settling budgets as the product
+    // spends them, scaled to the scene), so they also agree only if they give every brick the
+    // same pool ID: the box's symmetry puts many bricks at the same distance from the camera,
+    // and the fill order breaks those ties by position, not by the hash order they were found
+    // in (which differs from one cache to the next).
     let scene = gi_scene::load("cornell-box").unwrap();
     let frame = scene.evaluate(0.0, None);
-    let config = converging_config(3);
+    let config = CacheConfig {
+        levels: 3,
+        light_bricks_per_frame: 48,
+        settle_bricks_per_frame: 48,
+        ..Default::default()
+    };
     let mut a = LitCache::new(&ctx, &config, &scene, &frame);
     let mut b = LitCache::new(&ctx, &config, &scene, &frame);
-    let frames = 6;
+    let frames = 12;
     for _ in 0..frames {
         a.frame(&ctx, &frame.sky);
         b.frame(&ctx, &frame.sky);
     }
-    // Each cache gives its bricks pool IDs in its own order (bricks the same distance from the
-    // camera fill in any order), so sides are matched by their place in the world.
+    assert_eq!(a.bricks.len(), b.bricks.len());
+    let moved = a
+        .bricks
+        .iter()
+        .zip(&b.bricks)
+        .filter(|(x, y)| x != y)
+        .count();
+    assert_eq!(
+        moved,
+        0,
+        "{moved} of {} bricks differ in place or pool ID between the caches",
+        a.bricks.len()
+    );
+    assert!(
+        a.bricks.len() > 96,
+        "{} bricks: every one relit every frame",
+        a.bricks.len()
+    );
     let (indirect_a, indirect_b) = (
         ctx.read_buffer::<u32>(&a.buffers.indirect),
         ctx.read_buffer::<u32>(&b.buffers.indirect),
     );
     let (voxels_a, voxels_b) = (a.buffers.read_voxels(&ctx), b.buffers.read_voxels(&ctx));
-    let ids_b: std::collections::HashMap<(u32, IVec3), u32> = b
-        .bricks
-        .iter()
-        .map(|brick| ((brick.level, brick.brick), brick.brick_id))
-        .collect();
-    assert_eq!(a.bricks.len(), b.bricks.len());
     let (mut sides, mut lit, mut differing, mut states_differing) = (0, 0, 0, 0);
     for brick in &a.bricks {
-        let id_b = ids_b[&(brick.level, brick.brick)];
+        let id_b = brick.brick_id;
         let mask = a.cpu.structure.brick_mask(brick.brick_id);
         assert_eq!(mask, b.cpu.structure.brick_mask(id_b));
         for bit in (0..64).filter(|bit| mask & (1u64 << bit) != 0) {

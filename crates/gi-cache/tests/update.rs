@@ -151,6 +151,56 @@ fn camera_move_keeps_staying_bricks_in_place() {
     eprintln!("cache memory: {} bytes", cache.memory_bytes(&ctx));
 }
 
+/// The same scene and camera path give every brick the same pool ID in any cache: the pool ID
+/// decides when the lighting schedule's round-robin reaches a brick, so IDs handed out in the
+/// hash order the bricks were found in (which differs from one cache to the next) made the
+/// same frames render differently. The Cornell box's symmetry puts many bricks at the same
+/// distance from the camera; the fill runs over several frames and runs out of pool, and a
+/// camera move then frees IDs for bricks dropped before: both paths that hand out IDs.
+#[test]
+fn two_caches_give_every_brick_the_same_pool_id() {
+    let Some(ctx) = GpuContext::new_or_skip("two_caches_give_every_brick_the_same_pool_id") else {
+        return;
+    };
+    let scene = gi_scene::load("cornell-box").unwrap();
+    let frame = scene.evaluate(0.0, None);
+    let config = CacheConfig {
+        levels: 3,
+        pool_bricks: 250,
+        voxelize_bricks_per_frame: 64,
+        ..Default::default()
+    };
+    let camera = frame.camera.position;
+    let path = [camera; 6]
+        .into_iter()
+        .chain([camera + Vec3::new(1.5, 0.5, 3.0); 6]);
+    let (mut a, mut b) = (
+        RadianceCache::new(&ctx, &config).unwrap(),
+        RadianceCache::new(&ctx, &config).unwrap(),
+    );
+    let (mut dropped, mut requeued) = (0, 0);
+    for (i, position) in path.enumerate() {
+        let stats = update(&ctx, &mut a, &scene, &frame, position);
+        update(&ctx, &mut b, &scene, &frame, position);
+        (dropped, requeued) = (
+            dropped + stats.dropped_for_pool,
+            requeued + stats.requeued_dropped,
+        );
+        let (ids_a, ids_b) = (a.resident_bricks(), b.resident_bricks());
+        let differing = ids_a.iter().zip(&ids_b).filter(|(x, y)| x != y).count();
+        assert_eq!(
+            (ids_a.len(), differing),
+            (ids_b.len(), 0),
+            "update {i}: {differing} of {} bricks differ in place or pool ID",
+            ids_a.len()
+        );
+    }
+    assert!(
+        dropped > 0 && requeued > 0,
+        "the fill must run out of pool and refill: {dropped} dropped, {requeued} requeued"
+    );
+}
+
 #[test]
 fn pool_exhaustion_keeps_the_finest_levels() {
     let Some(ctx) = GpuContext::new_or_skip("pool_exhaustion_keeps_the_finest_levels") else {
