@@ -163,6 +163,13 @@ pub fn run(options: &StabilityOptions) -> anyhow::Result<StabilityReport> {
         options.path_scene
     );
     let settle_scene = load(&options.settle_scene)?;
+    // Checked before anything renders, so a scene that cannot settle costs no frames.
+    anyhow::ensure!(
+        !settle_scene.is_animated(),
+        "the settle scene must be static; {} is animated (try atrium or thin-wall)",
+        settle_scene.name
+    );
+    turn_first_light(&mut settle_scene.clone(), options.light_turn_deg)?;
     anyhow::ensure!(!options.variants.is_empty(), "nothing to measure");
     let mut runs = Vec::new();
     for &variant in &options.variants {
@@ -273,10 +280,6 @@ fn turn_first_light(scene: &mut gi_scene::Scene, degrees: f32) -> anyhow::Result
 
 fn settle(renderer: &mut Renderer, options: &StabilityOptions) -> anyhow::Result<Settle> {
     let name = renderer.scene().name.clone();
-    anyhow::ensure!(
-        !renderer.scene().is_animated(),
-        "the settle scene must be static; {name} is animated (try atrium or thin-wall)"
-    );
     renderer.warm_up(options.warmup.max(1), None)?;
     let before = luminance_image(&frame_data(renderer)?.gi);
     turn_first_light(renderer.scene_mut(), options.light_turn_deg)?;
