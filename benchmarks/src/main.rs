@@ -267,6 +267,11 @@ enum Command {
         /// Settled means within this many times the converged noise of the converged image.
         #[arg(long, default_value_t = 2.0)]
         settle_k: f64,
+        /// Seconds of still frames for the GPU's clock to settle before the light turns, so
+        /// that the GI times around the change compare (as `--settle-s` for `pc`); 0 times at
+        /// once.
+        #[arg(long, default_value_t = 2.0, value_parser = parse_settle)]
+        clock_settle_s: f64,
         /// Also write the results as JSON to this file.
         #[arg(long)]
         json: Option<PathBuf>,
@@ -452,6 +457,7 @@ fn main() -> anyhow::Result<()> {
             settle_frames,
             converged_frames,
             settle_k,
+            clock_settle_s,
             json,
         } => {
             let (kind, variants) = match (tier.as_str(), screen_probes) {
@@ -478,6 +484,7 @@ fn main() -> anyhow::Result<()> {
                 settle_frames,
                 converged_frames,
                 settle_k,
+                clock_settle_s,
             })?;
             out!("{}", report.table());
             write_json(json, &report.json())

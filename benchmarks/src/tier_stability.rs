@@ -26,6 +26,15 @@
 //! the frame-to-frame noise, so the settle time can end up measuring that noise rather than the
 //! change; the error floor (the 90th percentile of the later frames' errors) and the frames
 //! until the error first reaches it measure the change alone.
+//!
+//! Cost of the change, in a run of its own on a fresh renderer of the settle scene (the
+//! settle case reads every frame back, and the idle GPU between frames lets its clock fall, by
+//! up to 5 times on the H100): still frames wait for the GPU's clock
+//! ([`crate::settle::settle`], `clock_settle_s`) before the warm-up's last [`COST_WINDOW`]
+//! frames, whose GI time (GPU timestamps, the tier's GI passes) is the baseline; the light
+//! turns and `settle_frames` frames follow, each timed, none read back. A light change makes the
+//! brick cache relight every brick again (each gets the settling budget's extra updates), which
+//! costs until the bricks settle again.
 
 use anyhow::{Context, bail};
 use gi_scene::LightKind;
@@ -34,10 +43,12 @@ use glam::Quat;
 
 use crate::mobile::{mobile, mobile_renderer};
 use crate::pc::pc_renderer;
+use crate::settle::{Settled, gi_ms};
 use crate::stability::{
     Change, DEPTH_TOLERANCE, OwnedGiFrame, error_floor, frame_to_frame_noise, frames_to_floor,
     luminance_image, mean_abs_difference, mean_image, settle_frames, static_change,
 };
+use crate::suite::median;
 
 /// What `gi-bench stability` runs.
 #[derive(Clone, Debug)]
@@ -61,6 +72,33 @@ pub struct StabilityOptions {
     pub converged_frames: u32,
     /// Threshold as a multiple of the converged frame-to-frame noise.
     pub settle_k: f64,
+    /// Seconds of still frames for the GPU's clock to settle before the settle case's light
+    /// turns ([`crate::settle::settle`]); 0 times at once.
+    pub clock_settle_s: f64,
+}
+
+/// Still frames before the light turns whose GI time is the baseline (the warm-up's last, as
+/// many as it has), and frames after it whose median is the first cost.
+pub const COST_WINDOW: usize = 16;
+
+/// GI time around the light change, ms per frame (GPU timestamps).
+#[derive(Clone, Debug)]
+pub struct ChangeCost {
+    /// The GPU clock's settling before the baseline.
+    pub clock: Settled,
+    /// Median over the last [`COST_WINDOW`] still frames before the turn (the warm-up's).
+    pub before_ms: f64,
+    /// Median over the first [`COST_WINDOW`] frames after it (fewer when the run is shorter).
+    pub first_ms: f64,
+    /// The most expensive frame after it.
+    pub peak_ms: f64,
+    /// Median over the converged window.
+    pub converged_ms: f64,
+    /// Frames after the turn until the GI time is back within 10% of the baseline for good:
+    /// through the last frame above it (0 when none is; `None` when the last frame still is).
+    pub elevated_frames: Option<usize>,
+    /// Every frame's GI time after the turn.
+    pub after_ms: Vec<f64>,
 }
 
 /// One flicker case.
@@ -140,6 +178,7 @@ pub struct StabilityRun {
     pub variant: Variant,
     pub flicker: Vec<FlickerCase>,
     pub settle: Settle,
+    pub cost: ChangeCost,
 }
 
 pub struct StabilityReport {
@@ -193,10 +232,12 @@ pub fn run(options: &StabilityOptions) -> anyhow::Result<StabilityReport> {
             },
         ];
         let settle = settle(&mut renderer(&settle_scene, CameraMode::Default)?, options)?;
+        let cost = change_cost(&mut renderer(&settle_scene, CameraMode::Default)?, options)?;
         runs.push(StabilityRun {
             variant,
             flicker,
             settle,
+            cost,
         });
     }
     Ok(StabilityReport {
@@ -276,6 +317,44 @@ fn turn_first_light(scene: &mut gi_scene::Scene, degrees: f32) -> anyhow::Result
         LightKind::Point => node.translation = turn * node.translation,
     }
     Ok(())
+}
+
+/// The GI time around the settle case's light change on `renderer` (fresh, of the settle
+/// scene): see the module docs.
+fn change_cost(renderer: &mut Renderer, options: &StabilityOptions) -> anyhow::Result<ChangeCost> {
+    // The warm-up's last frames (up to COST_WINDOW) are the baseline, timed after the clock
+    // settled; the clock's frames come on top of the warm-up.
+    let kind = renderer.tier();
+    let warmup = options.warmup.max(1);
+    let timed = warmup.min(COST_WINDOW as u32);
+    if warmup > timed {
+        renderer.warm_up(warmup - timed, None)?;
+    }
+    let clock = crate::settle::settle(renderer, kind, options.clock_settle_s)?;
+    let mut before_ms = Vec::with_capacity(timed as usize);
+    for _ in 0..timed {
+        before_ms.push(gi_ms(kind, &renderer.warm_up_frame()?));
+    }
+    turn_first_light(renderer.scene_mut(), options.light_turn_deg)?;
+    let mut after_ms = Vec::with_capacity(options.settle_frames as usize);
+    for _ in 0..options.settle_frames {
+        after_ms.push(gi_ms(kind, &renderer.warm_up_frame()?));
+    }
+    let before_ms = median(&before_ms);
+    let window = after_ms.len() - options.converged_frames as usize;
+    Ok(ChangeCost {
+        clock,
+        before_ms,
+        first_ms: median(&after_ms[..COST_WINDOW.min(after_ms.len())]),
+        peak_ms: after_ms.iter().copied().fold(0.0, f64::max),
+        converged_ms: median(&after_ms[window..]),
+        elevated_frames: match after_ms.iter().rposition(|&ms| ms > 1.1 * before_ms) {
+            None => Some(0),
+            Some(last) if last + 1 == after_ms.len() => None,
+            Some(last) => Some(last + 1),
+        },
+        after_ms,
+    })
 }
 
 fn settle(renderer: &mut Renderer, options: &StabilityOptions) -> anyhow::Result<Settle> {
@@ -400,6 +479,30 @@ impl StabilityReport {
                 );
             }
         }
+        out += &format!(
+            "\nGI ms per frame around the light change (GPU timestamps, a run of its own with no \
+             frame read back): median of the last (up to) {COST_WINDOW} warm-up frames before \
+             it, of the first {COST_WINDOW} after it, \
+             the most expensive frame after it, the converged window's median, and the frames \
+             until the time is back within 10% of the frames before for good\n\n\
+             | tier | scene | clock settling | before | first after | peak | converged | frames \
+             elevated |\n|---|---|---|---:|---:|---:|---:|---:|\n"
+        );
+        for run in &self.runs {
+            let (s, c) = (&run.settle, &run.cost);
+            out += &format!(
+                "| {} | {} | {} | {:.3} | {:.3} | {:.3} | {:.3} | {} |\n",
+                run.variant.name(),
+                s.scene,
+                clock_note(&c.clock),
+                c.before_ms,
+                c.first_ms,
+                c.peak_ms,
+                c.converged_ms,
+                c.elevated_frames
+                    .map_or("not back".to_owned(), |n| n.to_string()),
+            );
+        }
         out
     }
 
@@ -416,6 +519,7 @@ impl StabilityReport {
                 "settle_frames": o.settle_frames,
                 "converged_frames": o.converged_frames,
                 "k": o.settle_k,
+                "clock_settle_s": o.clock_settle_s,
             },
             "runs": self.runs.iter().map(|run| serde_json::json!({
                 "tier": run.variant.tier(),
@@ -439,8 +543,35 @@ impl StabilityReport {
                     "floor": run.settle.floor,
                     "floor_frames": run.settle.floor_frames,
                     "errors": run.settle.errors,
+                    "cost_ms": {
+                        "clock_settle": {
+                            "frames": run.cost.clock.frames,
+                            "seconds": run.cost.clock.seconds,
+                            "steady": run.cost.clock.steady,
+                        },
+                        "before": run.cost.before_ms,
+                        "first_after": run.cost.first_ms,
+                        "peak": run.cost.peak_ms,
+                        "converged": run.cost.converged_ms,
+                        "elevated_frames": run.cost.elevated_frames,
+                        "after": run.cost.after_ms,
+                    },
                 },
             })).collect::<Vec<_>>(),
         })
+    }
+}
+
+/// The clock settling's frames and seconds, and whether it ended steady.
+fn clock_note(clock: &Settled) -> String {
+    if clock.frames == 0 {
+        "none".to_owned()
+    } else {
+        format!(
+            "{} frames, {:.1} s{}",
+            clock.frames,
+            clock.seconds,
+            if clock.steady { "" } else { ", NOT steady" }
+        )
     }
 }

@@ -123,6 +123,8 @@ fn mobile_stability_benchmark_reports_flicker_and_settle() {
             "11",
             "--converged-frames",
             "2",
+            "--clock-settle-s",
+            "0",
         ],
         "gi-bench-stability.json",
     );
@@ -172,6 +174,40 @@ fn mobile_stability_benchmark_reports_flicker_and_settle() {
     assert!(
         settle["converged_drift"].as_f64().unwrap() >= 0.0,
         "{settle}"
+    );
+    // The GI time of every frame after the turn, and its summaries.
+    let cost = &settle["cost_ms"];
+    assert_eq!(cost["clock_settle"]["frames"], 0, "{cost}");
+    let after: Vec<f64> = cost["after"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|ms| ms.as_f64().unwrap())
+        .collect();
+    assert_eq!(after.len(), 11, "{cost}");
+    assert!(after.iter().all(|&ms| ms > 0.0), "{cost}");
+    let peak = cost["peak"].as_f64().unwrap();
+    assert_eq!(peak, after.iter().copied().fold(0.0, f64::max), "{cost}");
+    assert!(cost["before"].as_f64().unwrap() > 0.0, "{cost}");
+    // Through the last frame above the baseline's 110%: null when the last frame still is.
+    let before = cost["before"].as_f64().unwrap();
+    match cost["elevated_frames"].as_u64() {
+        Some(n) => {
+            let n = n as usize;
+            assert!(n < after.len(), "{cost}");
+            assert!(after[n..].iter().all(|&ms| ms <= 1.1 * before), "{cost}");
+            assert!(n == 0 || after[n - 1] > 1.1 * before, "{cost}");
+        }
+        None => assert!(after[after.len() - 1] > 1.1 * before, "{cost}"),
+    }
+    // Medians of frames after the turn: within them.
+    for field in ["first_after", "converged"] {
+        let ms = cost[field].as_f64().unwrap();
+        assert!(ms > 0.0 && ms <= peak, "{field}: {cost}");
+    }
+    assert!(
+        stdout.contains("| mobile hsgi | thin-wall | none |"),
+        "{stdout}"
     );
 }
 
@@ -251,6 +287,8 @@ fn pc_stability_benchmark_reports_flicker_and_settle() {
             "4",
             "--converged-frames",
             "2",
+            "--clock-settle-s",
+            "0",
         ],
         "gi-bench-pc-stability.json",
     );
