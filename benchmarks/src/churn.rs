@@ -12,7 +12,7 @@ use std::time::Instant;
 use anyhow::Context;
 use gi_gpu::{DeviceSharing, GpuContext, GpuOptions};
 use gi_tiers::{
-    CameraMode, Renderer, Tier, TierKind, TierSettings,
+    CameraMode, Renderer, Tier, TierKind,
     mobile::{MobileConfig, MobileTier},
     pc::{PcConfig, PcTier},
 };
@@ -159,12 +159,8 @@ fn create_tier(options: &ChurnOptions) -> anyhow::Result<(Box<dyn Tier>, String)
         ..GpuOptions::from_env()
     })?;
     let adapter = ctx.adapter_info.name.clone();
-    let settings = TierSettings {
-        width: options.size.0,
-        height: options.size.1,
-        spp: 1,
-        seed: 1,
-    };
+    // As `pc_renderer` and `mobile_renderer` make them, on this context.
+    let settings = crate::pc::bench_settings(options.size);
     let tier: Box<dyn Tier> = match options.tier {
         TierKind::Pc => Box::new(PcTier::new(settings, PcConfig::default(), ctx)?),
         TierKind::Mobile => Box::new(MobileTier::new(settings, MobileConfig::default(), ctx)?),

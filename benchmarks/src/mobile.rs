@@ -13,7 +13,7 @@
 use anyhow::Context;
 use gi_gpu::PassTimings;
 use gi_tiers::{
-    CameraMode, MobileConfig, MobileTier, Renderer, TierKind, TierSettings,
+    CameraMode, MobileConfig, MobileTier, Renderer, TierKind,
     mobile::{MobileMemory, ScreenConfig, ScreenProbeMode},
 };
 
@@ -56,13 +56,7 @@ pub fn mobile_renderer(
     mode: ScreenProbeMode,
     camera: CameraMode,
 ) -> anyhow::Result<Renderer> {
-    let settings = TierSettings {
-        width: size.0,
-        height: size.1,
-        spp: 1,
-        seed: 1,
-    };
-    let tier = MobileTier::open(settings, config_for(mode))?;
+    let tier = MobileTier::open(crate::pc::bench_settings(size), config_for(mode))?;
     Ok(Renderer::with_tier(scene, Box::new(tier), camera))
 }
 

@@ -110,7 +110,16 @@ pub struct PcReport {
     pub runs: Vec<PcRun>,
 }
 
-/// Renders every scene in every variant and measures it.
+/// The settings the benchmarks give a GPU GI tier: `size`, one sample per pixel, seed 1.
+pub fn bench_settings(size: (u32, u32)) -> TierSettings {
+    TierSettings {
+        width: size.0,
+        height: size.1,
+        spp: 1,
+        seed: 1,
+    }
+}
+
 /// A renderer of `scene` with a PC tier of `config` at `size`.
 pub fn pc_renderer(
     scene: gi_scene::Scene,
@@ -118,16 +127,11 @@ pub fn pc_renderer(
     config: PcConfig,
     camera: CameraMode,
 ) -> anyhow::Result<Renderer> {
-    let settings = TierSettings {
-        width: size.0,
-        height: size.1,
-        spp: 1,
-        seed: 1,
-    };
-    let tier = PcTier::open(settings, config)?;
+    let tier = PcTier::open(bench_settings(size), config)?;
     Ok(Renderer::with_tier(scene, Box::new(tier), camera))
 }
 
+/// Renders every scene in every variant and measures it.
 pub fn run(options: &PcOptions) -> anyhow::Result<PcReport> {
     anyhow::ensure!(options.frames >= 1, "--frames must be at least 1");
     anyhow::ensure!(!options.scenes.is_empty(), "--scenes names no scene");
