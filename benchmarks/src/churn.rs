@@ -5,7 +5,9 @@
 //! renders `frames` frames and drops everything. With `dedicated` every round opens and
 //! destroys a device of its own; with `shared` (the default on hardware adapters) every round
 //! after the first reuses the process's device. A round whose context or tier cannot be
-//! created ends the run, and the report says which round failed and why.
+//! created ends the run, and the report says which round failed and why. Each round's frames
+//! are timed on the wall clock and by the GPU's pass timestamps: the difference per frame is
+//! the time the GPU was not rendering the frame.
 
 use std::time::Instant;
 
@@ -36,6 +38,10 @@ pub struct Round {
     pub create_ms: f64,
     /// Wall-clock milliseconds of the round's frames (uploads and first use included).
     pub frames_ms: f64,
+    /// GPU milliseconds of the same frames: every pass's timestamps, summed. The wall-clock
+    /// time less this is what the GPU did not run: CPU work, submission and waiting (each
+    /// frame waits for its GPU work before the next one starts).
+    pub gpu_ms: f64,
     /// The process's resident memory after the round's renderer was dropped, MiB (Linux).
     pub rss_mib: Option<f64>,
 }
@@ -71,6 +77,16 @@ impl ChurnReport {
         let mib = |v: Option<f64>| v.map_or("-".to_owned(), |v| format!("{v:.0}"));
         let create = self.create_ms();
         let frames: Vec<f64> = self.rounds.iter().map(|r| r.frames_ms).collect();
+        let per_frame = |v: f64| v / f64::from(self.frames.max(1));
+        let wall: Vec<f64> = self.rounds.iter().map(|r| per_frame(r.frames_ms)).collect();
+        let gpu: Vec<f64> = self.rounds.iter().map(|r| per_frame(r.gpu_ms)).collect();
+        let ms2 = |v: &[f64]| {
+            if v.is_empty() {
+                "-".to_owned()
+            } else {
+                format!("{:.2}", median(v))
+            }
+        };
         let first = self.rounds.first();
         let last = self.rounds.last();
         let outcome = match &self.failure {
@@ -86,9 +102,10 @@ impl ChurnReport {
             "{tier} on {scene}, {w}x{h}, {frames} frame(s) a round, device sharing {sharing:?}, \
              on {adapter}: {outcome}\n\
              | rounds | create, first (ms) | create, median of later (ms) | create, max (ms) \
-             | frames, median (ms) | RSS after first (MiB) | RSS after last (MiB) |\n\
-             |---:|---:|---:|---:|---:|---:|---:|\n\
-             | {n} | {c0} | {c1} | {cmax} | {f} | {r0} | {r1} |\n",
+             | frames, median (ms) | a frame: wall (ms) | a frame: GPU passes (ms) | RSS \
+             after first (MiB) | RSS after last (MiB) |\n\
+             |---:|---:|---:|---:|---:|---:|---:|---:|---:|\n\
+             | {n} | {c0} | {c1} | {cmax} | {f} | {fw} | {fg} | {r0} | {r1} |\n",
             tier = self.tier,
             scene = self.scene,
             w = self.size.0,
@@ -101,6 +118,8 @@ impl ChurnReport {
             c1 = ms(self.later_create_ms()),
             cmax = ms(create.iter().copied().reduce(f64::max)),
             f = ms((!frames.is_empty()).then(|| median(&frames))),
+            fw = ms2(&wall),
+            fg = ms2(&gpu),
             r0 = mib(first.and_then(|r| r.rss_mib)),
             r1 = mib(last.and_then(|r| r.rss_mib)),
         )
@@ -126,6 +145,7 @@ impl ChurnReport {
             "rounds": self.rounds.iter().map(|r| serde_json::json!({
                 "create_ms": r.create_ms,
                 "frames_ms": r.frames_ms,
+                "gpu_ms": r.gpu_ms,
                 "rss_mib": r.rss_mib,
             })).collect::<Vec<_>>(),
         })
@@ -199,14 +219,20 @@ pub fn run(options: &ChurnOptions) -> anyhow::Result<ChurnReport> {
         report.adapter = adapter;
         let mut renderer = Renderer::with_tier(scene.clone(), tier, CameraMode::Default);
         let start = Instant::now();
+        let mut gpu_ms = 0.0;
         for _ in 0..options.frames {
-            renderer.advance_frame(None)?;
+            gpu_ms += renderer
+                .advance_frame(None)?
+                .iter()
+                .map(|(_, ms)| ms)
+                .sum::<f64>();
         }
         let frames_ms = start.elapsed().as_secs_f64() * 1e3;
         drop(renderer);
         report.rounds.push(Round {
             create_ms,
             frames_ms,
+            gpu_ms,
             rss_mib: rss_mib(),
         });
     }

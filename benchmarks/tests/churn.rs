@@ -37,7 +37,14 @@ fn churn_benchmark_creates_renderer_after_renderer() {
     for round in rounds {
         let create = round["create_ms"].as_f64().expect("create_ms");
         assert!(create.is_finite() && create > 0.0, "{round}");
+        // The GPU's passes run inside the frames' wall-clock time: each frame waits for them.
+        let (wall, gpu) = (
+            round["frames_ms"].as_f64().expect("frames_ms"),
+            round["gpu_ms"].as_f64().expect("gpu_ms"),
+        );
+        assert!(gpu > 0.0 && gpu <= wall, "{round}");
     }
+    assert!(stdout.contains("a frame: GPU passes (ms)"), "{stdout}");
 
     let bad = Command::new(env!("CARGO_BIN_EXE_gi-bench"))
         .args(["churn", "--sharing", "sometimes"])
