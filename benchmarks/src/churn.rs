@@ -81,11 +81,9 @@ impl ChurnReport {
         let wall: Vec<f64> = self.rounds.iter().map(|r| per_frame(r.frames_ms)).collect();
         let gpu: Vec<f64> = self.rounds.iter().map(|r| per_frame(r.gpu_ms)).collect();
         let ms2 = |v: &[f64]| {
-            if v.is_empty() {
-                "-".to_owned()
-            } else {
-                format!("{:.2}", median(v))
-            }
+            (!v.is_empty())
+                .then(|| median(v))
+                .map_or("-".to_owned(), |v| format!("{v:.2}"))
         };
         let first = self.rounds.first();
         let last = self.rounds.last();

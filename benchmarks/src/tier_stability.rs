@@ -208,7 +208,7 @@ pub fn run(options: &StabilityOptions) -> anyhow::Result<StabilityReport> {
         "the settle scene must be static; {} is animated (try atrium or thin-wall)",
         settle_scene.name
     );
-    turn_first_light(&mut settle_scene.clone(), options.light_turn_deg)?;
+    first_light_node(&settle_scene)?;
     anyhow::ensure!(!options.variants.is_empty(), "nothing to measure");
     let mut runs = Vec::new();
     for &variant in &options.variants {
@@ -301,14 +301,20 @@ fn flicker(
     Ok(total)
 }
 
-/// Turns the scene's first punctual light about the world vertical by `degrees`.
-fn turn_first_light(scene: &mut gi_scene::Scene, degrees: f32) -> anyhow::Result<()> {
+/// The node of the scene's first punctual light: the one the settle case turns.
+fn first_light_node(scene: &gi_scene::Scene) -> anyhow::Result<usize> {
     let Some(node) = scene.nodes.iter().position(|n| n.light.is_some()) else {
         bail!(
             "{} has no punctual light to turn (thin-wall, atrium and open-world have a sun)",
             scene.name
         );
     };
+    Ok(node)
+}
+
+/// Turns the scene's first punctual light about the world vertical by `degrees`.
+fn turn_first_light(scene: &mut gi_scene::Scene, degrees: f32) -> anyhow::Result<()> {
+    let node = first_light_node(scene)?;
     let light = scene.nodes[node].light.expect("found above");
     let turn = Quat::from_rotation_y(degrees.to_radians());
     let node = &mut scene.nodes[node];

@@ -333,7 +333,7 @@ impl LightSchedule {
         for b in &picked {
             self.class[b.brick_id as usize] = FRESH;
         }
-        let mut fresh = picked.len();
+        let fresh = picked.len();
         for (i, b) in resident.iter().enumerate() {
             let id = b.brick_id as usize;
             if self.class[id] == ABSENT {
@@ -421,8 +421,8 @@ impl LightSchedule {
         // Only resident bricks have updates counted.
         if settled > 0 {
             let settled_bricks = self.updates.iter().filter(|&&n| n >= settled).count();
-            fresh += near.len() + far.len();
-            counts.young = fresh.saturating_sub(settled_bricks) as u32;
+            let resident_bricks = fresh + near.len() + far.len();
+            counts.young = resident_bricks.saturating_sub(settled_bricks) as u32;
         }
         (picked, counts)
     }

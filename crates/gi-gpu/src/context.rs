@@ -89,8 +89,9 @@ impl GpuOptions {
 /// A headless Vulkan device and queue, with memory accounting of the resources made through it.
 ///
 /// On a hardware adapter, contexts opened with the same options share one device and queue
-/// ([`Self::with_options`], [`DeviceSharing`]); each has its own memory accounting. A tier owns its context, so the memory a tier reports
-/// is its own even when other tiers of the process render on the same device.
+/// ([`Self::with_options`], [`DeviceSharing`]); each has its own memory accounting. A tier owns
+/// its context, so the memory a tier reports is its own even when other tiers of the process
+/// render on the same device.
 pub struct GpuContext {
     /// The logical device.
     pub device: wgpu::Device,
