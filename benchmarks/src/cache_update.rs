@@ -423,6 +423,7 @@ impl CacheUpdateReport {
                 "screen_inject_bricks_per_frame": config.screen_inject_bricks_per_frame,
                 "light_bricks_per_frame": config.light_bricks_per_frame,
                 "settle_bricks_per_frame": config.settle_bricks_per_frame,
+                "relight_bricks_per_frame": config.relight_bricks_per_frame,
                 "settle_updates": config.settle_updates,
             },
             "screen_inject": self.options.screen_inject.map(|(w, h)| serde_json::json!({

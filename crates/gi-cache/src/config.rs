@@ -57,6 +57,13 @@ pub struct CacheConfig {
     /// brick every 20 frames on a 10,000-brick scene); the extra budget settles it in about a
     /// second and stops costing once every brick is settled. 0 turns it off.
     pub settle_bricks_per_frame: u32,
+    /// The settling budget's cap while the young bricks are young because the lights changed
+    /// (rather than because they were voxelized): extra bricks relit per frame, at most
+    /// [`CacheConfig::settle_bricks_per_frame`]. A scene load or a jump of the view happens
+    /// once and may spend more; a light change happens during play, where a frame must stay
+    /// within its budget. With the default round-robin budget a relit frame takes 1536 bricks
+    /// instead of 2048: a third more frames to settle, a third less extra cost per frame.
+    pub relight_bricks_per_frame: u32,
     /// Updates after which a brick counts as settled (see
     /// [`CacheConfig::settle_bricks_per_frame`]). A young brick's updates are also weighed at
     /// least 1/2 ([`crate::lighting::SETTLE_MAX_AGE`]) so that its light follows the bounces it
@@ -89,6 +96,7 @@ impl Default for CacheConfig {
             screen_inject_bricks_per_frame: 2048,
             light_bricks_per_frame: 512,
             settle_bricks_per_frame: 1536,
+            relight_bricks_per_frame: 1024,
             settle_updates: 8,
             near_levels: 3,
             gather_rays_per_side: 4,

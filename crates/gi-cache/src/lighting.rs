@@ -244,6 +244,17 @@ impl ScheduleBudget {
         }
     }
 
+    /// The budget while the young bricks are young because the lights changed: the settling
+    /// budget capped at [`CacheConfig::relight_bricks_per_frame`].
+    pub fn relighting(config: &CacheConfig) -> Self {
+        Self {
+            settle_bricks: config
+                .settle_bricks_per_frame
+                .min(config.relight_bricks_per_frame),
+            ..Self::new(config)
+        }
+    }
+
     /// Most bricks one frame relights.
     pub fn max_bricks(&self) -> u32 {
         self.bricks.saturating_add(self.settle_bricks)
@@ -560,6 +571,9 @@ pub struct CacheLighting {
     fast_updates_left: u32,
     /// Whether the last update's lights or sky differed from the one's before.
     lights_were_changing: bool,
+    /// Whether the bricks were made young by a change of the lights and some still are: the
+    /// settling budget is then [`ScheduleBudget::relighting`]'s.
+    relighting: bool,
 }
 
 impl CacheLighting {
@@ -659,6 +673,7 @@ impl CacheLighting {
             light_key: Vec::new(),
             fast_updates_left: 0,
             lights_were_changing: false,
+            relighting: false,
         })
     }
 
@@ -699,16 +714,20 @@ impl CacheLighting {
         // resident / budget updates, and most had no update within the capped ones above.
         if self.lights_were_changing && !lights_changed {
             self.schedule.unsettle();
+            self.relighting = true;
         }
         self.lights_were_changing = lights_changed;
         self.light_key = key;
         let filling = is_filling(inputs.new_bricks.len(), inputs.resident.len());
-        let (bricks, counts) = self.schedule.pick(
-            &ScheduleBudget::new(&self.config),
-            inputs.new_bricks,
-            inputs.resident,
-            filling,
-        );
+        let budget = if self.relighting {
+            ScheduleBudget::relighting(&self.config)
+        } else {
+            ScheduleBudget::new(&self.config)
+        };
+        let (bricks, counts) =
+            self.schedule
+                .pick(&budget, inputs.new_bricks, inputs.resident, filling);
+        self.relighting &= counts.young > 0;
         self.last_counts = counts;
         self.converging = filling
             || self.fast_updates_left > 0

@@ -1061,6 +1061,69 @@ fn the_lighting_converges_until_its_bricks_settle_and_again_after_a_light_change
     );
 }
 
+/// The settling budget is the full `settle_bricks_per_frame` after a load and capped at
+/// `relight_bricks_per_frame` after a change of the lights, until every brick has settled.
+#[test]
+fn a_light_change_settles_the_bricks_with_the_relight_budget() {
+    let Some(ctx) = GpuContext::new_or_skip("a_light_change_settles_the_bricks_with_the_relight")
+    else {
+        return;
+    };
+    let config = CacheConfig {
+        light_bricks_per_frame: 4,
+        settle_bricks_per_frame: 12,
+        relight_bricks_per_frame: 5,
+        settle_updates: 3,
+        ..small_config()
+    };
+    let (scene, mut lit, _, _) = sunlit_floor_and_wall(&ctx, &config);
+    let bricks = lit.bricks.len();
+    assert!(
+        bricks >= 24,
+        "{bricks} bricks: too few to spend the budgets"
+    );
+    // Every brick's 3 updates, at least 4 + 5 a frame, and the first frame (a fill) counts none.
+    let bound = (3 * bricks).div_ceil(9) + 2;
+    let settle = |lit: &mut LitCache, sky: &Sky| {
+        let mut counts = Vec::new();
+        for _ in 0..bound {
+            lit.frame(&ctx, sky);
+            counts.push(lit.lighting.last_counts());
+        }
+        counts
+    };
+    let load = settle(&mut lit, &scene.sky);
+    let settles = |counts: &[ScheduleCounts]| counts.iter().map(|c| c.settle).collect::<Vec<_>>();
+    println!(
+        "{bricks} bricks; settling bricks per frame after the load: {:?}",
+        settles(&load)
+    );
+    assert_eq!(load.last().unwrap().young, 0, "not settled after the load");
+    assert!(
+        load.iter()
+            .any(|c| c.settle == config.settle_bricks_per_frame),
+        "the load never spent the full settling budget"
+    );
+    let sky = switch_the_light_off(&ctx, &scene, &mut lit);
+    let after = settle(&mut lit, &sky);
+    println!("after the light change: {:?}", settles(&after));
+    // The update of the change itself finds every brick settled; from the next, all are young.
+    assert_eq!(after[0].settle, 0);
+    assert_eq!(after[1].young as usize, bricks);
+    assert!(
+        after
+            .iter()
+            .all(|c| c.settle <= config.relight_bricks_per_frame),
+        "the relighting spent more than its budget"
+    );
+    assert_eq!(after[1].settle, config.relight_bricks_per_frame);
+    assert_eq!(
+        after.last().unwrap().young,
+        0,
+        "not settled again after the change"
+    );
+}
+
 /// After a change of the lights the old light leaves every brick's indirect light within a
 /// few of its own updates, however long the round-robin takes to come round: the bricks settle
 /// again from the settling budget, each update weighing at least 1/2.
