@@ -14,7 +14,7 @@ use gi_gpu::PassTimings;
 use gi_tiers::pc::{PC_OPTIONAL_STAGES, PC_STAGES, PcMemory, TraceMode};
 use gi_tiers::{CameraMode, PcConfig, PcTier, Renderer, TierKind, TierSettings};
 
-use crate::settle::{self, GiSpread, Settled};
+use crate::settle::{self, FrameWall, GiSpread, Settled};
 
 const MIB: f64 = (1 << 20) as f64;
 
@@ -82,6 +82,8 @@ pub struct PcRun {
     pub median: PassTimings,
     /// How the measured frames' GI time spread.
     pub spread: GiSpread,
+    /// A frame's wall-clock time, waiting for the GPU and pipelined.
+    pub wall: FrameWall,
     /// The still frames rendered for the clock after the warm-up.
     pub settled: Settled,
     pub memory: PcMemory,
@@ -146,10 +148,7 @@ pub fn run(options: &PcOptions) -> anyhow::Result<PcReport> {
                 pc_renderer(scene.clone(), options.size, config, CameraMode::Default)?;
             renderer.warm_up(options.warmup, None)?;
             let settled = settle::settle(&mut renderer, TierKind::Pc, options.settle_s)?;
-            let mut frames = Vec::new();
-            for _ in 0..options.frames {
-                frames.push(PassTimings(renderer.advance_frame(None)?));
-            }
+            let (frames, wall) = settle::time_frames(&mut renderer, TierKind::Pc, options.frames)?;
             let tier = renderer
                 .tier_as::<PcTier>()
                 .expect("the renderer holds a PC tier");
@@ -160,6 +159,7 @@ pub fn run(options: &PcOptions) -> anyhow::Result<PcReport> {
                 gpu_timestamps: tier.context().supports_timestamps(),
                 median: PassTimings::median(&frames),
                 spread: GiSpread::of(TierKind::Pc, &frames),
+                wall,
                 settled,
                 memory: tier.memory(),
             });
@@ -235,6 +235,15 @@ impl PcReport {
             for name in names.iter().filter(|n| !TierKind::Pc.is_gi_pass(n)) {
                 out += &row(name, &|run| run.median.get(name));
             }
+            out += &row("frame wall-clock, waiting for the GPU", &|run| {
+                Some(run.wall.waiting_ms)
+            });
+            out += &row("frame wall-clock, pipelined", &|run| {
+                Some(run.wall.pipelined_ms)
+            });
+            out += &row("GI of the pipelined frames", &|run| {
+                Some(run.wall.pipelined_gi_ms)
+            });
             out += &row("GI memory MiB (coverage + screen)", &|run| {
                 Some(run.memory.gi_bytes() as f64 / MIB)
             });
@@ -267,6 +276,7 @@ impl PcReport {
                 "gi_ms": run.gi_ms(),
                 "gi_spread_ms": run.spread.json(),
                 "settle": run.settled.json(),
+                "frame_wall": run.wall.json(),
                 "other_ms": run.other_ms(),
                 "memory": {
                     "coverage_bytes": run.memory.coverage_bytes,
@@ -324,6 +334,14 @@ mod tests {
                 && table.contains("with temporal"),
             "{table}"
         );
+        assert!(table.contains("frame wall-clock, pipelined"), "{table}");
+        for run in &report.runs {
+            let wall = run.wall;
+            assert!(
+                wall.waiting_ms > 0.0 && wall.pipelined_ms > 0.0 && wall.pipelined_gi_ms > 0.0,
+                "{wall:?}"
+            );
+        }
         assert!(report.runs[0].median.get("pc/spatial").is_some());
         assert!(report.runs[1].median.get("pc/spatial").is_none());
         // Temporal reuse is off by default: its pass runs only when switched on.

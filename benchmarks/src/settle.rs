@@ -109,6 +109,63 @@ impl GiSpread {
     }
 }
 
+/// Wall-clock time of a frame in the two ways a frame loop can run ([`time_frames`]).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct FrameWall {
+    /// Median wall-clock ms of a frame that waits for its GPU work
+    /// ([`Renderer::advance_frame`]): the CPU's work, the submission and the GPU's, in series.
+    pub waiting_ms: f64,
+    /// Median wall-clock ms of a frame submitted without waiting ([`Renderer::submit_frame`]):
+    /// the CPU records it while the GPU runs the one before, so it costs about the larger of
+    /// the two.
+    pub pipelined_ms: f64,
+    /// Median GI ms (GPU timestamps) of the pipelined frames.
+    pub pipelined_gi_ms: f64,
+}
+
+impl FrameWall {
+    pub fn json(&self) -> serde_json::Value {
+        serde_json::json!({
+            "waiting_ms": self.waiting_ms,
+            "pipelined_ms": self.pipelined_ms,
+            "pipelined_gi_ms": self.pipelined_gi_ms,
+        })
+    }
+}
+
+/// Renders `frames` frames (at least one) that each wait for the GPU, returning their
+/// passes, then as many more submitted without waiting, timing every frame's call on the
+/// wall clock both ways. The pipelined frames come second, so neither pays the renderer's
+/// first frames; the GPU's work is the same (their GI time is reported to show it).
+pub fn time_frames(
+    renderer: &mut Renderer,
+    kind: TierKind,
+    frames: u32,
+) -> Result<(Vec<PassTimings>, FrameWall), TierError> {
+    let mut timings = Vec::new();
+    let mut waiting = Vec::new();
+    for _ in 0..frames.max(1) {
+        let start = Instant::now();
+        timings.push(PassTimings(renderer.advance_frame(None)?));
+        waiting.push(start.elapsed().as_secs_f64() * 1e3);
+    }
+    let mut pipelined = Vec::new();
+    let mut reported = Vec::new();
+    for _ in 0..frames.max(1) {
+        let start = Instant::now();
+        reported.extend(renderer.submit_frame(None)?);
+        pipelined.push(start.elapsed().as_secs_f64() * 1e3);
+    }
+    reported.extend(renderer.flush_frames());
+    let gi: Vec<f64> = reported.iter().map(|f| gi_ms(kind, &f.passes)).collect();
+    let wall = FrameWall {
+        waiting_ms: median(&waiting),
+        pipelined_ms: median(&pipelined),
+        pipelined_gi_ms: median(&gi),
+    };
+    Ok((timings, wall))
+}
+
 impl Settled {
     /// The table's words for it.
     pub fn describe(&self) -> String {

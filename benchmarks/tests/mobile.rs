@@ -86,6 +86,13 @@ fn mobile_benchmark_reports_gi_passes_and_memory() {
             "{run}"
         );
         assert!(spread("median") <= spread("p90"), "{run}");
+        // Both frame loops ran: waiting for each frame and pipelined.
+        for field in ["waiting_ms", "pipelined_ms", "pipelined_gi_ms"] {
+            let ms = run["frame_wall"][field]
+                .as_f64()
+                .unwrap_or_else(|| panic!("{field}"));
+            assert!(ms > 0.0, "{run}");
+        }
         let settled = run["settle"]["frames"].as_u64().unwrap();
         assert!(settled >= 16 && settled % 16 == 0, "{run}");
         let memory = &run["memory"];

@@ -66,7 +66,7 @@ pub use scene::{
     NO_TEXTURE,
 };
 pub use shaders::{SHADER_CAPABILITIES, SHADER_DIR_ENV, ShaderDefValue, ShaderLibrary};
-pub use timer::{GpuTimer, PassTimings, TimerMode};
+pub use timer::{FRAMES_IN_FLIGHT, GpuTimer, PassTimings, TimerMode};
 
 /// The naga and wgpu versions this crate is built against, re-exported so users name the same
 /// types.

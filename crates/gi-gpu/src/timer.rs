@@ -7,9 +7,18 @@
 //! keeps the whole frame in one submission. Without them the timer falls back to CPU
 //! wall-clock time around a submit-and-wait of each pass alone, which includes submission and
 //! driver overhead and serializes the frame: good enough to rank passes, not to quote.
+//!
+//! [`GpuTimer::finish`] waits for the GPU, so the CPU's work on the next frame cannot overlap
+//! the GPU's on this one. A frame loop ends its frames with [`GpuTimer::finish_async`]
+//! instead: it copies the frame's timestamps to a readback buffer of its own and returns at
+//! once, with the timings of the earlier frames the GPU has finished. At most
+//! [`FRAMES_IN_FLIGHT`] frames are submitted and not yet reported; a frame that would exceed
+//! that waits for the oldest. [`GpuTimer::drain`] waits for them all.
 
+use std::collections::VecDeque;
 use std::fmt;
 use std::sync::Arc;
+use std::sync::atomic::{AtomicU8, Ordering};
 use std::time::Instant;
 
 use crate::GpuContext;
@@ -24,14 +33,41 @@ pub enum TimerMode {
     Cpu,
 }
 
+/// Frames [`GpuTimer::finish_async`] lets the GPU hold, submitted and not yet reported:
+/// while the GPU runs one frame the CPU records the next, and no further (the CPU never runs
+/// more than a frame ahead, so the frame it shows is never older than that).
+pub const FRAMES_IN_FLIGHT: usize = 2;
+
 /// Timestamp resources of a timer in [`TimerMode::Gpu`].
 struct Queries {
     query_set: wgpu::QuerySet,
     /// Resolved timestamps, two `u64` per scope; tracked, released when the timer drops.
     resolved: wgpu::Buffer,
+    /// One mappable copy of `resolved` per frame in flight ([`GpuTimer::finish_async`]);
+    /// tracked, released when the timer drops.
+    readback: Vec<wgpu::Buffer>,
     capacity: u32,
     /// Nanoseconds per timestamp tick.
     period_ns: f64,
+}
+
+/// [`InFlight::mapped`]: the map callback has not run yet.
+const MAP_PENDING: u8 = 0;
+/// [`InFlight::mapped`]: the readback buffer is mapped.
+const MAP_DONE: u8 = 1;
+/// [`InFlight::mapped`]: mapping failed (a lost device).
+const MAP_FAILED: u8 = 2;
+
+/// A frame [`GpuTimer::finish_async`] submitted and has not reported yet.
+struct InFlight {
+    /// The caller's tag for the frame.
+    tag: u32,
+    scopes: Vec<String>,
+    /// The readback buffer its timestamps were copied to; `None` for a frame without scopes.
+    slot: Option<usize>,
+    /// One of `MAP_PENDING`, `MAP_DONE`, `MAP_FAILED`, set by the map callback.
+    mapped: Arc<AtomicU8>,
+    submission: wgpu::SubmissionIndex,
 }
 
 /// Times named passes of one frame at a time. Create one per renderer (its resources are
@@ -43,6 +79,8 @@ pub struct GpuTimer {
     scopes: Vec<String>,
     /// Milliseconds per scope in [`TimerMode::Cpu`].
     cpu_ms: Vec<f64>,
+    /// Frames of [`GpuTimer::finish_async`] not reported yet, oldest first.
+    in_flight: VecDeque<InFlight>,
     memory: Arc<MemoryTracker>,
 }
 
@@ -58,6 +96,7 @@ impl GpuTimer {
     pub fn with_mode(ctx: &GpuContext, label: &str, max_scopes: u32, mode: TimerMode) -> Self {
         let queries = (mode == TimerMode::Gpu && ctx.supports_timestamps()).then(|| {
             let capacity = max_scopes.max(1);
+            let bytes = 2 * capacity as u64 * size_of::<u64>() as u64;
             Queries {
                 query_set: ctx.device.create_query_set(&wgpu::QuerySetDescriptor {
                     label: Some(&format!("{label}.queries")),
@@ -66,9 +105,18 @@ impl GpuTimer {
                 }),
                 resolved: ctx.create_buffer(
                     &format!("{label}.timestamps"),
-                    2 * capacity as u64 * size_of::<u64>() as u64,
+                    bytes,
                     wgpu::BufferUsages::QUERY_RESOLVE | wgpu::BufferUsages::COPY_SRC,
                 ),
+                readback: (0..FRAMES_IN_FLIGHT)
+                    .map(|_| {
+                        ctx.create_buffer(
+                            &format!("{label}.timestamps_readback"),
+                            bytes,
+                            wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
+                        )
+                    })
+                    .collect(),
                 capacity,
                 period_ns: ctx.queue.get_timestamp_period() as f64,
             }
@@ -78,6 +126,7 @@ impl GpuTimer {
             queries,
             scopes: Vec::new(),
             cpu_ms: Vec::new(),
+            in_flight: VecDeque::new(),
             memory: ctx.memory.clone(),
         }
     }
@@ -143,9 +192,23 @@ impl GpuTimer {
         }
     }
 
+    /// Submits the commands of `encoder` (part of a frame) without waiting and without
+    /// ending the frame: its passes are reported with the rest of the frame by the next
+    /// [`GpuTimer::finish`] or [`GpuTimer::finish_async`]. For a frame recorded in several
+    /// encoders, where a later one needs `queue.write_buffer` data written after the earlier
+    /// one was recorded. In CPU mode it waits, as every pass does there.
+    pub fn submit(&mut self, ctx: &GpuContext, encoder: wgpu::CommandEncoder) {
+        if self.queries.is_some() {
+            ctx.queue.submit([encoder.finish()]);
+        } else {
+            ctx.submit_and_wait(encoder);
+        }
+    }
+
     /// Submits `encoder` (the rest of the frame), waits for the GPU and returns the time of
     /// every pass recorded since the last `finish`, in recording order. Resets for the next
-    /// frame.
+    /// frame. Frames of [`GpuTimer::finish_async`] still in flight stay there: the next
+    /// `finish_async` or [`GpuTimer::drain`] reports them.
     pub fn finish(&mut self, ctx: &GpuContext, mut encoder: wgpu::CommandEncoder) -> PassTimings {
         let scopes = std::mem::take(&mut self.scopes);
         let cpu_ms = std::mem::take(&mut self.cpu_ms);
@@ -161,17 +224,154 @@ impl GpuTimer {
         encoder.resolve_query_set(&queries.query_set, 0..count, &queries.resolved, 0);
         ctx.queue.submit([encoder.finish()]);
         let ticks: Vec<u64> = ctx.read_buffer(&queries.resolved);
-        let timings = scopes
-            .into_iter()
-            .enumerate()
-            .map(|(i, name)| {
-                // A clock that wraps or a driver that reorders would give end < begin: 0 is the
-                // honest reading of "too short to see", not a huge unsigned difference.
-                let elapsed_ticks = ticks[2 * i + 1].saturating_sub(ticks[2 * i]);
-                (name, elapsed_ticks as f64 * queries.period_ns * 1e-6)
-            })
-            .collect();
-        PassTimings(timings)
+        queries.timings(scopes, &ticks)
+    }
+
+    /// Ends the frame as [`GpuTimer::finish`] does without waiting for the GPU: submits
+    /// `encoder` with a copy of the frame's timestamps and returns, tagged with the `tag`
+    /// each frame was given (a frame index), the timings of the frames the GPU has finished
+    /// since the last call, oldest first; this frame's come from a later call. Waits only
+    /// when [`FRAMES_IN_FLIGHT`] frames would be in flight, for the oldest. In CPU mode every
+    /// pass has already waited: the frame is reported at once.
+    pub fn finish_async(
+        &mut self,
+        ctx: &GpuContext,
+        mut encoder: wgpu::CommandEncoder,
+        tag: u32,
+    ) -> Vec<(u32, PassTimings)> {
+        if self.queries.is_none() {
+            return vec![(tag, self.finish(ctx, encoder))];
+        }
+        let mut done = self.collect(ctx, FRAMES_IN_FLIGHT - 1);
+        let scopes = std::mem::take(&mut self.scopes);
+        let queries = self.queries.as_ref().expect("GPU mode");
+        let mapped = Arc::new(AtomicU8::new(MAP_PENDING));
+        let slot = (!scopes.is_empty()).then(|| {
+            (0..FRAMES_IN_FLIGHT)
+                .find(|&slot| self.in_flight.iter().all(|f| f.slot != Some(slot)))
+                .expect("collect left a readback buffer free")
+        });
+        if let Some(slot) = slot {
+            let count = 2 * scopes.len() as u32;
+            let bytes = u64::from(count) * size_of::<u64>() as u64;
+            encoder.resolve_query_set(&queries.query_set, 0..count, &queries.resolved, 0);
+            encoder.copy_buffer_to_buffer(&queries.resolved, 0, &queries.readback[slot], 0, bytes);
+        }
+        let submission = ctx.queue.submit([encoder.finish()]);
+        match slot {
+            Some(slot) => {
+                let flag = mapped.clone();
+                queries.readback[slot].map_async(wgpu::MapMode::Read, .., move |result| {
+                    let state = if result.is_ok() { MAP_DONE } else { MAP_FAILED };
+                    flag.store(state, Ordering::Release);
+                });
+            }
+            None => mapped.store(MAP_DONE, Ordering::Release),
+        }
+        self.in_flight.push_back(InFlight {
+            tag,
+            scopes,
+            slot,
+            mapped,
+            submission,
+        });
+        done.extend(self.collect(ctx, FRAMES_IN_FLIGHT));
+        done
+    }
+
+    /// Waits for every frame of [`GpuTimer::finish_async`] still in flight and returns their
+    /// timings, oldest first.
+    pub fn drain(&mut self, ctx: &GpuContext) -> Vec<(u32, PassTimings)> {
+        self.collect(ctx, 0)
+    }
+
+    /// Frames of [`GpuTimer::finish_async`] submitted and not reported yet.
+    pub fn frames_in_flight(&self) -> usize {
+        self.in_flight.len()
+    }
+
+    /// Reports the frames in flight the GPU has finished, oldest first, waiting for the
+    /// oldest until at most `keep` are left.
+    fn collect(&mut self, ctx: &GpuContext, keep: usize) -> Vec<(u32, PassTimings)> {
+        let mut done = Vec::new();
+        if self.in_flight.is_empty() {
+            return done;
+        }
+        // Runs the map callbacks of whatever has finished.
+        if let Err(err) = ctx.device.poll(wgpu::PollType::Poll) {
+            tracing::error!(%err, "polling the GPU failed");
+        }
+        while let Some(oldest) = self.in_flight.front() {
+            if oldest.mapped.load(Ordering::Acquire) == MAP_PENDING {
+                if self.in_flight.len() <= keep {
+                    break;
+                }
+                let wait = wgpu::PollType::Wait {
+                    submission_index: Some(oldest.submission.clone()),
+                    timeout: None,
+                };
+                if let Err(err) = ctx.device.poll(wait) {
+                    tracing::error!(%err, "waiting for the GPU failed");
+                }
+                if oldest.mapped.load(Ordering::Acquire) == MAP_PENDING {
+                    // The submission is done, so its map callback has run unless the device
+                    // is lost: report the frame as failed rather than wait forever.
+                    oldest.mapped.store(MAP_FAILED, Ordering::Release);
+                }
+                continue;
+            }
+            let frame = self.in_flight.pop_front().expect("front exists");
+            done.push((frame.tag, self.read_frame(frame)));
+        }
+        done
+    }
+
+    /// The timings of `frame`, whose readback has been mapped (or failed: every pass reads
+    /// NaN, never a made-up time), and unmaps its buffer for reuse.
+    fn read_frame(&self, frame: InFlight) -> PassTimings {
+        let queries = self
+            .queries
+            .as_ref()
+            .expect("only GPU mode has frames in flight");
+        let failed = || PassTimings(frame.scopes.iter().map(|n| (n.clone(), f64::NAN)).collect());
+        let Some(slot) = frame.slot else {
+            return PassTimings(Vec::new());
+        };
+        let buffer = &queries.readback[slot];
+        if frame.mapped.load(Ordering::Acquire) != MAP_DONE {
+            tracing::error!(timer = %self.label, "a frame's timestamps could not be read back");
+            return failed();
+        }
+        let bytes = 2 * frame.scopes.len() as u64 * size_of::<u64>() as u64;
+        let ticks: Vec<u64> = match buffer.get_mapped_range(..bytes) {
+            Ok(view) => bytemuck::pod_collect_to_vec(&view),
+            Err(err) => {
+                tracing::error!(timer = %self.label, %err, "reading a frame's timestamps failed");
+                buffer.unmap();
+                return failed();
+            }
+        };
+        buffer.unmap();
+        queries.timings(frame.scopes, &ticks)
+    }
+}
+
+impl Queries {
+    /// Milliseconds per scope from the resolved `ticks` (two per scope).
+    fn timings(&self, scopes: Vec<String>, ticks: &[u64]) -> PassTimings {
+        PassTimings(
+            scopes
+                .into_iter()
+                .enumerate()
+                .map(|(i, name)| {
+                    // A clock that wraps or a driver that reorders would give end < begin: 0
+                    // is the honest reading of "too short to see", not a huge unsigned
+                    // difference.
+                    let elapsed_ticks = ticks[2 * i + 1].saturating_sub(ticks[2 * i]);
+                    (name, elapsed_ticks as f64 * self.period_ns * 1e-6)
+                })
+                .collect(),
+        )
     }
 }
 
@@ -179,6 +379,9 @@ impl Drop for GpuTimer {
     fn drop(&mut self) {
         if let Some(queries) = &self.queries {
             self.memory.release_buffer(&queries.resolved);
+            for buffer in &queries.readback {
+                self.memory.release_buffer(buffer);
+            }
         }
     }
 }

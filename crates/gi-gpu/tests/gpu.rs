@@ -1,7 +1,10 @@
 //! Tests of the GPU context, read-back, timers and memory accounting on a real adapter
 //! (lavapipe in CI). Without an adapter they skip loudly, or fail when `GI_REQUIRE_GPU` is set.
 
-use gi_gpu::{DeviceSharing, GpuContext, GpuError, GpuOptions, GpuTimer, ShaderLibrary, TimerMode};
+use gi_gpu::{
+    DeviceSharing, FRAMES_IN_FLIGHT, GpuContext, GpuError, GpuOptions, GpuTimer, ShaderLibrary,
+    TimerMode,
+};
 
 /// An odd count, so the last workgroup is partial and the shader's bounds check matters.
 const COUNT: usize = 1000;
@@ -125,6 +128,85 @@ fn the_timer_reports_each_named_pass() {
     }
 }
 
+/// Frames ended with `finish_async` are reported later, each under its own tag with its own
+/// passes and times, never more than `FRAMES_IN_FLIGHT` at a time in flight; `drain` reports
+/// the rest.
+#[test]
+fn the_timer_reports_frames_in_flight_in_order_with_their_own_times() {
+    let Some(ctx) = GpuContext::new_or_skip("the_timer_reports_frames_in_flight") else {
+        return;
+    };
+    // Even frames run one dispatch, odd ones 256 in their first pass: if a frame were
+    // reported with another's timestamps, a light frame would read as long as a heavy one.
+    const HEAVY: usize = 256;
+    for mode in [TimerMode::Gpu, TimerMode::Cpu] {
+        let doubler = Doubler::new(&ctx);
+        let mut timer = GpuTimer::with_mode(&ctx, "test.timer", 4, mode);
+        let frames = 9u32;
+        let mut reported = Vec::new();
+        for frame in 0..frames {
+            let mut encoder = ctx.create_encoder("test/frame");
+            let name = if frame % 2 == 0 {
+                "test/light"
+            } else {
+                "test/heavy"
+            };
+            // Frame 4 records nothing; frame 6 is recorded in two submissions.
+            if frame != 4 {
+                timer.compute_pass(&ctx, &mut encoder, name, |pass| {
+                    let dispatches = if frame % 2 == 0 { 1 } else { HEAVY };
+                    for _ in 0..dispatches {
+                        doubler.record(pass);
+                    }
+                });
+            }
+            if frame == 6 {
+                timer.submit(&ctx, encoder);
+                encoder = ctx.create_encoder("test/frame");
+                timer.compute_pass(&ctx, &mut encoder, "test/second", |pass| {
+                    doubler.record(pass)
+                });
+            }
+            reported.extend(timer.finish_async(&ctx, encoder, frame));
+            let in_flight = timer.frames_in_flight();
+            match mode {
+                TimerMode::Gpu => assert!(in_flight <= FRAMES_IN_FLIGHT, "{in_flight} in flight"),
+                TimerMode::Cpu => assert_eq!(in_flight, 0, "CPU timing waits for every pass"),
+            }
+            assert_eq!(reported.len() + in_flight, frame as usize + 1, "{mode:?}");
+        }
+        reported.extend(timer.drain(&ctx));
+        assert_eq!(timer.frames_in_flight(), 0);
+        let tags: Vec<u32> = reported.iter().map(|(tag, _)| *tag).collect();
+        assert_eq!(tags, (0..frames).collect::<Vec<_>>(), "{mode:?}");
+        let mut light = Vec::new();
+        let mut heavy = Vec::new();
+        for (frame, timings) in &reported {
+            let names: Vec<&str> = timings.0.iter().map(|(n, _)| n.as_str()).collect();
+            let expected: &[&str] = match frame {
+                4 => &[],
+                6 => &["test/light", "test/second"],
+                f if f % 2 == 0 => &["test/light"],
+                _ => &["test/heavy"],
+            };
+            assert_eq!(names, expected, "{mode:?} frame {frame}");
+            for (name, ms) in &timings.0 {
+                assert!(ms.is_finite() && *ms >= 0.0, "{mode:?} {name}: {ms} ms");
+            }
+            light.extend(timings.get("test/light"));
+            heavy.extend(timings.get("test/heavy"));
+        }
+        let longest_light = light.iter().copied().fold(0.0, f64::max);
+        let shortest_heavy = heavy.iter().copied().fold(f64::INFINITY, f64::min);
+        eprintln!("{mode:?}: light frames {light:?} ms, heavy frames {heavy:?} ms");
+        assert!(
+            shortest_heavy > longest_light,
+            "{mode:?}: a frame of {HEAVY} dispatches read {shortest_heavy} ms, one of a single \
+             dispatch {longest_light} ms"
+        );
+    }
+}
+
 #[test]
 fn the_memory_report_counts_bytes_by_label() {
     let Some(ctx) = GpuContext::new_or_skip("the_memory_report_counts_bytes_by_label") else {
@@ -168,9 +250,14 @@ fn the_memory_report_counts_bytes_by_label() {
         let _timer = GpuTimer::new(&ctx, "test.timer", 8);
         let with_timer = ctx.memory().bytes("test.timer.timestamps");
         assert!(ctx.supports_timestamps() == (with_timer == 8 * 2 * 8));
+        let readback = ctx.memory().bytes("test.timer.timestamps_readback");
+        assert!(
+            ctx.supports_timestamps() == (readback == FRAMES_IN_FLIGHT as u64 * 8 * 2 * 8),
+            "{readback} bytes of readback"
+        );
     }
     assert_eq!(
-        ctx.memory().bytes("test.timer.timestamps"),
+        ctx.memory().bytes_with_prefix("test.timer.timestamps"),
         0,
         "the timer releases its own"
     );

@@ -40,4 +40,6 @@ pub use path::{GpuPathTier, Moments, PathUniforms};
 pub use pc::{PcConfig, PcTier};
 pub use renderer::{CameraMode, Renderer, Selection};
 pub use select::FrameBudget;
-pub use tier::{FrameInput, FrameOutput, Tier, TierChoice, TierError, TierKind, TierSettings};
+pub use tier::{
+    FrameInput, FrameOutput, FrameTimings, Tier, TierChoice, TierError, TierKind, TierSettings,
+};

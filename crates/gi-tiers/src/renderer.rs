@@ -13,7 +13,9 @@ use crate::{
     path::GpuPathTier,
     pc::{PcConfig, PcTier},
     select::{self, AdapterDescription, Plan, RunsOn},
-    tier::{FrameInput, FrameOutput, Tier, TierChoice, TierError, TierKind, TierSettings},
+    tier::{
+        FrameInput, FrameOutput, FrameTimings, Tier, TierChoice, TierError, TierKind, TierSettings,
+    },
 };
 
 /// Which camera the frames look through.
@@ -265,12 +267,35 @@ impl Renderer {
         Ok(passes)
     }
 
+    /// Renders the next frame as [`Renderer::advance_frame`] does without waiting for the
+    /// GPU ([`Tier::submit`]), as an engine's frame loop runs: the CPU's work on the next
+    /// frame overlaps the GPU's on this one. Returns the passes of the frames the GPU has
+    /// finished since the last call, oldest first, each under its tier frame index (warm-up
+    /// frames count, as in [`FrameInput::index`]); [`Renderer::flush_frames`] waits for the
+    /// rest.
+    pub fn submit_frame(
+        &mut self,
+        progress: Option<&(dyn Fn(u32) + Sync)>,
+    ) -> Result<Vec<FrameTimings>, TierError> {
+        let reported = self.still(progress, |tier, input| tier.submit(input))?;
+        self.next_frame += 1;
+        Ok(reported)
+    }
+
+    /// Waits for every frame [`Renderer::submit_frame`] left in flight and returns their
+    /// passes, oldest first.
+    pub fn flush_frames(&mut self) -> Vec<FrameTimings> {
+        self.tier.flush()
+    }
+
     /// A still warm-up for temporal tiers: renders `frames` frames that all show the next
     /// frame (frame 0 on a new renderer: its time and camera) without advancing the frame
     /// counter, so history-based tiers converge on a still view before the frames that are
     /// measured. Tiers without history ([`Tier::is_temporal`] false) skip it. Each warm-up
-    /// frame costs a full frame; [`TierKind::default_warmup`] is how many a measurement of a
-    /// tier wants. `progress` is called with the warm-up frames done so far.
+    /// frame costs a full frame, though the frames do not wait for the GPU one by one
+    /// ([`Tier::submit`]; the last is waited for); [`TierKind::default_warmup`] is how many a
+    /// measurement of a tier wants. `progress` is called with the warm-up frames submitted so
+    /// far.
     pub fn warm_up(
         &mut self,
         frames: u32,
@@ -280,11 +305,13 @@ impl Renderer {
             return Ok(());
         }
         for done in 1..=frames {
-            self.warm_up_frame()?;
+            self.still(None, |tier, input| tier.submit(input))?;
+            self.warm_up_frames += 1;
             if let Some(progress) = progress {
                 progress(done);
             }
         }
+        self.tier.flush();
         Ok(())
     }
 
@@ -347,8 +374,9 @@ impl Renderer {
             self.next_frame += count - 1;
         } else {
             for _ in 1..count {
-                self.advance_frame(None)?;
+                self.submit_frame(None)?;
             }
+            self.flush_frames();
         }
         self.render_frame(progress)
     }

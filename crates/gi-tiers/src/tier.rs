@@ -174,6 +174,29 @@ pub struct FrameOutput {
     pub stats: Option<RenderStats>,
 }
 
+/// The passes of a frame [`Tier::submit`] rendered, reported once the GPU has finished it.
+#[derive(Clone, Debug, PartialEq)]
+pub struct FrameTimings {
+    /// The frame's [`FrameInput::index`].
+    pub index: u32,
+    /// Named passes and their time in milliseconds, in execution order, as
+    /// [`FrameOutput::passes`].
+    pub passes: Vec<(String, f64)>,
+}
+
+impl FrameTimings {
+    /// The frames a [`gi_gpu::GpuTimer`] reported, each tagged with its frame index.
+    pub(crate) fn from_timer(reported: Vec<(u32, gi_gpu::PassTimings)>) -> Vec<Self> {
+        reported
+            .into_iter()
+            .map(|(index, timings)| Self {
+                index,
+                passes: timings.0,
+            })
+            .collect()
+    }
+}
+
 impl FrameOutput {
     /// The frame's total time: the sum of its passes.
     pub fn ms_total(&self) -> f64 {
@@ -216,6 +239,29 @@ pub trait Tier: Send + Any {
     /// frame's passes.
     fn advance(&mut self, input: &FrameInput) -> Result<Vec<(String, f64)>, TierError> {
         self.render(input).map(|output| output.passes)
+    }
+
+    /// Renders one frame as [`Tier::advance`] does without waiting for the GPU to finish it,
+    /// as an engine's frame loop runs: the CPU records the next frame while the GPU works on
+    /// this one, and the frame's time is the larger of the two rather than their sum. Returns
+    /// the passes of the frames the GPU has finished since the last call, oldest first, each
+    /// under its [`FrameInput::index`]; this frame's come from a later call or from
+    /// [`Tier::flush`]. GPU tiers keep at most [`gi_gpu::FRAMES_IN_FLIGHT`] frames in flight
+    /// (a frame waits for the oldest beyond that); the others render the frame and report it
+    /// at once. The tier's state after a frame is the same either way: a frame rendered
+    /// after `submit`s shows what it would after `advance`s.
+    fn submit(&mut self, input: &FrameInput) -> Result<Vec<FrameTimings>, TierError> {
+        let passes = self.advance(input)?;
+        Ok(vec![FrameTimings {
+            index: input.index,
+            passes,
+        }])
+    }
+
+    /// Waits for every frame [`Tier::submit`] left in flight and returns their passes,
+    /// oldest first.
+    fn flush(&mut self) -> Vec<FrameTimings> {
+        Vec::new()
     }
 
     /// Bytes of every buffer, texture and acceleration structure the tier owns now.

@@ -2,8 +2,8 @@
 
 use gi_reference::{Mode, Reference, RenderSettings};
 use gi_tiers::{
-    CameraMode, CpuTier, MobileConfig, MobileTier, Renderer, TierChoice, TierError, TierKind,
-    TierSettings,
+    CameraMode, CpuTier, MobileConfig, MobileTier, PcConfig, PcTier, Renderer, Tier, TierChoice,
+    TierError, TierKind, TierSettings,
 };
 
 const SETTINGS: TierSettings = TierSettings {
@@ -201,6 +201,95 @@ fn mobile_warm_up_renders_still_frames_without_advancing_the_frame_counter() {
             .iter()
             .any(|(name, _)| name.starts_with("mobile/"))
     );
+}
+
+/// Frames submitted without waiting for the GPU leave a tier as frames advanced one by one
+/// do: the same image after them, bit for bit, and every frame's passes reported once, in
+/// order, never more than `FRAMES_IN_FLIGHT` frames late.
+#[test]
+fn submitted_frames_render_as_advanced_frames_and_report_each_frame_once() {
+    if gi_gpu::GpuContext::new_or_skip("submitted_frames_render_as_advanced_frames").is_none() {
+        return;
+    }
+    let settings = TierSettings {
+        width: 32,
+        height: 24,
+        spp: 1,
+        seed: 7,
+    };
+    // The animated scene re-voxelizes its moving objects and moves its light every frame. The
+    // cache relights 16 bricks a frame, which keeps every pass running at a fraction of the
+    // default's cost on a software adapter.
+    let tier = |kind: TierKind| -> Box<dyn Tier> {
+        let ctx = gi_gpu::GpuContext::new().unwrap();
+        match kind {
+            TierKind::Mobile => {
+                let mut config = MobileConfig::default();
+                config.cache.settle_bricks_per_frame = 0;
+                config.cache.light_bricks_per_frame = 16;
+                Box::new(MobileTier::new(settings, config, ctx).unwrap())
+            }
+            _ => {
+                let mut config = PcConfig::default();
+                config.cache.settle_bricks_per_frame = 0;
+                config.cache.light_bricks_per_frame = 16;
+                Box::new(PcTier::new(settings, config, ctx).unwrap())
+            }
+        }
+    };
+    let renderer = |kind| {
+        let scene = gi_scene::load("dynamic").unwrap();
+        Renderer::with_tier(scene, tier(kind), CameraMode::Default)
+    };
+    let frames = 5;
+    for kind in [TierKind::Mobile, TierKind::Pc] {
+        let mut advanced = renderer(kind);
+        let names = |passes: &[(String, f64)]| -> Vec<String> {
+            passes.iter().map(|(name, _)| name.clone()).collect()
+        };
+        let expected: Vec<Vec<String>> = (0..frames)
+            .map(|_| names(&advanced.advance_frame(None).unwrap()))
+            .collect();
+        let advanced_image = advanced.render_frame(None).unwrap().image;
+
+        let mut submitted = renderer(kind);
+        let mut reported = Vec::new();
+        for frame in 0..frames {
+            reported.extend(submitted.submit_frame(None).unwrap());
+            assert!(
+                reported.len() + gi_gpu::FRAMES_IN_FLIGHT > frame,
+                "{kind}: {} frames reported after submitting frame {frame}",
+                reported.len()
+            );
+        }
+        reported.extend(submitted.flush_frames());
+        assert!(submitted.flush_frames().is_empty(), "{kind}: flushed twice");
+        let submitted_image = submitted.render_frame(None).unwrap().image;
+
+        let indices: Vec<u32> = reported.iter().map(|f| f.index).collect();
+        assert_eq!(indices, (0..frames as u32).collect::<Vec<_>>(), "{kind}");
+        for (frame, expected) in reported.iter().zip(&expected) {
+            assert_eq!(
+                &names(&frame.passes),
+                expected,
+                "{kind} frame {}",
+                frame.index
+            );
+            assert!(
+                frame
+                    .passes
+                    .iter()
+                    .all(|(_, ms)| ms.is_finite() && *ms >= 0.0),
+                "{kind} frame {}: {:?}",
+                frame.index,
+                frame.passes
+            );
+        }
+        assert!(
+            submitted_image.pixels == advanced_image.pixels,
+            "{kind}: the image after submitted frames differs from the one after advanced frames"
+        );
+    }
 }
 
 #[test]

@@ -15,14 +15,14 @@ pub use volume::{ProbeSample, ProbeVolume, VolumeError};
 use gi_cache::lighting::GpuSky;
 use gi_cache::{CacheLighting, RadianceCache, ScreenInputs, binning::dynamic_triangles};
 use gi_gpu::gbuffer::{GBuffer, GBufferInputs};
-use gi_gpu::{GpuCamera, GpuContext, GpuTimer, PassTimings, ShaderLibrary, wgpu};
+use gi_gpu::{GpuCamera, GpuContext, GpuTimer, ShaderLibrary, wgpu};
 use gi_image::Image;
 use gi_scene::SceneFrame;
 use glam::Vec3;
 
 use crate::path::{Accumulation, PathPipelines};
 use crate::scene_state::{Followed, SceneState, check_frame_settings, read_image};
-use crate::tier::{FrameInput, FrameOutput, Tier, TierError, TierKind, TierSettings};
+use crate::tier::{FrameInput, FrameOutput, FrameTimings, Tier, TierError, TierKind, TierSettings};
 use screen::{
     ScreenBuffers, ScreenLayout, ScreenPipelines, ScreenSources, ScreenStep, screen_uniforms,
 };
@@ -394,6 +394,34 @@ impl Tier for MobileTier {
 
     /// The frame without reading its image back (it stays in the output buffer).
     fn advance(&mut self, input: &FrameInput) -> Result<Vec<(String, f64)>, TierError> {
+        let encoder = self.record_frame(input)?;
+        Ok(self.timer.finish(&self.ctx, encoder).0)
+    }
+
+    fn submit(&mut self, input: &FrameInput) -> Result<Vec<FrameTimings>, TierError> {
+        let encoder = self.record_frame(input)?;
+        Ok(FrameTimings::from_timer(self.timer.finish_async(
+            &self.ctx,
+            encoder,
+            input.index,
+        )))
+    }
+
+    fn flush(&mut self) -> Vec<FrameTimings> {
+        FrameTimings::from_timer(self.timer.drain(&self.ctx))
+    }
+
+    /// Everything counted by the tier's own context: scene, BVH, G-buffer, cache, probe
+    /// volume, screen buffers, direct accumulation and timer.
+    fn memory_bytes(&self) -> u64 {
+        self.ctx.memory().total_bytes()
+    }
+}
+
+impl MobileTier {
+    /// Records and submits the frame but for its last encoder, which it returns for the
+    /// caller to end the timer's frame with (waiting for it or not).
+    fn record_frame(&mut self, input: &FrameInput) -> Result<wgpu::CommandEncoder, TierError> {
         let frame = input.frame;
         self.prepare(input)?;
         let size = (self.settings.width, self.settings.height);
@@ -401,7 +429,6 @@ impl Tier for MobileTier {
         let prepared = self.prepared.as_mut().expect("prepared above");
         let camera = GpuCamera::new(&frame.camera, size);
         let sky = GpuSky::new(&frame.sky);
-        let mut passes = PassTimings::default();
 
         let mut encoder = ctx.create_encoder("mobile/frame");
         self.gbuffer.record(
@@ -479,20 +506,19 @@ impl Tier for MobileTier {
             groups,
             ScreenStep::Gather,
         );
-        passes.0.extend(self.timer.finish(ctx, encoder).0);
+        self.timer.submit(ctx, encoder);
 
+        let mut encoder = ctx.create_encoder("mobile/compose");
         if prepared.state.direct.samples < self.settings.spp {
-            let direct = prepared.state.direct.add_samples(
+            prepared.state.direct.record_samples(
                 ctx,
                 &self.direct_pipelines,
                 &prepared.state.scene,
                 &mut self.timer,
+                &mut encoder,
                 1,
             );
-            passes.0.extend(direct.0);
         }
-
-        let mut encoder = ctx.create_encoder("mobile/compose");
         screen.record(
             ctx,
             &mut self.timer,
@@ -501,19 +527,12 @@ impl Tier for MobileTier {
             groups,
             ScreenStep::Compose,
         );
-        passes.0.extend(self.timer.finish(ctx, encoder).0);
 
         prepared.state.finish_frame(frame);
         self.frame_index = self.frame_index.wrapping_add(1);
         if let Some(progress) = input.progress {
             progress(prepared.state.direct.samples);
         }
-        Ok(passes.0)
-    }
-
-    /// Everything counted by the tier's own context: scene, BVH, G-buffer, cache, probe
-    /// volume, screen buffers, direct accumulation and timer.
-    fn memory_bytes(&self) -> u64 {
-        self.ctx.memory().total_bytes()
+        Ok(encoder)
     }
 }

@@ -228,6 +228,23 @@ impl Accumulation {
         timer: &mut GpuTimer,
         spp: u32,
     ) -> PassTimings {
+        let mut encoder = ctx.create_encoder(&format!("{}/frame", pipelines.tier));
+        self.record_samples(ctx, pipelines, scene, timer, &mut encoder, spp);
+        timer.finish(ctx, encoder)
+    }
+
+    /// Records [`Accumulation::add_samples`]'s passes into `encoder`, timed under `timer`'s
+    /// frame. Its uniforms are written with `queue.write_buffer`: `encoder` must be submitted
+    /// before the next call.
+    pub(crate) fn record_samples(
+        &mut self,
+        ctx: &GpuContext,
+        pipelines: &PathPipelines,
+        scene: &GpuScene,
+        timer: &mut GpuTimer,
+        encoder: &mut wgpu::CommandEncoder,
+        spp: u32,
+    ) {
         let restarting = self.samples == 0;
         let spp = spp.min(u32::MAX - self.samples);
         self.uniforms.sample_offset = self.samples;
@@ -244,13 +261,12 @@ impl Accumulation {
         ctx.queue
             .write_buffer(&self.resolve_uniforms, 0, bytemuck::bytes_of(&resolve));
         let tier = pipelines.tier;
-        let mut encoder = ctx.create_encoder(&format!("{tier}/frame"));
         encoder.clear_buffer(&self.ray_count, 0, None);
         if restarting {
             encoder.clear_buffer(&self.sum, 0, None);
             encoder.clear_buffer(&self.sum_sq, 0, None);
         }
-        timer.compute_pass(ctx, &mut encoder, &format!("{tier}/trace"), |pass| {
+        timer.compute_pass(ctx, encoder, &format!("{tier}/trace"), |pass| {
             pass.set_pipeline(&pipelines.trace);
             pass.set_bind_group(0, &self.trace_group, &[]);
             pass.set_bind_group(gi_gpu::bvh::BVH_BIND_GROUP, &scene.bvh.bind_group, &[]);
@@ -262,12 +278,11 @@ impl Accumulation {
         });
         let groups = pixel_count.div_ceil(RESOLVE_GROUP);
         let rows = groups.div_ceil(MAX_GROUPS_PER_ROW);
-        timer.compute_pass(ctx, &mut encoder, &format!("{tier}/resolve"), |pass| {
+        timer.compute_pass(ctx, encoder, &format!("{tier}/resolve"), |pass| {
             pass.set_pipeline(&pipelines.resolve);
             pass.set_bind_group(0, &self.resolve_group, &[]);
             pass.dispatch_workgroups(groups.div_ceil(rows), rows, 1);
         });
-        timer.finish(ctx, encoder)
     }
 
     /// Rays the last [`Accumulation::add_samples`] traced (read back; stalls the GPU).

@@ -38,7 +38,7 @@ use gi_scene::SceneFrame;
 
 use crate::path::PathPipelines;
 use crate::scene_state::{SceneState, check_frame_settings, read_image};
-use crate::tier::{FrameInput, FrameOutput, Tier, TierError, TierKind, TierSettings};
+use crate::tier::{FrameInput, FrameOutput, FrameTimings, Tier, TierError, TierKind, TierSettings};
 use denoise::{DenoisePipelines, DenoiseSources, Denoiser};
 
 /// Most timed passes in one frame.
@@ -707,10 +707,36 @@ impl Tier for PcTier {
     }
 
     fn advance(&mut self, input: &FrameInput) -> Result<Vec<(String, f64)>, TierError> {
+        let encoder = self.record_frame(input)?;
+        Ok(self.timer.finish(&self.ctx, encoder).0)
+    }
+
+    fn submit(&mut self, input: &FrameInput) -> Result<Vec<FrameTimings>, TierError> {
+        let encoder = self.record_frame(input)?;
+        Ok(FrameTimings::from_timer(self.timer.finish_async(
+            &self.ctx,
+            encoder,
+            input.index,
+        )))
+    }
+
+    fn flush(&mut self) -> Vec<FrameTimings> {
+        FrameTimings::from_timer(self.timer.drain(&self.ctx))
+    }
+
+    /// Everything counted by the tier's own context.
+    fn memory_bytes(&self) -> u64 {
+        self.ctx.memory().total_bytes()
+    }
+}
+
+impl PcTier {
+    /// Records and submits the frame but for its last encoder, which it returns for the
+    /// caller to end the timer's frame with (waiting for it or not).
+    fn record_frame(&mut self, input: &FrameInput) -> Result<wgpu::CommandEncoder, TierError> {
         let frame = input.frame;
         self.prepare(input)?;
         let ctx = &self.ctx;
-        let mut passes = Vec::new();
         let mut encoder = ctx.create_encoder("pc/frame");
         {
             let prepared = self.prepared.as_ref().expect("prepared above");
@@ -816,20 +842,19 @@ impl Tier for PcTier {
             &self.denoise_pipelines,
             &denoise,
         );
-        passes.extend(self.timer.finish(ctx, encoder).0);
+        self.timer.submit(ctx, encoder);
 
+        let mut encoder = ctx.create_encoder("pc/compose");
         if prepared.state.direct.samples < self.settings.spp {
-            let direct = prepared.state.direct.add_samples(
+            prepared.state.direct.record_samples(
                 ctx,
                 &self.direct_pipelines,
                 &prepared.state.scene,
                 &mut self.timer,
+                &mut encoder,
                 1,
             );
-            passes.extend(direct.0);
         }
-
-        let mut encoder = ctx.create_encoder("pc/compose");
         self.timer
             .compute_pass(ctx, &mut encoder, "pc/compose", |pass| {
                 pass.set_pipeline(&self.pipelines.compose);
@@ -837,7 +862,6 @@ impl Tier for PcTier {
                 pass.set_bind_group(CacheBuffers::BIND_GROUP, cache_group, &[]);
                 pass.dispatch_workgroups(full_groups.0, full_groups.1, 1);
             });
-        passes.extend(self.timer.finish(ctx, encoder).0);
 
         let prepared = self.prepared.as_mut().expect("prepared above");
         prepared.state.finish_frame(frame);
@@ -847,11 +871,6 @@ impl Tier for PcTier {
         if let Some(progress) = input.progress {
             progress(prepared.state.direct.samples);
         }
-        Ok(passes)
-    }
-
-    /// Everything counted by the tier's own context.
-    fn memory_bytes(&self) -> u64 {
-        self.ctx.memory().total_bytes()
+        Ok(encoder)
     }
 }
