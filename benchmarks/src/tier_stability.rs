@@ -33,8 +33,8 @@
 //! ([`crate::settle::settle`], `clock_settle_s`) before the warm-up's last [`COST_WINDOW`]
 //! frames, whose GI time (GPU timestamps, the tier's GI passes) is the baseline; the light
 //! turns and `settle_frames` frames follow, each timed, none read back. A light change makes the
-//! brick cache relight every brick again (each gets the settling budget's extra updates), which
-//! costs until the bricks settle again.
+//! brick cache relight every brick again (with the relight budget's extra updates,
+//! `relight_bricks_per_frame`), which costs until the bricks settle again.
 
 use anyhow::{Context, bail};
 use gi_scene::LightKind;
@@ -97,6 +97,10 @@ pub struct ChangeCost {
     /// Frames after the turn until the GI time is back within 10% of the baseline for good:
     /// through the last frame above it (0 when none is; `None` when the last frame still is).
     pub elevated_frames: Option<usize>,
+    /// Frames after the turn through the end of the first unbroken run above 110% of the
+    /// baseline: how long the relighting lasts, which a single noisy frame later does not
+    /// lengthen (0 when no frame is above it; `None` when the run lasts to the last frame).
+    pub relight_frames: Option<usize>,
     /// Every frame's GI time after the turn.
     pub after_ms: Vec<f64>,
 }
@@ -359,8 +363,20 @@ fn change_cost(renderer: &mut Renderer, options: &StabilityOptions) -> anyhow::R
             Some(last) if last + 1 == after_ms.len() => None,
             Some(last) => Some(last + 1),
         },
+        relight_frames: relight_frames(&after_ms, 1.1 * before_ms),
         after_ms,
     })
+}
+
+/// [`ChangeCost::relight_frames`] of `after_ms` above `limit`.
+fn relight_frames(after_ms: &[f64], limit: f64) -> Option<usize> {
+    let Some(first) = after_ms.iter().position(|&ms| ms > limit) else {
+        return Some(0);
+    };
+    after_ms[first..]
+        .iter()
+        .position(|&ms| ms <= limit)
+        .map(|back| first + back)
 }
 
 fn settle(renderer: &mut Renderer, options: &StabilityOptions) -> anyhow::Result<Settle> {
@@ -489,15 +505,16 @@ impl StabilityReport {
             "\nGI ms per frame around the light change (GPU timestamps, a run of its own with no \
              frame read back): median of the last (up to) {COST_WINDOW} warm-up frames before \
              it, of the first {COST_WINDOW} after it, \
-             the most expensive frame after it, the converged window's median, and the frames \
-             until the time is back within 10% of the frames before for good\n\n\
+             the most expensive frame after it, the converged window's median, the frames \
+             until the time is back within 10% of the frames before for good (elevated) and \
+             until the first run above it ends (relighting)\n\n\
              | tier | scene | clock settling | before | first after | peak | converged | frames \
-             elevated |\n|---|---|---|---:|---:|---:|---:|---:|\n"
+             elevated | relighting |\n|---|---|---|---:|---:|---:|---:|---:|---:|\n"
         );
         for run in &self.runs {
             let (s, c) = (&run.settle, &run.cost);
             out += &format!(
-                "| {} | {} | {} | {:.3} | {:.3} | {:.3} | {:.3} | {} |\n",
+                "| {} | {} | {} | {:.3} | {:.3} | {:.3} | {:.3} | {} | {} |\n",
                 run.variant.name(),
                 s.scene,
                 clock_note(&c.clock),
@@ -506,6 +523,8 @@ impl StabilityReport {
                 c.peak_ms,
                 c.converged_ms,
                 c.elevated_frames
+                    .map_or("not back".to_owned(), |n| n.to_string()),
+                c.relight_frames
                     .map_or("not back".to_owned(), |n| n.to_string()),
             );
         }
@@ -560,6 +579,7 @@ impl StabilityReport {
                         "peak": run.cost.peak_ms,
                         "converged": run.cost.converged_ms,
                         "elevated_frames": run.cost.elevated_frames,
+                        "relight_frames": run.cost.relight_frames,
                         "after": run.cost.after_ms,
                     },
                 },
@@ -579,5 +599,21 @@ fn clock_note(clock: &Settled) -> String {
             clock.seconds,
             if clock.steady { "" } else { ", NOT steady" }
         )
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::relight_frames;
+
+    #[test]
+    fn the_relighting_ends_with_the_first_run_above_the_limit() {
+        // Frame 0 still costs what the frames before did; frames 1-3 relight; frame 6 is a
+        // lone noisy frame, which does not lengthen the relighting.
+        let after = [1.0, 1.5, 1.6, 1.4, 1.0, 1.05, 1.3, 1.0];
+        assert_eq!(relight_frames(&after, 1.1), Some(4));
+        assert_eq!(relight_frames(&[1.0, 1.0], 1.1), Some(0));
+        assert_eq!(relight_frames(&[1.0, 1.5, 1.5], 1.1), None);
+        assert_eq!(relight_frames(&[], 1.1), Some(0));
     }
 }

@@ -207,6 +207,15 @@ fn mobile_stability_benchmark_reports_flicker_and_settle() {
         }
         None => assert!(after[after.len() - 1] > 1.1 * before, "{cost}"),
     }
+    // The first unbroken run above it ends no later than the last frame above it.
+    match (
+        cost["relight_frames"].as_u64(),
+        cost["elevated_frames"].as_u64(),
+    ) {
+        (Some(relit), Some(elevated)) => assert!(relit <= elevated, "{cost}"),
+        (Some(relit), None) => assert!((relit as usize) < after.len(), "{cost}"),
+        (None, elevated) => assert!(elevated.is_none(), "{cost}"),
+    }
     // Medians of frames after the turn: within them.
     for field in ["first_after", "converged"] {
         let ms = cost[field].as_f64().unwrap();
