@@ -13,17 +13,22 @@
 //     selection by normal and plane distance), combined with the Jacobian and no visibility
 //     (the biased reuse; the shadow pass restores visibility).
 //   - `shade` (pass `pc/shade`), per full-resolution pixel, HSGI's multi-sample shading: the
-//     pixel is shaded from every reservoir of the (2 shade_radius + 1)^2 trace pixels around
-//     it whose receiver lies on its surface and that passes the shadow test (HSGI's "post
-//     spatial reuse" neighbour rule, applied here at shading time) and whose sample lies at
-//     least `shade_contact_ratio` times the two receivers' distance from its own receiver
-//     (near contacts a neighbour's short ray sees another scene), each an estimate of its
-//     irradiance through the reconnection shift; their mean is the noisy, demodulated
-//     irradiance the denoiser filters. It also upsamples the trace resolution to full. On a
-//     rough pixel (from `specular_max_roughness` up) the same estimates weighted by the
-//     pixel's specular lobe give HSGI's reuse of the diffuse result for the reflection: the
-//     ratio of the lobe-weighted light to the light, per channel, which `pc/specular.wgsl`
-//     accumulates over time.
+//     pixel is shaded from the reservoirs of the trace pixels whose centers lie within
+//     `shade_radius` trace pixels (per axis) of its own center (at trace scale 2, the 2 x 2
+//     nearest it, each pixel of a 2 x 2 block its own), whose receiver lies on its surface
+//     and that pass the shadow test (HSGI's "post spatial reuse" neighbour rule, applied here
+//     at shading time) and whose sample lies at least `shade_contact_ratio` times the two
+//     receivers' distance from its own receiver (near contacts a neighbour's short ray sees
+//     another scene), each an estimate of its irradiance through the reconnection shift;
+//     their mean is the noisy, demodulated irradiance the denoiser filters. It also upsamples
+//     the trace resolution to full. On a rough pixel (from `specular_max_roughness` up) the
+//     estimates of the wider (2 shade_radius + 1)^2 trace pixels around its own, weighted by
+//     the pixel's specular lobe, give HSGI's reuse of the diffuse result for the reflection:
+//     the ratio of the lobe-weighted light to the light, per channel, which
+//     `pc/specular.wgsl` accumulates over time. (A ratio of two sums over the same samples:
+//     more samples make it less biased, and their shared noise cancels in it. The irradiance
+//     from all of the 3 x 3 shared most of its reservoirs between neighbouring pixels, noise
+//     the denoiser's spatial filter barely removes: on cornell-box its error was 1.5% higher.)
 //   - `compose` (pass `pc/compose`): direct light plus the diffuse albedo times the denoised
 //     irradiance over pi, plus the split-sum specular albedo times the reflected radiance: the
 //     traced specular (`pc/specular.wgsl`) on smooth surfaces, blended to the irradiance over
@@ -312,9 +317,13 @@ fn shade(@builtin(global_invocation_id) id: vec3<u32>) {
     if reused {
         lobe = lobe_new(n, -ray, gbuffer_metallic_roughness[pixel].y);
     }
+    // This pixel's center in trace pixels: the irradiance's reservoirs lie within `radius`
+    // of it (per axis), a subset of the (2 radius + 1)^2 around its own trace pixel.
+    let c = (vec2<f32>(id.xy) + 0.5) / f32(u.trace_scale) - 0.5;
     var sum = vec3(0.0);
-    var lobe_sum = vec3(0.0);
     var count = 0.0;
+    var lobe_sum = vec3(0.0);
+    var lobe_light = vec3(0.0);
     for (var dy = -radius; dy <= radius; dy++) {
         for (var dx = -radius; dx <= radius; dx++) {
             let q = t + vec2(dx, dy);
@@ -336,12 +345,19 @@ fn shade(@builtin(global_invocation_id) id: vec3<u32>) {
                     continue;
                 }
             }
+            let near = radius == 0 || all(abs(vec2<f32>(q) - c) <= vec2(f32(radius) + 1e-3));
+            if !near && !reused {
+                continue;
+            }
             let e = reservoir_irradiance(rq, sq.position, x, n, u.jacobian_max);
-            sum += e;
+            if near {
+                sum += e;
+                count += 1.0;
+            }
             if reused {
+                lobe_light += e;
                 lobe_sum += e * lobe_weight(lobe, sample_direction(rq, x).xyz);
             }
-            count += 1.0;
         }
     }
     if count == 0.0 {
@@ -351,6 +367,7 @@ fn shade(@builtin(global_invocation_id) id: vec3<u32>) {
         if has_surface(s) {
             sum = reservoir_irradiance(center, s.position, x, n, u.jacobian_max);
             if reused {
+                lobe_light = sum;
                 lobe_sum = sum * lobe_weight(lobe, sample_direction(center, x).xyz);
             }
         }
@@ -362,7 +379,7 @@ fn shade(@builtin(global_invocation_id) id: vec3<u32>) {
     // a smooth-shaded silhouette: nothing to reshape, no lobe to reshape it by).
     if reused {
         let lit = sum > vec3(0.0) & vec3(dot(n, -ray) > 0.0);
-        let ratio = select(vec3(1.0), lobe_sum / max(sum, vec3(1e-30)), lit);
+        let ratio = select(vec3(1.0), lobe_sum / max(lobe_light, vec3(1e-30)), lit);
         specular_noisy[pixel] = pack_color64(ratio, f32(SPECULAR_REUSED));
     } else if kind == SPECULAR_NONE {
         specular_noisy[pixel] = vec2(0u);
