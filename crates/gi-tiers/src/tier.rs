@@ -246,9 +246,10 @@ pub trait Tier: Send + Any {
     /// this one, and the frame's time is the larger of the two rather than their sum. Returns
     /// the passes of the frames the GPU has finished since the last call, oldest first, each
     /// under its [`FrameInput::index`]; this frame's come from a later call or from
-    /// [`Tier::flush`]. GPU tiers keep at most [`gi_gpu::FRAMES_IN_FLIGHT`] frames in flight
-    /// (a frame waits for the oldest beyond that); the others render the frame and report it
-    /// at once. The tier's state after a frame is the same either way: a frame rendered
+    /// [`Tier::flush`]. The PC and mobile tiers keep at most [`gi_gpu::FRAMES_IN_FLIGHT`]
+    /// frames in flight (a frame waits for the oldest beyond that); the others (the CPU tiers,
+    /// and the path tier, which reads its image back every frame) render the frame and report
+    /// it at once. The tier's state after a frame is the same either way: a frame rendered
     /// after `submit`s shows what it would after `advance`s.
     fn submit(&mut self, input: &FrameInput) -> Result<Vec<FrameTimings>, TierError> {
         let passes = self.advance(input)?;
