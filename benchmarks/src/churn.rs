@@ -12,7 +12,7 @@
 use std::time::Instant;
 
 use anyhow::Context;
-use gi_gpu::{DeviceSharing, GpuContext, GpuOptions};
+use gi_gpu::{DeviceSharing, GpuContext, GpuOptions, PassTimings};
 use gi_tiers::{
     CameraMode, Renderer, Tier, TierKind,
     mobile::{MobileConfig, MobileTier},
@@ -219,11 +219,7 @@ pub fn run(options: &ChurnOptions) -> anyhow::Result<ChurnReport> {
         let start = Instant::now();
         let mut gpu_ms = 0.0;
         for _ in 0..options.frames {
-            gpu_ms += renderer
-                .advance_frame(None)?
-                .iter()
-                .map(|(_, ms)| ms)
-                .sum::<f64>();
+            gpu_ms += PassTimings(renderer.advance_frame(None)?).total_ms();
         }
         let frames_ms = start.elapsed().as_secs_f64() * 1e3;
         drop(renderer);

@@ -330,6 +330,11 @@ fn shade(@builtin(global_invocation_id) id: vec3<u32>) {
             if any(q < vec2(0)) || any(q >= vec2<i32>(u.trace_px)) {
                 continue;
             }
+            // Only a rough pixel's reflection ratio reads the trace pixels beyond the nearest.
+            let near = radius == 0 || all(abs(vec2<f32>(q) - c) <= vec2(f32(radius) + 1e-3));
+            if !near && !reused {
+                continue;
+            }
             let qi = trace_index(vec2<u32>(q));
             let sq = surfaces[qi];
             if !similar_surfaces(me, sq, u.normal_cos, u.plane_tolerance) {
@@ -344,10 +349,6 @@ fn shade(@builtin(global_invocation_id) id: vec3<u32>) {
                 if reach < u.shade_contact_ratio * distance(sq.position, x) {
                     continue;
                 }
-            }
-            let near = radius == 0 || all(abs(vec2<f32>(q) - c) <= vec2(f32(radius) + 1e-3));
-            if !near && !reused {
-                continue;
             }
             let e = reservoir_irradiance(rq, sq.position, x, n, u.jacobian_max);
             if near {

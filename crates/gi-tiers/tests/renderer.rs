@@ -13,6 +13,14 @@ const SETTINGS: TierSettings = TierSettings {
     seed: 7,
 };
 
+/// The GPU tiers' tests: 32 x 24, one sample per pixel.
+const GPU_SETTINGS: TierSettings = TierSettings {
+    width: 32,
+    height: 24,
+    spp: 1,
+    seed: 7,
+};
+
 fn renderer(scene: &str, kind: TierKind) -> Renderer {
     let scene = gi_scene::load(scene).unwrap();
     Renderer::new(scene, TierChoice::Tier(kind), SETTINGS, CameraMode::Default).unwrap()
@@ -173,12 +181,7 @@ fn mobile_warm_up_renders_still_frames_without_advancing_the_frame_counter() {
     let Some(ctx) = gi_gpu::GpuContext::new_or_skip("mobile_warm_up_renders_still_frames") else {
         return;
     };
-    let settings = TierSettings {
-        width: 32,
-        height: 24,
-        spp: 1,
-        seed: 7,
-    };
+    let settings = GPU_SETTINGS;
     let tier = MobileTier::new(settings, MobileConfig::default(), ctx).unwrap();
     let scene = gi_scene::load("dynamic").unwrap();
     let mut renderer = Renderer::with_tier(scene, Box::new(tier), CameraMode::Default);
@@ -211,12 +214,7 @@ fn submitted_frames_render_as_advanced_frames_and_report_each_frame_once() {
     if gi_gpu::GpuContext::new_or_skip("submitted_frames_render_as_advanced_frames").is_none() {
         return;
     }
-    let settings = TierSettings {
-        width: 32,
-        height: 24,
-        spp: 1,
-        seed: 7,
-    };
+    let settings = GPU_SETTINGS;
     // The animated scene re-voxelizes its moving objects and moves its light every frame. The
     // cache relights 16 bricks a frame, which keeps every pass running at a fraction of the
     // default's cost on a software adapter.
