@@ -12,13 +12,14 @@
 //   surface lies next to a silhouette or under a grazing view.
 // - **update**: the center pixel's surface (its plane through the hit point) crosses the
 //   voxel near the hit point and its normal agrees with the voxel's: the voxel takes the
-//   diffuse albedo (`base * (1 - metallic)`, as `cache/voxelize`) and the normal of the
+//   diffuse albedo (the Lambert lobe's at the mean view cosine 2/3, as `cache/voxelize`) and the normal of the
 //   G-buffer. Coverage, emission and state are kept.
 // - **skip** otherwise (occluded, off screen, too close to the camera, normals disagree).
 // Occupancy changes are gathered with workgroup atomics and written once per brick.
 
 #import gi::cache::data::{cache, cache_brick_masks, cache_voxels, cache_mask_cell, cache_mask_test, cache_voxel_normal}
 #import gi::camera::{Camera, camera_ray}
+#import gi::brdf::{gbuffer_brdf, brdf_diffuse_albedo}
 #import gi::packing::{pack_unit_vector, unpack_unit_vector}
 
 // Mirror of `gi_cache::screen_inject::ScreenInjectUniforms`.
@@ -140,8 +141,8 @@ fn screen_inject(@builtin(workgroup_id) workgroup: vec3<u32>, @builtin(local_inv
             let surface = cache_voxels[index];
             let agreement = dot(n, cache_voxel_normal(surface));
             if depth < 3.0e38 && plane_distance <= box_extent && near_hit && abs(agreement) >= NORMAL_AGREEMENT {
-                let metallic = gbuffer_metallic_roughness[i].x;
-                let albedo = gbuffer_base_color[i].xyz * (1.0 - clamp(metallic, 0.0, 1.0));
+                let brdf = gbuffer_brdf(gbuffer_base_color[i], gbuffer_metallic_roughness[i]);
+                let albedo = brdf_diffuse_albedo(brdf, 2.0 / 3.0);
                 let coverage = unpack4x8unorm(surface.albedo).w;
                 cache_voxels[index].albedo = pack4x8unorm(vec4(albedo, coverage));
                 // The voxel keeps its side: the G-buffer normal faces the camera.

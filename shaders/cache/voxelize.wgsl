@@ -17,8 +17,8 @@
     cache_keeps_emitted, cache_mask_cell, VoxelSurface, CACHE_STATE_DYNAMIC, CACHE_SIDE_COUNT,
     CACHE_STATE_BOX_SHIFT, CACHE_BOX_STEPS, cache_geometry_box
 }
-#import gi::scene::{triangles, sample_texture, emission, triangle_uv, material_of, geometric_normal}
-#import gi::brdf::{brdf_new, brdf_diffuse_albedo}
+#import gi::scene::{triangles, sample_texture, emission, dielectric_specular, triangle_uv, material_of, geometric_normal}
+#import gi::brdf::{brdf_new, brdf_with_specular, brdf_diffuse_albedo}
 #import gi::packing::{pack_unit_vector, pack_rgb9e5}
 
 // Mirror of `gi_cache::voxelize::VoxelizeUniforms`.
@@ -307,7 +307,13 @@ fn voxelize(@builtin(workgroup_id) workgroup: vec3<u32>, @builtin(local_invocati
         let material = material_of(closest_triangle, voxelize_uniforms.default_material);
         let base = material.base_color.xyz * sample_texture(material.base_color_texture, uv).xyz;
         let mr = sample_texture(material.metallic_roughness_texture, uv);
-        let albedo = brdf_diffuse_albedo(brdf_new(base, material.metallic * mr.z, material.roughness * mr.y));
+        // The cache reflects diffusely into every direction: the Lambert lobe's albedo at the
+        // cosine-weighted mean view cosine (2/3) stands for its mean over the hemisphere.
+        let brdf = brdf_with_specular(
+            brdf_new(base, material.metallic * mr.z, material.roughness * mr.y),
+            dielectric_specular(material, uv),
+        );
+        let albedo = brdf_diffuse_albedo(brdf, 2.0 / 3.0);
         surface = VoxelSurface(
             pack4x8unorm(vec4(albedo, coverage)),
             pack_unit_vector(normal),

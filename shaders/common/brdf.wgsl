@@ -1,11 +1,15 @@
 // The product's BRDF and how the reference samples it, ported operation for operation from the
-// CPU reference's `brdf` module so GPU and CPU agree to f32 rounding.
+// CPU reference's `brdf` module so GPU and CPU agree to f32 rounding; that module's docs state
+// the model and why its diffuse base is weighted the way it is.
 //
-// glTF 2.0 metallic-roughness (Khronos, glTF 2.0 specification, appendix B): Lambert
-// `base (1 - metallic) / pi` plus a GGX microfacet lobe (Walter et al. 2007, "Microfacet Models
-// for Refraction through Rough Surfaces") with height-correlated Smith masking-shadowing
-// (Heitz 2014, "Understanding the Masking-Shadowing Function in Microfacet-Based BRDFs") and
-// Schlick's Fresnel (Schlick 1994), `F0 = mix(0.04, base, metallic)`,
+// glTF 2.0 metallic-roughness (Khronos, glTF 2.0 specification, appendix B) with
+// KHR_materials_specular and KHR_materials_ior: `mix(dielectric, metal, metallic)`, the
+// dielectric a Lambert base under a GGX microfacet layer (Walter et al. 2007, "Microfacet
+// Models for Refraction through Rough Surfaces") with height-correlated Smith
+// masking-shadowing (Heitz 2014, "Understanding the Masking-Shadowing Function in
+// Microfacet-Based BRDFs") and Schlick's Fresnel (Schlick 1994), the metal the same layer
+// with `F0 = base`. The base is weighted by what the dielectric's layer does not reflect from
+// `wo` (albedo scaling), so no surface reflects more light than it receives;
 // `alpha = max(roughness^2, MIN_ALPHA)`. The specular lobe is sampled through visible normals
 // (Heitz 2018, "Sampling the GGX Distribution of Visible Normals", JCGT 7(4)), the diffuse lobe
 // with a cosine-weighted direction; every pdf is the whole mixture's.
@@ -16,6 +20,7 @@
 
 #import gi::math::{PI, luminance}
 #import gi::sampling::cosine_hemisphere
+#import gi::brdf_albedo::{albedo_series_m, albedo_series_r}
 
 // Smallest GGX alpha. Perceptual roughness 0 would make `D` a Dirac delta that neither
 // next-event estimation nor MIS weights can handle; clamping keeps mirrors finite (a lobe
@@ -27,6 +32,16 @@ const MIN_ALPHA: f32 = 1e-3;
 const SPECULAR_PICK_MIN: f32 = 0.1;
 const SPECULAR_PICK_MAX: f32 = 0.9;
 
+// The dielectric's specular layer (KHR_materials_specular, KHR_materials_ior): its weight and
+// its Fresnel reflectance at normal incidence before the weight.
+struct DielectricSpecular {
+    // Specular factor x texture alpha, in [0, 1]; 0 makes the dielectric pure Lambert.
+    weight: f32,
+    // `F0_d = min(((ior - 1) / (ior + 1))^2 * specular_color, 1)`: the Fresnel reflectance at
+    // normal incidence before the weight.
+    reflectance: vec3<f32>,
+}
+
 // The BRDF at one surface point, after textures were applied.
 struct Brdf {
     // Linear base color.
@@ -35,6 +50,8 @@ struct Brdf {
     metallic: f32,
     // GGX alpha, at least MIN_ALPHA.
     alpha: f32,
+    // The dielectric's specular layer.
+    specular: DielectricSpecular,
 }
 
 // A direction drawn by `brdf_sample` with the BRDF value and the mixture pdf there.
@@ -49,22 +66,73 @@ struct BrdfSample {
     valid: bool,
 }
 
-// From glTF parameters: metallic and perceptual roughness are clamped to [0, 1] and
-// `alpha = max(roughness^2, MIN_ALPHA)`.
+// The reference's `DielectricSpecular::new`: weight clamped to [0, 1], color to at least 0, `F0_d` to at
+// most 1 (black if not finite).
+fn dielectric_specular_new(weight: f32, color: vec3<f32>, ior: f32) -> DielectricSpecular {
+    let r = (ior - 1.0) / (ior + 1.0);
+    var f0 = min(r * r * max(color, vec3(0.0)), vec3(1.0));
+    if !(is_finite(f0.x) && is_finite(f0.y) && is_finite(f0.z)) {
+        f0 = vec3(0.0);
+    }
+    return DielectricSpecular(clamp(weight, 0.0, 1.0), f0);
+}
+
+// glTF's dielectric layer without the extensions: weight 1, ior 1.5, white.
+fn dielectric_specular_default() -> DielectricSpecular {
+    return dielectric_specular_new(1.0, vec3(1.0), 1.5);
+}
+
+// From glTF parameters with the default dielectric layer: metallic and perceptual roughness
+// are clamped to [0, 1] and `alpha = max(roughness^2, MIN_ALPHA)`.
 fn brdf_new(base: vec3<f32>, metallic: f32, roughness: f32) -> Brdf {
     let r = clamp(roughness, 0.0, 1.0);
-    return Brdf(base, clamp(metallic, 0.0, 1.0), max(r * r, MIN_ALPHA));
+    return Brdf(base, clamp(metallic, 0.0, 1.0), max(r * r, MIN_ALPHA), dielectric_specular_default());
 }
 
-// Albedo of the Lambert lobe, `base * (1 - metallic)`.
-fn brdf_diffuse_albedo(brdf: Brdf) -> vec3<f32> {
-    return brdf.base * (1.0 - brdf.metallic);
+// `brdf` with the dielectric layer `specular`.
+fn brdf_with_specular(brdf: Brdf, specular: DielectricSpecular) -> Brdf {
+    var b = brdf;
+    b.specular = specular;
+    return b;
 }
 
-// Fresnel reflectance at normal incidence, `mix(0.04, base, metallic)` written out in the
-// reference's order of operations.
+// Fresnel reflectance of the whole specular layer at normal incidence,
+// `mix(s * F0_d, base, metallic)` in the reference's order of operations.
 fn brdf_f0(brdf: Brdf) -> vec3<f32> {
-    return vec3<f32>(0.04) * (1.0 - brdf.metallic) + brdf.base * brdf.metallic;
+    return (brdf.specular.reflectance * brdf.specular.weight) * (1.0 - brdf.metallic) + brdf.base * brdf.metallic;
+}
+
+// Fresnel reflectance of the whole specular layer at grazing incidence, `mix(s, 1, metallic)`.
+fn brdf_f90(brdf: Brdf) -> f32 {
+    return brdf.specular.weight + (1.0 - brdf.specular.weight) * brdf.metallic;
+}
+
+// `[A, B]` of `specular_albedo` at `sqrt(alpha)` and `n_dot_v` (the reference's
+// `albedo_terms`).
+fn albedo_terms(sqrt_alpha_in: f32, n_dot_v: f32) -> vec2<f32> {
+    let sqrt_alpha = clamp(sqrt_alpha_in, sqrt(MIN_ALPHA), 1.0);
+    let alpha = sqrt_alpha * sqrt_alpha;
+    let mu = clamp(n_dot_v, 0.0, 1.0);
+    let s = 2.0 * sqrt_alpha - 1.0;
+    let m = clamp(albedo_series_m(1.0 - 2.0 * (mu / (mu + alpha)), s), 0.0, 1.0);
+    let r = clamp(albedo_series_r(1.0 - 2.0 * sqrt(sqrt(mu)), s), 0.0, 1.0);
+    return vec2(m * (1.0 - r), m * r);
+}
+
+// Weight of the Lambert base: the share of light the dielectric's specular layer does not
+// reflect from `n_dot_v`.
+fn brdf_diffuse_weight(brdf: Brdf, n_dot_v: f32) -> f32 {
+    if brdf.specular.weight <= 0.0 {
+        return 1.0;
+    }
+    let ab = albedo_terms(sqrt(brdf.alpha), n_dot_v);
+    let f0 = brdf.specular.reflectance;
+    return 1.0 - brdf.specular.weight * min(max(max(f0.x, f0.y), f0.z) * ab.x + ab.y, 1.0);
+}
+
+// Albedo of the Lambert lobe seen from `n_dot_v`: `base * (1 - metallic) * w(wo)`.
+fn brdf_diffuse_albedo(brdf: Brdf, n_dot_v: f32) -> vec3<f32> {
+    return brdf.base * ((1.0 - brdf.metallic) * brdf_diffuse_weight(brdf, n_dot_v));
 }
 
 // `v / |v|` as the reference computes it (a reciprocal of the square root, then a product),
@@ -97,12 +165,13 @@ fn smith_g1(cos_theta: f32, a2: f32) -> f32 {
     return 2.0 * cos_theta / (cos_theta + smith_s(cos_theta, a2));
 }
 
-// Schlick's Fresnel; `(1 - cos)^5` multiplied out as the reference's `powi(5)` does.
-fn schlick(f0: vec3<f32>, cos_theta: f32) -> vec3<f32> {
+// Schlick's Fresnel from `f0` at normal to `f90` at grazing incidence; `(1 - cos)^5`
+// multiplied out as the reference's `powi(5)` does.
+fn schlick(f0: vec3<f32>, f90: f32, cos_theta: f32) -> vec3<f32> {
     let x = 1.0 - clamp(cos_theta, 0.0, 1.0);
     let x2 = x * x;
     let m = x * (x2 * x2);
-    return f0 + (vec3<f32>(1.0) - f0) * m;
+    return f0 + (vec3<f32>(f90) - f0) * m;
 }
 
 // The GGX specular lobe without Fresnel, `D G2 / (4 cos_o cos_i)`, for half vector `h` and
@@ -119,18 +188,21 @@ fn brdf_eval(brdf: Brdf, wo: vec3<f32>, wi: vec3<f32>) -> vec3<f32> {
     let h = normalize_like_reference(wo + wi);
     let a2 = brdf.alpha * brdf.alpha;
     let specular = ggx_lobe(h, wo.z, wi.z, a2);
-    return brdf_diffuse_albedo(brdf) / PI + schlick(brdf_f0(brdf), dot(wo, h)) * specular;
+    return brdf_diffuse_albedo(brdf, wo.z) / PI + schlick(brdf_f0(brdf), brdf_f90(brdf), dot(wo, h)) * specular;
 }
 
 // Probability that `brdf_sample` picks the specular lobe for `wo`: the luminance of the Fresnel
-// reflectance at `wo` against that of the diffuse albedo, kept within [0.1, 0.9] unless the
-// diffuse lobe is black (metals always sample specular).
+// reflectance at `wo` against that of the diffuse albedo, kept within [0.1, 0.9] unless a lobe
+// is black (metals always sample specular, a dielectric without specular layer never does).
 fn brdf_specular_probability(brdf: Brdf, wo: vec3<f32>) -> f32 {
-    let diffuse = luminance(brdf_diffuse_albedo(brdf));
+    let specular = luminance(schlick(brdf_f0(brdf), brdf_f90(brdf), wo.z));
+    if specular <= 0.0 {
+        return 0.0;
+    }
+    let diffuse = luminance(brdf_diffuse_albedo(brdf, wo.z));
     if diffuse <= 0.0 {
         return 1.0;
     }
-    let specular = luminance(schlick(brdf_f0(brdf), wo.z));
     return clamp(specular / (specular + diffuse), SPECULAR_PICK_MIN, SPECULAR_PICK_MAX);
 }
 
@@ -147,7 +219,11 @@ fn brdf_pdf(brdf: Brdf, wo: vec3<f32>, wi: vec3<f32>) -> f32 {
         return 0.0;
     }
     let p_specular = brdf_specular_probability(brdf, wo);
-    return p_specular * brdf_specular_pdf(brdf, wo, wi) + (1.0 - p_specular) * wi.z / PI;
+    let diffuse = (1.0 - p_specular) * wi.z / PI;
+    if p_specular <= 0.0 {
+        return diffuse;
+    }
+    return p_specular * brdf_specular_pdf(brdf, wo, wi) + diffuse;
 }
 
 // A GGX microfacet normal visible from `wo`, distributed as `G1(wo) max(0, wo.h) D(h) / wo.z`
@@ -203,74 +279,41 @@ fn brdf_sample(brdf: Brdf, wo: vec3<f32>, u_lobe: f32, u: vec2<f32>) -> BrdfSamp
     return bs;
 }
 
-// Not part of the reference's BRDF: for tiers that reflect a pre-integrated irradiance off
-// the specular lobe (split-sum), the lobe's directional albedo, `f0 * scale + bias`, with
-// `scale` and `bias` fitted to this BRDF's lobe as Chebyshev series of total degree 7 in
-// `1 - 2 sqrt(n_dot_v)` and `2 roughness - 1`. The same numbers as
-// `gi_reference::brdf::specular_albedo`, whose documentation gives the fit and its accuracy.
-fn specular_albedo(f0: vec3<f32>, roughness: f32, n_dot_v: f32) -> vec3<f32> {
-    let s = chebyshev8(2.0 * clamp(roughness, 0.0, 1.0) - 1.0);
-    let u = chebyshev8(1.0 - 2.0 * sqrt(clamp(n_dot_v, 0.0, 1.0)));
-    let scale = max(chebyshev_series(SPLIT_SUM_SCALE, s, u), 0.0);
-    let bias = max(chebyshev_series(SPLIT_SUM_BIAS, s, u), 0.0);
-    return clamp(f0 * scale + bias, vec3(0.0), vec3(1.0));
+// The dielectric layer as one f32 for a G-buffer channel (`gbuffer.base_color`'s w): the
+// weight in 8 bits and the largest channel of `F0_d` in 12, as an integer-valued float (exact
+// in f32), plus 1 so a hit never reads 0 (the sky's value). The real-time tiers read the
+// layer back with `unpack_dielectric_specular`; a colored `F0_d` becomes grey there.
+fn pack_dielectric_specular(d: DielectricSpecular) -> f32 {
+    let weight = u32(round(clamp(d.weight, 0.0, 1.0) * 255.0));
+    let f0 = u32(round(clamp(max(max(d.reflectance.x, d.reflectance.y), d.reflectance.z), 0.0, 1.0) * 4095.0));
+    return f32(weight * 4096u + f0 + 1u);
 }
 
-// Chebyshev polynomials T_0 .. T_3 (column 0) and T_4 .. T_7 (column 1) at `t`.
-fn chebyshev8(t: f32) -> mat2x4<f32> {
-    let t2 = 2.0 * t * t - 1.0;
-    let t3 = 2.0 * t * t2 - t;
-    let t4 = 2.0 * t * t3 - t2;
-    let t5 = 2.0 * t * t4 - t3;
-    let t6 = 2.0 * t * t5 - t4;
-    let t7 = 2.0 * t * t6 - t5;
-    return mat2x4<f32>(vec4(1.0, t, t2, t3), vec4(t4, t5, t6, t7));
+// The layer `pack_dielectric_specular` stored; the default layer for 0 (no hit).
+fn unpack_dielectric_specular(packed: f32) -> DielectricSpecular {
+    if packed < 1.0 {
+        return dielectric_specular_default();
+    }
+    let code = u32(packed) - 1u;
+    return DielectricSpecular(f32(code >> 12u) / 255.0, vec3(f32(code & 4095u) / 4095.0));
 }
 
-// sum over i, j of c_ij T_i(s) T_j(u), the 8 x 8 coefficients given as three 4 x 4 blocks
-// (rows i 0-3 with columns j 0-3, rows 0-3 with columns 4-7, rows 4-7 with columns 0-3; the
-// fourth block lies beyond total degree 7), each a matrix whose column j holds c_ij for i.
-fn chebyshev_series(c: array<mat4x4<f32>, 3>, s: mat2x4<f32>, u: mat2x4<f32>) -> f32 {
-    return dot(s[0], c[0] * u[0]) + dot(s[0], c[1] * u[1]) + dot(s[1], c[2] * u[0]);
+// The BRDF of a G-buffer pixel: its base color and packed layer (`gbuffer.base_color`) and its
+// metallic and perceptual roughness (`gbuffer.metallic_roughness`).
+fn gbuffer_brdf(base_color: vec4<f32>, metallic_roughness: vec2<f32>) -> Brdf {
+    return brdf_with_specular(
+        brdf_new(base_color.xyz, metallic_roughness.x, metallic_roughness.y),
+        unpack_dielectric_specular(base_color.w),
+    );
 }
 
-const SPLIT_SUM_SCALE = array<mat4x4<f32>, 3>(
-    mat4x4<f32>(
-        vec4(0.695826, 0.02037893, -0.1091826, 0.001745045),
-        vec4(-0.0939191, 0.4753757, -0.02628074, -0.002336864),
-        vec4(-0.007253255, 0.06656231, -0.0485239, 0.0214149),
-        vec4(0.03258678, -0.0568239, 0.008506081, 0.02595344),
-    ),
-    mat4x4<f32>(
-        vec4(0.01138073, -0.02645664, 0.02066753, 0.001481546),
-        vec4(-0.004810217, 0.005105534, 0.005070956, 0.0),
-        vec4(-0.00235433, 0.004106875, 0.0, 0.0),
-        vec4(0.0001578477, 0.0, 0.0, 0.0),
-    ),
-    mat4x4<f32>(
-        vec4(0.02069847, -0.006833719, 0.0005364465, -0.0001088997),
-        vec4(0.01085124, -0.009815245, 0.002162264, 0.0),
-        vec4(0.01299602, -0.006416843, 0.0, 0.0),
-        vec4(-0.008473429, 0.0, 0.0, 0.0),
-    ),
-);
-const SPLIT_SUM_BIAS = array<mat4x4<f32>, 3>(
-    mat4x4<f32>(
-        vec4(0.1601111, -0.1968825, 0.05821342, 0.003291604),
-        vec4(0.2110313, -0.2640488, 0.08562985, -0.001142065),
-        vec4(0.03034847, -0.04160867, 0.02282378, -0.009141448),
-        vec4(-0.03569983, 0.04679883, -0.01480777, -0.004767473),
-    ),
-    mat4x4<f32>(
-        vec4(-0.01428187, 0.02027525, -0.01285597, 0.001280627),
-        vec4(0.002558735, -0.004149094, -0.00146033, 0.0),
-        vec4(0.001204421, -0.002310157, 0.0, 0.0),
-        vec4(-0.0001726828, 0.0, 0.0, 0.0),
-    ),
-    mat4x4<f32>(
-        vec4(-0.01234614, 0.004489176, 0.0004320694, 1.38812e-5),
-        vec4(-0.01677431, 0.007124086, 0.0005474531, 0.0),
-        vec4(-0.003219636, 0.003201276, 0.0, 0.0),
-        vec4(0.002357659, 0.0, 0.0, 0.0),
-    ),
-);
+// The specular layer's directional albedo for Schlick's Fresnel from `f0` to `f90`, perceptual
+// `roughness` and `n_dot_v`: `f0 * A + f90 * B`, what split-sum tiers multiply pre-integrated
+// light by. The same numbers as `gi_reference::brdf::specular_albedo`, whose documentation
+// gives the fit and its accuracy.
+fn specular_albedo(f0: vec3<f32>, f90: f32, roughness: f32, n_dot_v: f32) -> vec3<f32> {
+    let r = clamp(roughness, 0.0, 1.0);
+    let alpha = max(r * r, MIN_ALPHA);
+    let ab = albedo_terms(sqrt(alpha), n_dot_v);
+    return clamp(f0 * ab.x + vec3(f90 * ab.y), vec3(0.0), vec3(1.0));
+}

@@ -19,8 +19,9 @@
 // per-node motion transforms, the outputs. Bind group 1: the BVH (`gi_gpu::bvh::GpuBvh`).
 
 #import gi::bvh::{Ray, trace_closest, BVH_MISS}
-#import gi::scene::{triangles, sample_texture, emission, geometric_normal, triangle_uv, material_of, shading_normal}
+#import gi::scene::{triangles, sample_texture, emission, dielectric_specular, geometric_normal, triangle_uv, material_of, shading_normal}
 #import gi::packing::pack_unit_vector
+#import gi::brdf::pack_dielectric_specular
 #import gi::camera::{Camera, camera_ray, camera_project}
 
 const FAR: f32 = 3.40282347e38;
@@ -97,7 +98,7 @@ fn primary(@builtin(global_invocation_id) id: vec3<u32>) {
     let uv = triangle_uv(tri, b0, b1, b2);
     let material = material_of(hit.triangle, uniforms.default_material);
     let base = material.base_color.xyz * sample_texture(material.base_color_texture, uv).xyz;
-    base_color[pixel] = vec4<f32>(base, 1.0);
+    base_color[pixel] = vec4<f32>(base, pack_dielectric_specular(dielectric_specular(material, uv)));
     let mr = sample_texture(material.metallic_roughness_texture, uv);
     metallic_roughness[pixel] = vec2<f32>(material.metallic * mr.z, material.roughness * mr.y);
     var emitted = vec3<f32>(0.0);

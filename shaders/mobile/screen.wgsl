@@ -42,7 +42,7 @@
 #import gi::packing::{pack_rgb9e5, unpack_rgb9e5, pack_unit_vector, unpack_unit_vector}
 #import gi::sampling::{Sampler, sampler_new, sampler_next_2d, frame_from_normal, frame_to_world}
 #import gi::math::INV_PI
-#import gi::brdf::specular_albedo
+#import gi::brdf::{specular_albedo, gbuffer_brdf, brdf_diffuse_albedo, brdf_f0, brdf_f90}
 #import gi::mobile::lite::{lite_encode, lite_diffuse, lite_is_dynamic, lite_normal}
 #import gi::mobile::volume::volume_irradiance
 #import gi::cache::data::{cache, cache_level_of_point}
@@ -162,12 +162,13 @@ fn lite_pack(@builtin(global_invocation_id) id: vec3<u32>) {
     }
     let triangle = gbuffer_triangle[pixel];
     let dynamic = ((dynamic_triangles[triangle >> 5u] >> (triangle & 31u)) & 1u) != 0u;
-    let base = gbuffer_base_color[pixel].xyz;
-    let metallic = gbuffer_metallic_roughness[pixel].x;
+    let brdf = gbuffer_brdf(gbuffer_base_color[pixel], gbuffer_metallic_roughness[pixel]);
     let n = unpack_unit_vector(gbuffer_normal[pixel]);
+    let ray = pixel_ray(u.camera, id.xy);
+    let diffuse = brdf_diffuse_albedo(brdf, max(dot(n, -ray), 0.0));
     var sampler = sampler_new(u.seed, pixel, u.frame_index);
     let dither = sampler_next_2d(&sampler) - 0.5;
-    lite[pixel] = lite_encode(base * (1.0 - metallic), dynamic, n, u.camera, pixel_ray(u.camera, id.xy), dither);
+    lite[pixel] = lite_encode(diffuse, dynamic, n, u.camera, ray, dither);
 }
 
 // ---------------------------------------------------------------------------------------------
@@ -531,10 +532,9 @@ fn compose(@builtin(global_invocation_id) id: vec3<u32>) {
         irradiance = plain_sum / plain_weight;
     }
 
-    let base_color = gbuffer_base_color[pixel].xyz;
     let mr = gbuffer_metallic_roughness[pixel];
-    let f0 = mix(vec3(0.04), base_color, mr.x);
-    let specular = specular_albedo(f0, mr.y, max(dot(n, -dir), 0.0));
+    let brdf = gbuffer_brdf(gbuffer_base_color[pixel], mr);
+    let specular = specular_albedo(brdf_f0(brdf), brdf_f90(brdf), mr.y, max(dot(n, -dir), 0.0));
     let gi = (lite_diffuse(bits) + specular) * irradiance * INV_PI;
     output[pixel] = vec4(direct + gi, 1.0);
 }

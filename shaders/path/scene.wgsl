@@ -5,7 +5,7 @@
 // checks the struct layouts.
 #define_import_path gi::scene
 
-#import gi::brdf::is_finite
+#import gi::brdf::{is_finite, DielectricSpecular, dielectric_specular_new}
 
 // Texture index meaning "none" (`gi_gpu::NO_TEXTURE`): samples as white.
 const NO_TEXTURE: u32 = 0xffffffffu;
@@ -32,9 +32,11 @@ struct Material {
     metallic_roughness_texture: u32,
     emissive_texture: u32,
     double_sided: u32,
-    pad_a: u32,
-    pad_b: u32,
-    pad_c: u32,
+    specular: f32,
+    ior: f32,
+    specular_texture: u32,
+    specular_color: vec3<f32>,
+    specular_color_texture: u32,
 }
 
 // Mirror of `gi_gpu::GpuTextureInfo`.
@@ -110,6 +112,14 @@ fn sample_texture(index: u32, uv: vec2<f32>) -> vec4<f32> {
     let bottom = lerp_rgba(texel(info, ix, iy + 1), texel(info, ix + 1, iy + 1), fx);
     return lerp_rgba(top, bottom, fy);
 }
+// The dielectric's specular layer of `material` at `uv` (the reference's
+// `dielectric_specular`): specular factor x texture alpha, color x texture rgb, the ior.
+fn dielectric_specular(material: Material, uv: vec2<f32>) -> DielectricSpecular {
+    let weight = material.specular * sample_texture(material.specular_texture, uv).w;
+    let color = material.specular_color * sample_texture(material.specular_color_texture, uv).xyz;
+    return dielectric_specular_new(weight, color, material.ior);
+}
+
 fn emission(material: Material, uv: vec2<f32>) -> vec3<f32> {
     if all(material.emissive == vec3<f32>(0.0)) {
         return vec3<f32>(0.0);

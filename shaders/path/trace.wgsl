@@ -21,10 +21,10 @@
 
 #import gi::math::PI
 #import gi::sampling::{Sampler, sampler_new, sampler_next_f32, sampler_next_2d, cosine_hemisphere, power_heuristic, Frame, frame_from_normal, frame_to_local, frame_to_world}
-#import gi::brdf::{Brdf, brdf_new, brdf_eval, brdf_pdf, brdf_sample, is_finite}
+#import gi::brdf::{Brdf, brdf_new, brdf_with_specular, brdf_eval, brdf_pdf, brdf_sample, is_finite}
 #import gi::bvh::{Ray, Hit, trace_closest, trace_any, BVH_MISS}
 #import gi::camera::{Camera, camera_ray}
-#import gi::scene::{triangles, selection, lights, sample_texture, emission, geometric_normal, triangle_uv, material_of, shading_normal}
+#import gi::scene::{triangles, selection, lights, sample_texture, emission, dielectric_specular, geometric_normal, triangle_uv, material_of, shading_normal}
 #import gi::lights::{LIGHT_DIRECTIONAL, Sky, light_incident, sky_radiance, sample_emitter}
 
 const RUSSIAN_ROULETTE_START: u32 = 3u;
@@ -104,7 +104,10 @@ fn surface_at(dir: vec3<f32>, triangle: u32, b: vec2<f32>) -> Surface {
     let material = material_of(triangle, uniforms.default_material);
     let base = material.base_color.xyz * sample_texture(material.base_color_texture, uv).xyz;
     let mr = sample_texture(material.metallic_roughness_texture, uv);
-    s.brdf = brdf_new(base, material.metallic * mr.z, material.roughness * mr.y);
+    s.brdf = brdf_with_specular(
+        brdf_new(base, material.metallic * mr.z, material.roughness * mr.y),
+        dielectric_specular(material, uv),
+    );
     s.emitted = vec3<f32>(0.0);
     if front_facing || material.double_sided != 0u {
         s.emitted = emission(material, uv);

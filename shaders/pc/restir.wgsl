@@ -40,7 +40,7 @@
 // the cache (`gi::cache::data`), read by `temporal` to refresh reused samples.
 
 #import gi::math::{PI, INV_PI}
-#import gi::brdf::{brdf_new, specular_albedo, ggx_lobe}
+#import gi::brdf::{brdf_new, specular_albedo, ggx_lobe, gbuffer_brdf, brdf_diffuse_albedo, brdf_f0, brdf_f90}
 #import gi::sampling::{sampler_new, sampler_next_f32, sampler_next_2d, concentric_disk, Frame, frame_from_normal, frame_to_local}
 #import gi::camera::camera_ray
 #import gi::packing::{unpack_unit_vector, pack_rgb9e5, unpack_rgb9e5, pack_color64, unpack_color64}
@@ -273,7 +273,7 @@ fn lobe_new(n: vec3<f32>, v: vec3<f32>, roughness: f32) -> Lobe {
     let frame = frame_from_normal(n);
     let alpha = brdf_new(vec3(0.0), 0.0, roughness).alpha;
     let n_dot_v = dot(n, v);
-    let albedo = specular_albedo(vec3(1.0), roughness, n_dot_v).x;
+    let albedo = specular_albedo(vec3(1.0), 1.0, roughness, n_dot_v).x;
     return Lobe(frame, frame_to_local(frame, v), alpha * alpha, PI / max(albedo, 1e-4));
 }
 
@@ -406,10 +406,11 @@ fn compose(@builtin(global_invocation_id) id: vec3<u32>) {
     let uv = (vec2<f32>(id.xy) + 0.5) / vec2<f32>(u.size_px);
     let v = -camera_ray(u.camera, uv);
     let n = unpack_unit_vector(gbuffer_normal[pixel]);
-    let base = gbuffer_base_color[pixel].xyz;
     let mr = gbuffer_metallic_roughness[pixel];
-    let diffuse = base * (1.0 - mr.x);
-    let specular = specular_albedo(mix(vec3(0.04), base, mr.x), mr.y, max(dot(n, v), 0.0));
+    let brdf = gbuffer_brdf(gbuffer_base_color[pixel], mr);
+    let n_dot_v = max(dot(n, v), 0.0);
+    let diffuse = brdf_diffuse_albedo(brdf, n_dot_v);
+    let specular = specular_albedo(brdf_f0(brdf), brdf_f90(brdf), mr.y, n_dot_v);
     let e = max(denoised[pixel].xyz, vec3(0.0));
     var reflected = e * INV_PI;
     let max_roughness = u.specular_max_roughness;

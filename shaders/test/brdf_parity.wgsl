@@ -11,8 +11,8 @@
 //   outputs of `pcg32_new` + `sampler_next_u32`.
 
 #import gi::brdf::{
-    brdf_new, brdf_eval, brdf_pdf, brdf_sample, brdf_specular_probability, brdf_f0,
-    brdf_diffuse_albedo, specular_albedo
+    brdf_new, brdf_with_specular, dielectric_specular_new, brdf_eval, brdf_pdf, brdf_sample,
+    brdf_specular_probability, brdf_f0, brdf_f90, brdf_diffuse_albedo, specular_albedo
 }
 #import gi::math::luminance
 #import gi::sampling::{
@@ -23,7 +23,7 @@
 // How many numbers of each random sequence are written.
 const SEQUENCE_LENGTH: u32 = 32u;
 
-// Inputs of one BRDF case. 80 bytes; mirrored by `BrdfCase` in the test, which checks this
+// Inputs of one BRDF case. 96 bytes; mirrored by `BrdfCase` in the test, which checks this
 // layout with naga.
 struct BrdfCase {
     base: vec3<f32>,
@@ -39,10 +39,13 @@ struct BrdfCase {
     u: vec2<f32>,
     // Second pdf of the power heuristic.
     pdf_b: f32,
-    pad: f32,
+    // The dielectric layer: `dielectric_specular_new(specular_weight, specular_color, ior)`.
+    ior: f32,
+    specular_color: vec3<f32>,
+    specular_weight: f32,
 }
 
-// Outputs of one BRDF case. 160 bytes; mirrored by `BrdfResult` in the test.
+// Outputs of one BRDF case. 176 bytes; mirrored by `BrdfResult` in the test.
 struct BrdfResult {
     f: vec3<f32>,
     pdf: f32,
@@ -69,8 +72,11 @@ struct BrdfResult {
     base_luminance: f32,
     // `wo` read as frame coordinates, taken to world space.
     world: vec3<f32>,
-    // Green channel of `specular_albedo(f0, roughness, wo.z)` (the channels share the fit).
+    // Green channel of `specular_albedo(f0, f90, roughness, wo.z)`.
     split_sum_albedo: f32,
+    // The dielectric layer's F0 and the whole layer's F90.
+    dielectric_reflectance: vec3<f32>,
+    grazing_reflectance: f32,
 }
 
 @group(0) @binding(0) var<storage, read> cases: array<BrdfCase>;
@@ -83,7 +89,8 @@ fn brdf_parity(@builtin(global_invocation_id) id: vec3<u32>) {
         return;
     }
     let c = cases[i];
-    let brdf = brdf_new(c.base, c.metallic, c.roughness);
+    let layer = dielectric_specular_new(c.specular_weight, c.specular_color, c.ior);
+    let brdf = brdf_with_specular(brdf_new(c.base, c.metallic, c.roughness), layer);
     let bs = brdf_sample(brdf, c.wo, c.u_lobe, c.u);
     let frame = frame_from_normal(c.normal);
     let barycentrics = uniform_triangle(c.u);
@@ -92,7 +99,7 @@ fn brdf_parity(@builtin(global_invocation_id) id: vec3<u32>) {
         brdf_pdf(brdf, c.wo, c.wi),
         brdf_f0(brdf),
         brdf_specular_probability(brdf, c.wo),
-        brdf_diffuse_albedo(brdf),
+        brdf_diffuse_albedo(brdf, c.wo.z),
         brdf.alpha,
         bs.wi,
         bs.pdf,
@@ -107,7 +114,9 @@ fn brdf_parity(@builtin(global_invocation_id) id: vec3<u32>) {
         frame_to_local(frame, c.wo),
         luminance(c.base),
         frame_to_world(frame, c.wo),
-        specular_albedo(brdf_f0(brdf), c.roughness, c.wo.z).y,
+        specular_albedo(brdf_f0(brdf), brdf_f90(brdf), c.roughness, c.wo.z).y,
+        layer.reflectance,
+        brdf_f90(brdf),
     );
 }
 

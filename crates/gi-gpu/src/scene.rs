@@ -36,8 +36,9 @@ pub struct GpuTriangleShading {
     pub material: u32,
 }
 
-/// glTF metallic-roughness material, 64 bytes (`Material` in WGSL). Texture indices are
-/// [`NO_TEXTURE`] when absent or empty, which samples as white as the reference does.
+/// glTF metallic-roughness material with `KHR_materials_specular` and `KHR_materials_ior`,
+/// 80 bytes (`Material` in WGSL). Texture indices are [`NO_TEXTURE`] when absent or empty,
+/// which samples as white as the reference does.
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
 pub struct GpuMaterial {
@@ -57,7 +58,16 @@ pub struct GpuMaterial {
     pub emissive_texture: u32,
     /// 1 when both faces emit.
     pub double_sided: u32,
-    pub pad: [u32; 3],
+    /// Weight of the dielectric's specular layer; factor of the specular texture's alpha.
+    pub specular: f32,
+    /// Index of refraction of the dielectric.
+    pub ior: f32,
+    /// Index into `scene.textures`, or [`NO_TEXTURE`].
+    pub specular_texture: u32,
+    /// Linear specular color; factor of the specular color texture's rgb.
+    pub specular_color: [f32; 3],
+    /// Index into `scene.textures`, or [`NO_TEXTURE`].
+    pub specular_color_texture: u32,
 }
 
 /// Where one texture's texels start in `scene.texels` and its size, 16 bytes.
@@ -227,7 +237,11 @@ impl GpuScene {
                 metallic_roughness_texture: texture_ok(m.metallic_roughness_texture),
                 emissive_texture: texture_ok(m.emissive_texture),
                 double_sided: u32::from(m.double_sided),
-                pad: [0; 3],
+                specular: m.specular,
+                ior: m.ior,
+                specular_texture: texture_ok(m.specular_texture),
+                specular_color: m.specular_color.to_array(),
+                specular_color_texture: texture_ok(m.specular_color_texture),
             })
             .collect();
         let default_material = materials.len() as u32 - 1;

@@ -29,15 +29,14 @@
 //!   specular probability, or a sample whose validity (`wi.z > 0`) flips when `u` moves by
 //!   [`SAMPLE_PERTURBATION`]. Such cases are counted; those with `u` inside the square (not
 //!   on its boundary, which the warps map to the horizon) must be at most 1% of all cases.
-//! - **Everything else** (construction, `f0`, albedo, luminance, lobe probability, triangle
+//! - **Everything else** (construction, `f0`, `f90`, luminance, lobe probability, triangle
 //!   warp, power heuristic, frames): a few operations each, compared at `1e-6` absolute on
-//!   values of order 1 (about 8 ulps). The split-sum specular albedo too: a few dozen
-//!   operations, but a Chebyshev series whose coefficients sum to less than 2 in magnitude,
-//!   so its rounding stays near that of a short computation.
+//!   values of order 1 (about 8 ulps). The specular layer's albedo and the diffuse albedo it
+//!   weighs are long Chebyshev series: compared at [`SERIES_TOLERANCE`].
 
 use bytemuck::{Pod, Zeroable};
 use gi_gpu::{GpuContext, ShaderLibrary, rust_field_offsets, wgsl_struct_layout};
-use gi_reference::brdf::{Brdf, luminance, specular_albedo};
+use gi_reference::brdf::{Brdf, DielectricSpecular, luminance, specular_albedo};
 use glam::{Vec2, Vec3};
 use rand::{Rng, RngExt, SeedableRng};
 use rand_pcg::Pcg32;
@@ -59,6 +58,12 @@ const VALUE_TOLERANCE: f32 = 1e-4;
 const DIRECTION_TOLERANCE: f32 = 1e-5;
 /// Absolute tolerance of short computations on values of order 1.
 const SHORT_TOLERANCE: f32 = 1e-6;
+/// Absolute tolerance of the specular layer's albedo and of what it weighs (the diffuse
+/// albedo): two Chebyshev series of up to 136 terms whose coefficients sum to about 20 in
+/// magnitude. Summed in the same order they round alike (lavapipe's are bit-identical); a
+/// device that fuses multiply-adds rounds each term differently, about
+/// `sqrt(136) * 20 * 2^-24` (1.4e-5) for independent roundings.
+const SERIES_TOLERANCE: f32 = 2e-5;
 /// How far direction components move to measure a value's condition: 2^-22, about four ulps
 /// of a unit vector's largest component.
 const DIRECTION_PERTURBATION: f32 = 1.0 / 4_194_304.0;
@@ -80,7 +85,9 @@ struct BrdfCase {
     pdf_a: f32,
     u: [f32; 2],
     pdf_b: f32,
-    pad: f32,
+    ior: f32,
+    specular_color: [f32; 3],
+    specular_weight: f32,
 }
 
 /// Outputs of one case; mirrors `BrdfResult` in the shader.
@@ -107,11 +114,15 @@ struct BrdfResult {
     base_luminance: f32,
     world: [f32; 3],
     split_sum_albedo: f32,
+    dielectric_reflectance: [f32; 3],
+    grazing_reflectance: f32,
 }
 
 impl BrdfCase {
     fn brdf(&self) -> Brdf {
-        Brdf::new(self.base.into(), self.metallic, self.roughness)
+        Brdf::new(self.base.into(), self.metallic, self.roughness).with_specular(
+            DielectricSpecular::new(self.specular_weight, self.specular_color.into(), self.ior),
+        )
     }
 }
 
@@ -202,6 +213,17 @@ fn brdf_cases() -> Vec<BrdfCase> {
                 2 => Vec3::X,
                 _ => Vec3::new(rng.random(), rng.random(), rng.random()),
             };
+            // The dielectric layer: glTF's default, none (pure Lambert), or a random weight,
+            // color (past 1 too, as KHR_materials_specular allows) and ior (0 included).
+            let (specular_weight, specular_color, ior) = match rng.random_range(0..4) {
+                0 | 1 => (1.0, Vec3::ONE, 1.5),
+                2 => (0.0, Vec3::ONE, 1.5),
+                _ => (
+                    rng.random(),
+                    Vec3::new(rng.random(), rng.random(), rng.random()) * 2.0,
+                    [0.0, 1.0, 1.33, rng.random_range(1.0..3.0)][rng.random_range(0..4)],
+                ),
+            };
             let wo = direction(&mut rng);
             let wi = incident_direction(&mut rng, wo);
             let normal = special_normals
@@ -219,7 +241,9 @@ fn brdf_cases() -> Vec<BrdfCase> {
                 pdf_a: heuristic_pdf(&mut rng),
                 u: warp_input(&mut rng).into(),
                 pdf_b: heuristic_pdf(&mut rng),
-                pad: 0.0,
+                ior,
+                specular_color: specular_color.into(),
+                specular_weight,
             }
         })
         .collect()
@@ -431,7 +455,9 @@ fn parity_structs_match_their_wgsl_layout() {
         pdf_a,
         u,
         pdf_b,
-        pad,
+        ior,
+        specular_color,
+        specular_weight,
     });
     assert_eq!(wgsl.members, rust);
     assert_eq!(wgsl.size as usize, size_of::<BrdfCase>());
@@ -458,6 +484,8 @@ fn parity_structs_match_their_wgsl_layout() {
         base_luminance,
         world,
         split_sum_albedo,
+        dielectric_reflectance,
+        grazing_reflectance,
     });
     assert_eq!(wgsl.members, rust);
     assert_eq!(wgsl.size as usize, size_of::<BrdfResult>());
@@ -472,6 +500,7 @@ fn brdf_matches_the_reference() {
     let results: Vec<BrdfResult> = run_kernel(&ctx, "brdf_parity", &cases, 1);
 
     let mut construction = Check::new("construction");
+    let mut series = Check::new("albedo series");
     let mut eval = Check::new("eval");
     let mut pdf = Check::new("pdf");
     let mut sample_wi = Check::new("sample wi");
@@ -486,7 +515,19 @@ fn brdf_matches_the_reference() {
             |c: &mut Check, g: [f32; 3], v: Vec3| c.vector(i, g, v, SHORT_TOLERANCE, Vec3::ZERO);
         construction.value(i, gpu.alpha, brdf.alpha, SHORT_TOLERANCE, 0.0);
         short(&mut construction, gpu.f0, brdf.f0());
-        short(&mut construction, gpu.diffuse_albedo, brdf.diffuse_albedo());
+        short(
+            &mut construction,
+            gpu.dielectric_reflectance,
+            brdf.specular.reflectance,
+        );
+        construction.value(i, gpu.grazing_reflectance, brdf.f90(), SHORT_TOLERANCE, 0.0);
+        series.vector(
+            i,
+            gpu.diffuse_albedo,
+            brdf.diffuse_albedo(wo.z),
+            SERIES_TOLERANCE,
+            Vec3::ZERO,
+        );
         let p_specular = brdf.specular_probability(wo);
         construction.value(
             i,
@@ -502,11 +543,11 @@ fn brdf_matches_the_reference() {
             SHORT_TOLERANCE,
             0.0,
         );
-        construction.value(
+        series.value(
             i,
             gpu.split_sum_albedo,
-            specular_albedo(brdf.f0(), case.roughness, wo.z).y,
-            SHORT_TOLERANCE,
+            specular_albedo(brdf.f0(), brdf.f90(), case.roughness, wo.z).y,
+            SERIES_TOLERANCE,
             0.0,
         );
 
@@ -590,6 +631,7 @@ fn brdf_matches_the_reference() {
     );
     assert_checks(&[
         &construction,
+        &series,
         &eval,
         &pdf,
         &sample_valid,

@@ -1,18 +1,60 @@
 //! The product's BRDF and how the reference samples it.
 //!
 //! All vectors are in the local shading frame: unit length, the shading normal is +Z, `wo`
-//! points towards the viewer and `wi` towards the light. The BRDF is glTF metallic-roughness:
+//! points towards the viewer and `wi` towards the light.
+//!
+//! # The model: glTF 2.0's metallic-roughness, with its specular and ior extensions
+//!
+//! The glTF 2.0 specification (Appendix B) defines a material as
+//! `mix(dielectric_brdf, metal_brdf, metallic)`, where `metal_brdf` is the GGX specular layer
+//! times the conductor Fresnel term (`F0 = base`) and `dielectric_brdf` is `fresnel_mix` of the
+//! Lambert base `base / pi` and the same GGX layer. `KHR_materials_specular` and
+//! `KHR_materials_ior` give the dielectric's Fresnel term its weight `s` (specular factor x
+//! texture alpha) and colour: `F0_d = min(((ior - 1) / (ior + 1))^2 * specular_color, 1)`
+//! (0.04 for the defaults, ior 1.5 and white). Both Fresnel terms are Schlick's with
+//! `F90 = 1`, so the whole specular layer is one Schlick term with
 //!
 //! ```text
-//! f = base * (1 - metallic) / pi  +  D(h) * G2(wo, wi) * F(wo.h) / (4 * wi.z * wo.z)
-//! D  = alpha^2 / (pi * ((h.z)^2 * (alpha^2 - 1) + 1)^2)                       (GGX)
-//! G2 = 1 / (1 + Lambda(wo) + Lambda(wi))                 (height-correlated Smith)
-//! F  = F0 + (1 - F0) * (1 - wo.h)^5,   F0 = mix(0.04, base, metallic)          (Schlick)
+//! F0  = mix(s * F0_d, base, metallic)        F90 = mix(s, 1, metallic)
+//! F(c) = F0 + (F90 - F0) * (1 - c)^5
+//! f   = (1 - metallic) * w(wo) * base / pi  +  F(wo.h) * D(h) * G2(wo, wi) / (4 * wi.z * wo.z)
+//! D   = alpha^2 / (pi * ((h.z)^2 * (alpha^2 - 1) + 1)^2)                          (GGX)
+//! G2  = 1 / (1 + Lambda(wo) + Lambda(wi))                    (height-correlated Smith)
 //! alpha = max(roughness^2, MIN_ALPHA)
 //! ```
 //!
-//! There is no energy coupling between the lobes beyond that formula (the diffuse lobe is not
-//! scaled by `1 - F`), so a dielectric's total albedo is its diffuse albedo plus the GGX lobe's.
+//! # The Fresnel weighting of the diffuse base, and why this form
+//!
+//! The specification's `fresnel_mix` weights the base by `1 - s * max(F_d(wo.h))`, with the
+//! Fresnel term of each pair of directions. That is a pointwise stand-in for "what the
+//! specular layer does not reflect", and integrated over the hemisphere it does not conserve
+//! energy: a white dielectric of roughness 0.3 seen at `n.v` 0.1 reflects 1.28 times the light
+//! it receives (1.34 at `n.v` 0.03), because at grazing views the specular layer's Fresnel
+//! term is near 1 only for the few directions near the mirror one while the base keeps most of
+//! its weight everywhere else. The product measures every tier against this BRDF, so it must
+//! never create light. We therefore use the energy-conserving form of the same mix, *albedo
+//! scaling* (as OpenPBR and Autodesk Standard Surface layer a dielectric coat, and as glTF's
+//! own `KHR_materials_sheen` layers its sheen): the base is weighted by what the dielectric
+//! layer does not reflect in total from `wo`,
+//!
+//! ```text
+//! w(wo) = 1 - s * max_rgb(E_d(wo.z)),   E_d = F0_d * A(wo.z, alpha) + B(wo.z, alpha),
+//! ```
+//!
+//! where `E_d` is the directional albedo of the unweighted dielectric layer and `A`, `B` the
+//! albedos of the GGX lobe with the Fresnel weights `1 - (1 - wo.h)^5` and `(1 - wo.h)^5`
+//! ([`specular_albedo`]). The total directional albedo is then
+//! `(1 - metallic) * (base * w + s * E_d) + metallic * E_m <= 1` for every base color up to
+//! white. `A` and `B` are fitted polynomials, each shifted up by its largest deficit against
+//! the quadrature so the fit never under-states the layer: the bound holds for the fit too.
+//! For `s = 0` the material is exactly Lambert with albedo `base`; at normal incidence
+//! and the default `F0_d` the two forms differ by under 1% of a white base's albedo. The
+//! weight depends on `wo` only, so the BRDF is not reciprocal; a unidirectional path tracer
+//! never needs it to be.
+//!
+//! There is no multiple-scattering compensation: like the specification's layer, the GGX lobe
+//! loses the energy its microfacets shadow (a white metal of roughness 1 reflects 0.84 of the
+//! light at normal incidence).
 
 use std::f32::consts::PI;
 
@@ -20,28 +62,69 @@ use glam::{Vec2, Vec3};
 
 use crate::sampling::cosine_hemisphere;
 
+mod albedo_fit;
+
 /// Smallest GGX alpha. Perceptual roughness 0 would make `D` a Dirac delta that neither
 /// next-event estimation nor the MIS weights can handle; clamping keeps mirrors finite (a
 /// lobe about 0.06 degrees wide) at a visually and numerically negligible cost in sharpness.
 pub const MIN_ALPHA: f32 = 1e-3;
 
-/// Lowest and highest probability of sampling the specular lobe when the diffuse lobe is not
-/// black: neither lobe is ever starved, which bounds the weight of either technique.
+/// Index of refraction of a glTF dielectric without `KHR_materials_ior`.
+pub const DEFAULT_IOR: f32 = 1.5;
+
+/// Lowest and highest probability of sampling the specular lobe when neither lobe is black:
+/// neither lobe is ever starved, which bounds the weight of either technique.
 const SPECULAR_PICK_RANGE: (f32, f32) = (0.1, 0.9);
 
 /// Rec. 709 relative luminance: the product's scalar measure of color (lobe selection,
 /// emitter power; Russian roulette uses the max component instead).
 pub use gi_scene::luminance;
 
+/// The dielectric's specular layer (`KHR_materials_specular`, `KHR_materials_ior`): its
+/// weight and its Fresnel reflectance at normal incidence before the weight.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct DielectricSpecular {
+    /// `s`: specular factor x specular texture alpha, in `[0, 1]`. 0 makes the dielectric a
+    /// pure Lambert surface.
+    pub weight: f32,
+    /// `F0_d = min(((ior - 1) / (ior + 1))^2 * specular_color, 1)`, in `[0, 1]`: the Fresnel
+    /// reflectance at normal incidence before the weight.
+    pub reflectance: Vec3,
+}
+
+impl Default for DielectricSpecular {
+    /// glTF's dielectric without the extensions: weight 1, ior 1.5, white (`F0_d` 0.04).
+    fn default() -> Self {
+        Self::new(1.0, Vec3::ONE, DEFAULT_IOR)
+    }
+}
+
+impl DielectricSpecular {
+    /// From the extensions' values: `weight` (specular factor x texture alpha), the specular
+    /// color (factor x texture rgb, linear) and the index of refraction. Out-of-range values are
+    /// clamped (weight to `[0, 1]`, color to at least 0, `F0_d` to at most 1); ior 0, which
+    /// `KHR_materials_ior` allows, gives `F0_d` = color as the formula does.
+    pub fn new(weight: f32, color: Vec3, ior: f32) -> Self {
+        let r = (ior - 1.0) / (ior + 1.0);
+        let f0 = (r * r * color.max(Vec3::ZERO)).min(Vec3::ONE);
+        Self {
+            weight: weight.clamp(0.0, 1.0),
+            reflectance: if f0.is_finite() { f0 } else { Vec3::ZERO },
+        }
+    }
+}
+
 /// The BRDF at one surface point, after textures were applied.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Brdf {
-    /// Linear base color.
+    /// Linear base color, in `[0, 1]`.
     pub base: Vec3,
     /// In `[0, 1]`.
     pub metallic: f32,
     /// GGX alpha, at least [`MIN_ALPHA`].
     pub alpha: f32,
+    /// The dielectric's specular layer.
+    pub specular: DielectricSpecular,
 }
 
 /// A direction drawn by [`Brdf::sample`] with the BRDF value and the mixture pdf there.
@@ -55,7 +138,8 @@ pub struct BrdfSample {
 }
 
 impl Brdf {
-    /// From glTF parameters: metallic and perceptual roughness are clamped to `[0, 1]` and
+    /// From glTF parameters with the default dielectric layer (no specular or ior extension):
+    /// metallic and perceptual roughness are clamped to `[0, 1]` and
     /// `alpha = max(roughness^2, MIN_ALPHA)`.
     pub fn new(base: Vec3, metallic: f32, roughness: f32) -> Self {
         let roughness = roughness.clamp(0.0, 1.0);
@@ -63,17 +147,40 @@ impl Brdf {
             base,
             metallic: metallic.clamp(0.0, 1.0),
             alpha: (roughness * roughness).max(MIN_ALPHA),
+            specular: DielectricSpecular::default(),
         }
     }
 
-    /// Albedo of the Lambert lobe, `base * (1 - metallic)`.
-    pub fn diffuse_albedo(&self) -> Vec3 {
-        self.base * (1.0 - self.metallic)
+    /// This BRDF with the dielectric layer `specular`.
+    pub fn with_specular(self, specular: DielectricSpecular) -> Self {
+        Self { specular, ..self }
     }
 
-    /// Fresnel reflectance at normal incidence.
+    /// Fresnel reflectance of the whole specular layer at normal incidence,
+    /// `mix(s * F0_d, base, metallic)`.
     pub fn f0(&self) -> Vec3 {
-        Vec3::splat(0.04).lerp(self.base, self.metallic)
+        (self.specular.reflectance * self.specular.weight).lerp(self.base, self.metallic)
+    }
+
+    /// Fresnel reflectance of the whole specular layer at grazing incidence,
+    /// `mix(s, 1, metallic)`.
+    pub fn f90(&self) -> f32 {
+        self.specular.weight + (1.0 - self.specular.weight) * self.metallic
+    }
+
+    /// Weight `w(wo)` of the Lambert base: the share of light the dielectric's specular layer
+    /// does not reflect from `n_dot_v = wo.z` (the module docs).
+    pub fn diffuse_weight(&self, n_dot_v: f32) -> f32 {
+        if self.specular.weight <= 0.0 {
+            return 1.0;
+        }
+        let [a, b] = albedo_terms(self.alpha.sqrt(), n_dot_v);
+        1.0 - self.specular.weight * (self.specular.reflectance.max_element() * a + b).min(1.0)
+    }
+
+    /// Albedo of the Lambert lobe seen from `n_dot_v`: `base * (1 - metallic) * w(wo)`.
+    pub fn diffuse_albedo(&self, n_dot_v: f32) -> Vec3 {
+        self.base * ((1.0 - self.metallic) * self.diffuse_weight(n_dot_v))
     }
 
     /// The BRDF value; zero unless both directions are above the surface.
@@ -84,18 +191,22 @@ impl Brdf {
         let h = (wo + wi).normalize();
         let a2 = self.alpha * self.alpha;
         let specular = ggx_d(h, a2) * smith_g2(wo.z, wi.z, a2) / (4.0 * wo.z * wi.z);
-        self.diffuse_albedo() / PI + schlick(self.f0(), wo.dot(h)) * specular
+        self.diffuse_albedo(wo.z) / PI + schlick(self.f0(), self.f90(), wo.dot(h)) * specular
     }
 
     /// Probability that [`Brdf::sample`] picks the specular lobe for `wo`: the luminance of the
     /// Fresnel reflectance at `wo` against that of the diffuse albedo, kept within
-    /// `[0.1, 0.9]` unless the diffuse lobe is black (metals always sample specular).
+    /// `[0.1, 0.9]` unless a lobe is black (metals always sample specular, a dielectric
+    /// without specular layer never does).
     pub fn specular_probability(&self, wo: Vec3) -> f32 {
-        let diffuse = luminance(self.diffuse_albedo());
+        let specular = luminance(schlick(self.f0(), self.f90(), wo.z));
+        if specular <= 0.0 {
+            return 0.0;
+        }
+        let diffuse = luminance(self.diffuse_albedo(wo.z));
         if diffuse <= 0.0 {
             return 1.0;
         }
-        let specular = luminance(schlick(self.f0(), wo.z));
         (specular / (specular + diffuse)).clamp(SPECULAR_PICK_RANGE.0, SPECULAR_PICK_RANGE.1)
     }
 
@@ -105,7 +216,11 @@ impl Brdf {
             return 0.0;
         }
         let p_specular = self.specular_probability(wo);
-        p_specular * self.specular_pdf(wo, wi) + (1.0 - p_specular) * wi.z / PI
+        let diffuse = (1.0 - p_specular) * wi.z / PI;
+        if p_specular <= 0.0 {
+            return diffuse;
+        }
+        p_specular * self.specular_pdf(wo, wi) + diffuse
     }
 
     /// Picks a lobe with `u_lobe`, then draws a cosine-weighted direction (diffuse) or a GGX
@@ -140,70 +255,56 @@ impl Brdf {
     }
 }
 
-/// Directional albedo of the specular lobe alone, `integral f_spec(wo, wi) cos(wi) dwi`, for
-/// Fresnel reflectance `f0` at normal incidence, perceptual `roughness` and `n_dot_v = wo.z`:
-/// what the split-sum approximation multiplies a pre-integrated incident radiance by (the
-/// tiers that reflect their irradiance or a filtered reflection off the specular lobe). Not
-/// used by the reference itself, which samples the lobe.
+/// Directional albedo of the specular layer alone, `integral f_spec(wo, wi) cos(wi) dwi`, for
+/// Schlick's Fresnel term with reflectance `f0` at normal and `f90` at grazing incidence,
+/// perceptual `roughness` and `n_dot_v = wo.z`: `f0 * A + f90 * B` (the module docs). What the
+/// split-sum approximation multiplies a pre-integrated incident radiance by (the tiers that
+/// reflect their irradiance or a filtered reflection off the specular lobe), and what weighs
+/// the Lambert base.
 ///
-/// Schlick's Fresnel makes the albedo `f0 * scale + bias`; `scale` and `bias` are weighted
-/// least-squares fits of this BRDF's lobe (GGX, height-correlated Smith, Schlick), integrated
-/// by stratified visible-normal sampling on a 34 x 33 grid of `sqrt(n_dot_v)` and roughness,
-/// as bivariate Chebyshev series of total degree 7 in `1 - 2 sqrt(n_dot_v)` and `2 roughness -
-/// 1`. The weights are the relative errors of a dielectric's albedo (`f0` 0.04) for `bias`
-/// and of a white metal's for `scale`. Against the quadrature on a 24 x 25 grid: a dielectric
-/// is within 7% (1% rms) for roughness 0.6 and above, 6% (2% rms) between 0.3 and 0.6 and 8%
-/// (4% rms) below; a metal within 0.017 absolute above roughness 0.3 and 0.05 below, worst
-/// at grazing angles. Karis's analytic fit ("Physically Based Shading on Mobile", 2014), fit
-/// to a different masking term, was off by up to 0.43 for metals and gave a rough dielectric
-/// the same albedo at every angle (0.016 where this lobe reflects 0.012 at normal incidence
-/// and 0.054 at `n_dot_v` 0.1). `gi::brdf::specular_albedo` computes the same numbers.
-pub fn specular_albedo(f0: Vec3, roughness: f32, n_dot_v: f32) -> Vec3 {
-    let s = chebyshev(2.0 * roughness.clamp(0.0, 1.0) - 1.0);
-    let u = chebyshev(1.0 - 2.0 * n_dot_v.clamp(0.0, 1.0).sqrt());
-    let series = |c: &[[f32; 8]; 8]| -> f32 {
-        (0..8)
-            .map(|i| s[i] * (0..8).map(|j| c[i][j] * u[j]).sum::<f32>())
-            .sum::<f32>()
-            .max(0.0)
-    };
-    (f0 * series(&SPLIT_SUM_SCALE) + Vec3::splat(series(&SPLIT_SUM_BIAS)))
-        .clamp(Vec3::ZERO, Vec3::ONE)
+/// `A + B` and `B / (A + B)` are Chebyshev series fitted to a quadrature of the lobe
+/// (`benchmarks/brdf/fit_albedo.py` integrates, fits and writes them, for this crate and for
+/// `gi::brdf_albedo`, which computes the same numbers on the GPU). Each series is shifted up by
+/// its largest deficit against the quadrature, so the result never under-states the layer's
+/// albedo; it over-states a dielectric's by 0.003 on average and at most 0.008 (the script prints both).
+pub fn specular_albedo(f0: Vec3, f90: f32, roughness: f32, n_dot_v: f32) -> Vec3 {
+    let alpha = (roughness.clamp(0.0, 1.0).powi(2)).max(MIN_ALPHA);
+    let [a, b] = albedo_terms(alpha.sqrt(), n_dot_v);
+    (f0 * a + Vec3::splat(f90 * b)).clamp(Vec3::ZERO, Vec3::ONE)
 }
 
-/// Chebyshev polynomials `T_0 .. T_7` at `t`.
-fn chebyshev(t: f32) -> [f32; 8] {
-    let mut c = [1.0, t, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0];
-    for k in 2..8 {
+/// `[A, B]` of [`specular_albedo`] at `sqrt(alpha)` (at least `sqrt(MIN_ALPHA)`) and
+/// `n_dot_v`.
+fn albedo_terms(sqrt_alpha: f32, n_dot_v: f32) -> [f32; 2] {
+    let sqrt_alpha = sqrt_alpha.clamp(MIN_ALPHA.sqrt(), 1.0);
+    let alpha = sqrt_alpha * sqrt_alpha;
+    let mu = n_dot_v.clamp(0.0, 1.0);
+    let s = 2.0 * sqrt_alpha - 1.0;
+    let m = chebyshev_series(&albedo_fit::M, 1.0 - 2.0 * (mu / (mu + alpha)), s).clamp(0.0, 1.0);
+    let r = chebyshev_series(&albedo_fit::R, 1.0 - 2.0 * mu.sqrt().sqrt(), s).clamp(0.0, 1.0);
+    [m * (1.0 - r), m * r]
+}
+
+/// `sum_i T_i(s) sum_j c[i][j] T_j(u)`, summed in the order `gi::brdf_albedo` sums it.
+fn chebyshev_series(c: &[&[f32]], u: f32, s: f32) -> f32 {
+    let tu = chebyshev(u, c.len());
+    let ts = chebyshev(s, c.len());
+    c.iter()
+        .zip(ts)
+        .map(|(row, ts)| ts * row.iter().zip(&tu).map(|(c, tu)| c * tu).sum::<f32>())
+        .sum()
+}
+
+/// Chebyshev polynomials `T_0 .. T_{n-1}` at `t` (`n` at most 16).
+fn chebyshev(t: f32, n: usize) -> [f32; 16] {
+    let mut c = [0.0; 16];
+    c[0] = 1.0;
+    c[1] = t;
+    for k in 2..n {
         c[k] = 2.0 * t * c[k - 1] - c[k - 2];
     }
     c
 }
-
-/// Coefficients of [`specular_albedo`]'s series: row `i` multiplies `T_i` of the roughness,
-/// column `j` `T_j` of the angle (zero where `i + j > 7`).
-#[rustfmt::skip]
-const SPLIT_SUM_SCALE: [[f32; 8]; 8] = [
-    [0.695826, -0.0939191, -0.007253255, 0.03258678, 0.01138073, -0.004810217, -0.00235433, 0.0001578477],
-    [0.02037893, 0.4753757, 0.06656231, -0.0568239, -0.02645664, 0.005105534, 0.004106875, 0.0],
-    [-0.1091826, -0.02628074, -0.0485239, 0.008506081, 0.02066753, 0.005070956, 0.0, 0.0],
-    [0.001745045, -0.002336864, 0.0214149, 0.02595344, 0.001481546, 0.0, 0.0, 0.0],
-    [0.02069847, 0.01085124, 0.01299602, -0.008473429, 0.0, 0.0, 0.0, 0.0],
-    [-0.006833719, -0.009815245, -0.006416843, 0.0, 0.0, 0.0, 0.0, 0.0],
-    [0.0005364465, 0.002162264, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0],
-    [-0.0001088997, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0],
-];
-#[rustfmt::skip]
-const SPLIT_SUM_BIAS: [[f32; 8]; 8] = [
-    [0.1601111, 0.2110313, 0.03034847, -0.03569983, -0.01428187, 0.002558735, 0.001204421, -0.0001726828],
-    [-0.1968825, -0.2640488, -0.04160867, 0.04679883, 0.02027525, -0.004149094, -0.002310157, 0.0],
-    [0.05821342, 0.08562985, 0.02282378, -0.01480777, -0.01285597, -0.00146033, 0.0, 0.0],
-    [0.003291604, -0.001142065, -0.009141448, -0.004767473, 0.001280627, 0.0, 0.0, 0.0],
-    [-0.01234614, -0.01677431, -0.003219636, 0.002357659, 0.0, 0.0, 0.0, 0.0],
-    [0.004489176, 0.007124086, 0.003201276, 0.0, 0.0, 0.0, 0.0, 0.0],
-    [0.0004320694, 0.0005474531, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0],
-    [1.38812e-5, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0],
-];
 
 /// GGX normal distribution, normalized so that `integral D(h) h.z dh = 1`. The usual
 /// denominator `cos^2 (a2 - 1) + 1` is computed as `sin^2 + a2 cos^2`: the former cancels
@@ -229,11 +330,11 @@ fn smith_g1(cos: f32, a2: f32) -> f32 {
     2.0 * cos / (cos + smith_s(cos, a2))
 }
 
-fn schlick(f0: Vec3, cos: f32) -> Vec3 {
+/// Schlick's Fresnel term from `f0` at normal to `f90` at grazing incidence.
+fn schlick(f0: Vec3, f90: f32, cos: f32) -> Vec3 {
     let m = (1.0 - cos.clamp(0.0, 1.0)).powi(5);
-    f0 + (Vec3::ONE - f0) * m
+    f0 + (Vec3::splat(f90) - f0) * m
 }
-
 /// A GGX microfacet normal visible from `wo`, distributed as `G1(wo) max(0, wo.h) D(h) / wo.z`
 /// (Heitz 2018, "Sampling the GGX Distribution of Visible Normals").
 fn sample_ggx_vndf(wo: Vec3, alpha: f32, u: Vec2) -> Vec3 {

@@ -4,7 +4,7 @@
 use gi_scene::{Hit, Material, Scene, SceneBvh, SceneFrame, Texture, Triangle};
 use glam::{DVec3, Vec2, Vec3, Vec4};
 
-use crate::brdf::Brdf;
+use crate::brdf::{Brdf, DielectricSpecular};
 use crate::lights::EmitterTable;
 use crate::sampling::Frame;
 
@@ -111,6 +111,17 @@ impl Reference {
             .filter(|t| t.width > 0 && t.height > 0 && !t.texels.is_empty())
     }
 
+    /// The dielectric's specular layer of `material` at `uv` (`KHR_materials_specular`,
+    /// `KHR_materials_ior`); the untextured default needs no lookup.
+    fn dielectric_specular(&self, material: &Material, uv: Vec2) -> DielectricSpecular {
+        let weight = material.specular * self.sample_texture(material.specular_texture, uv).w;
+        let color = material.specular_color
+            * self
+                .sample_texture(material.specular_color_texture, uv)
+                .truncate();
+        DielectricSpecular::new(weight, color, material.ior)
+    }
+
     fn sample_texture(&self, index: Option<usize>, uv: Vec2) -> Vec4 {
         self.texture(index)
             .map_or(Vec4::ONE, |texture| texture.sample_bilinear(uv))
@@ -166,7 +177,8 @@ impl Reference {
                 .sample_texture(material.base_color_texture, uv)
                 .truncate();
         let mr = self.sample_texture(material.metallic_roughness_texture, uv);
-        let brdf = Brdf::new(base, material.metallic * mr.z, material.roughness * mr.y);
+        let brdf = Brdf::new(base, material.metallic * mr.z, material.roughness * mr.y)
+            .with_specular(self.dielectric_specular(material, uv));
         let emitted = if front_facing || material.double_sided {
             self.emission(material, uv)
         } else {

@@ -106,6 +106,8 @@ struct Source<'a> {
 const SUPPORTED_EXTENSIONS: &[&str] = &[
     "KHR_lights_punctual",
     "KHR_materials_emissive_strength",
+    "KHR_materials_ior",
+    "KHR_materials_specular",
     "KHR_mesh_quantization",
 ];
 

@@ -137,6 +137,20 @@ pub struct Material {
     /// Single-sided surfaces still reflect on both sides (we never cull), but they only emit
     /// on their front side; double-sided emitters emit on both sides.
     pub double_sided: bool,
+    /// `KHR_materials_specular`'s `specularFactor`: the weight of the dielectric's specular
+    /// layer, in `[0, 1]` (0 makes a dielectric pure Lambert). 1 without the extension.
+    pub specular: f32,
+    /// Its texture; the alpha channel scales [`Material::specular`].
+    pub specular_texture: Option<usize>,
+    /// `KHR_materials_specular`'s `specularColorFactor`, linear; scales the dielectric's
+    /// Fresnel reflectance at normal incidence. White without the extension.
+    pub specular_color: Vec3,
+    /// Its texture (sRGB-encoded in the file, linear here); the rgb channels scale
+    /// [`Material::specular_color`].
+    pub specular_color_texture: Option<usize>,
+    /// `KHR_materials_ior`'s index of refraction (1.5 without the extension): the
+    /// dielectric's Fresnel reflectance at normal incidence is `((ior - 1) / (ior + 1))^2`.
+    pub ior: f32,
 }
 
 impl Default for Material {
@@ -152,6 +166,11 @@ impl Default for Material {
             emissive: Vec3::ZERO,
             emissive_texture: None,
             double_sided: false,
+            specular: 1.0,
+            specular_texture: None,
+            specular_color: Vec3::ONE,
+            specular_color_texture: None,
+            ior: 1.5,
         }
     }
 }

@@ -513,6 +513,10 @@ fn feature_scene() -> Scene {
             metallic: 0.0,
             roughness: 0.5,
             double_sided: true,
+            specular: 0.5,
+            specular_texture: Some(0),
+            specular_color: Vec3::new(1.5, 1.0, 0.5),
+            ior: 1.33,
             ..Material::default()
         }],
         textures: vec![texture],
@@ -768,6 +772,11 @@ fn feature_scene_round_trips_through_the_importer() {
             .max_element()
             < 0.01
     );
+    // The specular and ior extensions: factors exactly, the specular texture as linear.
+    let m = &back.materials[0];
+    assert_eq!((m.specular, m.ior), (0.5, 1.33));
+    assert_eq!(m.specular_color, Vec3::new(1.5, 1.0, 0.5));
+    assert_eq!(m.specular_texture, m.metallic_roughness_texture);
     let mr = &back.textures[back.materials[0].metallic_roughness_texture.unwrap()];
     assert!(
         (mr.texels[1] - Vec4::new(1.0, 0.5, 0.25, 1.0))

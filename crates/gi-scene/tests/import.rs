@@ -687,6 +687,68 @@ fn one_image_used_as_srgb_and_linear_becomes_two_textures() {
 }
 
 #[test]
+fn specular_and_ior_extensions_are_imported() {
+    // KHR_materials_specular (factor, color factor past 1, both textures: the color one
+    // sRGB-decoded, the factor one read from its alpha) and KHR_materials_ior, required by the
+    // file; a material without them keeps glTF's defaults.
+    let doc = triangle_doc(json!({
+        "materials": [
+            {
+                "extensions": {
+                    "KHR_materials_specular": {
+                        "specularFactor": 0.25,
+                        "specularTexture": { "index": 0 },
+                        "specularColorFactor": [2.0, 1.0, 0.5],
+                        "specularColorTexture": { "index": 0 }
+                    },
+                    "KHR_materials_ior": { "ior": 1.33 }
+                }
+            },
+            { "extensions": { "KHR_materials_specular": { "specularFactor": 0.0 } } },
+            {}
+        ],
+        "textures": [{ "source": 0 }],
+        "images": [{ "uri": gray_png_uri() }],
+        "extensionsUsed": ["KHR_materials_specular", "KHR_materials_ior"],
+        "extensionsRequired": ["KHR_materials_specular", "KHR_materials_ior"]
+    }));
+    let mut doc: Value = serde_json::from_slice(&doc).unwrap();
+    let primitive = doc["meshes"][0]["primitives"][0].clone();
+    let with_material = |m: usize| {
+        let mut p = primitive.clone();
+        p["material"] = json!(m);
+        p
+    };
+    doc["meshes"][0]["primitives"] = json!([with_material(0), with_material(1), with_material(2)]);
+    let (scene, warnings) = load_doc(&serde_json::to_vec(&doc).unwrap());
+    assert!(
+        !warnings
+            .iter()
+            .any(|w| w.to_string().contains("KHR_materials")),
+        "{warnings:?}"
+    );
+    let m = &scene.materials[0];
+    assert_eq!((m.specular, m.ior), (0.25, 1.33));
+    assert_eq!(m.specular_color, Vec3::new(2.0, 1.0, 0.5));
+    let color = scene.textures[m.specular_color_texture.unwrap()].texels[0];
+    let factor = scene.textures[m.specular_texture.unwrap()].texels[0];
+    assert!(close(color.x, srgb_to_linear(128.0 / 255.0)));
+    assert!(close(factor.x, 128.0 / 255.0));
+    assert_eq!(factor.w, 1.0);
+    assert_eq!(scene.materials[1].specular, 0.0);
+    let default = &scene.materials[2];
+    assert_eq!((default.specular, default.ior), (1.0, 1.5));
+    assert_eq!(default.specular_color, Vec3::ONE);
+    assert_eq!(default.specular_texture, None);
+
+    // An ior the extension does not allow (between 0 and 1) is an error naming it.
+    let mut bad = doc.clone();
+    bad["materials"][0]["extensions"]["KHR_materials_ior"]["ior"] = json!(0.5);
+    let message = doc_error(&serde_json::to_vec(&bad).unwrap()).to_string();
+    assert!(message.contains("ior 0.5"), "{message}");
+}
+
+#[test]
 fn unsupported_features_produce_warnings() {
     let doc = triangle_doc(json!({
         "materials": [

@@ -68,6 +68,11 @@ fn shared_structs_match_their_wgsl_layout() {
             metallic_roughness_texture,
             emissive_texture,
             double_sided,
+            specular,
+            ior,
+            specular_texture,
+            specular_color,
+            specular_color_texture,
         }),
         size_of::<GpuMaterial>(),
     );

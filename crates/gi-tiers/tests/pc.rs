@@ -777,7 +777,7 @@ fn a_smooth_metal_reflects_an_emitter_exactly() {
             let reflected = Vec3::new(dir.x, -dir.y, dir.z);
             let q = p + reflected * (emitter_y / reflected.y);
             let inside = q.x.abs().max(q.z.abs()) < emitter_half - 1.5;
-            inside.then(|| specular_albedo(Vec3::ONE, roughness, -dir.y).y * radiance)
+            inside.then(|| specular_albedo(Vec3::ONE, 1.0, roughness, -dir.y).y * radiance)
         })
         .collect();
     let inside = expected.iter().flatten().count();

@@ -82,9 +82,13 @@ pub fn material(base: Vec3, metallic: f32, roughness: f32) -> Material {
     }
 }
 
-/// A grey dielectric with perceptual roughness 1.
+/// A grey Lambert surface: a dielectric without specular layer (`KHR_materials_specular`'s
+/// factor 0), so its BRDF is exactly `albedo / pi`.
 pub fn diffuse(albedo: f32) -> Material {
-    material(Vec3::splat(albedo), 0.0, 1.0)
+    Material {
+        specular: 0.0,
+        ..material(Vec3::splat(albedo), 0.0, 1.0)
+    }
 }
 
 pub fn emitter(radiance: Vec3, double_sided: bool) -> Material {
@@ -275,6 +279,43 @@ pub fn directional_albedo(brdf: &Brdf, wo: Vec3, n: usize) -> (DVec3, f64) {
             }
         }
         sum
+    };
+    let fine = integrate(n);
+    let coarse = integrate(n / 2);
+    (fine, (fine - coarse).abs().max_element())
+}
+
+/// `integral f(wo, wi) cos(wi) dwi` through the BRDF's own lobes: each lobe's primary sample
+/// space on an `n x n` midpoint grid, weighted `f cos / pdf` with the mixture pdf, and the
+/// lobes mixed by their selection probability. A change of variables that follows the lobes,
+/// so it resolves smooth ones the `(theta, phi)` grid of [`directional_albedo`] cannot.
+/// Returns the integral and the change from halving the grid (its error estimate).
+pub fn lobe_albedo(brdf: &Brdf, wo: Vec3, n: usize) -> (DVec3, f64) {
+    let p_specular = f64::from(brdf.specular_probability(wo));
+    let integrate = |n: usize| {
+        let mut total = DVec3::ZERO;
+        for (u_lobe, p) in [
+            (p_specular / 2.0, p_specular),
+            ((1.0 + p_specular) / 2.0, 1.0 - p_specular),
+        ] {
+            if p <= 0.0 {
+                continue;
+            }
+            let mut sum = DVec3::ZERO;
+            for i in 0..n {
+                for j in 0..n {
+                    let u = Vec2::new(
+                        ((i as f64 + 0.5) / n as f64) as f32,
+                        ((j as f64 + 0.5) / n as f64) as f32,
+                    );
+                    if let Some(s) = brdf.sample(wo, u_lobe as f32, u) {
+                        sum += s.f.as_dvec3() * f64::from(s.wi.z) / f64::from(s.pdf);
+                    }
+                }
+            }
+            total += sum * (p / (n * n) as f64);
+        }
+        total
     };
     let fine = integrate(n);
     let coarse = integrate(n / 2);

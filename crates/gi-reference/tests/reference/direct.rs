@@ -60,7 +60,7 @@ fn point_lit(i: f64, h: f64, r: f64) -> f64 {
 
 /// Renders the scene built by `lights` twice, with floor albedo `ALBEDO` and 0, and returns
 /// both images. The same seed gives the same jitter, so every pixel of their difference is the
-/// Lambert term alone (the specular lobe does not depend on the base color).
+/// Lambert term alone (the floor has no specular layer, and black reflects nothing).
 fn lit_and_black(camera: CameraView, lights: impl Fn(&mut SceneBuilder)) -> (Vec<Vec3>, Vec<Vec3>) {
     let build = |albedo: f32| -> Reference {
         let mut builder = SceneBuilder::new(Sky::default());

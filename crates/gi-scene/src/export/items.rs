@@ -8,8 +8,8 @@ use crate::Texture;
 use crate::model::{ChannelValues, Interpolation, LightKind, Material, Scene, Sky};
 
 use super::{
-    ARRAY_BUFFER, ELEMENT_ARRAY_BUFFER, EMISSIVE_STRENGTH, LIGHTS_PUNCTUAL, UNSIGNED_INT, Writer,
-    num, unit, unit_quat, vec_json,
+    ARRAY_BUFFER, ELEMENT_ARRAY_BUFFER, EMISSIVE_STRENGTH, IOR, LIGHTS_PUNCTUAL, SPECULAR,
+    UNSIGNED_INT, Writer, num, unit, unit_quat, vec_json,
 };
 
 pub(super) fn mesh_json(mesh: &crate::model::Mesh, writer: &mut Writer) -> Value {
@@ -160,13 +160,20 @@ pub(super) fn texture_images(
     let count = scene.textures.len();
     let (mut srgb_used, mut linear_used) = (vec![false; count], vec![false; count]);
     for m in &scene.materials {
-        for t in [m.base_color_texture, m.emissive_texture]
-            .into_iter()
-            .flatten()
+        for t in [
+            m.base_color_texture,
+            m.emissive_texture,
+            m.specular_color_texture,
+        ]
+        .into_iter()
+        .flatten()
         {
             srgb_used[t] = true;
         }
-        if let Some(t) = m.metallic_roughness_texture {
+        for t in [m.metallic_roughness_texture, m.specular_texture]
+            .into_iter()
+            .flatten()
+        {
             linear_used[t] = true;
         }
     }
@@ -216,6 +223,14 @@ pub(super) fn encode(texture: &Texture, srgb: bool) -> image::RgbaImage {
     image::RgbaImage::from_raw(texture.width, texture.height, data).expect("validated texel count")
 }
 
+/// Whether `material` needs `KHR_materials_specular` (anything but the glTF defaults).
+pub(super) fn has_specular_layer(material: &Material) -> bool {
+    material.specular != 1.0
+        || material.specular_color != Vec3::ONE
+        || material.specular_texture.is_some()
+        || material.specular_color_texture.is_some()
+}
+
 pub(super) fn material_json(material: &Material, images: &Images) -> Value {
     let mut pbr = json!({
         "baseColorFactor": vec_json(material.base_color.to_array()),
@@ -233,7 +248,7 @@ pub(super) fn material_json(material: &Material, images: &Images) -> Value {
     if strength > 1.0 {
         // glTF caps emissiveFactor at 1: the rest goes into the emissive strength extension.
         value["emissiveFactor"] = vec_json((material.emissive / strength).to_array());
-        value["extensions"] = json!({ EMISSIVE_STRENGTH: { "emissiveStrength": num(strength) } });
+        value["extensions"][EMISSIVE_STRENGTH] = json!({ "emissiveStrength": num(strength) });
     } else if strength > 0.0 {
         value["emissiveFactor"] = vec_json(material.emissive.to_array());
     }
@@ -242,6 +257,22 @@ pub(super) fn material_json(material: &Material, images: &Images) -> Value {
     }
     if material.double_sided {
         value["doubleSided"] = json!(true);
+    }
+    if has_specular_layer(material) {
+        let mut specular = json!({
+            "specularFactor": num(material.specular),
+            "specularColorFactor": vec_json(material.specular_color.to_array()),
+        });
+        if let Some(t) = material.specular_texture {
+            specular["specularTexture"] = json!({ "index": images.linear[t] });
+        }
+        if let Some(t) = material.specular_color_texture {
+            specular["specularColorTexture"] = json!({ "index": images.srgb[t] });
+        }
+        value["extensions"][SPECULAR] = specular;
+    }
+    if material.ior != 1.5 {
+        value["extensions"][IOR] = json!({ "ior": num(material.ior) });
     }
     value
 }

@@ -30,6 +30,8 @@ const LINEAR: u32 = 9729;
 const REPEAT: u32 = 10497;
 const LIGHTS_PUNCTUAL: &str = "KHR_lights_punctual";
 const EMISSIVE_STRENGTH: &str = "KHR_materials_emissive_strength";
+const SPECULAR: &str = "KHR_materials_specular";
+const IOR: &str = "KHR_materials_ior";
 
 /// Writes `scene` as `path` (.gltf) plus a `.bin` buffer beside it.
 ///
@@ -76,6 +78,12 @@ pub(crate) fn write_gltf_files(scene: &Scene, path: &Path) -> Result<Vec<PathBuf
         .any(|m| m.emissive.max_element() > 1.0)
     {
         extensions_used.push(EMISSIVE_STRENGTH);
+    }
+    if scene.materials.iter().any(items::has_specular_layer) {
+        extensions_used.push(SPECULAR);
+    }
+    if scene.materials.iter().any(|m| m.ior != 1.5) {
+        extensions_used.push(IOR);
     }
     if !extensions_used.is_empty() {
         root.insert("extensionsUsed".into(), json!(extensions_used));

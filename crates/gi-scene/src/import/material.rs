@@ -1,9 +1,10 @@
 //! Metallic-roughness materials and their textures.
 //!
 //! Materials and textures are imported on first use, so a file's unused materials cost nothing
-//! and cannot fail the import. Textures are decoded to linear RGBA: base color and emissive
-//! images are sRGB-encoded and go through the exact sRGB EOTF, metallic-roughness images are
-//! already linear. An image used both ways becomes two textures.
+//! and cannot fail the import. Textures are decoded to linear RGBA: base color, emissive and
+//! specular color images are sRGB-encoded and go through the exact sRGB EOTF,
+//! metallic-roughness and specular images are already linear. An image used both ways becomes
+//! two textures.
 
 use std::borrow::Cow;
 use std::collections::HashMap;
@@ -102,16 +103,34 @@ impl Materials {
             .map_or(1.0, |s| s.emissive_strength.0);
         let emissive_factor = Vec3::from(json.emissive_factor.0);
         let (metallic, roughness) = (pbr.metallic_factor.0, pbr.roughness_factor.0);
+        let specular = json.extensions.as_ref().and_then(|e| e.specular.as_ref());
+        let specular_factor = specular.map_or(1.0, |s| s.specular_factor.0);
+        let specular_color = specular.map_or(Vec3::ONE, |s| Vec3::from(s.specular_color_factor.0));
+        let ior = json
+            .extensions
+            .as_ref()
+            .and_then(|e| e.ior.as_ref())
+            .map_or(1.5, |i| i.ior.0);
         if !(base_color.is_finite()
             && emissive_factor.is_finite()
             && metallic.is_finite()
             && roughness.is_finite()
-            && strength.is_finite())
+            && strength.is_finite()
+            && specular_factor.is_finite()
+            && specular_color.is_finite()
+            && ior.is_finite())
         {
             return Err(malformed(format!("{label} has non-finite factors")));
         }
         if strength < 0.0 || emissive_factor.min_element() < 0.0 {
             return Err(malformed(format!("{label} has a negative emissive value")));
+        }
+        // KHR_materials_ior allows 1 and above, and 0; other values would make up a Fresnel
+        // reflectance the extension does not define.
+        if ior < 0.0 || (ior > 0.0 && ior < 1.0) {
+            return Err(malformed(format!(
+                "{label} has ior {ior}; KHR_materials_ior allows 0 or at least 1"
+            )));
         }
 
         match json.alpha_mode {
@@ -142,6 +161,14 @@ impl Materials {
         let base_color_texture = texture(&pbr.base_color_texture, true)?;
         let metallic_roughness_texture = texture(&pbr.metallic_roughness_texture, false)?;
         let emissive_texture = texture(&json.emissive_texture, true)?;
+        let specular_texture = match specular {
+            Some(s) => texture(&s.specular_texture, false)?,
+            None => None,
+        };
+        let specular_color_texture = match specular {
+            Some(s) => texture(&s.specular_color_texture, true)?,
+            None => None,
+        };
 
         // Factors outside the glTF ranges would break the BRDF's energy bounds.
         Ok(Material {
@@ -154,6 +181,11 @@ impl Materials {
             emissive: emissive_factor * strength,
             emissive_texture,
             double_sided: json.double_sided,
+            specular: specular_factor.clamp(0.0, 1.0),
+            specular_texture,
+            specular_color: specular_color.max(Vec3::ZERO),
+            specular_color_texture,
+            ior,
         })
     }
 
