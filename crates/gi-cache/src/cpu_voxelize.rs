@@ -16,8 +16,10 @@
 //! - **Coverage** (albedo.a): the clipped area projected on the normal, over `s^2`, at most 1:
 //!   the fraction of rays along the normal through the voxel that hit the surface.
 //! - **Albedo**: the material of the triangle whose closest point is nearest to `c` (first in
-//!   list order on ties), evaluated at that point: diffuse albedo `base * (1 - metallic)`
-//!   (textured base color and metallic, as `gi::brdf`).
+//!   list order on ties), evaluated at that point: the Lambert lobe's albedo at the
+//!   cosine-weighted mean view cosine 2/3 (`Brdf::diffuse_albedo`: base color, metallic,
+//!   roughness and specular layer textured, as `gi::brdf`), standing for its mean over the
+//!   directions a voxel reflects into.
 //! - **Emission**: the emitted power of the voxel's triangles spread over the cross-section of
 //!   its stored box along the normal ([`crate::layout::box_cross_section`]): the sum of each
 //!   triangle's emission (the reference's `emission`, either side, at the triangle's point
@@ -31,6 +33,7 @@
 //!   the box around the overlapping triangles clipped to the voxel
 //!   ([`crate::layout::geometry_box_bits`]; the whole voxel when they only touch it).
 
+use gi_reference::brdf::{Brdf, DielectricSpecular};
 use gi_scene::{Material, Texture};
 use glam::{IVec3, Vec2, Vec3, Vec4};
 
@@ -271,6 +274,10 @@ fn voxelize_voxel(
     })
 }
 
+/// The cosine-weighted mean of `n.v` over the hemisphere: where the cache, which reflects
+/// diffusely into every direction, evaluates the Lambert lobe's albedo (`cache/voxelize`).
+pub const MEAN_VIEW_COSINE: f32 = 2.0 / 3.0;
+
 /// Diffuse albedo and emission of frame triangle `triangle` at barycentrics `b`, with the
 /// reference's material and texture rules.
 pub fn material_at(scene: &CacheScene<'_>, triangle: u32, b: Vec3) -> (Vec3, Vec3) {
@@ -290,9 +297,15 @@ pub fn material_at(scene: &CacheScene<'_>, triangle: u32, b: Vec3) -> (Vec3, Vec
             .map_or(Vec4::ONE, |t| t.sample_bilinear(uv))
     };
     let base = material.base_color.truncate() * sample(material.base_color_texture).truncate();
-    let metallic =
-        (material.metallic * sample(material.metallic_roughness_texture).z).clamp(0.0, 1.0);
-    let albedo = base * (1.0 - metallic);
+    let mr = sample(material.metallic_roughness_texture);
+    let layer = DielectricSpecular::new(
+        material.specular * sample(material.specular_texture).w,
+        material.specular_color * sample(material.specular_color_texture).truncate(),
+        material.ior,
+    );
+    let albedo = Brdf::new(base, material.metallic * mr.z, material.roughness * mr.y)
+        .with_specular(layer)
+        .diffuse_albedo(MEAN_VIEW_COSINE);
     let emission = if material.emissive == Vec3::ZERO {
         Vec3::ZERO
     } else {

@@ -413,6 +413,8 @@ fn thin_wall_interior_stays_dark() {
     // voxel thick either way), the outdoors up to 32 m, about 2300 bricks.
     let means = thin_wall_means(converged_thin_wall(&ctx));
     check_thin_wall(&means);
+    let ratios: Vec<String> = means.iter().map(|m| format!("{:.4}", m.0 / m.1)).collect();
+    println!("thin-wall cache / reference: {}", ratios.join(", "));
     for (i, (&(cache, reference, noise), expected)) in
         means.iter().zip(THIN_WALL_RATIOS).enumerate()
     {
@@ -427,9 +429,11 @@ fn thin_wall_interior_stays_dark() {
 
 /// The cache / reference ratios of [`thin_wall_means`]' four groups (inner wall face, outer wall
 /// face, interior floor, outdoor ground) at 16 x 8 x 16-brick windows. Propagation is
-/// deterministic and the reference seeded, so every run measures the same figures: 0.8385,
-/// 0.9736, 0.9373 and 0.9774 (reference noise 0.0345, 0.0001, 0.0199 and 0.0006) on the
-/// software adapter. (0.7905, 0.9791, 0.8747 and 0.9935 before rays met only the box around a
+/// deterministic and the reference seeded, so every run measures the same figures: 0.8604,
+/// 0.9756, 0.9515 and 0.9787 on the software adapter (the test prints them). (0.8385, 0.9736, 0.9373 and 0.9774 before the BRDF weighed its Lambert
+/// base by what the specular layer does not reflect, the cache's voxels taking that base's
+/// albedo at the mean view cosine and the test's walls losing their specular layer; 0.7905,
+/// 0.9791, 0.8747 and 0.9935 before rays met only the box around a
 /// voxel's geometry and a thin wall standing on the floor kept its own normal: the door's
 /// jambs then reached up to a voxel into the opening and blocked 22% of the sky seen through
 /// it, and the voxel at the foot of the wall showed the sunlit floor outside to rays from the
@@ -441,7 +445,7 @@ fn thin_wall_interior_stays_dark() {
 /// room's light nearer in 32 frames.) The test allows each ratio to move by its reference's
 /// measured relative noise (a reference estimate moving by that fraction moves the ratio by
 /// as much) plus 5e-4 for the rounding of these figures.
-const THIN_WALL_RATIOS: [f32; 4] = [0.8385, 0.9736, 0.9373, 0.9774];
+const THIN_WALL_RATIOS: [f32; 4] = [0.8604, 0.9756, 0.9515, 0.9787];
 
 /// The same at the default shape (7 levels of 32 x 16 x 32 bricks, 10,805 bricks, which the
 /// default pool holds): about 3.5 minutes on the software adapter. Run with `--ignored`.
@@ -835,16 +839,21 @@ fn cornell_box_irradiance_matches_the_reference() {
 /// Largest mean relative error of the cache's irradiance against the reference over all
 /// cornell-box sample points. Propagation gathers from the previous update's lighting, so the
 /// result does not depend on the order workgroups run in: every run measures the same (the
-/// reference being seeded too), now 0.3607, with reference noise 0.0391 (the mean over points
+/// reference being seeded too), now 0.4546, with reference noise 0.0415 (the mean over points
 /// of half the relative difference of two independent estimates). The bound is the
 /// measurement plus that noise, rounded up: each point's |cache - reference| moves by at most
 /// the reference's own change, so a reference estimate within its noise moves the mean
-/// relative error by at most the mean noise. History: 0.4167 while rays hit a voxel anywhere
+/// relative error by at most the mean noise. History: 0.3607 (noise 0.0391) before the BRDF
+/// weighed its Lambert base by what the specular layer does not reflect: where walls meet,
+/// they exchange light at grazing angles, where the reference's base reflects less (8% less
+/// at roughness 1) and its specular layer sends the rest onward, while the cache reflects
+/// diffusely with the base's albedo at the mean view cosine (the median point's error barely
+/// moved, 0.081 to 0.082; the points away from edges 0.1022 to 0.1038); 0.4167 while rays hit a voxel anywhere
 /// in it rather than in the box around its geometry; 0.4410 (0.4507 earlier) while emitter
 /// samples were taken at the side point, most of a voxel towards the light; 0.417 to 0.468
 /// when propagation read values written earlier in its own dispatch; 0.595 per axis face,
 /// voxels at concave edges reading their hidden faces' zeros.
-const CORNELL_MAX_ERROR_ALL: f32 = 0.40;
+const CORNELL_MAX_ERROR_ALL: f32 = 0.50;
 
 /// The same over points farther than 1.5 voxels from any other surface: measured 0.1022,
 /// reference noise 0.0343, bound their sum rounded up (0.1377 before the geometry box; 0.1586

@@ -8,6 +8,7 @@ use gi_cache::{
     ScreenInputs,
 };
 use gi_gpu::{GBuffer, GBufferInputs, GpuContext, GpuScene, GpuTimer, ShaderLibrary};
+use gi_reference::brdf::Brdf;
 use gi_scene::{Scene, SceneFrame};
 use glam::{IVec3, Vec3};
 
@@ -249,9 +250,16 @@ fn visible_voxels_take_the_gbuffer_albedo() {
         .iter()
         .position(|m| m.name == "Red")
         .expect("cornell-box has a red material");
-    let old = repainted.materials[red].base_color.truncate();
-    let new = Vec3::new(0.1, 0.2, 0.9);
-    repainted.materials[red].base_color = new.extend(1.0);
+    let material = repainted.materials[red].clone();
+    // A voxel's albedo is the Lambert lobe's at the mean view cosine (`cache/voxelize`).
+    let albedo = |base: Vec3| {
+        Brdf::new(base, material.metallic, material.roughness)
+            .diffuse_albedo(gi_cache::cpu_voxelize::MEAN_VIEW_COSINE)
+    };
+    let old = albedo(material.base_color.truncate());
+    let new_base = Vec3::new(0.1, 0.2, 0.9);
+    let new = albedo(new_base);
+    repainted.materials[red].base_color = new_base.extend(1.0);
     let repainted_frame = repainted.evaluate(0.0, None);
     let (_, counts) = update(
         &ctx,

@@ -37,11 +37,17 @@
 //! surface receive nothing (no light leaks where shading and geometric normals disagree).
 //! Secondary rays start `1e-4 * (1 + max |p|)` off the surface along the geometric normal.
 //!
-//! **Materials.** glTF metallic-roughness: base color = factor x bilinear base-color texture
-//! (RGB, alpha ignored); metallic = factor x texture blue, roughness = factor x texture green;
-//! emission = emissive factor x emissive texture. The BRDF is in [`brdf`]: Lambert
-//! `base (1 - metallic) / pi` plus GGX with height-correlated Smith G2 and Schlick Fresnel,
-//! `F0 = mix(0.04, base, metallic)`, `alpha = max(roughness^2, 1e-3)` so mirrors stay finite.
+//! **Materials.** glTF metallic-roughness with `KHR_materials_specular` and
+//! `KHR_materials_ior`: base color = factor x bilinear base-color texture (RGB, alpha
+//! ignored); metallic = factor x texture blue, roughness = factor x texture green; specular =
+//! factor x specular texture alpha, specular color = factor x texture RGB; emission = emissive
+//! factor x emissive texture. The BRDF is in [`brdf`]: glTF 2.0's `mix(dielectric, metal,
+//! metallic)`, a GGX layer (height-correlated Smith G2, Schlick Fresnel from
+//! `F0 = mix(specular * F0_d, base, metallic)` to `F90 = mix(specular, 1, metallic)`,
+//! `F0_d = ((ior - 1) / (ior + 1))^2 * specular color`) over a Lambert base
+//! `base (1 - metallic) / pi` weighted by what the dielectric's layer does not reflect from
+//! `wo`, so no surface reflects more light than it receives; `alpha = max(roughness^2, 1e-3)`
+//! so mirrors stay finite.
 //!
 //! **Emitters.** A triangle with emission emits on its front face only, unless its material is
 //! double-sided (then on both). Emission is constant over directions (Lambertian emitter).
@@ -68,8 +74,8 @@
 //!   skipped when the sky is black;
 //! - the BRDF sample: the specular lobe (GGX visible normals, Heitz 2018) with probability
 //!   `lum(F_schlick(wo)) / (lum(F_schlick(wo)) + lum(diffuse albedo))` clamped to
-//!   `[0.1, 0.9]` (1 when the diffuse albedo is black), else the cosine-weighted diffuse
-//!   lobe; its pdf is always the whole mixture's.
+//!   `[0.1, 0.9]` (1 when the diffuse albedo is black, 0 when the layer is), else the
+//!   cosine-weighted diffuse lobe; its pdf is always the whole mixture's.
 //!
 //! Emission reached by a BRDF-sampled ray (an emissive triangle, or the sky on escape) is
 //! weighted by the power heuristic against the pdf its next-event strategy would have had;

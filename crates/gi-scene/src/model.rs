@@ -33,15 +33,17 @@ pub struct Scene {
 }
 
 impl Scene {
-    /// Adds a grey diffuse parallelogram `center +- u +- v` (front face `u x v`) of albedo
-    /// `albedo`, with a material, a mesh and a root node of its own, and returns the node. For
-    /// scenes assembled in code (tests, tools).
+    /// Adds a grey Lambert parallelogram `center +- u +- v` (front face `u x v`) of albedo
+    /// `albedo` (a dielectric without specular layer, so its BRDF is exactly `albedo / pi`),
+    /// with a material, a mesh and a root node of its own, and returns the node. For scenes
+    /// assembled in code (tests, tools).
     pub fn add_diffuse_quad(&mut self, center: Vec3, u: Vec3, v: Vec3, albedo: f32) -> usize {
         let n = u.cross(v).normalize();
         self.materials.push(Material {
             base_color: Vec3::splat(albedo).extend(1.0),
             metallic: 0.0,
             roughness: 1.0,
+            specular: 0.0,
             ..Default::default()
         });
         self.meshes.push(Mesh {
