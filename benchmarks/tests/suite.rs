@@ -201,6 +201,10 @@ fn check_results(results: &Value) {
         "{results}"
     );
     assert_eq!(results["references"][0]["cached"], false);
+    // `--reference-engine auto`: the CPU, or the GPU path tier on a hardware adapter.
+    assert_eq!(results["options"]["reference_engine"], "auto");
+    let engine = results["references"][0]["engine"].as_str().unwrap();
+    assert!(engine == "cpu" || engine.starts_with("gpu: "), "{engine}");
 
     let tiers: Vec<&str> = results["cells"]
         .as_array()
@@ -289,4 +293,21 @@ fn check_pictures(out: &Path) {
         png_size(&out.join("images/cornell-box_reference.png")),
         (40, 30)
     );
+}
+
+#[test]
+fn an_unknown_reference_engine_is_refused_before_any_work() {
+    let dir = tempfile::tempdir().unwrap();
+    let output = suite(
+        &dir.path().join("out"),
+        &dir.path().join("cache"),
+        &["--reference-engine", "vulkan"],
+    );
+    assert!(!output.status.success());
+    let text = text(&output);
+    assert!(
+        text.contains("vulkan") && text.contains("auto, gpu or cpu"),
+        "{text}"
+    );
+    assert!(!dir.path().join("out/results.json").exists());
 }

@@ -4,6 +4,7 @@
 use std::{net::SocketAddr, path::PathBuf};
 
 use clap::Parser;
+use gi_reference::engine::EngineChoice;
 
 /// Queued render jobs over HTTP: every GI tier, its error against the path-traced reference,
 /// and a web page to submit and inspect them.
@@ -56,6 +57,13 @@ pub struct Config {
     /// Samples per pixel of the reference when a job compares and does not say.
     #[arg(long, env = "GI_SERVER_REFERENCE_SPP", default_value_t = gi_reference::cache::DEFAULT_REFERENCE_SPP)]
     pub reference_spp: u32,
+
+    /// What renders the references of comparisons: auto (the GPU path tier on a hardware
+    /// GPU, many times faster, else the CPU path tracer; a cached reference of either
+    /// serves), gpu (the GPU path tier on any Vulkan adapter, a software one too) or cpu. An
+    /// explicit choice serves only cached references its own engine made.
+    #[arg(long, env = "GI_SERVER_REFERENCE_ENGINE", default_value_t = EngineChoice::Auto)]
+    pub reference_engine: EngineChoice,
 
     /// Largest accepted scene upload in bytes.
     #[arg(long, env = "GI_SERVER_MAX_UPLOAD_BYTES", default_value_t = 64 << 20)]
@@ -138,6 +146,36 @@ impl Config {
         if self.reference_spp > self.max_spp {
             return Err("--reference-spp must not exceed --max-spp".to_string());
         }
+        if self.no_gpu && self.reference_engine == EngineChoice::Gpu {
+            return Err("--reference-engine gpu needs a GPU, and --no-gpu forbids one".to_string());
+        }
         Ok(())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_reference_engine_parses_and_gpu_needs_a_gpu() {
+        assert_eq!(
+            Config::parse_from(["gi-server"]).reference_engine,
+            EngineChoice::Auto
+        );
+        let mut config =
+            Config::try_parse_from(["gi-server", "--reference-engine", "gpu"]).unwrap();
+        assert_eq!(config.reference_engine, EngineChoice::Gpu);
+        assert_eq!(config.validate(), Ok(()));
+        config.no_gpu = true;
+        let refused = config.validate().unwrap_err();
+        assert!(refused.contains("--no-gpu"), "{refused}");
+        let err = Config::try_parse_from(["gi-server", "--reference-engine", "vulkan"])
+            .unwrap_err()
+            .to_string();
+        assert!(
+            err.contains("vulkan") && err.contains("auto, gpu or cpu"),
+            "{err}"
+        );
     }
 }

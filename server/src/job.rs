@@ -295,6 +295,14 @@ pub struct Comparison {
     pub reference_seconds: f64,
     /// True when the reference came from the cache.
     pub reference_cached: bool,
+    /// The engine that rendered the reference: `cpu` or `gpu: <adapter name>` (results from
+    /// before this was recorded were rendered on the CPU).
+    #[serde(default = "cpu_engine")]
+    pub reference_engine: String,
+}
+
+fn cpu_engine() -> String {
+    "cpu".to_string()
 }
 
 /// A job as stored in the data folder.

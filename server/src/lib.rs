@@ -34,6 +34,7 @@ use std::{future::Future, net::SocketAddr, sync::Arc, time::Duration};
 use anyhow::Context;
 pub use api::ROUTES;
 pub use config::Config;
+use gi_reference::engine::{CpuEngine, ReferenceEngine};
 use service::{GpuInfo, Service};
 use tokio::{net::TcpListener, task::JoinHandle};
 
@@ -62,14 +63,27 @@ impl Server {
                 tracing::warn!("no GPU adapter: GPU tiers are refused, auto renders on the CPU")
             }
         }
+        let choice = config.reference_engine;
+        let no_gpu = config.no_gpu;
+        let reference_engine = tokio::task::spawn_blocking(move || {
+            if no_gpu {
+                // `validate` refused `gpu`: auto and cpu render on the CPU.
+                return Ok(Arc::new(CpuEngine) as Arc<dyn ReferenceEngine>);
+            }
+            gi_tiers::reference_engine(choice)
+        })
+        .await?
+        .with_context(|| format!("--reference-engine {choice}"))?;
+        tracing::info!(engine = %reference_engine.description(), "references render here");
         let listener = TcpListener::bind(config.bind)
             .await
             .with_context(|| format!("binding {}", config.bind))?;
         let pool = config.reference_pool;
-        let (service, queued) =
-            tokio::task::spawn_blocking(move || Service::recover(config, store, gpu))
-                .await?
-                .context("reading the jobs of the data folder")?;
+        let (service, queued) = tokio::task::spawn_blocking(move || {
+            Service::recover(config, store, gpu, reference_engine)
+        })
+        .await?
+        .context("reading the jobs of the data folder")?;
         if !queued.is_empty() {
             tracing::info!("{} jobs waiting from before the restart", queued.len());
         }

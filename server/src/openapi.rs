@@ -235,7 +235,8 @@ pub fn document(config: &Config) -> Value {
                         "rmse_srgb8": { "type": "number" }, "rmse_linear": { "type": "number" }, "rel_mse": { "type": "number" },
                         "gain_vs_direct": { "type": ["number", "null"] }, "direct_rmse_srgb8": { "type": "number" },
                         "reference_spp": { "type": "integer" }, "reference_seed": { "type": "integer" },
-                        "reference_seconds": { "type": "number" }, "reference_cached": { "type": "boolean" }
+                        "reference_seconds": { "type": "number" }, "reference_cached": { "type": "boolean" },
+                        "reference_engine": { "type": "string", "description": "What rendered the reference: cpu, or gpu: <adapter name>" }
                     }
                 },
                 "Result": {

@@ -379,6 +379,7 @@ pub fn compare(
         reference_seed: REFERENCE_SEED,
         reference_seconds: reference.seconds,
         reference_cached: reference.cached,
+        reference_engine: reference.engine,
     };
     Ok(Some(Compared {
         reference: reference.image,

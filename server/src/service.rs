@@ -17,6 +17,7 @@ use std::{
 };
 
 use gi_reference::cache::ReferenceCache;
+use gi_reference::engine::ReferenceEngine;
 use gi_scene::Scene;
 use gi_tiers::{
     TierChoice, TierKind, TierSettings,
@@ -131,10 +132,13 @@ impl Service {
     /// The service over an opened data folder, with the jobs found in it: queued jobs wait
     /// again, interrupted running jobs run again (or fail after `max_attempts` starts), and
     /// finished jobs are served as they were.
+    /// References of comparisons are rendered by `reference_engine`, picked for
+    /// `config.reference_engine`.
     pub fn recover(
         config: Config,
         store: Store,
         gpu: Option<GpuInfo>,
+        reference_engine: Arc<dyn ReferenceEngine>,
     ) -> std::io::Result<(Arc<Self>, Vec<u64>)> {
         let (records, problems, next_id) = store.load_jobs()?;
         for problem in problems {
@@ -179,7 +183,10 @@ impl Service {
             );
         }
         let service = Arc::new(Self {
-            references: References::new(ReferenceCache::new(cache_dir)),
+            references: References::new(
+                ReferenceCache::new(cache_dir)
+                    .with_engine(reference_engine, config.reference_engine),
+            ),
             config,
             store,
             catalog,

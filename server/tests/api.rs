@@ -97,6 +97,9 @@ fn every_tier_renders_compares_and_serves_its_images() {
         assert_eq!(result["warmup"], if temporal { 2 } else { 0 }, "{tier}");
         let comparison = &result["comparison"];
         assert_eq!(comparison["reference_spp"], 8);
+        // Auto: the GPU path tier on a hardware adapter, else the CPU.
+        let engine = comparison["reference_engine"].as_str().unwrap();
+        assert!(engine == "cpu" || engine.starts_with("gpu: "), "{engine}");
         if comparison["reference_cached"] == false {
             references_rendered += 1;
         }

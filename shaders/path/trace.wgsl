@@ -10,7 +10,10 @@
 //   plus every punctual light at the first hit).
 //
 // Each invocation adds `spp` samples to one pixel's running sums, starting at sample index
-// `sample_offset`, so progressive frames add up to exactly one long render.
+// `sample_offset`, so progressive frames, and the dispatches a frame is cut into, add up to
+// exactly one long render. A dispatch covers the image rows from `first_row` on; its samples
+// and rows are chosen so that its loops stay within budget (`gi_tiers::path::dispatch`), and
+// the loop check at the end tells the tier when they did not.
 //
 // Bind group 0: uniforms, the scene (`gi_gpu::GpuScene`, declared in `path/scene.wgsl`), the
 // accumulation buffers.
@@ -54,6 +57,12 @@ struct PathUniforms {
     // 0 constant sky (`sky_zenith` is its radiance), 1 gradient.
     sky_kind: u32,
     max_depth: u32,
+    // First image row of this dispatch.
+    first_row: u32,
+    // Iterations of the loop check (2), unknown to the compiler.
+    loop_check: u32,
+    pad_a: u32,
+    pad_b: u32,
 }
 
 @group(0) @binding(0) var<uniform> uniforms: PathUniforms;
@@ -61,10 +70,15 @@ struct PathUniforms {
 @group(0) @binding(8) var<storage, read_write> accum_sum: array<vec4<f32>>;
 // Per pixel: sum of squared samples, per channel.
 @group(0) @binding(9) var<storage, read_write> accum_sum_sq: array<vec4<f32>>;
-// Rays traced by the dispatch (closest-hit and shadow rays), a u64 as (low, high) words.
-@group(0) @binding(10) var<storage, read_write> ray_count: array<atomic<u32>, 2>;
+// What the dispatches of a frame counted: rays traced (closest-hit and shadow rays), a u64 as
+// (low, high) words at STATS_RAYS_LOW and STATS_RAYS_HIGH; invocations whose loops were cut
+// short at STATS_CUT_INVOCATIONS.
+@group(0) @binding(10) var<storage, read_write> trace_stats: array<atomic<u32>, 4>;
+const STATS_RAYS_LOW: u32 = 0u;
+const STATS_RAYS_HIGH: u32 = 1u;
+const STATS_CUT_INVOCATIONS: u32 = 2u;
 
-// Rays this invocation traced, added to `ray_count` once at its end.
+// Rays this invocation traced, added to `trace_stats` once at its end.
 var<private> rays_traced: u32;
 
 // What a path sees at a surface hit (the reference's `Surface`).
@@ -302,15 +316,31 @@ fn radiance(camera_origin: vec3<f32>, camera_dir: vec3<f32>, sampler: ptr<functi
 #endif
 }
 
+// Whether every loop of this invocation ran to its end. Lavapipe (Mesa's llvmpipe) ends all of
+// an invocation's loops for good once they have run 65,535 iterations together; from then on
+// a loop stops after its first iteration. This loop asks for `loop_check` (2) iterations, a
+// count the compiler cannot see and so cannot unroll; on any other device it runs both.
+fn loops_ran_to_completion() -> bool {
+    var iterations = 0u;
+    loop {
+        iterations += 1u;
+        if iterations >= uniforms.loop_check {
+            break;
+        }
+    }
+    return iterations >= uniforms.loop_check;
+}
+
 @compute @workgroup_size(8, 8)
-fn trace(@builtin(global_invocation_id) id: vec3<u32>) {
+fn trace(@builtin(global_invocation_id) invocation: vec3<u32>) {
     let size = uniforms.size_px;
+    let id = vec2(invocation.x, invocation.y + uniforms.first_row);
     if id.x >= size.x || id.y >= size.y {
         return;
     }
     let pixel = id.y * size.x + id.x;
-    // Sums continue from the buffer sample by sample, so splitting samples into frames
-    // changes neither the values nor the order in which they are added.
+    // Sums continue from the buffer sample by sample, so splitting samples into frames and
+    // dispatches changes neither the values nor the order in which they are added.
     var sum = accum_sum[pixel];
     var sum_sq = accum_sum_sq[pixel];
     let width = f32(size.x);
@@ -332,8 +362,11 @@ fn trace(@builtin(global_invocation_id) id: vec3<u32>) {
     accum_sum[pixel] = sum;
     accum_sum_sq[pixel] = sum_sq;
     // A carry out of the low word (the old value plus ours wrapped) goes to the high word.
-    let before = atomicAdd(&ray_count[0], rays_traced);
+    let before = atomicAdd(&trace_stats[STATS_RAYS_LOW], rays_traced);
     if before + rays_traced < before {
-        atomicAdd(&ray_count[1], 1u);
+        atomicAdd(&trace_stats[STATS_RAYS_HIGH], 1u);
+    }
+    if !loops_ran_to_completion() {
+        atomicAdd(&trace_stats[STATS_CUT_INVOCATIONS], 1u);
     }
 }

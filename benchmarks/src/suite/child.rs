@@ -10,7 +10,7 @@ use std::{path::Path, time::Instant};
 
 use anyhow::{Context, Result};
 use gi_image::Image;
-use gi_reference::cache::{ReferenceCache, ReferenceRequest};
+use gi_reference::cache::ReferenceRequest;
 use gi_scene::Scene;
 use gi_tiers::{CameraMode, CpuTier, Renderer, TierChoice, TierKind, TierSettings};
 use serde::{Deserialize, Serialize};
@@ -167,7 +167,8 @@ fn reference(scene: &Scene, name: &str, options: &Options) -> Result<(Image, Ref
         options.reference_spp,
         options.reference_seed,
     );
-    let cache = ReferenceCache::new(&options.cache_dir);
+    let cache = gi_tiers::reference_cache(&options.cache_dir, options.reference_engine)
+        .with_context(|| format!("--reference-engine {}", options.reference_engine))?;
     let found = cache
         .get_or_render(&request, true, &|_| {}, &|| false)?
         .context("the reference render stopped before it finished")?;
@@ -177,6 +178,7 @@ fn reference(scene: &Scene, name: &str, options: &Options) -> Result<(Image, Ref
         time_s,
         seconds: found.seconds,
         cached: found.cached,
+        engine: found.engine,
     };
     Ok((found.image, info))
 }

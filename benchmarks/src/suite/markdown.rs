@@ -108,7 +108,8 @@ pub fn document(results: &Results) -> String {
          the CPU, which keep no history) at {} spp per frame; each cell is the mean ± sample \
          standard deviation over {} repeats (a fresh renderer each, seed = repeat + 1) of the \
          last frame's error and of the median over the measured frames of the time. Errors \
-         are against a CPU reference of {} spp at the last frame's time; gain_vs_direct = \
+         are against a path-traced reference of {} spp at the last frame's time (rendered by \
+         `--reference-engine {}`: the table of references says on what); gain_vs_direct = \
          rmse_srgb8 / the direct-only rmse_srgb8 of the same repeat (lower is better). GI ms \
          is the sum of the tier's GI passes (`cache/*` with `mobile/*` or `pc/*`); tiers that \
          compute the whole image as one transport have none. Memory: bytes the tier owns \
@@ -124,6 +125,7 @@ pub fn document(results: &Results) -> String {
         o.spp,
         o.repeats,
         o.reference_spp,
+        o.reference_engine,
     );
     out += "## Scenes x tiers\n\n";
     out += &scene_tier_table(results);
@@ -133,13 +135,13 @@ pub fn document(results: &Results) -> String {
             let _ = writeln!(out, "### {tier}\n\n{table}");
         }
     }
-    out += "## References\n\n| scene | spp | scene time s | render s | cached |\n\
-            |---|---:|---:|---:|---|\n";
+    out += "## References\n\n| scene | spp | scene time s | render s | cached | engine |\n\
+            |---|---:|---:|---:|---|---|\n";
     for r in &results.references {
         let _ = writeln!(
             out,
-            "| {} | {} | {:.3} | {:.1} | {} |",
-            r.scene, r.spp, r.time_s, r.seconds, r.cached
+            "| {} | {} | {:.3} | {:.1} | {} | {} |",
+            r.scene, r.spp, r.time_s, r.seconds, r.cached, r.engine
         );
     }
     if let Some(comparison) = &results.regressions {

@@ -1,5 +1,5 @@
 //! The benchmark suite (`gi-bench` without a subcommand): every scene x tier against a cached
-//! CPU reference, as `results.json`, `results.md` (the HSGI comparison table and per-pass
+//! path-traced reference, as `results.json`, `results.md` (the HSGI comparison table and per-pass
 //! costs), PNG plots and contact sheets.
 //!
 //! # What a cell measures
@@ -9,8 +9,9 @@
 //! ([`gi_tiers::TierKind::default_warmup`] or `--warmup`), then `--frames` measured frames
 //! (`--cpu-frames` for tiers that run on the CPU: they keep no history, and each of their
 //! frames is a full CPU path trace). Per repeat: the last frame's `rmse_srgb8`, `rmse_linear`
-//! and `gain_vs_direct` against the CPU reference of the same camera and scene time
-//! (`--reference-spp`, [`gi_reference::cache::REFERENCE_SEED`], cached in `--cache-dir`), the
+//! and `gain_vs_direct` against the reference of the same camera and scene time
+//! (`--reference-spp`, [`gi_reference::cache::REFERENCE_SEED`], cached in `--cache-dir`,
+//! rendered by `--reference-engine`: the GPU path tier on a hardware GPU, else the CPU), the
 //! median over the measured frames of the frame time, of the GI passes' sum and of each pass,
 //! and the tier's memory. Each metric is then reported as the mean and sample standard
 //! deviation over the repeats.
@@ -50,6 +51,7 @@ use std::{
 use anyhow::{Context, Result, bail};
 use clap::Args;
 use gi_reference::cache;
+use gi_reference::engine::EngineChoice;
 use gi_tiers::TierKind;
 use indicatif::{ProgressBar, ProgressStyle};
 
@@ -92,9 +94,14 @@ pub struct SuiteArgs {
     /// metrics.
     #[arg(long, default_value_t = 3)]
     repeats: u32,
-    /// Samples per pixel of each scene's CPU reference (rendered once, then cached).
+    /// Samples per pixel of each scene's reference (rendered once, then cached).
     #[arg(long, default_value_t = 256)]
     reference_spp: u32,
+    /// What renders the references: auto (the GPU path tier on a hardware GPU, else the CPU
+    /// path tracer; takes a cached reference of either), gpu or cpu (each takes only cached
+    /// references of its own), as `gi compare`.
+    #[arg(long, default_value_t = EngineChoice::Auto)]
+    reference_engine: EngineChoice,
     /// Reference cache folder (default: $GI_CACHE_DIR, $XDG_CACHE_HOME/gi or ~/.cache/gi, as
     /// `gi compare`).
     #[arg(long)]
@@ -189,6 +196,7 @@ pub fn run(args: &SuiteArgs) -> Result<()> {
         repeats: args.repeats,
         reference_spp: args.reference_spp,
         reference_seed: cache::REFERENCE_SEED,
+        reference_engine: args.reference_engine,
         cache_dir: args
             .cache_dir
             .clone()

@@ -3,6 +3,7 @@
 //! The child process of a scene reports one [`CellRun`] per tier and repeat; the parent folds
 //! the runs of each (scene, tier) into a [`Cell`] of [`Stat`]s.
 
+use gi_reference::engine::EngineChoice;
 use serde::{Deserialize, Serialize};
 
 /// Version of the `results.json` layout; a baseline of another version is refused.
@@ -106,11 +107,22 @@ pub struct Options {
     pub repeats: u32,
     pub reference_spp: u32,
     pub reference_seed: u64,
+    /// `--reference-engine`; results from before it existed rendered on the CPU.
+    #[serde(default = "cpu_choice")]
+    pub reference_engine: EngineChoice,
     pub cache_dir: String,
     pub out_dir: String,
 }
 
-/// The CPU reference of one scene.
+fn cpu_choice() -> EngineChoice {
+    EngineChoice::Cpu
+}
+
+fn cpu_description() -> String {
+    "cpu".to_string()
+}
+
+/// The reference of one scene.
 #[derive(Clone, Debug, Serialize, Deserialize)]
 pub struct ReferenceInfo {
     pub scene: String,
@@ -121,6 +133,9 @@ pub struct ReferenceInfo {
     pub seconds: f64,
     /// True when it came from the cache.
     pub cached: bool,
+    /// The engine that rendered it: `cpu` or `gpu: <adapter name>`.
+    #[serde(default = "cpu_description")]
+    pub engine: String,
 }
 
 /// What one repeat of one (scene, tier) measured; a child process prints these.

@@ -4,7 +4,8 @@ use std::{collections::BTreeMap, path::PathBuf};
 
 use anyhow::{Context, Result};
 use clap::Args;
-use gi_reference::cache::{self, CachedReference, ReferenceCache, ReferenceRequest};
+use gi_reference::cache::{self, CachedReference, ReferenceRequest};
+use gi_reference::engine::EngineChoice;
 use serde::Serialize;
 
 use gi_tiers::TierKind;
@@ -48,6 +49,13 @@ pub struct CompareArgs {
     /// Render the reference even when a cached one exists.
     #[arg(long)]
     no_cache: bool,
+    /// What renders the reference: auto (the GPU path tier on a hardware GPU, else the CPU
+    /// path tracer; takes a cached reference of either), gpu (the GPU path tier, on any
+    /// Vulkan adapter, a software one too) or cpu. The two compute the same image up to
+    /// rounding; the GPU is many times faster. An explicit choice takes only cached
+    /// references its own engine made.
+    #[arg(long, default_value_t = EngineChoice::Auto)]
+    reference_engine: EngineChoice,
 }
 
 #[derive(Serialize)]
@@ -55,6 +63,8 @@ struct ReferenceReport {
     spp: u32,
     seconds: f64,
     cached: bool,
+    /// The engine that rendered it: `cpu` or `gpu: <adapter name>`.
+    engine: String,
 }
 
 #[derive(Serialize)]
@@ -106,7 +116,9 @@ fn reference_image(args: &CompareArgs, scene: &gi_scene::Scene) -> Result<Cached
         request.spp,
         args.reference_seed,
     );
-    let cache = ReferenceCache::new(args.cache_dir.clone().unwrap_or_else(cache::default_dir));
+    let dir = args.cache_dir.clone().unwrap_or_else(cache::default_dir);
+    let cache = gi_tiers::reference_cache(dir, args.reference_engine)
+        .with_context(|| format!("--reference-engine {}", args.reference_engine))?;
     let bar = progress_bar(request.spp, "reference");
     let found = cache.get_or_render(
         &reference,
@@ -137,6 +149,7 @@ pub fn run(args: &CompareArgs) -> Result<()> {
         image: reference,
         seconds: reference_seconds,
         cached,
+        engine: reference_engine,
     } = reference_image(args, &scene)?;
     // Named apart from the `reference` tier's own (low-spp) render.
     let truth = format!("reference_{}spp", args.reference_spp);
@@ -212,6 +225,7 @@ pub fn run(args: &CompareArgs) -> Result<()> {
             spp: args.reference_spp,
             seconds: reference_seconds,
             cached,
+            engine: reference_engine,
         },
         tiers: reports,
     };
@@ -228,12 +242,13 @@ pub fn run(args: &CompareArgs) -> Result<()> {
 
 fn print_table(report: &CompareReport) -> std::io::Result<()> {
     outln!(
-        "{} {}x{}, {} spp per tier; reference {} spp ({:.1} s{})",
+        "{} {}x{}, {} spp per tier; reference {} spp ({}, {:.1} s{})",
         report.scene,
         report.width,
         report.height,
         report.spp,
         report.reference.spp,
+        report.reference.engine,
         report.reference.seconds,
         if report.reference.cached {
             ", cached"

@@ -143,6 +143,10 @@ fn compare_writes_table_json_and_reuses_cached_reference() {
     assert_eq!(json["scene"], "cornell-box");
     assert_eq!(json["reference"]["spp"], 16);
     assert_eq!(json["reference"]["cached"], false);
+    // Auto: the CPU, or the GPU path tier on a hardware adapter; the header names it.
+    let engine = json["reference"]["engine"].as_str().unwrap();
+    assert!(engine == "cpu" || engine.starts_with("gpu: "), "{engine}");
+    assert!(table.contains(engine), "{table}");
     let tiers = json["tiers"].as_array().unwrap();
     assert_eq!(tiers.len(), 2);
     let direct = &tiers[0];
@@ -174,6 +178,63 @@ fn compare_writes_table_json_and_reuses_cached_reference() {
         serde_json::from_slice(&std::fs::read(dir.path().join("cmp/compare.json")).unwrap())
             .unwrap();
     assert_eq!(json["reference"]["cached"], true);
+}
+
+#[test]
+fn the_reference_engine_is_chosen_recorded_and_checked() {
+    let dir = tempfile::tempdir().unwrap();
+    let compare = |engine: &str| {
+        let args = [
+            "compare",
+            "cornell-box",
+            "--tiers",
+            "direct",
+            "--width",
+            "8",
+            "--height",
+            "6",
+            "--spp",
+            "1",
+            "--reference-spp",
+            "4",
+            "--out-dir",
+            "cmp",
+            "--reference-engine",
+            engine,
+        ];
+        let output = gi(&args, dir.path());
+        assert!(output.status.success(), "{}", stderr(&output));
+        let json: serde_json::Value =
+            serde_json::from_slice(&std::fs::read(dir.path().join("cmp/compare.json")).unwrap())
+                .unwrap();
+        let reference = &json["reference"];
+        (
+            reference["engine"].as_str().unwrap().to_string(),
+            reference["cached"].as_bool().unwrap(),
+        )
+    };
+    assert_eq!(compare("cpu"), ("cpu".to_string(), false));
+    assert_eq!(compare("cpu"), ("cpu".to_string(), true));
+    // Auto takes the CPU's reference whatever it would render with.
+    assert_eq!(compare("auto"), ("cpu".to_string(), true));
+
+    let bad = gi(&["compare", "--reference-engine", "vulkan"], dir.path());
+    let err = stderr(&bad);
+    assert!(!bad.status.success());
+    assert!(
+        err.contains("vulkan") && err.contains("auto, gpu or cpu"),
+        "{err}"
+    );
+
+    if gi_gpu::GpuContext::new_or_skip("the_reference_engine_on_the_gpu").is_none() {
+        return;
+    }
+    // An explicit GPU choice renders its own on any adapter (lavapipe too), then finds it.
+    let (engine, cached) = compare("gpu");
+    assert!(engine.starts_with("gpu: ") && !cached, "{engine}");
+    assert_eq!(compare("gpu"), (engine.clone(), true));
+    assert_eq!(compare("auto"), (engine, true));
+    assert_eq!(compare("cpu"), ("cpu".to_string(), false));
 }
 
 #[test]

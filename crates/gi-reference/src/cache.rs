@@ -10,6 +10,12 @@
 //! description), so a reader running at the same time, in this process or another, sees either
 //! a whole entry or none.
 //!
+//! A cache renders with the [`ReferenceEngine`] it is given ([`CpuEngine`] unless
+//! [`ReferenceCache::with_engine`] says otherwise; the GPU engine lives in gi-tiers), and each
+//! entry's description records which engine made it. Under [`EngineChoice::Auto`] an entry of
+//! either engine serves (they compute the same estimator from the same random numbers); under
+//! an explicit choice only the chosen engine's entries do.
+//!
 //! ```no_run
 //! # fn demo(scene: &gi_scene::Scene) -> Result<(), gi_reference::cache::CacheError> {
 //! use gi_reference::cache::{ReferenceCache, ReferenceRequest};
@@ -24,15 +30,19 @@
 //! ```
 
 use std::{
-    fs,
+    fmt, fs,
     path::{Path, PathBuf},
-    sync::atomic::{AtomicU64, Ordering},
+    sync::{
+        Arc,
+        atomic::{AtomicU64, Ordering},
+    },
 };
 
 use gi_image::{Image, ImageError};
 use gi_scene::{CameraView, Scene};
 use serde::{Deserialize, Serialize};
 
+use crate::engine::{CpuEngine, EngineChoice, EngineKind, ReferenceEngine};
 use crate::{Mode, Reference, RenderError, RenderSettings, RenderStats, Strategy};
 
 /// Samples per pixel of a reference when the caller does not say: enough that the reference's
@@ -185,13 +195,16 @@ impl<'a> ReferenceRequest<'a> {
     }
 }
 
-/// A reference image and how long it took to render.
+/// A reference image, how long it took to render and on what.
 pub struct CachedReference {
     pub image: Image,
     /// Seconds the render took when it was made (not the lookup's time).
     pub seconds: f64,
     /// True when it came from the cache rather than being rendered now.
     pub cached: bool,
+    /// The engine that rendered it ([`ReferenceEngine::description`]): `"cpu"` or
+    /// `"gpu: <adapter name>"`.
+    pub engine: String,
 }
 
 /// Why a reference could not be rendered or stored.
@@ -207,12 +220,23 @@ pub enum CacheError {
     Image(#[from] ImageError),
     #[error(transparent)]
     Render(#[from] RenderError),
+    /// The engine could not render (no GPU, a device lost...).
+    #[error("the {engine} reference engine failed: {message}")]
+    Engine { engine: String, message: String },
 }
 
 #[derive(Serialize, Deserialize)]
 struct Entry {
     key: ReferenceKey,
     seconds: f64,
+    /// [`ReferenceEngine::description`] of the engine that made it; entries from before
+    /// engines were recorded were all made on the CPU.
+    #[serde(default = "cpu_description")]
+    engine: String,
+}
+
+fn cpu_description() -> String {
+    CpuEngine.description()
 }
 
 /// The cache folder: `$GI_CACHE_DIR`, else `$XDG_CACHE_HOME/gi`, else `~/.cache/gi`, else
@@ -230,16 +254,44 @@ pub fn default_dir() -> PathBuf {
     PathBuf::from(".gi-cache")
 }
 
-/// A folder of cached reference renders.
-#[derive(Clone, Debug)]
+/// A folder of cached reference renders and the engine that renders the missing ones.
+#[derive(Clone)]
 pub struct ReferenceCache {
     dir: PathBuf,
+    engine: Arc<dyn ReferenceEngine>,
+    choice: EngineChoice,
+}
+
+impl fmt::Debug for ReferenceCache {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.debug_struct("ReferenceCache")
+            .field("dir", &self.dir)
+            .field("engine", &self.engine.description())
+            .field("choice", &self.choice)
+            .finish()
+    }
 }
 
 impl ReferenceCache {
-    /// The cache in `dir` (created when the first entry is stored).
+    /// The cache in `dir` (created when the first entry is stored), rendering on the CPU and
+    /// accepting entries of any engine ([`EngineChoice::Auto`]).
     pub fn new(dir: impl Into<PathBuf>) -> Self {
-        Self { dir: dir.into() }
+        Self {
+            dir: dir.into(),
+            engine: Arc::new(CpuEngine),
+            choice: EngineChoice::Auto,
+        }
+    }
+
+    /// The same cache rendering with `engine`, picked for `choice`: under
+    /// [`EngineChoice::Auto`] entries of any engine serve, under an explicit choice only
+    /// entries made by an engine of `engine`'s kind.
+    pub fn with_engine(self, engine: Arc<dyn ReferenceEngine>, choice: EngineChoice) -> Self {
+        Self {
+            engine,
+            choice,
+            ..self
+        }
     }
 
     /// The cache folder.
@@ -247,12 +299,27 @@ impl ReferenceCache {
         &self.dir
     }
 
-    /// Looks up a reference; any unreadable or mismatching entry counts as a miss.
+    /// The engine that renders missing references.
+    pub fn engine(&self) -> &dyn ReferenceEngine {
+        self.engine.as_ref()
+    }
+
+    /// Whether an entry made by the engine described as `description` serves this cache.
+    fn accepts(&self, description: &str) -> bool {
+        match (self.choice, EngineKind::of_description(description)) {
+            (EngineChoice::Auto, _) => true,
+            (_, Some(kind)) => kind == self.engine.kind(),
+            (_, None) => false,
+        }
+    }
+
+    /// Looks up a reference; any unreadable or mismatching entry, or one made by an engine
+    /// this cache does not accept, counts as a miss.
     pub fn load(&self, key: &ReferenceKey) -> Option<CachedReference> {
         let stem = key.file_stem();
         let meta = fs::read_to_string(self.dir.join(format!("{stem}.json"))).ok()?;
         let entry: Entry = serde_json::from_str(&meta).ok()?;
-        if &entry.key != key {
+        if &entry.key != key || !self.accepts(&entry.engine) {
             return None;
         }
         let image = gi_image::read_exr(self.dir.join(format!("{stem}.exr"))).ok()?;
@@ -260,11 +327,19 @@ impl ReferenceCache {
             image,
             seconds: entry.seconds,
             cached: true,
+            engine: entry.engine,
         })
     }
 
-    /// Stores a reference render, replacing any entry with the same key.
-    pub fn store(&self, key: &ReferenceKey, image: &Image, seconds: f64) -> Result<(), CacheError> {
+    /// Stores a reference render made by the engine described as `engine`, replacing any
+    /// entry with the same key.
+    pub fn store(
+        &self,
+        key: &ReferenceKey,
+        image: &Image,
+        seconds: f64,
+        engine: &str,
+    ) -> Result<(), CacheError> {
         fs::create_dir_all(&self.dir).map_err(|source| CacheError::Io {
             path: self.dir.clone(),
             source,
@@ -283,6 +358,7 @@ impl ReferenceCache {
         let entry = Entry {
             key: key.clone(),
             seconds,
+            engine: engine.to_string(),
         };
         let json = self.dir.join(format!("{stem}.json"));
         let json_tmp = temporary_path(&json);
@@ -300,9 +376,10 @@ impl ReferenceCache {
     }
 
     /// The reference `request` asks for: from the cache when `use_cached` and an identical
-    /// render exists, else rendered now (see [`ReferenceRequest::render`]) and stored. A
-    /// render that could not be stored is still returned (with a warning logged): the cache
-    /// only saves time. `None` when `cancelled` stopped the render.
+    /// render by an accepted engine exists, else rendered now by the cache's engine (see
+    /// [`ReferenceEngine::render`]) and stored. A render that could not be stored is still
+    /// returned (with a warning logged): the cache only saves time. `None` when `cancelled`
+    /// stopped the render.
     pub fn get_or_render(
         &self,
         request: &ReferenceRequest,
@@ -314,18 +391,20 @@ impl ReferenceCache {
         if use_cached && let Some(hit) = self.load(&key) {
             return Ok(Some(hit));
         }
-        let Some((image, stats)) = request.render(progress, cancelled)? else {
+        let Some((image, stats)) = self.engine.render(request, progress, cancelled)? else {
             return Ok(None);
         };
         // Preparing the scene (BVH build) is part of what the cache saves.
         let seconds = stats.seconds + stats.bvh_build_seconds;
-        if let Err(error) = self.store(&key, &image, seconds) {
+        let engine = self.engine.description();
+        if let Err(error) = self.store(&key, &image, seconds, &engine) {
             tracing::warn!("reference not cached: {error}");
         }
         Ok(Some(CachedReference {
             image,
             seconds,
             cached: false,
+            engine,
         }))
     }
 }
@@ -394,6 +473,127 @@ mod tests {
             .unwrap();
         assert_eq!(image.pixels, direct.image.pixels);
         assert!(request.render(&|_| {}, &|| true).unwrap().is_none());
+    }
+
+    /// An engine of `kind` that paints every pixel `value` and counts its renders.
+    struct FakeEngine {
+        kind: EngineKind,
+        value: f32,
+        renders: AtomicU64,
+    }
+
+    impl FakeEngine {
+        fn new(kind: EngineKind, value: f32) -> Arc<Self> {
+            Arc::new(Self {
+                kind,
+                value,
+                renders: AtomicU64::new(0),
+            })
+        }
+
+        fn renders(&self) -> u64 {
+            self.renders.load(Ordering::Relaxed)
+        }
+    }
+
+    impl ReferenceEngine for FakeEngine {
+        fn kind(&self) -> EngineKind {
+            self.kind
+        }
+
+        fn description(&self) -> String {
+            format!("{}: fake", self.kind.name())
+        }
+
+        fn render(
+            &self,
+            request: &ReferenceRequest,
+            progress: &(dyn Fn(u32) + Sync),
+            _cancelled: &dyn Fn() -> bool,
+        ) -> Result<Option<(Image, RenderStats)>, CacheError> {
+            self.renders.fetch_add(1, Ordering::Relaxed);
+            progress(request.spp);
+            let pixels = (request.width * request.height) as usize;
+            let image = Image {
+                width: request.width,
+                height: request.height,
+                pixels: vec![glam::Vec3::splat(self.value); pixels],
+            };
+            Ok(Some((image, RenderStats::default())))
+        }
+    }
+
+    #[test]
+    fn entries_record_their_engine_and_explicit_choices_take_only_their_own() {
+        let dir = tempfile::tempdir().unwrap();
+        let scene = scene();
+        let request = ReferenceRequest::new(&scene, scene.default_view(0.0), 0.0, (3, 2), 4, 5);
+        let get = |cache: &ReferenceCache| {
+            cache
+                .get_or_render(&request, true, &|_| {}, &|| false)
+                .unwrap()
+                .unwrap()
+        };
+        let gpu = FakeEngine::new(EngineKind::Gpu, 1.0);
+        let cpu = FakeEngine::new(EngineKind::Cpu, 2.0);
+        let cache = || ReferenceCache::new(dir.path());
+        let explicit_gpu = cache().with_engine(gpu.clone(), EngineChoice::Gpu);
+        let explicit_cpu = cache().with_engine(cpu.clone(), EngineChoice::Cpu);
+        let auto_gpu = cache().with_engine(gpu.clone(), EngineChoice::Auto);
+
+        let made = get(&explicit_gpu);
+        assert!(!made.cached);
+        assert_eq!(made.engine, "gpu: fake");
+        // The description is stored beside the image.
+        let stem = request.key().file_stem();
+        let json = fs::read_to_string(dir.path().join(format!("{stem}.json"))).unwrap();
+        assert!(json.contains("\"engine\": \"gpu: fake\""), "{json}");
+        let again = get(&explicit_gpu);
+        assert!(again.cached);
+        assert_eq!(again.engine, "gpu: fake");
+        assert_eq!(gpu.renders(), 1);
+
+        // An explicit CPU choice does not take the GPU's entry: it renders and replaces it.
+        assert!(explicit_cpu.load(&request.key()).is_none());
+        let on_cpu = get(&explicit_cpu);
+        assert!(!on_cpu.cached);
+        assert_eq!(on_cpu.engine, "cpu: fake");
+        assert_eq!(on_cpu.image.pixels[0], glam::Vec3::splat(2.0));
+        assert_eq!(cpu.renders(), 1);
+
+        // Auto takes an entry of either engine, here the CPU's, without rendering.
+        let auto = get(&auto_gpu);
+        assert!(auto.cached);
+        assert_eq!(auto.engine, "cpu: fake");
+        assert_eq!(gpu.renders(), 1);
+
+        // The explicit GPU choice no longer finds its own and renders again.
+        assert!(!get(&explicit_gpu).cached);
+        assert_eq!(gpu.renders(), 2);
+    }
+
+    #[test]
+    fn entries_from_before_engines_were_recorded_count_as_the_cpus() {
+        let dir = tempfile::tempdir().unwrap();
+        let scene = scene();
+        let request = ReferenceRequest::new(&scene, scene.default_view(0.0), 0.0, (3, 2), 1, 5);
+        let key = request.key();
+        let cache = ReferenceCache::new(dir.path());
+        cache
+            .get_or_render(&request, true, &|_| {}, &|| false)
+            .unwrap();
+        // Rewrite the description as older versions wrote it: no engine.
+        let path = dir.path().join(format!("{}.json", key.file_stem()));
+        let old = serde_json::json!({ "key": key, "seconds": 0.5 });
+        fs::write(&path, old.to_string()).unwrap();
+        let found = cache.load(&key).unwrap();
+        assert_eq!(found.engine, "cpu");
+        let gpu_only = cache
+            .clone()
+            .with_engine(FakeEngine::new(EngineKind::Gpu, 1.0), EngineChoice::Gpu);
+        assert!(gpu_only.load(&key).is_none());
+        let cpu_only = cache.with_engine(Arc::new(CpuEngine), EngineChoice::Cpu);
+        assert!(cpu_only.load(&key).is_some());
     }
 
     #[test]

@@ -92,6 +92,7 @@
 mod accumulate;
 pub mod brdf;
 pub mod cache;
+pub mod engine;
 mod integrator;
 mod irradiance;
 mod lights;

@@ -27,7 +27,7 @@
 
 mod cpu;
 pub mod mobile;
-mod path;
+pub mod path;
 pub mod pc;
 mod renderer;
 mod scene_state;
@@ -36,7 +36,9 @@ mod tier;
 
 pub use cpu::CpuTier;
 pub use mobile::{MobileConfig, MobileTier};
-pub use path::{GpuPathTier, Moments, PathUniforms};
+pub use path::{
+    GpuPathTier, GpuReferenceEngine, Moments, PathUniforms, reference_cache, reference_engine,
+};
 pub use pc::{PcConfig, PcTier};
 pub use renderer::{CameraMode, Renderer, Selection};
 pub use select::FrameBudget;

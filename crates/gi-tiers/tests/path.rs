@@ -25,10 +25,11 @@ fn settings(spp: u32) -> TierSettings {
     }
 }
 
-/// A scene and the camera it is seen through (`None`: its default camera).
+/// A scene, the camera it is seen through (`None`: its default camera) and the image size.
 struct Case {
     scene: Scene,
     camera: Option<CameraView>,
+    size: (u32, u32),
 }
 
 impl Case {
@@ -36,6 +37,23 @@ impl Case {
         Self {
             scene: gi_scene::load(name).unwrap(),
             camera: None,
+            size: (WIDTH, HEIGHT),
+        }
+    }
+
+    /// The same case rendered at `width` x `height`.
+    fn at(self, width: u32, height: u32) -> Self {
+        Self {
+            size: (width, height),
+            ..self
+        }
+    }
+
+    fn settings(&self, spp: u32) -> TierSettings {
+        TierSettings {
+            width: self.size.0,
+            height: self.size.1,
+            ..settings(spp)
         }
     }
 
@@ -53,7 +71,7 @@ fn gpu_render(
     spp: u32,
     frames: u32,
 ) -> (Moments, u64) {
-    let mut tier = GpuPathTier::new(kind, settings(spp), ctx).unwrap();
+    let mut tier = GpuPathTier::new(kind, case.settings(spp), ctx).unwrap();
     let (scene, frame) = (&case.scene, case.frame());
     let mut rays = 0;
     for index in 0..frames {
@@ -69,10 +87,11 @@ fn gpu_render(
         assert!(output.passes.iter().any(|(name, _)| *name == trace));
         let stats = output.stats.expect("GPU tiers report their throughput");
         rays += stats.rays;
-        assert_eq!(stats.samples, u64::from(WIDTH * HEIGHT * spp));
+        assert_eq!(stats.samples, u64::from(case.size.0 * case.size.1 * spp));
         assert_eq!(stats.nonfinite_samples, 0);
     }
     assert!(tier.memory_bytes() > 0);
+    eprintln!("{kind}: {:?}", tier.dispatch_plan().unwrap());
     (tier.moments().unwrap(), rays)
 }
 
@@ -80,8 +99,8 @@ fn gpu_render(
 fn cpu_render(case: &Case, mode: Mode, spp: u32) -> (Image, Image, u64) {
     let reference = Reference::new(&case.scene, case.frame());
     let settings = RenderSettings {
-        width: WIDTH,
-        height: HEIGHT,
+        width: case.size.0,
+        height: case.size.1,
         spp,
         seed: settings(spp).seed,
         mode,
@@ -172,14 +191,15 @@ fn path_matches_reference(scene_name: &str, case: Case, spp: u32) {
     // blocks the difference of the means has a standard deviation of at most
     // sqrt(se_gpu^2 + se_cpu^2) (less, since the renders are positively correlated), with the
     // standard errors measured from each render's own per-pixel variance; 5 of them bound a
-    // false alarm over the 24 blocks and 3 channels at about 4e-5.
+    // false alarm over the (at most) 24 blocks and 3 channels at about 4e-5.
+    let (width, height) = case.size;
     let block = 4;
-    for by in 0..HEIGHT / block {
-        for bx in 0..WIDTH / block {
+    for by in 0..height / block {
+        for bx in 0..width / block {
             let (mut g, mut c, mut variance) = (Vec3::ZERO, Vec3::ZERO, Vec3::ZERO);
             for y in by * block..(by + 1) * block {
                 for x in bx * block..(bx + 1) * block {
-                    let i = (y * WIDTH + x) as usize;
+                    let i = (y * width + x) as usize;
                     g += gpu.mean.pixels[i];
                     c += cpu.pixels[i];
                     let (eg, ec) = (gpu.standard_error.pixels[i], cpu_error.pixels[i]);
@@ -231,6 +251,73 @@ fn path_on_the_gpu_matches_the_reference_under_sky_and_sun() {
 #[test]
 fn path_on_the_gpu_matches_the_reference_with_textures_and_spot_lights() {
     path_matches_reference("textured", textured(), 8);
+}
+
+/// A thousand samples per pixel in one frame, as `gi render --spp 1024` asks: more loop
+/// iterations per invocation than lavapipe runs (it stops an invocation's loops after 65,535)
+/// and, at a larger size, longer than a desktop GPU's watchdog allows one dispatch. The tier
+/// splits them into dispatches of bounded cost, and the sum still equals the reference's.
+#[test]
+fn a_thousand_samples_in_one_frame_match_the_reference() {
+    let case = Case::bundled("cornell-box").at(16, 12);
+    path_matches_reference("cornell-box at 1024 spp", case, 1024);
+}
+
+/// A scene whose traversal the dispatches' cost estimate underrates by far: a wall of 10,000
+/// quads stacked in one place (each a tenth of a millimeter beside the last), which no BVH can
+/// separate, so a ray that meets the wall visits every node and tests every triangle. On
+/// lavapipe the first dispatches run past the device's loop limit; the shader's loop check
+/// tells the tier, which renders the frame again in smaller dispatches, and the image still
+/// equals the reference's.
+#[test]
+fn a_scene_that_outruns_the_cost_estimate_still_matches_the_reference() {
+    let quads = 10_000;
+    let corners = [
+        Vec3::new(-1.0, -1.0, 0.0),
+        Vec3::new(1.0, -1.0, 0.0),
+        Vec3::new(1.0, 1.0, 0.0),
+        Vec3::new(-1.0, 1.0, 0.0),
+    ];
+    let wall = Primitive {
+        positions: (0..quads)
+            .flat_map(|q| corners.map(|c| c + Vec3::X * (1e-4 * q as f32)))
+            .collect(),
+        normals: vec![Vec3::Z; 4 * quads],
+        uvs: vec![Vec2::ZERO; 4 * quads],
+        indices: (0..quads as u32)
+            .flat_map(|q| [0, 1, 2, 0, 2, 3].map(|i| 4 * q + i))
+            .collect(),
+        material: 0,
+    };
+    let scene = Scene {
+        name: "stacked-wall".into(),
+        meshes: vec![Mesh {
+            name: String::new(),
+            primitives: vec![wall],
+        }],
+        materials: vec![Material {
+            base_color: Vec4::new(0.8, 0.7, 0.6, 1.0),
+            ..Material::default()
+        }],
+        nodes: vec![Node {
+            mesh: Some(0),
+            ..Node::default()
+        }],
+        sky: Sky::Constant {
+            radiance: Vec3::ONE,
+        },
+        ..Scene::default()
+    };
+    let case = Case {
+        scene,
+        camera: Some(CameraView::look_at(
+            Vec3::new(0.2, 0.1, 2.5),
+            Vec3::ZERO,
+            0.9,
+        )),
+        size: (8, 8),
+    };
+    path_matches_reference("stacked-wall", case, 16);
 }
 
 #[test]
@@ -448,5 +535,6 @@ fn textured() -> Case {
             Vec3::new(0.0, 0.3, 0.0),
             0.9,
         )),
+        size: (WIDTH, HEIGHT),
     }
 }

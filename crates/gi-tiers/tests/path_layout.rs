@@ -40,6 +40,8 @@ fn shared_structs_match_their_wgsl_layout() {
             default_material,
             sky_kind,
             max_depth,
+            first_row,
+            loop_check,
         }),
         size_of::<PathUniforms>(),
     );

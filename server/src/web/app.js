@@ -134,7 +134,7 @@ function render(job) {
     row(metrics, "rmse_srgb8", fixed(c.rmse_srgb8, 2), "rmse_srgb8");
     row(metrics, "rmse_linear", fixed(c.rmse_linear, 4), "rmse_linear");
     row(metrics, "gain_vs_direct", fixed(c.gain_vs_direct, 3), "gain_vs_direct");
-    row(metrics, "reference", `${c.reference_spp} spp${c.reference_cached ? " (cached)" : ""}, ${fixed(c.reference_seconds, 2)} s`, "reference_spp");
+    row(metrics, "reference", `${c.reference_spp} spp${c.reference_cached ? " (cached)" : ""}, ${fixed(c.reference_seconds, 2)} s on ${c.reference_engine}`, "reference_spp");
   }
   row(metrics, "ms per frame", fixed(result.ms_per_frame, 2), "ms_per_frame");
   if (result.gi_ms !== null) row(metrics, "GI ms", fixed(result.gi_ms, 2), "gi_ms");

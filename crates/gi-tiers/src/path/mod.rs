@@ -4,14 +4,25 @@
 //!
 //! Both follow gi-reference's transport contract and draw the reference's random numbers, so a
 //! GPU render equals the CPU render of the same seed and sample count up to f32 rounding.
+//!
+//! [`GpuReferenceEngine`] renders the reference cache's requests with this tier.
+//!
+//! A frame's samples go to the GPU in dispatches of bounded cost ([`dispatch`]'s rule,
+//! [`INVOCATION_LOOP_BUDGET`] and [`DISPATCH_LOOP_BUDGET`]), so any sample count per frame
+//! renders on lavapipe and stays clear of a desktop GPU's watchdog.
 
+pub mod dispatch;
+mod engine;
 mod tracer;
 
+use tracer::TraceStats;
 pub(crate) use tracer::{Accumulation, PathPipelines};
 
+pub use dispatch::{DISPATCH_LOOP_BUDGET, DispatchPlan, INVOCATION_LOOP_BUDGET};
+pub use engine::{GpuReferenceEngine, REFERENCE_FRAME_PATHS, reference_cache, reference_engine};
 pub use tracer::PathUniforms;
 
-use gi_gpu::{GpuContext, GpuScene, GpuTimer};
+use gi_gpu::{GpuContext, GpuScene, GpuTimer, PassTimings};
 use gi_image::Image;
 use gi_reference::RenderStats;
 use gi_scene::CameraView;
@@ -19,7 +30,8 @@ use glam::Vec3;
 
 use crate::tier::{FrameInput, FrameOutput, Tier, TierError, TierKind, TierSettings};
 
-/// Passes per frame the timer has room for (`<tier>/trace`, `<tier>/resolve`).
+/// Passes per frame the timer has room for at first (`<tier>/trace`, `<tier>/resolve`); a
+/// frame of more `<tier>/trace` passes makes a larger timer.
 const TIMER_SCOPES: u32 = 4;
 
 /// A GPU tier: [`TierKind::Path`] (full transport) or [`TierKind::Direct`] (the direct-only
@@ -32,6 +44,8 @@ pub struct GpuPathTier {
     ctx: GpuContext,
     pipelines: PathPipelines,
     timer: GpuTimer,
+    /// Passes per frame `timer` has room for.
+    timer_scopes: u32,
     prepared: Option<Prepared>,
 }
 
@@ -82,6 +96,7 @@ impl GpuPathTier {
             ctx,
             pipelines,
             timer,
+            timer_scopes: TIMER_SCOPES,
             prepared: None,
         })
     }
@@ -99,6 +114,20 @@ impl GpuPathTier {
     /// The GPU context the tier renders with.
     pub fn context(&self) -> &GpuContext {
         &self.ctx
+    }
+
+    /// Sets the samples per pixel the following frames add ([`TierSettings::spp`]); the
+    /// accumulation goes on. For a caller that renders a sample count in frames of its own
+    /// size (a reference with progress between frames).
+    pub fn set_samples_per_frame(&mut self, spp: u32) {
+        self.settings.spp = spp;
+    }
+
+    /// How the next frame's `<tier>/trace` samples are cut into dispatches; `None` before the
+    /// first frame.
+    pub fn dispatch_plan(&self) -> Option<DispatchPlan> {
+        let prepared = self.prepared.as_ref()?;
+        Some(prepared.accumulation.plan(&prepared.scene))
     }
 
     /// Reads the accumulation back: mean, standard error and non-finite count per pixel.
@@ -199,6 +228,58 @@ impl GpuPathTier {
         Ok(())
     }
 
+    /// Adds `spp` samples per pixel to the prepared accumulation and resolves its mean; returns
+    /// the passes' times and what the trace counted. When the device cut an invocation's loops
+    /// short (lavapipe's loop limit: the cost estimate was too low for this scene), the
+    /// accumulation is rendered again from its first sample with half the invocation budget,
+    /// until it holds or one sample per dispatch still does not fit (an error).
+    fn add_samples(&mut self, spp: u32) -> Result<(PassTimings, TraceStats), TierError> {
+        let prepared = self
+            .prepared
+            .as_mut()
+            .expect("prepared before samples are added");
+        let mut spp = spp;
+        loop {
+            let accumulation = &mut prepared.accumulation;
+            let passes = accumulation.passes_for(&prepared.scene, spp);
+            if passes > self.timer_scopes {
+                self.timer = GpuTimer::new(&self.ctx, self.kind.name(), passes);
+                self.timer_scopes = passes;
+            }
+            let timings = accumulation.add_samples(
+                &self.ctx,
+                &self.pipelines,
+                &prepared.scene,
+                &mut self.timer,
+                spp,
+            );
+            let trace = accumulation.trace_stats(&self.ctx);
+            if trace.cut_invocations == 0 {
+                return Ok((timings, trace));
+            }
+            let plan = accumulation.plan(&prepared.scene);
+            if !accumulation.halve_budget(&prepared.scene) {
+                return Err(TierError::Unavailable {
+                    tier: self.kind.name(),
+                    reason: format!(
+                        "one sample of this scene runs more loop iterations than the device \
+                         allows one invocation ({} invocations were cut short; lavapipe \
+                         allows 65,535)",
+                        trace.cut_invocations
+                    ),
+                });
+            }
+            tracing::warn!(
+                tier = self.kind.name(),
+                cut = trace.cut_invocations,
+                samples_per_dispatch = plan.samples,
+                "the device cut loops short; rendering the accumulation again with smaller dispatches"
+            );
+            spp = accumulation.samples;
+            accumulation.rewind();
+        }
+    }
+
     /// Times the scene's BVH was placed (its first top level plus one per update), and the
     /// seconds of its bottom-level builds: for tests that a camera move rebuilds nothing.
     pub fn bvh_builds(&self) -> Option<(u32, f64)> {
@@ -219,14 +300,8 @@ impl Tier for GpuPathTier {
 
     fn render(&mut self, input: &FrameInput) -> Result<FrameOutput, TierError> {
         self.prepare(input)?;
+        let (timings, trace) = self.add_samples(self.settings.spp)?;
         let prepared = self.prepared.as_mut().expect("prepared above");
-        let timings = prepared.accumulation.add_samples(
-            &self.ctx,
-            &self.pipelines,
-            &prepared.scene,
-            &mut self.timer,
-            self.settings.spp,
-        );
         let accumulation = &prepared.accumulation;
         if let Some(progress) = input.progress {
             progress(accumulation.samples);
@@ -244,7 +319,8 @@ impl Tier for GpuPathTier {
         let seconds = timings.get(&format!("{}/trace", self.kind)).unwrap_or(0.0) * 1e-3;
         let pixels = u64::from(self.settings.width) * u64::from(self.settings.height);
         let samples = pixels * u64::from(self.settings.spp);
-        let rays = accumulation.rays_traced(&self.ctx);
+        // After a re-render (see `add_samples`), the rays of all the accumulation's samples.
+        let rays = trace.rays;
         let per_second = |count: u64| {
             if seconds > 0.0 {
                 count as f64 / seconds
