@@ -183,15 +183,41 @@ impl Brdf {
         self.base * ((1.0 - self.metallic) * self.diffuse_weight(n_dot_v))
     }
 
+    /// This BRDF seen from `wo`, with what depends on `wo` alone computed once: what a path
+    /// vertex evaluates, samples and takes pdfs of several times.
+    pub fn seen_from(&self, wo: Vec3) -> ViewedBrdf {
+        let f0 = self.f0();
+        let f90 = self.f90();
+        let diffuse_albedo = self.diffuse_albedo(wo.z);
+        // specular_probability, spelt out so its Fresnel term and albedo are shared.
+        let specular = luminance(schlick(f0, f90, wo.z));
+        let p_specular = if specular <= 0.0 {
+            0.0
+        } else {
+            let diffuse = luminance(diffuse_albedo);
+            if diffuse <= 0.0 {
+                1.0
+            } else {
+                (specular / (specular + diffuse))
+                    .clamp(SPECULAR_PICK_RANGE.0, SPECULAR_PICK_RANGE.1)
+            }
+        };
+        ViewedBrdf {
+            wo,
+            alpha: self.alpha,
+            a2: self.alpha * self.alpha,
+            f0,
+            f90,
+            // Schlick's term is exactly zero for these, and so is the whole specular layer.
+            specular_layer: f0 != Vec3::ZERO || f90 != 0.0,
+            diffuse: diffuse_albedo / PI,
+            p_specular,
+        }
+    }
+
     /// The BRDF value; zero unless both directions are above the surface.
     pub fn eval(&self, wo: Vec3, wi: Vec3) -> Vec3 {
-        if wo.z <= 0.0 || wi.z <= 0.0 {
-            return Vec3::ZERO;
-        }
-        let h = (wo + wi).normalize();
-        let a2 = self.alpha * self.alpha;
-        let specular = ggx_d(h, a2) * smith_g2(wo.z, wi.z, a2) / (4.0 * wo.z * wi.z);
-        self.diffuse_albedo(wo.z) / PI + schlick(self.f0(), self.f90(), wo.dot(h)) * specular
+        self.seen_from(wo).eval(wi)
     }
 
     /// Probability that [`Brdf::sample`] picks the specular lobe for `wo`: the luminance of the
@@ -199,38 +225,83 @@ impl Brdf {
     /// `[0.1, 0.9]` unless a lobe is black (metals always sample specular, a dielectric
     /// without specular layer never does).
     pub fn specular_probability(&self, wo: Vec3) -> f32 {
-        let specular = luminance(schlick(self.f0(), self.f90(), wo.z));
-        if specular <= 0.0 {
-            return 0.0;
-        }
-        let diffuse = luminance(self.diffuse_albedo(wo.z));
-        if diffuse <= 0.0 {
-            return 1.0;
-        }
-        (specular / (specular + diffuse)).clamp(SPECULAR_PICK_RANGE.0, SPECULAR_PICK_RANGE.1)
+        self.seen_from(wo).p_specular
     }
 
     /// Solid-angle pdf of [`Brdf::sample`] producing `wi`.
     pub fn pdf(&self, wo: Vec3, wi: Vec3) -> f32 {
-        if wo.z <= 0.0 || wi.z <= 0.0 {
-            return 0.0;
-        }
-        let p_specular = self.specular_probability(wo);
-        let diffuse = (1.0 - p_specular) * wi.z / PI;
-        if p_specular <= 0.0 {
-            return diffuse;
-        }
-        p_specular * self.specular_pdf(wo, wi) + diffuse
+        self.seen_from(wo).pdf(wi)
     }
 
     /// Picks a lobe with `u_lobe`, then draws a cosine-weighted direction (diffuse) or a GGX
     /// visible normal (Heitz 2018) reflected about it (specular). `None` when the direction
     /// falls below the surface (a sample with zero contribution).
     pub fn sample(&self, wo: Vec3, u_lobe: f32, u: Vec2) -> Option<BrdfSample> {
+        self.seen_from(wo).sample(u_lobe, u)
+    }
+}
+
+/// A [`Brdf`] with its outgoing direction `wo` fixed ([`Brdf::seen_from`]): its Fresnel
+/// terms, diffuse albedo and lobe probability computed once. Evaluates, samples and takes pdfs
+/// exactly as the `Brdf` methods with that `wo` do (they are written on top of it).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct ViewedBrdf {
+    wo: Vec3,
+    alpha: f32,
+    a2: f32,
+    f0: Vec3,
+    f90: f32,
+    /// False when Schlick's term is zero for every angle (`F0 = 0`, `F90 = 0`: a dielectric
+    /// without specular layer), so the specular lobe adds exactly nothing and is skipped.
+    specular_layer: bool,
+    /// The Lambert lobe's value, `diffuse albedo(wo) / pi`.
+    diffuse: Vec3,
+    /// Probability of sampling the specular lobe ([`Brdf::specular_probability`]).
+    p_specular: f32,
+}
+
+impl ViewedBrdf {
+    /// The outgoing direction it is seen from.
+    pub fn wo(&self) -> Vec3 {
+        self.wo
+    }
+
+    /// The BRDF value towards `wi`; zero unless both directions are above the surface.
+    pub fn eval(&self, wi: Vec3) -> Vec3 {
+        let wo = self.wo;
+        if wo.z <= 0.0 || wi.z <= 0.0 {
+            return Vec3::ZERO;
+        }
+        if !self.specular_layer {
+            // diffuse + 0 * (a finite specular value): both directions are above the surface,
+            // so D, G2 and the cosines are finite and positive.
+            return self.diffuse;
+        }
+        let h = (wo + wi).normalize();
+        let specular = ggx_d(h, self.a2) * smith_g2(wo.z, wi.z, self.a2) / (4.0 * wo.z * wi.z);
+        self.diffuse + schlick(self.f0, self.f90, wo.dot(h)) * specular
+    }
+
+    /// Solid-angle pdf of [`ViewedBrdf::sample`] producing `wi`.
+    pub fn pdf(&self, wi: Vec3) -> f32 {
+        if self.wo.z <= 0.0 || wi.z <= 0.0 {
+            return 0.0;
+        }
+        let p_specular = self.p_specular;
+        let diffuse = (1.0 - p_specular) * wi.z / PI;
+        if p_specular <= 0.0 {
+            return diffuse;
+        }
+        p_specular * self.specular_pdf(wi) + diffuse
+    }
+
+    /// [`Brdf::sample`] at this `wo`.
+    pub fn sample(&self, u_lobe: f32, u: Vec2) -> Option<BrdfSample> {
+        let wo = self.wo;
         if wo.z <= 0.0 {
             return None;
         }
-        let wi = if u_lobe < self.specular_probability(wo) {
+        let wi = if u_lobe < self.p_specular {
             let h = sample_ggx_vndf(wo, self.alpha, u);
             2.0 * wo.dot(h) * h - wo
         } else {
@@ -239,19 +310,19 @@ impl Brdf {
         if wi.z <= 0.0 {
             return None;
         }
-        let pdf = self.pdf(wo, wi);
+        let pdf = self.pdf(wi);
         (pdf > 0.0 && pdf.is_finite()).then(|| BrdfSample {
             wi,
-            f: self.eval(wo, wi),
+            f: self.eval(wi),
             pdf,
         })
     }
 
     /// pdf of the reflected VNDF sample: `G1(wo) * D(h) / (4 * wo.z)`.
-    fn specular_pdf(&self, wo: Vec3, wi: Vec3) -> f32 {
+    fn specular_pdf(&self, wi: Vec3) -> f32 {
+        let wo = self.wo;
         let h = (wo + wi).normalize();
-        let a2 = self.alpha * self.alpha;
-        smith_g1(wo.z, a2) * ggx_d(h, a2) / (4.0 * wo.z)
+        smith_g1(wo.z, self.a2) * ggx_d(h, self.a2) / (4.0 * wo.z)
     }
 }
 

@@ -3,12 +3,11 @@
 
 use std::f32::consts::PI;
 
-use gi_scene::Hit;
 use glam::Vec3;
 
 use crate::lights::shadow_distance;
 use crate::sampling::{Sampler, cosine_hemisphere, power_heuristic};
-use crate::scene::{Reference, Surface, offset_origin};
+use crate::scene::{Hit, Reference, Surface, offset_origin};
 use crate::settings::{Mode, RenderSettings, Strategy};
 
 /// Russian roulette may end a path once it has scattered this many times; shorter paths, which
@@ -33,9 +32,10 @@ impl Reference {
     /// Closest hit along a ray from `origin` (counted in `rays`).
     pub(crate) fn trace(&self, origin: Vec3, dir: Vec3, rays: &mut u64) -> Option<Hit> {
         *rays += 1;
-        let triangles = &self.frame.triangles;
-        self.bvh
-            .closest_hit(triangles, origin, dir, 0.0, f32::INFINITY)
+        // The surface computes its own barycentrics (clamped, in f64), so the BVH's are
+        // not asked for.
+        let (t, triangle) = self.bvh.closest_triangle(origin, dir, 0.0, f32::INFINITY)?;
+        Some(Hit { t, triangle })
     }
 
     /// True when the segment `(0, t_max)` of the ray is blocked (counted in `rays`).
@@ -118,10 +118,7 @@ pub(crate) fn path_radiance(
         }
         l += beta * direct;
 
-        let Some(sample) = surface
-            .brdf
-            .sample(surface.wo, sampler.next_f32(), sampler.next_2d())
-        else {
+        let Some(sample) = surface.brdf.sample(sampler.next_f32(), sampler.next_2d()) else {
             break;
         };
         let wi = surface.frame.to_world(sample.wi);
@@ -178,7 +175,7 @@ fn punctual_lights(reference: &Reference, surface: &Surface, x: Vec3, rays: &mut
             continue;
         }
         let wi_local = surface.frame.to_local(wi);
-        let contribution = surface.brdf.eval(surface.wo, wi_local) * wi_local.z * irradiance;
+        let contribution = surface.brdf.eval(wi_local) * wi_local.z * irradiance;
         if contribution == Vec3::ZERO {
             continue;
         }
@@ -215,12 +212,12 @@ fn sample_emitters(
         return Vec3::ZERO;
     }
     let wi = surface.frame.to_local(light.wi);
-    let contribution = surface.brdf.eval(surface.wo, wi) * wi.z * light.radiance;
+    let contribution = surface.brdf.eval(wi) * wi.z * light.radiance;
     if contribution == Vec3::ZERO {
         return Vec3::ZERO;
     }
     let w = match strategy {
-        Strategy::Mis => power_heuristic(light.pdf, surface.brdf.pdf(surface.wo, wi)),
+        Strategy::Mis => power_heuristic(light.pdf, surface.brdf.pdf(wi)),
         _ => 1.0,
     };
     if reference.occluded(x, light.wi, light.shadow_distance, rays) {
@@ -248,13 +245,12 @@ fn sample_sky(
     if wi_world.dot(surface.ng) <= 0.0 {
         return Vec3::ZERO;
     }
-    let contribution =
-        surface.brdf.eval(surface.wo, wi) * wi.z * reference.frame.sky.radiance(wi_world);
+    let contribution = surface.brdf.eval(wi) * wi.z * reference.frame.sky.radiance(wi_world);
     if contribution == Vec3::ZERO {
         return Vec3::ZERO;
     }
     let w = match strategy {
-        Strategy::Mis => power_heuristic(pdf, surface.brdf.pdf(surface.wo, wi)),
+        Strategy::Mis => power_heuristic(pdf, surface.brdf.pdf(wi)),
         _ => 1.0,
     };
     if reference.occluded(x, wi_world, f32::INFINITY, rays) {

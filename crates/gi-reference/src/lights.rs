@@ -229,8 +229,7 @@ mod tests {
                 continue;
             };
             let hit = reference
-                .bvh
-                .closest_hit(&reference.frame.triangles, p, sample.wi, 0.0, f32::INFINITY)
+                .trace(p, sample.wi, &mut 0)
                 .expect("the sampled point is visible");
             assert!(
                 hit.t >= sample.shadow_distance,

@@ -1,10 +1,10 @@
 //! The [`Reference`]: a scene frame prepared for path tracing, and what a ray finds when it hits
 //! it (position, normals, BRDF, emission).
 
-use gi_scene::{Hit, Material, Scene, SceneBvh, SceneFrame, Texture, Triangle};
+use gi_scene::{Material, Scene, SceneBvh, SceneFrame, Texture, Triangle};
 use glam::{DVec3, Vec2, Vec3, Vec4};
 
-use crate::brdf::{Brdf, DielectricSpecular};
+use crate::brdf::{Brdf, DielectricSpecular, ViewedBrdf};
 use crate::lights::EmitterTable;
 use crate::sampling::Frame;
 
@@ -19,6 +19,50 @@ pub struct Reference {
     pub(crate) emitters: EmitterTable,
     /// Used for triangles whose material index is out of range (hand-built scenes).
     default_material: Material,
+    /// Per triangle, what every hit on it needs: f64 vertex and edges, the geometric normal.
+    hit_triangles: Vec<HitTriangle>,
+    /// Per material, then one for `default_material`: the BRDF and emission when no texture
+    /// varies them over the surface.
+    constant_shading: Vec<ConstantShading>,
+}
+
+/// What a ray found: the distance along its unit direction and the triangle.
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct Hit {
+    pub(crate) t: f32,
+    pub(crate) triangle: u32,
+}
+
+/// A triangle's vertex data in the form [`Reference::surface`] uses, computed once per frame
+/// with the very operations the surface would repeat per hit (the results are identical).
+struct HitTriangle {
+    v0: DVec3,
+    /// `v1 - v0`, in f64 (exact for f32 vertices of similar magnitude).
+    e1: DVec3,
+    /// `v2 - v0`.
+    e2: DVec3,
+    /// [`geometric_normal`]; zero for degenerate triangles.
+    ng: Vec3,
+}
+
+impl HitTriangle {
+    fn new(tri: &Triangle) -> Self {
+        let v0 = DVec3::from(Vec3::from(tri.v0));
+        Self {
+            v0,
+            e1: DVec3::from(Vec3::from(tri.v1)) - v0,
+            e2: DVec3::from(Vec3::from(tri.v2)) - v0,
+            ng: geometric_normal(tri),
+        }
+    }
+}
+
+/// A material's BRDF and emission where they do not depend on the texture coordinate (no
+/// texture, or only empty ones), precomputed: `None` where a texture varies them.
+#[derive(Clone, Copy)]
+struct ConstantShading {
+    brdf: Option<Brdf>,
+    emission: Option<Vec3>,
 }
 
 /// What a path sees at a surface hit, in the conventions of the crate docs: both normals face
@@ -30,9 +74,9 @@ pub(crate) struct Surface {
     /// Shading frame: Z is the interpolated vertex normal on the side of `ng`, or `ng` when
     /// `wo` is below the interpolated normal's horizon.
     pub(crate) frame: Frame,
-    /// Direction towards the previous vertex, local to `frame`.
-    pub(crate) wo: Vec3,
-    pub(crate) brdf: Brdf,
+    /// The BRDF at the hit, seen from the direction towards the previous vertex (local to
+    /// `frame`).
+    pub(crate) brdf: ViewedBrdf,
     /// Radiance emitted towards the previous vertex (zero on the back of single-sided
     /// emitters).
     pub(crate) emitted: Vec3,
@@ -53,14 +97,41 @@ impl Reference {
             bvh_build_seconds = bvh.build_time.as_secs_f64(),
             "reference scene prepared"
         );
-        Self {
+        let hit_triangles = frame.triangles.iter().map(HitTriangle::new).collect();
+        let mut reference = Self {
             frame,
             bvh,
             materials,
             textures,
             emitters,
             default_material: Material::default(),
-        }
+            hit_triangles,
+            constant_shading: Vec::new(),
+        };
+        reference.constant_shading = reference
+            .materials
+            .iter()
+            .chain([&reference.default_material])
+            .map(|material| reference.constant_shading(material))
+            .collect();
+        reference
+    }
+
+    /// What of `material`'s shading does not depend on the texture coordinate.
+    fn constant_shading(&self, material: &Material) -> ConstantShading {
+        let untextured =
+            |textures: &[Option<usize>]| textures.iter().all(|&t| self.texture(t).is_none());
+        // Without textures, sampling them gives exactly 1: the values the surface computes.
+        let brdf = untextured(&[
+            material.base_color_texture,
+            material.metallic_roughness_texture,
+            material.specular_texture,
+            material.specular_color_texture,
+        ])
+        .then(|| self.brdf(material, Vec2::ZERO));
+        let emission =
+            untextured(&[material.emissive_texture]).then(|| self.emission(material, Vec2::ZERO));
+        ConstantShading { brdf, emission }
     }
 
     /// The frame being rendered (triangles, lights, camera, sky).
@@ -83,12 +154,11 @@ impl Reference {
     pub fn memory_bytes(&self) -> u64 {
         use std::mem::size_of_val;
         let frame = &self.frame;
-        let bvh = &self.bvh.bvh;
         let emitters = &self.emitters.distribution;
         let bytes = size_of_val(frame.triangles.as_slice())
             + size_of_val(frame.attributes.as_slice())
-            + size_of_val(bvh.nodes.as_slice())
-            + size_of_val(bvh.primitive_indices.as_slice())
+            + self.bvh.memory_bytes()
+            + size_of_val(self.hit_triangles.as_slice())
             + size_of_val(emitters.triangles.as_slice())
             + size_of_val(emitters.cdf.as_slice())
             + size_of_val(emitters.selection.as_slice())
@@ -103,6 +173,24 @@ impl Reference {
     pub(crate) fn material(&self, triangle: u32) -> &Material {
         let index = self.frame.attributes[triangle as usize].material as usize;
         self.materials.get(index).unwrap_or(&self.default_material)
+    }
+
+    /// The precomputed shading of the material of `triangle` (the default material's for
+    /// indices out of range, as [`Reference::material`]).
+    fn constant_shading_of(&self, triangle: u32) -> ConstantShading {
+        let index = self.frame.attributes[triangle as usize].material as usize;
+        self.constant_shading[index.min(self.materials.len())]
+    }
+
+    /// The BRDF of `material` at texture coordinate `uv`.
+    fn brdf(&self, material: &Material, uv: Vec2) -> Brdf {
+        let base = material.base_color.truncate()
+            * self
+                .sample_texture(material.base_color_texture, uv)
+                .truncate();
+        let mr = self.sample_texture(material.metallic_roughness_texture, uv);
+        Brdf::new(base, material.metallic * mr.z, material.roughness * mr.y)
+            .with_specular(self.dielectric_specular(material, uv))
     }
 
     pub(crate) fn texture(&self, index: Option<usize>) -> Option<&Texture> {
@@ -140,23 +228,17 @@ impl Reference {
 
     /// The surface a ray from `origin` along unit `dir` found at `hit`.
     pub(crate) fn surface(&self, origin: Vec3, dir: Vec3, hit: &Hit) -> Surface {
-        let tri = &self.frame.triangles[hit.triangle as usize];
+        let tri = &self.hit_triangles[hit.triangle as usize];
         let attributes = &self.frame.attributes[hit.triangle as usize];
         let [b1, b2] = barycentrics(tri, origin, dir);
         let b0 = 1.0 - b1 - b2;
-        let (v0, v1, v2) = (
-            DVec3::from(Vec3::from(tri.v0)),
-            DVec3::from(Vec3::from(tri.v1)),
-            DVec3::from(Vec3::from(tri.v2)),
-        );
         // Interpolating the vertices keeps the point on the triangle's plane, which the ray
         // offsets rely on; origin + t * dir drifts off it by t's rounding.
-        let p = (v0 + (v1 - v0) * b1 + (v2 - v0) * b2).as_vec3();
+        let p = (tri.v0 + tri.e1 * b1 + tri.e2 * b2).as_vec3();
         let (b0, b1, b2) = (b0 as f32, b1 as f32, b2 as f32);
 
         let wo = -dir;
-        let ng_front = geometric_normal(tri);
-        let ng_front = if ng_front == Vec3::ZERO { wo } else { ng_front };
+        let ng_front = if tri.ng == Vec3::ZERO { wo } else { tri.ng };
         let front_facing = ng_front.dot(wo) >= 0.0;
         let ng = if front_facing { ng_front } else { -ng_front };
         let [n0, n1, n2] = attributes.normals;
@@ -168,19 +250,19 @@ impl Reference {
             ns = ng;
         }
         let frame = Frame::from_normal(ns);
-        let [t0, t1, t2] = attributes.uvs;
-        let uv = t0 * b0 + t1 * b1 + t2 * b2;
+        let wo = frame.to_local(wo);
 
-        let material = self.material(hit.triangle);
-        let base = material.base_color.truncate()
-            * self
-                .sample_texture(material.base_color_texture, uv)
-                .truncate();
-        let mr = self.sample_texture(material.metallic_roughness_texture, uv);
-        let brdf = Brdf::new(base, material.metallic * mr.z, material.roughness * mr.y)
-            .with_specular(self.dielectric_specular(material, uv));
-        let emitted = if front_facing || material.double_sided {
-            self.emission(material, uv)
+        let constant = self.constant_shading_of(hit.triangle);
+        let uv = || {
+            let [t0, t1, t2] = attributes.uvs;
+            t0 * b0 + t1 * b1 + t2 * b2
+        };
+        let material = || self.material(hit.triangle);
+        let brdf = constant.brdf.unwrap_or_else(|| self.brdf(material(), uv()));
+        let emitted = if front_facing || material().double_sided {
+            constant
+                .emission
+                .unwrap_or_else(|| self.emission(material(), uv()))
         } else {
             Vec3::ZERO
         };
@@ -188,8 +270,7 @@ impl Reference {
             p,
             ng,
             frame,
-            wo: frame.to_local(wo),
-            brdf,
+            brdf: brdf.seen_from(wo),
             emitted,
         }
     }
@@ -204,10 +285,8 @@ pub(crate) fn geometric_normal(tri: &Triangle) -> Vec3 {
 /// Barycentric weights of v1 and v2 where the ray crosses the triangle's plane, in f64
 /// (Möller-Trumbore), clamped onto the triangle. Computed here rather than taken from the BVH
 /// hit so the hit point is accurate for triangles of any size.
-fn barycentrics(tri: &Triangle, origin: Vec3, dir: Vec3) -> [f64; 2] {
-    let v0 = DVec3::from(Vec3::from(tri.v0));
-    let e1 = DVec3::from(Vec3::from(tri.v1)) - v0;
-    let e2 = DVec3::from(Vec3::from(tri.v2)) - v0;
+fn barycentrics(tri: &HitTriangle, origin: Vec3, dir: Vec3) -> [f64; 2] {
+    let HitTriangle { v0, e1, e2, .. } = *tri;
     let d = DVec3::from(dir);
     let pvec = d.cross(e2);
     let det = e1.dot(pvec);
@@ -247,7 +326,11 @@ mod tests {
             v1: Vec3A::new(4.0, 0.0, 0.0),
             v2: Vec3A::new(0.0, 4.0, 0.0),
         };
-        let [b1, b2] = barycentrics(&tri, Vec3::new(1.0, 2.0, 5.0), Vec3::NEG_Z);
+        let [b1, b2] = barycentrics(
+            &HitTriangle::new(&tri),
+            Vec3::new(1.0, 2.0, 5.0),
+            Vec3::NEG_Z,
+        );
         assert!((b1 - 0.25).abs() < 1e-12 && (b2 - 0.5).abs() < 1e-12);
     }
 
@@ -289,8 +372,7 @@ mod tests {
 
     fn hit_from(reference: &Reference, origin: Vec3, dir: Vec3) -> Surface {
         let hit = reference
-            .bvh
-            .closest_hit(&reference.frame.triangles, origin, dir, 0.0, f32::INFINITY)
+            .trace(origin, dir, &mut 0)
             .expect("the ray hits the triangle");
         reference.surface(origin, dir, &hit)
     }
@@ -314,6 +396,6 @@ mod tests {
         let grazing = hit_from(&reference, origin, Vec3::new(1.0, -0.2, 0.0).normalize());
         assert_eq!(grazing.ng, Vec3::Y);
         assert_eq!(grazing.frame.z, Vec3::Y);
-        assert!(grazing.wo.z > 0.0);
+        assert!(grazing.brdf.wo().z > 0.0);
     }
 }

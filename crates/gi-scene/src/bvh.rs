@@ -2,13 +2,17 @@
 
 use std::time::{Duration, Instant};
 
-use glam::{Vec2, Vec3, Vec3A};
+use glam::{UVec2, Vec2, Vec3, Vec3A};
+use leaves::{LANES, LeafTriangles};
 use obvhs::{
     BvhBuildParams,
     cwbvh::{CwBvh, builder::build_cwbvh_from_tris},
-    ray::{Ray, RayHit},
+    ray::Ray,
+    traverse,
     triangle::Triangle,
 };
+
+mod leaves;
 
 /// A closest-hit result.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -51,8 +55,29 @@ fn canonical_direction(dir: Vec3) -> Vec3A {
 /// A CWBVH over world-space triangles, with the time its build took.
 pub struct SceneBvh {
     pub bvh: CwBvh,
+    /// The triangles in the order of `bvh.primitive_indices`, ready for intersection four at
+    /// a time (64 bytes each): the traversal reads them in sequence instead of through the
+    /// index.
+    leaf_triangles: LeafTriangles,
     /// Wall time of the whole build (AABBs, PLOC, conversion to CWBVH).
     pub build_time: Duration,
+}
+
+/// The triangles of a CWBVH node's hit leaves that the `traverse!` macro is about to test one
+/// by one, taken from it whole: their first index in leaf order and a mask of which of the
+/// next 24 to test. `primitive_id` is the one the macro has just taken off the group.
+#[inline(always)]
+fn take_group(group: &mut UVec2, primitive_id: u32) -> (u32, u32) {
+    let first = group.x;
+    let mask = group.y | (1 << (primitive_id - first));
+    group.y = 0;
+    (first, mask)
+}
+
+/// The nearest crossing a traversal found: distance and index into the BVH's leaf order.
+struct Nearest {
+    t: f32,
+    leaf: u32,
 }
 
 impl SceneBvh {
@@ -69,13 +94,68 @@ impl SceneBvh {
         } else {
             build_cwbvh_from_tris(triangles, params, &mut Duration::default())
         };
+        let leaf_triangles = LeafTriangles::new(triangles, &bvh.primitive_indices);
         Self {
             bvh,
+            leaf_triangles,
             build_time: start.elapsed(),
         }
     }
 
+    /// Bytes of the BVH: obvhs' nodes and primitive indices, and the prepared leaf triangles
+    /// the traversal reads.
+    pub fn memory_bytes(&self) -> usize {
+        use std::mem::size_of_val;
+        size_of_val(self.bvh.nodes.as_slice())
+            + size_of_val(self.bvh.primitive_indices.as_slice())
+            + self.leaf_triangles.memory_bytes()
+    }
+
+    /// Closest crossing of `ray` (obvhs' closest-hit traversal over the prepared triangles).
+    #[inline]
+    fn nearest(&self, ray: Ray) -> Option<Nearest> {
+        if self.leaf_triangles.is_empty() {
+            return None;
+        }
+        let mut ray = ray;
+        let mut nearest = None;
+        let mut state = self.bvh.new_traversal(ray.direction);
+        let mut node;
+        traverse!(
+            self.bvh,
+            node,
+            state,
+            node.intersect_ray(&ray, state.oct_inv4),
+            {
+                // The macro hands over the group's triangles one at a time, highest bit
+                // first; take the whole group and test it four at a time instead, keeping
+                // that order so ties go to the same triangle.
+                let (first, mut group) = take_group(&mut state.primitive_group, state.primitive_id);
+                while group != 0 {
+                    let chunk = (31 - group.leading_zeros()) / LANES as u32 * LANES as u32;
+                    let lanes = (group >> chunk) & 0xf;
+                    group &= !(0xf << chunk);
+                    let start = (first + chunk) as usize;
+                    let (t, hit) = self.leaf_triangles.intersect4(start, &ray);
+                    let hit = hit & lanes;
+                    for lane in (0..LANES).rev().filter(|&l| hit & (1 << l) != 0) {
+                        if t[lane] < ray.tmax {
+                            nearest = Some(Nearest {
+                                t: t[lane],
+                                leaf: (start + lane) as u32,
+                            });
+                            ray.tmax = t[lane];
+                        }
+                    }
+                }
+            }
+        );
+        nearest
+    }
+
     /// Nearest intersection of the ray `origin + t * dir`, `t` in `(t_min, t_max)`.
+    /// `triangles` are those the BVH was built from (the barycentrics are computed from
+    /// them).
     pub fn closest_hit(
         &self,
         triangles: &[Triangle],
@@ -84,27 +164,33 @@ impl SceneBvh {
         t_min: f32,
         t_max: f32,
     ) -> Option<Hit> {
-        if triangles.is_empty() {
-            return None;
-        }
-        let ray = Ray::new(Vec3A::from(origin), canonical_direction(dir), t_min, t_max);
-        let mut hit = RayHit::none();
-        let indices = &self.bvh.primitive_indices;
-        if !self.bvh.ray_traverse(ray, &mut hit, |ray, id| {
-            triangles[indices[id] as usize].intersect(ray)
-        }) {
-            return None;
-        }
-        let triangle = indices[hit.primitive_id as usize];
+        let (t, triangle) = self.closest_triangle(origin, dir, t_min, t_max)?;
         let barycentrics = barycentrics(&triangles[triangle as usize], origin, dir);
         Some(Hit {
-            t: hit.t,
+            t,
             triangle,
             barycentrics,
         })
     }
 
-    /// True when anything blocks the open segment `(t_min, t_max)` of the ray.
+    /// Distance and triangle index of the nearest intersection of the ray
+    /// `origin + t * dir`, `t` in `(t_min, t_max)`: [`SceneBvh::closest_hit`] without the
+    /// barycentrics, for callers that compute their own.
+    pub fn closest_triangle(
+        &self,
+        origin: Vec3,
+        dir: Vec3,
+        t_min: f32,
+        t_max: f32,
+    ) -> Option<(f32, u32)> {
+        let ray = Ray::new(Vec3A::from(origin), canonical_direction(dir), t_min, t_max);
+        let nearest = self.nearest(ray)?;
+        Some((nearest.t, self.bvh.primitive_indices[nearest.leaf as usize]))
+    }
+
+    /// True when anything blocks the open segment `(t_min, t_max)` of the ray (obvhs'
+    /// any-hit traversal: it stops at the first blocker). `triangles` are those the BVH was
+    /// built from; it traverses its own prepared copy of them.
     pub fn occluded(
         &self,
         triangles: &[Triangle],
@@ -113,14 +199,39 @@ impl SceneBvh {
         t_min: f32,
         t_max: f32,
     ) -> bool {
+        debug_assert_eq!(triangles.len(), self.leaf_triangles.len());
         if triangles.is_empty() {
             return false;
         }
         let ray = Ray::new(Vec3A::from(origin), canonical_direction(dir), t_min, t_max);
-        let indices = &self.bvh.primitive_indices;
-        !self.bvh.ray_traverse_miss(ray, |ray, id| {
-            triangles[indices[id] as usize].intersect(ray)
-        })
+        let mut state = self.bvh.new_traversal(ray.direction);
+        let mut node;
+        // A plain `break` would only leave the macro's inner loop over a leaf's triangles.
+        'traversal: {
+            traverse!(
+                self.bvh,
+                node,
+                state,
+                node.intersect_ray(&ray, state.oct_inv4),
+                {
+                    let (first, mut group) =
+                        take_group(&mut state.primitive_group, state.primitive_id);
+                    while group != 0 {
+                        let chunk = group.trailing_zeros() / LANES as u32 * LANES as u32;
+                        let lanes = (group >> chunk) & 0xf;
+                        group &= !(0xf << chunk);
+                        let (t, hit) = self
+                            .leaf_triangles
+                            .intersect4((first + chunk) as usize, &ray);
+                        let hit = hit & lanes;
+                        if (0..LANES).any(|l| hit & (1 << l) != 0 && t[l] < ray.tmax) {
+                            break 'traversal true;
+                        }
+                    }
+                }
+            );
+            false
+        }
     }
 
     /// Number of nodes (for reports).
