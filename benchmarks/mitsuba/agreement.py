@@ -21,7 +21,8 @@ instead of failing the test. Agreement: `mse_ratio <= 1 + K_SIGMA * sigma`. The 
 
 **Mean ratio.** `mean(a) / mean(b)` over the image, per channel and over all channels, with
 the uncertainty of each mean from the same per-pixel variance estimates
-(`var(mean a) = sum_i (a1 - a2)_i^2 / 4 / N^2`). Agreement: `|ratio - 1| <= K_SIGMA * sigma`.
+(`var(mean a) = sum_i (a1 - a2)_i^2 / 4 / N^2`). Agreement:
+`|ratio - 1| <= K_SIGMA * sigma + BIAS_ALLOWANCE`: noise, plus a bias bounded apart from it.
 A per-pixel median of `a / b` (channel sums, pixels where b is not black) is reported, not
 tested: a median of ratios of noisy values is itself slightly biased by the noise.
 """
@@ -31,6 +32,14 @@ from __future__ import annotations
 from dataclasses import asdict, dataclass
 
 import numpy as np
+
+BIAS_ALLOWANCE = 1e-3
+"""The largest difference of mean brightness two correct renderers may have, apart from noise:
+0.1%. Two renderers of the same scene still differ by their geometry's rounding, ray offsets
+and which side of a surface reflects (Mitsuba's `diffuse` is one-sided, ours two-sided): with
+2 billion samples a pixel on a GPU, where the noise allowance is 0.01%, the means differed by
+0.02% (red 0.03%). A mistake in the BRDF or the emission is far larger (the Lambert base
+without its specular layer's weight: 3.9%)."""
 
 K_SIGMA = 4.0
 """How many standard deviations a statistic may stray before the renderers are said to
@@ -129,7 +138,7 @@ def compare(a_name: str, a_seeds: list[np.ndarray],
         mean_ratio_rgb_sigma=rgb_sigma,
         median_pixel_ratio=median,
         rmse_ok=bool(mse_ratio <= bound),
-        mean_ok=bool(abs(mean_ratio - 1) <= K_SIGMA * mean_sigma),
+        mean_ok=bool(abs(mean_ratio - 1) <= K_SIGMA * mean_sigma + BIAS_ALLOWANCE),
     )
 
 

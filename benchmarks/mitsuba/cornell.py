@@ -290,7 +290,7 @@ def main() -> int:
     if not args.no_venv:
         ensure_venv()
     mi = import_mitsuba(args.variant)
-    from agreement import K_SIGMA, compare, table
+    from agreement import BIAS_ALLOWANCE, K_SIGMA, compare, table
     from mitsuba_gltf import UnsupportedScene, export_gltf
 
     out = args.out.resolve()
@@ -322,7 +322,8 @@ def main() -> int:
     rows = [compare(a, images[a], b, images[b]) for a, b in pairs]
 
     print(f"\nAgreement ({args.size}x{args.size}; seed means of two seeds each; "
-          f"bounds at {K_SIGMA:g} sigma of the measured noise):\n")
+          f"bounds at {K_SIGMA:g} sigma of the measured noise, means also "
+          f"{BIAS_ALLOWANCE:.1%} apart):\n")
     print(table(rows))
     specular_ignored = any("KHR_materials_specular" in w
                            for run in runs.values() for w in run["warnings"])

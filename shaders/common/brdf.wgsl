@@ -180,30 +180,89 @@ fn ggx_lobe(h: vec3<f32>, cos_o: f32, cos_i: f32, a2: f32) -> f32 {
     return ggx_d(h, a2) * smith_g2(cos_o, cos_i, a2) / (4.0 * cos_o * cos_i);
 }
 
-// The BRDF value; zero unless both directions are above the surface.
-fn brdf_eval(brdf: Brdf, wo: vec3<f32>, wi: vec3<f32>) -> vec3<f32> {
+// A `Brdf` with its outgoing direction `wo` fixed (`brdf_seen_from`): its Fresnel terms,
+// diffuse albedo and lobe probability computed once, as a path vertex needs them several times
+// (the reference's `ViewedBrdf`). The `brdf_*` functions below are written on top of it.
+struct ViewedBrdf {
+    wo: vec3<f32>,
+    alpha: f32,
+    // The layer's Fresnel reflectance at normal and at grazing incidence (`brdf_f0`,
+    // `brdf_f90`).
+    normal_reflectance: vec3<f32>,
+    // alpha^2.
+    alpha_sq: f32,
+    // The Lambert lobe's value, `diffuse albedo(wo) / pi`.
+    diffuse: vec3<f32>,
+    grazing_reflectance: f32,
+    // Probability of sampling the specular lobe (`brdf_specular_probability`).
+    p_specular: f32,
+    // False when Schlick's term is zero at every angle (F0 = 0, F90 = 0: a dielectric without
+    // specular layer), so the specular lobe adds exactly nothing and is skipped.
+    specular_layer: bool,
+}
+
+// `brdf` seen from `wo`, with what depends on `wo` alone computed once.
+fn brdf_seen_from(brdf: Brdf, wo: vec3<f32>) -> ViewedBrdf {
+    let f0 = brdf_f0(brdf);
+    let f90 = brdf_f90(brdf);
+    let diffuse_albedo = brdf_diffuse_albedo(brdf, wo.z);
+    // The lobe probability, spelt out so its Fresnel term and albedo are shared: the luminance
+    // of the Fresnel reflectance at `wo` against that of the diffuse albedo, kept within
+    // [0.1, 0.9] unless a lobe is black (metals always sample specular, a dielectric without
+    // specular layer never does).
+    let specular = luminance(schlick(f0, f90, wo.z));
+    var p_specular = 0.0;
+    if specular > 0.0 {
+        let diffuse = luminance(diffuse_albedo);
+        p_specular = 1.0;
+        if diffuse > 0.0 {
+            p_specular = clamp(specular / (specular + diffuse), SPECULAR_PICK_MIN, SPECULAR_PICK_MAX);
+        }
+    }
+    let layer = any(f0 != vec3(0.0)) || f90 != 0.0;
+    return ViewedBrdf(wo, brdf.alpha, f0, brdf.alpha * brdf.alpha, diffuse_albedo / PI, f90, p_specular, layer);
+}
+
+// The BRDF value towards `wi`; zero unless both directions are above the surface.
+fn viewed_eval(v: ViewedBrdf, wi: vec3<f32>) -> vec3<f32> {
+    let wo = v.wo;
     if wo.z <= 0.0 || wi.z <= 0.0 {
         return vec3<f32>(0.0);
     }
+    if !v.specular_layer {
+        return v.diffuse;
+    }
     let h = normalize_like_reference(wo + wi);
-    let a2 = brdf.alpha * brdf.alpha;
-    let specular = ggx_lobe(h, wo.z, wi.z, a2);
-    return brdf_diffuse_albedo(brdf, wo.z) / PI + schlick(brdf_f0(brdf), brdf_f90(brdf), dot(wo, h)) * specular;
+    let specular = ggx_lobe(h, wo.z, wi.z, v.alpha_sq);
+    return v.diffuse + schlick(v.normal_reflectance, v.grazing_reflectance, dot(wo, h)) * specular;
 }
 
-// Probability that `brdf_sample` picks the specular lobe for `wo`: the luminance of the Fresnel
-// reflectance at `wo` against that of the diffuse albedo, kept within [0.1, 0.9] unless a lobe
-// is black (metals always sample specular, a dielectric without specular layer never does).
-fn brdf_specular_probability(brdf: Brdf, wo: vec3<f32>) -> f32 {
-    let specular = luminance(schlick(brdf_f0(brdf), brdf_f90(brdf), wo.z));
-    if specular <= 0.0 {
+// pdf of the reflected visible-normal sample: `G1(wo) * D(h) / (4 * wo.z)`.
+fn viewed_specular_pdf(v: ViewedBrdf, wi: vec3<f32>) -> f32 {
+    let h = normalize_like_reference(v.wo + wi);
+    return smith_g1(v.wo.z, v.alpha_sq) * ggx_d(h, v.alpha_sq) / (4.0 * v.wo.z);
+}
+
+// Solid-angle pdf of `viewed_sample` producing `wi`.
+fn viewed_pdf(v: ViewedBrdf, wi: vec3<f32>) -> f32 {
+    if v.wo.z <= 0.0 || wi.z <= 0.0 {
         return 0.0;
     }
-    let diffuse = luminance(brdf_diffuse_albedo(brdf, wo.z));
-    if diffuse <= 0.0 {
-        return 1.0;
+    let diffuse = (1.0 - v.p_specular) * wi.z / PI;
+    if v.p_specular <= 0.0 {
+        return diffuse;
     }
-    return clamp(specular / (specular + diffuse), SPECULAR_PICK_MIN, SPECULAR_PICK_MAX);
+    return v.p_specular * viewed_specular_pdf(v, wi) + diffuse;
+}
+
+// The BRDF value; zero unless both directions are above the surface.
+fn brdf_eval(brdf: Brdf, wo: vec3<f32>, wi: vec3<f32>) -> vec3<f32> {
+    return viewed_eval(brdf_seen_from(brdf, wo), wi);
+}
+
+// Probability that `brdf_sample` picks the specular lobe for `wo`.
+fn brdf_specular_probability(brdf: Brdf, wo: vec3<f32>) -> f32 {
+    return brdf_seen_from(brdf, wo).p_specular;
 }
 
 // pdf of the reflected visible-normal sample: `G1(wo) * D(h) / (4 * wo.z)`.
@@ -215,15 +274,7 @@ fn brdf_specular_pdf(brdf: Brdf, wo: vec3<f32>, wi: vec3<f32>) -> f32 {
 
 // Solid-angle pdf of `brdf_sample` producing `wi`.
 fn brdf_pdf(brdf: Brdf, wo: vec3<f32>, wi: vec3<f32>) -> f32 {
-    if wo.z <= 0.0 || wi.z <= 0.0 {
-        return 0.0;
-    }
-    let p_specular = brdf_specular_probability(brdf, wo);
-    let diffuse = (1.0 - p_specular) * wi.z / PI;
-    if p_specular <= 0.0 {
-        return diffuse;
-    }
-    return p_specular * brdf_specular_pdf(brdf, wo, wi) + diffuse;
+    return viewed_pdf(brdf_seen_from(brdf, wo), wi);
 }
 
 // A GGX microfacet normal visible from `wo`, distributed as `G1(wo) max(0, wo.h) D(h) / wo.z`
@@ -257,13 +308,14 @@ fn is_finite(x: f32) -> bool {
 // Picks a lobe with `u_lobe`, then draws a cosine-weighted direction (diffuse) or a GGX
 // visible normal reflected about it (specular), consuming the same random numbers as the
 // reference. Invalid when the direction falls below the surface.
-fn brdf_sample(brdf: Brdf, wo: vec3<f32>, u_lobe: f32, u: vec2<f32>) -> BrdfSample {
+fn viewed_sample(v: ViewedBrdf, u_lobe: f32, u: vec2<f32>) -> BrdfSample {
     var bs = BrdfSample(vec3<f32>(0.0), vec3<f32>(0.0), 0.0, false);
+    let wo = v.wo;
     if wo.z <= 0.0 {
         return bs;
     }
-    if u_lobe < brdf_specular_probability(brdf, wo) {
-        let h = sample_ggx_vndf(wo, brdf.alpha, u);
+    if u_lobe < v.p_specular {
+        let h = sample_ggx_vndf(wo, v.alpha, u);
         bs.wi = 2.0 * dot(wo, h) * h - wo;
     } else {
         bs.wi = cosine_hemisphere(u);
@@ -271,12 +323,17 @@ fn brdf_sample(brdf: Brdf, wo: vec3<f32>, u_lobe: f32, u: vec2<f32>) -> BrdfSamp
     if bs.wi.z <= 0.0 {
         return bs;
     }
-    bs.pdf = brdf_pdf(brdf, wo, bs.wi);
+    bs.pdf = viewed_pdf(v, bs.wi);
     bs.valid = bs.pdf > 0.0 && is_finite(bs.pdf);
     if bs.valid {
-        bs.f = brdf_eval(brdf, wo, bs.wi);
+        bs.f = viewed_eval(v, bs.wi);
     }
     return bs;
+}
+
+// `viewed_sample` of `brdf` seen from `wo`.
+fn brdf_sample(brdf: Brdf, wo: vec3<f32>, u_lobe: f32, u: vec2<f32>) -> BrdfSample {
+    return viewed_sample(brdf_seen_from(brdf, wo), u_lobe, u);
 }
 
 // The dielectric layer as one f32 for a G-buffer channel (`gbuffer.base_color`'s w): the

@@ -24,7 +24,7 @@
 
 #import gi::math::PI
 #import gi::sampling::{Sampler, sampler_new, sampler_next_f32, sampler_next_2d, cosine_hemisphere, power_heuristic, Frame, frame_from_normal, frame_to_local, frame_to_world}
-#import gi::brdf::{Brdf, brdf_new, brdf_with_specular, brdf_eval, brdf_pdf, brdf_sample, is_finite}
+#import gi::brdf::{ViewedBrdf, brdf_new, brdf_with_specular, brdf_seen_from, viewed_eval, viewed_pdf, viewed_sample, is_finite}
 #import gi::bvh::{Ray, Hit, trace_closest, trace_any, BVH_MISS}
 #import gi::camera::{Camera, camera_ray}
 #import gi::scene::{triangles, selection, lights, sample_texture, emission, dielectric_specular, geometric_normal, triangle_uv, material_of, shading_normal}
@@ -87,7 +87,8 @@ struct Surface {
     ng: vec3<f32>,
     frame: Frame,
     wo: vec3<f32>,
-    brdf: Brdf,
+    // The BRDF seen from `wo`.
+    brdf: ViewedBrdf,
     emitted: vec3<f32>,
 }
 
@@ -118,7 +119,7 @@ fn surface_at(dir: vec3<f32>, triangle: u32, b: vec2<f32>) -> Surface {
     let material = material_of(triangle, uniforms.default_material);
     let base = material.base_color.xyz * sample_texture(material.base_color_texture, uv).xyz;
     let mr = sample_texture(material.metallic_roughness_texture, uv);
-    s.brdf = brdf_with_specular(
+    let brdf = brdf_with_specular(
         brdf_new(base, material.metallic * mr.z, material.roughness * mr.y),
         dielectric_specular(material, uv),
     );
@@ -127,6 +128,7 @@ fn surface_at(dir: vec3<f32>, triangle: u32, b: vec2<f32>) -> Surface {
         s.emitted = emission(material, uv);
     }
     s.wo = frame_to_local(s.frame, wo);
+    s.brdf = brdf_seen_from(brdf, s.wo);
     return s;
 }
 
@@ -156,7 +158,7 @@ fn punctual_lights(s: Surface, x: vec3<f32>) -> vec3<f32> {
             continue;
         }
         let wi_local = frame_to_local(s.frame, incident.wi);
-        let contribution = brdf_eval(s.brdf, s.wo, wi_local) * wi_local.z * incident.irradiance;
+        let contribution = viewed_eval(s.brdf, wi_local) * wi_local.z * incident.irradiance;
         if all(contribution == vec3<f32>(0.0)) {
             continue;
         }
@@ -200,11 +202,11 @@ fn sample_emitters(s: Surface, x: vec3<f32>, sampler: ptr<function, Sampler>) ->
         return vec3<f32>(0.0);
     }
     let wi_local = frame_to_local(s.frame, light.wi);
-    let contribution = brdf_eval(s.brdf, s.wo, wi_local) * wi_local.z * light.radiance;
+    let contribution = viewed_eval(s.brdf, wi_local) * wi_local.z * light.radiance;
     if all(contribution == vec3<f32>(0.0)) {
         return vec3<f32>(0.0);
     }
-    let w = power_heuristic(light.pdf, brdf_pdf(s.brdf, s.wo, wi_local));
+    let w = power_heuristic(light.pdf, viewed_pdf(s.brdf, wi_local));
     if occluded(x, light.wi, light.distance * (1.0 - SHADOW_MARGIN)) {
         return vec3<f32>(0.0);
     }
@@ -222,11 +224,11 @@ fn sample_sky(s: Surface, x: vec3<f32>, sampler: ptr<function, Sampler>) -> vec3
     if dot(wi_world, s.ng) <= 0.0 {
         return vec3<f32>(0.0);
     }
-    let contribution = brdf_eval(s.brdf, s.wo, wi) * wi.z * sky_radiance(sky(), wi_world);
+    let contribution = viewed_eval(s.brdf, wi) * wi.z * sky_radiance(sky(), wi_world);
     if all(contribution == vec3<f32>(0.0)) {
         return vec3<f32>(0.0);
     }
-    let w = power_heuristic(pdf, brdf_pdf(s.brdf, s.wo, wi));
+    let w = power_heuristic(pdf, viewed_pdf(s.brdf, wi));
     if occluded(x, wi_world, FAR) {
         return vec3<f32>(0.0);
     }
@@ -289,7 +291,7 @@ fn radiance(camera_origin: vec3<f32>, camera_dir: vec3<f32>, sampler: ptr<functi
         l += beta * direct;
 
         let u_lobe = sampler_next_f32(sampler);
-        let bs = brdf_sample(s.brdf, s.wo, u_lobe, sampler_next_2d(sampler));
+        let bs = viewed_sample(s.brdf, u_lobe, sampler_next_2d(sampler));
         if !bs.valid {
             break;
         }
