@@ -11,6 +11,13 @@ use crate::layout::{BRICK_VOXELS, GROUP_BRICKS, MAX_LEVELS, SIDE_COUNT, VOXELS_P
 /// dispatch's x dimension (at least 65,535 on every adapter).
 pub const MAX_LIT_BRICKS: u32 = 65_535;
 
+/// Most hemisphere rays per voxel side per update. `cache/propagate` spreads a side's rays over
+/// 4 threads, each ray a walk of at most 2048 cache steps (`CACHE_TRACE_MAX_STEPS`): 64 rays
+/// keep one thread within 16 walks, 32,768 steps, half of the 65,535 loop iterations a
+/// software Vulkan driver allows an invocation (and a real GPU's watchdog allows a dispatch
+/// far more). More rays per update buy less noise than the same rays over more frames.
+pub const MAX_GATHER_RAYS_PER_SIDE: u32 = 64;
+
 /// How the cache is shaped and how much work it does per frame.
 ///
 /// Defaults: 7 levels of 32 x 16 x 32 bricks (128 x 64 x 128 voxels) each, finest voxels of
@@ -173,6 +180,15 @@ impl CacheConfig {
                 return invalid(field, value.to_string(), "must be at least 1");
             }
         }
+        if self.gather_rays_per_side > MAX_GATHER_RAYS_PER_SIDE {
+            return invalid(
+                "gather_rays_per_side",
+                self.gather_rays_per_side.to_string(),
+                &format!(
+                    "must be at most {MAX_GATHER_RAYS_PER_SIDE} (each update's work per thread is bounded)"
+                ),
+            );
+        }
         if self.max_age > 255 {
             return invalid(
                 "max_age",
@@ -307,6 +323,10 @@ mod tests {
                 max_age: 300,
                 ..Default::default()
             },
+            CacheConfig {
+                gather_rays_per_side: MAX_GATHER_RAYS_PER_SIDE + 1,
+                ..Default::default()
+            },
         ];
         let fields = [
             "voxel_size_m",
@@ -314,6 +334,7 @@ mod tests {
             "level_bricks",
             "pool_bricks",
             "max_age",
+            "gather_rays_per_side",
         ];
         for (config, field) in bad.iter().zip(fields) {
             let err = config.validate().unwrap_err().to_string();
