@@ -45,8 +45,9 @@
 //! albedos of the GGX lobe with the Fresnel weights `1 - (1 - wo.h)^5` and `(1 - wo.h)^5`
 //! ([`specular_albedo`]). The total directional albedo is then
 //! `(1 - metallic) * (base * w + s * E_d) + metallic * E_m <= 1` for every base color up to
-//! white. `A` and `B` are fitted polynomials, each shifted up by its largest deficit against
-//! the quadrature so the fit never under-states the layer: the bound holds for the fit too.
+//! white. `A + B` and `B / (A + B)` are fitted polynomials, each shifted up by its largest
+//! deficit against the quadrature; the layer's albedo grows with both, so the fit never
+//! under-states it and the bound holds for the fit too.
 //! For `s = 0` the material is exactly Lambert with albedo `base`; at normal incidence
 //! and the default `F0_d` the two forms differ by at most 2.5% of a white base's albedo
 //! (roughness 1: 0.972 pointwise, 0.997 here). The weight depends on `wo` only, so the BRDF
