@@ -133,6 +133,11 @@ fn primary_hits_match_cpu_ray_cast() {
                 let base = data.base_color[pixel];
                 assert_eq!(&base[..3], &material.base_color.truncate().to_array()[..]);
                 assert_eq!(
+                    base[3],
+                    packed_layer(material),
+                    "{name} pixel ({x}, {y}): the dielectric layer"
+                );
+                assert_eq!(
                     data.metallic_roughness[pixel],
                     [material.metallic, material.roughness],
                     "{name} pixel ({x}, {y})"
@@ -398,4 +403,15 @@ fn gbuffer_structs_match_wgsl() {
             has_previous_transforms
         })
     );
+}
+
+/// `gi::brdf::pack_dielectric_specular` of an untextured material's layer, computed apart: the
+/// weight in 8 bits and the largest channel of `((ior - 1) / (ior + 1))^2 * specular color`
+/// in 12, as an integer-valued float, plus 1.
+fn packed_layer(material: &gi_scene::Material) -> f32 {
+    let r = f64::from((material.ior - 1.0) / (material.ior + 1.0));
+    let f0 = (r * r * f64::from(material.specular_color.max_element())).min(1.0);
+    let weight = (f64::from(material.specular.clamp(0.0, 1.0)) * 255.0).round() as u32;
+    let f0 = (f0 * 4095.0).round() as u32;
+    (weight * 4096 + f0 + 1) as f32
 }
