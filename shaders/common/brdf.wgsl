@@ -119,20 +119,42 @@ fn albedo_terms(sqrt_alpha_in: f32, n_dot_v: f32) -> vec2<f32> {
     return vec2(m * (1.0 - r), m * r);
 }
 
+// Weight of the Lambert base from the layer's albedo terms `ab` (`albedo_terms`).
+fn diffuse_weight_of(brdf: Brdf, ab: vec2<f32>) -> f32 {
+    if brdf.specular.weight <= 0.0 {
+        return 1.0;
+    }
+    let f0 = brdf.specular.reflectance;
+    return 1.0 - brdf.specular.weight * min(max(max(f0.x, f0.y), f0.z) * ab.x + ab.y, 1.0);
+}
+
 // Weight of the Lambert base: the share of light the dielectric's specular layer does not
 // reflect from `n_dot_v`.
 fn brdf_diffuse_weight(brdf: Brdf, n_dot_v: f32) -> f32 {
     if brdf.specular.weight <= 0.0 {
         return 1.0;
     }
-    let ab = albedo_terms(sqrt(brdf.alpha), n_dot_v);
-    let f0 = brdf.specular.reflectance;
-    return 1.0 - brdf.specular.weight * min(max(max(f0.x, f0.y), f0.z) * ab.x + ab.y, 1.0);
+    return diffuse_weight_of(brdf, albedo_terms(sqrt(brdf.alpha), n_dot_v));
 }
 
 // Albedo of the Lambert lobe seen from `n_dot_v`: `base * (1 - metallic) * w(wo)`.
 fn brdf_diffuse_albedo(brdf: Brdf, n_dot_v: f32) -> vec3<f32> {
     return brdf.base * ((1.0 - brdf.metallic) * brdf_diffuse_weight(brdf, n_dot_v));
+}
+
+// What a split-sum tier reflects from `n_dot_v`: the Lambert lobe's albedo
+// (`brdf_diffuse_albedo`) and the specular layer's (`specular_albedo`), from one evaluation
+// of the layer's albedo series.
+struct SplitSumAlbedos {
+    diffuse: vec3<f32>,
+    specular: vec3<f32>,
+}
+
+fn brdf_split_sum_albedos(brdf: Brdf, n_dot_v: f32) -> SplitSumAlbedos {
+    let ab = albedo_terms(sqrt(brdf.alpha), n_dot_v);
+    let diffuse = brdf.base * ((1.0 - brdf.metallic) * diffuse_weight_of(brdf, ab));
+    let specular = clamp(brdf_f0(brdf) * ab.x + vec3(brdf_f90(brdf) * ab.y), vec3(0.0), vec3(1.0));
+    return SplitSumAlbedos(diffuse, specular);
 }
 
 // `v / |v|` as the reference computes it (a reciprocal of the square root, then a product),
@@ -239,8 +261,7 @@ fn viewed_eval(v: ViewedBrdf, wi: vec3<f32>) -> vec3<f32> {
 
 // pdf of the reflected visible-normal sample: `G1(wo) * D(h) / (4 * wo.z)`.
 fn viewed_specular_pdf(v: ViewedBrdf, wi: vec3<f32>) -> f32 {
-    let h = normalize_like_reference(v.wo + wi);
-    return smith_g1(v.wo.z, v.alpha_sq) * ggx_d(h, v.alpha_sq) / (4.0 * v.wo.z);
+    return ggx_visible_pdf(v.wo, wi, v.alpha_sq);
 }
 
 // Solid-angle pdf of `viewed_sample` producing `wi`.
@@ -267,8 +288,13 @@ fn brdf_specular_probability(brdf: Brdf, wo: vec3<f32>) -> f32 {
 
 // pdf of the reflected visible-normal sample: `G1(wo) * D(h) / (4 * wo.z)`.
 fn brdf_specular_pdf(brdf: Brdf, wo: vec3<f32>, wi: vec3<f32>) -> f32 {
+    return ggx_visible_pdf(wo, wi, brdf.alpha * brdf.alpha);
+}
+
+// `G1(wo) * D(h) / (4 * wo.z)` for GGX `alpha^2 = a2`: the pdf of `wi` reflected about a
+// visible normal.
+fn ggx_visible_pdf(wo: vec3<f32>, wi: vec3<f32>, a2: f32) -> f32 {
     let h = normalize_like_reference(wo + wi);
-    let a2 = brdf.alpha * brdf.alpha;
     return smith_g1(wo.z, a2) * ggx_d(h, a2) / (4.0 * wo.z);
 }
 

@@ -42,7 +42,7 @@
 #import gi::packing::{pack_rgb9e5, unpack_rgb9e5, pack_unit_vector, unpack_unit_vector}
 #import gi::sampling::{Sampler, sampler_new, sampler_next_2d, frame_from_normal, frame_to_world}
 #import gi::math::INV_PI
-#import gi::brdf::{specular_albedo, gbuffer_brdf, brdf_diffuse_albedo, brdf_f0, brdf_f90}
+#import gi::brdf::{gbuffer_brdf, brdf_diffuse_albedo, brdf_split_sum_albedos}
 #import gi::mobile::lite::{lite_encode, lite_diffuse, lite_is_dynamic, lite_normal}
 #import gi::mobile::volume::volume_irradiance
 #import gi::cache::data::{cache, cache_level_of_point}
@@ -534,7 +534,7 @@ fn compose(@builtin(global_invocation_id) id: vec3<u32>) {
 
     let mr = gbuffer_metallic_roughness[pixel];
     let brdf = gbuffer_brdf(gbuffer_base_color[pixel], mr);
-    let specular = specular_albedo(brdf_f0(brdf), brdf_f90(brdf), mr.y, max(dot(n, -dir), 0.0));
+    let specular = brdf_split_sum_albedos(brdf, max(dot(n, -dir), 0.0)).specular;
     let gi = (lite_diffuse(bits) + specular) * irradiance * INV_PI;
     output[pixel] = vec4(direct + gi, 1.0);
 }

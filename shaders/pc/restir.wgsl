@@ -40,7 +40,7 @@
 // the cache (`gi::cache::data`), read by `temporal` to refresh reused samples.
 
 #import gi::math::{PI, INV_PI}
-#import gi::brdf::{brdf_new, specular_albedo, ggx_lobe, gbuffer_brdf, brdf_diffuse_albedo, brdf_f0, brdf_f90}
+#import gi::brdf::{brdf_new, specular_albedo, ggx_lobe, gbuffer_brdf, brdf_split_sum_albedos}
 #import gi::sampling::{sampler_new, sampler_next_f32, sampler_next_2d, concentric_disk, Frame, frame_from_normal, frame_to_local}
 #import gi::camera::camera_ray
 #import gi::packing::{unpack_unit_vector, pack_rgb9e5, unpack_rgb9e5, pack_color64, unpack_color64}
@@ -407,10 +407,9 @@ fn compose(@builtin(global_invocation_id) id: vec3<u32>) {
     let v = -camera_ray(u.camera, uv);
     let n = unpack_unit_vector(gbuffer_normal[pixel]);
     let mr = gbuffer_metallic_roughness[pixel];
-    let brdf = gbuffer_brdf(gbuffer_base_color[pixel], mr);
-    let n_dot_v = max(dot(n, v), 0.0);
-    let diffuse = brdf_diffuse_albedo(brdf, n_dot_v);
-    let specular = specular_albedo(brdf_f0(brdf), brdf_f90(brdf), mr.y, n_dot_v);
+    let albedos = brdf_split_sum_albedos(gbuffer_brdf(gbuffer_base_color[pixel], mr), max(dot(n, v), 0.0));
+    let diffuse = albedos.diffuse;
+    let specular = albedos.specular;
     let e = max(denoised[pixel].xyz, vec3(0.0));
     var reflected = e * INV_PI;
     let max_roughness = u.specular_max_roughness;

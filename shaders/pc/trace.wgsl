@@ -30,7 +30,7 @@
 
 #import gi::math::INV_PI
 #import gi::sampling::{Sampler, sampler_new, sampler_next_f32, sampler_next_2d, cosine_hemisphere, frame_from_normal, frame_to_world, frame_to_local}
-#import gi::brdf::{brdf_new, brdf_with_specular, brdf_diffuse_albedo, brdf_f0, brdf_f90, specular_albedo, sample_ggx_vndf, brdf_specular_pdf}
+#import gi::brdf::{brdf_new, brdf_with_specular, brdf_split_sum_albedos, sample_ggx_vndf, brdf_specular_pdf}
 #import gi::bvh::{Ray, trace_closest, trace_any, BVH_MISS}
 #import gi::camera::camera_ray
 #import gi::scene::{triangles, lights, selection, sample_texture, emission, dielectric_specular, geometric_normal, triangle_uv, material_of}
@@ -153,9 +153,8 @@ fn shade_hit(dir: vec3<f32>, triangle: u32, b: vec2<f32>, sampler: ptr<function,
     );
     // The hit reflects towards the ray its diffuse lobe and, by the split-sum approximation,
     // its specular lobe: metals (no diffuse lobe) would otherwise reflect nothing.
-    let n_dot_v = max(dot(ng, -dir), 0.0);
-    let albedo = brdf_diffuse_albedo(brdf, n_dot_v)
-        + specular_albedo(brdf_f0(brdf), brdf_f90(brdf), sqrt(brdf.alpha), n_dot_v);
+    let albedos = brdf_split_sum_albedos(brdf, max(dot(ng, -dir), 0.0));
+    let albedo = albedos.diffuse + albedos.specular;
     var radiance = vec3(0.0);
     if front_facing || material.double_sided != 0u {
         radiance = emission(material, uv);

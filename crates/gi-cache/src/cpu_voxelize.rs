@@ -298,11 +298,7 @@ pub fn material_at(scene: &CacheScene<'_>, triangle: u32, b: Vec3) -> (Vec3, Vec
     };
     let base = material.base_color.truncate() * sample(material.base_color_texture).truncate();
     let mr = sample(material.metallic_roughness_texture);
-    let layer = DielectricSpecular::new(
-        material.specular * sample(material.specular_texture).w,
-        material.specular_color * sample(material.specular_color_texture).truncate(),
-        material.ior,
-    );
+    let layer = DielectricSpecular::of_material(material, sample);
     let albedo = Brdf::new(base, material.metallic * mr.z, material.roughness * mr.y)
         .with_specular(layer)
         .diffuse_albedo(MEAN_VIEW_COSINE);

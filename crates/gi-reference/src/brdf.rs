@@ -59,7 +59,7 @@
 
 use std::f32::consts::PI;
 
-use glam::{Vec2, Vec3};
+use glam::{Vec2, Vec3, Vec4};
 
 use crate::sampling::cosine_hemisphere;
 
@@ -101,6 +101,18 @@ impl Default for DielectricSpecular {
 }
 
 impl DielectricSpecular {
+    /// The layer of `material` (`KHR_materials_specular`, `KHR_materials_ior`): its factors
+    /// times its textures, which `sample` reads (white where the material has none), as every
+    /// tier reads them (`gi::scene::dielectric_specular` on the GPU).
+    pub fn of_material(
+        material: &gi_scene::Material,
+        sample: impl Fn(Option<usize>) -> Vec4,
+    ) -> Self {
+        let weight = material.specular * sample(material.specular_texture).w;
+        let color = material.specular_color * sample(material.specular_color_texture).truncate();
+        Self::new(weight, color, material.ior)
+    }
+
     /// From the extensions' values: `weight` (specular factor x texture alpha), the specular
     /// color (factor x texture rgb, linear) and the index of refraction. Out-of-range values are
     /// clamped (weight to `[0, 1]`, color to at least 0, `F0_d` to at most 1); ior 0, which

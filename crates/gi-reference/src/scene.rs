@@ -189,25 +189,15 @@ impl Reference {
                 .sample_texture(material.base_color_texture, uv)
                 .truncate();
         let mr = self.sample_texture(material.metallic_roughness_texture, uv);
-        Brdf::new(base, material.metallic * mr.z, material.roughness * mr.y)
-            .with_specular(self.dielectric_specular(material, uv))
+        Brdf::new(base, material.metallic * mr.z, material.roughness * mr.y).with_specular(
+            DielectricSpecular::of_material(material, |texture| self.sample_texture(texture, uv)),
+        )
     }
 
     pub(crate) fn texture(&self, index: Option<usize>) -> Option<&Texture> {
         index
             .and_then(|i| self.textures.get(i))
             .filter(|t| t.width > 0 && t.height > 0 && !t.texels.is_empty())
-    }
-
-    /// The dielectric's specular layer of `material` at `uv` (`KHR_materials_specular`,
-    /// `KHR_materials_ior`); the untextured default needs no lookup.
-    fn dielectric_specular(&self, material: &Material, uv: Vec2) -> DielectricSpecular {
-        let weight = material.specular * self.sample_texture(material.specular_texture, uv).w;
-        let color = material.specular_color
-            * self
-                .sample_texture(material.specular_color_texture, uv)
-                .truncate();
-        DielectricSpecular::new(weight, color, material.ior)
     }
 
     fn sample_texture(&self, index: Option<usize>, uv: Vec2) -> Vec4 {

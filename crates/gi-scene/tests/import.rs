@@ -167,6 +167,21 @@ impl Doc {
     }
 }
 
+/// `doc` with its one primitive repeated once per material, the i-th using material i.
+fn primitive_per_material(doc: &[u8], count: usize) -> Value {
+    let mut doc: Value = serde_json::from_slice(doc).unwrap();
+    let primitive = doc["meshes"][0]["primitives"][0].clone();
+    let primitives: Vec<Value> = (0..count)
+        .map(|m| {
+            let mut p = primitive.clone();
+            p["material"] = json!(m);
+            p
+        })
+        .collect();
+    doc["meshes"][0]["primitives"] = json!(primitives);
+    doc
+}
+
 /// A document with one triangle node plus `extra` merged into the top level.
 fn triangle_doc(extra: Value) -> Vec<u8> {
     let mut d = Doc::default();
@@ -712,14 +727,7 @@ fn specular_and_ior_extensions_are_imported() {
         "extensionsUsed": ["KHR_materials_specular", "KHR_materials_ior"],
         "extensionsRequired": ["KHR_materials_specular", "KHR_materials_ior"]
     }));
-    let mut doc: Value = serde_json::from_slice(&doc).unwrap();
-    let primitive = doc["meshes"][0]["primitives"][0].clone();
-    let with_material = |m: usize| {
-        let mut p = primitive.clone();
-        p["material"] = json!(m);
-        p
-    };
-    doc["meshes"][0]["primitives"] = json!([with_material(0), with_material(1), with_material(2)]);
+    let doc = primitive_per_material(&doc, 3);
     let (scene, warnings) = load_doc(&serde_json::to_vec(&doc).unwrap());
     assert!(
         !warnings
@@ -761,14 +769,7 @@ fn unsupported_features_produce_warnings() {
         "images": [{ "uri": gray_png_uri() }],
         "extensionsUsed": ["KHR_materials_clearcoat", "KHR_texture_transform"]
     }));
-    let mut doc: Value = serde_json::from_slice(&doc).unwrap();
-    let primitive = doc["meshes"][0]["primitives"][0].clone();
-    let with_material = |m: usize| {
-        let mut p = primitive.clone();
-        p["material"] = json!(m);
-        p
-    };
-    doc["meshes"][0]["primitives"] = json!([with_material(0), with_material(1), with_material(2)]);
+    let doc = primitive_per_material(&doc, 3);
     let (scene, warnings) = load_doc(&serde_json::to_vec(&doc).unwrap());
     for text in [
         "BLEND",
