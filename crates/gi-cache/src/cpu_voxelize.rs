@@ -34,7 +34,7 @@
 //!   ([`crate::layout::geometry_box_bits`]; the whole voxel when they only touch it).
 
 use gi_reference::brdf::{Brdf, DielectricSpecular};
-use gi_scene::{Material, Texture};
+use gi_scene::{Material, TextureRef, sample_texture};
 use glam::{IVec3, Vec2, Vec3, Vec4};
 
 use crate::binning::{CacheScene, TRIANGLE_DYNAMIC_BIT};
@@ -282,19 +282,16 @@ pub const MEAN_VIEW_COSINE: f32 = 2.0 / 3.0;
 /// reference's material and texture rules.
 pub fn material_at(scene: &CacheScene<'_>, triangle: u32, b: Vec3) -> (Vec3, Vec3) {
     let attributes = &scene.frame.attributes[triangle as usize];
-    let [t0, t1, t2] = attributes.uvs;
-    let uv: Vec2 = t0 * b.x + t1 * b.y + t2 * b.z;
+    let interpolate = |[t0, t1, t2]: [Vec2; 3]| t0 * b.x + t1 * b.y + t2 * b.z;
+    let (uv0, uv1) = (interpolate(attributes.uvs), interpolate(attributes.uvs1));
     let default = Material::default();
     let material = scene
         .scene
         .materials
         .get(attributes.material as usize)
         .unwrap_or(&default);
-    let sample = |index: Option<usize>| -> Vec4 {
-        index
-            .and_then(|i| scene.scene.textures.get(i))
-            .filter(|t: &&Texture| t.width > 0 && t.height > 0 && !t.texels.is_empty())
-            .map_or(Vec4::ONE, |t| t.sample_bilinear(uv))
+    let sample = |texture: Option<TextureRef>| -> Vec4 {
+        sample_texture(&scene.scene.textures, texture, uv0, uv1)
     };
     let base = material.base_color.truncate() * sample(material.base_color_texture).truncate();
     let mr = sample(material.metallic_roughness_texture);

@@ -214,14 +214,10 @@ impl GpuScene {
     pub fn upload(ctx: &GpuContext, scene: &Scene, frame: &SceneFrame) -> Result<Self, BvhError> {
         let bvh = GpuBvh::from_scene(ctx, scene, frame)?;
         let triangles = triangle_shading(frame);
-        let texture_ok = |index: Option<usize>| {
-            index
-                .filter(|&i| {
-                    scene
-                        .textures
-                        .get(i)
-                        .is_some_and(|t| t.width > 0 && t.height > 0 && !t.texels.is_empty())
-                })
+        let texture_ok = |texture: Option<gi_scene::TextureRef>| {
+            texture
+                .map(|r| r.texture)
+                .filter(|&i| scene.textures.get(i).is_some_and(|t| t.is_valid()))
                 .map_or(NO_TEXTURE, |i| i as u32)
         };
         let materials: Vec<GpuMaterial> = scene
@@ -254,7 +250,7 @@ impl GpuScene {
                 height: t.height,
                 pad: 0,
             });
-            texels.extend(t.texels.iter().map(|v| v.to_array()));
+            texels.extend(t.texels.iter().map(|&v| t.decode(v).to_array()));
         }
         let table = EmitterTable::build(scene, frame);
         let lights: Vec<GpuLight> = frame.lights.iter().map(gpu_light).collect();

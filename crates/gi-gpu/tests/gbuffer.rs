@@ -171,7 +171,7 @@ fn primary_hits_match_cpu_ray_cast() {
 /// and emission, and UVs from the vertex positions, so texture lookups vary over each face.
 fn textured_cornell_box() -> Scene {
     let mut scene = load("cornell-box");
-    let texels = (0..16)
+    let texels: Vec<glam::Vec4> = (0..16)
         .map(|i| {
             let f = i as f32 / 15.0;
             glam::Vec4::new(
@@ -182,17 +182,18 @@ fn textured_cornell_box() -> Scene {
             )
         })
         .collect();
-    scene.textures.push(gi_scene::Texture {
-        name: "gbuffer.test_texture".to_owned(),
-        width: 4,
-        height: 4,
-        texels,
-    });
-    let texture = scene.textures.len() - 1;
+    scene.textures.push(gi_scene::Texture::from_linear(
+        "gbuffer.test_texture",
+        4,
+        4,
+        gi_scene::TextureEncoding::Srgb,
+        &texels,
+    ));
+    let texture = Some(gi_scene::TextureRef::new(scene.textures.len() - 1));
     for material in &mut scene.materials {
-        material.base_color_texture = Some(texture);
-        material.metallic_roughness_texture = Some(texture);
-        material.emissive_texture = Some(texture);
+        material.base_color_texture = texture;
+        material.metallic_roughness_texture = texture;
+        material.emissive_texture = texture;
     }
     for mesh in &mut scene.meshes {
         for primitive in &mut mesh.primitives {

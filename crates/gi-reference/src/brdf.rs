@@ -106,7 +106,7 @@ impl DielectricSpecular {
     /// tier reads them (`gi::scene::dielectric_specular` on the GPU).
     pub fn of_material(
         material: &gi_scene::Material,
-        sample: impl Fn(Option<usize>) -> Vec4,
+        sample: impl Fn(Option<gi_scene::TextureRef>) -> Vec4,
     ) -> Self {
         let weight = material.specular * sample(material.specular_texture).w;
         let color = material.specular_color * sample(material.specular_color_texture).truncate();

@@ -29,21 +29,48 @@ struct Bounce {
 }
 
 impl Reference {
-    /// Closest hit along a ray from `origin` (counted in `rays`).
+    /// Closest hit along a ray from `origin` (counted in `rays`). Hits where an alpha-tested
+    /// surface is absent ([`Reference::covers`]) are skipped: the ray goes on past them.
     pub(crate) fn trace(&self, origin: Vec3, dir: Vec3, rays: &mut u64) -> Option<Hit> {
         *rays += 1;
         // The surface computes its own barycentrics (clamped, in f64), so the BVH's are
         // not asked for.
-        let (t, triangle) = self.bvh.closest_triangle(origin, dir, 0.0, f32::INFINITY)?;
-        Some(Hit { t, triangle })
+        let mut t_min = 0.0;
+        loop {
+            let (t, triangle) = self
+                .bvh
+                .closest_triangle(origin, dir, t_min, f32::INFINITY)?;
+            if self.covers_hit(origin, dir, triangle) {
+                return Some(Hit { t, triangle });
+            }
+            // Past the rejected hit: t grows every round, so the loop ends.
+            t_min = next_up(t);
+        }
     }
 
     /// True when the segment `(0, t_max)` of the ray is blocked (counted in `rays`).
     pub(crate) fn occluded(&self, origin: Vec3, dir: Vec3, t_max: f32, rays: &mut u64) -> bool {
         *rays += 1;
-        self.bvh
-            .occluded(&self.frame.triangles, origin, dir, 0.0, t_max)
+        if !self.alpha_tested {
+            return self
+                .bvh
+                .occluded(&self.frame.triangles, origin, dir, 0.0, t_max);
+        }
+        // With alpha-tested surfaces, blockers are found nearest first and tested.
+        let mut t_min = 0.0;
+        while let Some((t, triangle)) = self.bvh.closest_triangle(origin, dir, t_min, t_max) {
+            if self.covers_hit(origin, dir, triangle) {
+                return true;
+            }
+            t_min = next_up(t);
+        }
+        false
     }
+}
+
+/// The next f32 above non-negative `t`.
+fn next_up(t: f32) -> f32 {
+    f32::from_bits(t.max(0.0).to_bits() + 1)
 }
 
 /// Radiance arriving at `origin` from direction `-dir` for one camera path.

@@ -96,9 +96,13 @@ impl Reference {
         if cos_light == 0.0 || (cos_light < 0.0 && !material.double_sided) {
             return None;
         }
-        let uvs = self.frame.attributes[triangle as usize].uvs;
-        let uv = uvs[0] * (1.0 - b.x - b.y) + uvs[1] * b.x + uvs[2] * b.y;
-        let radiance = self.emission(material, uv);
+        // Where an alpha-tested emitter is absent it emits nothing.
+        if material.alpha_tested() && !self.covers(triangle, b.x, b.y) {
+            return None;
+        }
+        let attributes = &self.frame.attributes[triangle as usize];
+        let at = |uvs: [Vec2; 3]| uvs[0] * (1.0 - b.x - b.y) + uvs[1] * b.x + uvs[2] * b.y;
+        let radiance = self.emission(material, at(attributes.uvs), at(attributes.uvs1));
         let pdf = selection * distance_sq / (area * cos_light.abs());
         (pdf.is_finite() && pdf > 0.0).then_some(EmitterSample {
             wi,
@@ -136,7 +140,9 @@ pub(crate) fn shadow_distance(distance: f32) -> f32 {
 
 #[cfg(test)]
 mod tests {
-    use gi_scene::{CameraView, Material, Mesh, Node, Primitive, Scene, Texture};
+    use gi_scene::{
+        CameraView, Material, Mesh, Node, Primitive, Scene, Texture, TextureEncoding, TextureRef,
+    };
     use glam::{Vec2, Vec3, Vec4};
 
     use crate::sampling::Sampler;
@@ -144,8 +150,11 @@ mod tests {
 
     /// Two textured emitters of different size and orientation (one double-sided).
     fn textured_emitters() -> Reference {
-        let texels = (0..16)
-            .map(|i| Vec4::new((i % 5) as f32, (i % 3) as f32, (i % 7) as f32, 1.0))
+        let texels: Vec<Vec4> = (0..16)
+            .map(|i| {
+                let c = |n: u32| (i % n) as f32 / (n - 1) as f32;
+                Vec4::new(c(5), c(3), c(7), 1.0)
+            })
             .collect();
         let triangle = |positions: Vec<Vec3>, uvs: Vec<Vec2>, material| Primitive {
             normals: vec![Vec3::Y; 3],
@@ -153,6 +162,7 @@ mod tests {
             uvs,
             indices: vec![0, 1, 2],
             material,
+            ..Default::default()
         };
         let scene = Scene {
             meshes: vec![Mesh {
@@ -189,22 +199,23 @@ mod tests {
             materials: vec![
                 Material {
                     emissive: Vec3::new(1.0, 2.0, 3.0),
-                    emissive_texture: Some(0),
+                    emissive_texture: Some(TextureRef::new(0)),
                     ..Material::default()
                 },
                 Material {
                     emissive: Vec3::splat(0.5),
-                    emissive_texture: Some(0),
+                    emissive_texture: Some(TextureRef::new(0)),
                     double_sided: true,
                     ..Material::default()
                 },
             ],
-            textures: vec![Texture {
-                name: String::new(),
-                width: 4,
-                height: 4,
-                texels,
-            }],
+            textures: vec![Texture::from_linear(
+                "",
+                4,
+                4,
+                TextureEncoding::Srgb,
+                &texels,
+            )],
             nodes: vec![Node {
                 mesh: Some(0),
                 ..Node::default()

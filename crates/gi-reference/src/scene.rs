@@ -1,7 +1,10 @@
 //! The [`Reference`]: a scene frame prepared for path tracing, and what a ray finds when it hits
 //! it (position, normals, BRDF, emission).
 
-use gi_scene::{Material, Scene, SceneBvh, SceneFrame, Texture, Triangle};
+use gi_scene::{
+    AlphaMode, Material, Scene, SceneBvh, SceneFrame, Texture, TextureRef, Triangle,
+    TriangleAttributes, blend_coverage_hash, sample_texture,
+};
 use glam::{DVec3, Vec2, Vec3, Vec4};
 
 use crate::brdf::{Brdf, DielectricSpecular, ViewedBrdf};
@@ -24,6 +27,8 @@ pub struct Reference {
     /// Per material, then one for `default_material`: the BRDF and emission when no texture
     /// varies them over the surface.
     constant_shading: Vec<ConstantShading>,
+    /// True when some material is alpha-tested: rays then test coverage at every hit on it.
+    pub(crate) alpha_tested: bool,
 }
 
 /// What a ray found: the distance along its unit direction and the triangle.
@@ -107,7 +112,9 @@ impl Reference {
             default_material: Material::default(),
             hit_triangles,
             constant_shading: Vec::new(),
+            alpha_tested: false,
         };
+        reference.alpha_tested = reference.materials.iter().any(Material::alpha_tested);
         reference.constant_shading = reference
             .materials
             .iter()
@@ -120,7 +127,7 @@ impl Reference {
     /// What of `material`'s shading does not depend on the texture coordinate.
     fn constant_shading(&self, material: &Material) -> ConstantShading {
         let untextured =
-            |textures: &[Option<usize>]| textures.iter().all(|&t| self.texture(t).is_none());
+            |textures: &[Option<TextureRef>]| textures.iter().all(|&t| self.texture(t).is_none());
         // Without textures, sampling them gives exactly 1: the values the surface computes.
         let brdf = untextured(&[
             material.base_color_texture,
@@ -128,9 +135,9 @@ impl Reference {
             material.specular_texture,
             material.specular_color_texture,
         ])
-        .then(|| self.brdf(material, Vec2::ZERO));
-        let emission =
-            untextured(&[material.emissive_texture]).then(|| self.emission(material, Vec2::ZERO));
+        .then(|| self.brdf(material, Vec2::ZERO, Vec2::ZERO));
+        let emission = untextured(&[material.emissive_texture])
+            .then(|| self.emission(material, Vec2::ZERO, Vec2::ZERO));
         ConstantShading { brdf, emission }
     }
 
@@ -182,38 +189,68 @@ impl Reference {
         self.constant_shading[index.min(self.materials.len())]
     }
 
-    /// The BRDF of `material` at texture coordinate `uv`.
-    fn brdf(&self, material: &Material, uv: Vec2) -> Brdf {
-        let base = material.base_color.truncate()
-            * self
-                .sample_texture(material.base_color_texture, uv)
-                .truncate();
-        let mr = self.sample_texture(material.metallic_roughness_texture, uv);
-        Brdf::new(base, material.metallic * mr.z, material.roughness * mr.y).with_specular(
-            DielectricSpecular::of_material(material, |texture| self.sample_texture(texture, uv)),
-        )
+    /// The BRDF of `material` at a point with vertex texture coordinates `uv0`, `uv1`.
+    fn brdf(&self, material: &Material, uv0: Vec2, uv1: Vec2) -> Brdf {
+        let sample = |texture| self.sample_texture(texture, uv0, uv1);
+        let base = material.base_color.truncate() * sample(material.base_color_texture).truncate();
+        let mr = sample(material.metallic_roughness_texture);
+        Brdf::new(base, material.metallic * mr.z, material.roughness * mr.y)
+            .with_specular(DielectricSpecular::of_material(material, sample))
     }
 
-    pub(crate) fn texture(&self, index: Option<usize>) -> Option<&Texture> {
-        index
-            .and_then(|i| self.textures.get(i))
-            .filter(|t| t.width > 0 && t.height > 0 && !t.texels.is_empty())
+    pub(crate) fn texture(&self, texture: Option<TextureRef>) -> Option<&Texture> {
+        texture
+            .and_then(|r| self.textures.get(r.texture))
+            .filter(|t| t.is_valid())
     }
 
-    fn sample_texture(&self, index: Option<usize>, uv: Vec2) -> Vec4 {
-        self.texture(index)
-            .map_or(Vec4::ONE, |texture| texture.sample_bilinear(uv))
+    fn sample_texture(&self, texture: Option<TextureRef>, uv0: Vec2, uv1: Vec2) -> Vec4 {
+        sample_texture(&self.textures, texture, uv0, uv1)
     }
 
-    /// Emissive radiance of `material` at texture coordinate `uv` (either side).
-    pub(crate) fn emission(&self, material: &Material, uv: Vec2) -> Vec3 {
+    /// Emissive radiance of `material` at a point with vertex texture coordinates `uv0`,
+    /// `uv1` (either side).
+    pub(crate) fn emission(&self, material: &Material, uv0: Vec2, uv1: Vec2) -> Vec3 {
         if material.emissive == Vec3::ZERO {
             return Vec3::ZERO;
         }
         material.emissive
             * self
-                .sample_texture(material.emissive_texture, uv)
+                .sample_texture(material.emissive_texture, uv0, uv1)
                 .truncate()
+    }
+
+    /// True when the surface of `triangle` exists at barycentrics `(b1, b2)` for a ray: always
+    /// for opaque materials; where the alpha reaches the cutoff for `MASK`; where the alpha
+    /// exceeds [`blend_coverage_hash`] for `BLEND`.
+    pub(crate) fn covers(&self, triangle: u32, b1: f32, b2: f32) -> bool {
+        let material = self.material(triangle);
+        if material.alpha_mode == AlphaMode::Opaque {
+            return true;
+        }
+        let attributes = &self.frame.attributes[triangle as usize];
+        let b0 = 1.0 - b1 - b2;
+        let (uv0, uv1) = (
+            interpolate(attributes.uvs, b0, b1, b2),
+            interpolate(attributes.uvs1, b0, b1, b2),
+        );
+        let alpha =
+            material.base_color.w * self.sample_texture(material.base_color_texture, uv0, uv1).w;
+        match material.alpha_mode {
+            AlphaMode::Opaque => true,
+            AlphaMode::Mask { cutoff } => alpha >= cutoff,
+            AlphaMode::Blend => blend_coverage_hash(triangle, b1, b2) < alpha,
+        }
+    }
+
+    /// [`Reference::covers`] at the point where the ray from `origin` along `dir` crosses
+    /// `triangle`.
+    pub(crate) fn covers_hit(&self, origin: Vec3, dir: Vec3, triangle: u32) -> bool {
+        if !self.alpha_tested {
+            return true;
+        }
+        let [b1, b2] = barycentrics(&self.hit_triangles[triangle as usize], origin, dir);
+        self.covers(triangle, b1 as f32, b2 as f32)
     }
 
     /// The surface a ray from `origin` along unit `dir` found at `hit`.
@@ -231,8 +268,19 @@ impl Reference {
         let ng_front = if tri.ng == Vec3::ZERO { wo } else { tri.ng };
         let front_facing = ng_front.dot(wo) >= 0.0;
         let ng = if front_facing { ng_front } else { -ng_front };
+        let material = || self.material(hit.triangle);
+        let uvs = || {
+            (
+                interpolate(attributes.uvs, b0, b1, b2),
+                interpolate(attributes.uvs1, b0, b1, b2),
+            )
+        };
         let [n0, n1, n2] = attributes.normals;
         let mut ns = (n0 * b0 + n1 * b1 + n2 * b2).normalize_or(ng);
+        if material().normal_texture.is_some() {
+            let (uv0, uv1) = uvs();
+            ns = self.mapped_normal(material(), attributes, ns, [b0, b1, b2], uv0, uv1);
+        }
         if ns.dot(ng) < 0.0 {
             ns = -ns;
         }
@@ -243,16 +291,15 @@ impl Reference {
         let wo = frame.to_local(wo);
 
         let constant = self.constant_shading_of(hit.triangle);
-        let uv = || {
-            let [t0, t1, t2] = attributes.uvs;
-            t0 * b0 + t1 * b1 + t2 * b2
-        };
-        let material = || self.material(hit.triangle);
-        let brdf = constant.brdf.unwrap_or_else(|| self.brdf(material(), uv()));
+        let brdf = constant.brdf.unwrap_or_else(|| {
+            let (uv0, uv1) = uvs();
+            self.brdf(material(), uv0, uv1)
+        });
         let emitted = if front_facing || material().double_sided {
-            constant
-                .emission
-                .unwrap_or_else(|| self.emission(material(), uv()))
+            constant.emission.unwrap_or_else(|| {
+                let (uv0, uv1) = uvs();
+                self.emission(material(), uv0, uv1)
+            })
         } else {
             Vec3::ZERO
         };
@@ -264,6 +311,41 @@ impl Reference {
             emitted,
         }
     }
+
+    /// The unit normal `n` (the interpolated vertex normal) perturbed by `material`'s normal
+    /// texture in the tangent frame of the triangle's interpolated tangent: the map's xy scaled
+    /// by `normal_scale`, the tangent made orthogonal to `n`, the bitangent
+    /// `w * n x tangent`. `n` itself where the triangle has no usable tangent.
+    fn mapped_normal(
+        &self,
+        material: &Material,
+        attributes: &TriangleAttributes,
+        n: Vec3,
+        [b0, b1, b2]: [f32; 3],
+        uv0: Vec2,
+        uv1: Vec2,
+    ) -> Vec3 {
+        let [t0, t1, t2] = attributes.tangents;
+        let t = (t0 * b0 + t1 * b1 + t2 * b2).truncate();
+        let tangent = (t - n * n.dot(t)).normalize_or_zero();
+        if tangent == Vec3::ZERO || self.texture(material.normal_texture).is_none() {
+            return n;
+        }
+        let sign = if t0.w < 0.0 { -1.0 } else { 1.0 };
+        let bitangent = n.cross(tangent) * sign;
+        let m = self
+            .sample_texture(material.normal_texture, uv0, uv1)
+            .truncate()
+            * 2.0
+            - 1.0;
+        let m = m * Vec3::new(material.normal_scale, material.normal_scale, 1.0);
+        (tangent * m.x + bitangent * m.y + n * m.z).normalize_or(n)
+    }
+}
+
+/// `t0 b0 + t1 b1 + t2 b2`.
+fn interpolate([t0, t1, t2]: [Vec2; 3], b0: f32, b1: f32, b2: f32) -> Vec2 {
+    t0 * b0 + t1 * b1 + t2 * b2
 }
 
 /// Unit normal on the triangle's front side, `(v1 - v0) x (v2 - v0)`: the side from which the
@@ -341,6 +423,7 @@ mod tests {
                     uvs: Vec::new(),
                     indices: vec![0, 1, 2],
                     material: 0,
+                    ..Default::default()
                 }],
             }],
             materials: vec![Material {

@@ -37,8 +37,8 @@ impl EmitterDistribution {
             .map(|m| {
                 let texture = m
                     .emissive_texture
-                    .and_then(|i| textures.get(i))
-                    .filter(|t| !t.texels.is_empty());
+                    .and_then(|r| textures.get(r.texture))
+                    .filter(|t| t.is_valid());
                 let emission = m.emissive * texture.map_or(Vec3::ONE, |t| t.average().truncate());
                 let sides = if m.double_sided { 2.0 } else { 1.0 };
                 luminance(emission).max(0.0) * PI * sides

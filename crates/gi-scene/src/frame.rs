@@ -3,7 +3,7 @@
 //! Renderers never walk the hierarchy themselves; they ask [`Scene::evaluate`] for a
 //! [`SceneFrame`] and trace against its flat triangle list.
 
-use glam::{Mat4, Quat, Vec2, Vec3, Vec3A};
+use glam::{Mat4, Quat, Vec2, Vec3, Vec3A, Vec4};
 use obvhs::triangle::Triangle;
 
 use crate::model::{
@@ -16,7 +16,13 @@ use crate::model::{
 pub struct TriangleAttributes {
     /// World-space vertex normals (unit length).
     pub normals: [Vec3; 3],
+    /// `TEXCOORD_0` of the vertices (zero where the primitive has none).
     pub uvs: [Vec2; 3],
+    /// `TEXCOORD_1` of the vertices (zero where the primitive has none).
+    pub uvs1: [Vec2; 3],
+    /// World-space unit tangents with the bitangent sign in w (zero where the primitive has
+    /// none).
+    pub tangents: [Vec4; 3],
     pub material: u32,
     /// Node that instanced this triangle's mesh.
     pub node: u32,
@@ -260,6 +266,16 @@ impl Scene {
                     .iter()
                     .map(|n| normal_matrix.transform_vector3(*n).normalize_or(Vec3::Y))
                     .collect();
+                // A mirroring transform also flips the bitangent's handedness.
+                let handedness = if flips { -1.0 } else { 1.0 };
+                let tangents: Vec<Vec4> = primitive
+                    .tangents
+                    .iter()
+                    .map(|t| {
+                        let xyz = world.transform_vector3(t.truncate()).normalize_or_zero();
+                        xyz.extend(if t.w < 0.0 { -handedness } else { handedness })
+                    })
+                    .collect();
                 for tri in primitive.indices.chunks_exact(3) {
                     let mut idx = [tri[0] as usize, tri[1] as usize, tri[2] as usize];
                     if flips {
@@ -272,9 +288,13 @@ impl Scene {
                         v2: Vec3A::from(c),
                     });
                     let uv = |i: usize| primitive.uvs.get(i).copied().unwrap_or(Vec2::ZERO);
+                    let uv1 = |i: usize| primitive.uvs1.get(i).copied().unwrap_or(Vec2::ZERO);
+                    let tangent = |i: usize| tangents.get(i).copied().unwrap_or(Vec4::ZERO);
                     attributes.push(TriangleAttributes {
                         normals: idx.map(|i| normals[i]),
                         uvs: idx.map(uv),
+                        uvs1: idx.map(uv1),
+                        tangents: idx.map(tangent),
                         material: primitive.material as u32,
                         node: node_index as u32,
                     });

@@ -6,7 +6,9 @@
 //! scene `extras` (sky, exposure, camera path; see `scenes/README.md`). [`Scene::evaluate`] turns
 //! it into a [`crate::SceneFrame`]: world-space triangles, lights and camera at one time.
 
-use glam::{Quat, Vec2, Vec3, Vec4};
+use std::sync::LazyLock;
+
+use glam::{Affine2, Quat, Vec2, Vec3, Vec4};
 
 /// A scene: geometry, materials, lights, cameras, animation and render settings.
 #[derive(Clone, Debug, Default)]
@@ -59,6 +61,7 @@ impl Scene {
                 uvs: vec![Vec2::ZERO; 4],
                 indices: vec![0, 1, 2, 0, 2, 3],
                 material: self.materials.len() - 1,
+                ..Default::default()
             }],
         });
         self.nodes.push(Node {
@@ -106,36 +109,154 @@ pub struct Mesh {
 }
 
 /// Indexed triangles with one material. `normals` always has one entry per position (the importer
-/// computes them when the file has none); `uvs` is either empty or one entry per position.
+/// computes them when the file has none); `uvs`, `uvs1` and `tangents` are each either empty or
+/// one entry per position.
 #[derive(Clone, Debug, Default)]
 pub struct Primitive {
     pub positions: Vec<Vec3>,
     pub normals: Vec<Vec3>,
+    /// `TEXCOORD_0`.
     pub uvs: Vec<Vec2>,
+    /// `TEXCOORD_1`.
+    pub uvs1: Vec<Vec2>,
+    /// Unit tangents (xyz) with the bitangent's sign in w (`bitangent = w * normal x tangent`),
+    /// as glTF's `TANGENT`. The importer fills them (from the file, else MikkTSpace) for
+    /// primitives whose material has a normal texture.
+    pub tangents: Vec<Vec4>,
     /// Three indices per triangle.
     pub indices: Vec<u32>,
     /// Index into [`Scene::materials`].
     pub material: usize,
 }
 
+/// How a material's alpha (base color factor alpha times its texture's alpha) covers the
+/// surface, as glTF's `alphaMode`.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub enum AlphaMode {
+    /// Alpha is ignored: the surface is solid.
+    #[default]
+    Opaque,
+    /// The surface exists where alpha is at least `cutoff` (`alphaCutoff`, 0.5 by default) and
+    /// is absent elsewhere, for every ray.
+    Mask { cutoff: f32 },
+    /// Stochastic transparency: a ray passes through with probability `1 - alpha`, decided by a
+    /// hash of the hit (see [`blend_coverage_hash`]), so averages over samples converge to
+    /// alpha blending while each ray sees a solid or absent surface.
+    Blend,
+}
+
+/// A material's reference to a texture: which texture, which texture coordinate set
+/// (`TEXCOORD_0` or `TEXCOORD_1`) and the `KHR_texture_transform` applied to it.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct TextureRef {
+    /// Index into [`Scene::textures`].
+    pub texture: usize,
+    /// 0 or 1.
+    pub tex_coord: u32,
+    /// Maps the vertex coordinate to the texture coordinate (identity without the extension).
+    pub transform: TextureTransform,
+}
+
+impl TextureRef {
+    /// A reference to `texture` through `TEXCOORD_0`, untransformed.
+    pub fn new(texture: usize) -> Self {
+        Self {
+            texture,
+            tex_coord: 0,
+            transform: TextureTransform::IDENTITY,
+        }
+    }
+
+    /// The texture coordinate of a point whose vertex coordinates are `uv0` and `uv1`.
+    pub fn uv(&self, uv0: Vec2, uv1: Vec2) -> Vec2 {
+        let uv = if self.tex_coord == 1 { uv1 } else { uv0 };
+        if self.transform == TextureTransform::IDENTITY {
+            uv
+        } else {
+            self.transform.matrix().transform_point2(uv)
+        }
+    }
+}
+
+/// `KHR_texture_transform`: offset, rotation (radians) and scale of texture coordinates.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct TextureTransform {
+    pub offset: Vec2,
+    pub rotation: f32,
+    pub scale: Vec2,
+}
+
+impl TextureTransform {
+    pub const IDENTITY: Self = Self {
+        offset: Vec2::ZERO,
+        rotation: 0.0,
+        scale: Vec2::ONE,
+    };
+
+    /// The extension's matrix, `translation * rotation * scale`, its rotation turning the
+    /// coordinates counter-clockwise in the image (u right, v down):
+    /// `u' = ox + cos(r) sx u + sin(r) sy v`, `v' = oy - sin(r) sx u + cos(r) sy v`.
+    pub fn matrix(&self) -> Affine2 {
+        let (sin, cos) = self.rotation.sin_cos();
+        Affine2::from_cols(
+            Vec2::new(cos, -sin) * self.scale.x,
+            Vec2::new(sin, cos) * self.scale.y,
+            self.offset,
+        )
+    }
+}
+
+impl Default for TextureTransform {
+    fn default() -> Self {
+        Self::IDENTITY
+    }
+}
+
+/// The hash that decides whether a ray passes through an alpha-[`AlphaMode::Blend`] surface:
+/// uniform in `[0, 1)` from the triangle and the hit's barycentric coordinates quantized to
+/// 1/4096 of the triangle, so the CPU and GPU decide alike and a surface keeps a stable pattern
+/// of holes (hashed alpha). A hit exists where the hash is below the alpha.
+pub fn blend_coverage_hash(triangle: u32, b1: f32, b2: f32) -> f32 {
+    let q = |b: f32| (b.clamp(0.0, 1.0) * 4096.0) as u32;
+    let mut h = triangle.wrapping_mul(0x9e37_79b9) ^ q(b1).wrapping_mul(0x85eb_ca6b);
+    h ^= q(b2).wrapping_mul(0xc2b2_ae35);
+    // PCG-style output permutation.
+    h = h.wrapping_mul(747_796_405).wrapping_add(2_891_336_453);
+    h = ((h >> ((h >> 28) + 4)) ^ h).wrapping_mul(277_803_737);
+    h = (h >> 22) ^ h;
+    (h >> 8) as f32 * (1.0 / 16_777_216.0)
+}
+
 /// glTF metallic-roughness material. All colors are linear RGB.
 ///
-/// BRDF (ARCHITECTURE.md): Lambert `base * (1 - metallic) / pi` plus GGX specular with
-/// height-correlated Smith masking and Schlick Fresnel, `F0 = mix(0.04, base, metallic)`.
+/// BRDF (ARCHITECTURE.md): glTF 2.0's `mix(dielectric, metal, metallic)`; see
+/// `gi_reference::brdf`.
 #[derive(Clone, Debug)]
 pub struct Material {
     pub name: String,
-    /// Linear RGBA factor; multiplied by the base color texture when present.
+    /// Linear RGBA factor; multiplied by the base color texture when present. Alpha is the
+    /// coverage [`Material::alpha_mode`] reads.
     pub base_color: Vec4,
-    pub base_color_texture: Option<usize>,
+    pub base_color_texture: Option<TextureRef>,
     pub metallic: f32,
     /// Perceptual roughness; GGX alpha is `roughness^2`.
     pub roughness: f32,
     /// glTF convention: green channel scales roughness, blue scales metallic.
-    pub metallic_roughness_texture: Option<usize>,
+    pub metallic_roughness_texture: Option<TextureRef>,
     /// Linear emissive factor (already multiplied by KHR_materials_emissive_strength).
     pub emissive: Vec3,
-    pub emissive_texture: Option<usize>,
+    pub emissive_texture: Option<TextureRef>,
+    /// Tangent-space normal map (`normalTexture`); needs the primitive's tangents.
+    pub normal_texture: Option<TextureRef>,
+    /// `normalTexture.scale`: scales the map's x and y.
+    pub normal_scale: f32,
+    /// Ambient occlusion map (`occlusionTexture`, red channel). Kept for export; the tiers
+    /// compute occlusion themselves and do not read it.
+    pub occlusion_texture: Option<TextureRef>,
+    /// `occlusionTexture.strength`.
+    pub occlusion_strength: f32,
+    /// How alpha covers the surface.
+    pub alpha_mode: AlphaMode,
     /// Single-sided surfaces still reflect on both sides (we never cull), but they only emit
     /// on their front side; double-sided emitters emit on both sides.
     pub double_sided: bool,
@@ -143,13 +264,12 @@ pub struct Material {
     /// layer, in `[0, 1]` (0 makes a dielectric pure Lambert). 1 without the extension.
     pub specular: f32,
     /// Its texture; the alpha channel scales [`Material::specular`].
-    pub specular_texture: Option<usize>,
+    pub specular_texture: Option<TextureRef>,
     /// `KHR_materials_specular`'s `specularColorFactor`, linear; scales the dielectric's
     /// Fresnel reflectance at normal incidence. White without the extension.
     pub specular_color: Vec3,
-    /// Its texture (sRGB-encoded in the file, linear here); the rgb channels scale
-    /// [`Material::specular_color`].
-    pub specular_color_texture: Option<usize>,
+    /// Its texture (sRGB-encoded); the rgb channels scale [`Material::specular_color`].
+    pub specular_color_texture: Option<TextureRef>,
     /// `KHR_materials_ior`'s index of refraction (1.5 without the extension): the
     /// dielectric's Fresnel reflectance at normal incidence is `((ior - 1) / (ior + 1))^2`.
     pub ior: f32,
@@ -167,6 +287,11 @@ impl Default for Material {
             metallic_roughness_texture: None,
             emissive: Vec3::ZERO,
             emissive_texture: None,
+            normal_texture: None,
+            normal_scale: 1.0,
+            occlusion_texture: None,
+            occlusion_strength: 1.0,
+            alpha_mode: AlphaMode::Opaque,
             double_sided: false,
             specular: 1.0,
             specular_texture: None,
@@ -177,39 +302,180 @@ impl Default for Material {
     }
 }
 
-/// A texture decoded to linear RGBA f32 (sRGB-encoded images are decoded on import).
-#[derive(Clone, Debug)]
+impl Material {
+    /// Every texture reference of the material.
+    pub fn texture_refs(&self) -> impl Iterator<Item = TextureRef> + '_ {
+        [
+            self.base_color_texture,
+            self.metallic_roughness_texture,
+            self.emissive_texture,
+            self.normal_texture,
+            self.occlusion_texture,
+            self.specular_texture,
+            self.specular_color_texture,
+        ]
+        .into_iter()
+        .flatten()
+    }
+
+    /// True when some rays may pass through the surface (alpha `MASK` or `BLEND`).
+    pub fn alpha_tested(&self) -> bool {
+        self.alpha_mode != AlphaMode::Opaque
+    }
+}
+
+/// The linear value of texture reference `texture` at a point whose vertex texture coordinates
+/// are `uv0` and `uv1`: bilinear, repeating; white where there is no texture or it is invalid
+/// (an empty image), as every tier samples.
+pub fn sample_texture(
+    textures: &[Texture],
+    texture: Option<TextureRef>,
+    uv0: Vec2,
+    uv1: Vec2,
+) -> Vec4 {
+    texture
+        .and_then(|r| Some((r, textures.get(r.texture).filter(|t| t.is_valid())?)))
+        .map_or(Vec4::ONE, |(r, t)| t.sample_bilinear(r.uv(uv0, uv1)))
+}
+
+/// How a texture's stored values map to linear ones.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
+pub enum TextureEncoding {
+    /// Color channels through the sRGB EOTF (base color, emissive, specular color); alpha
+    /// linear.
+    Srgb,
+    /// Values as stored (metallic-roughness, normal, occlusion, specular weight).
+    #[default]
+    Linear,
+}
+
+/// An 8-bit RGBA texture as stored in the file, with the encoding its use requires.
+#[derive(Clone, Debug, Default)]
 pub struct Texture {
     pub name: String,
     pub width: u32,
     pub height: u32,
+    pub encoding: TextureEncoding,
     /// Row-major, `width * height` texels, top row first (glTF UV (0,0) is the top-left).
-    pub texels: Vec<Vec4>,
+    pub texels: Vec<[u8; 4]>,
+}
+
+/// The sRGB EOTF of every 8-bit code.
+static SRGB_TO_LINEAR: LazyLock<[f32; 256]> = LazyLock::new(|| {
+    std::array::from_fn(|code| {
+        let c = code as f32 / 255.0;
+        if c <= 0.04045 {
+            c / 12.92
+        } else {
+            ((c + 0.055) / 1.055).powf(2.4)
+        }
+    })
+});
+
+/// The linear value of sRGB-encoded 8-bit `code`.
+pub fn srgb_to_linear(code: u8) -> f32 {
+    SRGB_TO_LINEAR[code as usize]
+}
+
+/// The 8-bit sRGB code nearest to linear value `c` (clamped to `[0, 1]`).
+pub fn linear_to_srgb(c: f32) -> u8 {
+    let c = c.clamp(0.0, 1.0);
+    let encoded = if c <= 0.003_130_8 {
+        c * 12.92
+    } else {
+        1.055 * c.powf(1.0 / 2.4) - 0.055
+    };
+    (encoded * 255.0).round() as u8
 }
 
 impl Texture {
-    /// Bilinear sample with repeat wrapping; texel centers sit at half-integer coordinates.
-    pub fn sample_bilinear(&self, uv: Vec2) -> Vec4 {
+    /// A texture of linear values `texels` (row-major), quantized to 8 bits in `encoding`.
+    pub fn from_linear(
+        name: impl Into<String>,
+        width: u32,
+        height: u32,
+        encoding: TextureEncoding,
+        texels: &[Vec4],
+    ) -> Self {
+        let unorm = |c: f32| (c.clamp(0.0, 1.0) * 255.0).round() as u8;
+        let texels = texels
+            .iter()
+            .map(|t| match encoding {
+                TextureEncoding::Srgb => [
+                    linear_to_srgb(t.x),
+                    linear_to_srgb(t.y),
+                    linear_to_srgb(t.z),
+                    unorm(t.w),
+                ],
+                TextureEncoding::Linear => [unorm(t.x), unorm(t.y), unorm(t.z), unorm(t.w)],
+            })
+            .collect();
+        Self {
+            name: name.into(),
+            width,
+            height,
+            encoding,
+            texels,
+        }
+    }
+
+    /// True when the texture has texels for its whole size (an empty or inconsistent texture
+    /// samples as white).
+    pub fn is_valid(&self) -> bool {
+        self.width > 0
+            && self.height > 0
+            && self.texels.len() == self.width as usize * self.height as usize
+    }
+
+    /// The linear value of a stored texel.
+    pub fn decode(&self, texel: [u8; 4]) -> Vec4 {
+        let unorm = |c: u8| f32::from(c) * (1.0 / 255.0);
+        match self.encoding {
+            TextureEncoding::Srgb => Vec4::new(
+                srgb_to_linear(texel[0]),
+                srgb_to_linear(texel[1]),
+                srgb_to_linear(texel[2]),
+                unorm(texel[3]),
+            ),
+            TextureEncoding::Linear => Vec4::new(
+                unorm(texel[0]),
+                unorm(texel[1]),
+                unorm(texel[2]),
+                unorm(texel[3]),
+            ),
+        }
+    }
+
+    /// The linear value of texel `(x, y)` with repeat wrapping.
+    pub fn texel(&self, x: i64, y: i64) -> Vec4 {
         let (w, h) = (self.width as i64, self.height as i64);
+        let ix = x.rem_euclid(w) as usize;
+        let iy = y.rem_euclid(h) as usize;
+        self.decode(self.texels[iy * self.width as usize + ix])
+    }
+
+    /// Bilinear sample of the linear values with repeat wrapping; texel centers sit at
+    /// half-integer coordinates.
+    pub fn sample_bilinear(&self, uv: Vec2) -> Vec4 {
         let x = uv.x * self.width as f32 - 0.5;
         let y = uv.y * self.height as f32 - 0.5;
         let (x0, y0) = (x.floor(), y.floor());
         let (fx, fy) = (x - x0, y - y0);
-        let texel = |ix: i64, iy: i64| {
-            let ix = ix.rem_euclid(w) as usize;
-            let iy = iy.rem_euclid(h) as usize;
-            self.texels[iy * self.width as usize + ix]
-        };
         let (ix, iy) = (x0 as i64, y0 as i64);
-        let top = texel(ix, iy).lerp(texel(ix + 1, iy), fx);
-        let bottom = texel(ix, iy + 1).lerp(texel(ix + 1, iy + 1), fx);
+        let top = self.texel(ix, iy).lerp(self.texel(ix + 1, iy), fx);
+        let bottom = self.texel(ix, iy + 1).lerp(self.texel(ix + 1, iy + 1), fx);
         top.lerp(bottom, fy)
     }
 
-    /// Mean of all texels (used to estimate an emitter's power).
+    /// Mean of all texels' linear values (used to estimate an emitter's power).
     pub fn average(&self) -> Vec4 {
-        let sum: Vec4 = self.texels.iter().copied().sum();
+        let sum: Vec4 = self.texels.iter().map(|&t| self.decode(t)).sum();
         sum / self.texels.len().max(1) as f32
+    }
+
+    /// Bytes of the stored texels.
+    pub fn bytes(&self) -> u64 {
+        self.texels.len() as u64 * 4
     }
 }
 

@@ -8,7 +8,8 @@ use std::path::{Path, PathBuf};
 
 use gi_scene::{
     BUNDLED_SCENES, Camera, Channel, ChannelValues, Interpolation, Light, LightKind, Material,
-    Mesh, Node, Primitive, Scene, SceneBvh, Sky, Texture, generate, import_gltf, write_gltf,
+    Mesh, Node, Primitive, Scene, SceneBvh, Sky, Texture, TextureEncoding, TextureRef, generate,
+    import_gltf, write_gltf,
 };
 use glam::{Quat, Vec2, Vec3, Vec4};
 
@@ -461,18 +462,15 @@ fn feature_scene() -> Scene {
         Vec4::new(0.2, 0.2, 0.2, 0.5),
         Vec4::ONE,
     ];
-    let texture = Texture {
-        name: "checker".into(),
-        width: 2,
-        height: 2,
-        texels,
-    };
+    let color = Texture::from_linear("checker", 2, 2, TextureEncoding::Srgb, &texels);
+    let data = Texture::from_linear("checker data", 2, 2, TextureEncoding::Linear, &texels);
     let quad = Primitive {
         positions: vec![Vec3::ZERO, Vec3::X, Vec3::new(1.0, 1.0, 0.0)],
         normals: vec![Vec3::Z; 3],
         uvs: vec![Vec2::ZERO, Vec2::X, Vec2::ONE],
         indices: vec![0, 1, 2],
         material: 0,
+        ..Default::default()
     };
     Scene {
         name: "features".into(),
@@ -507,19 +505,19 @@ fn feature_scene() -> Scene {
         }],
         materials: vec![Material {
             name: "textured".into(),
-            base_color_texture: Some(0),
-            metallic_roughness_texture: Some(0),
+            base_color_texture: Some(TextureRef::new(0)),
+            metallic_roughness_texture: Some(TextureRef::new(1)),
             emissive: Vec3::new(0.5, 0.25, 0.0),
             metallic: 0.0,
             roughness: 0.5,
             double_sided: true,
             specular: 0.5,
-            specular_texture: Some(0),
+            specular_texture: Some(TextureRef::new(1)),
             specular_color: Vec3::new(1.5, 1.0, 0.5),
             ior: 1.33,
             ..Material::default()
         }],
-        textures: vec![texture],
+        textures: vec![color, data],
         lights: vec![Light {
             name: "spot".into(),
             kind: LightKind::Spot {
@@ -764,10 +762,10 @@ fn feature_scene_round_trips_through_the_importer() {
     assert_eq!(back.lights[0].kind, scene.lights[0].kind);
     assert_eq!(back.lights[0].range, Some(12.0));
     assert_eq!(back.cameras[0].aspect_ratio, Some(1.5));
-    let texture = &back.textures[back.materials[0].base_color_texture.unwrap()];
+    let texture = &back.textures[back.materials[0].base_color_texture.unwrap().texture];
     // 8-bit sRGB storage: within one code value of the original after decoding.
     assert!(
-        (texture.texels[1] - Vec4::new(1.0, 0.5, 0.25, 1.0))
+        (texture.texel(1, 0) - Vec4::new(1.0, 0.5, 0.25, 1.0))
             .abs()
             .max_element()
             < 0.01
@@ -777,9 +775,12 @@ fn feature_scene_round_trips_through_the_importer() {
     assert_eq!((m.specular, m.ior), (0.5, 1.33));
     assert_eq!(m.specular_color, Vec3::new(1.5, 1.0, 0.5));
     assert_eq!(m.specular_texture, m.metallic_roughness_texture);
-    let mr = &back.textures[back.materials[0].metallic_roughness_texture.unwrap()];
+    let mr = &back.textures[back.materials[0]
+        .metallic_roughness_texture
+        .unwrap()
+        .texture];
     assert!(
-        (mr.texels[1] - Vec4::new(1.0, 0.5, 0.25, 1.0))
+        (mr.texel(1, 0) - Vec4::new(1.0, 0.5, 0.25, 1.0))
             .abs()
             .max_element()
             < 0.01

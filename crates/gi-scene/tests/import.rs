@@ -5,8 +5,8 @@ use std::f32::consts::{FRAC_PI_2, FRAC_PI_4};
 use std::path::{Path, PathBuf};
 
 use gi_scene::{
-    ChannelValues, ImportWarning, Interpolation, LightKind, Scene, SceneError, Sky, import_gltf,
-    import_gltf_slice,
+    ChannelValues, ImportWarning, Interpolation, LightKind, Scene, SceneError, Sky,
+    TextureEncoding, TextureRef, import_gltf, import_gltf_slice,
 };
 use glam::{Quat, Vec2, Vec3, Vec4};
 use serde_json::{Value, json};
@@ -242,10 +242,15 @@ fn box_textured_decodes_the_base_color_texture_to_linear() {
         assert!(warnings.is_empty(), "{warnings:?}");
         assert_eq!(triangles(&scene), 12);
         assert_eq!(scene.textures.len(), 1);
-        assert_eq!(scene.materials[0].base_color_texture, Some(0));
+        assert_eq!(
+            scene.materials[0].base_color_texture,
+            Some(TextureRef::new(0))
+        );
         let texture = &scene.textures[0];
         assert_eq!((texture.width, texture.height), (256, 256));
-        for (texel, pixel) in texture.texels.iter().zip(png.pixels()) {
+        assert_eq!(texture.encoding, TextureEncoding::Srgb);
+        for (&texel, pixel) in texture.texels.iter().zip(png.pixels()) {
+            let texel = texture.decode(texel);
             let expected = Vec4::new(
                 srgb_to_linear(f32::from(pixel[0]) / 255.0),
                 srgb_to_linear(f32::from(pixel[1]) / 255.0),
@@ -256,8 +261,8 @@ fn box_textured_decodes_the_base_color_texture_to_linear() {
         }
         // Top row first: the logo's sky blue, sRGB (108, 173, 223), is near the top and its
         // green hills, sRGB (92, 135, 39), near the bottom; both stored linear.
-        let sky = texture.texels[60 * 256 + 128];
-        let hills = texture.texels[220 * 256 + 128];
+        let sky = texture.texel(128, 60);
+        let hills = texture.texel(128, 220);
         assert!(
             sky.abs_diff_eq(Vec4::new(0.150, 0.4179, 0.7379, 1.0), 1e-3),
             "{sky}"
@@ -694,8 +699,8 @@ fn one_image_used_as_srgb_and_linear_becomes_two_textures() {
     assert_eq!(scene.textures.len(), 2);
     let material = &scene.materials[0];
     assert_eq!(material.base_color_texture, material.emissive_texture);
-    let srgb = scene.textures[material.base_color_texture.unwrap()].texels[0];
-    let linear = scene.textures[material.metallic_roughness_texture.unwrap()].texels[0];
+    let srgb = scene.textures[material.base_color_texture.unwrap().texture].texel(0, 0);
+    let linear = scene.textures[material.metallic_roughness_texture.unwrap().texture].texel(0, 0);
     assert!(close(srgb.x, srgb_to_linear(128.0 / 255.0)));
     assert!(close(linear.x, 128.0 / 255.0));
     assert_eq!((srgb.w, linear.w), (1.0, 1.0));
@@ -738,8 +743,8 @@ fn specular_and_ior_extensions_are_imported() {
     let m = &scene.materials[0];
     assert_eq!((m.specular, m.ior), (0.25, 1.33));
     assert_eq!(m.specular_color, Vec3::new(2.0, 1.0, 0.5));
-    let color = scene.textures[m.specular_color_texture.unwrap()].texels[0];
-    let factor = scene.textures[m.specular_texture.unwrap()].texels[0];
+    let color = scene.textures[m.specular_color_texture.unwrap().texture].texel(0, 0);
+    let factor = scene.textures[m.specular_texture.unwrap().texture].texel(0, 0);
     assert!(close(color.x, srgb_to_linear(128.0 / 255.0)));
     assert!(close(factor.x, 128.0 / 255.0));
     assert_eq!(factor.w, 1.0);

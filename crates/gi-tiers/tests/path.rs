@@ -6,6 +6,7 @@ use gi_image::Image;
 use gi_reference::{Mode, Reference, RenderSettings};
 use gi_scene::{
     CameraView, Light, LightKind, Material, Mesh, Node, Primitive, Scene, SceneFrame, Sky, Texture,
+    TextureEncoding, TextureRef,
 };
 use gi_tiers::{
     CameraMode, FrameInput, GpuPathTier, Moments, Renderer, Tier, TierChoice, TierError, TierKind,
@@ -288,6 +289,7 @@ fn a_scene_that_outruns_the_cost_estimate_still_matches_the_reference() {
             .flat_map(|q| [0, 1, 2, 0, 2, 3].map(|i| 4 * q + i))
             .collect(),
         material: 0,
+        ..Default::default()
     };
     let scene = Scene {
         name: "stacked-wall".into(),
@@ -424,16 +426,14 @@ fn path_is_unavailable_for_cpu_kinds_and_auto_follows_the_policy() {
 /// emissive textures (with uvs beyond [0, 1], so wrapping counts), a double-sided textured
 /// emitter, a ranged point light, a spot light and a gradient sky.
 fn textured() -> Case {
-    let texture = |width: u32, height: u32, seed: u32| Texture {
-        name: String::new(),
-        width,
-        height,
-        texels: (0..width * height)
+    let texture = |width: u32, height: u32, seed: u32, encoding| {
+        let texels: Vec<Vec4> = (0..width * height)
             .map(|i| {
                 let c = |k: u32| ((i * 7 + seed * k) % 11) as f32 / 10.0;
                 Vec4::new(c(1), c(3), c(5), 1.0)
             })
-            .collect(),
+            .collect();
+        Texture::from_linear("", width, height, encoding, &texels)
     };
     let floor = Primitive {
         positions: vec![
@@ -451,6 +451,7 @@ fn textured() -> Case {
         ],
         indices: vec![0, 1, 2, 0, 2, 3],
         material: 0,
+        ..Default::default()
     };
     // Counter-clockwise seen from below: its front faces the floor.
     let emitter = Primitive {
@@ -463,6 +464,7 @@ fn textured() -> Case {
         uvs: vec![Vec2::ZERO, Vec2::new(1.0, 0.2), Vec2::new(0.4, 0.9)],
         indices: vec![0, 1, 2],
         material: 1,
+        ..Default::default()
     };
     let light = |kind, intensity, range| Light {
         name: String::new(),
@@ -478,20 +480,23 @@ fn textured() -> Case {
         }],
         materials: vec![
             Material {
-                base_color_texture: Some(0),
+                base_color_texture: Some(TextureRef::new(0)),
                 metallic: 0.7,
                 roughness: 0.6,
-                metallic_roughness_texture: Some(1),
+                metallic_roughness_texture: Some(TextureRef::new(1)),
                 ..Material::default()
             },
             Material {
                 emissive: Vec3::new(3.0, 2.0, 1.0),
-                emissive_texture: Some(0),
+                emissive_texture: Some(TextureRef::new(0)),
                 double_sided: true,
                 ..Material::default()
             },
         ],
-        textures: vec![texture(4, 3, 1), texture(3, 2, 2)],
+        textures: vec![
+            texture(4, 4, 1, TextureEncoding::Srgb),
+            texture(2, 2, 2, TextureEncoding::Linear),
+        ],
         lights: vec![
             light(LightKind::Point, 6.0, Some(5.0)),
             light(

@@ -120,6 +120,7 @@ pub fn quad(center: Vec3, u: Vec3, v: Vec3) -> Primitive {
         ],
         indices: vec![0, 1, 2, 0, 2, 3],
         material: 0,
+        ..Default::default()
     }
 }
 

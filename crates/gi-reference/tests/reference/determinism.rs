@@ -164,6 +164,7 @@ fn degenerate_scenes_render_without_panicking() {
             uvs: Vec::new(),
             indices: vec![0, 1, 2],
             material: 0,
+            ..Default::default()
         },
         diffuse(0.5),
     );

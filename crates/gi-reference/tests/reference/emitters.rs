@@ -3,8 +3,8 @@
 use std::f64::consts::PI;
 
 use gi_reference::{Reference, RenderSettings, Strategy};
-use gi_scene::{CameraView, Sky, Texture};
-use glam::{DVec3, Vec2, Vec3, Vec4};
+use gi_scene::{CameraView, Sky, Texture, TextureEncoding, TextureRef};
+use glam::{DVec3, Vec2, Vec3};
 
 use crate::common::{SceneBuilder, diffuse, emitter, floor, image_mean, quad, render, settings};
 
@@ -189,7 +189,8 @@ fn textured_emitters_emit_their_texture() {
         name: String::new(),
         width: 2,
         height: 1,
-        texels: vec![Vec4::new(1.0, 1.0, 1.0, 1.0), Vec4::new(0.0, 0.0, 0.0, 1.0)],
+        encoding: TextureEncoding::Srgb,
+        texels: vec![[255; 4], [0, 0, 0, 255]],
     };
     let square = Square {
         center: Vec3::new(0.1, 0.8, -0.1),
@@ -222,7 +223,7 @@ fn textured_emitters_emit_their_texture() {
         let mut builder = SceneBuilder::new(Sky::default());
         builder.add(floor(Vec3::ZERO, 10.0), diffuse(albedo));
         let mut light = emitter(Vec3::splat(square.radiance), false);
-        light.emissive_texture = Some(0);
+        light.emissive_texture = Some(TextureRef::new(0));
         builder.add(
             quad(square.center, Vec3::X * square.half, Vec3::Z * square.half),
             light,

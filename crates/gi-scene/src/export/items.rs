@@ -1,15 +1,18 @@
 //! The glTF JSON of each part of a scene: meshes, animations, nodes, lights, textures,
 //! materials and the product settings in `extras.gi`.
 
-use glam::{Quat, Vec2, Vec3, Vec4};
+use glam::{Quat, Vec2, Vec3};
 use serde_json::{Value, json};
 
 use crate::Texture;
-use crate::model::{ChannelValues, Interpolation, LightKind, Material, Scene, Sky};
+use crate::model::{
+    AlphaMode, ChannelValues, Interpolation, LightKind, Material, Scene, Sky, TextureRef,
+    TextureTransform,
+};
 
 use super::{
     ARRAY_BUFFER, ELEMENT_ARRAY_BUFFER, EMISSIVE_STRENGTH, IOR, LIGHTS_PUNCTUAL, SPECULAR,
-    UNSIGNED_INT, Writer, num, unit, unit_quat, vec_json,
+    TEXTURE_TRANSFORM, UNSIGNED_INT, Writer, num, unit, unit_quat, vec_json,
 };
 
 pub(super) fn mesh_json(mesh: &crate::model::Mesh, writer: &mut Writer) -> Value {
@@ -26,6 +29,18 @@ pub(super) fn mesh_json(mesh: &crate::model::Mesh, writer: &mut Writer) -> Value
             if !p.uvs.is_empty() {
                 let uvs: Vec<[f32; 2]> = p.uvs.iter().map(Vec2::to_array).collect();
                 attributes["TEXCOORD_0"] = json!(writer.floats(&uvs, "VEC2", Some(ARRAY_BUFFER)));
+            }
+            if !p.uvs1.is_empty() {
+                let uvs: Vec<[f32; 2]> = p.uvs1.iter().map(Vec2::to_array).collect();
+                attributes["TEXCOORD_1"] = json!(writer.floats(&uvs, "VEC2", Some(ARRAY_BUFFER)));
+            }
+            if !p.tangents.is_empty() {
+                let tangents: Vec<[f32; 4]> = p
+                    .tangents
+                    .iter()
+                    .map(|t| unit(t.truncate()).extend(if t.w < 0.0 { -1.0 } else { 1.0 }).to_array())
+                    .collect();
+                attributes["TANGENT"] = json!(writer.floats(&tangents, "VEC4", Some(ARRAY_BUFFER)));
             }
             let indices = p.indices.iter().map(|i| i.to_le_bytes());
             let indices = writer.accessor(indices, p.indices.len(), "SCALAR", UNSIGNED_INT, Some(ELEMENT_ARRAY_BUFFER));
@@ -145,82 +160,46 @@ pub(super) fn light_json(light: &crate::model::Light) -> Value {
     value
 }
 
-/// The glTF texture index of each model texture in each color space, and the PNG images to
-/// write: base color and emissive textures are stored sRGB-encoded, metallic-roughness ones
-/// linear, as glTF specifies.
-pub(super) struct Images {
-    srgb: Vec<Option<usize>>,
-    linear: Vec<Option<usize>>,
-}
-
-pub(super) fn texture_images(
-    scene: &Scene,
-    stem: &str,
-) -> (Images, Vec<(String, image::RgbaImage)>) {
-    let count = scene.textures.len();
-    let (mut srgb_used, mut linear_used) = (vec![false; count], vec![false; count]);
-    for m in &scene.materials {
-        for t in [
-            m.base_color_texture,
-            m.emissive_texture,
-            m.specular_color_texture,
-        ]
-        .into_iter()
-        .flatten()
-        {
-            srgb_used[t] = true;
-        }
-        for t in [m.metallic_roughness_texture, m.specular_texture]
-            .into_iter()
-            .flatten()
-        {
-            linear_used[t] = true;
-        }
-    }
-    let mut images = Images {
-        srgb: vec![None; count],
-        linear: vec![None; count],
-    };
-    let mut pngs = Vec::new();
-    // Model texture i becomes image i in its color space of use; a texture used in both
-    // spaces gets a second, linear image after all the others.
-    for (i, texture) in scene.textures.iter().enumerate() {
-        let srgb = srgb_used[i] || !linear_used[i];
-        pngs.push((format!("{stem}_{i}.png"), encode(texture, srgb)));
-        if srgb {
-            images.srgb[i] = Some(i);
-        } else {
-            images.linear[i] = Some(i);
-        }
-    }
-    for (i, texture) in scene.textures.iter().enumerate() {
-        if srgb_used[i] && linear_used[i] {
-            images.linear[i] = Some(pngs.len());
-            pngs.push((format!("{stem}_{i}_linear.png"), encode(texture, false)));
-        }
-    }
-    (images, pngs)
-}
-
-/// 8-bit RGBA; alpha is always linear.
-pub(super) fn encode(texture: &Texture, srgb: bool) -> image::RgbaImage {
-    let quantize = |v: f32| (v.clamp(0.0, 1.0) * 255.0 + 0.5) as u8;
-    let color = |v: f32| {
-        let v = v.clamp(0.0, 1.0);
-        if !srgb {
-            v
-        } else if v <= 0.003_130_8 {
-            v * 12.92
-        } else {
-            1.055 * v.powf(1.0 / 2.4) - 0.055
-        }
-    };
-    let data = texture
-        .texels
+/// The PNG image of every model texture (model texture `i` is glTF image and texture `i`),
+/// its stored 8-bit values as they are: glTF reads color textures as sRGB and the others as
+/// linear, which is the encoding each texture was given for its use.
+pub(super) fn texture_images(scene: &Scene, stem: &str) -> Vec<(String, image::RgbaImage)> {
+    scene
+        .textures
         .iter()
-        .flat_map(|t: &Vec4| [color(t.x), color(t.y), color(t.z), t.w].map(quantize))
-        .collect();
+        .enumerate()
+        .map(|(i, texture)| (format!("{stem}_{i}.png"), encode(texture)))
+        .collect()
+}
+
+/// 8-bit RGBA as stored.
+pub(super) fn encode(texture: &Texture) -> image::RgbaImage {
+    let data = texture.texels.iter().flatten().copied().collect();
     image::RgbaImage::from_raw(texture.width, texture.height, data).expect("validated texel count")
+}
+
+/// A `textureInfo`: index, texture coordinate set and `KHR_texture_transform`.
+fn texture_json(texture: &TextureRef) -> Value {
+    let mut value = json!({ "index": texture.texture });
+    if texture.tex_coord != 0 {
+        value["texCoord"] = json!(texture.tex_coord);
+    }
+    let t = texture.transform;
+    if t != TextureTransform::IDENTITY {
+        value["extensions"] = json!({ TEXTURE_TRANSFORM: {
+            "offset": vec_json(t.offset.to_array()),
+            "rotation": num(t.rotation),
+            "scale": vec_json(t.scale.to_array()),
+        } });
+    }
+    value
+}
+
+/// Whether `material` has a texture with `KHR_texture_transform`.
+pub(super) fn has_texture_transform(material: &Material) -> bool {
+    material
+        .texture_refs()
+        .any(|t| t.transform != TextureTransform::IDENTITY)
 }
 
 /// Whether `material` needs `KHR_materials_specular` (anything but the glTF defaults).
@@ -231,17 +210,17 @@ pub(super) fn has_specular_layer(material: &Material) -> bool {
         || material.specular_color_texture.is_some()
 }
 
-pub(super) fn material_json(material: &Material, images: &Images) -> Value {
+pub(super) fn material_json(material: &Material) -> Value {
     let mut pbr = json!({
         "baseColorFactor": vec_json(material.base_color.to_array()),
         "metallicFactor": num(material.metallic),
         "roughnessFactor": num(material.roughness),
     });
-    if let Some(t) = material.base_color_texture {
-        pbr["baseColorTexture"] = json!({ "index": images.srgb[t] });
+    if let Some(t) = &material.base_color_texture {
+        pbr["baseColorTexture"] = texture_json(t);
     }
-    if let Some(t) = material.metallic_roughness_texture {
-        pbr["metallicRoughnessTexture"] = json!({ "index": images.linear[t] });
+    if let Some(t) = &material.metallic_roughness_texture {
+        pbr["metallicRoughnessTexture"] = texture_json(t);
     }
     let mut value = json!({ "name": material.name, "pbrMetallicRoughness": pbr });
     let strength = material.emissive.max_element();
@@ -252,8 +231,24 @@ pub(super) fn material_json(material: &Material, images: &Images) -> Value {
     } else if strength > 0.0 {
         value["emissiveFactor"] = vec_json(material.emissive.to_array());
     }
-    if let Some(t) = material.emissive_texture {
-        value["emissiveTexture"] = json!({ "index": images.srgb[t] });
+    if let Some(t) = &material.emissive_texture {
+        value["emissiveTexture"] = texture_json(t);
+    }
+    if let Some(t) = &material.normal_texture {
+        value["normalTexture"] = texture_json(t);
+        value["normalTexture"]["scale"] = num(material.normal_scale);
+    }
+    if let Some(t) = &material.occlusion_texture {
+        value["occlusionTexture"] = texture_json(t);
+        value["occlusionTexture"]["strength"] = num(material.occlusion_strength);
+    }
+    match material.alpha_mode {
+        AlphaMode::Opaque => {}
+        AlphaMode::Mask { cutoff } => {
+            value["alphaMode"] = json!("MASK");
+            value["alphaCutoff"] = num(cutoff);
+        }
+        AlphaMode::Blend => value["alphaMode"] = json!("BLEND"),
     }
     if material.double_sided {
         value["doubleSided"] = json!(true);
@@ -263,11 +258,11 @@ pub(super) fn material_json(material: &Material, images: &Images) -> Value {
             "specularFactor": num(material.specular),
             "specularColorFactor": vec_json(material.specular_color.to_array()),
         });
-        if let Some(t) = material.specular_texture {
-            specular["specularTexture"] = json!({ "index": images.linear[t] });
+        if let Some(t) = &material.specular_texture {
+            specular["specularTexture"] = texture_json(t);
         }
-        if let Some(t) = material.specular_color_texture {
-            specular["specularColorTexture"] = json!({ "index": images.srgb[t] });
+        if let Some(t) = &material.specular_color_texture {
+            specular["specularColorTexture"] = texture_json(t);
         }
         value["extensions"][SPECULAR] = specular;
     }

@@ -32,6 +32,7 @@ const LIGHTS_PUNCTUAL: &str = "KHR_lights_punctual";
 const EMISSIVE_STRENGTH: &str = "KHR_materials_emissive_strength";
 const SPECULAR: &str = "KHR_materials_specular";
 const IOR: &str = "KHR_materials_ior";
+const TEXTURE_TRANSFORM: &str = "KHR_texture_transform";
 
 /// Writes `scene` as `path` (.gltf) plus a `.bin` buffer beside it.
 ///
@@ -57,7 +58,7 @@ pub(crate) fn write_gltf_files(scene: &Scene, path: &Path) -> Result<Vec<PathBuf
     let sibling = |name: &str| path.with_file_name(name);
 
     let mut writer = Writer::default();
-    let (images, pngs) = texture_images(scene, stem);
+    let pngs = texture_images(scene, stem);
     let mut root = Map::new();
     root.insert(
         "asset".into(),
@@ -85,14 +86,13 @@ pub(crate) fn write_gltf_files(scene: &Scene, path: &Path) -> Result<Vec<PathBuf
     if scene.materials.iter().any(|m| m.ior != 1.5) {
         extensions_used.push(IOR);
     }
+    if scene.materials.iter().any(items::has_texture_transform) {
+        extensions_used.push(TEXTURE_TRANSFORM);
+    }
     if !extensions_used.is_empty() {
         root.insert("extensionsUsed".into(), json!(extensions_used));
     }
-    let materials: Vec<Value> = scene
-        .materials
-        .iter()
-        .map(|m| material_json(m, &images))
-        .collect();
+    let materials: Vec<Value> = scene.materials.iter().map(material_json).collect();
     let meshes: Vec<Value> = scene
         .meshes
         .iter()

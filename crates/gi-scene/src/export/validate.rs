@@ -35,19 +35,22 @@ pub(super) fn validate(scene: &Scene) -> Result<(), String> {
         }
     }
     for (i, m) in scene.materials.iter().enumerate() {
-        let textures = [
-            m.base_color_texture,
-            m.metallic_roughness_texture,
-            m.emissive_texture,
-        ];
         let ok = m.base_color.is_finite()
             && m.emissive.is_finite()
             && m.emissive.min_element() >= 0.0
-            && finite(&[m.metallic, m.roughness])
-            && textures
-                .into_iter()
-                .flatten()
-                .all(|t| t < scene.textures.len());
+            && finite(&[
+                m.metallic,
+                m.roughness,
+                m.normal_scale,
+                m.occlusion_strength,
+            ])
+            && m.texture_refs().all(|t| {
+                t.texture < scene.textures.len()
+                    && t.tex_coord <= 1
+                    && t.transform.offset.is_finite()
+                    && t.transform.rotation.is_finite()
+                    && t.transform.scale.is_finite()
+            });
         ensure(ok, || {
             format!(
                 "material {i} '{}': non-finite value, negative emission or bad texture",
@@ -56,7 +59,7 @@ pub(super) fn validate(scene: &Scene) -> Result<(), String> {
         })?;
     }
     for (i, t) in scene.textures.iter().enumerate() {
-        let ok = t.width > 0 && t.height > 0 && t.texels.len() == (t.width * t.height) as usize;
+        let ok = t.is_valid();
         ensure(ok, || {
             format!(
                 "texture {i} '{}': texel count does not match its size",

@@ -69,6 +69,7 @@ impl MeshData {
             uvs: self.uvs,
             indices: self.indices,
             material,
+            ..Default::default()
         }
     }
 

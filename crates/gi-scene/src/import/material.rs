@@ -20,7 +20,7 @@ use image::{ImageFormat, ImageReader};
 
 use super::buffers::fetch_uri;
 use super::{Result, Source, Warnings, malformed};
-use crate::{Material, Scene, Texture};
+use crate::{Material, Scene, Texture, TextureEncoding, TextureRef};
 
 /// Imports materials and textures into a [`Scene`] as primitives ask for them.
 pub(super) struct Materials {
@@ -39,7 +39,7 @@ struct Decoded {
     name: String,
     width: u32,
     height: u32,
-    texels: Vec<Vec4>,
+    texels: Vec<[u8; 4]>,
 }
 
 impl Materials {
@@ -186,6 +186,7 @@ impl Materials {
             specular_color: specular_color.max(Vec3::ZERO),
             specular_color_texture,
             ior,
+            ..Material::default()
         })
     }
 
@@ -198,7 +199,7 @@ impl Materials {
         label: &str,
         scene: &mut Scene,
         warnings: &mut Warnings,
-    ) -> Result<Option<usize>> {
+    ) -> Result<Option<TextureRef>> {
         if info.tex_coord != 0 {
             warnings.once("texcoord", || {
                 format!(
@@ -236,26 +237,26 @@ impl Materials {
 
         let image = texture.source.value();
         if let Some(&model_index) = self.textures.get(&(image, srgb)) {
-            return Ok(Some(model_index));
+            return Ok(Some(TextureRef::new(model_index)));
         }
         let decoded = match self.images.entry(image) {
             Entry::Occupied(entry) => entry.into_mut(),
             Entry::Vacant(entry) => entry.insert(decode(source, image)?),
         };
-        let texels = if srgb {
-            decoded.texels.iter().map(|&t| srgb_to_linear(t)).collect()
-        } else {
-            decoded.texels.clone()
-        };
         scene.textures.push(Texture {
             name: decoded.name.clone(),
             width: decoded.width,
             height: decoded.height,
-            texels,
+            encoding: if srgb {
+                TextureEncoding::Srgb
+            } else {
+                TextureEncoding::Linear
+            },
+            texels: decoded.texels.clone(),
         });
         let model_index = scene.textures.len() - 1;
         self.textures.insert((image, srgb), model_index);
-        Ok(Some(model_index))
+        Ok(Some(TextureRef::new(model_index)))
     }
 }
 
@@ -292,11 +293,7 @@ fn decode(source: &Source, index: usize) -> Result<Decoded> {
     if width == 0 || height == 0 {
         return Err(malformed(format!("{label} is empty")));
     }
-    let texels = decoded
-        .into_rgba32f()
-        .pixels()
-        .map(|p| Vec4::from(p.0))
-        .collect();
+    let texels = decoded.into_rgba8().pixels().map(|p| p.0).collect();
     let name = match (&image.name, &image.uri) {
         (Some(name), _) => name.clone(),
         (None, Some(uri)) if !uri.starts_with("data:") => uri.clone(),
@@ -308,16 +305,4 @@ fn decode(source: &Source, index: usize) -> Result<Decoded> {
         height,
         texels,
     })
-}
-
-/// The exact sRGB EOTF on the color channels; alpha is linear in glTF.
-fn srgb_to_linear(texel: Vec4) -> Vec4 {
-    let eotf = |c: f32| {
-        if c <= 0.04045 {
-            c / 12.92
-        } else {
-            ((c + 0.055) / 1.055).powf(2.4)
-        }
-    };
-    Vec4::new(eotf(texel.x), eotf(texel.y), eotf(texel.z), texel.w)
 }

@@ -163,6 +163,7 @@ fn import_primitive(
         uvs,
         indices,
         material: 0,
+        ..Default::default()
     }))
 }
 
