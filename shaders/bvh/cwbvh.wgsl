@@ -28,6 +28,10 @@
 
 #define_import_path gi::bvh
 
+#ifdef ALPHA_TEST
+#import gi::scene::alpha_covers
+#endif
+
 /// A ray `origin + t * dir` for `t` in `[t_min, t_max]`. `dir` need not be unit length; `t`
 /// is measured in units of `dir`.
 struct Ray {
@@ -72,7 +76,7 @@ struct BvhTriangle {
     a: vec3<f32>,
     triangle: u32,
     b: vec3<f32>,
-    pad_b: u32,
+    flags: u32,
     c: vec3<f32>,
     pad_c: u32,
 }
@@ -108,6 +112,11 @@ const BVH_NO_STATIC_ROOT: u32 = 0xffffffffu;
 const BVH_INSTANCE_IDENTITY: u32 = 1u;
 /// `BvhInstance::flags`: the transform mirrors; the frame triangle has v1 and v2 swapped.
 const BVH_INSTANCE_MIRRORED: u32 = 2u;
+
+/// `BvhTriangle::flags` bit: the triangle's material is alpha-tested; shaders composed with
+/// `ALPHA_TEST` (which bind the scene, `gi::scene`) count its hits only where
+/// `alpha_covers` says the surface exists, others treat it as solid.
+const BVH_TRIANGLE_ALPHA: u32 = 1u;
 
 /// `Hit::triangle` of a ray that hit nothing.
 const BVH_MISS: u32 = 0xffffffffu;
@@ -293,8 +302,15 @@ fn traverse(ray: Ray, any_hit: bool) -> Hit {
                 let tri = bvh_triangles[leaf_group.x + bit];
                 let tuv = intersect_triangle(tri, state, ray.t_min, t_max);
                 if tuv.x < t_max {
+                    let triangle = triangle_base + tri.triangle;
+                    let b = select(tuv.yz, tuv.zy, mirrored);
+#ifdef ALPHA_TEST
+                    if (tri.flags & BVH_TRIANGLE_ALPHA) != 0u && !alpha_covers(triangle, b) {
+                        continue;
+                    }
+#endif
                     t_max = tuv.x;
-                    hit = Hit(tuv.x, triangle_base + tri.triangle, select(tuv.yz, tuv.zy, mirrored));
+                    hit = Hit(tuv.x, triangle, b);
                     if any_hit {
                         return hit;
                     }

@@ -17,8 +17,8 @@
     cache_keeps_emitted, cache_mask_cell, VoxelSurface, CACHE_STATE_DYNAMIC, CACHE_SIDE_COUNT,
     CACHE_STATE_BOX_SHIFT, CACHE_BOX_STEPS, cache_geometry_box
 }
-#import gi::scene::{triangles, sample_texture, emission, dielectric_specular, triangle_uv, material_of, geometric_normal}
-#import gi::brdf::{brdf_new, brdf_with_specular, brdf_diffuse_albedo}
+#import gi::scene::{triangles, emission, material_of, geometric_normal, tex_coords, material_brdf, surface_coverage}
+#import gi::brdf::brdf_diffuse_albedo
 #import gi::packing::{pack_unit_vector, pack_rgb9e5}
 
 // Mirror of `gi_cache::voxelize::VoxelizeUniforms`.
@@ -288,12 +288,15 @@ fn voxelize(@builtin(workgroup_id) workgroup: vec3<u32>, @builtin(local_invocati
             let index = brick_triangles[job.first_triangle + i] & ~TRIANGLE_DYNAMIC_BIT;
             let tri = triangles[index];
             if triangle_box_overlap(tri.pa.xyz, tri.pb.xyz, tri.pc.xyz, center, half) {
-                let area = abs(dot(clipped_area_vector(tri.pa.xyz, tri.pb.xyz, tri.pc.xyz, center, half), normal));
+                let w = closest_point_barycentrics(tri.pa.xyz, tri.pb.xyz, tri.pc.xyz, center);
+                // Alpha-tested surfaces cover the voxel where they exist (sampled at the point
+                // closest to its center).
+                let area = abs(dot(clipped_area_vector(tri.pa.xyz, tri.pb.xyz, tri.pc.xyz, center, half), normal))
+                    * surface_coverage(index, voxelize_uniforms.default_material, w);
                 projected += area;
                 let material = material_of(index, voxelize_uniforms.default_material);
                 if any(material.emissive != vec3(0.0)) {
-                    let w = closest_point_barycentrics(tri.pa.xyz, tri.pb.xyz, tri.pc.xyz, center);
-                    emitted += emission(material, triangle_uv(tri, w.x, w.y, w.z)) * area;
+                    emitted += emission(material, tex_coords(index, w, 0.0)) * area;
                 }
             }
         }
@@ -302,17 +305,10 @@ fn voxelize(@builtin(workgroup_id) workgroup: vec3<u32>, @builtin(local_invocati
         if all(box_lo <= box_hi) {
             box_bits = geometry_box_bits(box_lo, box_hi, half);
         }
-        let tri = triangles[closest_triangle];
-        let uv = triangle_uv(tri, closest_b.x, closest_b.y, closest_b.z);
         let material = material_of(closest_triangle, voxelize_uniforms.default_material);
-        let base = material.base_color.xyz * sample_texture(material.base_color_texture, uv).xyz;
-        let mr = sample_texture(material.metallic_roughness_texture, uv);
         // The cache reflects diffusely into every direction: the Lambert lobe's albedo at the
         // cosine-weighted mean view cosine (2/3) stands for its mean over the hemisphere.
-        let brdf = brdf_with_specular(
-            brdf_new(base, material.metallic * mr.z, material.roughness * mr.y),
-            dielectric_specular(material, uv),
-        );
+        let brdf = material_brdf(material, tex_coords(closest_triangle, closest_b, 0.0));
         let albedo = brdf_diffuse_albedo(brdf, 2.0 / 3.0);
         surface = VoxelSurface(
             pack4x8unorm(vec4(albedo, coverage)),

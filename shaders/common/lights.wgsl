@@ -9,7 +9,7 @@
 
 #import gi::brdf::is_finite
 #import gi::sampling::uniform_triangle
-#import gi::scene::{PunctualLight, lerp_rgb, triangles, emitters, selection, emission, geometric_normal, triangle_uv, material_of}
+#import gi::scene::{PunctualLight, lerp_rgb, triangles, emitters, selection, emission, geometric_normal, tex_coords, material_of, alpha_covers, ALPHA_OPAQUE}
 
 // Light kinds of `PunctualLight::kind`.
 const LIGHT_DIRECTIONAL: u32 = 0u;
@@ -138,10 +138,14 @@ fn sample_emitter(
     if cos_light == 0.0 || (cos_light < 0.0 && material.double_sided == 0u) {
         return sample;
     }
+    // Where an alpha-tested emitter is absent it emits nothing.
+    if material.alpha_mode != ALPHA_OPAQUE && !alpha_covers(triangle, b) {
+        return sample;
+    }
     let pdf = p_select * distance_sq / (area * abs(cos_light));
     if !(pdf > 0.0 && is_finite(pdf)) {
         return sample;
     }
-    let uv = triangle_uv(tri, 1.0 - b.x - b.y, b.x, b.y);
-    return EmitterSample(wi, distance, emission(material, uv), pdf, select(-ng, ng, cos_light > 0.0));
+    let tc = tex_coords(triangle, vec3(1.0 - b.x - b.y, b.x, b.y), 0.0);
+    return EmitterSample(wi, distance, emission(material, tc), pdf, select(-ng, ng, cos_light > 0.0));
 }

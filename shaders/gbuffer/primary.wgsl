@@ -19,7 +19,7 @@
 // per-node motion transforms, the outputs. Bind group 1: the BVH (`gi_gpu::bvh::GpuBvh`).
 
 #import gi::bvh::{Ray, trace_closest, BVH_MISS}
-#import gi::scene::{triangles, sample_texture, emission, dielectric_specular, geometric_normal, triangle_uv, material_of, shading_normal}
+#import gi::scene::{triangles, sample_texture, emission, dielectric_specular, geometric_normal, material_of, tex_coords, cone_footprint, mapped_normal, normalize_or, orient_shading_normal}
 #import gi::packing::pack_unit_vector
 #import gi::brdf::pack_dielectric_specular
 #import gi::camera::{Camera, camera_ray, camera_project}
@@ -92,18 +92,23 @@ fn primary(@builtin(global_invocation_id) id: vec3<u32>) {
     }
     let front_facing = dot(ng_front, wo) >= 0.0;
     let ng = select(-ng_front, ng_front, front_facing);
-    let n = tri.na.xyz * b0 + tri.nb.xyz * b1 + tri.nc.xyz * b2;
-    normal[pixel] = pack_unit_vector(shading_normal(ng, n, wo));
-
-    let uv = triangle_uv(tri, b0, b1, b2);
     let material = material_of(hit.triangle, uniforms.default_material);
-    let base = material.base_color.xyz * sample_texture(material.base_color_texture, uv).xyz;
-    base_color[pixel] = vec4<f32>(base, pack_dielectric_specular(dielectric_specular(material, uv)));
-    let mr = sample_texture(material.metallic_roughness_texture, uv);
+    // Textures prefiltered over the pixel's ray cone: its width grows by the pixel's angle
+    // (2 tan(fov / 2) / height) per unit of distance.
+    let spread = 2.0 * camera.tan_half_fov / f32(size.y);
+    let footprint = cone_footprint(tri, hit.t * spread, dot(ng, wo));
+    let tc = tex_coords(hit.triangle, vec3(b0, b1, b2), footprint);
+    let n = tri.na.xyz * b0 + tri.nb.xyz * b1 + tri.nc.xyz * b2;
+    let ns = orient_shading_normal(ng, mapped_normal(material, normalize_or(n, ng), tc), wo);
+    normal[pixel] = pack_unit_vector(ns);
+
+    let base = material.base_color.xyz * sample_texture(material.base_color_texture, tc).xyz;
+    base_color[pixel] = vec4<f32>(base, pack_dielectric_specular(dielectric_specular(material, tc)));
+    let mr = sample_texture(material.metallic_roughness_texture, tc);
     metallic_roughness[pixel] = vec2<f32>(material.metallic * mr.z, material.roughness * mr.y);
     var emitted = vec3<f32>(0.0);
     if front_facing || material.double_sided != 0u {
-        emitted = emission(material, uv);
+        emitted = emission(material, tc);
     }
     emissive[pixel] = vec4<f32>(emitted, 0.0);
 

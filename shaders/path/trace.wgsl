@@ -24,10 +24,10 @@
 
 #import gi::math::PI
 #import gi::sampling::{Sampler, sampler_new, sampler_next_f32, sampler_next_2d, cosine_hemisphere, power_heuristic, Frame, frame_from_normal, frame_to_local, frame_to_world}
-#import gi::brdf::{ViewedBrdf, brdf_new, brdf_with_specular, brdf_seen_from, viewed_eval, viewed_pdf, viewed_sample, is_finite}
+#import gi::brdf::{ViewedBrdf, brdf_seen_from, viewed_eval, viewed_pdf, viewed_sample, is_finite}
 #import gi::bvh::{Ray, Hit, trace_closest, trace_any, BVH_MISS}
 #import gi::camera::{Camera, camera_ray}
-#import gi::scene::{triangles, selection, lights, sample_texture, emission, dielectric_specular, geometric_normal, triangle_uv, material_of, shading_normal}
+#import gi::scene::{triangles, selection, lights, emission, geometric_normal, material_of, tex_coords, mapped_normal, material_brdf, normalize_or, orient_shading_normal}
 #import gi::lights::{LIGHT_DIRECTIONAL, Sky, light_incident, sky_radiance, sample_emitter}
 
 const RUSSIAN_ROULETTE_START: u32 = 3u;
@@ -112,20 +112,16 @@ fn surface_at(dir: vec3<f32>, triangle: u32, b: vec2<f32>) -> Surface {
     }
     let front_facing = dot(ng_front, wo) >= 0.0;
     s.ng = select(-ng_front, ng_front, front_facing);
-    let n = tri.na.xyz * b0 + tri.nb.xyz * b1 + tri.nc.xyz * b2;
-    let ns = shading_normal(s.ng, n, wo);
-    s.frame = frame_from_normal(ns);
-    let uv = triangle_uv(tri, b0, b1, b2);
     let material = material_of(triangle, uniforms.default_material);
-    let base = material.base_color.xyz * sample_texture(material.base_color_texture, uv).xyz;
-    let mr = sample_texture(material.metallic_roughness_texture, uv);
-    let brdf = brdf_with_specular(
-        brdf_new(base, material.metallic * mr.z, material.roughness * mr.y),
-        dielectric_specular(material, uv),
-    );
+    // Level 0, exactly as the reference samples.
+    let tc = tex_coords(triangle, vec3(b0, b1, b2), 0.0);
+    let n = tri.na.xyz * b0 + tri.nb.xyz * b1 + tri.nc.xyz * b2;
+    let ns = orient_shading_normal(s.ng, mapped_normal(material, normalize_or(n, s.ng), tc), wo);
+    s.frame = frame_from_normal(ns);
+    let brdf = material_brdf(material, tc);
     s.emitted = vec3<f32>(0.0);
     if front_facing || material.double_sided != 0u {
-        s.emitted = emission(material, uv);
+        s.emitted = emission(material, tc);
     }
     s.wo = frame_to_local(s.frame, wo);
     s.brdf = brdf_seen_from(brdf, s.wo);

@@ -30,10 +30,10 @@
 
 #import gi::math::INV_PI
 #import gi::sampling::{Sampler, sampler_new, sampler_next_f32, sampler_next_2d, cosine_hemisphere, frame_from_normal, frame_to_world, frame_to_local}
-#import gi::brdf::{brdf_new, brdf_with_specular, brdf_split_sum_albedos, sample_ggx_vndf, brdf_specular_pdf}
+#import gi::brdf::{brdf_new, brdf_split_sum_albedos, sample_ggx_vndf, brdf_specular_pdf}
 #import gi::bvh::{Ray, trace_closest, trace_any, BVH_MISS}
 #import gi::camera::camera_ray
-#import gi::scene::{triangles, lights, selection, sample_texture, emission, dielectric_specular, geometric_normal, triangle_uv, material_of}
+#import gi::scene::{triangles, lights, selection, emission, geometric_normal, material_of, tex_coords, cone_footprint, material_brdf}
 #import gi::lights::{LIGHT_DIRECTIONAL, EmitterSample, light_incident, sky_radiance, sample_emitter}
 #import gi::packing::{pack_unit_vector, unpack_unit_vector, pack_rgb9e5, unpack_rgb9e5}
 #import gi::cache::data::cache
@@ -43,6 +43,10 @@
     SAMPLE_SKY, SAMPLE_OCCLUDED, FLAG_SPATIAL, FLAG_SHADOW, FLAG_TEMPORAL
 }
 
+// Spread angle (radians) of the ray cone of a GI ray: the width of its footprint at distance t
+// is t times this. Diffuse-like bounces gather over wide cones, so their hits read
+// prefiltered texture levels.
+const TRACE_CONE_SPREAD: f32 = 0.05;
 const FAR: f32 = 3.40282347e38;
 // Shadow rays stop short of their target by this share of the distance.
 const SHADOW_MARGIN: f32 = 1e-3;
@@ -133,7 +137,7 @@ struct HitShading {
     albedo: vec3<f32>,
 }
 
-fn shade_hit(dir: vec3<f32>, triangle: u32, b: vec2<f32>, sampler: ptr<function, Sampler>) -> HitShading {
+fn shade_hit(dir: vec3<f32>, t: f32, triangle: u32, b: vec2<f32>, sampler: ptr<function, Sampler>) -> HitShading {
     let tri = triangles[triangle];
     let b0 = 1.0 - b.x - b.y;
     let p = tri.pa.xyz + (tri.pb.xyz - tri.pa.xyz) * b.x + (tri.pc.xyz - tri.pa.xyz) * b.y;
@@ -143,21 +147,18 @@ fn shade_hit(dir: vec3<f32>, triangle: u32, b: vec2<f32>, sampler: ptr<function,
     }
     let front_facing = dot(ng, dir) <= 0.0;
     ng = select(-ng, ng, front_facing);
-    let uv = triangle_uv(tri, b0, b.x, b.y);
     let material = material_of(triangle, u.default_material);
-    let base = material.base_color.xyz * sample_texture(material.base_color_texture, uv).xyz;
-    let mr = sample_texture(material.metallic_roughness_texture, uv);
-    let brdf = brdf_with_specular(
-        brdf_new(base, material.metallic * mr.z, material.roughness * mr.y),
-        dielectric_specular(material, uv),
-    );
+    // Textures prefiltered over the footprint of the bounce's ray cone.
+    let footprint = cone_footprint(tri, t * TRACE_CONE_SPREAD, dot(ng, dir));
+    let tc = tex_coords(triangle, vec3(b0, b.x, b.y), footprint);
+    let brdf = material_brdf(material, tc);
     // The hit reflects towards the ray its diffuse lobe and, by the split-sum approximation,
     // its specular lobe: metals (no diffuse lobe) would otherwise reflect nothing.
     let albedos = brdf_split_sum_albedos(brdf, max(dot(ng, -dir), 0.0));
     let albedo = albedos.diffuse + albedos.specular;
     var radiance = vec3(0.0);
     if front_facing || material.double_sided != 0u {
-        radiance = emission(material, uv);
+        radiance = emission(material, tc);
     }
     let origin = offset_origin(p, ng);
     var irradiance = vec3(0.0);
@@ -283,7 +284,7 @@ fn trace(@builtin(global_invocation_id) id: vec3<u32>) {
             r.radiance = pack_rgb9e5(sky_radiance(u.sky, dir));
             r.flags = SAMPLE_SKY;
         } else {
-            let shaded = shade_hit(dir, hit.triangle, hit.barycentrics, &sampler);
+            let shaded = shade_hit(dir, hit.t, hit.triangle, hit.barycentrics, &sampler);
             r.position = shaded.position;
             r.radiance = pack_rgb9e5(shaded.radiance);
             r.normal = pack_unit_vector(shaded.normal);
@@ -415,7 +416,7 @@ fn specular_trace(@builtin(global_invocation_id) id: vec3<u32>) {
         sample.radiance = sky_radiance(u.sky, dir);
         sample.flags = SAMPLE_SKY;
     } else {
-        let shaded = shade_hit(dir, hit.triangle, hit.barycentrics, &sampler);
+        let shaded = shade_hit(dir, hit.t, hit.triangle, hit.barycentrics, &sampler);
         sample.position = shaded.position;
         sample.radiance = shaded.radiance;
     }

@@ -34,7 +34,7 @@
 //!   ([`crate::layout::geometry_box_bits`]; the whole voxel when they only touch it).
 
 use gi_reference::brdf::{Brdf, DielectricSpecular};
-use gi_scene::{Material, TextureRef, sample_texture};
+use gi_scene::{AlphaMode, Material, TextureRef, sample_texture};
 use glam::{IVec3, Vec2, Vec3, Vec4};
 
 use crate::binning::{CacheScene, TRIANGLE_DYNAMIC_BIT};
@@ -252,7 +252,9 @@ fn voxelize_voxel(
     let mut projected = 0.0f32;
     let mut emitted = Vec3::ZERO;
     for &(index, area, b) in &overlapping {
-        let area = area.dot(normal).abs();
+        // Alpha-tested surfaces cover the voxel where they exist (at the point closest to its
+        // center).
+        let area = area.dot(normal).abs() * coverage_at(scene, index, b);
         projected += area;
         let (_, emission) = material_at(scene, index, b);
         if emission != Vec3::ZERO {
@@ -277,6 +279,28 @@ fn voxelize_voxel(
 /// The cosine-weighted mean of `n.v` over the hemisphere: where the cache, which reflects
 /// diffusely into every direction, evaluates the Lambert lobe's albedo (`cache/voxelize`).
 pub const MEAN_VIEW_COSINE: f32 = 2.0 / 3.0;
+
+/// How much of the surface of frame triangle `triangle` exists at barycentrics `b`: 1 for
+/// opaque materials, 1 or 0 by the cutoff for alpha `MASK`, the alpha for `BLEND`
+/// (`gi::scene::surface_coverage` on the GPU).
+pub fn coverage_at(scene: &CacheScene<'_>, triangle: u32, b: Vec3) -> f32 {
+    let attributes = &scene.frame.attributes[triangle as usize];
+    let Some(material) = scene.scene.materials.get(attributes.material as usize) else {
+        return 1.0;
+    };
+    if material.alpha_mode == AlphaMode::Opaque {
+        return 1.0;
+    }
+    let interpolate = |[t0, t1, t2]: [Vec2; 3]| t0 * b.x + t1 * b.y + t2 * b.z;
+    let (uv0, uv1) = (interpolate(attributes.uvs), interpolate(attributes.uvs1));
+    let alpha = material.base_color.w
+        * sample_texture(&scene.scene.textures, material.base_color_texture, uv0, uv1).w;
+    match material.alpha_mode {
+        AlphaMode::Mask { cutoff } if alpha >= cutoff => 1.0,
+        AlphaMode::Mask { .. } => 0.0,
+        _ => alpha.clamp(0.0, 1.0),
+    }
+}
 
 /// Diffuse albedo and emission of frame triangle `triangle` at barycentrics `b`, with the
 /// reference's material and texture rules.

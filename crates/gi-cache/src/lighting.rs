@@ -595,8 +595,9 @@ impl CacheLighting {
                     entries: &entries,
                 });
         let bvh_layout = GpuBvh::bind_group_layout(ctx);
+        let texture_layout = GpuScene::texture_layout(ctx);
         let pipeline = |name: &str, file: &str, groups: &[Option<&wgpu::BindGroupLayout>]| {
-            let module = shaders.create_module(ctx, file, &[])?;
+            let module = shaders.create_module(ctx, file, &[gi_gpu::ALPHA_TEST])?;
             Ok::<_, GpuError>(ctx.create_compute_pipeline_with_layouts(
                 &format!("cache/{name}"),
                 &module,
@@ -611,6 +612,7 @@ impl CacheLighting {
                 Some(&lighting_layout),
                 Some(&bvh_layout),
                 Some(cache_layout),
+                Some(&texture_layout),
             ],
         )?;
         let propagate = pipeline(
@@ -620,12 +622,18 @@ impl CacheLighting {
                 Some(&lighting_layout),
                 Some(&bvh_layout),
                 Some(cache_layout),
+                Some(&texture_layout),
             ],
         )?;
         let propagate_resolve = pipeline(
             "propagate_resolve",
             "cache/propagate_resolve.wgsl",
-            &[Some(&lighting_layout), None, Some(cache_layout)],
+            &[
+                Some(&lighting_layout),
+                None,
+                Some(cache_layout),
+                Some(&texture_layout),
+            ],
         )?;
         let uniforms = ctx.create_buffer(
             "cache.lighting.uniforms",
@@ -792,6 +800,7 @@ impl CacheLighting {
             pass.set_bind_group(0, &lighting_group, &[]);
             pass.set_bind_group(1, &inputs.bvh.bind_group, &[]);
             pass.set_bind_group(2, inputs.cache_bind_group, &[]);
+            inputs.scene.set_texture_bind_group(pass);
             pass.dispatch_workgroups(workgroups, 1, 1);
         });
         timer.compute_pass(ctx, encoder, "cache/propagate", |pass| {
@@ -799,6 +808,7 @@ impl CacheLighting {
             pass.set_bind_group(0, &lighting_group, &[]);
             pass.set_bind_group(1, &inputs.bvh.bind_group, &[]);
             pass.set_bind_group(2, inputs.cache_bind_group, &[]);
+            inputs.scene.set_texture_bind_group(pass);
             // One row of workgroups per surfel side (`@builtin(workgroup_id).y`).
             pass.dispatch_workgroups(workgroups, CACHE_SIDES, 1);
         });
@@ -807,6 +817,7 @@ impl CacheLighting {
             pass.set_pipeline(&self.propagate_resolve);
             pass.set_bind_group(0, &lighting_group, &[]);
             pass.set_bind_group(2, inputs.cache_bind_group, &[]);
+            inputs.scene.set_texture_bind_group(pass);
             pass.dispatch_workgroups(workgroups, 1, 1);
         });
         counts
@@ -855,6 +866,7 @@ impl CacheLighting {
             pass.set_bind_group(0, &group, &[]);
             pass.set_bind_group(1, &inputs.bvh.bind_group, &[]);
             pass.set_bind_group(2, inputs.cache_bind_group, &[]);
+            inputs.scene.set_texture_bind_group(pass);
             pass.dispatch_workgroups(all.len() as u32, 1, 1);
         });
     }

@@ -85,11 +85,17 @@ impl Voxelizer {
                 entries: &entries,
             });
         let cache_layout = CacheBuffers::bind_group_layout(ctx);
+        let texture_layout = GpuScene::texture_layout(ctx);
         let voxelize = ctx.create_compute_pipeline_with_layouts(
             "cache/voxelize",
             &module,
             "voxelize",
-            &[Some(&frame_layout), None, Some(&cache_layout)],
+            &[
+                Some(&frame_layout),
+                None,
+                Some(&cache_layout),
+                Some(&texture_layout),
+            ],
         );
         Ok(Self {
             voxelize,
@@ -177,6 +183,7 @@ impl Voxelizer {
             pass.set_pipeline(&self.voxelize);
             pass.set_bind_group(0, &frame_group, &[]);
             pass.set_bind_group(CacheBuffers::BIND_GROUP, &cache.bind_group, &[]);
+            scene.set_texture_bind_group(pass);
             pass.dispatch_workgroups(jobs.len() as u32, 1, 1);
         });
     }

@@ -125,7 +125,7 @@ impl GBuffer {
         width: u32,
         height: u32,
     ) -> Result<Self, GpuError> {
-        let module = shaders.create_module(ctx, "gbuffer/primary.wgsl", &[])?;
+        let module = shaders.create_module(ctx, "gbuffer/primary.wgsl", &[crate::ALPHA_TEST])?;
         // An explicit layout: the BVH's bind group is made with `GpuBvh::bind_group_layout`,
         // and the pass leaves some scene bindings unused, which an automatic layout would drop.
         let mut entries = vec![uniform_entry(0)];
@@ -139,11 +139,17 @@ impl GBuffer {
                 entries: &entries,
             });
         let bvh_layout = GpuBvh::bind_group_layout(ctx);
+        let texture_layout = GpuScene::texture_layout(ctx);
         let primary = ctx.create_compute_pipeline_with_layouts(
             "gbuffer/primary",
             &module,
             "primary",
-            &[Some(&frame_layout), Some(&bvh_layout)],
+            &[
+                Some(&frame_layout),
+                Some(&bvh_layout),
+                None,
+                Some(&texture_layout),
+            ],
         );
         let pixels = u64::from(width) * u64::from(height);
         let outputs = OUTPUTS.map(|(label, bytes)| {
@@ -247,6 +253,7 @@ impl GBuffer {
                 &inputs.scene.bvh.bind_group,
                 &[],
             );
+            inputs.scene.set_texture_bind_group(pass);
             pass.dispatch_workgroups(width.div_ceil(TILE), height.div_ceil(TILE), 1);
         });
     }

@@ -52,6 +52,7 @@ mod layout;
 mod memory;
 mod scene;
 mod shaders;
+pub mod textures;
 mod timer;
 
 pub use camera::GpuCamera;
@@ -62,10 +63,13 @@ pub use gbuffer::{GBuffer, GBufferData, GBufferInputs};
 pub use layout::{StructLayout, wgsl_struct_layout};
 pub use memory::MemoryReport;
 pub use scene::{
-    EmitterTable, GpuEmitter, GpuLight, GpuMaterial, GpuScene, GpuTextureInfo, GpuTriangleShading,
-    NO_TEXTURE,
+    ALPHA_BLEND, ALPHA_MASK, ALPHA_OPAQUE, ALPHA_TEST, EmitterTable, GpuEmitter, GpuLight,
+    GpuMaterial, GpuScene, GpuTriangleExtras, GpuTriangleShading, NO_TEXTURE, SceneUploadError,
 };
 pub use shaders::{SHADER_CAPABILITIES, SHADER_DIR_ENV, ShaderDefValue, ShaderLibrary};
+pub use textures::{
+    GpuTextureRef, SceneTextures, TEXTURE_BIND_GROUP, TextureError, TextureOptions,
+};
 pub use timer::{FRAMES_IN_FLIGHT, GpuTimer, PassTimings, TimerMode};
 
 /// The naga and wgpu versions this crate is built against, re-exported so users name the same

@@ -7,10 +7,11 @@
 //! a test checks every struct's size and member offsets against these Rust mirrors.
 
 use bytemuck::{Pod, Zeroable};
-use gi_scene::{EmitterDistribution, LightKind, Scene, SceneFrame};
+use gi_scene::{AlphaMode, EmitterDistribution, LightKind, Scene, SceneFrame};
 
 use crate::GpuContext;
 use crate::bvh::{BvhError, GpuBvh};
+use crate::textures::{SceneTextures, TextureError, TextureOptions};
 
 /// Texture and emitter index meaning "none" in the GPU tables.
 pub const NO_TEXTURE: u32 = u32::MAX;
@@ -36,9 +37,10 @@ pub struct GpuTriangleShading {
     pub material: u32,
 }
 
-/// glTF metallic-roughness material with `KHR_materials_specular` and `KHR_materials_ior`,
-/// 80 bytes (`Material` in WGSL). Texture indices are [`NO_TEXTURE`] when absent or empty,
-/// which samples as white as the reference does.
+/// glTF metallic-roughness material with `KHR_materials_specular`, `KHR_materials_ior`, a
+/// normal map and an alpha mode, 96 bytes (`Material` in WGSL). Texture fields index the
+/// reference table ([`crate::GpuTextureRef`]), [`NO_TEXTURE`] when absent or empty, which
+/// samples as white as the reference does.
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
 pub struct GpuMaterial {
@@ -68,18 +70,42 @@ pub struct GpuMaterial {
     pub specular_color: [f32; 3],
     /// Index into `scene.textures`, or [`NO_TEXTURE`].
     pub specular_color_texture: u32,
+    /// Index into `scene.textures`, or [`NO_TEXTURE`].
+    pub normal_texture: u32,
+    /// Scale of the normal map's x and y.
+    pub normal_scale: f32,
+    /// [`ALPHA_OPAQUE`], [`ALPHA_MASK`] or [`ALPHA_BLEND`].
+    pub alpha_mode: u32,
+    /// `alphaCutoff` of [`ALPHA_MASK`].
+    pub alpha_cutoff: f32,
 }
 
-/// Where one texture's texels start in `scene.texels` and its size, 16 bytes.
+/// The shader definition that makes a pass's rays honor alpha-tested materials
+/// (`gi::bvh` then calls `gi::scene::alpha_covers`, so the pass must bind the scene and its
+/// textures).
+pub const ALPHA_TEST: (&str, crate::ShaderDefValue) =
+    ("ALPHA_TEST", crate::ShaderDefValue::Bool(true));
+
+/// [`GpuMaterial::alpha_mode`] values.
+pub const ALPHA_OPAQUE: u32 = 0;
+pub const ALPHA_MASK: u32 = 1;
+pub const ALPHA_BLEND: u32 = 2;
+
+/// The second texture coordinate set and the tangents of one triangle's vertices, 80 bytes
+/// (`TriangleExtras` in WGSL); read only for materials with a normal map or a texture on
+/// `TEXCOORD_1`.
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
-pub struct GpuTextureInfo {
-    /// Index of the texture's first texel (top-left) in `scene.texels`.
-    pub offset: u32,
-    /// Size in texels.
-    pub width: u32,
-    pub height: u32,
-    pub pad: u32,
+pub struct GpuTriangleExtras {
+    /// World-space unit tangents (xyz) with the bitangent sign in w.
+    pub ta: [f32; 4],
+    pub tb: [f32; 4],
+    pub tc: [f32; 4],
+    /// `TEXCOORD_1` of vertices a and b.
+    pub uv_ab: [f32; 4],
+    /// `TEXCOORD_1` of vertex c.
+    pub uv_c: [f32; 2],
+    pub pad: [f32; 2],
 }
 
 /// One entry of the emitter power table, 8 bytes.
@@ -151,6 +177,15 @@ impl EmitterTable {
     }
 }
 
+/// Why a scene cannot go to the GPU.
+#[derive(Debug, thiserror::Error)]
+pub enum SceneUploadError {
+    #[error(transparent)]
+    Bvh(#[from] BvhError),
+    #[error(transparent)]
+    Textures(#[from] TextureError),
+}
+
 /// One scene frame on the GPU. Buffers are labeled `scene.*` and counted by the context until
 /// [`GpuScene::release`].
 pub struct GpuScene {
@@ -158,16 +193,19 @@ pub struct GpuScene {
     pub triangles: wgpu::Buffer,
     /// `scene.materials`: [`GpuMaterial`]s (at least one: the default material follows them).
     pub materials: wgpu::Buffer,
-    /// `scene.textures`: [`GpuTextureInfo`] per texture.
-    pub textures: wgpu::Buffer,
-    /// `scene.texels`: every texture's linear RGBA texels, row-major, one after another.
-    pub texels: wgpu::Buffer,
+    /// `scene.texture_refs`: the [`GpuTextureRef`] table the materials index.
+    pub texture_refs: wgpu::Buffer,
+    /// `scene.triangle_extras`: [`GpuTriangleExtras`] per frame triangle, or one zeroed entry
+    /// when no primitive has tangents or a second texture coordinate set.
+    pub triangle_extras: wgpu::Buffer,
     /// `scene.emitters`: the [`GpuEmitter`] table.
     pub emitters: wgpu::Buffer,
     /// `scene.selection`: per frame triangle, its emitter selection probability.
     pub selection: wgpu::Buffer,
     /// `scene.lights`: [`GpuLight`]s.
     pub lights: wgpu::Buffer,
+    /// The texture arrays (bind group [`crate::TEXTURE_BIND_GROUP`]).
+    pub textures: SceneTextures,
     /// The BVH (bind group [`crate::bvh::BVH_BIND_GROUP`]).
     pub bvh: GpuBvh,
     /// Entries in the emitter table.
@@ -178,6 +216,8 @@ pub struct GpuScene {
     pub default_material: u32,
     /// Wall time of the BVH's bottom-level builds on the CPU, in seconds.
     pub bvh_build_seconds: f64,
+    /// Whether `scene.triangle_extras` holds every triangle.
+    has_extras: bool,
 }
 
 /// Per-triangle shading data of `frame`, in frame order.
@@ -206,52 +246,100 @@ fn triangle_shading(frame: &SceneFrame) -> Vec<GpuTriangleShading> {
         .collect()
 }
 
-impl GpuScene {
-    /// Builds the two-level BVH of `scene` placed at `frame` ([`GpuBvh::from_scene`]) and
-    /// uploads it with everything a path needs. Cost: the bottom-level builds and copies of the
-    /// frame's attributes and the scene's textures; later frames of an animated scene call
-    /// [`GpuScene::update`].
-    pub fn upload(ctx: &GpuContext, scene: &Scene, frame: &SceneFrame) -> Result<Self, BvhError> {
-        let bvh = GpuBvh::from_scene(ctx, scene, frame)?;
-        let triangles = triangle_shading(frame);
-        let texture_ok = |texture: Option<gi_scene::TextureRef>| {
-            texture
-                .map(|r| r.texture)
-                .filter(|&i| scene.textures.get(i).is_some_and(|t| t.is_valid()))
-                .map_or(NO_TEXTURE, |i| i as u32)
-        };
-        let materials: Vec<GpuMaterial> = scene
-            .materials
-            .iter()
-            .chain(std::iter::once(&gi_scene::Material::default()))
-            .map(|m| GpuMaterial {
+/// Tangents and second texture coordinates of `frame`'s triangles, in frame order; empty when
+/// the scene has neither.
+fn triangle_extras(scene: &Scene, frame: &SceneFrame) -> Vec<GpuTriangleExtras> {
+    let any = scene
+        .meshes
+        .iter()
+        .flat_map(|m| &m.primitives)
+        .any(|p| !p.tangents.is_empty() || !p.uvs1.is_empty());
+    if !any {
+        return Vec::new();
+    }
+    frame
+        .attributes
+        .iter()
+        .map(|a| {
+            let [u0, u1, u2] = a.uvs1;
+            GpuTriangleExtras {
+                ta: a.tangents[0].to_array(),
+                tb: a.tangents[1].to_array(),
+                tc: a.tangents[2].to_array(),
+                uv_ab: [u0.x, u0.y, u1.x, u1.y],
+                uv_c: u2.to_array(),
+                pad: [0.0; 2],
+            }
+        })
+        .collect()
+}
+
+/// The GPU form of `scene`'s materials, the glTF default material appended; texture
+/// references are added to `textures`' table.
+fn gpu_materials(scene: &Scene, textures: &mut SceneTextures) -> Vec<GpuMaterial> {
+    scene
+        .materials
+        .iter()
+        .chain(std::iter::once(&gi_scene::Material::default()))
+        .map(|m| {
+            let (alpha_mode, alpha_cutoff) = match m.alpha_mode {
+                AlphaMode::Opaque => (ALPHA_OPAQUE, 0.0),
+                AlphaMode::Mask { cutoff } => (ALPHA_MASK, cutoff),
+                AlphaMode::Blend => (ALPHA_BLEND, 0.0),
+            };
+            GpuMaterial {
                 base_color: m.base_color.to_array(),
                 emissive: m.emissive.to_array(),
                 metallic: m.metallic,
                 roughness: m.roughness,
-                base_color_texture: texture_ok(m.base_color_texture),
-                metallic_roughness_texture: texture_ok(m.metallic_roughness_texture),
-                emissive_texture: texture_ok(m.emissive_texture),
+                base_color_texture: textures.reference(m.base_color_texture),
+                metallic_roughness_texture: textures.reference(m.metallic_roughness_texture),
+                emissive_texture: textures.reference(m.emissive_texture),
                 double_sided: u32::from(m.double_sided),
                 specular: m.specular,
                 ior: m.ior,
-                specular_texture: texture_ok(m.specular_texture),
+                specular_texture: textures.reference(m.specular_texture),
                 specular_color: m.specular_color.to_array(),
-                specular_color_texture: texture_ok(m.specular_color_texture),
-            })
-            .collect();
-        let default_material = materials.len() as u32 - 1;
-        let mut texels = Vec::new();
-        let mut infos = Vec::new();
-        for t in &scene.textures {
-            infos.push(GpuTextureInfo {
-                offset: texels.len() as u32,
-                width: t.width,
-                height: t.height,
-                pad: 0,
-            });
-            texels.extend(t.texels.iter().map(|&v| t.decode(v).to_array()));
+                specular_color_texture: textures.reference(m.specular_color_texture),
+                normal_texture: textures.reference(m.normal_texture),
+                normal_scale: m.normal_scale,
+                alpha_mode,
+                alpha_cutoff,
+            }
+        })
+        .collect()
+}
+
+impl GpuScene {
+    /// [`GpuScene::upload_with`] the default texture options.
+    pub fn upload(
+        ctx: &GpuContext,
+        scene: &Scene,
+        frame: &SceneFrame,
+    ) -> Result<Self, SceneUploadError> {
+        Self::upload_with(ctx, scene, frame, &TextureOptions::default())
+    }
+
+    /// Builds the two-level BVH of `scene` placed at `frame` ([`GpuBvh::from_scene`]) and
+    /// uploads it with everything a path needs, the textures within `texture_options`. Cost:
+    /// the bottom-level builds, the textures' mip chains, copies of the frame's attributes;
+    /// later frames of an animated scene call [`GpuScene::update`]. Texture warnings
+    /// (downscaled, resampled) are in `textures.warnings`.
+    pub fn upload_with(
+        ctx: &GpuContext,
+        scene: &Scene,
+        frame: &SceneFrame,
+        texture_options: &TextureOptions,
+    ) -> Result<Self, SceneUploadError> {
+        let mut textures = SceneTextures::upload(ctx, scene, texture_options)?;
+        for warning in &textures.warnings {
+            tracing::warn!("{warning}");
         }
+        let bvh = GpuBvh::from_scene(ctx, scene, frame)?;
+        let triangles = triangle_shading(frame);
+        let extras = triangle_extras(scene, frame);
+        let materials = gpu_materials(scene, &mut textures);
+        let default_material = materials.len() as u32 - 1;
         let table = EmitterTable::build(scene, frame);
         let lights: Vec<GpuLight> = frame.lights.iter().map(gpu_light).collect();
         let usage = wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_DST;
@@ -264,9 +352,13 @@ impl GpuScene {
         };
         Ok(Self {
             triangles: upload("scene.triangles", bytemuck::cast_slice(&triangles), 112),
-            materials: upload("scene.materials", bytemuck::cast_slice(&materials), 64),
-            textures: upload("scene.textures", bytemuck::cast_slice(&infos), 16),
-            texels: upload("scene.texels", bytemuck::cast_slice(&texels), 16),
+            materials: upload("scene.materials", bytemuck::cast_slice(&materials), 96),
+            texture_refs: upload(
+                "scene.texture_refs",
+                bytemuck::cast_slice(&textures.refs),
+                48,
+            ),
+            triangle_extras: upload("scene.triangle_extras", bytemuck::cast_slice(&extras), 80),
             emitters: upload("scene.emitters", bytemuck::cast_slice(&table.entries), 8),
             selection: upload("scene.selection", bytemuck::cast_slice(&table.selection), 4),
             lights: upload("scene.lights", bytemuck::cast_slice(&lights), 64),
@@ -274,15 +366,18 @@ impl GpuScene {
             light_count: lights.len() as u32,
             default_material,
             bvh_build_seconds: bvh.build_seconds,
+            has_extras: !extras.is_empty(),
+            textures,
             bvh,
         })
     }
 
     /// Moves the scene to `frame`, a later evaluation of the same scene: the BVH's top level
     /// and instance transforms ([`GpuBvh::update`], bottom levels untouched), the lights and
-    /// the emitter table. The per-triangle shading buffer holds world-space vertices and
-    /// normals, so it is re-uploaded whole (112 bytes per triangle) when the scene is animated;
-    /// a camera move alone needs no update at all.
+    /// the emitter table. The per-triangle shading buffers hold world-space vertices, normals
+    /// and tangents, so they are re-uploaded whole (112 bytes per triangle, 80 more with
+    /// tangents or a second texture coordinate set) when the scene is animated; a camera move
+    /// alone needs no update at all.
     ///
     /// Returns true when a buffer had to be replaced (an emitter table that grew), so bind
     /// groups made over [`GpuScene::buffers`] must be made again.
@@ -295,6 +390,11 @@ impl GpuScene {
         self.bvh.update(ctx, frame)?;
         let triangles = triangle_shading(frame);
         let triangle_bytes: &[u8] = bytemuck::cast_slice(&triangles);
+        let extras = if self.has_extras {
+            triangle_extras(scene, frame)
+        } else {
+            Vec::new()
+        };
         let mut replaced = false;
         let mut write = |buffer: &mut wgpu::Buffer, label: &str, bytes: &[u8]| {
             if bytes.is_empty() {
@@ -313,6 +413,11 @@ impl GpuScene {
             }
         };
         write(&mut self.triangles, "scene.triangles", triangle_bytes);
+        write(
+            &mut self.triangle_extras,
+            "scene.triangle_extras",
+            bytemuck::cast_slice(&extras),
+        );
         let table = EmitterTable::build(scene, frame);
         let lights: Vec<GpuLight> = frame.lights.iter().map(gpu_light).collect();
         write(
@@ -335,9 +440,11 @@ impl GpuScene {
         Ok(replaced)
     }
 
-    /// Bytes of every buffer, BVH included.
+    /// Bytes of every buffer and texture array, BVH included.
     pub fn bytes(&self) -> u64 {
-        self.buffers().iter().map(|b| b.size()).sum::<u64>() + self.bvh.bytes()
+        self.buffers().iter().map(|b| b.size()).sum::<u64>()
+            + self.bvh.bytes()
+            + self.textures.bytes
     }
 
     /// The binding of `scene.triangles`, the first of `gi::scene`'s seven in group 0.
@@ -345,7 +452,9 @@ impl GpuScene {
 
     /// The layout entries of `gi::scene`: read-only storage buffers at bindings 1..=7 of a
     /// pass's group 0, visible to compute stages. All seven are listed, also for passes that
-    /// read fewer, so the bind group of [`GpuScene::bind_group_entries`] always fits.
+    /// read fewer, so the bind group of [`GpuScene::bind_group_entries`] always fits. Passes
+    /// that shade also bind [`SceneTextures::bind_group_layout`] as group
+    /// [`crate::TEXTURE_BIND_GROUP`].
     pub fn layout_entries() -> [wgpu::BindGroupLayoutEntry; 7] {
         std::array::from_fn(|i| crate::binding::storage_entry(Self::FIRST_BINDING + i as u32, true))
     }
@@ -360,24 +469,37 @@ impl GpuScene {
         })
     }
 
+    /// The layout of bind group [`crate::TEXTURE_BIND_GROUP`], the texture arrays, for every
+    /// pass that samples textures (directly or through alpha-tested rays).
+    pub fn texture_layout(ctx: &GpuContext) -> wgpu::BindGroupLayout {
+        SceneTextures::bind_group_layout(ctx)
+    }
+
+    /// Binds the texture arrays at group [`crate::TEXTURE_BIND_GROUP`] of `pass`.
+    pub fn set_texture_bind_group(&self, pass: &mut wgpu::ComputePass<'_>) {
+        pass.set_bind_group(crate::TEXTURE_BIND_GROUP, &self.textures.bind_group, &[]);
+    }
+
     /// The scene buffers in the binding order of `gi::scene` (bindings 1..=7 of group 0).
     pub fn buffers(&self) -> [&wgpu::Buffer; 7] {
         [
             &self.triangles,
             &self.materials,
-            &self.textures,
-            &self.texels,
+            &self.texture_refs,
+            &self.triangle_extras,
             &self.emitters,
             &self.selection,
             &self.lights,
         ]
     }
 
-    /// Stops counting and destroys every buffer (for a scene replaced by a new frame's).
+    /// Stops counting and destroys every buffer and texture (for a scene replaced by a new
+    /// frame's).
     pub fn release(self, ctx: &GpuContext) {
         for buffer in self.buffers() {
             ctx.release_buffer(buffer);
         }
+        self.textures.release(ctx);
         self.bvh.release(ctx);
     }
 }

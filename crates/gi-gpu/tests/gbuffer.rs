@@ -169,6 +169,8 @@ fn primary_hits_match_cpu_ray_cast() {
 
 /// The Cornell box with a small texture on every material's base color, metallic-roughness
 /// and emission, and UVs from the vertex positions, so texture lookups vary over each face.
+/// The texture is magnified at the test's size (a texel spans several pixels), where the
+/// G-buffer reads level 0 with the reference's filter.
 fn textured_cornell_box() -> Scene {
     let mut scene = load("cornell-box");
     let texels: Vec<glam::Vec4> = (0..16)
@@ -200,7 +202,7 @@ fn textured_cornell_box() -> Scene {
             primitive.uvs = primitive
                 .positions
                 .iter()
-                .map(|p| Vec2::new(0.7 * p.x + 0.3 * p.y, 0.5 * p.z - 0.4 * p.y))
+                .map(|p| Vec2::new(0.21 * p.x + 0.09 * p.y, 0.15 * p.z - 0.12 * p.y))
                 .collect();
         }
     }
@@ -415,4 +417,54 @@ fn packed_layer(material: &gi_scene::Material) -> f32 {
     let weight = (f64::from(material.specular.clamp(0.0, 1.0)) * 255.0).round() as u32;
     let f0 = (f0 * 4095.0).round() as u32;
     (weight * 4096 + f0 + 1) as f32
+}
+
+/// Minified textures are prefiltered: a 64x64 black-and-white checkerboard seen from afar
+/// (about 16 texels per pixel) gives pixels near its mean, where one bilinear tap of level 0
+/// per pixel would give values anywhere between black and white.
+#[test]
+fn minified_textures_read_prefiltered_mip_levels() {
+    let Some(ctx) = GpuContext::new_or_skip("minified_textures_read_prefiltered_mip_levels") else {
+        return;
+    };
+    let mut scene = gi_scene::Scene::default();
+    let node = scene.add_diffuse_quad(Vec3::ZERO, Vec3::X * 4.0, Vec3::Y * 4.0, 1.0);
+    let texels: Vec<glam::Vec4> = (0..64 * 64)
+        .map(|i| {
+            let (x, y) = (i % 64, i / 64);
+            glam::Vec4::splat(((x + y) % 2) as f32)
+        })
+        .collect();
+    scene.textures.push(gi_scene::Texture::from_linear(
+        "checker",
+        64,
+        64,
+        gi_scene::TextureEncoding::Linear,
+        &texels,
+    ));
+    scene.materials[0].base_color_texture = Some(gi_scene::TextureRef::new(0));
+    let mesh = scene.nodes[node].mesh.unwrap();
+    scene.meshes[mesh].primitives[0].uvs = vec![
+        Vec2::new(0.0, 1.0),
+        Vec2::new(1.0, 1.0),
+        Vec2::new(1.0, 0.0),
+        Vec2::new(0.0, 0.0),
+    ];
+    // The 8 m quad fills about 4 of the 30 rows: 16 texels per pixel.
+    let camera = CameraView::look_at(Vec3::new(0.0, 0.0, 50.0), Vec3::ZERO, 1.2);
+    let frame = scene.evaluate(0.0, Some(camera));
+    let data = render(&ctx, &scene, &frame, &frame);
+    let mut covered = 0;
+    for (pixel, &triangle) in data.triangle.iter().enumerate() {
+        if triangle == GBUFFER_MISS {
+            continue;
+        }
+        covered += 1;
+        let value = data.base_color[pixel][0];
+        assert!(
+            (value - 0.5).abs() < 0.1,
+            "pixel {pixel}: {value}, not the checker's prefiltered mean 0.5"
+        );
+    }
+    assert!(covered >= 4, "the quad covers {covered} pixels");
 }

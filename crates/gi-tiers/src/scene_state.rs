@@ -140,7 +140,7 @@ impl SceneState {
     }
 }
 
-fn unavailable(tier: &'static str, e: gi_gpu::bvh::BvhError) -> TierError {
+fn unavailable(tier: &'static str, e: impl std::fmt::Display) -> TierError {
     TierError::Unavailable {
         tier,
         reason: e.to_string(),

@@ -3,8 +3,8 @@
 #[test]
 fn shared_structs_match_their_wgsl_layout() {
     use gi_gpu::{
-        GpuEmitter, GpuLight, GpuMaterial, GpuTextureInfo, GpuTriangleShading, ShaderLibrary,
-        rust_field_offsets, wgsl_struct_layout,
+        GpuEmitter, GpuLight, GpuMaterial, GpuTextureRef, GpuTriangleExtras, GpuTriangleShading,
+        ShaderLibrary, rust_field_offsets, wgsl_struct_layout,
     };
     use gi_tiers::PathUniforms;
 
@@ -75,17 +75,34 @@ fn shared_structs_match_their_wgsl_layout() {
             specular_texture,
             specular_color,
             specular_color_texture,
+            normal_texture,
+            normal_scale,
+            alpha_mode,
+            alpha_cutoff,
         }),
         size_of::<GpuMaterial>(),
     );
     check(
-        "TextureInfo",
-        rust_field_offsets!(GpuTextureInfo {
-            offset,
-            width,
-            height
+        "TextureRef",
+        rust_field_offsets!(GpuTextureRef {
+            image,
+            tex_coord,
+            size,
+            row_u,
+            row_v
         }),
-        size_of::<GpuTextureInfo>(),
+        size_of::<GpuTextureRef>(),
+    );
+    check(
+        "TriangleExtras",
+        rust_field_offsets!(GpuTriangleExtras {
+            ta,
+            tb,
+            tc,
+            uv_ab,
+            uv_c
+        }),
+        size_of::<GpuTriangleExtras>(),
     );
     check(
         "Emitter",

@@ -69,11 +69,17 @@ pub struct GpuBvhTriangle {
     pub triangle: u32,
     /// Vertex v1.
     pub b: [f32; 3],
-    pub pad_b: u32,
+    /// [`BVH_TRIANGLE_ALPHA`] when the triangle's material is alpha-tested.
+    pub flags: u32,
     /// Vertex v2.
     pub c: [f32; 3],
     pub pad_c: u32,
 }
+
+/// [`GpuBvhTriangle::flags`] bit: the triangle's material is alpha-tested, so a hit counts
+/// only where `gi::scene::alpha_covers` says the surface exists (in shaders composed with
+/// `ALPHA_TEST`).
+pub const BVH_TRIANGLE_ALPHA: u32 = 1;
 
 /// [`GpuBvhInstance::flags`] bit: the instance is the world-space static level, and the
 /// shader traces the world ray unchanged (no transform, so no rounding).
@@ -217,7 +223,7 @@ impl PackedBvh {
                         a: tri.v0.to_array(),
                         triangle: primitive,
                         b: tri.v1.to_array(),
-                        pad_b: 0,
+                        flags: 0,
                         c: tri.v2.to_array(),
                         pad_c: 0,
                     })

@@ -23,8 +23,8 @@ use obvhs::{
 };
 
 use super::layout::{
-    BVH_INSTANCE_IDENTITY, BVH_INSTANCE_MIRRORED, BVH_STACK_SIZE, BvhError, GpuBvhInstance,
-    GpuBvhTriangle, GpuCwBvhNode, PackedBvh,
+    BVH_INSTANCE_IDENTITY, BVH_INSTANCE_MIRRORED, BVH_STACK_SIZE, BVH_TRIANGLE_ALPHA, BvhError,
+    GpuBvhInstance, GpuBvhTriangle, GpuCwBvhNode, PackedBvh,
 };
 
 /// One bottom level's place in the concatenated buffers.
@@ -105,7 +105,15 @@ impl BottomLevels {
             .iter()
             .map(|&i| frame.triangles[i as usize])
             .collect();
-        if let Some(blas) = levels.add_blas(&static_triangles, Some(&static_indices))? {
+        let alpha_tested: Vec<bool> = scene.materials.iter().map(|m| m.alpha_tested()).collect();
+        let material_alpha = |material: usize| alpha_tested.get(material).copied().unwrap_or(false);
+        let static_alpha: Vec<bool> = static_indices
+            .iter()
+            .map(|&i| material_alpha(frame.attributes[i as usize].material as usize))
+            .collect();
+        if let Some(blas) =
+            levels.add_blas(&static_triangles, Some(&static_indices), &static_alpha)?
+        {
             levels.instances.push(Instance {
                 blas,
                 placement: Placement::Static,
@@ -121,7 +129,8 @@ impl BottomLevels {
             let blas = match mesh_blas.get(mesh).copied().flatten() {
                 Some(blas) => blas,
                 None => {
-                    let blas = levels.add_blas(&object_triangles(scene, mesh), None)?;
+                    let alpha = object_alpha(scene, mesh, &material_alpha);
+                    let blas = levels.add_blas(&object_triangles(scene, mesh), None, &alpha)?;
                     if let Some(slot) = mesh_blas.get_mut(mesh) {
                         *slot = Some(blas);
                     }
@@ -173,10 +182,13 @@ impl BottomLevels {
 
     /// Builds and appends a level over `triangles`; `frame_indices[i]` replaces primitive
     /// `i`'s stored index when given. `None` for an empty list.
+    /// Builds and appends a level over `triangles`; `alpha[i]` flags triangle `i` as
+    /// alpha-tested.
     fn add_blas(
         &mut self,
         triangles: &[Triangle],
         frame_indices: Option<&[u32]>,
+        alpha: &[bool],
     ) -> Result<Option<usize>, BvhError> {
         if triangles.is_empty() {
             return Ok(None);
@@ -187,6 +199,11 @@ impl BottomLevels {
             &mut Duration::default(),
         );
         let mut packed = PackedBvh::new(&bvh, triangles)?;
+        for tri in &mut packed.triangles {
+            if alpha.get(tri.triangle as usize).copied().unwrap_or(false) {
+                tri.flags |= BVH_TRIANGLE_ALPHA;
+            }
+        }
         if let Some(map) = frame_indices {
             for tri in &mut packed.triangles {
                 tri.triangle = map[tri.triangle as usize];
@@ -321,6 +338,18 @@ pub fn moving_nodes(scene: &Scene) -> Vec<bool> {
 
 /// The triangles of mesh `mesh` in object space, in the order `Scene::evaluate` emits them
 /// (winding as authored: a mirroring instance swaps barycentrics instead).
+/// Per triangle of `mesh`, in [`object_triangles`] order: whether its material is
+/// alpha-tested.
+fn object_alpha(scene: &Scene, mesh: usize, material_alpha: &impl Fn(usize) -> bool) -> Vec<bool> {
+    let Some(mesh) = scene.meshes.get(mesh) else {
+        return Vec::new();
+    };
+    mesh.primitives
+        .iter()
+        .flat_map(|p| std::iter::repeat_n(material_alpha(p.material), p.indices.len() / 3))
+        .collect()
+}
+
 fn object_triangles(scene: &Scene, mesh: usize) -> Vec<Triangle> {
     let Some(mesh) = scene.meshes.get(mesh) else {
         return Vec::new();

@@ -29,8 +29,8 @@ mod tracer;
 
 pub use layout::{
     BVH_INSTANCE_IDENTITY, BVH_INSTANCE_MIRRORED, BVH_MISS, BVH_NO_STATIC_ROOT, BVH_STACK_SIZE,
-    BvhError, GpuBvhInstance, GpuBvhInstanceHeader, GpuBvhTriangle, GpuCwBvhNode, GpuHit, GpuRay,
-    PackedBvh,
+    BVH_TRIANGLE_ALPHA, BvhError, GpuBvhInstance, GpuBvhInstanceHeader, GpuBvhTriangle,
+    GpuCwBvhNode, GpuHit, GpuRay, PackedBvh,
 };
 pub use levels::{BottomLevels, TopLevel, moving_nodes};
 pub use tracer::{BvhTracer, TraceResults, TraceTimings};

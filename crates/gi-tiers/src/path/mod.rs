@@ -173,7 +173,7 @@ impl GpuPathTier {
     /// BVH's top level and the shading data ([`GpuScene::update`]) before restarting it.
     fn prepare(&mut self, input: &FrameInput) -> Result<(), TierError> {
         let frame = input.frame;
-        let unavailable = |e: gi_gpu::bvh::BvhError| TierError::Unavailable {
+        let unavailable = |e: &dyn std::fmt::Display| TierError::Unavailable {
             tier: self.kind.name(),
             reason: e.to_string(),
         };
@@ -186,7 +186,8 @@ impl GpuPathTier {
                 old.accumulation.release(&self.ctx);
                 old.scene.release(&self.ctx);
             }
-            let scene = GpuScene::upload(&self.ctx, input.scene, frame).map_err(unavailable)?;
+            let scene =
+                GpuScene::upload(&self.ctx, input.scene, frame).map_err(|e| unavailable(&e))?;
             let uniforms = PathUniforms::new(frame, &scene, size, self.settings.seed);
             let accumulation = Accumulation::new(&self.ctx, &self.pipelines, &scene, uniforms);
             self.prepared = Some(Prepared {
@@ -210,7 +211,7 @@ impl GpuPathTier {
             replaced = prepared
                 .scene
                 .update(&self.ctx, input.scene, frame)
-                .map_err(unavailable)?;
+                .map_err(|e| unavailable(&e))?;
         }
         let uniforms = PathUniforms::new(frame, &prepared.scene, size, self.settings.seed);
         if replaced {

@@ -127,9 +127,12 @@ impl PathPipelines {
         let direct_only = tier == "direct";
         let shaders = ShaderLibrary::new();
         let defs: &[(&str, ShaderDefValue)] = if direct_only {
-            &[("DIRECT_ONLY", ShaderDefValue::Bool(true))]
+            &[
+                ("DIRECT_ONLY", ShaderDefValue::Bool(true)),
+                gi_gpu::ALPHA_TEST,
+            ]
         } else {
-            &[]
+            &[gi_gpu::ALPHA_TEST]
         };
         let trace = shaders.create_module(ctx, "path/trace.wgsl", defs)?;
         let resolve = shaders.create_module(ctx, "path/resolve.wgsl", &[])?;
@@ -155,11 +158,17 @@ impl PathPipelines {
                 entries: &entries,
             });
         let bvh_layout = gi_gpu::bvh::GpuBvh::bind_group_layout(ctx);
+        let texture_layout = GpuScene::texture_layout(ctx);
         let trace = ctx.create_compute_pipeline_with_layouts(
             &format!("{tier}/trace"),
             &trace,
             "trace",
-            &[Some(&frame_layout), Some(&bvh_layout)],
+            &[
+                Some(&frame_layout),
+                Some(&bvh_layout),
+                None,
+                Some(&texture_layout),
+            ],
         );
         Ok(Self {
             trace,
@@ -406,6 +415,7 @@ impl Accumulation {
         timer.compute_pass(ctx, encoder, &format!("{tier}/trace"), |pass| {
             pass.set_pipeline(&pipelines.trace);
             pass.set_bind_group(gi_gpu::bvh::BVH_BIND_GROUP, &scene.bvh.bind_group, &[]);
+            scene.set_texture_bind_group(pass);
             for slot in 0..dispatches {
                 let offset = (u64::from(slot) * UNIFORM_SLOT_BYTES) as u32;
                 pass.set_bind_group(0, &self.trace_group, &[offset]);

@@ -29,6 +29,7 @@ use gi_cache::lighting::GpuSky;
 use gi_cache::{
     CacheBuffers, CacheLighting, RadianceCache, ScreenInputs, binning::dynamic_triangles,
 };
+use gi_gpu::TEXTURE_BIND_GROUP;
 use gi_gpu::binding::{buffer_entries, storage_entry, uniform_entry};
 use gi_gpu::bvh::{BVH_BIND_GROUP, GpuBvh};
 use gi_gpu::gbuffer::{GBUFFER_MISS, GBuffer, GBufferInputs};
@@ -235,14 +236,16 @@ impl PcPipelines {
         let restir_layout = layout("pc/restir.layout0", &entries);
         let bvh_layout = GpuBvh::bind_group_layout(ctx);
         let cache_layout = CacheBuffers::bind_group_layout(ctx);
-        let trace_module = shaders.create_module(ctx, "pc/trace.wgsl", &[])?;
+        let texture_layout = GpuScene::texture_layout(ctx);
+        let trace_module = shaders.create_module(ctx, "pc/trace.wgsl", &[gi_gpu::ALPHA_TEST])?;
         let restir_module = shaders.create_module(ctx, "pc/restir.wgsl", &[])?;
         let specular_module = shaders.create_module(ctx, "pc/specular.wgsl", &[])?;
         let mut trace_groups: Vec<Option<&wgpu::BindGroupLayout>> =
-            vec![None; CacheBuffers::BIND_GROUP as usize + 1];
+            vec![None; TEXTURE_BIND_GROUP.max(CacheBuffers::BIND_GROUP) as usize + 1];
         trace_groups[0] = Some(&trace_layout);
         trace_groups[BVH_BIND_GROUP as usize] = Some(&bvh_layout);
         trace_groups[CacheBuffers::BIND_GROUP as usize] = Some(&cache_layout);
+        trace_groups[TEXTURE_BIND_GROUP as usize] = Some(&texture_layout);
         let traced = |entry: &str| {
             ctx.create_compute_pipeline_with_layouts(
                 &format!("pc/{entry}"),
@@ -815,6 +818,7 @@ impl PcTier {
                 if traces {
                     pass.set_bind_group(0, &trace_group, &[]);
                     pass.set_bind_group(BVH_BIND_GROUP, &prepared.state.scene.bvh.bind_group, &[]);
+                    prepared.state.scene.set_texture_bind_group(pass);
                 } else {
                     pass.set_bind_group(0, &restir_group, &[]);
                 }
