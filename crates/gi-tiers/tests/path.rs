@@ -5,8 +5,8 @@ use gi_gpu::GpuContext;
 use gi_image::Image;
 use gi_reference::{Mode, Reference, RenderSettings};
 use gi_scene::{
-    CameraView, Light, LightKind, Material, Mesh, Node, Primitive, Scene, SceneFrame, Sky, Texture,
-    TextureEncoding, TextureRef,
+    AlphaMode, CameraView, Light, LightKind, Material, Mesh, Node, Primitive, Scene, SceneFrame,
+    Sky, Texture, TextureEncoding, TextureRef, TextureTransform,
 };
 use gi_tiers::{
     CameraMode, FrameInput, GpuPathTier, Moments, Renderer, Tier, TierChoice, TierError, TierKind,
@@ -252,6 +252,11 @@ fn path_on_the_gpu_matches_the_reference_under_sky_and_sun() {
 #[test]
 fn path_on_the_gpu_matches_the_reference_with_textures_and_spot_lights() {
     path_matches_reference("textured", textured(), 8);
+}
+
+#[test]
+fn path_on_the_gpu_matches_the_reference_with_normal_maps_alpha_and_texture_transforms() {
+    path_matches_reference("real content", real_content(), 8);
 }
 
 /// A thousand samples per pixel in one frame, as `gi render --spp 1024` asks: more loop
@@ -538,6 +543,166 @@ fn textured() -> Case {
         camera: Some(CameraView::look_at(
             Vec3::new(0.0, 2.5, 4.0),
             Vec3::new(0.0, 0.3, 0.0),
+            0.9,
+        )),
+        size: (WIDTH, HEIGHT),
+    }
+}
+
+/// What real files use and the bundled scenes lack: a floor whose base color reads
+/// `TEXCOORD_1` through a `KHR_texture_transform` (offset, rotation, scale) and whose normal
+/// map tilts its shading normals through tangents of both handedness, a leaf card of alpha
+/// `MASK` (a checker of holes) that casts a holed shadow and lets camera rays through, and a
+/// half-transparent `BLEND` pane, under a sun and a gradient sky.
+fn real_content() -> Case {
+    let checker_alpha: Vec<Vec4> = (0..16)
+        .map(|i| {
+            let (x, y) = (i % 4, i / 4);
+            Vec4::new(
+                0.3 + 0.1 * x as f32,
+                0.6,
+                0.2 + 0.1 * y as f32,
+                ((x + y) % 2) as f32,
+            )
+        })
+        .collect();
+    let normals: Vec<Vec4> = (0..16)
+        .map(|i| {
+            let tilt = (i % 5) as f32 * 0.15 - 0.3;
+            let n = Vec3::new(tilt, -0.5 * tilt, 1.0).normalize();
+            (n * 0.5 + 0.5).extend(1.0)
+        })
+        .collect();
+    let colors: Vec<Vec4> = (0..16)
+        .map(|i| Vec4::new((i % 3) as f32 * 0.4 + 0.1, (i % 4) as f32 * 0.25, 0.5, 1.0))
+        .collect();
+    let quad = |positions: [Vec3; 4], normal: Vec3, material: usize| Primitive {
+        positions: positions.to_vec(),
+        normals: vec![normal; 4],
+        uvs: vec![
+            Vec2::new(0.0, 0.0),
+            Vec2::new(1.0, 0.0),
+            Vec2::new(1.0, 1.0),
+            Vec2::new(0.0, 1.0),
+        ],
+        indices: vec![0, 1, 2, 0, 2, 3],
+        material,
+        ..Default::default()
+    };
+    let mut floor = quad(
+        [
+            Vec3::new(-2.0, 0.0, 2.0),
+            Vec3::new(2.0, 0.0, 2.0),
+            Vec3::new(2.0, 0.0, -2.0),
+            Vec3::new(-2.0, 0.0, -2.0),
+        ],
+        Vec3::Y,
+        0,
+    );
+    floor.uvs1 = vec![
+        Vec2::new(-0.4, 0.1),
+        Vec2::new(2.3, -0.2),
+        Vec2::new(2.0, 1.9),
+        Vec2::new(0.2, 2.2),
+    ];
+    // Tangents along +X; two vertices mirrored (bitangent sign -1).
+    floor.tangents = vec![
+        Vec4::new(1.0, 0.0, 0.0, 1.0),
+        Vec4::new(1.0, 0.0, 0.0, 1.0),
+        Vec4::new(1.0, 0.0, 0.0, -1.0),
+        Vec4::new(1.0, 0.0, 0.0, -1.0),
+    ];
+    let leaf = quad(
+        [
+            Vec3::new(-0.8, 0.3, 0.5),
+            Vec3::new(0.8, 0.3, 0.5),
+            Vec3::new(0.8, 1.5, 0.2),
+            Vec3::new(-0.8, 1.5, 0.2),
+        ],
+        Vec3::Z,
+        1,
+    );
+    let pane = quad(
+        [
+            Vec3::new(0.4, 0.0, -0.6),
+            Vec3::new(1.6, 0.0, -0.6),
+            Vec3::new(1.6, 1.2, -0.6),
+            Vec3::new(0.4, 1.2, -0.6),
+        ],
+        Vec3::Z,
+        2,
+    );
+    let floor_material = Material {
+        base_color_texture: Some(TextureRef {
+            texture: 2,
+            tex_coord: 1,
+            transform: TextureTransform {
+                offset: Vec2::new(0.3, -0.2),
+                rotation: 0.7,
+                scale: Vec2::new(1.5, 0.8),
+            },
+        }),
+        normal_texture: Some(TextureRef::new(1)),
+        normal_scale: 0.8,
+        metallic: 0.0,
+        roughness: 0.5,
+        ..Material::default()
+    };
+    let leaf_material = Material {
+        base_color_texture: Some(TextureRef::new(0)),
+        alpha_mode: AlphaMode::Mask { cutoff: 0.5 },
+        double_sided: true,
+        metallic: 0.0,
+        ..Material::default()
+    };
+    let pane_material = Material {
+        base_color: Vec4::new(0.9, 0.3, 0.2, 0.5),
+        alpha_mode: AlphaMode::Blend,
+        metallic: 0.0,
+        ..Material::default()
+    };
+    let scene = Scene {
+        name: "real-content".into(),
+        meshes: vec![Mesh {
+            name: String::new(),
+            primitives: vec![floor, leaf, pane],
+        }],
+        materials: vec![floor_material, leaf_material, pane_material],
+        textures: vec![
+            Texture::from_linear("leaf", 4, 4, TextureEncoding::Srgb, &checker_alpha),
+            Texture::from_linear("normals", 4, 4, TextureEncoding::Linear, &normals),
+            Texture::from_linear("colors", 4, 4, TextureEncoding::Srgb, &colors),
+        ],
+        lights: vec![Light {
+            name: String::new(),
+            kind: LightKind::Directional,
+            color: Vec3::ONE,
+            intensity: 3.0,
+            range: None,
+        }],
+        nodes: vec![
+            Node {
+                mesh: Some(0),
+                ..Node::default()
+            },
+            Node {
+                light: Some(0),
+                rotation: Quat::from_rotation_x(-1.1) * Quat::from_rotation_y(0.3),
+                ..Node::default()
+            },
+        ],
+        sky: Sky::Gradient {
+            zenith: Vec3::new(0.3, 0.4, 0.8),
+            horizon: Vec3::new(0.6, 0.6, 0.5),
+            ground: Vec3::new(0.1, 0.1, 0.1),
+        },
+        ..Scene::default()
+    };
+    Case {
+        scene,
+        camera: Some(CameraView::look_at(
+            Vec3::new(0.3, 2.2, 3.5),
+            Vec3::new(0.0, 0.4, 0.0),
             0.9,
         )),
         size: (WIDTH, HEIGHT),
