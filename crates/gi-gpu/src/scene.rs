@@ -184,6 +184,17 @@ pub enum SceneUploadError {
     Bvh(#[from] BvhError),
     #[error(transparent)]
     Textures(#[from] TextureError),
+    /// A scene buffer would exceed the device's largest storage binding or buffer.
+    #[error(
+        "{label} needs {bytes} bytes, over the device's limit of {limit} \
+         (`max_storage_buffer_binding_size` / `max_buffer_size`): the scene is too large for \
+         this adapter"
+    )]
+    TooLarge {
+        label: &'static str,
+        bytes: u64,
+        limit: u64,
+    },
 }
 
 /// One scene frame on the GPU. Buffers are labeled `scene.*` and counted by the context until
@@ -331,6 +342,23 @@ impl GpuScene {
         frame: &SceneFrame,
         texture_options: &TextureOptions,
     ) -> Result<Self, SceneUploadError> {
+        // Every buffer is checked against the device's limits before anything is created.
+        let triangle_count = frame.triangles.len() as u64;
+        let limit = u64::from(ctx.limits.max_storage_buffer_binding_size)
+            .min(ctx.limits.max_buffer_size);
+        for (label, bytes) in [
+            ("scene.triangles", triangle_count * size_of::<GpuTriangleShading>() as u64),
+            ("scene.triangle_extras", triangle_count * size_of::<GpuTriangleExtras>() as u64),
+            ("scene.selection", triangle_count * 4),
+        ] {
+            if bytes > limit {
+                return Err(SceneUploadError::TooLarge {
+                    label,
+                    bytes,
+                    limit,
+                });
+            }
+        }
         let mut textures = SceneTextures::upload(ctx, scene, texture_options)?;
         for warning in &textures.warnings {
             tracing::warn!("{warning}");
