@@ -40,6 +40,10 @@ pub struct JobRequest {
     pub compare: bool,
     /// Samples per pixel of the reference (default: the service's).
     pub reference_spp: Option<u32>,
+    /// Sun, sky, exposure and default camera applied to the scene before rendering, in the
+    /// lighting file format (see `gi_scene::Lighting`).
+    #[serde(default)]
+    pub lighting: Option<gi_scene::Lighting>,
 }
 
 /// Which camera a job looks through.
@@ -85,6 +89,9 @@ pub struct JobSpec {
     pub compare: bool,
     /// Set when `compare` is.
     pub reference_spp: Option<u32>,
+    /// The request's lighting; absent from jobs stored before the field existed.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub lighting: Option<gi_scene::Lighting>,
 }
 
 impl JobRequest {
@@ -131,6 +138,11 @@ impl JobRequest {
         if let CameraSpec::LookAt(look) = &camera {
             look.validate()?;
         }
+        if let Some(lighting) = &self.lighting {
+            lighting
+                .validate()
+                .map_err(|e| ApiError::invalid("invalid_request", format!("lighting: {e}")))?;
+        }
         Ok(JobSpec {
             scene: self.scene,
             tier: self.tier.unwrap_or_else(|| "auto".to_string()),
@@ -143,6 +155,7 @@ impl JobRequest {
             camera,
             compare: self.compare,
             reference_spp,
+            lighting: self.lighting,
         })
     }
 }
@@ -382,6 +395,31 @@ mod tests {
             serde_json::from_str(r#"{"scene": "x", "frames": 200, "warmup": 100}"#).unwrap();
         let error = too_many.normalize(&config).unwrap_err();
         assert_eq!(error.code, "limit_exceeded");
+    }
+
+    #[test]
+    fn lighting_is_validated_and_kept_in_the_spec() {
+        let config = Config::with_data_dir("unused");
+        let request: JobRequest = serde_json::from_str(
+            r#"{"scene": "x", "lighting": {"sun": {"direction": [0, -1, 0]}, "exposure": 2}}"#,
+        )
+        .unwrap();
+        let spec = request.normalize(&config).unwrap();
+        assert_eq!(spec.lighting.as_ref().and_then(|l| l.exposure), Some(2.0));
+        // Stored jobs from before the field existed still read.
+        let stored = serde_json::to_value(&spec).unwrap();
+        let mut old = stored.clone();
+        old.as_object_mut().unwrap().remove("lighting");
+        let back: JobSpec = serde_json::from_value(old).unwrap();
+        assert_eq!(back.lighting, None);
+
+        let bad: JobRequest =
+            serde_json::from_str(r#"{"scene": "x", "lighting": {"exposure": -1}}"#).unwrap();
+        assert!(bad.normalize(&config).is_err());
+        assert!(
+            serde_json::from_str::<JobRequest>(r#"{"scene": "x", "lighting": {"sunn": {}}}"#)
+                .is_err()
+        );
     }
 
     #[test]

@@ -213,7 +213,24 @@ pub fn document(config: &Config) -> Value {
                         "seed": { "type": "integer", "minimum": 0, "default": crate::job::DEFAULT_SEED },
                         "camera": { "$ref": "#/components/schemas/Camera" },
                         "compare": { "type": "boolean", "default": false, "description": "Measure against the path-traced reference" },
-                        "reference_spp": { "type": "integer", "minimum": 1, "maximum": config.max_spp, "default": config.reference_spp }
+                        "reference_spp": { "type": "integer", "minimum": 1, "maximum": config.max_spp, "default": config.reference_spp },
+                        "lighting": { "$ref": "#/components/schemas/Lighting" }
+                    }
+                },
+                "Lighting": {
+                    "type": "object",
+                    "additionalProperties": false,
+                    "description": "Sun, sky, exposure and default camera applied to the scene before rendering (the lighting file format of the README)",
+                    "properties": {
+                        "sun": { "type": "object", "additionalProperties": false, "properties": {
+                            "direction": { "type": "array", "items": { "type": "number" }, "minItems": 3, "maxItems": 3, "description": "The vector the light travels along" },
+                            "azimuth_deg": { "type": "number", "description": "Towards the sun, degrees from +X towards +Z" },
+                            "elevation_deg": { "type": "number", "description": "Degrees above the horizon" },
+                            "color": { "type": "array", "items": { "type": "number", "minimum": 0 }, "minItems": 3, "maxItems": 3 },
+                            "irradiance": { "type": "number", "minimum": 0, "description": "W/m^2 facing the sun" } } },
+                        "sky": { "type": "object", "description": "One of constant: [r, g, b], gradient: {zenith, horizon, ground}, preset: day | overcast | night" },
+                        "exposure": { "type": "number", "exclusiveMinimum": 0 },
+                        "camera": { "oneOf": [ { "type": "string" }, { "type": "integer", "minimum": 0 } ], "description": "A camera node's name, or the index of a camera node" }
                     }
                 },
                 "Accepted": {

@@ -28,15 +28,17 @@ pub enum SceneSource {
 }
 
 impl SceneSource {
-    /// Loads the scene; its name is the one jobs use for it.
+    /// Loads the scene, with the `<stem>.lighting.json` beside a scene file when there is one;
+    /// its name is the one jobs use for it.
     pub fn load(&self) -> Result<Scene, gi_scene::SceneError> {
         match self {
             SceneSource::Bundled(name) => gi_scene::load(name),
             SceneSource::File { name, path } => {
-                let (mut scene, warnings) = gi_scene::import_gltf(path)?;
-                for warning in &warnings {
+                let loaded = gi_scene::import_with_lighting(path, None)?;
+                for warning in &loaded.warnings {
                     tracing::warn!("{}: {warning}", path.display());
                 }
+                let mut scene = loaded.scene;
                 scene.name = name.clone();
                 Ok(scene)
             }
@@ -281,7 +283,11 @@ impl SceneCatalog {
             sha256,
             triangles,
             uploaded_at: now_rfc3339(),
-            warnings: warnings.iter().map(|w| w.to_string()).collect(),
+            warnings: warnings
+                .iter()
+                .map(|w| w.to_string())
+                .chain(gi_scene::no_emitter_warning(&scene))
+                .collect(),
         };
         let io_error = |e: std::io::Error| ApiError::internal(format!("storing the scene: {e}"));
         fs::create_dir_all(&self.uploads_dir).map_err(io_error)?;

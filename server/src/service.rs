@@ -307,7 +307,7 @@ impl Service {
         let spec = request.normalize(&self.config)?;
         let (_, lane) = self.plan(&spec)?;
         let source = self.catalog.resolve(&spec.scene)?;
-        let scene = self.load_scene(source).await?;
+        let scene = with_lighting(self.load_scene(source).await?, &spec)?;
         runner::check_camera(&scene, &spec.camera)?;
 
         let id = {
@@ -707,7 +707,7 @@ impl Service {
     async fn prepare(self: &Arc<Self>, spec: &JobSpec) -> Result<PreparedJob, ApiError> {
         let (plan, _) = self.plan(spec)?;
         let source = self.catalog.resolve(&spec.scene)?;
-        let scene = self.load_scene(source).await?;
+        let scene = with_lighting(self.load_scene(source).await?, spec)?;
         let gpu_name = self.gpu.as_ref().map(|g| g.name.clone());
         let spec = spec.clone();
         tokio::task::spawn_blocking(move || runner::prepare(scene, &spec, plan, gpu_name))
@@ -800,4 +800,16 @@ impl Service {
 
 pub fn job_not_found(id: impl std::fmt::Display) -> ApiError {
     ApiError::not_found("job_not_found", format!("no job {id}"))
+}
+
+/// `scene` with the job's lighting applied (a copy; the cached scene stays as loaded).
+fn with_lighting(scene: Arc<Scene>, spec: &JobSpec) -> Result<Arc<Scene>, ApiError> {
+    let Some(lighting) = &spec.lighting else {
+        return Ok(scene);
+    };
+    let mut lit = Scene::clone(&scene);
+    lighting
+        .apply(&mut lit)
+        .map_err(|e| ApiError::invalid("invalid_lighting", e.to_string()))?;
+    Ok(Arc::new(lit))
 }

@@ -175,6 +175,7 @@ mod tests {
                 camera: CameraSpec::Named("default".to_string()),
                 compare: false,
                 reference_spp: None,
+                lighting: None,
             },
             state: JobState::Queued,
             submitted_at: "2026-01-01T00:00:00.000Z".to_string(),

@@ -81,7 +81,13 @@ pub fn run(scene_name: &str, options: &Options) -> Result<()> {
 }
 
 fn measure_scene(scene_name: &str, options: &Options) -> Result<()> {
-    let scene = gi_scene::load(scene_name).with_context(|| format!("loading {scene_name}"))?;
+    let lighting = options.lighting.as_deref().map(std::path::Path::new);
+    let loaded = gi_scene::load_with_lighting(scene_name, lighting)
+        .with_context(|| format!("loading {scene_name}"))?;
+    for warning in &loaded.warnings {
+        eprintln!("warning: {scene_name}: {warning}");
+    }
+    let scene = loaded.scene;
     let images = Path::new(&options.out_dir).join("images");
     std::fs::create_dir_all(&images).with_context(|| format!("creating {}", images.display()))?;
 

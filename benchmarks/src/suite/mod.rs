@@ -115,6 +115,10 @@ pub struct SuiteArgs {
     /// Exit non-zero when the baseline comparison flags a regression.
     #[arg(long, requires = "baseline")]
     fail_on_regression: bool,
+    /// Lighting file (JSON: sun, sky, exposure, default camera) applied to every scene;
+    /// without it, each scene file's `<stem>.lighting.json` is used when it exists.
+    #[arg(long, value_name = "FILE")]
+    lighting: Option<PathBuf>,
 }
 
 /// The hidden subcommand a scene's process runs.
@@ -197,6 +201,7 @@ pub fn run(args: &SuiteArgs) -> Result<()> {
         reference_spp: args.reference_spp,
         reference_seed: cache::REFERENCE_SEED,
         reference_engine: args.reference_engine,
+        lighting: args.lighting.as_ref().map(|p| p.display().to_string()),
         cache_dir: args
             .cache_dir
             .clone()

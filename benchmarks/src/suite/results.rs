@@ -112,6 +112,10 @@ pub struct Options {
     pub reference_engine: EngineChoice,
     pub cache_dir: String,
     pub out_dir: String,
+    /// `--lighting`: the lighting file applied to every scene (null: each scene's own
+    /// `<stem>.lighting.json`, if any).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub lighting: Option<String>,
 }
 
 fn cpu_choice() -> EngineChoice {

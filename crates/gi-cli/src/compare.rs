@@ -21,6 +21,10 @@ pub struct CompareArgs {
     /// Bundled scene name (see `gi scenes`) or path to a .gltf/.glb file.
     #[arg(default_value = "cornell-box")]
     scene: String,
+    /// Lighting file (JSON: sun, sky, exposure, default camera) applied to the scene; without
+    /// it, `<stem>.lighting.json` beside the scene file is used when it exists.
+    #[arg(long, value_name = "FILE")]
+    lighting: Option<PathBuf>,
     /// Comma-separated tiers to compare (default: every tier: reference, direct, path, mobile,
     /// pc).
     #[arg(long, value_delimiter = ',', value_parser = parse_tier)]
@@ -138,7 +142,7 @@ pub fn run(args: &CompareArgs) -> Result<()> {
     } else {
         args.tiers.clone()
     };
-    let scene = gi_scene::load(&args.scene)?;
+    let scene = crate::load_scene(&args.scene, args.lighting.as_deref())?;
     let out_dir = args
         .out_dir
         .clone()

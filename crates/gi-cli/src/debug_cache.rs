@@ -21,6 +21,10 @@ use gi_gpu::{GpuContext, GpuScene, GpuTimer, PassTimings, ShaderLibrary};
 pub struct DebugCacheArgs {
     /// Bundled scene name or path to a .gltf/.glb file.
     scene: String,
+    /// Lighting file (JSON: sun, sky, exposure, default camera) applied to the scene; without
+    /// it, `<stem>.lighting.json` beside the scene file is used when it exists.
+    #[arg(long, value_name = "FILE")]
+    lighting: Option<PathBuf>,
     /// What to show: albedo, normal, radiance, irradiance, occupancy, face or distance.
     #[arg(long, default_value = "occupancy")]
     view: String,
@@ -79,7 +83,7 @@ pub fn run(args: &DebugCacheArgs) -> anyhow::Result<()> {
         out.display()
     );
 
-    let scene = gi_scene::load(&args.scene)?;
+    let scene = crate::load_scene(&args.scene, args.lighting.as_deref())?;
     let frame = scene.evaluate(args.time, None);
     let ctx = GpuContext::new().context("debug-cache needs a GPU (or lavapipe)")?;
     let shaders = ShaderLibrary::new();

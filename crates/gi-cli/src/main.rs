@@ -19,7 +19,10 @@ mod error;
 mod render;
 mod tiers;
 
-use std::{path::PathBuf, process::ExitCode};
+use std::{
+    path::{Path, PathBuf},
+    process::ExitCode,
+};
 
 use clap::{Args, Parser, Subcommand};
 use gi_tiers::pc::TraceMode;
@@ -55,6 +58,10 @@ enum Command {
     Info {
         /// Bundled scene name or path to a .gltf/.glb file.
         scene: String,
+        /// Lighting file (JSON: sun, sky, exposure, default camera) applied to the scene; without
+        /// it, `<stem>.lighting.json` beside the scene file is used when it exists.
+        #[arg(long, value_name = "FILE")]
+        lighting: Option<PathBuf>,
     },
     /// Write the bundled scenes as glTF (.gltf + .bin) into a folder.
     GenerateScenes {
@@ -245,7 +252,7 @@ fn run(cli: Cli) -> anyhow::Result<()> {
             }
             Ok(())
         }
-        Command::Info { scene } => info(&scene),
+        Command::Info { scene, lighting } => info(&scene, lighting.as_deref()),
         Command::GenerateScenes { out } => {
             let dir = out
                 .or_else(gi_scene::bundled_scene_dir)
@@ -258,9 +265,22 @@ fn run(cli: Cli) -> anyhow::Result<()> {
     }
 }
 
+/// Loads a scene by bundled name or path with its lighting file (`lighting`, else the one
+/// beside the scene file), logging what the importer ignored and whether nothing lights it.
+pub fn load_scene(name: &str, lighting: Option<&Path>) -> anyhow::Result<gi_scene::Scene> {
+    let loaded = gi_scene::load_with_lighting(name, lighting)?;
+    for warning in &loaded.warnings {
+        tracing::warn!("{name}: {warning}");
+    }
+    if let Some(file) = &loaded.lighting {
+        tracing::info!("{name}: lighting from {}", file.display());
+    }
+    Ok(loaded.scene)
+}
+
 /// `gi info`: what the renderers will see of a scene at time zero.
-fn info(name: &str) -> anyhow::Result<()> {
-    let scene = gi_scene::load(name)?;
+fn info(name: &str, lighting: Option<&Path>) -> anyhow::Result<()> {
+    let scene = load_scene(name, lighting)?;
     let frame = scene.evaluate(0.0, None);
     let bvh = gi_scene::SceneBvh::build(&frame.triangles);
     let emissive = scene

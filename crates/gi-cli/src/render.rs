@@ -15,6 +15,10 @@ use crate::{ViewArgs, parse_tier, tiers::render_tier};
 pub struct RenderArgs {
     /// Bundled scene name (see `gi scenes`) or path to a .gltf/.glb file.
     scene: String,
+    /// Lighting file (JSON: sun, sky, exposure, default camera) applied to the scene; without
+    /// it, `<stem>.lighting.json` beside the scene file is used when it exists.
+    #[arg(long, value_name = "FILE")]
+    lighting: Option<PathBuf>,
     /// Tier to render with: reference, direct, path, mobile, pc.
     #[arg(long, value_parser = parse_tier, default_value = "reference")]
     tier: TierKind,
@@ -88,7 +92,7 @@ pub fn run(args: &RenderArgs) -> Result<()> {
     let request = args.view.request(args.spp)?;
     // Check the output before spending time on the render.
     check_output_extension(&args.out)?;
-    let scene = gi_scene::load(&args.scene)?;
+    let scene = crate::load_scene(&args.scene, args.lighting.as_deref())?;
     let bar = progress_bar(request.spp, args.tier.name());
     let result = render_tier(&scene, args.tier, &request, &|done| {
         bar.set_position(u64::from(done))

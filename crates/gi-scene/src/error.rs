@@ -15,6 +15,9 @@ pub enum SceneError {
     /// Valid glTF whose content the product cannot use (no triangles, bad extras...).
     #[error("{path}: {message}")]
     Invalid { path: PathBuf, message: String },
+    /// A lighting file or object that cannot be parsed or applied; `origin` names it.
+    #[error("{origin}: invalid lighting: {message}")]
+    Lighting { origin: String, message: String },
     #[error("unknown scene '{name}': not a file, and not a bundled scene ({available})")]
     UnknownScene { name: String, available: String },
 }

@@ -9,10 +9,12 @@
 
 mod animation;
 mod buffers;
+mod extensions;
 mod extras;
 mod material;
 mod mesh;
 mod nodes;
+mod tangents;
 
 use std::collections::HashSet;
 use std::path::Path;
@@ -102,19 +104,10 @@ struct Source<'a> {
     dir: &'a Path,
 }
 
-/// Extensions the importer implements; a file may require only these.
-const SUPPORTED_EXTENSIONS: &[&str] = &[
-    "KHR_lights_punctual",
-    "KHR_materials_emissive_strength",
-    "KHR_materials_ior",
-    "KHR_materials_specular",
-    "KHR_mesh_quantization",
-];
-
 fn import(bytes: &[u8], base: &Path, warnings: &mut Warnings) -> Result<Scene> {
     let gltf::Gltf { document, blob } = parse(bytes)?;
     let root = document.as_json();
-    warn_ignored_extensions(root, warnings);
+    extensions::warn_ignored(root, warnings);
     let dir = base.parent().unwrap_or(Path::new(""));
     let source = Source {
         root,
@@ -304,33 +297,6 @@ fn parse(bytes: &[u8]) -> Result<gltf::Gltf> {
         };
         return Err(malformed(format!("{}{more}", problems[..shown].join("; "))));
     }
-    if let Some(ext) = root
-        .extensions_required
-        .iter()
-        .find(|e| !SUPPORTED_EXTENSIONS.contains(&e.as_str()))
-    {
-        return Err(unusable(format!(
-            "the file requires extension {ext}, which is not supported"
-        )));
-    }
+    extensions::check_required(root)?;
     Ok(gltf)
-}
-
-/// One warning per used extension the importer ignores.
-fn warn_ignored_extensions(root: &json::Root, warnings: &mut Warnings) {
-    for ext in &root.extensions_used {
-        if SUPPORTED_EXTENSIONS.contains(&ext.as_str()) {
-            continue;
-        }
-        let message = if ext == "KHR_texture_transform" {
-            "texture transforms (KHR_texture_transform) are not supported; textures are sampled untransformed".to_string()
-        } else if ext.starts_with("KHR_materials_") {
-            format!(
-                "material extension {ext} is not supported; materials use the metallic-roughness core and emissive strength only"
-            )
-        } else {
-            format!("extension {ext} is not supported and is ignored")
-        };
-        warnings.once(ext, || message);
-    }
 }

@@ -11,15 +11,23 @@ mod export;
 mod frame;
 pub mod generate;
 mod import;
+mod lighting;
 mod model;
 
-pub use bundled::{BUNDLED_SCENES, bundled_scene_dir, load, resolve};
+pub use bundled::{
+    BUNDLED_SCENES, LoadedScene, bundled_scene_dir, import_with_lighting, load, load_with_lighting,
+    resolve,
+};
 pub use bvh::{Hit, SceneBvh};
 pub use emitters::{EmitterDistribution, luminance};
 pub use error::SceneError;
 pub use export::write_gltf;
 pub use frame::{CameraView, SceneFrame, TriangleAttributes, WorldLight};
 pub use import::{ImportWarning, import_gltf, import_gltf_slice};
+pub use lighting::{
+    CameraChoice, LIGHTING_SUN_NAME, Lighting, SkyPreset, SkySetting, Sun, lighting_path_for,
+    no_emitter_warning,
+};
 pub use model::*;
 
 /// Re-exported so callers can name BVH primitives without depending on obvhs directly.

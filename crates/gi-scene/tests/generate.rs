@@ -7,9 +7,9 @@
 use std::path::{Path, PathBuf};
 
 use gi_scene::{
-    BUNDLED_SCENES, Camera, Channel, ChannelValues, Interpolation, Light, LightKind, Material,
-    Mesh, Node, Primitive, Scene, SceneBvh, Sky, Texture, TextureEncoding, TextureRef, generate,
-    import_gltf, write_gltf,
+    AlphaMode, BUNDLED_SCENES, Camera, Channel, ChannelValues, Interpolation, Light, LightKind,
+    Material, Mesh, Node, Primitive, Scene, SceneBvh, Sky, Texture, TextureEncoding, TextureRef,
+    TextureTransform, generate, import_gltf, write_gltf,
 };
 use glam::{Quat, Vec2, Vec3, Vec4};
 
@@ -603,11 +603,11 @@ fn exporter_writes_hierarchy_textures_spot_lights_and_step_keys() {
         ]
     );
 
-    // The texture is used as sRGB base color and as linear metallic-roughness: two PNGs.
+    // The sRGB base color and the linear metallic-roughness texture: one PNG each.
     let srgb = image::open(dir.path().join("features_0.png"))
         .unwrap()
         .to_rgba8();
-    let linear = image::open(dir.path().join("features_0_linear.png"))
+    let linear = image::open(dir.path().join("features_1.png"))
         .unwrap()
         .to_rgba8();
     assert_eq!(srgb.get_pixel(1, 0).0, [255, 188, 137, 255]);
@@ -615,12 +615,19 @@ fn exporter_writes_hierarchy_textures_spot_lights_and_step_keys() {
     assert_eq!(srgb.get_pixel(0, 1).0[3], 128, "alpha stays linear");
     let material = document.materials().next().unwrap();
     let pbr = material.pbr_metallic_roughness();
-    let base = pbr.base_color_texture().unwrap().texture().source().index();
+    let base = pbr
+        .base_color_texture()
+        .unwrap()
+        .texture()
+        .source()
+        .expect("core source")
+        .index();
     let mr = pbr
         .metallic_roughness_texture()
         .unwrap()
         .texture()
         .source()
+        .expect("core source")
         .index();
     assert_ne!(base, mr);
     assert!(material.double_sided());
@@ -792,4 +799,98 @@ fn feature_scene_round_trips_through_the_importer() {
             "animated child at {t} s"
         );
     }
+}
+
+/// Normal and occlusion maps with their scale and strength, texture coordinate set 1, texture
+/// transforms, alpha modes, `TEXCOORD_1` and tangents survive export and import.
+#[test]
+fn normal_maps_alpha_modes_and_second_uv_set_round_trip() {
+    let texels = vec![Vec4::new(0.5, 0.5, 1.0, 1.0); 4];
+    let normal = Texture::from_linear("normal", 2, 2, TextureEncoding::Linear, &texels);
+    let transform = TextureTransform {
+        offset: Vec2::new(0.25, -0.5),
+        rotation: 0.3,
+        scale: Vec2::new(2.0, 3.0),
+    };
+    let primitive = Primitive {
+        positions: vec![Vec3::ZERO, Vec3::X, Vec3::new(1.0, 1.0, 0.0)],
+        normals: vec![Vec3::Z; 3],
+        uvs: vec![Vec2::ZERO, Vec2::X, Vec2::ONE],
+        uvs1: vec![Vec2::ONE, Vec2::Y, Vec2::ZERO],
+        tangents: vec![Vec4::new(1.0, 0.0, 0.0, -1.0); 3],
+        indices: vec![0, 1, 2],
+        material: 0,
+    };
+    let material = |name: &str, alpha_mode| Material {
+        name: name.into(),
+        emissive: Vec3::splat(0.5),
+        normal_texture: Some(TextureRef {
+            texture: 0,
+            tex_coord: 1,
+            transform,
+        }),
+        normal_scale: 0.7,
+        occlusion_texture: Some(TextureRef {
+            texture: 0,
+            tex_coord: 0,
+            transform: TextureTransform::IDENTITY,
+        }),
+        occlusion_strength: 0.4,
+        alpha_mode,
+        ..Material::default()
+    };
+    let scene = Scene {
+        name: "normal-maps".into(),
+        nodes: vec![Node {
+            name: "Quad".into(),
+            mesh: Some(0),
+            ..Node::default()
+        }],
+        meshes: vec![Mesh {
+            name: "quad".into(),
+            primitives: vec![
+                primitive.clone(),
+                Primitive {
+                    material: 1,
+                    ..primitive.clone()
+                },
+                Primitive {
+                    material: 2,
+                    ..primitive
+                },
+            ],
+        }],
+        materials: vec![
+            material("masked", AlphaMode::Mask { cutoff: 0.3 }),
+            material("blended", AlphaMode::Blend),
+            material("opaque", AlphaMode::Opaque),
+        ],
+        textures: vec![normal],
+        exposure: 1.0,
+        frame_time_s: 1.0 / 30.0,
+        ..Scene::default()
+    };
+    let dir = tempfile::tempdir().unwrap();
+    let back = export_and_import(&scene, dir.path());
+    for original in &scene.materials {
+        let m = back
+            .materials
+            .iter()
+            .find(|m| m.name == original.name)
+            .unwrap();
+        assert_eq!(m.alpha_mode, original.alpha_mode, "{}", m.name);
+        assert_eq!(m.normal_scale, 0.7);
+        assert_eq!(m.occlusion_strength, 0.4);
+        let n = m.normal_texture.unwrap();
+        assert_eq!(n.tex_coord, 1);
+        assert!(n.transform.offset.abs_diff_eq(transform.offset, 1e-6));
+        assert!((n.transform.rotation - transform.rotation).abs() < 1e-6);
+        assert!(n.transform.scale.abs_diff_eq(transform.scale, 1e-6));
+        assert_eq!(back.textures[n.texture].encoding, TextureEncoding::Linear);
+        let o = m.occlusion_texture.unwrap();
+        assert_eq!((o.tex_coord, o.transform), (0, TextureTransform::IDENTITY));
+    }
+    let p = &back.meshes[0].primitives[0];
+    assert_eq!(p.uvs1, scene.meshes[0].primitives[0].uvs1);
+    assert_eq!(p.tangents, scene.meshes[0].primitives[0].tangents);
 }

@@ -5,8 +5,8 @@ use std::f32::consts::{FRAC_PI_2, FRAC_PI_4};
 use std::path::{Path, PathBuf};
 
 use gi_scene::{
-    ChannelValues, ImportWarning, Interpolation, LightKind, Scene, SceneError, Sky,
-    TextureEncoding, TextureRef, import_gltf, import_gltf_slice,
+    AlphaMode, ChannelValues, ImportWarning, Interpolation, LightKind, Scene, SceneError, Sky,
+    TextureEncoding, TextureRef, TextureTransform, import_gltf, import_gltf_slice,
 };
 use glam::{Quat, Vec2, Vec3, Vec4};
 use serde_json::{Value, json};
@@ -127,6 +127,10 @@ impl Doc {
 
     fn vec3(&mut self, values: &[[f32; 3]]) -> usize {
         self.floats(values.as_flattened(), "VEC3", 3)
+    }
+
+    fn vec2(&mut self, values: &[[f32; 2]]) -> usize {
+        self.floats(values.as_flattened(), "VEC2", 2)
     }
 
     fn vec4(&mut self, values: &[[f32; 4]]) -> usize {
@@ -765,33 +769,28 @@ fn specular_and_ior_extensions_are_imported() {
 fn unsupported_features_produce_warnings() {
     let doc = triangle_doc(json!({
         "materials": [
-            { "alphaMode": "BLEND", "normalTexture": { "index": 0 }, "occlusionTexture": { "index": 0 } },
-            { "alphaMode": "MASK", "pbrMetallicRoughness": { "baseColorTexture": { "index": 0, "texCoord": 1 } } },
+            { "pbrMetallicRoughness": { "baseColorTexture": { "index": 0, "texCoord": 2 } } },
             { "emissiveTexture": { "index": 1 } }
         ],
         "textures": [{ "source": 0 }, { "source": 0, "sampler": 0 }],
         "samplers": [{ "wrapS": 33071 }],
         "images": [{ "uri": gray_png_uri() }],
-        "extensionsUsed": ["KHR_materials_clearcoat", "KHR_texture_transform"]
+        "extensionsUsed": ["KHR_materials_clearcoat", "EXT_unknown_thing"]
     }));
-    let doc = primitive_per_material(&doc, 3);
+    let doc = primitive_per_material(&doc, 2);
     let (scene, warnings) = load_doc(&serde_json::to_vec(&doc).unwrap());
     for text in [
-        "BLEND",
-        "MASK",
-        "normal textures",
-        "occlusion textures",
-        "TEXCOORD_1",
+        "TEXCOORD_2",
         "CLAMP_TO_EDGE",
         "KHR_materials_clearcoat",
-        "KHR_texture_transform",
+        "EXT_unknown_thing",
     ] {
         assert!(
             has_warning(&warnings, text),
             "no warning about {text}: {warnings:?}"
         );
     }
-    assert_eq!(scene.materials[1].base_color_texture, None);
+    assert_eq!(scene.materials[0].base_color_texture, None);
 }
 
 #[test]
@@ -989,5 +988,369 @@ fn corrupted_json_values_never_panic() {
             doc[key] = value.clone();
         }
         let _ = import_gltf_slice(&serde_json::to_vec(&doc).unwrap(), Path::new("hazard.gltf"));
+    }
+}
+
+/// A unit quad in the XY plane facing +Z with TEXCOORD_0 running along +X (u) and -Y (v, as
+/// glTF's image rows go down), TEXCOORD_1 mirrored in u, and `material` 0; `extra` is merged
+/// into the document's top level and `attributes` into the primitive's attributes.
+fn quad_doc(extra: Value, attributes: impl FnOnce(&mut Doc) -> Value) -> Vec<u8> {
+    let mut d = Doc::default();
+    let positions = d.vec3(&[
+        [0.0, 0.0, 0.0],
+        [1.0, 0.0, 0.0],
+        [1.0, 1.0, 0.0],
+        [0.0, 1.0, 0.0],
+    ]);
+    let normals = d.vec3(&[[0.0, 0.0, 1.0]; 4]);
+    let uv0 = d.vec2(&[[0.0, 1.0], [1.0, 1.0], [1.0, 0.0], [0.0, 0.0]]);
+    let uv1 = d.vec2(&[[1.0, 1.0], [0.0, 1.0], [0.0, 0.0], [1.0, 0.0]]);
+    let indices = d.indices(&[0, 1, 2, 0, 2, 3]);
+    let mut attrs =
+        json!({ "POSITION": positions, "NORMAL": normals, "TEXCOORD_0": uv0, "TEXCOORD_1": uv1 });
+    for (key, value) in attributes(&mut d).as_object().unwrap() {
+        attrs[key] = value.clone();
+    }
+    let mut doc = json!({
+        "scenes": [{ "nodes": [0] }],
+        "nodes": [{ "name": "Quad", "mesh": 0 }],
+        "meshes": [{ "primitives": [{ "attributes": attrs, "indices": indices, "material": 0 }] }]
+    });
+    for (key, value) in extra.as_object().unwrap() {
+        doc[key] = value.clone();
+    }
+    d.finish(doc)
+}
+
+#[test]
+fn alpha_modes_normal_and_occlusion_textures_and_texture_transforms_are_imported() {
+    let doc = quad_doc(
+        json!({
+            "materials": [
+                {
+                    "alphaMode": "MASK", "alphaCutoff": 0.25,
+                    "pbrMetallicRoughness": { "baseColorTexture": {
+                        "index": 0, "texCoord": 0,
+                        "extensions": { "KHR_texture_transform": {
+                            "offset": [0.5, -0.25], "rotation": 0.5, "scale": [2.0, 4.0], "texCoord": 1
+                        } }
+                    } },
+                    "normalTexture": { "index": 0, "scale": 0.6, "texCoord": 1,
+                        "extensions": { "KHR_texture_transform": { "scale": [3.0, 3.0] } } },
+                    "occlusionTexture": { "index": 0, "strength": 0.3 }
+                },
+                { "alphaMode": "MASK" },
+                { "alphaMode": "BLEND" },
+                {}
+            ],
+            "textures": [{ "source": 0 }],
+            "images": [{ "uri": gray_png_uri() }],
+            "extensionsUsed": ["KHR_texture_transform"],
+            "extensionsRequired": ["KHR_texture_transform"]
+        }),
+        |_| json!({}),
+    );
+    let doc = primitive_per_material(&doc, 4);
+    let (scene, warnings) = load_doc(&serde_json::to_vec(&doc).unwrap());
+    assert!(
+        !has_warning(&warnings, "KHR_texture_transform"),
+        "{warnings:?}"
+    );
+    let m = &scene.materials[0];
+    assert_eq!(m.alpha_mode, AlphaMode::Mask { cutoff: 0.25 });
+    let base = m.base_color_texture.unwrap();
+    assert_eq!(base.tex_coord, 1, "the transform's texCoord overrides");
+    assert_eq!(
+        base.transform,
+        TextureTransform {
+            offset: Vec2::new(0.5, -0.25),
+            rotation: 0.5,
+            scale: Vec2::new(2.0, 4.0)
+        }
+    );
+    let normal = m.normal_texture.unwrap();
+    assert_eq!((normal.tex_coord, m.normal_scale), (1, 0.6));
+    assert_eq!(normal.transform.scale, Vec2::splat(3.0));
+    assert_eq!(
+        scene.textures[normal.texture].encoding,
+        TextureEncoding::Linear
+    );
+    let occlusion = m.occlusion_texture.unwrap();
+    assert_eq!(
+        (
+            occlusion.tex_coord,
+            occlusion.transform,
+            m.occlusion_strength
+        ),
+        (0, TextureTransform::IDENTITY, 0.3)
+    );
+    assert_eq!(
+        scene.textures[occlusion.texture].encoding,
+        TextureEncoding::Linear
+    );
+    assert_eq!(scene.textures[base.texture].encoding, TextureEncoding::Srgb);
+    assert_eq!(
+        scene.materials[1].alpha_mode,
+        AlphaMode::Mask { cutoff: 0.5 }
+    );
+    assert_eq!(scene.materials[2].alpha_mode, AlphaMode::Blend);
+    assert_eq!(scene.materials[3].alpha_mode, AlphaMode::Opaque);
+    let primitive = &scene.meshes[0].primitives[0];
+    assert_eq!(primitive.uvs1[1], Vec2::new(0.0, 1.0));
+    assert_eq!(primitive.uvs[1], Vec2::new(1.0, 1.0));
+
+    let mut bad: Value = serde_json::from_slice(&serde_json::to_vec(&doc).unwrap()).unwrap();
+    bad["materials"][1]["alphaCutoff"] = json!(1e39);
+    let message = doc_error(&serde_json::to_vec(&bad).unwrap()).to_string();
+    assert!(message.contains("alphaCutoff"), "{message}");
+}
+
+/// Asserts `tangent` is a unit vector orthogonal to `normal` with a sign of +1 or -1.
+fn assert_tangent_frame(tangent: Vec4, normal: Vec3) {
+    assert!(
+        (tangent.truncate().length() - 1.0).abs() < 1e-4,
+        "{tangent}"
+    );
+    assert!(tangent.truncate().dot(normal).abs() < 1e-4, "{tangent}");
+    assert!(tangent.w == 1.0 || tangent.w == -1.0, "{tangent}");
+}
+
+#[test]
+fn file_tangents_are_read_and_broken_ones_repaired() {
+    let extra = json!({
+        "materials": [{ "normalTexture": { "index": 0 } }],
+        "textures": [{ "source": 0 }],
+        "images": [{ "uri": gray_png_uri() }]
+    });
+    let doc = quad_doc(extra, |d| {
+        let tangents = d.vec4(&[
+            [0.0, 2.0, 0.0, -1.0],
+            [0.0, 1.0, 0.0, -1.0],
+            [0.0, 0.0, 0.0, 1.0],
+            [0.0, 1.0, 0.0, -0.5],
+        ]);
+        json!({ "TANGENT": tangents })
+    });
+    let (scene, warnings) = load_doc(&doc);
+    let primitive = &scene.meshes[0].primitives[0];
+    assert_eq!(primitive.tangents.len(), 4);
+    assert_eq!(primitive.tangents[0], Vec4::new(0.0, 1.0, 0.0, -1.0));
+    assert_eq!(primitive.tangents[3], Vec4::new(0.0, 1.0, 0.0, -1.0));
+    for &tangent in &primitive.tangents {
+        assert_tangent_frame(tangent, Vec3::Z);
+    }
+    assert!(has_warning(&warnings, "zero or non-finite"), "{warnings:?}");
+}
+
+#[test]
+fn mikktspace_tangents_follow_the_normal_texture_uv_set() {
+    // TEXCOORD_0: u along +X, v down the image along -Y, so the tangent is +X and the
+    // bitangent (w * n x t, where texture v grows) is -Y.
+    // TEXCOORD_1 is mirrored in u: tangent -X, same bitangent, so the sign flips.
+    for (set, tangent_dir) in [(0, Vec3::X), (1, Vec3::NEG_X)] {
+        let extra = json!({
+            "materials": [{ "normalTexture": { "index": 0, "texCoord": set } }],
+            "textures": [{ "source": 0 }],
+            "images": [{ "uri": gray_png_uri() }]
+        });
+        let (scene, warnings) = load_doc(&quad_doc(extra, |_| json!({})));
+        assert!(warnings.is_empty(), "{warnings:?}");
+        let primitive = &scene.meshes[0].primitives[0];
+        assert_eq!(primitive.tangents.len(), primitive.positions.len());
+        for (&tangent, &normal) in primitive.tangents.iter().zip(&primitive.normals) {
+            assert_tangent_frame(tangent, normal);
+            assert!(
+                tangent.truncate().abs_diff_eq(tangent_dir, 1e-4),
+                "TEXCOORD_{set}: {tangent}"
+            );
+            let bitangent = tangent.w * normal.cross(tangent.truncate());
+            assert!(bitangent.abs_diff_eq(Vec3::NEG_Y, 1e-4), "{bitangent}");
+        }
+    }
+}
+
+#[test]
+fn mikktspace_splits_vertices_at_mirrored_uv_seams() {
+    // Two triangles sharing an edge, the second with its u mirrored: the shared vertices need
+    // one tangent per side.
+    let mut d = Doc::default();
+    let positions = d.vec3(&[
+        [0.0, 0.0, 0.0],
+        [1.0, 0.0, 0.0],
+        [1.0, 1.0, 0.0],
+        [0.0, 1.0, 0.0],
+    ]);
+    let uvs = d.vec2(&[[0.0, 1.0], [1.0, 1.0], [1.0, 0.0], [2.0, 0.0]]);
+    let indices = d.indices(&[0, 1, 2, 0, 2, 3]);
+    let doc = d.finish(json!({
+        "scenes": [{ "nodes": [0] }],
+        "nodes": [{ "mesh": 0 }],
+        "meshes": [{ "primitives": [{
+            "attributes": { "POSITION": positions, "TEXCOORD_0": uvs }, "indices": indices, "material": 0
+        }] }],
+        "materials": [{ "normalTexture": { "index": 0 } }],
+        "textures": [{ "source": 0 }],
+        "images": [{ "uri": gray_png_uri() }]
+    }));
+    let (scene, _) = load_doc(&doc);
+    let p = &scene.meshes[0].primitives[0];
+    assert_eq!(p.tangents.len(), p.positions.len());
+    assert_eq!(
+        (p.uvs.len(), p.normals.len()),
+        (p.positions.len(), p.positions.len())
+    );
+    for &tangent in &p.tangents {
+        assert_tangent_frame(tangent, Vec3::Z);
+    }
+    for triangle in p.indices.chunks(3) {
+        let [a, b, c] = [0, 1, 2].map(|k| p.tangents[triangle[k] as usize]);
+        assert!(
+            a.abs_diff_eq(b, 1e-4) && b.abs_diff_eq(c, 1e-4),
+            "one tangent per flat triangle: {a} {b} {c}"
+        );
+    }
+}
+
+#[test]
+fn a_normal_map_without_uvs_warns_and_gets_no_tangents() {
+    let mut d = Doc::default();
+    let mesh = d.triangle_mesh();
+    let mut doc = json!({
+        "scenes": [{ "nodes": [0] }],
+        "nodes": [{ "mesh": 0 }],
+        "meshes": [mesh],
+        "materials": [{ "normalTexture": { "index": 0 } }],
+        "textures": [{ "source": 0 }],
+        "images": [{ "uri": gray_png_uri() }]
+    });
+    doc["meshes"][0]["primitives"][0]["material"] = json!(0);
+    let (scene, warnings) = load_doc(&d.finish(doc));
+    assert!(scene.meshes[0].primitives[0].tangents.is_empty());
+    assert!(
+        has_warning(&warnings, "no TEXCOORD_0; no tangents"),
+        "{warnings:?}"
+    );
+}
+
+#[test]
+fn unusable_images_drop_their_texture_with_a_warning() {
+    let doc = triangle_doc(json!({
+        "materials": [
+            { "pbrMetallicRoughness": { "baseColorFactor": [0.5, 0.5, 0.5, 1.0], "baseColorTexture": { "index": 0 } } },
+            { "normalTexture": { "index": 1 } },
+            { "emissiveTexture": { "index": 2 } },
+            { "occlusionTexture": { "index": 3 } },
+            { "pbrMetallicRoughness": { "baseColorTexture": { "index": 4 } } }
+        ],
+        "textures": [
+            { "source": 0 }, { "source": 1 }, { "source": 2 },
+            { "extensions": { "MSFT_texture_dds": { "source": 3 } } },
+            { "source": 4 }
+        ],
+        "images": [
+            { "uri": "missing_curtain.png" },
+            { "uri": "data:image/png;base64,AAAA" },
+            { "uri": "data:image/ktx2;base64,AAAA", "mimeType": "image/ktx2" },
+            { "uri": "texture.dds" },
+            { "uri": gray_png_uri() }
+        ],
+        "extensionsUsed": ["MSFT_texture_dds"]
+    }));
+    let doc = primitive_per_material(&doc, 5);
+    let (scene, warnings) = load_doc(&serde_json::to_vec(&doc).unwrap());
+    for text in [
+        "materials[0] (\"material 0\").baseColorTexture: images[0] (\"missing_curtain.png\") cannot be read",
+        "normalTexture: images[1]",
+        "image/ktx2",
+        "MSFT_texture_dds source, which is not read",
+        "extension MSFT_texture_dds is not supported",
+    ] {
+        assert!(
+            has_warning(&warnings, text),
+            "no warning with {text}: {warnings:?}"
+        );
+    }
+    for m in &scene.materials[..4] {
+        assert_eq!(m.texture_refs().count(), 0, "{}", m.name);
+    }
+    assert_eq!(scene.materials[0].base_color.x, 0.5);
+    assert!(scene.materials[4].base_color_texture.is_some());
+}
+
+#[test]
+fn oversized_images_are_refused_before_decoding() {
+    // A PNG header declaring 9000 x 9000 texels, with no data behind it.
+    let image = image::RgbaImage::from_pixel(1, 1, image::Rgba([1, 2, 3, 255]));
+    let mut png = Vec::new();
+    image
+        .write_to(&mut std::io::Cursor::new(&mut png), image::ImageFormat::Png)
+        .unwrap();
+    // IHDR's width and height follow the 8-byte signature, the chunk length and its type.
+    png[16..20].copy_from_slice(&9000u32.to_be_bytes());
+    png[20..24].copy_from_slice(&9000u32.to_be_bytes());
+    // The chunk's CRC-32 (over type and data) follows its 13 data bytes.
+    let mut crc = !0u32;
+    for &byte in &png[12..29] {
+        crc ^= u32::from(byte);
+        for _ in 0..8 {
+            crc = if crc & 1 == 1 {
+                (crc >> 1) ^ 0xedb8_8320
+            } else {
+                crc >> 1
+            };
+        }
+    }
+    png[29..33].copy_from_slice(&(!crc).to_be_bytes());
+    let doc = triangle_doc(json!({
+        "materials": [{ "pbrMetallicRoughness": { "baseColorTexture": { "index": 0 } } }],
+        "textures": [{ "source": 0 }],
+        "images": [{ "uri": format!("data:image/png;base64,{}", base64(&png)) }]
+    }));
+    let doc = primitive_per_material(&doc, 1);
+    let (scene, warnings) = load_doc(&serde_json::to_vec(&doc).unwrap());
+    assert!(
+        has_warning(&warnings, "larger than 8192 x 8192"),
+        "{warnings:?}"
+    );
+    assert_eq!(scene.materials[0].base_color_texture, None);
+}
+
+#[test]
+fn required_extensions_are_supported_warned_or_refused() {
+    let with = |required: &str| {
+        triangle_doc(json!({
+            "extensionsUsed": [required],
+            "extensionsRequired": [required]
+        }))
+    };
+    for (ext, lost) in [
+        ("KHR_materials_clearcoat", "clearcoat"),
+        ("KHR_materials_sheen", "sheen"),
+        ("KHR_materials_variants", "variants"),
+        ("AMD_split_roughnessMetallic", "roughness and metallic"),
+        ("MSFT_texture_dds", "DDS"),
+        ("KHR_materials_made_up", "material extension"),
+    ] {
+        let (_, warnings) = load_doc(&with(ext));
+        assert!(
+            warnings
+                .iter()
+                .any(|w| w.0.contains(ext) && w.0.contains(lost)),
+            "{ext}: {warnings:?}"
+        );
+    }
+    for ext in ["KHR_texture_transform", "KHR_mesh_quantization"] {
+        let (_, warnings) = load_doc(&with(ext));
+        assert!(warnings.is_empty(), "{ext}: {warnings:?}");
+    }
+    for ext in [
+        "KHR_draco_mesh_compression",
+        "EXT_meshopt_compression",
+        "EXT_made_up",
+    ] {
+        match doc_error(&with(ext)) {
+            e @ SceneError::Invalid { .. } => assert!(e.to_string().contains(ext), "{e}"),
+            other => panic!("{ext}: expected Invalid, got {other}"),
+        }
     }
 }

@@ -22,6 +22,8 @@ use std::path::{Path, PathBuf};
 
 use crate::{BUNDLED_SCENES, Scene, SceneError, export};
 
+pub(crate) use builder::{SUN_COLOR, SUN_IRRADIANCE, daylight_sky, sun_direction};
+
 /// Builds the bundled scene `name` in memory; `None` for an unknown name.
 pub fn build(name: &str) -> Option<Scene> {
     let scene = match name {

@@ -97,6 +97,17 @@ impl<'a> Buffers<'a> {
             .collect())
     }
 
+    /// Reads accessor `index` as `TANGENT` values: like [`Buffers::vec4s`], but NaN and
+    /// infinite values are kept for the caller to repair.
+    pub(super) fn tangents(&self, index: usize, what: &str) -> Result<Vec<Vec4>> {
+        let accessor = self.accessor(index, what)?;
+        let raw = self.raw(accessor, index, Type::Vec4, what)?;
+        Ok(raw
+            .chunks_exact(4)
+            .map(|c| Vec4::new(c[0] as f32, c[1] as f32, c[2] as f32, c[3] as f32))
+            .collect())
+    }
+
     /// Reads accessor `index` as scalars.
     pub(super) fn scalars(&self, index: usize, what: &str) -> Result<Vec<f32>> {
         self.floats(index, Type::Scalar, what)

@@ -1,5 +1,6 @@
 //! Mesh primitives: triangle lists, strips and fans become indexed triangle lists with one
-//! unit normal per vertex.
+//! unit normal per vertex, up to two texture coordinate sets, and tangents where the material
+//! has a normal texture (the file's, else MikkTSpace's).
 
 use glam::Vec3;
 use gltf::json;
@@ -7,7 +8,7 @@ use gltf::json::mesh::{Mode, Semantic};
 use gltf::json::validation::Checked;
 
 use super::material::Materials;
-use super::{Result, Source, Warnings, malformed, unusable};
+use super::{Result, Source, Warnings, malformed, tangents, unusable};
 use crate::{Mesh, Primitive, Scene};
 
 /// Imports file mesh `index` (its materials go through `materials`). Point and line
@@ -32,13 +33,49 @@ pub(super) fn import_mesh(
         let material = primitive.material.map(|m| m.value());
         imported.material = materials.resolve(source, material, scene, warnings)?;
         let m = &scene.materials[imported.material];
-        let textured = m.base_color_texture.is_some()
-            || m.metallic_roughness_texture.is_some()
-            || m.emissive_texture.is_some();
-        if textured && imported.uvs.is_empty() {
+        let missing_set = m.texture_refs().find_map(|r| {
+            let set = if r.tex_coord == 1 {
+                &imported.uvs1
+            } else {
+                &imported.uvs
+            };
+            set.is_empty().then_some(r.tex_coord)
+        });
+        if let Some(set) = missing_set {
             warnings.once("missing-uvs", || {
-                format!("{label}: textured material but no TEXCOORD_0; textures sample one texel")
+                format!(
+                    "{label}: textured material but no TEXCOORD_{set}; textures sample one texel"
+                )
             });
+        }
+        match m.normal_texture {
+            Some(normal_texture) if imported.tangents.is_empty() => {
+                let set = if normal_texture.tex_coord == 1 {
+                    &imported.uvs1
+                } else {
+                    &imported.uvs
+                };
+                if set.is_empty() {
+                    warnings.once("normal-map-no-uvs", || {
+                        format!(
+                            "{label}: the material has a normal texture but the primitive has no TEXCOORD_{}; no tangents, so the normal map is not applied",
+                            normal_texture.tex_coord
+                        )
+                    });
+                } else {
+                    let transformed: Vec<_> =
+                        set.iter().map(|&uv| normal_texture.uv(uv, uv)).collect();
+                    // A transform that overflows would leave MikkTSpace nothing to work with.
+                    let uvs = if transformed.iter().all(|uv| uv.is_finite()) {
+                        transformed
+                    } else {
+                        set.clone()
+                    };
+                    tangents::generate(&mut imported, &uvs)
+                        .map_err(|e| unusable(format!("{label}: {e}")))?;
+                }
+            }
+            _ => {}
         }
         mesh.primitives.push(imported);
     }
@@ -96,13 +133,23 @@ fn import_primitive(
     if let Some(n) = &normals {
         per_vertex("NORMAL", n.len())?;
     }
-    let mut uvs = match attribute(Semantic::TexCoords(0)) {
-        Some(a) => buffers.vec2s(a, &format!("{label}.attributes.TEXCOORD_0"))?,
+    let mut uv_sets = [Vec::new(), Vec::new()];
+    for (set, uvs) in uv_sets.iter_mut().enumerate() {
+        if let Some(a) = attribute(Semantic::TexCoords(set as u32)) {
+            let what = format!("TEXCOORD_{set}");
+            *uvs = buffers.vec2s(a, &format!("{label}.attributes.{what}"))?;
+            per_vertex(&what, uvs.len())?;
+        }
+    }
+    let [mut uvs, mut uvs1] = uv_sets;
+    let mut tangents = match attribute(Semantic::Tangents) {
+        Some(a) => {
+            let tangents = buffers.tangents(a, &format!("{label}.attributes.TANGENT"))?;
+            per_vertex("TANGENT", tangents.len())?;
+            tangents
+        }
         None => Vec::new(),
     };
-    if !uvs.is_empty() {
-        per_vertex("TEXCOORD_0", uvs.len())?;
-    }
     if attribute(Semantic::Colors(0)).is_some() {
         warnings.once("vertex-colors", || {
             format!("{label}: vertex colors (COLOR_0) are not supported; ignored")
@@ -141,8 +188,13 @@ fn import_primitive(
     // flat: give every triangle its own corners first.
     if normals.is_none() && primitive.indices.is_none() {
         positions = indices.iter().map(|&i| positions[i as usize]).collect();
-        if !uvs.is_empty() {
-            uvs = indices.iter().map(|&i| uvs[i as usize]).collect();
+        for attribute in [&mut uvs, &mut uvs1] {
+            if !attribute.is_empty() {
+                *attribute = indices.iter().map(|&i| attribute[i as usize]).collect();
+            }
+        }
+        if !tangents.is_empty() {
+            tangents = indices.iter().map(|&i| tangents[i as usize]).collect();
         }
         let corners = u32::try_from(indices.len())
             .map_err(|_| unusable(format!("{label} has too many vertices")))?;
@@ -157,13 +209,19 @@ fn import_primitive(
             .collect(),
         None => geometric,
     };
+    if tangents::repair(&mut tangents, &normals) > 0 {
+        warnings.once("bad-tangents", || {
+            format!("{label}.attributes.TANGENT has zero or non-finite tangents; they are replaced by a direction orthogonal to the normal")
+        });
+    }
     Ok(Some(Primitive {
         positions,
         normals,
         uvs,
+        uvs1,
+        tangents,
         indices,
         material: 0,
-        ..Default::default()
     }))
 }
 
