@@ -107,6 +107,7 @@ pub fn run(
         height,
         spp,
         seed: 0,
+        textures: gi_tiers::TextureOptions::DEFAULT,
     };
     let mut tier = GpuPathTier::open(TierKind::Path, settings)?;
     let mut trace = Vec::new();

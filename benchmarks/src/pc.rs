@@ -119,6 +119,7 @@ pub fn bench_settings(size: (u32, u32)) -> TierSettings {
         height: size.1,
         spp: 1,
         seed: 1,
+        textures: gi_tiers::TextureOptions::DEFAULT,
     }
 }
 

@@ -140,6 +140,7 @@ pub fn prepare(
             height: spec.height,
             spp: spec.spp,
             seed: spec.seed,
+            textures: gi_tiers::TextureOptions::DEFAULT,
         },
         plan,
         frames: spec.frames,

@@ -234,6 +234,7 @@ impl Service {
                 height: spec.height,
                 spp: spec.spp,
                 seed: spec.seed,
+                textures: gi_tiers::TextureOptions::DEFAULT,
             };
             let plan = select::plan(self.gpu.as_ref().map(|g| &g.adapter), &settings, None);
             let chosen = plan.chosen();

@@ -56,6 +56,7 @@ fn every_tier_renders_compares_and_serves_its_images() {
         height: 24,
         spp: 2,
         seed: 0,
+        textures: gi_tiers::TextureOptions::DEFAULT,
     };
     let auto = select::plan(adapter.as_ref(), &settings, None);
     let server = TestServer::start(|_| {});

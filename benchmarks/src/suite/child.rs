@@ -224,6 +224,7 @@ fn measure(
         height: options.height,
         spp: options.spp,
         seed: u64::from(repeat) + 1,
+        textures: gi_tiers::TextureOptions::DEFAULT,
     };
     let mut renderer = Renderer::new(
         scene.clone(),

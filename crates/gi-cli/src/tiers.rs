@@ -251,6 +251,7 @@ pub fn render_tier(
         height: request.height,
         spp: request.spp,
         seed: request.seed,
+        textures: gi_tiers::TextureOptions::DEFAULT,
     };
     let mut renderer = if tier == TierKind::Mobile {
         let mobile = MobileTier::open(settings, request.mobile.clone())?;

@@ -344,11 +344,19 @@ impl GpuScene {
     ) -> Result<Self, SceneUploadError> {
         // Every buffer is checked against the device's limits before anything is created.
         let triangle_count = frame.triangles.len() as u64;
-        let limit = u64::from(ctx.limits.max_storage_buffer_binding_size)
+        let limit = ctx
+            .limits
+            .max_storage_buffer_binding_size
             .min(ctx.limits.max_buffer_size);
         for (label, bytes) in [
-            ("scene.triangles", triangle_count * size_of::<GpuTriangleShading>() as u64),
-            ("scene.triangle_extras", triangle_count * size_of::<GpuTriangleExtras>() as u64),
+            (
+                "scene.triangles",
+                triangle_count * size_of::<GpuTriangleShading>() as u64,
+            ),
+            (
+                "scene.triangle_extras",
+                triangle_count * size_of::<GpuTriangleExtras>() as u64,
+            ),
             ("scene.selection", triangle_count * 4),
         ] {
             if bytes > limit {

@@ -60,12 +60,17 @@ pub struct TextureOptions {
     pub max_size: u32,
 }
 
+impl TextureOptions {
+    /// [`DEFAULT_TEXTURE_BUDGET`] and the largest size class.
+    pub const DEFAULT: Self = Self {
+        budget_bytes: DEFAULT_TEXTURE_BUDGET,
+        max_size: TEXTURE_SIZES[TEXTURE_SIZES.len() - 1],
+    };
+}
+
 impl Default for TextureOptions {
     fn default() -> Self {
-        Self {
-            budget_bytes: DEFAULT_TEXTURE_BUDGET,
-            max_size: *TEXTURE_SIZES.last().expect("size classes"),
-        }
+        Self::DEFAULT
     }
 }
 

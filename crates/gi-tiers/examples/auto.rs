@@ -80,6 +80,7 @@ fn run(args: &Args) -> Result<(), Box<dyn Error>> {
         height: args.height,
         spp: 1,
         seed: 1,
+        textures: gi_tiers::TextureOptions::DEFAULT,
     };
     let choice = match args.budget_ms {
         Some(ms) => TierChoice::AutoWithin(FrameBudget::from_ms(ms)),

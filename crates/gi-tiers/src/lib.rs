@@ -7,7 +7,13 @@
 //! use gi_tiers::{CameraMode, FrameBudget, Renderer, TierChoice, TierSettings};
 //!
 //! let scene = gi_scene::load("cornell-box")?;
-//! let settings = TierSettings { width: 320, height: 240, spp: 16, seed: 1 };
+//! let settings = TierSettings {
+//!     width: 320,
+//!     height: 240,
+//!     spp: 16,
+//!     seed: 1,
+//!     textures: gi_tiers::TextureOptions::DEFAULT,
+//! };
 //! // The best real-time GI tier whose estimated frame fits 16 ms on this adapter.
 //! let choice = TierChoice::AutoWithin(FrameBudget::from_ms(16.0));
 //! let mut renderer = Renderer::new(scene, choice, settings, CameraMode::Default)?;
@@ -35,6 +41,7 @@ pub mod select;
 mod tier;
 
 pub use cpu::CpuTier;
+pub use gi_gpu::TextureOptions;
 pub use mobile::{MobileConfig, MobileTier};
 pub use path::{
     GpuPathTier, GpuReferenceEngine, Moments, PathUniforms, reference_cache, reference_engine,

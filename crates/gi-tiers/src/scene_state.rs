@@ -70,9 +70,11 @@ impl SceneState {
         pipelines: &PathPipelines,
         size: (u32, u32),
         seed: u64,
+        textures: &gi_gpu::TextureOptions,
     ) -> Result<Self, TierError> {
         let frame = input.frame;
-        let scene = GpuScene::upload(ctx, input.scene, frame).map_err(|e| unavailable(tier, e))?;
+        let scene = GpuScene::upload_with(ctx, input.scene, frame, textures)
+            .map_err(|e| unavailable(tier, e))?;
         let direct = Accumulation::new(
             ctx,
             pipelines,

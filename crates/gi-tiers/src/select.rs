@@ -167,6 +167,8 @@ pub struct Requirements {
     pub storage_buffers_per_stage: u32,
     /// Bind groups of the pipeline with the most (`@group(0..n)`).
     pub bind_groups: u32,
+    /// Sampled textures of one stage: the scene's texture arrays (`gi_gpu::SceneTextures`).
+    pub sampled_textures_per_stage: u32,
     /// The largest `@workgroup_size` product.
     pub invocations_per_workgroup: u32,
     /// The largest `@workgroup_size` along x.
@@ -182,10 +184,12 @@ pub fn requirements(kind: TierKind, settings: &TierSettings) -> Option<Requireme
     let pixels = u64::from(settings.width) * u64::from(settings.height);
     let image = pixels * 16;
     // direct and path: `path/trace` binds the scene (7 storage buffers), its accumulation
-    // buffers (3) and the BVH (4) in two groups, 8 x 8 invocations; `path/resolve` 64 x 1.
+    // buffers (3) and the BVH (4), and the scene's texture arrays in group 3, 8 x 8
+    // invocations; `path/resolve` 64 x 1.
     let path = Requirements {
         storage_buffers_per_stage: 14,
-        bind_groups: 2,
+        bind_groups: 4,
+        sampled_textures_per_stage: gi_gpu::textures::TEXTURE_ARRAYS,
         invocations_per_workgroup: 64,
         workgroup_size_x: 64,
         largest_binding_bytes: image,
@@ -194,11 +198,12 @@ pub fn requirements(kind: TierKind, settings: &TierSettings) -> Option<Requireme
         TierKind::Reference => None,
         TierKind::Direct | TierKind::Path => Some(path),
         // The screen-probe passes' layouts (mobile/screen.rs): 18 storage buffers of their own,
-        // the probe volume's 3 and the brick cache's 7; three groups (the cache's is group 2);
-        // `cache/propagate` runs 256 invocations in x.
+        // the probe volume's 3 and the brick cache's 7; four groups (the cache's is group 2,
+        // the textures group 3); `cache/propagate` runs 256 invocations in x.
         TierKind::Mobile => Some(Requirements {
             storage_buffers_per_stage: 28,
-            bind_groups: 3,
+            bind_groups: 4,
+            sampled_textures_per_stage: gi_gpu::textures::TEXTURE_ARRAYS,
             invocations_per_workgroup: 256,
             workgroup_size_x: 256,
             largest_binding_bytes: image,
@@ -219,7 +224,8 @@ pub fn requirements(kind: TierKind, settings: &TierSettings) -> Option<Requireme
             // their own, the BVH's 4 and the brick cache's 7; the cache passes as for mobile.
             Some(Requirements {
                 storage_buffers_per_stage: 28,
-                bind_groups: 3,
+                bind_groups: 4,
+                sampled_textures_per_stage: gi_gpu::textures::TEXTURE_ARRAYS,
                 invocations_per_workgroup: 256,
                 workgroup_size_x: 256,
                 largest_binding_bytes: image.max(traced * per_trace_pixel),
@@ -230,7 +236,7 @@ pub fn requirements(kind: TierKind, settings: &TierSettings) -> Option<Requireme
 
 /// The first requirement `limits` misses, as a sentence naming the limit and both values.
 pub fn check_requirements(req: &Requirements, limits: &wgpu::Limits) -> Result<(), String> {
-    let checks: [(&str, u64, u64); 5] = [
+    let checks: [(&str, u64, u64); 6] = [
         (
             "max_storage_buffers_per_shader_stage",
             req.storage_buffers_per_stage.into(),
@@ -240,6 +246,11 @@ pub fn check_requirements(req: &Requirements, limits: &wgpu::Limits) -> Result<(
             "max_bind_groups",
             req.bind_groups.into(),
             limits.max_bind_groups.into(),
+        ),
+        (
+            "max_sampled_textures_per_shader_stage",
+            req.sampled_textures_per_stage.into(),
+            limits.max_sampled_textures_per_shader_stage.into(),
         ),
         (
             "max_compute_invocations_per_workgroup",

@@ -1,6 +1,7 @@
 //! What every tier is: created from a scene and settings, renders frames, reports its passes'
 //! timings and its memory.
 
+use gi_gpu::TextureOptions;
 use std::{any::Any, fmt, str::FromStr};
 
 use gi_image::Image;
@@ -150,6 +151,9 @@ pub struct TierSettings {
     pub spp: u32,
     /// Seed of every random decision; the same seed gives the same image.
     pub seed: u64,
+    /// How much of the scene's textures the GPU tiers upload: a memory budget (textures over
+    /// it are downscaled, with a warning) and the largest size.
+    pub textures: TextureOptions,
 }
 
 /// One frame handed to a tier.

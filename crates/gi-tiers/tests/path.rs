@@ -23,6 +23,7 @@ fn settings(spp: u32) -> TierSettings {
         height: HEIGHT,
         spp,
         seed: 11,
+        textures: gi_tiers::TextureOptions::DEFAULT,
     }
 }
 

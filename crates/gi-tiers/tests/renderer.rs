@@ -11,6 +11,7 @@ const SETTINGS: TierSettings = TierSettings {
     height: 16,
     spp: 2,
     seed: 7,
+    textures: gi_tiers::TextureOptions::DEFAULT,
 };
 
 /// The GPU tiers' tests: 32 x 24, one sample per pixel.
@@ -19,6 +20,7 @@ const GPU_SETTINGS: TierSettings = TierSettings {
     height: 24,
     spp: 1,
     seed: 7,
+    textures: gi_tiers::TextureOptions::DEFAULT,
 };
 
 fn renderer(scene: &str, kind: TierKind) -> Renderer {

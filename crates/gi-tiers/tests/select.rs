@@ -12,6 +12,7 @@ const SIZE_640: TierSettings = TierSettings {
     height: 360,
     spp: 1,
     seed: 1,
+    textures: gi_tiers::TextureOptions::DEFAULT,
 };
 
 const SIZE_4K: TierSettings = TierSettings {
@@ -19,6 +20,7 @@ const SIZE_4K: TierSettings = TierSettings {
     height: 2160,
     spp: 1,
     seed: 1,
+    textures: gi_tiers::TextureOptions::DEFAULT,
 };
 
 /// An adapter of `device_type` with limits like an H100's under Vulkan (large everywhere).
@@ -274,6 +276,7 @@ struct ShaderNeeds {
     storage_used: u32,
     storage_declared: u32,
     bind_groups: u32,
+    sampled_textures: u32,
     invocations: u32,
     width: u32,
 }
@@ -284,6 +287,7 @@ fn shader_needs(files: &[&str]) -> ShaderNeeds {
         storage_used: 0,
         storage_declared: 0,
         bind_groups: 0,
+        sampled_textures: 0,
         invocations: 0,
         width: 0,
     };
@@ -321,6 +325,11 @@ fn shader_needs(files: &[&str]) -> ShaderNeeds {
                 .unwrap_or(0);
             needs.storage_used = needs.storage_used.max(storage);
             needs.bind_groups = needs.bind_groups.max(groups);
+            let sampled = used
+                .iter()
+                .filter(|g| matches!(module.types[g.ty].inner, naga::TypeInner::Image { .. }))
+                .count() as u32;
+            needs.sampled_textures = needs.sampled_textures.max(sampled);
             needs.invocations = needs.invocations.max(entry.workgroup_size.iter().product());
             needs.width = needs.width.max(entry.workgroup_size[0]);
         }
@@ -370,10 +379,16 @@ fn tier_requirements_match_the_shaders() {
         assert_eq!(
             (
                 req.bind_groups,
+                req.sampled_textures_per_stage,
                 req.invocations_per_workgroup,
                 req.workgroup_size_x
             ),
-            (needs.bind_groups, needs.invocations, needs.width),
+            (
+                needs.bind_groups,
+                needs.sampled_textures,
+                needs.invocations,
+                needs.width
+            ),
             "{kind}"
         );
         assert!(req.largest_binding_bytes >= 640 * 360 * 16, "{kind}");
@@ -386,6 +401,7 @@ const GPU_SETTINGS: TierSettings = TierSettings {
     height: 24,
     spp: 1,
     seed: 7,
+    textures: gi_tiers::TextureOptions::DEFAULT,
 };
 
 #[test]

@@ -302,6 +302,7 @@ impl MobileTier {
             &self.direct_pipelines,
             size,
             seed,
+            &self.settings.textures,
         )?;
         let dynamic_triangles = dynamic_triangle_bits(&self.ctx, input.scene, input.frame);
         let screen = self.screen_buffers(&state.direct, &dynamic_triangles);

@@ -88,6 +88,7 @@ impl ReferenceEngine for GpuReferenceEngine {
             height: settings.height,
             spp: frame_spp,
             seed: settings.seed,
+            textures: gi_gpu::TextureOptions::DEFAULT,
         };
         let mut tier = GpuPathTier::new(TierKind::Path, tier_settings, ctx).map_err(failed)?;
         let frame = request.scene.evaluate(request.time_s, Some(request.view));

@@ -187,7 +187,8 @@ impl GpuPathTier {
                 old.scene.release(&self.ctx);
             }
             let scene =
-                GpuScene::upload(&self.ctx, input.scene, frame).map_err(|e| unavailable(&e))?;
+                GpuScene::upload_with(&self.ctx, input.scene, frame, &self.settings.textures)
+                    .map_err(|e| unavailable(&e))?;
             let uniforms = PathUniforms::new(frame, &scene, size, self.settings.seed);
             let accumulation = Accumulation::new(&self.ctx, &self.pipelines, &scene, uniforms);
             self.prepared = Some(Prepared {

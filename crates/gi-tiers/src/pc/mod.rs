@@ -595,7 +595,15 @@ impl PcTier {
         if let Some(old) = self.prepared.take() {
             old.release(&self.ctx);
         }
-        let state = SceneState::upload(&self.ctx, "pc", input, &self.direct_pipelines, size, seed)?;
+        let state = SceneState::upload(
+            &self.ctx,
+            "pc",
+            input,
+            &self.direct_pipelines,
+            size,
+            seed,
+            &self.settings.textures,
+        )?;
         let buffers = PcBuffers::new(
             &self.ctx,
             size,

@@ -11,6 +11,7 @@ pub fn settings(width: u32, height: u32) -> TierSettings {
         height,
         spp: 16,
         seed: 7,
+        textures: gi_tiers::TextureOptions::DEFAULT,
     }
 }
 
