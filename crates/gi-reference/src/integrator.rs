@@ -41,8 +41,7 @@ impl Reference {
     /// True when the segment `(0, t_max)` of the ray is blocked (counted in `rays`).
     pub(crate) fn occluded(&self, origin: Vec3, dir: Vec3, t_max: f32, rays: &mut u64) -> bool {
         *rays += 1;
-        self.bvh
-            .occluded(&self.frame.triangles, origin, dir, 0.0, t_max)
+        self.bvh.occluded(origin, dir, 0.0, t_max)
     }
 }
 

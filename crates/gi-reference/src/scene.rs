@@ -1,7 +1,7 @@
 //! The [`Reference`]: a scene frame prepared for path tracing, and what a ray finds when it hits
 //! it (position, normals, BRDF, emission).
 
-use gi_scene::{Material, Scene, SceneBvh, SceneFrame, Texture, Triangle};
+use gi_scene::{Material, Scene, SceneFrame, Texture, Triangle, WideBvh};
 use glam::{DVec3, Vec2, Vec3, Vec4};
 
 use crate::brdf::{Brdf, DielectricSpecular, ViewedBrdf};
@@ -13,7 +13,7 @@ use crate::sampling::Frame;
 /// often as needed; it is immutable and shared by all render threads.
 pub struct Reference {
     pub(crate) frame: SceneFrame,
-    pub(crate) bvh: SceneBvh,
+    pub(crate) bvh: WideBvh,
     pub(crate) materials: Vec<Material>,
     pub(crate) textures: Vec<Texture>,
     pub(crate) emitters: EmitterTable,
@@ -86,7 +86,7 @@ impl Reference {
     /// Prepares `frame` (an evaluation of `scene`, whose materials and textures it indexes)
     /// and builds its BVH.
     pub fn new(scene: &Scene, frame: SceneFrame) -> Self {
-        let bvh = SceneBvh::build(&frame.triangles);
+        let bvh = WideBvh::build(&frame.triangles);
         let materials = scene.materials.clone();
         let textures = scene.textures.clone();
         let emitters = EmitterTable::build(&frame, &materials, &textures);
@@ -162,6 +162,7 @@ impl Reference {
             + size_of_val(emitters.triangles.as_slice())
             + size_of_val(emitters.cdf.as_slice())
             + size_of_val(emitters.selection.as_slice())
+            + self.emitters.shape_bytes()
             + self
                 .textures
                 .iter()
