@@ -52,9 +52,7 @@ impl Reference {
     pub(crate) fn occluded(&self, origin: Vec3, dir: Vec3, t_max: f32, rays: &mut u64) -> bool {
         *rays += 1;
         if !self.alpha_tested {
-            return self
-                .bvh
-                .occluded(&self.frame.triangles, origin, dir, 0.0, t_max);
+            return self.bvh.occluded(origin, dir, 0.0, t_max);
         }
         // With alpha-tested surfaces, blockers are found nearest first and tested.
         let mut t_min = 0.0;

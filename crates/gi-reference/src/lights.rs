@@ -12,6 +12,33 @@ use crate::scene::{Reference, geometric_normal};
 /// estimate stays unbiased either way: only noise depends on the table).
 pub(crate) struct EmitterTable {
     pub(crate) distribution: EmitterDistribution,
+    /// Per emitter, in the distribution's order: its shape as sampling reads it.
+    shapes: Vec<EmitterShape>,
+}
+
+/// An emissive triangle's vertex, edges, area and unit normal, computed once with the very
+/// operations [`Reference::sample_emitter`] would otherwise repeat per sample.
+#[derive(Clone, Copy)]
+struct EmitterShape {
+    v0: Vec3,
+    e1: Vec3,
+    e2: Vec3,
+    area: f32,
+    normal: Vec3,
+}
+
+impl EmitterShape {
+    fn new(tri: &gi_scene::Triangle) -> Self {
+        let e1 = Vec3::from(tri.v1 - tri.v0);
+        let e2 = Vec3::from(tri.v2 - tri.v0);
+        Self {
+            v0: Vec3::from(tri.v0),
+            e1,
+            e2,
+            area: 0.5 * e1.cross(e2).length(),
+            normal: geometric_normal(tri),
+        }
+    }
 }
 
 /// A point drawn on an emitter for next-event estimation, seen from the shading point.
@@ -28,9 +55,21 @@ pub(crate) struct EmitterSample {
 
 impl EmitterTable {
     pub(crate) fn build(frame: &SceneFrame, materials: &[Material], textures: &[Texture]) -> Self {
+        let distribution = EmitterDistribution::build(frame, materials, textures);
+        let shapes = distribution
+            .triangles
+            .iter()
+            .map(|&t| EmitterShape::new(&frame.triangles[t as usize]))
+            .collect();
         Self {
-            distribution: EmitterDistribution::build(frame, materials, textures),
+            distribution,
+            shapes,
         }
+    }
+
+    /// Bytes of the precomputed emitter shapes.
+    pub(crate) fn shape_bytes(&self) -> usize {
+        std::mem::size_of_val(self.shapes.as_slice())
     }
 
     pub(crate) fn len(&self) -> usize {
@@ -50,8 +89,9 @@ impl EmitterTable {
             .unwrap_or(0.0)
     }
 
-    /// A scene triangle index drawn proportionally to power, with its probability.
-    fn pick(&self, u: f32) -> (u32, f32) {
+    /// An emitter drawn proportionally to power: its index in the table, its scene triangle
+    /// index and its probability.
+    fn pick(&self, u: f32) -> (usize, u32, f32) {
         let u = f64::from(u);
         let table = &self.distribution;
         let entry = table
@@ -59,7 +99,7 @@ impl EmitterTable {
             .partition_point(|&c| c <= u)
             .min(table.cdf.len() - 1);
         let triangle = table.triangles[entry];
-        (triangle, table.selection[triangle as usize])
+        (entry, triangle, table.selection[triangle as usize])
     }
 }
 
@@ -76,14 +116,16 @@ impl Reference {
         if self.emitters.is_empty() {
             return None;
         }
-        let (triangle, selection) = self.emitters.pick(u_select);
-        let tri = &self.frame.triangles[triangle as usize];
+        let (entry, triangle, selection) = self.emitters.pick(u_select);
+        let EmitterShape {
+            v0,
+            e1,
+            e2,
+            area,
+            normal: n_light,
+        } = self.emitters.shapes[entry];
         let b = uniform_triangle(u_point);
-        let e1 = Vec3::from(tri.v1 - tri.v0);
-        let e2 = Vec3::from(tri.v2 - tri.v0);
-        let y = Vec3::from(tri.v0) + e1 * b.x + e2 * b.y;
-        let area = 0.5 * e1.cross(e2).length();
-        let n_light = geometric_normal(tri);
+        let y = v0 + e1 * b.x + e2 * b.y;
         let to_light = y - p;
         let distance_sq = to_light.length_squared();
         if area <= 0.0 || distance_sq <= 0.0 {

@@ -2,8 +2,8 @@
 //! it (position, normals, BRDF, emission).
 
 use gi_scene::{
-    AlphaMode, Material, Scene, SceneBvh, SceneFrame, Texture, TextureRef, Triangle,
-    TriangleAttributes, blend_coverage_hash, sample_texture,
+    AlphaMode, Material, Scene, SceneFrame, Texture, TextureRef, Triangle, TriangleAttributes,
+    WideBvh, blend_coverage_hash, sample_texture,
 };
 use glam::{DVec3, Vec2, Vec3, Vec4};
 
@@ -16,7 +16,7 @@ use crate::sampling::Frame;
 /// often as needed; it is immutable and shared by all render threads.
 pub struct Reference {
     pub(crate) frame: SceneFrame,
-    pub(crate) bvh: SceneBvh,
+    pub(crate) bvh: WideBvh,
     pub(crate) materials: Vec<Material>,
     pub(crate) textures: Vec<Texture>,
     pub(crate) emitters: EmitterTable,
@@ -91,7 +91,7 @@ impl Reference {
     /// Prepares `frame` (an evaluation of `scene`, whose materials and textures it indexes)
     /// and builds its BVH.
     pub fn new(scene: &Scene, frame: SceneFrame) -> Self {
-        let bvh = SceneBvh::build(&frame.triangles);
+        let bvh = WideBvh::build(&frame.triangles);
         let materials = scene.materials.clone();
         let textures = scene.textures.clone();
         let emitters = EmitterTable::build(&frame, &materials, &textures);
@@ -169,6 +169,7 @@ impl Reference {
             + size_of_val(emitters.triangles.as_slice())
             + size_of_val(emitters.cdf.as_slice())
             + size_of_val(emitters.selection.as_slice())
+            + self.emitters.shape_bytes()
             + self
                 .textures
                 .iter()

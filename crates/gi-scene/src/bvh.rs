@@ -13,6 +13,9 @@ use obvhs::{
 };
 
 mod leaves;
+mod wide;
+
+pub use wide::WideBvh;
 
 /// A closest-hit result.
 #[derive(Clone, Copy, Debug, PartialEq)]

@@ -1,7 +1,8 @@
 //! Scene model, glTF import and export, the bundled scene generators, and the BVH.
 //!
 //! Load a scene by bundled name or path with [`load`], evaluate it at a time with
-//! [`Scene::evaluate`], and trace rays against the result with [`SceneBvh`].
+//! [`Scene::evaluate`], and trace rays against the result with [`SceneBvh`] (the CWBVH the GPU
+//! tiers upload) or [`WideBvh`] (a four-wide BVH for tracing one ray at a time on the CPU).
 
 mod bundled;
 mod bvh;
@@ -18,7 +19,7 @@ pub use bundled::{
     BUNDLED_SCENES, LoadedScene, bundled_scene_dir, import_with_lighting, load, load_with_lighting,
     resolve,
 };
-pub use bvh::{Hit, SceneBvh};
+pub use bvh::{Hit, SceneBvh, WideBvh};
 pub use emitters::{EmitterDistribution, luminance};
 pub use error::SceneError;
 pub use export::write_gltf;

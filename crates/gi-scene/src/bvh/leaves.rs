@@ -66,34 +66,62 @@ impl LeafTriangles {
     #[inline(always)]
     pub(super) fn intersect4(&self, first: usize, ray: &Ray) -> (Vec4, u32) {
         let load = |k: usize| Vec4::from_slice(&self.components[k][first..first + LANES]);
-        let (ox, oy, oz) = (
-            Vec4::splat(ray.origin.x),
-            Vec4::splat(ray.origin.y),
-            Vec4::splat(ray.origin.z),
-        );
-        let (dx, dy, dz) = (
-            Vec4::splat(ray.direction.x),
-            Vec4::splat(ray.direction.y),
-            Vec4::splat(ray.direction.z),
-        );
-        let (nx, ny, nz) = (load(9), load(10), load(11));
-        // c = v0 - o, r = d x c.
-        let (cx, cy, cz) = (load(0) - ox, load(1) - oy, load(2) - oz);
-        let rx = dy * cz - cy * dz;
-        let ry = dz * cx - cz * dx;
-        let rz = dx * cy - cx * dy;
-        let inv_det = Vec4::ONE / (nx * dx + ny * dy + nz * dz);
-        let u = (rx * load(6) + ry * load(7) + rz * load(8)) * inv_det;
-        let v = (rx * load(3) + ry * load(4) + rz * load(5)) * inv_det;
-        let w = Vec4::ONE - u - v;
-        let t = (nx * cx + ny * cy + nz * cz) * inv_det;
-        // Sign bits, as obvhs tests them: a -0.0 weight misses.
-        let negative = u.is_negative_bitmask() | v.is_negative_bitmask() | w.is_negative_bitmask();
-        let valid = inv_det.cmpne(Vec4::ZERO)
-            & t.cmpge(Vec4::splat(ray.tmin))
-            & t.cmple(Vec4::splat(ray.tmax));
-        (t, valid.bitmask() & !negative)
+        intersect_lanes(&std::array::from_fn(load), ray)
     }
+}
+
+/// Four triangles as lanes: x, y and z of `v0`, `e1 = v0 - v1` (obvhs' sign), `e2 = v2 - v0`
+/// and `n = e1 x e2`, in that order.
+pub(super) type TriangleLanes = [Vec4; 12];
+
+/// The four triangles' `v0`, `e1`, `e2` and `n` as [`TriangleLanes`] (lanes past the end of
+/// `triangles` are zero, and never hit).
+pub(super) fn triangle_lanes(triangles: &[&Triangle]) -> TriangleLanes {
+    let mut lanes = [Vec4::ZERO; 12];
+    for (lane, tri) in triangles.iter().enumerate().take(LANES) {
+        let e1 = tri.v0 - tri.v1;
+        let e2 = tri.v2 - tri.v0;
+        let n = e1.cross(e2);
+        for (k, v) in [tri.v0, e1, e2, n].into_iter().enumerate() {
+            lanes[3 * k][lane] = v.x;
+            lanes[3 * k + 1][lane] = v.y;
+            lanes[3 * k + 2][lane] = v.z;
+        }
+    }
+    lanes
+}
+
+/// obvhs' `Triangle::intersect` on four triangles at once: their distances along `ray`, and a
+/// mask of the lanes whose crossing lies inside the triangle and within
+/// `[ray.tmin, ray.tmax]` (bit `i` for lane `i`).
+#[inline(always)]
+pub(super) fn intersect_lanes(c: &TriangleLanes, ray: &Ray) -> (Vec4, u32) {
+    let (ox, oy, oz) = (
+        Vec4::splat(ray.origin.x),
+        Vec4::splat(ray.origin.y),
+        Vec4::splat(ray.origin.z),
+    );
+    let (dx, dy, dz) = (
+        Vec4::splat(ray.direction.x),
+        Vec4::splat(ray.direction.y),
+        Vec4::splat(ray.direction.z),
+    );
+    let (nx, ny, nz) = (c[9], c[10], c[11]);
+    // c = v0 - o, r = d x c.
+    let (cx, cy, cz) = (c[0] - ox, c[1] - oy, c[2] - oz);
+    let rx = dy * cz - cy * dz;
+    let ry = dz * cx - cz * dx;
+    let rz = dx * cy - cx * dy;
+    let inv_det = Vec4::ONE / (nx * dx + ny * dy + nz * dz);
+    let u = (rx * c[6] + ry * c[7] + rz * c[8]) * inv_det;
+    let v = (rx * c[3] + ry * c[4] + rz * c[5]) * inv_det;
+    let w = Vec4::ONE - u - v;
+    let t = (nx * cx + ny * cy + nz * cz) * inv_det;
+    // Sign bits, as obvhs tests them: a -0.0 weight misses.
+    let negative = u.is_negative_bitmask() | v.is_negative_bitmask() | w.is_negative_bitmask();
+    let valid =
+        inv_det.cmpne(Vec4::ZERO) & t.cmpge(Vec4::splat(ray.tmin)) & t.cmple(Vec4::splat(ray.tmax));
+    (t, valid.bitmask() & !negative)
 }
 
 #[cfg(test)]
