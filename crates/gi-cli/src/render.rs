@@ -59,6 +59,13 @@ pub struct RenderReport {
     pub mobile: Option<crate::tiers::MobileReport>,
     /// The PC tier's GI time and memory breakdown; null for the other tiers.
     pub pc: Option<crate::tiers::PcReport>,
+    /// Wall seconds of the scene's import (decoding its images, generating tangents).
+    pub load_s: f64,
+    /// Wall seconds to open the tier (device, shaders, pipelines).
+    pub open_s: f64,
+    /// Wall seconds of the first frame (the scene's upload: BVH, textures; the cache's fill);
+    /// null when not timed apart.
+    pub first_frame_s: Option<f64>,
 }
 
 /// A progress bar over samples per pixel; indicatif hides it when stderr is not a terminal.
@@ -92,7 +99,9 @@ pub fn run(args: &RenderArgs) -> Result<()> {
     let request = args.view.request(args.spp)?;
     // Check the output before spending time on the render.
     check_output_extension(&args.out)?;
+    let loading = std::time::Instant::now();
     let scene = crate::load_scene(&args.scene, args.lighting.as_deref())?;
+    let load_s = loading.elapsed().as_secs_f64();
     let bar = progress_bar(request.spp, args.tier.name());
     let result = render_tier(&scene, args.tier, &request, &|done| {
         bar.set_position(u64::from(done))
@@ -124,6 +133,9 @@ pub fn run(args: &RenderArgs) -> Result<()> {
         bvh_build_ms: result.stats.as_ref().map(|s| s.bvh_build_seconds * 1e3),
         mobile: result.mobile.clone(),
         pc: result.pc.clone(),
+        load_s,
+        open_s: result.open_s,
+        first_frame_s: result.first_frame_s,
     };
     let throughput = match (report.samples_per_second, report.rays_per_second) {
         (Some(samples), Some(rays)) => {
@@ -144,6 +156,15 @@ pub fn run(args: &RenderArgs) -> Result<()> {
         report.spp,
         report.ms_per_frame,
         args.out.display()
+    );
+    outln!(
+        "load {:.2} s (import), tier {:.2} s (device, shaders), first frame {} (scene upload: \
+         BVH, textures; cache fill)",
+        report.load_s,
+        report.open_s,
+        report
+            .first_frame_s
+            .map_or("not timed apart".to_string(), |s| format!("{s:.2} s"))
     );
     if let Some(mobile) = &report.mobile {
         outln!("{}", mobile.line(report.ms_per_frame, report.warmup));

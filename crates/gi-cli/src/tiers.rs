@@ -128,6 +128,12 @@ pub struct TierRender {
     pub mobile: Option<MobileReport>,
     /// What only the PC tier reports.
     pub pc: Option<PcReport>,
+    /// Wall seconds to open the tier (device, shaders, pipelines).
+    pub open_s: f64,
+    /// Wall seconds of the first frame, which uploads the scene (BVH build, texture mip
+    /// chains) and, in the GI tiers, fills the brick cache; `None` when the first frame was
+    /// not timed apart (several measured frames of a tier without history).
+    pub first_frame_s: Option<f64>,
 }
 
 /// The mobile tier's GI cost and memory breakdown, in the JSON reports.
@@ -253,6 +259,7 @@ pub fn render_tier(
         seed: request.seed,
         textures: gi_tiers::TextureOptions::DEFAULT,
     };
+    let opening = std::time::Instant::now();
     let mut renderer = if tier == TierKind::Mobile {
         let mobile = MobileTier::open(settings, request.mobile.clone())?;
         Renderer::with_tier(scene.clone(), Box::new(mobile), request.camera.into())
@@ -267,8 +274,18 @@ pub fn render_tier(
             request.camera.into(),
         )?
     };
-    renderer.warm_up(request.warmup.unwrap_or(tier.default_warmup()), None)?;
+    let open_s = opening.elapsed().as_secs_f64();
+    // The first frame is timed apart: the first warm-up frame, or the only measured one.
+    let warmup = request.warmup.unwrap_or(tier.default_warmup());
+    let first = std::time::Instant::now();
+    renderer.warm_up(warmup.min(1), None)?;
+    let mut first_frame_s = (renderer.warm_up_frames() > 0).then(|| first.elapsed().as_secs_f64());
+    renderer.warm_up(warmup.saturating_sub(1), None)?;
+    let measured = std::time::Instant::now();
     let frame = renderer.render_frames(request.frames, Some(progress))?;
+    if first_frame_s.is_none() && request.frames == 1 {
+        first_frame_s = Some(measured.elapsed().as_secs_f64());
+    }
     let mobile = renderer.tier_as::<MobileTier>().map(|mobile| MobileReport {
         screen_probes: mobile.config().screen.mode.name(),
         gi_ms: frame.gi_ms(TierKind::Mobile),
@@ -288,6 +305,8 @@ pub fn render_tier(
         memory: pc.memory().into(),
     });
     Ok(TierRender {
+        open_s,
+        first_frame_s,
         ms_per_frame: frame.ms_total(),
         // A pass recorded several times in a frame (the PC denoiser's a-trous iterations)
         // reports its total, as `PassTimings::get` does.
