@@ -7,7 +7,8 @@
 // Bind group 0 of all three passes (`gi_cache::CacheLighting`):
 //   binding 0: `lighting` uniform LightingUniforms
 //   bindings 1-7: the scene (`gi::scene`, `gi_gpu::GpuScene::buffers`): triangles, materials,
-//              textures, texels, the emitter table, selection probabilities, punctual lights
+//              texture references, tangents and TEXCOORD_1, the emitter table, selection
+//              probabilities, punctual lights (the texture arrays are bind group 3)
 //   binding 8: `scheduled_bricks` array<ScheduledBrick>, one workgroup each
 //   binding 9: `propagate_scratch` array<u32>, per scheduled brick * 128 + voxel bit * 2 + side:
 //              the side's new RGB9E5 indirect irradiance, followed by its emitted part when the
