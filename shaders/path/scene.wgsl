@@ -268,6 +268,11 @@ fn blend_coverage_hash(triangle: u32, b1: f32, b2: f32) -> f32 {
     return f32(h >> 8u) * (1.0 / 16777216.0);
 }
 
+// The alpha that covers the surface at `tc`: the base color factor's alpha times its texture's.
+fn material_alpha(material: Material, tc: TexCoords) -> f32 {
+    return material.base_color.w * sample_texture(material.base_color_texture, tc).w;
+}
+
 // The reference's `Reference::covers`: whether the surface of `triangle` exists at
 // barycentrics `b` (weights of v1 and v2) for a ray. Only called for triangles whose material
 // is alpha-tested (their material index is in range).
@@ -277,8 +282,7 @@ fn alpha_covers(triangle: u32, b: vec2<f32>) -> bool {
     if material.alpha_mode == ALPHA_OPAQUE {
         return true;
     }
-    let tc = tex_coords(triangle, vec3(1.0 - b.x - b.y, b.x, b.y), 0.0);
-    let alpha = material.base_color.w * sample_texture(material.base_color_texture, tc).w;
+    let alpha = material_alpha(material, tex_coords(triangle, vec3(1.0 - b.x - b.y, b.x, b.y), 0.0));
     if material.alpha_mode == ALPHA_MASK {
         return alpha >= material.alpha_cutoff;
     }
@@ -293,8 +297,7 @@ fn surface_coverage(triangle: u32, default_material: u32, b: vec3<f32>) -> f32 {
     if material.alpha_mode == ALPHA_OPAQUE {
         return 1.0;
     }
-    let tc = tex_coords(triangle, b, 0.0);
-    let alpha = material.base_color.w * sample_texture(material.base_color_texture, tc).w;
+    let alpha = material_alpha(material, tex_coords(triangle, b, 0.0));
     if material.alpha_mode == ALPHA_MASK {
         return select(0.0, 1.0, alpha >= material.alpha_cutoff);
     }
