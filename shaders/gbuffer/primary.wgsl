@@ -19,7 +19,7 @@
 // per-node motion transforms, the outputs. Bind group 1: the BVH (`gi_gpu::bvh::GpuBvh`).
 
 #import gi::bvh::{Ray, trace_closest, BVH_MISS}
-#import gi::scene::{triangles, sample_texture, emission, dielectric_specular, geometric_normal, material_of, tex_coords, cone_footprint, mapped_normal, normalize_or, orient_shading_normal}
+#import gi::scene::{triangles, sample_texture, emission, material_occlusion, dielectric_specular, geometric_normal, material_of, tex_coords, cone_footprint, mapped_normal, normalize_or, orient_shading_normal}
 #import gi::packing::pack_unit_vector
 #import gi::brdf::pack_dielectric_specular
 #import gi::camera::{Camera, camera_ray, camera_project}
@@ -50,7 +50,8 @@ struct GBufferUniforms {
 @group(0) @binding(11) var<storage, read_write> base_color: array<vec4<f32>>;
 // Textured metallic (x) and perceptual roughness (y); 0 for sky.
 @group(0) @binding(12) var<storage, read_write> metallic_roughness: array<vec2<f32>>;
-// Emitted radiance toward the camera (rgb, w 0); 0 for sky.
+// Emitted radiance toward the camera (rgb) and the material's occlusion factor (w,
+// `gi::scene::material_occlusion`); 0 for sky.
 @group(0) @binding(13) var<storage, read_write> emissive: array<vec4<f32>>;
 // Frame triangle index; BVH_MISS for sky.
 @group(0) @binding(14) var<storage, read_write> triangle_id: array<u32>;
@@ -110,7 +111,7 @@ fn primary(@builtin(global_invocation_id) id: vec3<u32>) {
     if front_facing || material.double_sided != 0u {
         emitted = emission(material, tc);
     }
-    emissive[pixel] = vec4<f32>(emitted, 0.0);
+    emissive[pixel] = vec4<f32>(emitted, material_occlusion(material, tc));
 
     // Where the surface point was: moved back by its node's motion (node index in `pa.w`).
     var p = tri.pa.xyz + (tri.pb.xyz - tri.pa.xyz) * b1 + (tri.pc.xyz - tri.pa.xyz) * b2;

@@ -137,6 +137,8 @@ struct ScreenProbe {
 @group(0) @binding(14) var<storage, read> direct_mean: array<vec4<f32>>;
 // The final image.
 @group(0) @binding(15) var<storage, read_write> output: array<vec4<f32>>;
+// The G-buffer's emission and, in w, the material's occlusion factor.
+@group(0) @binding(19) var<storage, read> gbuffer_emissive: array<vec4<f32>>;
 
 fn is_sky(depth: f32) -> bool {
     return bitcast<u32>(depth) == INFINITY_BITS || !(depth < FAR);
@@ -535,6 +537,8 @@ fn compose(@builtin(global_invocation_id) id: vec3<u32>) {
     let mr = gbuffer_metallic_roughness[pixel];
     let brdf = gbuffer_brdf(gbuffer_base_color[pixel], mr);
     let specular = brdf_split_sum_albedos(brdf, max(dot(n, -dir), 0.0)).specular;
-    let gi = (lite_diffuse(bits) + specular) * irradiance * INV_PI;
+    // The material's occlusion map darkens the gathered diffuse light only.
+    let occlusion = gbuffer_emissive[pixel].w;
+    let gi = (lite_diffuse(bits) * occlusion + specular) * irradiance * INV_PI;
     output[pixel] = vec4(direct + gi, 1.0);
 }

@@ -42,6 +42,10 @@ struct Material {
     normal_scale: f32,
     alpha_mode: u32,
     alpha_cutoff: f32,
+    occlusion_texture: u32,
+    occlusion_strength: f32,
+    pad_a: u32,
+    pad_b: u32,
 }
 
 // `Material::alpha_mode` (`gi_gpu::ALPHA_*`).
@@ -358,6 +362,18 @@ fn emission(material: Material, tc: TexCoords) -> vec3<f32> {
         return vec3<f32>(0.0);
     }
     return material.emissive * sample_texture(material.emissive_texture, tc).xyz;
+}
+
+// The material's ambient occlusion factor at `tc`: `1 + strength * (texel.r - 1)` of its
+// `occlusionTexture`, 1 without one. Only the real-time tiers read it, on the indirect diffuse
+// light they gather (glTF: "areas that receive less indirect lighting"); the path tracers trace
+// the occlusion the geometry makes and never read the map.
+fn material_occlusion(material: Material, tc: TexCoords) -> f32 {
+    if material.occlusion_texture == NO_TEXTURE {
+        return 1.0;
+    }
+    let ao = sample_texture(material.occlusion_texture, tc).x;
+    return clamp(1.0 + material.occlusion_strength * (ao - 1.0), 0.0, 1.0);
 }
 
 // `(v1 - v0) x (v2 - v0)`, normalized as the reference does (zero when degenerate).

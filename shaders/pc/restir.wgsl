@@ -80,6 +80,8 @@
 // either (`pc/specular.wgsl`).
 @group(0) @binding(24) var<storage, read_write> specular_noisy: array<vec2<u32>>;
 @group(0) @binding(25) var<storage, read_write> specular_history: array<vec4<u32>>;
+// Per pixel: the G-buffer's emission and, in w, the material's occlusion factor.
+@group(0) @binding(27) var<storage, read> gbuffer_emissive: array<vec4<f32>>;
 
 fn trace_index(t: vec2<u32>) -> u32 {
     return t.y * u.trace_px.x + t.x;
@@ -425,5 +427,7 @@ fn compose(@builtin(global_invocation_id) id: vec3<u32>) {
             reflected *= mix(h.xyz, vec3(1.0), t);
         }
     }
-    output[pixel] = vec4(direct + diffuse * e * INV_PI + specular * reflected, 1.0);
+    // The material's occlusion map darkens the gathered diffuse light only.
+    let occlusion = gbuffer_emissive[pixel].w;
+    output[pixel] = vec4(direct + diffuse * e * (occlusion * INV_PI) + specular * reflected, 1.0);
 }

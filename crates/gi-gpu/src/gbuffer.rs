@@ -19,7 +19,7 @@
 //! | `gbuffer.normal` | `u32` octahedral world shading normal facing the camera (`gi::packing`) | 0 |
 //! | `gbuffer.base_color` | `[f32; 4]` textured linear base color, w = 1 | 0 |
 //! | `gbuffer.metallic_roughness` | `[f32; 2]` textured metallic, perceptual roughness | 0 |
-//! | `gbuffer.emissive` | `[f32; 4]` radiance toward the camera (0 behind single-sided emitters), w = 0 | 0 |
+//! | `gbuffer.emissive` | `[f32; 4]` radiance toward the camera (0 behind single-sided emitters), w = the material's occlusion factor (`occlusionTexture`, 1 without) | 0 |
 //! | `gbuffer.triangle` | `u32` frame triangle index | [`GBUFFER_MISS`] |
 //! | `gbuffer.motion` | `[f32; 2]` previous pixel position minus this pixel's center, pixels, +y down | camera rotation only |
 //!
@@ -81,7 +81,8 @@ pub struct GBufferData {
     pub base_color: Vec<[f32; 4]>,
     /// `gbuffer.metallic_roughness`: textured metallic and perceptual roughness.
     pub metallic_roughness: Vec<[f32; 2]>,
-    /// `gbuffer.emissive`: radiance emitted toward the camera (rgb).
+    /// `gbuffer.emissive`: radiance emitted toward the camera (rgb) and the material's
+    /// occlusion factor (w).
     pub emissive: Vec<[f32; 4]>,
     /// `gbuffer.triangle`: frame triangle index, [`GBUFFER_MISS`] for sky.
     pub triangle: Vec<u32>,

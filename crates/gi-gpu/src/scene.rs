@@ -38,7 +38,7 @@ pub struct GpuTriangleShading {
 }
 
 /// glTF metallic-roughness material with `KHR_materials_specular`, `KHR_materials_ior`, a
-/// normal map and an alpha mode, 96 bytes (`Material` in WGSL). Texture fields index the
+/// normal map, an occlusion map and an alpha mode, 112 bytes (`Material` in WGSL). Texture fields index the
 /// reference table ([`crate::GpuTextureRef`]), [`NO_TEXTURE`] when absent or empty, which
 /// samples as white as the reference does.
 #[repr(C)]
@@ -78,6 +78,11 @@ pub struct GpuMaterial {
     pub alpha_mode: u32,
     /// `alphaCutoff` of [`ALPHA_MASK`].
     pub alpha_cutoff: f32,
+    /// Index into `scene.textures`, or [`NO_TEXTURE`]: the ambient occlusion map (red).
+    pub occlusion_texture: u32,
+    /// `occlusionTexture.strength`: the factor is `1 + strength * (texel - 1)`.
+    pub occlusion_strength: f32,
+    pub pad: [u32; 2],
 }
 
 /// The shader definition that makes a pass's rays honor alpha-tested materials
@@ -316,6 +321,9 @@ fn gpu_materials(scene: &Scene, textures: &mut SceneTextures) -> Vec<GpuMaterial
                 normal_scale: m.normal_scale,
                 alpha_mode,
                 alpha_cutoff,
+                occlusion_texture: textures.reference(m.occlusion_texture),
+                occlusion_strength: m.occlusion_strength,
+                pad: [0; 2],
             }
         })
         .collect()
@@ -388,7 +396,7 @@ impl GpuScene {
         };
         Ok(Self {
             triangles: upload("scene.triangles", bytemuck::cast_slice(&triangles), 112),
-            materials: upload("scene.materials", bytemuck::cast_slice(&materials), 96),
+            materials: upload("scene.materials", bytemuck::cast_slice(&materials), 112),
             texture_refs: upload(
                 "scene.texture_refs",
                 bytemuck::cast_slice(&textures.refs),

@@ -196,6 +196,8 @@ fn textured_cornell_box() -> Scene {
         material.base_color_texture = texture;
         material.metallic_roughness_texture = texture;
         material.emissive_texture = texture;
+        material.occlusion_texture = texture;
+        material.occlusion_strength = 0.7;
     }
     for mesh in &mut scene.meshes {
         for primitive in &mut mesh.primitives {
@@ -267,6 +269,14 @@ fn textured_materials_match_cpu_lookups() {
                 Vec3::ZERO
             };
             close(&data.emissive[pixel][..3], emitted, "emission");
+            // The occlusion factor reads the red channel as stored (the sRGB texture decodes in
+            // both places alike).
+            let occlusion = 1.0 + material.occlusion_strength * (t.x - 1.0);
+            close(
+                &[data.emissive[pixel][3], 0.0, 0.0],
+                Vec3::new(occlusion, 0.0, 0.0),
+                "occlusion",
+            );
         }
     }
     assert!(

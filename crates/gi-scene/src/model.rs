@@ -250,8 +250,9 @@ pub struct Material {
     pub normal_texture: Option<TextureRef>,
     /// `normalTexture.scale`: scales the map's x and y.
     pub normal_scale: f32,
-    /// Ambient occlusion map (`occlusionTexture`, red channel). Kept for export; the tiers
-    /// compute occlusion themselves and do not read it.
+    /// Ambient occlusion map (`occlusionTexture`, red channel). The real-time tiers darken the
+    /// indirect diffuse light they gather by it; the path tracers trace the geometry's
+    /// occlusion and do not read it.
     pub occlusion_texture: Option<TextureRef>,
     /// `occlusionTexture.strength`.
     pub occlusion_strength: f32,

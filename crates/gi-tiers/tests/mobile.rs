@@ -4,7 +4,7 @@
 
 mod common;
 
-use common::{open_ground, settings};
+use common::{check_occlusion_scaling, open_ground, settings, with_occlusion};
 use gi_gpu::{GpuContext, ShaderLibrary, rust_field_offsets, wgpu, wgsl_struct_layout};
 use gi_image::Image;
 use gi_reference::{Mode, Reference, RenderSettings};
@@ -322,6 +322,37 @@ fn open_ground_gathers_pi_times_the_sky() {
         std::f64::consts::PI
     );
     assert!((mean - std::f64::consts::PI).abs() <= bound);
+}
+
+#[test]
+fn the_occlusion_map_darkens_the_gathered_diffuse_light_only() {
+    let Some(ctx) =
+        GpuContext::new_or_skip("the_occlusion_map_darkens_the_gathered_diffuse_light_only")
+    else {
+        return;
+    };
+    drop(ctx);
+    let camera = CameraView::look_at(Vec3::new(0.0, 3.0, 3.0), Vec3::ZERO, 0.9);
+    // The same seed draws the same probe rays, so the frames differ only in the occlusion
+    // factor compose applies.
+    let gi = |scene: &Scene| {
+        let (tier, _) = run(
+            GpuContext::new().unwrap(),
+            scene,
+            idle_cache(),
+            (64, 48),
+            4,
+            Some(camera),
+        );
+        tier.frame_data().unwrap().gi
+    };
+    let ground = open_ground("mobile-occluded-ground", 20.0, 0.5);
+    let plain = gi(&ground);
+    let plain_again = gi(&ground);
+    let quarter = gi(&with_occlusion(ground.clone(), 0.0, 0.75));
+    let half = gi(&with_occlusion(ground, 0.0, 0.5));
+    let lit = check_occlusion_scaling(&plain, &plain_again, [(&quarter, 0.25), (&half, 0.5)]);
+    assert!(lit > 64 * 48 / 3, "only {lit} pixels see the ground");
 }
 
 /// Pixels of the half-resolution samples (even coordinates) of a `width` x `height` image.

@@ -79,6 +79,8 @@ fn shared_structs_match_their_wgsl_layout() {
             normal_scale,
             alpha_mode,
             alpha_cutoff,
+            occlusion_texture,
+            occlusion_strength,
         }),
         size_of::<GpuMaterial>(),
     );

@@ -3,7 +3,7 @@
 
 mod common;
 
-use common::{open_ground, settings};
+use common::{check_occlusion_scaling, open_ground, settings, with_occlusion};
 use gi_gpu::{GpuContext, ShaderLibrary, rust_field_offsets, wgsl_struct_layout};
 use gi_image::Image;
 use gi_reference::{Mode, Reference, RenderSettings, brdf::specular_albedo};
@@ -228,6 +228,37 @@ fn open_ground_gathers_pi_times_the_sky_in_every_configuration() {
             "{name}: only {ground} pixels see the ground"
         );
     }
+}
+
+#[test]
+fn the_occlusion_map_darkens_the_gathered_diffuse_light_only() {
+    let Some(ctx) =
+        GpuContext::new_or_skip("the_occlusion_map_darkens_the_gathered_diffuse_light_only")
+    else {
+        return;
+    };
+    drop(ctx);
+    let camera = CameraView::look_at(Vec3::new(0.0, 3.0, 3.0), Vec3::ZERO, 0.9);
+    // Under the open sky every ground pixel gathers exactly pi, so the frames differ only in
+    // the occlusion factor compose applies.
+    let gi = |scene: &Scene| {
+        let tier = run(
+            GpuContext::new().unwrap(),
+            scene,
+            idle_cache(PcConfig::default()),
+            (48, 32),
+            4,
+            Some(camera),
+        );
+        tier.frame_data().unwrap().gi
+    };
+    let ground = open_ground("pc-occluded-ground", 20.0, 0.5);
+    let plain = gi(&ground);
+    let plain_again = gi(&ground);
+    let quarter = gi(&with_occlusion(ground.clone(), 0.0, 0.75));
+    let half = gi(&with_occlusion(ground, 0.0, 0.5));
+    let lit = check_occlusion_scaling(&plain, &plain_again, [(&quarter, 0.25), (&half, 0.5)]);
+    assert!(lit > 48 * 32 / 3, "only {lit} pixels see the ground");
 }
 
 /// A black ground of half-size `half_m` under a black sky: what lights it, the test adds.

@@ -337,6 +337,7 @@ impl MobileTier {
                 metallic_roughness: find("gbuffer.metallic_roughness"),
                 triangle: find("gbuffer.triangle"),
                 motion: find("gbuffer.motion"),
+                emissive: find("gbuffer.emissive"),
                 dynamic_triangles,
                 direct_mean: &direct.mean,
             },

@@ -109,10 +109,10 @@ impl ScreenPipelines {
     ) -> Result<Self, GpuError> {
         let module = shaders.create_module(ctx, "mobile/screen.wgsl", &[])?;
         // G-buffer, dynamic bits, history_in, direct, the previous frame's probes.
-        let read_only = [1u32, 2, 3, 4, 5, 6, 7, 12, 14, 16, 17];
+        let read_only = [1u32, 2, 3, 4, 5, 6, 7, 12, 14, 16, 17, 19];
         let mut entries = vec![uniform_entry(0)];
         entries
-            .extend((1..=18).map(|binding| storage_entry(binding, read_only.contains(&binding))));
+            .extend((1..=19).map(|binding| storage_entry(binding, read_only.contains(&binding))));
         let layout0 = ctx
             .device
             .create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
@@ -161,6 +161,8 @@ pub struct ScreenSources<'a> {
     pub metallic_roughness: &'a wgpu::Buffer,
     pub triangle: &'a wgpu::Buffer,
     pub motion: &'a wgpu::Buffer,
+    /// `gbuffer.emissive`, for the material's occlusion factor in its w.
+    pub emissive: &'a wgpu::Buffer,
     pub dynamic_triangles: &'a wgpu::Buffer,
     pub direct_mean: &'a wgpu::Buffer,
 }
@@ -247,6 +249,7 @@ impl ScreenBuffers {
                     &probes[1 - write],
                     &probe_radiance[1 - write],
                     &tile_claims,
+                    sources.emissive,
                 ],
             ));
             ctx.device.create_bind_group(&wgpu::BindGroupDescriptor {

@@ -229,7 +229,7 @@ impl PcPipelines {
         }
         let trace_layout = layout("pc/trace.layout0", &entries);
         let mut entries = vec![uniform_entry(0)];
-        for binding in 8..=26 {
+        for binding in 8..=27 {
             let written = matches!(binding, 16 | 18 | 19 | 22 | 24 | 25);
             entries.push(storage_entry(binding, !written));
         }
@@ -684,6 +684,7 @@ impl PcTier {
                 &b.specular_noisy,
                 &b.specular_history[cur],
                 &b.specular_history[prev],
+                self.gbuffer.output("gbuffer.emissive"),
             ],
         ));
         self.ctx
