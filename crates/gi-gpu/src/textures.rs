@@ -30,6 +30,7 @@ use std::collections::HashMap;
 use bytemuck::{Pod, Zeroable};
 use gi_scene::{Scene, Texture, TextureEncoding, TextureRef};
 use glam::Vec4;
+use rayon::prelude::*;
 use thiserror::Error;
 
 use crate::GpuContext;
@@ -48,6 +49,10 @@ pub const DEFAULT_TEXTURE_BUDGET: u64 = 1 << 30;
 
 /// `GpuTextureRef::image` bits: the layer in the low 24 bits, the size class above them and
 /// the encoding in bit 28.
+/// Layer bytes (mip levels included) whose chains are made together, on every core: what bounds
+/// the texels an upload holds at once.
+const BATCH_BYTES: u64 = 128 << 20;
+
 const CLASS_SHIFT: u32 = 24;
 const SRGB_BIT: u32 = 1 << 28;
 
@@ -383,41 +388,56 @@ impl SceneTextures {
             })
             .collect();
         let array_of = |image: u32| &arrays[((image >> CLASS_SHIFT) & 0xf) as usize];
-        for plan in &plans {
-            let placement = placements[plan.texture].expect("planned textures are placed");
-            let texture = &scene.textures[plan.texture];
-            let chain = mip_chain(texture, plan.pow2);
-            let size = placement.size;
-            for level in 0..mip_levels(size) {
-                let side = size >> level;
-                let source = chain
-                    .get((plan.dropped + level) as usize)
-                    .unwrap_or_else(|| chain.last().expect("a chain has level 0"));
-                let tiled = tile(source, side);
-                ctx.queue.write_texture(
-                    wgpu::TexelCopyTextureInfo {
-                        texture: array_of(placement.image),
-                        mip_level: level,
-                        origin: wgpu::Origin3d {
-                            x: 0,
-                            y: 0,
-                            z: placement.image & ((1 << CLASS_SHIFT) - 1),
-                        },
-                        aspect: wgpu::TextureAspect::All,
-                    },
-                    bytemuck::cast_slice(&tiled),
-                    wgpu::TexelCopyBufferLayout {
-                        offset: 0,
-                        bytes_per_row: Some(side * 4),
-                        rows_per_image: Some(side),
-                    },
-                    wgpu::Extent3d {
-                        width: side,
-                        height: side,
-                        depth_or_array_layers: 1,
-                    },
-                );
+        // The mip chains are made on every core, a batch of textures at a time so that their
+        // texels (and the linear values they are averaged in) never all sit in memory at once.
+        let mut next = 0;
+        while next < plans.len() {
+            let mut end = next;
+            let mut batch_bytes = 0;
+            while end < plans.len()
+                && (end == next
+                    || batch_bytes + layer_bytes(plans[end].layer_size()) <= BATCH_BYTES)
+            {
+                batch_bytes += layer_bytes(plans[end].layer_size());
+                end += 1;
             }
+            let levels: Vec<Vec<Vec<[u8; 4]>>> = plans[next..end]
+                .par_iter()
+                .map(|plan| {
+                    let placement = placements[plan.texture].expect("planned textures are placed");
+                    layer_levels(&scene.textures[plan.texture], plan, placement.size)
+                })
+                .collect();
+            for (plan, levels) in plans[next..end].iter().zip(levels) {
+                let placement = placements[plan.texture].expect("planned textures are placed");
+                for (level, texels) in (0u32..).zip(&levels) {
+                    let side = placement.size >> level;
+                    ctx.queue.write_texture(
+                        wgpu::TexelCopyTextureInfo {
+                            texture: array_of(placement.image),
+                            mip_level: level,
+                            origin: wgpu::Origin3d {
+                                x: 0,
+                                y: 0,
+                                z: placement.image & ((1 << CLASS_SHIFT) - 1),
+                            },
+                            aspect: wgpu::TextureAspect::All,
+                        },
+                        bytemuck::cast_slice(texels),
+                        wgpu::TexelCopyBufferLayout {
+                            offset: 0,
+                            bytes_per_row: Some(side * 4),
+                            rows_per_image: Some(side),
+                        },
+                        wgpu::Extent3d {
+                            width: side,
+                            height: side,
+                            depth_or_array_layers: 1,
+                        },
+                    );
+                }
+            }
+            next = end;
         }
         let bytes = arrays
             .iter()
@@ -519,6 +539,20 @@ impl SceneTextures {
     }
 }
 
+/// The texels of every mip level of `texture`'s layer of side `size` under `plan`: its chain
+/// from the plan's first kept level, each level tiled over the layer's level.
+fn layer_levels(texture: &Texture, plan: &Plan, size: u32) -> Vec<Vec<[u8; 4]>> {
+    let chain = mip_chain(texture, plan.pow2);
+    (0..mip_levels(size))
+        .map(|level| {
+            let source = chain
+                .get((plan.dropped + level) as usize)
+                .unwrap_or_else(|| chain.last().expect("a chain has level 0"));
+            tile(source, size >> level)
+        })
+        .collect()
+}
+
 /// The texture's mip chain at power-of-two size `pow2` (resampled first when its own size
 /// differs), as stored 8-bit texels in its encoding; level 0 first, down to 1x1.
 fn mip_chain(texture: &Texture, pow2: [u32; 2]) -> Vec<Level> {
@@ -553,17 +587,23 @@ fn mip_chain(texture: &Texture, pow2: [u32; 2]) -> Vec<Level> {
     let (mut values, mut width, mut height) = (linear, w, h);
     while width > 1 || height > 1 {
         let (nw, nh) = ((width / 2).max(1), (height / 2).max(1));
-        let at = |x: u32, y: u32| values[(y.min(height - 1) * width + x.min(width - 1)) as usize];
-        let next: Vec<Vec4> = (0..nh)
-            .flat_map(|y| {
-                let at = &at;
-                (0..nw).map(move |x| {
-                    let (sx, sy) = (x * width / nw, y * height / nh);
-                    let (dx, dy) = (u32::from(width > 1), u32::from(height > 1));
-                    (at(sx, sy) + at(sx + dx, sy) + at(sx, sy + dy) + at(sx + dx, sy + dy)) * 0.25
-                })
-            })
-            .collect();
+        let (dx, dy) = (u32::from(width > 1), u32::from(height > 1));
+        let mut next = Vec::with_capacity((nw * nh) as usize);
+        for y in 0..nh {
+            let sy = y * height / nh;
+            let (row, below) = ((sy * width) as usize, ((sy + dy) * width) as usize);
+            for x in 0..nw {
+                let sx = x * width / nw;
+                let (left, right) = (sx as usize, (sx + dx) as usize);
+                next.push(
+                    (values[row + left]
+                        + values[row + right]
+                        + values[below + left]
+                        + values[below + right])
+                        * 0.25,
+                );
+            }
+        }
         chain.push(Level {
             width: nw,
             height: nh,
@@ -584,13 +624,17 @@ struct Level {
 /// `level` repeated to fill a `side` x `side` square (texel `(x, y)` is the level's
 /// `(x mod width, y mod height)`).
 fn tile(level: &Level, side: u32) -> Vec<[u8; 4]> {
-    (0..side)
-        .flat_map(|y| {
-            (0..side).map(move |x| {
-                level.texels[((y % level.height) * level.width + x % level.width) as usize]
-            })
-        })
-        .collect()
+    if level.width == side && level.height == side {
+        return level.texels.clone();
+    }
+    let mut texels = Vec::with_capacity((side * side) as usize);
+    for y in 0..side {
+        let row = ((y % level.height) * level.width) as usize;
+        for x in 0..side {
+            texels.push(level.texels[row + (x % level.width) as usize]);
+        }
+    }
+    texels
 }
 
 #[cfg(test)]
