@@ -378,8 +378,8 @@ pub fn srgb_to_linear(code: u8) -> f32 {
     SRGB_TO_LINEAR[code as usize]
 }
 
-/// The 8-bit sRGB code nearest to linear value `c` (clamped to `[0, 1]`).
-pub fn linear_to_srgb(c: f32) -> u8 {
+/// The 8-bit sRGB code nearest to linear value `c` (clamped to `[0, 1]`), by the curve.
+fn linear_to_srgb_exact(c: f32) -> u8 {
     let c = c.clamp(0.0, 1.0);
     let encoded = if c <= 0.003_130_8 {
         c * 12.92
@@ -387,6 +387,32 @@ pub fn linear_to_srgb(c: f32) -> u8 {
         1.055 * c.powf(1.0 / 2.4) - 0.055
     };
     (encoded * 255.0).round() as u8
+}
+
+/// Per code `k` in 1..=255, the least f32 in `[0, 1]` that [`linear_to_srgb_exact`] takes to
+/// `k` or above (the function never decreases), found by bisecting the f32 bit patterns.
+static SRGB_THRESHOLDS: LazyLock<[f32; 255]> = LazyLock::new(|| {
+    std::array::from_fn(|k| {
+        let code = k as u8 + 1;
+        // Non-negative f32s order as their bits.
+        let (mut below, mut at) = (0u32, 1f32.to_bits());
+        while at - below > 1 {
+            let mid = below + (at - below) / 2;
+            if linear_to_srgb_exact(f32::from_bits(mid)) >= code {
+                at = mid;
+            } else {
+                below = mid;
+            }
+        }
+        f32::from_bits(at)
+    })
+});
+
+/// The 8-bit sRGB code nearest to linear value `c` (clamped to `[0, 1]`; NaN gives 0): the
+/// curve's own result, found among precomputed thresholds (mip levels encode millions of
+/// texels).
+pub fn linear_to_srgb(c: f32) -> u8 {
+    SRGB_THRESHOLDS.partition_point(|&t| t <= c) as u8
 }
 
 impl Texture {
@@ -612,6 +638,34 @@ impl Sky {
                 horizon,
                 ground,
             } => zenith == Vec3::ZERO && horizon == Vec3::ZERO && ground == Vec3::ZERO,
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn srgb_encoding_by_thresholds_is_the_curves_own() {
+        let mut values: Vec<f32> = vec![-1.0, 0.0, 1.0, 2.0, f32::NAN, f32::INFINITY];
+        // Around every threshold, and every code's decoded value.
+        for &t in SRGB_THRESHOLDS.iter() {
+            let bits = t.to_bits();
+            values.extend([bits - 1, bits, bits + 1].map(f32::from_bits));
+        }
+        values.extend((0..=255u8).map(srgb_to_linear));
+        // A dense sweep of [0, 1].
+        values.extend((0..=1_000_000).map(|i| i as f32 / 1_000_000.0));
+        for c in values {
+            assert_eq!(
+                linear_to_srgb(c),
+                linear_to_srgb_exact(c),
+                "linear value {c}"
+            );
+        }
+        for code in 0..=255u8 {
+            assert_eq!(linear_to_srgb(srgb_to_linear(code)), code);
         }
     }
 }
