@@ -9,12 +9,15 @@
 
 mod animation;
 mod buffers;
+mod dds;
 mod extensions;
 mod extras;
+mod images;
 mod material;
 mod mesh;
 mod nodes;
 mod tangents;
+mod textures;
 
 use std::collections::HashSet;
 use std::path::Path;

@@ -39,18 +39,29 @@ fn masked(scene: &Scene, name: &str) -> bool {
 fn sponza_loads_without_its_missing_curtains_and_dds_maps() {
     let Some(dir) = scenes_dir() else { return };
     let (scene, warnings) = import(&dir, "Sponza", "Sponza.gltf");
-    let curtains = warnings_with(&warnings, "sponza_curtain");
+    // The curtains' PNGs and their DDS stand-ins are both missing.
+    let curtains = warnings_with(&warnings, "baseColorTexture");
     assert_eq!(curtains.len(), 3, "{warnings:?}");
     assert!(
-        curtains.iter().all(|w| w.0.contains("baseColorTexture")),
+        curtains.iter().all(|w| w.0.contains("sponza_curtain")
+            && w.0.contains(".png")
+            && w.0.contains(".dds")),
         "{curtains:?}"
     );
-    assert_eq!(
-        warnings_with(&warnings, "AMD_split_roughnessMetallic").len(),
-        1,
+    // The separate roughness and metallic maps are DDS-only; the folder lacks the DDS files, so
+    // each slot is warned and the factors apply. The extensions themselves are supported.
+    let split = warnings_with(&warnings, "AMD_split_roughnessMetallic");
+    assert!(
+        split
+            .iter()
+            .all(|w| w.0.contains(".dds\": No such file") && w.0.contains("factor applies")),
+        "{split:?}"
+    );
+    assert!(
+        warnings_with(&warnings, "is not supported").is_empty(),
         "{warnings:?}"
     );
-    assert_eq!(warnings_with(&warnings, "MSFT_texture_dds").len(), 1);
+    assert_eq!(warnings.len(), curtains.len() + split.len(), "{warnings:?}");
     for name in ["Plants", "Chain", "PotPlant1"] {
         assert!(masked(&scene, name), "{name} is alpha-masked");
     }
@@ -70,12 +81,11 @@ fn sponza_loads_without_its_missing_curtains_and_dds_maps() {
 }
 
 #[test]
-fn gas_station_loads_although_it_requires_dds() {
+fn gas_station_loads_with_the_dds_extension_it_requires() {
     let Some(dir) = scenes_dir() else { return };
     let (scene, warnings) = import(&dir, "GasStation", "GasStation.gltf");
-    let dds = warnings_with(&warnings, "MSFT_texture_dds");
     assert!(
-        dds.len() == 1 && dds[0].0.contains("requires"),
+        warnings_with(&warnings, "MSFT_texture_dds").is_empty(),
         "{warnings:?}"
     );
     let blended = scene

@@ -1,8 +1,8 @@
 //! What the importer does with each glTF extension a file uses or requires.
 //!
 //! Three kinds: extensions the importer reads; extensions it ignores while the file still loads,
-//! with a warning saying what is lost (material extensions only change the look, and alternative
-//! texture sources have a core fallback or drop one texture); and extensions that change
+//! with a warning saying what is lost (material extensions only change the look, and unread
+//! alternative texture sources have a core fallback or drop one texture); and extensions that change
 //! geometry in a way the importer cannot decode, which refuse a file that requires them.
 
 use gltf::json;
@@ -32,18 +32,13 @@ const EXTENSIONS: &[(&str, Support)] = &[
     ("KHR_materials_specular", Supported),
     ("KHR_mesh_quantization", Supported),
     ("KHR_texture_transform", Supported),
-    (
-        "MSFT_texture_dds",
-        Warned(
-            "DDS texture sources are not read: textures use their core PNG or JPEG source, and a texture with only a DDS source is dropped",
-        ),
-    ),
-    (
-        "AMD_split_roughnessMetallic",
-        Warned(
-            "separate roughness and metallic maps are not read: materials use their roughness and metallic factors and any core metallicRoughnessTexture",
-        ),
-    ),
+    // DDS sources are decoded (`super::dds`): BC1-BC7 (BC6H clamped to [0, 1]), R8G8B8A8,
+    // B8G8R8A8/X8 and legacy masked formats, mip level 0 of the first 2D surface. A texture
+    // reads its core `source` when that decodes, else its DDS source.
+    ("MSFT_texture_dds", Supported),
+    // Separate roughness and metallic maps, combined into a metallic-roughness texture when
+    // the material has no usable core one (`Textures::split_metallic_roughness`).
+    ("AMD_split_roughnessMetallic", Supported),
     (
         "KHR_materials_clearcoat",
         Warned("clearcoat layers are not rendered"),

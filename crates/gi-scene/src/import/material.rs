@@ -1,28 +1,25 @@
-//! Metallic-roughness materials and their textures.
+//! Metallic-roughness materials.
 //!
 //! Materials and textures are imported on first use, so a file's unused materials cost nothing
 //! and cannot fail the import. Images are decoded to 8-bit RGBA and keep the encoding of their
 //! use: base color, emissive and specular color textures are sRGB-encoded, metallic-roughness,
 //! normal, occlusion and specular textures are linear. An image used both ways becomes two
-//! textures. An image that cannot be used (missing file, unsupported type, undecodable or larger
-//! than [`MAX_IMAGE_SIZE`]) drops the texture references to it with a warning; the material's
-//! factors still apply.
+//! textures. Which image a texture reads, and what happens when none can be used, is
+//! [`super::textures`]'s business; the material's factors apply whatever the textures.
+//!
+//! `AMD_split_roughnessMetallic` gives roughness and metallic as separate maps; when the
+//! material has no usable core `metallicRoughnessTexture` they are combined into one (see
+//! [`Textures::split_metallic_roughness`]).
 
-use std::borrow::Cow;
-use std::collections::HashMap;
-use std::collections::hash_map::Entry;
-use std::io::Cursor;
-
-use glam::{Vec2, Vec3, Vec4};
+use glam::{Vec3, Vec4};
 use gltf::json;
-use gltf::json::extensions::texture::TextureTransform as KhrTextureTransform;
-use gltf::json::texture::WrappingMode;
 use gltf::json::validation::Checked;
-use image::{ImageFormat, ImageReader, Limits};
+use serde::Deserialize;
 
-use super::buffers::fetch_uri;
+use super::images::Role;
+use super::textures::{Slot, Textures};
 use super::{Result, Source, Warnings, malformed};
-use crate::{AlphaMode, Material, Scene, Texture, TextureEncoding, TextureRef, TextureTransform};
+use crate::{AlphaMode, Material, Scene};
 
 /// Imports materials and textures into a [`Scene`] as primitives ask for them.
 pub(super) struct Materials {
@@ -30,18 +27,16 @@ pub(super) struct Materials {
     map: Vec<Option<usize>>,
     /// Model index of the glTF default material, once a primitive needs it.
     default: Option<usize>,
-    /// Model texture of each `(image index, encoding)` pair.
-    textures: HashMap<(usize, TextureEncoding), usize>,
-    /// Decoded images by image index, or why the image cannot be used.
-    images: HashMap<usize, std::result::Result<Decoded, String>>,
+    /// Decoded images and the model textures made of them.
+    textures: Textures,
 }
 
-/// An image decoded to 8-bit RGBA, still in its stored encoding.
-struct Decoded {
-    name: String,
-    width: u32,
-    height: u32,
-    texels: Vec<[u8; 4]>,
+/// The `AMD_split_roughnessMetallic` material extension.
+#[derive(Deserialize)]
+#[serde(rename_all = "camelCase")]
+struct SplitRoughnessMetallic {
+    roughness_texture: Option<json::texture::Info>,
+    metallic_texture: Option<json::texture::Info>,
 }
 
 impl Materials {
@@ -50,8 +45,7 @@ impl Materials {
         Self {
             map: vec![None; count],
             default: None,
-            textures: HashMap::new(),
-            images: HashMap::new(),
+            textures: Textures::default(),
         }
     }
 
@@ -158,20 +152,37 @@ impl Materials {
             )));
         }
 
-        let mut texture = |slot: Option<Slot>, encoding: TextureEncoding| match slot {
-            Some(slot) => self.texture(source, &slot, encoding, &label, scene, warnings),
+        let split = match json
+            .extensions
+            .as_ref()
+            .and_then(|e| e.others.get("AMD_split_roughnessMetallic"))
+        {
+            Some(value) => Some(
+                serde_json::from_value::<SplitRoughnessMetallic>(value.clone()).map_err(|e| {
+                    malformed(format!("{label}: invalid AMD_split_roughnessMetallic: {e}"))
+                })?,
+            ),
+            None => None,
+        };
+
+        let textures = &mut self.textures;
+        let mut texture = |slot: Option<Slot>, role: Role| match slot {
+            Some(slot) => textures.slot(source, &slot, role, &label, scene, warnings),
             None => Ok(None),
         };
-        use TextureEncoding::{Linear, Srgb};
         let info = |name: &'static str, info: &Option<json::texture::Info>| {
             info.as_ref().map(|i| Slot::from_info(name, i))
         };
-        let base_color_texture = texture(info("baseColorTexture", &pbr.base_color_texture), Srgb)?;
-        let metallic_roughness_texture = texture(
-            info("metallicRoughnessTexture", &pbr.metallic_roughness_texture),
-            Linear,
+        let base_color_texture = texture(
+            info("baseColorTexture", &pbr.base_color_texture),
+            Role::Color,
         )?;
-        let emissive_texture = texture(info("emissiveTexture", &json.emissive_texture), Srgb)?;
+        let mut metallic_roughness_texture = texture(
+            info("metallicRoughnessTexture", &pbr.metallic_roughness_texture),
+            Role::Data,
+        )?;
+        let emissive_texture =
+            texture(info("emissiveTexture", &json.emissive_texture), Role::Color)?;
         let normal_texture = match &json.normal_texture {
             Some(t) => texture(
                 Some(Slot::new(
@@ -180,7 +191,7 @@ impl Materials {
                     t.tex_coord,
                     t.extensions.as_ref().map(|e| &e.others),
                 )?),
-                Linear,
+                Role::Normal,
             )?,
             None => None,
         };
@@ -192,21 +203,39 @@ impl Materials {
                     t.tex_coord,
                     t.extensions.as_ref().map(|e| &e.others),
                 )?),
-                Linear,
+                Role::Data,
             )?,
             None => None,
         };
         let specular_texture = match specular {
-            Some(s) => texture(info("specularTexture", &s.specular_texture), Linear)?,
+            Some(s) => texture(info("specularTexture", &s.specular_texture), Role::Data)?,
             None => None,
         };
         let specular_color_texture = match specular {
             Some(s) => texture(
                 info("specularColorTexture", &s.specular_color_texture),
-                Srgb,
+                Role::Color,
             )?,
             None => None,
         };
+        if let (None, Some(split)) = (metallic_roughness_texture, split) {
+            let roughness = info(
+                "AMD_split_roughnessMetallic.roughnessTexture",
+                &split.roughness_texture,
+            );
+            let metallic = info(
+                "AMD_split_roughnessMetallic.metallicTexture",
+                &split.metallic_texture,
+            );
+            metallic_roughness_texture = self.textures.split_metallic_roughness(
+                source,
+                roughness.as_ref(),
+                metallic.as_ref(),
+                &label,
+                scene,
+                warnings,
+            )?;
+        }
 
         // Factors outside the glTF ranges would break the BRDF's energy bounds.
         Ok(Material {
@@ -231,265 +260,4 @@ impl Materials {
             ior,
         })
     }
-
-    /// Model texture for a material's texture slot, decoding its image on first use. A slot
-    /// whose image is missing, undecodable or too large is dropped with a warning.
-    fn texture(
-        &mut self,
-        source: &Source,
-        slot: &Slot,
-        encoding: TextureEncoding,
-        label: &str,
-        scene: &mut Scene,
-        warnings: &mut Warnings,
-    ) -> Result<Option<TextureRef>> {
-        let slot_label = format!("{label}.{}", slot.name);
-        if slot.tex_coord > 1 {
-            warnings.once(&format!("texcoord-{}", slot.tex_coord), || {
-                format!(
-                    "{slot_label}: uses TEXCOORD_{}; only TEXCOORD_0 and TEXCOORD_1 are supported, so that texture is dropped",
-                    slot.tex_coord
-                )
-            });
-            return Ok(None);
-        }
-        let texture_index = slot.texture;
-        let texture = source.root.textures.get(texture_index).ok_or_else(|| {
-            malformed(format!(
-                "{slot_label}: texture {texture_index} does not exist"
-            ))
-        })?;
-        if let Some(sampler) = texture.sampler {
-            let sampler = source.root.samplers.get(sampler.value()).ok_or_else(|| {
-                malformed(format!("textures[{texture_index}]: sampler does not exist"))
-            })?;
-            for wrap in [sampler.wrap_s, sampler.wrap_t] {
-                let mode = match wrap {
-                    Checked::Valid(WrappingMode::Repeat) => continue,
-                    Checked::Valid(WrappingMode::ClampToEdge) => "CLAMP_TO_EDGE",
-                    Checked::Valid(WrappingMode::MirroredRepeat) => "MIRRORED_REPEAT",
-                    Checked::Invalid => {
-                        return Err(malformed(format!(
-                            "textures[{texture_index}]: invalid sampler wrap mode"
-                        )));
-                    }
-                };
-                warnings.once("wrap-mode", || {
-                    format!("textures[{texture_index}]: wrap mode {mode} is not supported; textures always repeat")
-                });
-            }
-        }
-
-        // With the `allow_empty_texture` parse, a texture without a core `source` holds
-        // `u32::MAX`, which no image list reaches.
-        let image = texture.source.value();
-        if image >= source.root.images.len() {
-            let others = texture.extensions.as_ref().map(|e| &e.others);
-            let alternatives: Vec<&str> = others
-                .into_iter()
-                .flat_map(|o| o.keys())
-                .map(String::as_str)
-                .collect();
-            let why = if alternatives.is_empty() {
-                "has no image source".to_string()
-            } else {
-                format!(
-                    "has only a {} source, which is not read",
-                    alternatives.join("/")
-                )
-            };
-            warnings.once(&format!("no-source-{texture_index}"), || {
-                format!("{slot_label}: textures[{texture_index}] {why}; the texture is dropped and the material's factor applies")
-            });
-            return Ok(None);
-        }
-
-        let model_index = match self.textures.get(&(image, encoding)) {
-            Some(&model_index) => model_index,
-            None => {
-                let decoded = match self.images.entry(image) {
-                    Entry::Occupied(entry) => entry.into_mut(),
-                    Entry::Vacant(entry) => entry.insert(decode(source, image)?),
-                };
-                let decoded = match decoded {
-                    Ok(decoded) => decoded,
-                    Err(problem) => {
-                        let problem = problem.clone();
-                        warnings.once(&format!("image-{image}-{slot_label}"), || {
-                            format!("{slot_label}: {problem}; the texture is dropped and the material's factor applies")
-                        });
-                        return Ok(None);
-                    }
-                };
-                scene.textures.push(Texture {
-                    name: decoded.name.clone(),
-                    width: decoded.width,
-                    height: decoded.height,
-                    encoding,
-                    texels: decoded.texels.clone(),
-                });
-                let model_index = scene.textures.len() - 1;
-                self.textures.insert((image, encoding), model_index);
-                model_index
-            }
-        };
-        Ok(Some(TextureRef {
-            texture: model_index,
-            tex_coord: slot.tex_coord,
-            transform: slot.transform,
-        }))
-    }
-}
-
-/// A material's texture slot, whichever glTF type (`textureInfo`, `normalTextureInfo`,
-/// `occlusionTextureInfo`) it came from, with `KHR_texture_transform` applied.
-struct Slot {
-    /// The glTF property name, for warnings.
-    name: &'static str,
-    texture: usize,
-    /// The texture coordinate set, after the transform's `texCoord` override.
-    tex_coord: u32,
-    transform: TextureTransform,
-}
-
-impl Slot {
-    fn from_info(name: &'static str, info: &json::texture::Info) -> Self {
-        let transform = info
-            .extensions
-            .as_ref()
-            .and_then(|e| e.texture_transform.as_ref());
-        Self::with_transform(name, info.index.value(), info.tex_coord, transform)
-    }
-
-    /// A slot whose extensions are still an untyped map (normal and occlusion textures).
-    fn new(
-        name: &'static str,
-        texture: usize,
-        tex_coord: u32,
-        extensions: Option<&serde_json::Map<String, serde_json::Value>>,
-    ) -> Result<Self> {
-        let transform = match extensions.and_then(|e| e.get("KHR_texture_transform")) {
-            Some(value) => Some(
-                serde_json::from_value::<KhrTextureTransform>(value.clone()).map_err(|e| {
-                    malformed(format!("{name}: invalid KHR_texture_transform: {e}"))
-                })?,
-            ),
-            None => None,
-        };
-        Ok(Self::with_transform(
-            name,
-            texture,
-            tex_coord,
-            transform.as_ref(),
-        ))
-    }
-
-    fn with_transform(
-        name: &'static str,
-        texture: usize,
-        tex_coord: u32,
-        transform: Option<&KhrTextureTransform>,
-    ) -> Self {
-        let Some(t) = transform else {
-            return Self {
-                name,
-                texture,
-                tex_coord,
-                transform: TextureTransform::IDENTITY,
-            };
-        };
-        let transform = TextureTransform {
-            offset: Vec2::from(t.offset.0),
-            rotation: t.rotation.0,
-            scale: Vec2::from(t.scale.0),
-        };
-        // Non-finite values would poison every texture coordinate: the identity stands in.
-        let finite = transform.offset.is_finite()
-            && transform.rotation.is_finite()
-            && transform.scale.is_finite();
-        Self {
-            name,
-            texture,
-            tex_coord: t.tex_coord.unwrap_or(tex_coord),
-            transform: if finite {
-                transform
-            } else {
-                TextureTransform::IDENTITY
-            },
-        }
-    }
-}
-
-/// Largest width and height of an image the importer decodes; larger images are refused
-/// before decoding, which bounds one image's memory to 256 MiB of RGBA8.
-const MAX_IMAGE_SIZE: u32 = 8192;
-
-/// Decodes image `index` (PNG or JPEG, from a buffer view, a data URI or a file) to RGBA.
-/// `Err` holds a description of why the image cannot be used (missing file, unsupported type,
-/// undecodable or too large data), for the warning of each slot that uses it; a broken
-/// document (no such image) is an import error.
-fn decode(source: &Source, index: usize) -> Result<std::result::Result<Decoded, String>> {
-    let image = source
-        .root
-        .images
-        .get(index)
-        .ok_or_else(|| malformed(format!("images[{index}] does not exist")))?;
-    let name = match (&image.name, &image.uri) {
-        (Some(name), _) => name.clone(),
-        (None, Some(uri)) if !uri.starts_with("data:") => uri.clone(),
-        _ => format!("image {index}"),
-    };
-    let label = format!("images[{index}] (\"{name}\")");
-    let bytes: Cow<[u8]> = match (&image.buffer_view, &image.uri) {
-        (Some(view), _) => match source.buffers.view(view.value()) {
-            Ok(bytes) => Cow::Borrowed(bytes),
-            Err(_) => return Ok(Err(format!("{label}: its buffer view is unreadable"))),
-        },
-        (None, Some(uri)) => match fetch_uri(uri, source.dir) {
-            Ok(bytes) => Cow::Owned(bytes),
-            Err(e) => return Ok(Err(format!("{label} cannot be read: {e}"))),
-        },
-        (None, None) => return Ok(Err(format!("{label} has neither uri nor bufferView"))),
-    };
-    let mut reader = ImageReader::new(Cursor::new(&bytes[..]));
-    match image.mime_type.as_ref().map(|m| m.0.as_str()) {
-        Some("image/png") => reader.set_format(ImageFormat::Png),
-        Some("image/jpeg") => reader.set_format(ImageFormat::Jpeg),
-        Some(other) => {
-            return Ok(Err(format!(
-                "{label} has mime type {other}; only image/png and image/jpeg are read"
-            )));
-        }
-        None => match reader.with_guessed_format() {
-            Ok(guessed) => reader = guessed,
-            Err(e) => return Ok(Err(format!("{label} cannot be read: {e}"))),
-        },
-    }
-    if !matches!(reader.format(), Some(ImageFormat::Png | ImageFormat::Jpeg)) {
-        return Ok(Err(format!("{label} is neither PNG nor JPEG")));
-    }
-    let mut limits = Limits::default();
-    limits.max_image_width = Some(MAX_IMAGE_SIZE);
-    limits.max_image_height = Some(MAX_IMAGE_SIZE);
-    reader.limits(limits);
-    let decoded = match reader.decode() {
-        Ok(decoded) => decoded,
-        Err(image::ImageError::Limits(_)) => {
-            return Ok(Err(format!(
-                "{label} is larger than {MAX_IMAGE_SIZE} x {MAX_IMAGE_SIZE} texels and is not decoded"
-            )));
-        }
-        Err(e) => return Ok(Err(format!("{label} cannot be decoded: {e}"))),
-    };
-    let (width, height) = (decoded.width(), decoded.height());
-    if width == 0 || height == 0 {
-        return Ok(Err(format!("{label} is empty")));
-    }
-    let texels = decoded.into_rgba8().pixels().map(|p| p.0).collect();
-    Ok(Ok(Decoded {
-        name,
-        width,
-        height,
-        texels,
-    }))
 }
