@@ -54,7 +54,7 @@ pub fn import_gltf_slice(
 ) -> std::result::Result<(Scene, Vec<ImportWarning>), SceneError> {
     let mut warnings = Warnings::default();
     match import(bytes, base, &mut warnings) {
-        Ok(scene) => Ok((scene, warnings.list)),
+        Ok(scene) => Ok((scene, warnings.finish())),
         Err(Failure::Malformed(message)) => Err(SceneError::Gltf {
             path: base.to_path_buf(),
             message,
@@ -89,7 +89,14 @@ fn unusable(message: impl Into<String>) -> Failure {
 struct Warnings {
     list: Vec<ImportWarning>,
     seen: HashSet<String>,
+    /// Warnings of one kind that a file may have by the dozen (textures whose images are
+    /// missing): per kind, what each single warning ends with, and the items. A kind with more
+    /// than [`GROUPED_SINGLY`] items becomes one warning that lists them all.
+    groups: Vec<(&'static str, Vec<String>)>,
 }
+
+/// Items of one kind reported as warnings of their own; more are listed in one warning.
+const GROUPED_SINGLY: usize = 3;
 
 impl Warnings {
     /// Records `message()` unless a warning with the same `key` was recorded before.
@@ -97,6 +104,40 @@ impl Warnings {
         if self.seen.insert(key.to_string()) {
             self.list.push(ImportWarning(message()));
         }
+    }
+
+    /// Records `message()` (unless `key` was seen) as an item of the kind whose warnings end
+    /// with `consequence`: up to [`GROUPED_SINGLY`] items, each is a warning `message;
+    /// consequence`; with more, the file gets one warning that counts and lists them.
+    fn grouped(&mut self, consequence: &'static str, key: &str, message: impl FnOnce() -> String) {
+        if !self.seen.insert(key.to_string()) {
+            return;
+        }
+        let message = message();
+        match self.groups.iter_mut().find(|(c, _)| *c == consequence) {
+            Some((_, items)) => items.push(message),
+            None => self.groups.push((consequence, vec![message])),
+        }
+    }
+
+    /// Every warning, the grouped ones last.
+    fn finish(mut self) -> Vec<ImportWarning> {
+        for (consequence, items) in self.groups {
+            if items.len() <= GROUPED_SINGLY {
+                self.list.extend(
+                    items
+                        .into_iter()
+                        .map(|item| ImportWarning(format!("{item}; {consequence}"))),
+                );
+            } else {
+                self.list.push(ImportWarning(format!(
+                    "{consequence} ({} times): {}",
+                    items.len(),
+                    items.join("; ")
+                )));
+            }
+        }
+        self.list
     }
 }
 

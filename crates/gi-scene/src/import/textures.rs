@@ -205,9 +205,11 @@ impl Textures {
                 unread.join("/")
             ),
         };
-        warnings.once(&format!("no-image-{texture_index}-{slot_label}"), || {
-            format!("{slot_label}: {why}; the texture is dropped and the material's factor applies")
-        });
+        warnings.grouped(
+            "the texture is dropped and the material's factor applies",
+            &format!("no-image-{texture_index}-{slot_label}"),
+            || format!("{slot_label}: {why}"),
+        );
         Ok(None)
     }
 }
