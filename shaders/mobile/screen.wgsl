@@ -81,11 +81,13 @@ struct ScreenUniforms {
     plane_tolerance: f32,
     normal_cos: f32,
     ray_offset_voxels: f32,
-    // 0: HSGI (every tile traced every frame), 1: SmartGI (2 x 2 groups, reprojection).
-    mode: u32,
+    // FLAG_SMARTGI: SmartGI (2 x 2 groups, reprojection), else HSGI (every tile traced every
+    // frame); FLAG_MATERIAL_OCCLUSION: the occlusion map darkens the gathered diffuse light.
+    flags: u32,
 }
 
-const MODE_SMARTGI: u32 = 1u;
+const FLAG_SMARTGI: u32 = 1u;
+const FLAG_MATERIAL_OCCLUSION: u32 = 2u;
 // `ScreenProbe.flags`: bit 0 the probe sits on a dynamic object; bit 1 it was reprojected from
 // the previous frame, whose slot is in bits 8 and up.
 const PROBE_DYNAMIC: u32 = 1u;
@@ -185,7 +187,7 @@ fn fresh_tile(group: vec2<u32>) -> vec2<u32> {
 }
 
 fn is_fresh(tile_xy: vec2<u32>) -> bool {
-    return u.mode != MODE_SMARTGI || all(fresh_tile(tile_xy / 2u) == tile_xy);
+    return (u.flags & FLAG_SMARTGI) == 0u || all(fresh_tile(tile_xy / 2u) == tile_xy);
 }
 
 @compute @workgroup_size(64)
@@ -445,7 +447,7 @@ fn gather(@builtin(global_invocation_id) id: vec3<u32>) {
     // Screen probes of the four tiles whose centers surround the pixel; in SmartGI mode, where
     // they all fail, the fresh probes of the four nearest groups (the next mip).
     var found = interpolate_probes(p, n, depth, source, 1u);
-    if found.w <= 0.0 && u.mode == MODE_SMARTGI {
+    if found.w <= 0.0 && (u.flags & FLAG_SMARTGI) != 0u {
         found = interpolate_probes(p, n, depth, source, 2u);
     }
     var current: vec3<f32>;
@@ -538,7 +540,10 @@ fn compose(@builtin(global_invocation_id) id: vec3<u32>) {
     let brdf = gbuffer_brdf(gbuffer_base_color[pixel], mr);
     let specular = brdf_split_sum_albedos(brdf, max(dot(n, -dir), 0.0)).specular;
     // The material's occlusion map darkens the gathered diffuse light only.
-    let occlusion = gbuffer_emissive[pixel].w;
+    var occlusion = 1.0;
+    if (u.flags & FLAG_MATERIAL_OCCLUSION) != 0u {
+        occlusion = gbuffer_emissive[pixel].w;
+    }
     let gi = (lite_diffuse(bits) * occlusion + specular) * irradiance * INV_PI;
     output[pixel] = vec4(direct + gi, 1.0);
 }

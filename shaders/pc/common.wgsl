@@ -26,6 +26,8 @@ const FLAG_SPECULAR: u32 = 64u;
 // Rougher surfaces (all surfaces without `FLAG_SPECULAR`) reflect the diffuse irradiance
 // reshaped by their lobe: HSGI's reuse of the diffuse result (`pc/restir.wgsl`, `shade`).
 const FLAG_REUSE_SPECULAR: u32 = 128u;
+// The material's occlusion map darkens the gathered diffuse light (`PcConfig::material_occlusion`).
+const FLAG_MATERIAL_OCCLUSION: u32 = 256u;
 
 // What a pixel's specular reflection comes from (`specular_kind`).
 const SPECULAR_NONE: u32 = 0u;

@@ -49,7 +49,7 @@
     PcUniforms, Surface, Reservoir, Combiner, empty_reservoir, is_sky_depth, has_surface,
     target_pdf, reconnection_jacobian, combiner_new, combiner_add, combiner_finish,
     reservoir_irradiance, similar_surfaces, sample_direction, specular_kind, SAMPLE_OCCLUDED, SAMPLE_SKY,
-    FLAG_TEMPORAL, FLAG_SPATIAL, FLAG_SHADOW, FLAG_MULTI_SAMPLE, FLAG_BOILING, FLAG_HISTORY,
+    FLAG_TEMPORAL, FLAG_SPATIAL, FLAG_SHADOW, FLAG_MULTI_SAMPLE, FLAG_BOILING, FLAG_HISTORY, FLAG_MATERIAL_OCCLUSION,
     SPECULAR_NONE, SPECULAR_TRACED, SPECULAR_REUSED
 }
 
@@ -428,6 +428,9 @@ fn compose(@builtin(global_invocation_id) id: vec3<u32>) {
         }
     }
     // The material's occlusion map darkens the gathered diffuse light only.
-    let occlusion = gbuffer_emissive[pixel].w;
+    var occlusion = 1.0;
+    if (u.flags & FLAG_MATERIAL_OCCLUSION) != 0u {
+        occlusion = gbuffer_emissive[pixel].w;
+    }
     output[pixel] = vec4(direct + diffuse * e * (occlusion * INV_PI) + specular * reflected, 1.0);
 }

@@ -87,7 +87,7 @@ fn shared_structs_match_their_wgsl_layout() {
             plane_tolerance,
             normal_cos,
             ray_offset_voxels,
-            mode,
+            flags,
         }),
         size_of::<ScreenUniforms>(),
     );
@@ -325,21 +325,23 @@ fn open_ground_gathers_pi_times_the_sky() {
 }
 
 #[test]
-fn the_occlusion_map_darkens_the_gathered_diffuse_light_only() {
-    let Some(ctx) =
-        GpuContext::new_or_skip("the_occlusion_map_darkens_the_gathered_diffuse_light_only")
-    else {
+fn the_occlusion_map_darkens_the_gathered_diffuse_light_only_when_asked() {
+    let Some(ctx) = GpuContext::new_or_skip(
+        "the_occlusion_map_darkens_the_gathered_diffuse_light_only_when_asked",
+    ) else {
         return;
     };
     drop(ctx);
     let camera = CameraView::look_at(Vec3::new(0.0, 3.0, 3.0), Vec3::ZERO, 0.9);
     // The same seed draws the same probe rays, so the frames differ only in the occlusion
     // factor compose applies.
-    let gi = |scene: &Scene| {
+    let gi = |scene: &Scene, material_occlusion: bool| {
+        let mut config = idle_cache();
+        config.screen.material_occlusion = material_occlusion;
         let (tier, _) = run(
             GpuContext::new().unwrap(),
             scene,
-            idle_cache(),
+            config,
             (64, 48),
             4,
             Some(camera),
@@ -347,10 +349,15 @@ fn the_occlusion_map_darkens_the_gathered_diffuse_light_only() {
         tier.frame_data().unwrap().gi
     };
     let ground = open_ground("mobile-occluded-ground", 20.0, 0.5);
-    let plain = gi(&ground);
-    let plain_again = gi(&ground);
-    let quarter = gi(&with_occlusion(ground.clone(), 0.0, 0.75));
-    let half = gi(&with_occlusion(ground, 0.0, 0.5));
+    let plain = gi(&ground, true);
+    let plain_again = gi(&ground, true);
+    let quarter = gi(&with_occlusion(ground.clone(), 0.0, 0.75), true);
+    // Off (the default), the map changes nothing.
+    assert_eq!(
+        gi(&with_occlusion(ground.clone(), 0.0, 0.75), false).pixels,
+        plain.pixels
+    );
+    let half = gi(&with_occlusion(ground, 0.0, 0.5), true);
     let lit = check_occlusion_scaling(&plain, &plain_again, [(&quarter, 0.25), (&half, 0.5)]);
     assert!(lit > 64 * 48 / 3, "only {lit} pixels see the ground");
 }

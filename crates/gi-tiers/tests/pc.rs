@@ -231,21 +231,25 @@ fn open_ground_gathers_pi_times_the_sky_in_every_configuration() {
 }
 
 #[test]
-fn the_occlusion_map_darkens_the_gathered_diffuse_light_only() {
-    let Some(ctx) =
-        GpuContext::new_or_skip("the_occlusion_map_darkens_the_gathered_diffuse_light_only")
-    else {
+fn the_occlusion_map_darkens_the_gathered_diffuse_light_only_when_asked() {
+    let Some(ctx) = GpuContext::new_or_skip(
+        "the_occlusion_map_darkens_the_gathered_diffuse_light_only_when_asked",
+    ) else {
         return;
     };
     drop(ctx);
     let camera = CameraView::look_at(Vec3::new(0.0, 3.0, 3.0), Vec3::ZERO, 0.9);
     // Under the open sky every ground pixel gathers exactly pi, so the frames differ only in
     // the occlusion factor compose applies.
-    let gi = |scene: &Scene| {
+    let gi = |scene: &Scene, material_occlusion: bool| {
+        let config = PcConfig {
+            material_occlusion,
+            ..PcConfig::default()
+        };
         let tier = run(
             GpuContext::new().unwrap(),
             scene,
-            idle_cache(PcConfig::default()),
+            idle_cache(config),
             (48, 32),
             4,
             Some(camera),
@@ -253,10 +257,15 @@ fn the_occlusion_map_darkens_the_gathered_diffuse_light_only() {
         tier.frame_data().unwrap().gi
     };
     let ground = open_ground("pc-occluded-ground", 20.0, 0.5);
-    let plain = gi(&ground);
-    let plain_again = gi(&ground);
-    let quarter = gi(&with_occlusion(ground.clone(), 0.0, 0.75));
-    let half = gi(&with_occlusion(ground, 0.0, 0.5));
+    let plain = gi(&ground, true);
+    let plain_again = gi(&ground, true);
+    let quarter = gi(&with_occlusion(ground.clone(), 0.0, 0.75), true);
+    // Off (the default), the map changes nothing.
+    assert_eq!(
+        gi(&with_occlusion(ground.clone(), 0.0, 0.75), false).pixels,
+        plain.pixels
+    );
+    let half = gi(&with_occlusion(ground, 0.0, 0.5), true);
     let lit = check_occlusion_scaling(&plain, &plain_again, [(&quarter, 0.25), (&half, 0.5)]);
     assert!(lit > 48 * 32 / 3, "only {lit} pixels see the ground");
 }

@@ -38,8 +38,9 @@ pub struct ScreenUniforms {
     pub plane_tolerance: f32,
     pub normal_cos: f32,
     pub ray_offset_voxels: f32,
-    /// 0: HSGI, 1: SmartGI ([`ScreenProbeMode`]).
-    pub mode: u32,
+    /// Bit 0: SmartGI, else HSGI ([`ScreenProbeMode`]); bit 1: the material's occlusion map
+    /// darkens the gathered diffuse light ([`ScreenConfig::material_occlusion`]).
+    pub flags: u32,
 }
 
 /// Mirror of `ScreenProbe` in the shader, 32 bytes.
@@ -405,9 +406,9 @@ pub fn screen_uniforms(
         plane_tolerance: config.plane_tolerance,
         normal_cos: config.normal_cos,
         ray_offset_voxels: config.ray_offset_voxels,
-        mode: match config.mode {
+        flags: match config.mode {
             ScreenProbeMode::Hsgi => 0,
             ScreenProbeMode::SmartGi => 1,
-        },
+        } | if config.material_occlusion { 2 } else { 0 },
     }
 }

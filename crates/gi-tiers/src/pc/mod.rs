@@ -148,6 +148,7 @@ mod flags {
     pub const HISTORY: u32 = 32;
     pub const SPECULAR: u32 = 64;
     pub const REUSE_SPECULAR: u32 = 128;
+    pub const MATERIAL_OCCLUSION: u32 = 256;
 }
 
 /// GPU memory of the PC tier by what it scales with.
@@ -537,6 +538,7 @@ impl PcTier {
             (history, flags::HISTORY),
             (self.config.specular.traced, flags::SPECULAR),
             (self.config.specular.reuse_diffuse, flags::REUSE_SPECULAR),
+            (self.config.material_occlusion, flags::MATERIAL_OCCLUSION),
         ] {
             if on {
                 bits |= bit;
