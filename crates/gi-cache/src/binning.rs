@@ -19,36 +19,21 @@ use crate::layout::GROUP_BRICKS;
 /// Bit of a binned triangle reference marking a dynamic node's triangle.
 pub const TRIANGLE_DYNAMIC_BIT: u32 = 1 << 31;
 
-/// `dynamic[node]`: the node or one of its ancestors is moved by an animation channel, so its
-/// triangles may move from frame to frame.
+/// `dynamic[node]`: the node or one of its ancestors is moved by an animation channel, or the
+/// node is skinned and one of its joints moves ([`Scene::deforming_nodes`]), so its triangles
+/// may move from frame to frame.
 pub fn dynamic_nodes(scene: &Scene) -> Vec<bool> {
-    let mut animated = vec![false; scene.nodes.len()];
-    for channel in scene.animations.iter().flat_map(|a| &a.channels) {
-        if !channel.times.is_empty()
-            && let Some(flag) = animated.get_mut(channel.node)
-        {
-            *flag = true;
-        }
-    }
-    (0..scene.nodes.len())
-        .map(|mut node| {
-            // The depth bound stops parent cycles, which hand-built scenes could contain.
-            for _ in 0..=scene.nodes.len() {
-                if animated[node] {
-                    return true;
-                }
-                match scene.nodes[node].parent {
-                    Some(parent) if parent < scene.nodes.len() => node = parent,
-                    _ => return false,
-                }
-            }
-            false
-        })
+    let deforming = scene.deforming_nodes();
+    scene
+        .moving_nodes()
+        .into_iter()
+        .zip(deforming)
+        .map(|(moving, deforming)| moving || deforming)
         .collect()
 }
 
-/// `dynamic[triangle]` for each triangle of `frame`: its node is moved by an animation
-/// ([`dynamic_nodes`]).
+/// `dynamic[triangle]` for each triangle of `frame`: its node is moved by an animation or
+/// deformed by animated joints ([`dynamic_nodes`]).
 pub fn dynamic_triangles(scene: &Scene, frame: &SceneFrame) -> Vec<bool> {
     let dynamic = dynamic_nodes(scene);
     frame

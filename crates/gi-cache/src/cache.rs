@@ -5,7 +5,8 @@
 //!    (link cleared, ID freed), the slabs that enter are queued (toroidal addressing: nothing
 //!    else moves in memory);
 //! 2. queues the bricks around every dynamic node that moved (its old and new bounds), to be
-//!    voxelized again in place or released when empty;
+//!    voxelized again in place or released when empty; a skinned node moves when one of its
+//!    joints does, even where its own transform stays put;
 //! 3. queues again bricks that were dropped for lack of pool, when IDs are free;
 //! 4. takes up to [`CacheConfig::voxelize_bricks_per_frame`] queued bricks, finer levels and
 //!    nearer bricks first, bins the frame's triangles to them, allocates IDs (evicting the
@@ -446,8 +447,9 @@ impl RadianceCache {
     }
 
     /// Queues, at every level, the bricks inside the old and the new bounds of each dynamic
-    /// node whose transform changed: allocated ones are voxelized again (or released when
-    /// empty), new ones filled.
+    /// node whose geometry moved (its transform changed or, for a skinned node, one of its
+    /// joints' transforms did): allocated ones are voxelized again (or released when empty),
+    /// new ones filled.
     fn queue_moved_dynamic_nodes(
         &mut self,
         scene: &CacheScene<'_>,
@@ -460,11 +462,15 @@ impl RadianceCache {
             && self.previous_node_bounds.len() == bounds.len();
         if comparable {
             let windows = self.windows.clone().expect("placed by move_windows");
-            for node in 0..world.len() {
-                if !scene.dynamic_node[node] || world[node] == self.previous_world_from_node[node] {
+            for (node, &current_bounds) in bounds.iter().enumerate() {
+                let moved =
+                    scene
+                        .scene
+                        .node_geometry_changed(node, &self.previous_world_from_node, world);
+                if !scene.dynamic_node[node] || !moved {
                     continue;
                 }
-                for (lo, hi) in [self.previous_node_bounds[node], bounds[node]]
+                for (lo, hi) in [self.previous_node_bounds[node], current_bounds]
                     .into_iter()
                     .flatten()
                 {

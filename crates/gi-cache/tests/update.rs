@@ -437,3 +437,70 @@ fn bundled_scene_fill_figures() {
         cache.release_buffers(&ctx);
     }
 }
+
+/// A skinned arm whose elbow bends: its node's own transform never changes, yet its joints
+/// move it, so it is a dynamic node that moved; the bricks around its old and new shapes are
+/// voxelized again and the occupancy equals a fresh CPU voxelization at the new time.
+#[test]
+fn skinned_object_is_revoxelized_when_its_joints_move() {
+    let Some(ctx) = GpuContext::new_or_skip("skinned_object_is_revoxelized_when_its_joints_move")
+    else {
+        return;
+    };
+    let scene = gi_scene::generate::skinned_arm();
+    let arm = scene.nodes.iter().position(|n| n.name == "arm").unwrap();
+    let config = CacheConfig {
+        levels: 3,
+        voxelize_bricks_per_frame: 100_000,
+        ..Default::default()
+    };
+    let mut cache = RadianceCache::new(&ctx, &config).unwrap();
+    let camera = Vec3::new(0.0, 1.0, 4.0);
+    let frame0 = scene.evaluate(0.0, None);
+    let first = update(&ctx, &mut cache, &scene, &frame0, camera);
+    assert_eq!(first.dropped_for_pool, 0);
+    assert!(first.voxelized > 0);
+
+    let frame1 = scene.evaluate(0.5, None);
+    assert_eq!(
+        frame0.world_from_node[arm], frame1.world_from_node[arm],
+        "the arm's own transform stays"
+    );
+    let cache_scene = CacheScene::new(&scene, &frame1);
+    assert!(
+        cache_scene.dynamic_node[arm],
+        "a skinned node with animated joints is dynamic"
+    );
+    let dynamic = gi_cache::binning::dynamic_triangles(&scene, &frame1);
+    for (flag, attributes) in dynamic.iter().zip(&frame1.attributes) {
+        assert_eq!(*flag, attributes.node == arm as u32);
+    }
+    let stats = update(&ctx, &mut cache, &scene, &frame1, camera);
+    assert_eq!(stats.levels_moved, 0);
+    assert!(
+        stats.queued_dynamic > 0,
+        "the arm counts as moved: {stats:?}"
+    );
+    assert!(stats.voxelized > 0);
+
+    // Occupancy equals a fresh CPU voxelization at the new time.
+    let cpu = CpuCache::build(&config, &scene, &frame1, camera).unwrap();
+    let masks = cache.buffers().read_brick_masks(&ctx);
+    let gpu = residents(&cache);
+    assert_eq!(gpu.len(), cpu.bricks.len());
+    for b in &cpu.bricks {
+        let id = gpu.get(&(b.level, b.brick)).copied().unwrap_or(NO_BRICK);
+        assert_ne!(id, NO_BRICK, "level {} brick {} missing", b.level, b.brick);
+        assert_eq!(
+            masks[id as usize],
+            cpu.structure.brick_mask(b.id),
+            "level {} brick {}",
+            b.level,
+            b.brick
+        );
+    }
+
+    // A frame where nothing moved queues nothing.
+    let again = update(&ctx, &mut cache, &scene, &frame1, camera);
+    assert_eq!(again.queued_dynamic, 0, "{again:?}");
+}

@@ -461,3 +461,95 @@ fn crowd_scene(count: usize) -> Scene {
     scene.animations.push(animation);
     scene
 }
+
+/// A skinned arm whose elbow bends (a deforming node) in a closed room: built at rest, then only
+/// updated, every frame's hits equal the CPU's over that frame's skinned triangles and a fresh
+/// build's.
+#[test]
+fn skinned_scene_updates_match_cpu_and_fresh_builds() {
+    let mut scene = gi_scene::generate::skinned_arm();
+    // Walls and a ceiling around the floor, so that most test rays hit something.
+    let (x, y, z) = (Vec3::X * 3.0, Vec3::Y * 1.5, Vec3::Z * 3.0);
+    for (center, u, v) in [
+        (x + y, z, y),
+        (-x + y, y, z),
+        (z + y, y, x),
+        (-z + y, x, y),
+        (y * 2.0, x, z),
+    ] {
+        scene.add_diffuse_quad(center, u, v, 0.5);
+    }
+    updates_match_cpu_and_fresh_builds(&scene, "skinned-arm", &[0.5, 1.0, 1.5]);
+}
+
+/// The deforming arm's level is rebuilt by each update in its own region: the static floor's
+/// level stays as built, and a ray through where only the bent forearm is hits it at the
+/// distance the hand computation gives, on the GPU as on the CPU.
+#[test]
+fn deforming_levels_are_rebuilt_after_the_static_ones() {
+    let Some((ctx, tracer)) = context("deforming_levels_are_rebuilt_after_the_static_ones") else {
+        return;
+    };
+    let scene = gi_scene::generate::skinned_arm();
+    let arm = scene.nodes.iter().position(|n| n.name == "arm").unwrap() as u32;
+    let rest = scene.evaluate(0.0, None);
+    let mut gpu = GpuBvh::from_scene(&ctx, &scene, &rest).expect("uploads");
+    assert!(gpu.bottom_levels().has_deforming());
+    assert_eq!(
+        gpu.instance_count, 2,
+        "the floor's static level and the arm's"
+    );
+    assert!(!gpu.traces_static_directly());
+    let (fixed_nodes, fixed_triangles) = gpu.bottom_levels().fixed_len();
+    let fixed = |gpu: &GpuBvh| {
+        let levels = gpu.bottom_levels();
+        (
+            levels.nodes[..fixed_nodes].to_vec(),
+            levels.triangles[..fixed_triangles].to_vec(),
+        )
+    };
+    let static_levels = fixed(&gpu);
+    let buffers = (gpu.nodes.clone(), gpu.triangles.clone());
+
+    // Bent at the elbow (0, 1, 0) by 90 degrees: the forearm lies along -X at y 0.75..1.25,
+    // its +Z face at z = 0.25. A ray down -Z at x = -0.8, y = 1 meets it there; at rest nothing
+    // is on that line.
+    let probe = GpuRay::new(Vec3::new(-0.8, 1.0, 5.0), Vec3::NEG_Z, 0.0, f32::INFINITY);
+    let at_rest = tracer.trace(&ctx, &gpu, &[probe]);
+    assert_eq!(at_rest.hits[0].triangle, BVH_MISS, "nothing there at rest");
+    let bent = scene.evaluate(gi_scene::generate::ARM_BENT_TIME_S, None);
+    gpu.update(&ctx, &bent).expect("updates");
+    let hit = tracer.trace(&ctx, &gpu, &[probe]).hits[0];
+    let triangle = hit.triangle().expect("the bent forearm is hit");
+    assert_eq!(bent.attributes[triangle as usize].node, arm);
+    assert!((hit.t - 4.75).abs() < 1e-4, "t {}", hit.t);
+    let cpu = SceneBvh::build(&bent.triangles)
+        .closest_hit(
+            &bent.triangles,
+            Vec3::new(-0.8, 1.0, 5.0),
+            Vec3::NEG_Z,
+            0.0,
+            f32::INFINITY,
+        )
+        .expect("the CPU hits it too");
+    assert_eq!(cpu.triangle, triangle);
+
+    for time in [0.25, 0.5, 1.75] {
+        gpu.update(&ctx, &scene.evaluate(time, None))
+            .expect("updates");
+        assert!(gpu.deform_seconds > 0.0);
+    }
+    assert!(fixed(&gpu) == static_levels, "the static level was rebuilt");
+    if gpu.bottom_reallocations == 0 {
+        assert!(
+            (gpu.nodes.clone(), gpu.triangles.clone()) == buffers,
+            "bottom buffers replaced without growing"
+        );
+    }
+    gpu.release(&ctx);
+    assert_eq!(
+        ctx.memory().bytes_with_prefix("bvh."),
+        0,
+        "every BVH buffer released"
+    );
+}

@@ -9,6 +9,7 @@ use obvhs::triangle::Triangle;
 use crate::model::{
     Animation, CameraPath, Channel, ChannelValues, Interpolation, LightKind, Scene, Sky,
 };
+use crate::skin::{skin_positions, skin_primitive};
 
 /// Shading attributes of one world-space triangle (index-aligned with
 /// [`SceneFrame::triangles`]).
@@ -187,7 +188,8 @@ impl Scene {
             .collect()
     }
 
-    /// True when anything in the scene moves over time.
+    /// True when anything in the scene moves over time (node transforms, and with them skinned
+    /// meshes whose joints they animate).
     pub fn is_animated(&self) -> bool {
         self.animations.iter().any(|a| !a.channels.is_empty())
     }
@@ -212,14 +214,24 @@ impl Scene {
     /// A view framing the scene's bounding box, used when the scene has no camera.
     pub fn fallback_view(&self, world: &[Mat4]) -> CameraView {
         let (mut min, mut max) = (Vec3::splat(f32::MAX), Vec3::splat(f32::MIN));
-        for (node, world_from_node) in self.nodes.iter().zip(world) {
+        for (index, (node, world_from_node)) in self.nodes.iter().zip(world).enumerate() {
             let Some(mesh) = node.mesh.and_then(|m| self.meshes.get(m)) else {
                 continue;
             };
-            for p in mesh.primitives.iter().flat_map(|p| &p.positions) {
-                let wp = world_from_node.transform_point3(*p);
-                min = min.min(wp);
-                max = max.max(wp);
+            let joint_matrices = self.node_skin(index).map(|skin| skin.joint_matrices(world));
+            for primitive in &mesh.primitives {
+                let points = match &joint_matrices {
+                    Some(joints) if primitive.is_skinned() => {
+                        skin_positions(primitive, joints, *world_from_node)
+                    }
+                    _ => (primitive.positions.iter())
+                        .map(|p| world_from_node.transform_point3(*p))
+                        .collect(),
+                };
+                for wp in points {
+                    min = min.min(wp);
+                    max = max.max(wp);
+                }
             }
         }
         if min.x > max.x {
@@ -241,7 +253,8 @@ impl Scene {
     }
 
     /// Flatten the scene at `time_s` into world space, viewed through `camera`
-    /// (`None`: the default camera).
+    /// (`None`: the default camera). Skinned meshes are deformed by their joints on the CPU
+    /// (linear blend skinning; see the `skin` module for normals, tangents and fallbacks).
     pub fn evaluate(&self, time_s: f32, camera: Option<CameraView>) -> SceneFrame {
         let world_from_node = self.world_transforms(time_s);
         let mut triangles = Vec::new();
@@ -255,29 +268,50 @@ impl Scene {
             // A mirroring transform flips the winding; keep geometric normals facing the same
             // side as the authored ones.
             let flips = world.determinant() < 0.0;
+            // A skinned node is placed by its joints, its own transform ignored (glTF 2.0).
+            let joint_matrices = self
+                .node_skin(node_index)
+                .map(|skin| skin.joint_matrices(&world_from_node));
             for primitive in &mesh.primitives {
-                let positions: Vec<Vec3> = primitive
-                    .positions
-                    .iter()
-                    .map(|p| world.transform_point3(*p))
-                    .collect();
-                let normals: Vec<Vec3> = primitive
-                    .normals
-                    .iter()
-                    .map(|n| normal_matrix.transform_vector3(*n).normalize_or(Vec3::Y))
-                    .collect();
-                // A mirroring transform also flips the bitangent's handedness.
-                let handedness = if flips { -1.0 } else { 1.0 };
-                let tangents: Vec<Vec4> = primitive
-                    .tangents
-                    .iter()
-                    .map(|t| {
-                        let xyz = world.transform_vector3(t.truncate()).normalize_or_zero();
-                        xyz.extend(if t.w < 0.0 { -handedness } else { handedness })
-                    })
-                    .collect();
+                let (positions, normals, tangents, mirrored) = match &joint_matrices {
+                    Some(joint_matrices) if primitive.is_skinned() => {
+                        let skinned = skin_primitive(primitive, joint_matrices, world);
+                        let mirrored = Some(skinned.mirrored);
+                        (
+                            skinned.positions,
+                            skinned.normals,
+                            skinned.tangents,
+                            mirrored,
+                        )
+                    }
+                    _ => {
+                        let positions: Vec<Vec3> = primitive
+                            .positions
+                            .iter()
+                            .map(|p| world.transform_point3(*p))
+                            .collect();
+                        let normals: Vec<Vec3> = primitive
+                            .normals
+                            .iter()
+                            .map(|n| normal_matrix.transform_vector3(*n).normalize_or(Vec3::Y))
+                            .collect();
+                        // A mirroring transform also flips the bitangent's handedness.
+                        let handedness = if flips { -1.0 } else { 1.0 };
+                        let tangents: Vec<Vec4> = primitive
+                            .tangents
+                            .iter()
+                            .map(|t| {
+                                let xyz = world.transform_vector3(t.truncate()).normalize_or_zero();
+                                xyz.extend(if t.w < 0.0 { -handedness } else { handedness })
+                            })
+                            .collect();
+                        (positions, normals, tangents, None)
+                    }
+                };
                 for tri in primitive.indices.chunks_exact(3) {
                     let mut idx = [tri[0] as usize, tri[1] as usize, tri[2] as usize];
+                    // A skinned triangle follows the matrix of its first vertex.
+                    let flips = mirrored.as_ref().map_or(flips, |m| m[idx[0]]);
                     if flips {
                         idx.swap(1, 2);
                     }

@@ -5,7 +5,8 @@
 //! those unwrap values that validation does not fully cover (camera projections, image sources,
 //! accessor ranges), and no input file may panic the product. Everything the scene model cannot
 //! represent is either converted (strips, fans, cubic splines, missing normals) or skipped with
-//! an [`ImportWarning`].
+//! an [`ImportWarning`]. Skins are imported with the nodes that use them: joints, inverse bind
+//! matrices, and per-vertex `JOINTS_0`/`WEIGHTS_0` checked against the skin's joint list.
 
 mod animation;
 mod buffers;
@@ -16,6 +17,7 @@ mod images;
 mod material;
 mod mesh;
 mod nodes;
+mod skins;
 mod tangents;
 mod textures;
 
@@ -194,6 +196,7 @@ fn import(bytes: &[u8], base: &Path, warnings: &mut Warnings) -> Result<Scene> {
         node_map[file_index] = Some(model_index);
     }
     let mut mesh_map = vec![None; root.meshes.len()];
+    let mut skin_map = vec![None; root.skins.len()];
     let mut materials = material::Materials::new(root.materials.len());
     for &(file_index, parent) in &order {
         let json_node = &root.nodes[file_index];
@@ -229,10 +232,25 @@ fn import(bytes: &[u8], base: &Path, warnings: &mut Warnings) -> Result<Scene> {
             }
             node.mesh = *slot;
         }
-        if json_node.skin.is_some() {
-            warnings.once("skin", || {
-                "skinning is not supported; skinned meshes are drawn in their bind pose".into()
-            });
+        if let Some(skin) = json_node.skin {
+            let slot = skin_map.get_mut(skin.value()).ok_or_else(|| {
+                malformed(format!("nodes[{file_index}]: no skin {}", skin.value()))
+            })?;
+            if slot.is_none() {
+                scene
+                    .skins
+                    .push(skins::import_skin(&source, skin.value(), &node_map)?);
+                *slot = Some(scene.skins.len() - 1);
+            }
+            node.skin = *slot;
+            if let (Some(mesh), Some(skin)) = (node.mesh, *slot) {
+                skins::check_skinned_mesh(
+                    &scene.meshes[mesh],
+                    &scene.skins[skin],
+                    &format!("nodes[{file_index}]"),
+                    warnings,
+                )?;
+            }
         }
         scene.nodes.push(node);
     }

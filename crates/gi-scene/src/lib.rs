@@ -14,6 +14,7 @@ pub mod generate;
 mod import;
 mod lighting;
 mod model;
+mod skin;
 
 pub use bundled::{
     BUNDLED_SCENES, LoadedScene, bundled_scene_dir, import_with_lighting, load, load_with_lighting,

@@ -8,7 +8,7 @@
 
 use std::sync::LazyLock;
 
-use glam::{Affine2, Quat, Vec2, Vec3, Vec4};
+use glam::{Affine2, Mat4, Quat, Vec2, Vec3, Vec4};
 
 /// A scene: geometry, materials, lights, cameras, animation and render settings.
 #[derive(Clone, Debug, Default)]
@@ -22,6 +22,8 @@ pub struct Scene {
     pub lights: Vec<Light>,
     pub cameras: Vec<Camera>,
     pub animations: Vec<Animation>,
+    /// Skeletons that deform skinned meshes (glTF `skins`), referenced by [`Node::skin`].
+    pub skins: Vec<Skin>,
     /// Radiance arriving from directions where rays escape the scene.
     pub sky: Sky,
     /// Scalar applied to linear radiance before tonemapping (`png = oetf(clamp(exposure * L))`).
@@ -84,6 +86,9 @@ pub struct Node {
     pub mesh: Option<usize>,
     pub light: Option<usize>,
     pub camera: Option<usize>,
+    /// Index into [`Scene::skins`]: the node's mesh is skinned by that skin's joints, and the
+    /// node's own transform does not place it (glTF 2.0; see [`Skin`]).
+    pub skin: Option<usize>,
 }
 
 impl Default for Node {
@@ -97,6 +102,7 @@ impl Default for Node {
             mesh: None,
             light: None,
             camera: None,
+            skin: None,
         }
     }
 }
@@ -123,10 +129,50 @@ pub struct Primitive {
     /// as glTF's `TANGENT`. The importer fills them (from the file, else MikkTSpace) for
     /// primitives whose material has a normal texture.
     pub tangents: Vec<Vec4>,
+    /// `JOINTS_0`: per vertex, four indices into the joint list of the skin of the node that
+    /// draws the primitive. Empty, or one entry per position together with
+    /// [`Primitive::weights`].
+    pub joints: Vec<[u16; 4]>,
+    /// `WEIGHTS_0`: per vertex, the weights of its four joints (non-negative; normalized by
+    /// their sum when they do not add up to 1). Empty, or one entry per position.
+    pub weights: Vec<Vec4>,
     /// Three indices per triangle.
     pub indices: Vec<u32>,
     /// Index into [`Scene::materials`].
     pub material: usize,
+}
+
+impl Primitive {
+    /// True when the primitive carries joints and weights for every vertex, so a node with a
+    /// skin deforms it.
+    pub fn is_skinned(&self) -> bool {
+        !self.joints.is_empty()
+            && self.joints.len() == self.positions.len()
+            && self.weights.len() == self.positions.len()
+    }
+}
+
+/// A glTF skin: the joint nodes that deform a skinned mesh and the matrices that take the mesh
+/// from its bind pose to each joint's space.
+///
+/// A vertex with joints `j` and weights `w` (normalized to sum to 1) is placed at
+/// `sum_i w_i * world_from_node[joints[j_i]] * inverse_bind_matrices[j_i] * p`; the transform
+/// of the skinned node itself is ignored, as glTF 2.0 requires. See `Scene::evaluate` for
+/// normals, tangents and the fallbacks.
+#[derive(Clone, Debug, Default)]
+pub struct Skin {
+    pub name: String,
+    /// Node index of each joint; a vertex's `JOINTS_0` values index this list. At most
+    /// [`Skin::MAX_JOINTS`] entries.
+    pub joints: Vec<usize>,
+    /// Per joint, the transform from the mesh's bind-pose space to the joint's space (identity
+    /// when the file has none). Same length as [`Skin::joints`].
+    pub inverse_bind_matrices: Vec<Mat4>,
+}
+
+impl Skin {
+    /// Most joints a skin may have: `JOINTS_0` holds 16-bit indices.
+    pub const MAX_JOINTS: usize = 1 << 16;
 }
 
 /// How a material's alpha (base color factor alpha times its texture's alpha) covers the

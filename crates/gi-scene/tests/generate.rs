@@ -554,6 +554,8 @@ fn feature_scene() -> Scene {
                 },
             ],
         }],
+        // Skins round-trip in tests/skin.rs.
+        skins: Vec::new(),
         sky: Sky::Constant {
             radiance: Vec3::splat(0.5),
         },
@@ -818,6 +820,8 @@ fn normal_maps_alpha_modes_and_second_uv_set_round_trip() {
         uvs: vec![Vec2::ZERO, Vec2::X, Vec2::ONE],
         uvs1: vec![Vec2::ONE, Vec2::Y, Vec2::ZERO],
         tangents: vec![Vec4::new(1.0, 0.0, 0.0, -1.0); 3],
+        joints: Vec::new(),
+        weights: Vec::new(),
         indices: vec![0, 1, 2],
         material: 0,
     };

@@ -10,6 +10,14 @@
 //! triangle range in the frame. The top level is an obvhs CWBVH over the instances' world
 //! boxes: hundreds of moving objects stay logarithmic to traverse, and rebuilding it is a PLOC
 //! build over that many boxes, far cheaper than the triangles.
+//!
+//! Deforming nodes (skinned meshes whose joints move, [`Scene::deforming_nodes`]) change shape,
+//! so no fixed level can hold them: each gets a world-space level over its frame triangles,
+//! placed with the identity, kept after every fixed level in the node and primitive lists and
+//! rebuilt from each new frame ([`BottomLevels::rebuild_deforming`], obvhs's `fast_build`).
+//! This is CPU skinning (in `Scene::evaluate`) plus a CPU rebuild per frame: the current limit.
+//! Its cost grows with the deforming triangles only; a compute-shader skinning pass with a
+//! refit would move it to the GPU. A skinned node whose joints stand still is static geometry.
 
 use std::time::{Duration, Instant};
 
@@ -66,8 +74,33 @@ pub struct BottomLevels {
     pub depth: u32,
     /// Wall time of the CPU builds (all bottom levels) and their packing.
     pub build_time: Duration,
+    /// Wall time of the last rebuild of the deforming levels (zero without deforming nodes).
+    pub deform_time: Duration,
     blases: Vec<Blas>,
     instances: Vec<Instance>,
+    /// The levels built once (static and rigidly moving) come first; the deforming levels
+    /// follow them and are replaced by every [`BottomLevels::rebuild_deforming`].
+    fixed: FixedPart,
+    deforming: Vec<DeformingNode>,
+}
+
+/// Sizes of the part of [`BottomLevels`] built once.
+#[derive(Clone, Copy, Debug, Default)]
+struct FixedPart {
+    nodes: usize,
+    triangles: usize,
+    depth: u32,
+    blases: usize,
+    instances: usize,
+}
+
+/// A node whose triangles change shape every frame: a world-space level of its own.
+#[derive(Clone, Debug)]
+struct DeformingNode {
+    /// Frame index of each of its triangles.
+    frame_indices: Vec<u32>,
+    /// Per triangle: whether its material is alpha-tested.
+    alpha: Vec<bool>,
 }
 
 /// A top level built for one frame: nodes, and the instances in its leaf order.
@@ -84,18 +117,30 @@ pub struct TopLevel {
 }
 
 impl BottomLevels {
-    /// Builds the static level over the frame's static triangles and one object-space level
-    /// per mesh of a moving node. `frame` must be an evaluation of `scene` (any time: static
-    /// triangles are the same at every time).
+    /// Builds the static level over the frame's static triangles, one object-space level
+    /// per mesh of a moving node and one world-space level per deforming node (at `frame`'s
+    /// shape). `frame` must be an evaluation of `scene` (any time: static triangles are the
+    /// same at every time).
     pub fn from_scene(scene: &Scene, frame: &SceneFrame) -> Result<Self, BvhError> {
         let start = Instant::now();
-        let moving = moving_nodes(scene);
+        let deforming = scene.deforming_nodes();
+        // A skinned node is placed by its joints, never rigidly by its own transform: it either
+        // deforms or is static.
+        let moving: Vec<bool> = moving_nodes(scene)
+            .into_iter()
+            .enumerate()
+            .map(|(node, moving)| moving && scene.node_skin(node).is_none())
+            .collect();
+        let flag = |flags: &[bool], node: usize| flags.get(node).copied().unwrap_or(false);
         let mut levels = Self::empty();
         let mut static_indices = Vec::new();
         let mut first_triangle: Vec<Option<u32>> = vec![None; scene.nodes.len()];
+        let mut deforming_indices: Vec<Vec<u32>> = vec![Vec::new(); scene.nodes.len()];
         for (index, attributes) in frame.attributes.iter().enumerate() {
             let node = attributes.node as usize;
-            if moving.get(node).copied().unwrap_or(false) {
+            if flag(&deforming, node) {
+                deforming_indices[node].push(index as u32);
+            } else if flag(&moving, node) {
                 first_triangle[node].get_or_insert(index as u32);
             } else {
                 static_indices.push(index as u32);
@@ -145,9 +190,93 @@ impl BottomLevels {
                 });
             }
         }
+        levels.fixed = FixedPart {
+            nodes: levels.nodes.len(),
+            triangles: levels.triangles.len(),
+            depth: levels.depth,
+            blases: levels.blases.len(),
+            instances: levels.instances.len(),
+        };
+        levels.deforming = deforming_indices
+            .into_iter()
+            .filter(|indices| !indices.is_empty())
+            .map(|frame_indices| DeformingNode {
+                alpha: (frame_indices.iter())
+                    .map(|&i| material_alpha(frame.attributes[i as usize].material as usize))
+                    .collect(),
+                frame_indices,
+            })
+            .collect();
+        levels.build_deforming(frame)?;
         levels.finish();
         levels.build_time = start.elapsed();
         Ok(levels)
+    }
+
+    /// Whether some levels deform and must be rebuilt for every frame.
+    pub fn has_deforming(&self) -> bool {
+        !self.deforming.is_empty()
+    }
+
+    /// Nodes and primitives of the levels built once: the deforming levels start at these
+    /// indices of [`BottomLevels::nodes`] and [`BottomLevels::triangles`].
+    pub fn fixed_len(&self) -> (usize, usize) {
+        (self.fixed.nodes, self.fixed.triangles)
+    }
+
+    /// Rebuilds the deforming nodes' levels over `frame`'s triangles (an evaluation of the
+    /// scene the levels were built for), replacing the previous ones after the fixed levels.
+    /// Cost: an obvhs build over the deforming triangles; nothing without deforming nodes.
+    pub fn rebuild_deforming(&mut self, frame: &SceneFrame) -> Result<(), BvhError> {
+        if self.deforming.is_empty() {
+            return Ok(());
+        }
+        self.build_deforming(frame)?;
+        self.finish();
+        Ok(())
+    }
+
+    fn build_deforming(&mut self, frame: &SceneFrame) -> Result<(), BvhError> {
+        let start = Instant::now();
+        self.nodes.truncate(self.fixed.nodes);
+        self.triangles.truncate(self.fixed.triangles);
+        self.blases.truncate(self.fixed.blases);
+        self.instances.truncate(self.fixed.instances);
+        self.depth = self.fixed.depth;
+        let deforming = std::mem::take(&mut self.deforming);
+        let mut result = Ok(());
+        for node in &deforming {
+            // A frame of another scene cannot panic here: a missing triangle is degenerate.
+            let triangles: Vec<Triangle> = (node.frame_indices.iter())
+                .map(|&i| {
+                    frame
+                        .triangles
+                        .get(i as usize)
+                        .copied()
+                        .unwrap_or(DEGENERATE)
+                })
+                .collect();
+            match self.add_blas_with(
+                &triangles,
+                Some(&node.frame_indices),
+                &node.alpha,
+                BvhBuildParams::fast_build(),
+            ) {
+                Ok(Some(blas)) => self.instances.push(Instance {
+                    blas,
+                    placement: Placement::Static,
+                    triangle_base: 0,
+                }),
+                Ok(None) => {}
+                Err(e) => {
+                    result = Err(e);
+                    break;
+                }
+            }
+        }
+        self.deforming = deforming;
+        self.deform_time = start.elapsed();
+        result
     }
 
     /// One world-space level from an already built CWBVH over `frame_triangles`, placed with
@@ -175,29 +304,43 @@ impl BottomLevels {
             triangles: Vec::new(),
             depth: 0,
             build_time: Duration::ZERO,
+            deform_time: Duration::ZERO,
             blases: Vec::new(),
             instances: Vec::new(),
+            fixed: FixedPart::default(),
+            deforming: Vec::new(),
         }
     }
 
-    /// Builds and appends a level over `triangles`; `frame_indices[i]` replaces primitive
-    /// `i`'s stored index when given. `None` for an empty list.
-    /// Builds and appends a level over `triangles`; `alpha[i]` flags triangle `i` as
-    /// alpha-tested.
+    /// Builds and appends a level over `triangles` with obvhs's `medium_build`;
+    /// `frame_indices[i]` replaces primitive `i`'s stored index when given, `alpha[i]` flags
+    /// triangle `i` as alpha-tested. `None` for an empty list.
     fn add_blas(
         &mut self,
         triangles: &[Triangle],
         frame_indices: Option<&[u32]>,
         alpha: &[bool],
     ) -> Result<Option<usize>, BvhError> {
+        self.add_blas_with(
+            triangles,
+            frame_indices,
+            alpha,
+            BvhBuildParams::medium_build(),
+        )
+    }
+
+    /// [`BottomLevels::add_blas`] with the given build parameters.
+    fn add_blas_with(
+        &mut self,
+        triangles: &[Triangle],
+        frame_indices: Option<&[u32]>,
+        alpha: &[bool],
+        params: BvhBuildParams,
+    ) -> Result<Option<usize>, BvhError> {
         if triangles.is_empty() {
             return Ok(None);
         }
-        let bvh = build_cwbvh_from_tris(
-            triangles,
-            BvhBuildParams::medium_build(),
-            &mut Duration::default(),
-        );
+        let bvh = build_cwbvh_from_tris(triangles, params, &mut Duration::default());
         let mut packed = PackedBvh::new(&bvh, triangles)?;
         for tri in &mut packed.triangles {
             if alpha.get(tri.triangle as usize).copied().unwrap_or(false) {
@@ -310,7 +453,15 @@ impl BottomLevels {
     }
 }
 
+/// A triangle standing in for one missing from a frame: a point at the origin, never hit.
+const DEGENERATE: Triangle = Triangle {
+    v0: Vec3A::ZERO,
+    v1: Vec3A::ZERO,
+    v2: Vec3A::ZERO,
+};
+
 /// Nodes whose world transform changes over time: animated, or below an animated ancestor.
+/// (Skinned nodes are not placed by their transform; see [`Scene::deforming_nodes`].)
 pub fn moving_nodes(scene: &Scene) -> Vec<bool> {
     let mut animated = vec![false; scene.nodes.len()];
     for channel in scene.animations.iter().flat_map(|a| &a.channels) {

@@ -7,6 +7,14 @@
 //! their instances is rebuilt every frame ([`GpuBvh::update`]), so moving objects never force a
 //! rebuild of their triangles.
 //!
+//! Deforming nodes (skinned meshes with animated joints) are the exception: their world-space
+//! levels are rebuilt on the CPU from each frame's skinned triangles and written into a region
+//! reserved for them at the end of `bvh.nodes` and `bvh.triangles`, after the levels built
+//! once, which are not uploaded again. The region has headroom
+//! ([`DEFORMING_HEADROOM`]); when a rebuild outgrows it the two buffers are made again, larger,
+//! and so is the bind group. Skinning runs on the CPU in `Scene::evaluate` and the rebuild on
+//! the CPU too: the current limit, its cost proportional to the deforming triangles.
+//!
 //! A pass that traces rays imports `gi::bvh::{Ray, Hit, trace_closest, trace_any}` and binds a
 //! [`GpuBvh`] as bind group 1 (layout from [`GpuBvh::bind_group_layout`]):
 //!
@@ -46,14 +54,21 @@ use crate::binding::storage_entry;
 /// Bind group index that `gi::bvh` declares its buffers in.
 pub const BVH_BIND_GROUP: u32 = 1;
 
+/// Room reserved for the deforming levels, as a multiple of their size at upload (or at the
+/// last growth): a rebuild's node count varies with the pose, and more room means fewer
+/// reallocations (and bind group rebuilds) at the cost of idle memory in that region only.
+pub const DEFORMING_HEADROOM: f64 = 1.5;
+
 /// A two-level CWBVH in GPU storage buffers, with the bind group that exposes it to
 /// `gi::bvh`. Memory: 80 bytes per bottom-level node plus 48 per primitive (spatial splits may
 /// reference one triangle from several leaves), plus 80 per top-level node, 64 per instance and
 /// a 16-byte instance header.
 pub struct GpuBvh {
-    /// `bvh.nodes`: every bottom level's nodes. Written once, at upload.
+    /// `bvh.nodes`: every bottom level's nodes. Written once, at upload, except the deforming
+    /// levels' region at its end, rewritten by every update.
     pub nodes: wgpu::Buffer,
-    /// `bvh.triangles`: every bottom level's primitives in leaf order. Written once.
+    /// `bvh.triangles`: every bottom level's primitives in leaf order. Written once, except
+    /// the deforming levels' region.
     pub triangles: wgpu::Buffer,
     /// `bvh.top_nodes`: the top level, root at index 0; rewritten by [`GpuBvh::update`].
     pub top_nodes: wgpu::Buffer,
@@ -63,9 +78,10 @@ pub struct GpuBvh {
     /// `bvh.bind_group`: the four buffers, for [`BVH_BIND_GROUP`]. Made again only when an
     /// update's top level outgrows `bvh.top_nodes` or its instances outgrow `bvh.instances`.
     pub bind_group: wgpu::BindGroup,
-    /// Bottom-level nodes uploaded (1 for an empty scene: a single childless root).
+    /// Bottom-level nodes uploaded (1 for an empty scene: a single childless root), the
+    /// current deforming levels included.
     pub node_count: u32,
-    /// Bottom-level primitives uploaded.
+    /// Bottom-level primitives uploaded, the current deforming levels included.
     pub primitive_count: u32,
     /// Levels below the root of the deepest bottom level.
     pub depth: u32,
@@ -77,8 +93,14 @@ pub struct GpuBvh {
     pub instance_count: u32,
     /// Seconds of the CPU builds of every bottom level and their packing.
     pub build_seconds: f64,
-    /// Seconds of the last top level: build on the CPU plus queueing its upload.
+    /// Seconds of the last update: the deforming levels' rebuild and upload (if any), the top
+    /// level's build on the CPU, and queueing their uploads.
     pub update_seconds: f64,
+    /// Seconds of the last rebuild of the deforming levels and its upload (0 without them).
+    pub deform_seconds: f64,
+    /// Times `bvh.nodes` and `bvh.triangles` were made again because the deforming levels
+    /// outgrew their region.
+    pub bottom_reallocations: u32,
     /// Top levels built so far (the upload's is the first).
     pub update_count: u32,
     levels: BottomLevels,
@@ -139,15 +161,7 @@ impl GpuBvh {
     ) -> Result<Self, BvhError> {
         let start = Instant::now();
         let top = levels.top_level(world_from_node)?;
-        let node_bytes: &[u8] = bytemuck::cast_slice(&levels.nodes);
-        let triangle_bytes: &[u8] = bytemuck::cast_slice(&levels.triangles);
-        let limit = ctx.limits.max_storage_buffer_binding_size;
-        for (label, bytes) in [("bvh.nodes", node_bytes), ("bvh.triangles", triangle_bytes)] {
-            check_size(label, bytes.len() as u64, limit)?;
-        }
-        let usage = wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_DST;
-        let nodes = ctx.create_buffer_init("bvh.nodes", node_bytes, usage);
-        let triangles = ctx.create_buffer_init("bvh.triangles", triangle_bytes, usage);
+        let (nodes, triangles) = Self::bottom_buffers(ctx, &levels)?;
         // A CWBVH has fewer internal nodes than leaves, so one node per instance always fits
         // the top level: the buffer never has to grow for a fixed set of instances.
         let top_capacity = top.nodes.len().max(levels.instance_count()).max(1) as u64;
@@ -169,6 +183,8 @@ impl GpuBvh {
             instance_count: levels.instance_count() as u32,
             build_seconds,
             update_seconds: 0.0,
+            deform_seconds: 0.0,
+            bottom_reallocations: 0,
             update_count: 0,
             levels,
             header: GpuBvhInstanceHeader::default(),
@@ -179,13 +195,118 @@ impl GpuBvh {
         Ok(bvh)
     }
 
-    /// Places the instances at `frame`'s transforms: rebuilds the top level and uploads it with
-    /// the new instance transforms. Bottom levels are not touched. Cost: a CWBVH build over one
-    /// box per instance and a write of 80 bytes per top-level node plus 64 per instance.
-    /// `frame` must come from the scene the BVH was built for.
+    /// Places the instances at `frame`'s transforms: rebuilds the deforming levels over its
+    /// triangles (if the scene has any) and the top level, and uploads them with the new
+    /// instance transforms. The levels built once are not touched. Cost: a CWBVH build over
+    /// the deforming triangles and a write of their region, then a CWBVH build over one box per
+    /// instance and a write of 80 bytes per top-level node plus 64 per instance. `frame` must
+    /// come from the scene the BVH was built for.
     pub fn update(&mut self, ctx: &GpuContext, frame: &SceneFrame) -> Result<(), BvhError> {
+        let start = Instant::now();
+        let grown = if self.levels.has_deforming() {
+            self.levels.rebuild_deforming(frame)?;
+            self.write_deforming(ctx)?
+        } else {
+            false
+        };
+        self.deform_seconds = start.elapsed().as_secs_f64();
+        if grown {
+            self.bind_group = Self::bind_group(
+                ctx,
+                [
+                    &self.nodes,
+                    &self.triangles,
+                    &self.top_nodes,
+                    &self.instances,
+                ],
+            );
+        }
         let top = self.levels.top_level(&frame.world_from_node)?;
-        self.write_top(ctx, top)
+        self.write_top(ctx, top)?;
+        self.update_seconds += self.deform_seconds;
+        Ok(())
+    }
+
+    /// Creates `bvh.nodes` and `bvh.triangles` holding `levels`, with room for the deforming
+    /// levels to grow by [`DEFORMING_HEADROOM`].
+    fn bottom_buffers(
+        ctx: &GpuContext,
+        levels: &BottomLevels,
+    ) -> Result<(wgpu::Buffer, wgpu::Buffer), BvhError> {
+        let node_bytes: &[u8] = bytemuck::cast_slice(&levels.nodes);
+        let triangle_bytes: &[u8] = bytemuck::cast_slice(&levels.triangles);
+        let limit = ctx.limits.max_storage_buffer_binding_size;
+        let usage = wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_DST;
+        if !levels.has_deforming() {
+            for (label, bytes) in [("bvh.nodes", node_bytes), ("bvh.triangles", triangle_bytes)] {
+                check_size(label, bytes.len() as u64, limit)?;
+            }
+            return Ok((
+                ctx.create_buffer_init("bvh.nodes", node_bytes, usage),
+                ctx.create_buffer_init("bvh.triangles", triangle_bytes, usage),
+            ));
+        }
+        let (fixed_nodes, fixed_triangles) = levels.fixed_len();
+        let with_room = |label: &'static str, bytes: &[u8], fixed: usize, element: usize| {
+            let fixed = (fixed * element) as u64;
+            let deforming = bytes.len() as u64 - fixed;
+            let size = fixed + (deforming as f64 * DEFORMING_HEADROOM).ceil() as u64;
+            let size = size
+                .max(bytes.len() as u64)
+                .min(limit.max(bytes.len() as u64));
+            check_size(label, bytes.len() as u64, limit)?;
+            let buffer = ctx.create_buffer(label, size, usage);
+            ctx.queue.write_buffer(&buffer, 0, bytes);
+            Ok::<_, BvhError>(buffer)
+        };
+        Ok((
+            with_room(
+                "bvh.nodes",
+                node_bytes,
+                fixed_nodes,
+                size_of::<GpuCwBvhNode>(),
+            )?,
+            with_room(
+                "bvh.triangles",
+                triangle_bytes,
+                fixed_triangles,
+                size_of::<GpuBvhTriangle>(),
+            )?,
+        ))
+    }
+
+    /// Uploads the rebuilt deforming levels after the fixed ones; when they outgrew their
+    /// region, makes both bottom buffers again with fresh headroom and uploads everything.
+    /// Returns whether the buffers were replaced (the bind group must be made again).
+    fn write_deforming(&mut self, ctx: &GpuContext) -> Result<bool, BvhError> {
+        let levels = &self.levels;
+        let node_bytes: &[u8] = bytemuck::cast_slice(&levels.nodes);
+        let triangle_bytes: &[u8] = bytemuck::cast_slice(&levels.triangles);
+        self.node_count = levels.nodes.len() as u32;
+        self.primitive_count = levels.triangles.len() as u32;
+        self.depth = levels.depth;
+        if node_bytes.len() as u64 > self.nodes.size()
+            || triangle_bytes.len() as u64 > self.triangles.size()
+        {
+            let (nodes, triangles) = Self::bottom_buffers(ctx, levels)?;
+            ctx.release_buffer(&self.nodes);
+            ctx.release_buffer(&self.triangles);
+            self.nodes = nodes;
+            self.triangles = triangles;
+            self.bottom_reallocations += 1;
+            return Ok(true);
+        }
+        let (fixed_nodes, fixed_triangles) = levels.fixed_len();
+        let node_offset = fixed_nodes * size_of::<GpuCwBvhNode>();
+        let triangle_offset = fixed_triangles * size_of::<GpuBvhTriangle>();
+        ctx.queue
+            .write_buffer(&self.nodes, node_offset as u64, &node_bytes[node_offset..]);
+        ctx.queue.write_buffer(
+            &self.triangles,
+            triangle_offset as u64,
+            &triangle_bytes[triangle_offset..],
+        );
+        Ok(false)
     }
 
     /// Whether rays start directly at the static level's root: the scene's only instance is

@@ -12,7 +12,7 @@ use crate::model::{
 
 use super::{
     ARRAY_BUFFER, ELEMENT_ARRAY_BUFFER, EMISSIVE_STRENGTH, IOR, LIGHTS_PUNCTUAL, SPECULAR,
-    TEXTURE_TRANSFORM, UNSIGNED_INT, Writer, num, unit, unit_quat, vec_json,
+    TEXTURE_TRANSFORM, UNSIGNED_INT, UNSIGNED_SHORT, Writer, num, unit, unit_quat, vec_json,
 };
 
 pub(super) fn mesh_json(mesh: &crate::model::Mesh, writer: &mut Writer) -> Value {
@@ -41,6 +41,16 @@ pub(super) fn mesh_json(mesh: &crate::model::Mesh, writer: &mut Writer) -> Value
                     .map(|t| unit(t.truncate()).extend(if t.w < 0.0 { -1.0 } else { 1.0 }).to_array())
                     .collect();
                 attributes["TANGENT"] = json!(writer.floats(&tangents, "VEC4", Some(ARRAY_BUFFER)));
+            }
+            if !p.joints.is_empty() {
+                // Two 16-bit joints per 4-byte word; an element is 8 bytes, keeping alignment.
+                let joints = p.joints.iter().flat_map(|j| {
+                    let b = j.map(u16::to_le_bytes);
+                    [[b[0][0], b[0][1], b[1][0], b[1][1]], [b[2][0], b[2][1], b[3][0], b[3][1]]]
+                });
+                attributes["JOINTS_0"] = json!(writer.accessor(joints, p.joints.len(), "VEC4", UNSIGNED_SHORT, Some(ARRAY_BUFFER)));
+                let weights: Vec<[f32; 4]> = p.weights.iter().map(|w| w.to_array()).collect();
+                attributes["WEIGHTS_0"] = json!(writer.floats(&weights, "VEC4", Some(ARRAY_BUFFER)));
             }
             let indices = p.indices.iter().map(|i| i.to_le_bytes());
             let indices = writer.accessor(indices, p.indices.len(), "SCALAR", UNSIGNED_INT, Some(ELEMENT_ARRAY_BUFFER));
@@ -83,6 +93,19 @@ pub(super) fn animation_json(animation: &crate::model::Animation, writer: &mut W
     json!({ "name": animation.name, "samplers": samplers, "channels": channels })
 }
 
+pub(super) fn skin_json(skin: &crate::model::Skin, writer: &mut Writer) -> Value {
+    let matrices: Vec<[f32; 16]> = skin
+        .inverse_bind_matrices
+        .iter()
+        .map(|m| m.to_cols_array())
+        .collect();
+    json!({
+        "name": skin.name,
+        "joints": skin.joints,
+        "inverseBindMatrices": writer.floats(&matrices, "MAT4", None),
+    })
+}
+
 pub(super) fn node_json(scene: &Scene, index: usize, name: &str) -> Value {
     let node = &scene.nodes[index];
     let mut value = json!({ "name": name });
@@ -104,6 +127,9 @@ pub(super) fn node_json(scene: &Scene, index: usize, name: &str) -> Value {
     }
     if let Some(mesh) = node.mesh {
         value["mesh"] = json!(mesh);
+    }
+    if let Some(skin) = node.skin {
+        value["skin"] = json!(skin);
     }
     if let Some(camera) = node.camera {
         value["camera"] = json!(camera);

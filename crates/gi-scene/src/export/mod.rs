@@ -1,4 +1,6 @@
 //! glTF 2.0 export: a `.gltf` JSON file, one `.bin` buffer beside it, and one PNG per texture.
+//! Skins are written with their joints, inverse bind matrices and the primitives' `JOINTS_0`
+//! (16-bit) and `WEIGHTS_0` (float), so an export reads back with the same skinning.
 //!
 //! The JSON is built with `serde_json` values, whose objects keep a fixed key order and whose
 //! numbers are printed by a fixed algorithm, so the same scene always gives the same bytes.
@@ -17,13 +19,14 @@ mod items;
 mod validate;
 
 use items::{
-    animation_json, light_json, material_json, mesh_json, node_json, settings_json, texture_images,
-    unique_names,
+    animation_json, light_json, material_json, mesh_json, node_json, settings_json, skin_json,
+    texture_images, unique_names,
 };
 use validate::validate;
 
 const FLOAT: u32 = 5126;
 const UNSIGNED_INT: u32 = 5125;
+const UNSIGNED_SHORT: u32 = 5123;
 const ARRAY_BUFFER: u32 = 34962;
 const ELEMENT_ARRAY_BUFFER: u32 = 34963;
 const LINEAR: u32 = 9729;
@@ -104,6 +107,11 @@ pub(crate) fn write_gltf_files(scene: &Scene, path: &Path) -> Result<Vec<PathBuf
         .filter(|a| !a.channels.is_empty())
         .map(|a| animation_json(a, &mut writer))
         .collect();
+    let skins: Vec<Value> = scene
+        .skins
+        .iter()
+        .map(|s| skin_json(s, &mut writer))
+        .collect();
     let names = unique_names(scene);
     let nodes: Vec<Value> = (0..scene.nodes.len())
         .map(|i| node_json(scene, i, &names[i]))
@@ -145,6 +153,7 @@ pub(crate) fn write_gltf_files(scene: &Scene, path: &Path) -> Result<Vec<PathBuf
         ("materials", materials),
         ("cameras", cameras),
         ("animations", animations),
+        ("skins", skins),
     ] {
         if !array.is_empty() {
             root.insert(key.into(), Value::Array(array));
@@ -275,7 +284,8 @@ struct Writer {
 }
 
 impl Writer {
-    /// Appends one view of `components` 4-byte values; returns the new accessor's index.
+    /// Appends one view of `components` 4-byte words (one 4-byte component each, or two 16-bit
+    /// ones); returns the new accessor's index.
     fn accessor(
         &mut self,
         components: impl IntoIterator<Item = [u8; 4]>,
@@ -284,7 +294,7 @@ impl Writer {
         component_type: u32,
         target: Option<u32>,
     ) -> usize {
-        // Every element is made of 4-byte components, so 4-byte view alignment is enough.
+        // Every element is made of 4-byte words, so 4-byte view alignment is enough.
         while !self.bin.len().is_multiple_of(4) {
             self.bin.push(0);
         }

@@ -22,13 +22,19 @@ pub(super) fn validate(scene: &Scene) -> Result<(), String> {
                 && p.indices.iter().all(|&k| (k as usize) < count)
                 && p.normals.len() == count
                 && (p.uvs.is_empty() || p.uvs.len() == count)
+                && p.joints.len() == p.weights.len()
+                && (p.joints.is_empty() || p.joints.len() == count)
+                && p.weights
+                    .iter()
+                    .all(|w| w.is_finite() && w.min_element() >= 0.0)
                 && p.material < scene.materials.len()
                 && p.positions.iter().chain(&p.normals).all(|v| v.is_finite())
                 && p.uvs.iter().all(|v| v.is_finite());
             ensure(ok, || {
                 format!(
-                    "mesh {i} '{}': a primitive has no triangles, an index, normal or uv count \
-                     that does not match its positions, a bad material or a non-finite value",
+                    "mesh {i} '{}': a primitive has no triangles, an index, normal, uv, joint or \
+                     weight count that does not match its positions, a bad material, a negative \
+                     weight or a non-finite value",
                     mesh.name
                 )
             })?;
@@ -81,11 +87,45 @@ pub(super) fn validate(scene: &Scene) -> Result<(), String> {
             && ancestor.is_none()
             && node.mesh.is_none_or(|m| m < scene.meshes.len())
             && node.light.is_none_or(|l| l < scene.lights.len())
-            && node.camera.is_none_or(|c| c < scene.cameras.len());
+            && node.camera.is_none_or(|c| c < scene.cameras.len())
+            && node.skin.is_none_or(|s| s < scene.skins.len());
         ensure(ok, || {
             format!(
                 "node {i} '{}': bad transform, reference or parent cycle",
                 node.name
+            )
+        })?;
+    }
+    for (i, skin) in scene.skins.iter().enumerate() {
+        let ok = !skin.joints.is_empty()
+            && skin.joints.len() <= crate::model::Skin::MAX_JOINTS
+            && skin.joints.iter().all(|&j| j < n)
+            && skin.inverse_bind_matrices.len() == skin.joints.len()
+            && skin.inverse_bind_matrices.iter().all(|m| m.is_finite());
+        ensure(ok, || {
+            format!(
+                "skin {i} '{}': no joints, too many, a joint that is not a node, or inverse \
+                 bind matrices that do not match the joints or are not finite",
+                skin.name
+            )
+        })?;
+    }
+    for (i, node) in scene.nodes.iter().enumerate() {
+        let (Some(skin), Some(mesh)) = (
+            node.skin.and_then(|s| scene.skins.get(s)),
+            node.mesh.and_then(|m| scene.meshes.get(m)),
+        ) else {
+            continue;
+        };
+        let in_range = |(joints, weights): (&[u16; 4], &glam::Vec4)| {
+            (joints.iter().zip(weights.to_array()))
+                .all(|(&j, w)| w == 0.0 || (j as usize) < skin.joints.len())
+        };
+        let ok = (mesh.primitives.iter()).all(|p| p.joints.iter().zip(&p.weights).all(in_range));
+        ensure(ok, || {
+            format!(
+                "node {i} '{}': its mesh names a joint its skin '{}' does not have",
+                node.name, skin.name
             )
         })?;
     }

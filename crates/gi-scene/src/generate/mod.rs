@@ -1,4 +1,5 @@
-//! Generators of the bundled scenes.
+//! Generators of the bundled scenes, and of small scenes for tests and tools that are not
+//! bundled ([`skinned_arm`]).
 //!
 //! The bundled scenes are the product's test and benchmark content. They are built here in
 //! memory ([`build`]) and written to glTF by `gi generate-scenes` ([`write_all`]); the files in
@@ -16,6 +17,7 @@ mod dynamic;
 mod glossy;
 mod open_world;
 mod shapes;
+mod skinned;
 mod thin_wall;
 
 use std::path::{Path, PathBuf};
@@ -23,6 +25,7 @@ use std::path::{Path, PathBuf};
 use crate::{BUNDLED_SCENES, Scene, SceneError, export};
 
 pub(crate) use builder::{SUN_COLOR, SUN_IRRADIANCE, daylight_sky, sun_direction};
+pub use skinned::{ARM_BENT_TIME_S, ARM_HALF_WIDTH, ARM_LENGTH, ARM_NODE_TRANSLATION, skinned_arm};
 
 /// Builds the bundled scene `name` in memory; `None` for an unknown name.
 pub fn build(name: &str) -> Option<Scene> {

@@ -131,6 +131,57 @@ impl<'a> Buffers<'a> {
         Ok(raw.into_iter().map(|v| v as u32).collect())
     }
 
+    /// Reads accessor `index` as `JOINTS_n` values: four unsigned 8- or 16-bit integers per
+    /// vertex.
+    pub(super) fn joints(&self, index: usize, what: &str) -> Result<Vec<[u16; 4]>> {
+        let accessor = self.accessor(index, what)?;
+        let component = component_type(accessor, index)?;
+        if !matches!(component, ComponentType::U8 | ComponentType::U16) || accessor.normalized {
+            return Err(malformed(format!(
+                "{what}: accessors[{index}] must hold unsigned 8- or 16-bit integers"
+            )));
+        }
+        let raw = self.raw(accessor, index, Type::Vec4, what)?;
+        // Unsigned components up to 16 bits are exact in f64, so the cast back is lossless.
+        Ok(raw
+            .chunks_exact(4)
+            .map(|c| [c[0] as u16, c[1] as u16, c[2] as u16, c[3] as u16])
+            .collect())
+    }
+
+    /// Reads accessor `index` as `WEIGHTS_n` values: floats, or normalized unsigned 8- or
+    /// 16-bit integers; negative values are an error.
+    pub(super) fn weights(&self, index: usize, what: &str) -> Result<Vec<Vec4>> {
+        let accessor = self.accessor(index, what)?;
+        let component = component_type(accessor, index)?;
+        let valid = match component {
+            ComponentType::F32 => true,
+            ComponentType::U8 | ComponentType::U16 => accessor.normalized,
+            _ => false,
+        };
+        if !valid {
+            return Err(malformed(format!(
+                "{what}: accessors[{index}] must hold floats or normalized unsigned 8- or 16-bit integers"
+            )));
+        }
+        let weights = self.vec4s(index, what)?;
+        if weights.iter().any(|w| w.min_element() < 0.0) {
+            return Err(malformed(format!(
+                "{what}: accessors[{index}] has negative weights"
+            )));
+        }
+        Ok(weights)
+    }
+
+    /// Reads accessor `index` as column-major 4x4 matrices.
+    pub(super) fn mat4s(&self, index: usize, what: &str) -> Result<Vec<glam::Mat4>> {
+        let values = self.floats(index, Type::Mat4, what)?;
+        Ok(values
+            .chunks_exact(16)
+            .map(glam::Mat4::from_cols_slice)
+            .collect())
+    }
+
     fn accessor(&self, index: usize, what: &str) -> Result<&'a Accessor> {
         self.root
             .accessors
@@ -175,7 +226,9 @@ impl<'a> Buffers<'a> {
         let dims = ty.multiplicity();
         let element_size = dims * component.size();
         let count = accessor.count.0;
-        let decode = |bytes: &[u8]| decode_element(bytes, component, dims, accessor.normalized);
+        let decode = |bytes: &[u8], out: &mut Vec<f64>| {
+            decode_element(bytes, component, dims, accessor.normalized, out)
+        };
 
         let mut values = match accessor.buffer_view {
             Some(view_index) => {
@@ -220,7 +273,7 @@ impl<'a> Buffers<'a> {
                 index_type.size(),
                 index_type.size(),
                 1,
-                |b| decode_element(b, index_type, 1, false),
+                |b, out| decode_element(b, index_type, 1, false, out),
             )
             .ok_or_else(|| malformed(format!("{label}: sparse indices lie outside their view")))?;
             let value_view = self.view(sparse.values.buffer_view.value())?;
@@ -271,7 +324,7 @@ fn read_elements(
     stride: usize,
     element_size: usize,
     dims: usize,
-    decode: impl Fn(&[u8]) -> [f64; 4],
+    decode: impl Fn(&[u8], &mut Vec<f64>),
 ) -> Option<Vec<f64>> {
     if count == 0 {
         return Some(Vec::new());
@@ -285,24 +338,24 @@ fn read_elements(
     for i in 0..count as usize {
         let start = i * stride;
         let element = data.get(start..start + element_size)?;
-        out.extend_from_slice(&decode(element)[..dims]);
+        decode(element, &mut out);
     }
     Some(out)
 }
 
-/// Decodes one element of `dims` components (at most 4) from little-endian bytes.
+/// Decodes one element of `dims` components from little-endian bytes, appending them to
+/// `out`. Matrices (16 components) of 4-byte components have no column padding.
 fn decode_element(
     bytes: &[u8],
     component: ComponentType,
     dims: usize,
     normalized: bool,
-) -> [f64; 4] {
+    out: &mut Vec<f64>,
+) {
     let size = component.size();
-    let mut out = [0.0; 4];
-    for (i, slot) in out.iter_mut().enumerate().take(dims) {
-        let b = &bytes[i * size..(i + 1) * size];
+    for b in bytes.chunks_exact(size).take(dims) {
         // Normalization follows the glTF specification's integer-to-float rules.
-        *slot = match component {
+        out.push(match component {
             ComponentType::I8 => {
                 let v = f64::from(b[0] as i8);
                 if normalized { (v / 127.0).max(-1.0) } else { v }
@@ -328,9 +381,8 @@ fn decode_element(
                 if normalized { v / 4_294_967_295.0 } else { v }
             }
             ComponentType::F32 => f64::from(f32::from_le_bytes([b[0], b[1], b[2], b[3]])),
-        };
+        });
     }
-    out
 }
 
 /// Reads the bytes a buffer or image URI points to: an embedded `data:` URI, or a file

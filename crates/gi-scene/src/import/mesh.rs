@@ -2,7 +2,7 @@
 //! unit normal per vertex, up to two texture coordinate sets, and tangents where the material
 //! has a normal texture (the file's, else MikkTSpace's).
 
-use glam::Vec3;
+use glam::{Vec3, Vec4};
 use gltf::json;
 use gltf::json::mesh::{Mode, Semantic};
 use gltf::json::validation::Checked;
@@ -150,6 +150,18 @@ fn import_primitive(
         }
         None => Vec::new(),
     };
+    let (mut joints, mut weights) = skin_attributes(source, &attribute, label, warnings)?;
+    if !joints.is_empty() {
+        per_vertex("JOINTS_0", joints.len())?;
+        per_vertex("WEIGHTS_0", weights.len())?;
+        if weights.iter().any(|w| w.max_element() <= 0.0) {
+            warnings.once("zero-weights", || {
+                format!(
+                    "{label}.attributes.WEIGHTS_0 has vertices whose weights are all zero; they are placed by the node's own transform, as if unskinned"
+                )
+            });
+        }
+    }
     if attribute(Semantic::Colors(0)).is_some() {
         warnings.once("vertex-colors", || {
             format!("{label}: vertex colors (COLOR_0) are not supported; ignored")
@@ -196,6 +208,10 @@ fn import_primitive(
         if !tangents.is_empty() {
             tangents = indices.iter().map(|&i| tangents[i as usize]).collect();
         }
+        if !joints.is_empty() {
+            joints = indices.iter().map(|&i| joints[i as usize]).collect();
+            weights = indices.iter().map(|&i| weights[i as usize]).collect();
+        }
         let corners = u32::try_from(indices.len())
             .map_err(|_| unusable(format!("{label} has too many vertices")))?;
         indices = (0..corners).collect();
@@ -220,9 +236,46 @@ fn import_primitive(
         uvs,
         uvs1,
         tangents,
+        joints,
+        weights,
         indices,
         material: 0,
     }))
+}
+
+/// `JOINTS_0` and `WEIGHTS_0`, both or neither (one without the other is an error). Further
+/// sets (`JOINTS_1`, `WEIGHTS_1`: more than four influences per vertex) are ignored with a
+/// warning.
+fn skin_attributes(
+    source: &Source,
+    attribute: &impl Fn(Semantic) -> Option<usize>,
+    label: &str,
+    warnings: &mut Warnings,
+) -> Result<(Vec<[u16; 4]>, Vec<Vec4>)> {
+    if attribute(Semantic::Joints(1)).is_some() || attribute(Semantic::Weights(1)).is_some() {
+        warnings.once("extra-joint-sets", || {
+            format!(
+                "{label}: JOINTS_1/WEIGHTS_1 (more than four joints per vertex) are not supported; only the first four influences are used"
+            )
+        });
+    }
+    match (
+        attribute(Semantic::Joints(0)),
+        attribute(Semantic::Weights(0)),
+    ) {
+        (None, None) => Ok((Vec::new(), Vec::new())),
+        (Some(j), Some(w)) => Ok((
+            source
+                .buffers
+                .joints(j, &format!("{label}.attributes.JOINTS_0"))?,
+            source
+                .buffers
+                .weights(w, &format!("{label}.attributes.WEIGHTS_0"))?,
+        )),
+        _ => Err(malformed(format!(
+            "{label}: JOINTS_0 and WEIGHTS_0 must be given together"
+        ))),
+    }
 }
 
 /// Converts a primitive's vertex sequence to a triangle list. Strips and fans drop the

@@ -35,8 +35,9 @@ pub(super) fn repair(tangents: &mut [Vec4], normals: &[Vec3]) -> usize {
 /// Fills `primitive.tangents` with MikkTSpace tangents computed from its positions, normals
 /// and texture coordinates `uvs` (one per vertex: the set the normal texture reads, with its
 /// transform applied). A vertex whose corners get different tangents (a UV seam or mirrored
-/// UVs) is split into one vertex per tangent, so `positions`, `normals`, `uvs`, `uvs1` and
-/// `indices` may grow. Fails only when the split vertices would overflow 32-bit indices.
+/// UVs) is split into one vertex per tangent, so `positions`, `normals`, `uvs`, `uvs1`,
+/// `joints`, `weights` and `indices` may grow. Fails only when the split vertices would
+/// overflow 32-bit indices.
 pub(super) fn generate(primitive: &mut Primitive, uvs: &[Vec2]) -> Result<(), String> {
     let vertex_count = primitive.positions.len();
     let mut geometry = Mikk {
@@ -80,6 +81,12 @@ pub(super) fn generate(primitive: &mut Primitive, uvs: &[Vec2]) -> Result<(), St
                         }
                         if let Some(&uv) = primitive.uvs1.get(vertex) {
                             primitive.uvs1.push(uv);
+                        }
+                        if let Some(&joints) = primitive.joints.get(vertex) {
+                            primitive.joints.push(joints);
+                        }
+                        if let Some(&weights) = primitive.weights.get(vertex) {
+                            primitive.weights.push(weights);
                         }
                         tangents.push(tangent);
                         splits.insert((vertex, bits), copy);

@@ -1,0 +1,224 @@
+//! Linear blend skinning (glTF 2.0 skins) on the CPU, and which nodes move or deform over time.
+//!
+//! A skinned vertex is placed by the matrix `sum_i w_i * joint_matrix[j_i]`, where
+//! `joint_matrix[k] = world_from_node[skin.joints[k]] * skin.inverse_bind_matrices[k]` and the
+//! weights are divided by their sum. The skinned node's own transform is ignored, as glTF
+//! requires. Normals go through the inverse transpose of that blended matrix (computed as its
+//! cofactor matrix, which stays defined where blending makes the matrix singular), tangents
+//! through the blended matrix itself, both renormalized.
+//!
+//! Fallbacks, so that no input panics: a negative or non-finite weight, and a weight whose joint
+//! index is outside the skin's joint list or whose joint is not a node, count as zero (the
+//! importer rejects all of these); a vertex whose weights are all zero (the importer warns) is
+//! placed by the node's own world transform, as an unskinned mesh would be. Weights are
+//! divided by their sum, so they need not add up to 1.
+
+use glam::{Mat3, Mat4, Vec3, Vec4};
+
+use crate::model::{Primitive, Scene, Skin};
+
+/// A primitive's vertices placed in world space by its skin.
+pub(crate) struct SkinnedVertices {
+    pub positions: Vec<Vec3>,
+    /// Unit normals (empty when the primitive has none).
+    pub normals: Vec<Vec3>,
+    /// Unit tangents with the bitangent sign in w, flipped where the vertex's matrix mirrors.
+    pub tangents: Vec<Vec4>,
+    /// Per vertex: the vertex's matrix mirrors (negative determinant).
+    pub mirrored: Vec<bool>,
+}
+
+impl Scene {
+    /// `moving[node]`: the node's world transform changes over time (an animation channel with
+    /// keys targets it or one of its ancestors).
+    pub fn moving_nodes(&self) -> Vec<bool> {
+        let mut animated = vec![false; self.nodes.len()];
+        for channel in self.animations.iter().flat_map(|a| &a.channels) {
+            if !channel.times.is_empty()
+                && let Some(flag) = animated.get_mut(channel.node)
+            {
+                *flag = true;
+            }
+        }
+        (0..self.nodes.len())
+            .map(|node| {
+                // Bounded walk up the parents, so a cyclic hand-built hierarchy cannot hang.
+                let mut current = Some(node);
+                for _ in 0..=self.nodes.len() {
+                    let Some(index) = current.filter(|&i| i < self.nodes.len()) else {
+                        return false;
+                    };
+                    if animated[index] {
+                        return true;
+                    }
+                    current = self.nodes[index].parent;
+                }
+                false
+            })
+            .collect()
+    }
+
+    /// The skin that deforms node `node`'s mesh: the node has a mesh with at least one skinned
+    /// primitive ([`Primitive::is_skinned`]) and a skin that exists.
+    pub fn node_skin(&self, node: usize) -> Option<&Skin> {
+        let node = self.nodes.get(node)?;
+        let mesh = self.meshes.get(node.mesh?)?;
+        let skin = self.skins.get(node.skin?)?;
+        mesh.primitives
+            .iter()
+            .any(Primitive::is_skinned)
+            .then_some(skin)
+    }
+
+    /// `deforming[node]`: the node's mesh is skinned ([`Scene::node_skin`]) and one of its
+    /// joints or the node itself moves ([`Scene::moving_nodes`]), so its triangles change
+    /// shape from frame to frame. A skinned node whose joints stand still is static geometry,
+    /// skinned once by every evaluation.
+    pub fn deforming_nodes(&self) -> Vec<bool> {
+        let moving = self.moving_nodes();
+        let moves = |node: usize| moving.get(node).copied().unwrap_or(false);
+        (0..self.nodes.len())
+            .map(|node| {
+                self.node_skin(node)
+                    .is_some_and(|skin| moves(node) || skin.joints.iter().any(|&j| moves(j)))
+            })
+            .collect()
+    }
+
+    /// Whether node `node`'s geometry moved between two frames' world transforms: its own
+    /// transform changed, or, for a skinned node, the transform of one of its joints did.
+    pub fn node_geometry_changed(&self, node: usize, previous: &[Mat4], current: &[Mat4]) -> bool {
+        let changed = |n: usize| previous.get(n) != current.get(n);
+        changed(node)
+            || self
+                .node_skin(node)
+                .is_some_and(|skin| skin.joints.iter().any(|&j| changed(j)))
+    }
+}
+
+impl Skin {
+    /// `world_from_node[joint] * inverse_bind` for every joint; `None` for a joint that is not a
+    /// node.
+    pub fn joint_matrices(&self, world_from_node: &[Mat4]) -> Vec<Option<Mat4>> {
+        self.joints
+            .iter()
+            .enumerate()
+            .map(|(k, &joint)| {
+                let inverse_bind = self
+                    .inverse_bind_matrices
+                    .get(k)
+                    .copied()
+                    .unwrap_or(Mat4::IDENTITY);
+                world_from_node
+                    .get(joint)
+                    .map(|world| *world * inverse_bind)
+            })
+            .collect()
+    }
+}
+
+/// The blended matrix of a vertex with `joints` and `weights`, or `None` when no weight with a
+/// valid joint is positive.
+pub(crate) fn blend(
+    joint_matrices: &[Option<Mat4>],
+    joints: [u16; 4],
+    weights: Vec4,
+) -> Option<Mat4> {
+    let mut matrix = Mat4::ZERO;
+    let mut total = 0.0;
+    for (joint, weight) in joints.into_iter().zip(weights.to_array()) {
+        // Negative and non-finite weights count as zero.
+        if !weight.is_finite() || weight <= 0.0 {
+            continue;
+        }
+        let Some(Some(joint_matrix)) = joint_matrices.get(joint as usize) else {
+            continue;
+        };
+        matrix += *joint_matrix * weight;
+        total += weight;
+    }
+    if total <= 0.0 || !total.is_finite() {
+        return None;
+    }
+    // A weight sum of exactly 1 leaves the matrix bit for bit as blended.
+    Some(if total == 1.0 {
+        matrix
+    } else {
+        matrix * (1.0 / total)
+    })
+}
+
+/// Inverse transpose of `m`'s linear part up to a positive scale: the cofactor matrix times
+/// the sign of the determinant. Unlike the inverse it exists for singular matrices.
+fn normal_matrix(m: &Mat4) -> Mat3 {
+    let [c0, c1, c2] = [m.x_axis, m.y_axis, m.z_axis].map(|c| c.truncate());
+    let cofactor = Mat3::from_cols(c1.cross(c2), c2.cross(c0), c0.cross(c1));
+    if m.determinant() < 0.0 {
+        -cofactor
+    } else {
+        cofactor
+    }
+}
+
+/// The skinned positions of `primitive` alone (see [`skin_primitive`]).
+pub(crate) fn skin_positions(
+    primitive: &Primitive,
+    joint_matrices: &[Option<Mat4>],
+    world_from_node: Mat4,
+) -> Vec<Vec3> {
+    (primitive.positions.iter().enumerate())
+        .map(|(i, p)| {
+            let joints = primitive.joints.get(i).copied().unwrap_or_default();
+            let weights = primitive.weights.get(i).copied().unwrap_or(Vec4::ZERO);
+            blend(joint_matrices, joints, weights)
+                .unwrap_or(world_from_node)
+                .transform_point3(*p)
+        })
+        .collect()
+}
+
+/// Skins `primitive` with `joint_matrices` (from [`Skin::joint_matrices`]); vertices without a
+/// usable weight are placed by `world_from_node`.
+pub(crate) fn skin_primitive(
+    primitive: &Primitive,
+    joint_matrices: &[Option<Mat4>],
+    world_from_node: Mat4,
+) -> SkinnedVertices {
+    let matrices: Vec<Mat4> = (0..primitive.positions.len())
+        .map(|i| {
+            let joints = primitive.joints.get(i).copied().unwrap_or_default();
+            let weights = primitive.weights.get(i).copied().unwrap_or(Vec4::ZERO);
+            blend(joint_matrices, joints, weights).unwrap_or(world_from_node)
+        })
+        .collect();
+    let mirrored: Vec<bool> = matrices.iter().map(|m| m.determinant() < 0.0).collect();
+    let positions = primitive
+        .positions
+        .iter()
+        .zip(&matrices)
+        .map(|(p, m)| m.transform_point3(*p))
+        .collect();
+    let normals = primitive
+        .normals
+        .iter()
+        .zip(&matrices)
+        .map(|(n, m)| (normal_matrix(m) * *n).normalize_or(Vec3::Y))
+        .collect();
+    let tangents = primitive
+        .tangents
+        .iter()
+        .zip(&matrices)
+        .zip(&mirrored)
+        .map(|((t, m), &mirror)| {
+            let xyz = m.transform_vector3(t.truncate()).normalize_or_zero();
+            let sign = if t.w < 0.0 { -1.0 } else { 1.0 };
+            xyz.extend(if mirror { -sign } else { sign })
+        })
+        .collect();
+    SkinnedVertices {
+        positions,
+        normals,
+        tangents,
+        mirrored,
+    }
+}
