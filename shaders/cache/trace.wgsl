@@ -31,7 +31,8 @@
     cache_keeps_emitted, CACHE_SIDE_FRONT, CACHE_SIDE_BACK, CACHE_STATE_BOX_SHIFT, CACHE_BOX_STEPS,
     cache_geometry_box
 }
-#import gi::packing::unpack_rgb9e5
+#import gi::packing::{unpack_rgb9e5, unpack_unit_vector}
+#import gi::math::INV_PI
 
 // Most cells one trace visits (all scales and levels together). A ray crossing a default
 // level (128 x 64 x 128 voxels) voxel by voxel takes at most 320 voxel steps; empty space goes
@@ -336,7 +337,7 @@ const CACHE_IRRADIANCE_MIN_AGREEMENT: f32 = 0.5;
 // side, lit from outside the corner. When none qualifies, the voxel containing `p` or else its
 // neighbour behind `p` along `-n` is used as is.
 fn cache_irradiance(p: vec3<f32>, n: vec3<f32>) -> vec4<f32> {
-    return cache_irradiance_of(p, n, false);
+    return cache_irradiance_of(p, n, CACHE_PART_ALL);
 }
 
 // `cache_irradiance` without the punctual lights' direct irradiance (`cache_direct`) and without
@@ -345,16 +346,47 @@ fn cache_irradiance(p: vec3<f32>, n: vec3<f32>) -> vec4<f32> {
 // lights and the emitters (with shadow rays) adds to it. Needs a cache that keeps the emitted
 // part (`gi_cache::CacheConfig::keep_emitted`); without, the emitters' light stays in.
 fn cache_bounced_irradiance(p: vec3<f32>, n: vec3<f32>) -> vec4<f32> {
-    return cache_irradiance_of(p, n, true);
+    return cache_irradiance_of(p, n, CACHE_PART_BOUNCED);
 }
 
-// Irradiance of side `side` of `v`: all of it, or only its bounced part. The emitted part was
+// `cache_irradiance` without the punctual lights' direct irradiance (`cache_direct`): the light
+// of the sky, of the emissive triangles and of every bounce. What a surface lit by the punctual
+// lights elsewhere (the direct-light pass of the real-time tiers) adds as its GI.
+fn cache_indirect_irradiance(p: vec3<f32>, n: vec3<f32>) -> vec4<f32> {
+    return cache_irradiance_of(p, n, CACHE_PART_INDIRECT);
+}
+
+// The GI of a pixel with the G-buffer's blended layer `layer` (`gbuffer.blend_layer`: distance,
+// packed normal, packed albedo, alpha) composited over `behind`, the GI of the surface behind
+// it, for the camera ray from `origin` along `dir`: the layer reflects its albedo times the
+// cache's irradiance there without the punctual lights (which the direct-light pass gives).
+fn cache_blend_layer_gi(layer: vec4<f32>, origin: vec3<f32>, dir: vec3<f32>, behind: vec3<f32>) -> vec3<f32> {
+    if layer.x <= 0.0 {
+        return behind;
+    }
+    let p = origin + dir * layer.x;
+    let n = unpack_unit_vector(bitcast<u32>(layer.y));
+    let albedo_sqrt = unpack4x8unorm(bitcast<u32>(layer.z)).xyz;
+    let e = cache_indirect_irradiance(p, n).xyz;
+    return mix(behind, albedo_sqrt * albedo_sqrt * e * INV_PI, layer.w);
+}
+
+// Which part of the cached irradiance a lookup returns.
+const CACHE_PART_ALL: u32 = 0u;
+const CACHE_PART_BOUNCED: u32 = 1u;
+const CACHE_PART_INDIRECT: u32 = 2u;
+
+// Irradiance of side `side` of `v`: all of it, without the punctual lights' direct part, or only
+// its bounced part (`CACHE_PART_*`). The emitted part was
 // accumulated alongside the indirect irradiance it is part of, with the same weights, so their
 // difference differs from the bounced light only by their rounding.
-fn cache_side_irradiance_of(v: VoxelRef, side: u32, bounced_only: bool) -> vec3<f32> {
+fn cache_side_irradiance_of(v: VoxelRef, side: u32, part: u32) -> vec3<f32> {
     let slot = cache_side_slot(v, side);
     let indirect = unpack_rgb9e5(cache_indirect[slot]);
-    if bounced_only {
+    if part == CACHE_PART_INDIRECT {
+        return indirect;
+    }
+    if part == CACHE_PART_BOUNCED {
         if cache_keeps_emitted() {
             return max(indirect - unpack_rgb9e5(cache_emitted[slot]), vec3(0.0));
         }
@@ -366,9 +398,9 @@ fn cache_side_irradiance_of(v: VoxelRef, side: u32, bounced_only: bool) -> vec3<
 // `cache_irradiance` or `cache_bounced_irradiance`. A point near the edge of its level's window
 // can find no voxel at that level: the surface's own voxels lie behind it, outside the window.
 // The lookup then falls back to the coarser levels, whose windows hold it.
-fn cache_irradiance_of(p: vec3<f32>, n: vec3<f32>, bounced_only: bool) -> vec4<f32> {
+fn cache_irradiance_of(p: vec3<f32>, n: vec3<f32>, part: u32) -> vec4<f32> {
     for (var level = cache_level_of_point(p); level < cache.level_count; level++) {
-        let e = cache_irradiance_at_level(p, n, level, bounced_only);
+        let e = cache_irradiance_at_level(p, n, level, part);
         if e.w > 0.0 {
             return e;
         }
@@ -377,7 +409,7 @@ fn cache_irradiance_of(p: vec3<f32>, n: vec3<f32>, bounced_only: bool) -> vec4<f
 }
 
 // `cache_irradiance_of` at one level.
-fn cache_irradiance_at_level(p: vec3<f32>, n: vec3<f32>, level: u32, bounced_only: bool) -> vec4<f32> {
+fn cache_irradiance_at_level(p: vec3<f32>, n: vec3<f32>, level: u32, part: u32) -> vec4<f32> {
     let s = cache.levels[level].voxel_size_m;
     let q = (p - n * (0.5 * s)) / s - 0.5;
     let base = vec3<i32>(floor(q));
@@ -396,7 +428,7 @@ fn cache_irradiance_at_level(p: vec3<f32>, n: vec3<f32>, level: u32, bounced_onl
         }
         let w3 = select(1.0 - f, f, offset == vec3(1u));
         let w = w3.x * w3.y * w3.z * abs(agreement);
-        sum += w * cache_side_irradiance_of(v, select(CACHE_SIDE_BACK, CACHE_SIDE_FRONT, agreement >= 0.0), bounced_only);
+        sum += w * cache_side_irradiance_of(v, select(CACHE_SIDE_BACK, CACHE_SIDE_FRONT, agreement >= 0.0), part);
         weight += w;
     }
     if weight > 1e-6 {
@@ -410,5 +442,5 @@ fn cache_irradiance_at_level(p: vec3<f32>, n: vec3<f32>, level: u32, bounced_onl
         return vec4(0.0);
     }
     let agreement = dot(cache_voxel_normal(cache_voxels[cache_voxel_index(v)]), n);
-    return vec4(cache_side_irradiance_of(v, select(CACHE_SIDE_BACK, CACHE_SIDE_FRONT, agreement >= 0.0), bounced_only), 1.0);
+    return vec4(cache_side_irradiance_of(v, select(CACHE_SIDE_BACK, CACHE_SIDE_FRONT, agreement >= 0.0), part), 1.0);
 }

@@ -19,9 +19,9 @@
 // per-node motion transforms, the outputs. Bind group 1: the BVH (`gi_gpu::bvh::GpuBvh`).
 
 #import gi::bvh::{Ray, trace_closest, BVH_MISS}
-#import gi::scene::{triangles, sample_texture, emission, material_occlusion, dielectric_specular, geometric_normal, material_of, tex_coords, cone_footprint, mapped_normal, normalize_or, orient_shading_normal}
+#import gi::scene::{triangles, sample_texture, emission, material_occlusion, material_brdf, material_alpha, set_blend_policy, BLEND_PASS, BLEND_OPAQUE, ALPHA_BLEND, dielectric_specular, geometric_normal, material_of, tex_coords, cone_footprint, mapped_normal, normalize_or, orient_shading_normal}
 #import gi::packing::pack_unit_vector
-#import gi::brdf::pack_dielectric_specular
+#import gi::brdf::{pack_dielectric_specular, brdf_split_sum_albedos}
 #import gi::camera::{Camera, camera_ray, camera_project}
 
 const FAR: f32 = 3.40282347e38;
@@ -36,6 +36,8 @@ struct GBufferUniforms {
     default_material: u32,
     // 1 when `previous_from_current` holds the previous frame's node motion.
     has_previous_transforms: u32,
+    // 1 when the scene has alpha-`BLEND` materials and `blend_layer` is one entry per pixel.
+    blend_layer_on: u32,
 }
 
 @group(0) @binding(0) var<uniform> uniforms: GBufferUniforms;
@@ -57,6 +59,44 @@ struct GBufferUniforms {
 @group(0) @binding(14) var<storage, read_write> triangle_id: array<u32>;
 // Previous pixel position minus this pixel's center, in pixels (+x right, +y down).
 @group(0) @binding(15) var<storage, read_write> motion: array<vec2<f32>>;
+// The nearest alpha-`BLEND` surface in front of the pixel's surface (`blend_layer_on` only):
+// distance along the unit camera ray (0: none), its normal facing the camera (packed, as bits),
+// its albedo towards the camera (the split-sum diffuse plus specular, sqrt-encoded 8-bit rgb,
+// as bits) and its alpha.
+@group(0) @binding(16) var<storage, read_write> blend_layer: array<vec4<f32>>;
+
+// The nearest alpha-`BLEND` surface along the camera ray before `t_max` (`blend_layer`'s
+// entry), for a ray whose cone spreads by `spread` per unit of distance. One layer: blended
+// surfaces behind the first are seen through, as if absent.
+fn find_blend_layer(origin: vec3<f32>, dir: vec3<f32>, t_max: f32, spread: f32) -> vec4<f32> {
+    set_blend_policy(BLEND_OPAQUE);
+    let hit = trace_closest(Ray(origin, 0.0, dir, t_max));
+    if hit.triangle == BVH_MISS {
+        return vec4<f32>(0.0);
+    }
+    let material = material_of(hit.triangle, uniforms.default_material);
+    if material.alpha_mode != ALPHA_BLEND {
+        return vec4<f32>(0.0);
+    }
+    let tri = triangles[hit.triangle];
+    let b = vec3(1.0 - hit.barycentrics.x - hit.barycentrics.y, hit.barycentrics.x, hit.barycentrics.y);
+    let wo = -dir;
+    var ng = geometric_normal(tri);
+    if all(ng == vec3<f32>(0.0)) {
+        ng = wo;
+    }
+    ng = select(-ng, ng, dot(ng, wo) >= 0.0);
+    let tc = tex_coords(hit.triangle, b, cone_footprint(tri, hit.t * spread, dot(ng, wo)));
+    let alpha = clamp(material_alpha(material, tc), 0.0, 1.0);
+    let albedos = brdf_split_sum_albedos(material_brdf(material, tc), max(dot(ng, wo), 0.0));
+    let albedo = clamp(albedos.diffuse + albedos.specular, vec3(0.0), vec3(1.0));
+    return vec4<f32>(
+        hit.t,
+        bitcast<f32>(pack_unit_vector(ng)),
+        bitcast<f32>(pack4x8unorm(vec4(sqrt(albedo), 0.0))),
+        alpha,
+    );
+}
 
 @compute @workgroup_size(8, 8)
 fn primary(@builtin(global_invocation_id) id: vec3<u32>) {
@@ -68,7 +108,16 @@ fn primary(@builtin(global_invocation_id) id: vec3<u32>) {
     let center = vec2<f32>(f32(id.x) + 0.5, f32(id.y) + 0.5);
     let camera = uniforms.camera;
     let dir = camera_ray(camera, center / vec2<f32>(size));
+    // With blended surfaces, the G-buffer holds the surface behind them, and the nearest
+    // blended layer in front of it is found apart (`blend_layer`).
+    if uniforms.blend_layer_on != 0u {
+        set_blend_policy(BLEND_PASS);
+    }
     let hit = trace_closest(Ray(camera.position, 0.0, dir, FAR));
+    if uniforms.blend_layer_on != 0u {
+        let behind = select(hit.t, FAR, hit.triangle == BVH_MISS);
+        blend_layer[pixel] = find_blend_layer(camera.position, dir, behind, 2.0 * camera.tan_half_fov / f32(size.y));
+    }
     triangle_id[pixel] = hit.triangle;
     if hit.triangle == BVH_MISS {
         depth[pixel] = bitcast<f32>(INFINITY_BITS);

@@ -46,7 +46,7 @@
 #import gi::mobile::lite::{lite_encode, lite_diffuse, lite_is_dynamic, lite_normal}
 #import gi::mobile::volume::volume_irradiance
 #import gi::cache::data::{cache, cache_level_of_point}
-#import gi::cache::trace::{cache_hit_radiance, cache_irradiance}
+#import gi::cache::trace::{cache_hit_radiance, cache_irradiance, cache_blend_layer_gi}
 #import gi::cache::trace_shared::{cache_trace_shared, CACHE_LANES}
 
 const PROBE_TEXELS: u32 = 16u;
@@ -88,6 +88,8 @@ struct ScreenUniforms {
 
 const FLAG_SMARTGI: u32 = 1u;
 const FLAG_MATERIAL_OCCLUSION: u32 = 2u;
+// `gbuffer_blend_layer` holds the blended layer in front of each pixel.
+const FLAG_BLEND_LAYER: u32 = 4u;
 // `ScreenProbe.flags`: bit 0 the probe sits on a dynamic object; bit 1 it was reprojected from
 // the previous frame, whose slot is in bits 8 and up.
 const PROBE_DYNAMIC: u32 = 1u;
@@ -141,6 +143,8 @@ struct ScreenProbe {
 @group(0) @binding(15) var<storage, read_write> output: array<vec4<f32>>;
 // The G-buffer's emission and, in w, the material's occlusion factor.
 @group(0) @binding(19) var<storage, read> gbuffer_emissive: array<vec4<f32>>;
+// With FLAG_BLEND_LAYER: the nearest blended surface in front of each pixel (`gbuffer.blend_layer`).
+@group(0) @binding(20) var<storage, read> gbuffer_blend_layer: array<vec4<f32>>;
 
 fn is_sky(depth: f32) -> bool {
     return bitcast<u32>(depth) == INFINITY_BITS || !(depth < FAR);
@@ -492,11 +496,15 @@ fn compose(@builtin(global_invocation_id) id: vec3<u32>) {
     let pixel = id.y * u.size_px.x + id.x;
     let direct = direct_mean[pixel].xyz;
     let depth = gbuffer_depth[pixel];
+    let dir = pixel_ray(u.camera, id.xy);
     if is_sky(depth) {
-        output[pixel] = vec4(direct, 1.0);
+        var gi = vec3(0.0);
+        if (u.flags & FLAG_BLEND_LAYER) != 0u {
+            gi = cache_blend_layer_gi(gbuffer_blend_layer[pixel], u.camera.position, dir, gi);
+        }
+        output[pixel] = vec4(direct + gi, 1.0);
         return;
     }
-    let dir = pixel_ray(u.camera, id.xy);
     let bits = lite[pixel];
     let n = lite_normal(bits, u.camera, dir);
 
@@ -544,6 +552,10 @@ fn compose(@builtin(global_invocation_id) id: vec3<u32>) {
     if (u.flags & FLAG_MATERIAL_OCCLUSION) != 0u {
         occlusion = gbuffer_emissive[pixel].w;
     }
-    let gi = (lite_diffuse(bits) * occlusion + specular) * irradiance * INV_PI;
+    var gi = (lite_diffuse(bits) * occlusion + specular) * irradiance * INV_PI;
+    // A blended surface in front (glass) shows its own GI over the GI behind it, by its alpha.
+    if (u.flags & FLAG_BLEND_LAYER) != 0u {
+        gi = cache_blend_layer_gi(gbuffer_blend_layer[pixel], u.camera.position, dir, gi);
+    }
     output[pixel] = vec4(direct + gi, 1.0);
 }

@@ -277,6 +277,18 @@ fn material_alpha(material: Material, tc: TexCoords) -> f32 {
     return material.base_color.w * sample_texture(material.base_color_texture, tc).w;
 }
 
+// How `alpha_covers` treats `BLEND` surfaces in this invocation: hashed (the rule every tier's
+// rays follow, `blend_coverage_hash`), always passed or always hit. The G-buffer uses the
+// latter two to find the surface behind a blended layer and the layer itself.
+const BLEND_HASHED: u32 = 0u;
+const BLEND_PASS: u32 = 1u;
+const BLEND_OPAQUE: u32 = 2u;
+var<private> blend_policy: u32 = BLEND_HASHED;
+
+fn set_blend_policy(policy: u32) {
+    blend_policy = policy;
+}
+
 // The reference's `Reference::covers`: whether the surface of `triangle` exists at
 // barycentrics `b` (weights of v1 and v2) for a ray. Only called for triangles whose material
 // is alpha-tested (their material index is in range).
@@ -285,6 +297,9 @@ fn alpha_covers(triangle: u32, b: vec2<f32>) -> bool {
     let material = materials[tri.material];
     if material.alpha_mode == ALPHA_OPAQUE {
         return true;
+    }
+    if material.alpha_mode == ALPHA_BLEND && blend_policy != BLEND_HASHED {
+        return blend_policy == BLEND_OPAQUE;
     }
     let alpha = material_alpha(material, tex_coords(triangle, vec3(1.0 - b.x - b.y, b.x, b.y), 0.0));
     if material.alpha_mode == ALPHA_MASK {

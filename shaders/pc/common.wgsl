@@ -28,6 +28,8 @@ const FLAG_SPECULAR: u32 = 64u;
 const FLAG_REUSE_SPECULAR: u32 = 128u;
 // The material's occlusion map darkens the gathered diffuse light (`PcConfig::material_occlusion`).
 const FLAG_MATERIAL_OCCLUSION: u32 = 256u;
+// `gbuffer.blend_layer` holds a blended layer per pixel (the scene has alpha-`BLEND` materials).
+const FLAG_BLEND_LAYER: u32 = 512u;
 
 // What a pixel's specular reflection comes from (`specular_kind`).
 const SPECULAR_NONE: u32 = 0u;

@@ -44,12 +44,12 @@
 #import gi::sampling::{sampler_new, sampler_next_f32, sampler_next_2d, concentric_disk, Frame, frame_from_normal, frame_to_local}
 #import gi::camera::camera_ray
 #import gi::packing::{unpack_unit_vector, pack_rgb9e5, unpack_rgb9e5, pack_color64, unpack_color64}
-#import gi::cache::trace::cache_bounced_irradiance
+#import gi::cache::trace::{cache_bounced_irradiance, cache_blend_layer_gi}
 #import gi::pc::common::{
     PcUniforms, Surface, Reservoir, Combiner, empty_reservoir, is_sky_depth, has_surface,
     target_pdf, reconnection_jacobian, combiner_new, combiner_add, combiner_finish,
     reservoir_irradiance, similar_surfaces, sample_direction, specular_kind, SAMPLE_OCCLUDED, SAMPLE_SKY,
-    FLAG_TEMPORAL, FLAG_SPATIAL, FLAG_SHADOW, FLAG_MULTI_SAMPLE, FLAG_BOILING, FLAG_HISTORY, FLAG_MATERIAL_OCCLUSION,
+    FLAG_TEMPORAL, FLAG_SPATIAL, FLAG_SHADOW, FLAG_MULTI_SAMPLE, FLAG_BOILING, FLAG_HISTORY, FLAG_MATERIAL_OCCLUSION, FLAG_BLEND_LAYER,
     SPECULAR_NONE, SPECULAR_TRACED, SPECULAR_REUSED
 }
 
@@ -82,6 +82,8 @@
 @group(0) @binding(25) var<storage, read_write> specular_history: array<vec4<u32>>;
 // Per pixel: the G-buffer's emission and, in w, the material's occlusion factor.
 @group(0) @binding(27) var<storage, read> gbuffer_emissive: array<vec4<f32>>;
+// Per pixel with FLAG_BLEND_LAYER: the nearest blended surface in front (`gbuffer.blend_layer`).
+@group(0) @binding(28) var<storage, read> gbuffer_blend_layer: array<vec4<f32>>;
 
 fn trace_index(t: vec2<u32>) -> u32 {
     return t.y * u.trace_px.x + t.x;
@@ -401,12 +403,16 @@ fn compose(@builtin(global_invocation_id) id: vec3<u32>) {
     let pixel = id.y * u.size_px.x + id.x;
     let direct = direct_mean[pixel].xyz;
     let depth = gbuffer_depth[pixel];
-    if is_sky_depth(depth) {
-        output[pixel] = vec4(direct, 1.0);
-        return;
-    }
     let uv = (vec2<f32>(id.xy) + 0.5) / vec2<f32>(u.size_px);
     let v = -camera_ray(u.camera, uv);
+    if is_sky_depth(depth) {
+        var gi = vec3(0.0);
+        if (u.flags & FLAG_BLEND_LAYER) != 0u {
+            gi = cache_blend_layer_gi(gbuffer_blend_layer[pixel], u.camera.position, -v, gi);
+        }
+        output[pixel] = vec4(direct + gi, 1.0);
+        return;
+    }
     let n = unpack_unit_vector(gbuffer_normal[pixel]);
     let mr = gbuffer_metallic_roughness[pixel];
     let albedos = brdf_split_sum_albedos(gbuffer_brdf(gbuffer_base_color[pixel], mr), max(dot(n, v), 0.0));
@@ -432,5 +438,10 @@ fn compose(@builtin(global_invocation_id) id: vec3<u32>) {
     if (u.flags & FLAG_MATERIAL_OCCLUSION) != 0u {
         occlusion = gbuffer_emissive[pixel].w;
     }
-    output[pixel] = vec4(direct + diffuse * e * (occlusion * INV_PI) + specular * reflected, 1.0);
+    var gi = diffuse * e * (occlusion * INV_PI) + specular * reflected;
+    // A blended surface in front (glass) shows its own GI over the GI behind it, by its alpha.
+    if (u.flags & FLAG_BLEND_LAYER) != 0u {
+        gi = cache_blend_layer_gi(gbuffer_blend_layer[pixel], u.camera.position, -v, gi);
+    }
+    output[pixel] = vec4(direct + gi, 1.0);
 }

@@ -22,6 +22,16 @@
 //! | `gbuffer.emissive` | `[f32; 4]` radiance toward the camera (0 behind single-sided emitters), w = the material's occlusion factor (`occlusionTexture`, 1 without) | 0 |
 //! | `gbuffer.triangle` | `u32` frame triangle index | [`GBUFFER_MISS`] |
 //! | `gbuffer.motion` | `[f32; 2]` previous pixel position minus this pixel's center, pixels, +y down | camera rotation only |
+//! | `gbuffer.blend_layer` | `[f32; 4]` the nearest alpha-`BLEND` surface in front: distance (0: none), normal (packed), albedo towards the camera (packed), alpha; only for scenes with `BLEND` materials | 0 |
+//!
+//! Alpha `BLEND`: the rays of every tier pass a blended surface with probability 1 - alpha (a
+//! hash of the hit), which averages to alpha blending over many rays per pixel, but one ray
+//! through each pixel center would show a fixed dither. In scenes with `BLEND` materials the
+//! G-buffer's ray therefore passes blended surfaces (the G-buffer describes the surface behind
+//! them) and a second ray, which stops at them, finds the nearest blended layer in front; the
+//! real-time tiers composite their GI over the layer's (its albedo times the brick cache's
+//! irradiance there) with its alpha. Their direct light already is the blend: it averages
+//! jittered rays that follow the hash.
 //!
 //! Motion is 0 where the surface point was behind the previous camera.
 
@@ -41,7 +51,7 @@ const TILE: u32 = 8;
 /// The camera of the G-buffer: the shared [`GpuCamera`] (`Camera` of `gi::camera`).
 pub type GBufferCamera = GpuCamera;
 
-/// Uniforms of `gbuffer/primary`, 144 bytes (`GBufferUniforms` in WGSL).
+/// Uniforms of `gbuffer/primary`, 160 bytes (`GBufferUniforms` in WGSL).
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
 pub struct GBufferUniforms {
@@ -55,6 +65,10 @@ pub struct GBufferUniforms {
     pub default_material: u32,
     /// 1 when `gbuffer.previous_from_current` holds the previous frame's node motion.
     pub has_previous_transforms: u32,
+    /// 1 when the scene has alpha-`BLEND` materials and `gbuffer.blend_layer` holds one entry
+    /// per pixel.
+    pub blend_layer_on: u32,
+    pub pad: [u32; 3],
 }
 
 /// The inputs of one G-buffer frame.
@@ -91,7 +105,8 @@ pub struct GBufferData {
 }
 
 /// The G-buffer technique: its pipeline, its output buffers and the per-node motion since the
-/// previous frame. Memory: 60 bytes per pixel plus 48 bytes per scene node.
+/// previous frame. Memory: 60 bytes per pixel (76 for scenes with alpha-`BLEND` materials)
+/// plus 48 bytes per scene node.
 pub struct GBuffer {
     /// Image size in pixels.
     pub size: (u32, u32),
@@ -105,6 +120,11 @@ pub struct GBuffer {
     previous_from_current: wgpu::Buffer,
     /// The outputs in binding order (bindings 9..=15).
     outputs: [wgpu::Buffer; 7],
+    /// `gbuffer.blend_layer` (binding 16): per pixel, the nearest alpha-`BLEND` surface in front
+    /// of the pixel's surface, for scenes with such materials ([`GBuffer::prepare_layers`]);
+    /// one placeholder entry otherwise.
+    blend_layer: wgpu::Buffer,
+    blend_layer_on: bool,
 }
 
 /// Output labels and bytes per pixel, in binding order from binding 9.
@@ -132,7 +152,7 @@ impl GBuffer {
         let mut entries = vec![uniform_entry(0)];
         entries.extend(GpuScene::layout_entries());
         entries.push(storage_entry(8, true));
-        entries.extend((9..=15).map(|binding| storage_entry(binding, false)));
+        entries.extend((9..=16).map(|binding| storage_entry(binding, false)));
         let frame_layout = ctx
             .device
             .create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
@@ -171,7 +191,37 @@ impl GBuffer {
             ),
             previous_from_current: Self::motion_buffer(ctx, 1),
             outputs,
+            blend_layer: Self::blend_layer_buffer(ctx, 1),
+            blend_layer_on: false,
         })
+    }
+
+    fn blend_layer_buffer(ctx: &GpuContext, pixels: u64) -> wgpu::Buffer {
+        ctx.create_buffer(
+            "gbuffer.blend_layer",
+            pixels.max(1) * 16,
+            wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC,
+        )
+    }
+
+    /// Sizes the outputs that only some scenes need for `scene`: `gbuffer.blend_layer` holds
+    /// one 16-byte entry per pixel when the scene has alpha-`BLEND` materials, one entry
+    /// otherwise. Call it when a scene is uploaded, before making bind groups over
+    /// [`GBuffer::output`]: the buffer may be replaced.
+    pub fn prepare_layers(&mut self, ctx: &GpuContext, scene: &GpuScene) {
+        let pixels = u64::from(self.size.0) * u64::from(self.size.1);
+        let wanted = if scene.has_blend { pixels } else { 1 };
+        if self.blend_layer.size() != wanted * 16 {
+            ctx.release_buffer(&self.blend_layer);
+            self.blend_layer = Self::blend_layer_buffer(ctx, wanted);
+        }
+        self.blend_layer_on = scene.has_blend;
+    }
+
+    /// Whether `gbuffer.blend_layer` holds a layer per pixel (the scene prepared last has
+    /// alpha-`BLEND` materials).
+    pub fn has_blend_layer(&self) -> bool {
+        self.blend_layer_on
     }
 
     fn motion_buffer(ctx: &GpuContext, nodes: u64) -> wgpu::Buffer {
@@ -231,6 +281,8 @@ impl GBuffer {
             size_px: [width, height],
             default_material: inputs.scene.default_material,
             has_previous_transforms: u32::from(has_previous),
+            blend_layer_on: u32::from(self.blend_layer_on && inputs.scene.has_blend),
+            pad: [0; 3],
         };
         ctx.queue
             .write_buffer(&self.uniforms, 0, bytemuck::bytes_of(&uniforms));
@@ -239,7 +291,9 @@ impl GBuffer {
         entries.extend(inputs.scene.bind_group_entries());
         entries.extend(buffer_entries(
             8,
-            std::iter::once(&self.previous_from_current).chain(&self.outputs),
+            std::iter::once(&self.previous_from_current)
+                .chain(&self.outputs)
+                .chain(std::iter::once(&self.blend_layer)),
         ));
         let frame_group = ctx.device.create_bind_group(&wgpu::BindGroupDescriptor {
             label: Some("gbuffer/primary.frame"),
@@ -304,6 +358,9 @@ impl GBuffer {
     /// # Panics
     /// If no output has that label.
     pub fn output(&self, label: &str) -> &wgpu::Buffer {
+        if label == "gbuffer.blend_layer" {
+            return &self.blend_layer;
+        }
         self.outputs()
             .find(|(name, _)| *name == label)
             .map(|(_, buffer)| buffer)
@@ -322,5 +379,6 @@ impl GBuffer {
         for buffer in &self.outputs {
             ctx.release_buffer(buffer);
         }
+        ctx.release_buffer(&self.blend_layer);
     }
 }

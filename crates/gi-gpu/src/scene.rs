@@ -234,6 +234,9 @@ pub struct GpuScene {
     pub bvh_build_seconds: f64,
     /// Whether `scene.triangle_extras` holds every triangle.
     has_extras: bool,
+    /// Whether a material is alpha `BLEND` (the real-time tiers then composite a blended
+    /// layer over the surface behind it: `gi_gpu::gbuffer`).
+    pub has_blend: bool,
 }
 
 /// Per-triangle shading data of `frame`, in frame order.
@@ -411,6 +414,10 @@ impl GpuScene {
             default_material,
             bvh_build_seconds: bvh.build_seconds,
             has_extras: !extras.is_empty(),
+            has_blend: scene
+                .materials
+                .iter()
+                .any(|m| m.alpha_mode == AlphaMode::Blend),
             textures,
             bvh,
         })

@@ -32,9 +32,21 @@ fn render(
     frame: &SceneFrame,
     previous: &SceneFrame,
 ) -> GBufferData {
+    render_with_layer(ctx, scene, frame, previous).0
+}
+
+/// [`render`], also returning `gbuffer.blend_layer` (one entry per pixel for scenes with
+/// alpha-`BLEND` materials).
+fn render_with_layer(
+    ctx: &GpuContext,
+    scene: &Scene,
+    frame: &SceneFrame,
+    previous: &SceneFrame,
+) -> (GBufferData, Vec<[f32; 4]>) {
     let gpu_scene = GpuScene::upload(ctx, scene, frame).expect("scene uploads");
     let mut gbuffer =
         GBuffer::new(ctx, &ShaderLibrary::new(), WIDTH, HEIGHT).expect("gbuffer/primary compiles");
+    gbuffer.prepare_layers(ctx, &gpu_scene);
     let mut timer = GpuTimer::new(ctx, "gbuffer", 4);
     let mut encoder = ctx.create_encoder("gbuffer");
     let inputs = GBufferInputs {
@@ -46,9 +58,10 @@ fn render(
     let timings = timer.finish(ctx, encoder);
     assert!(timings.get("gbuffer/primary").is_some(), "{timings}");
     let data = gbuffer.read(ctx);
+    let layer = ctx.read_buffer(gbuffer.output("gbuffer.blend_layer"));
     gbuffer.release(ctx);
     gpu_scene.release(ctx);
-    data
+    (data, layer)
 }
 
 /// The unit camera ray through the center of pixel `(x, y)`, as the reference casts it.
@@ -413,7 +426,8 @@ fn gbuffer_structs_match_wgsl() {
             previous_camera,
             size_px,
             default_material,
-            has_previous_transforms
+            has_previous_transforms,
+            blend_layer_on
         })
     );
 }
@@ -477,4 +491,80 @@ fn minified_textures_read_prefiltered_mip_levels() {
         );
     }
     assert!(covered >= 4, "the quad covers {covered} pixels");
+}
+
+#[test]
+fn blended_surfaces_are_a_layer_over_the_surface_behind() {
+    let Some(ctx) = GpuContext::new_or_skip("blended_surfaces_are_a_layer_over_the_surface_behind")
+    else {
+        return;
+    };
+    let mut scene = load("cornell-box");
+    let camera = scene.evaluate(0.0, None).camera;
+    let (distance, half) = (0.5, 0.1);
+    scene.add_diffuse_quad(
+        camera.position + camera.forward * distance,
+        camera.right * half,
+        camera.up * half,
+        0.5,
+    );
+    let glass = scene.materials.last_mut().expect("the quad's material");
+    glass.alpha_mode = gi_scene::AlphaMode::Blend;
+    glass.base_color.w = 0.4;
+    glass.double_sided = true;
+    let frame = scene.evaluate(0.0, None);
+    let (data, layer) = render_with_layer(&ctx, &scene, &frame, &frame);
+    assert_eq!(layer.len(), (WIDTH * HEIGHT) as usize);
+    let bvh = SceneBvh::build(&frame.triangles);
+    let quad = frame.triangles.len() - 2;
+    let (mut covered, mut clear, mut open) = (0, 0, 0);
+    for y in 0..HEIGHT {
+        for x in 0..WIDTH {
+            let pixel = (y * WIDTH + x) as usize;
+            let dir = pixel_ray(&frame.camera, x, y);
+            let Some(first) =
+                bvh.closest_hit(&frame.triangles, camera.position, dir, 0.0, f32::INFINITY)
+            else {
+                continue;
+            };
+            let [t, normal, albedo, alpha] = layer[pixel];
+            if (first.triangle as usize) < quad {
+                // Nothing blended in front: no layer, and the G-buffer sees the first hit.
+                assert_eq!(t, 0.0, "pixel ({x}, {y})");
+                open += 1;
+                if data.triangle[pixel] == first.triangle {
+                    clear += 1;
+                }
+                continue;
+            }
+            // The quad is the layer; the G-buffer holds the box behind it.
+            covered += 1;
+            assert!(
+                (t - first.t).abs() <= 1e-4 * first.t,
+                "pixel ({x}, {y}): {t} vs {}",
+                first.t
+            );
+            assert!((alpha - 0.4).abs() < 1e-6, "alpha {alpha}");
+            let n = unpack_unit_vector(normal.to_bits());
+            assert!(n.dot(-camera.forward) > 0.999, "normal {n}");
+            let rgb = glam::Vec4::from_array(
+                albedo.to_bits().to_le_bytes().map(|b| f32::from(b) / 255.0),
+            );
+            for c in [rgb.x, rgb.y, rgb.z] {
+                assert!((c * c - 0.5).abs() < 0.01, "albedo {}", c * c);
+            }
+            assert!(
+                data.depth[pixel] > first.t + 0.1,
+                "pixel ({x}, {y}) depth {}",
+                data.depth[pixel]
+            );
+            assert!((data.triangle[pixel] as usize) < quad);
+        }
+    }
+    assert!(covered > 20, "the quad covers only {covered} pixels");
+    // Ties on triangle edges aside, the G-buffer is the plain ray cast there.
+    assert!(
+        clear * 100 >= open * 98,
+        "{clear} of {open} pixels without a layer matched"
+    );
 }

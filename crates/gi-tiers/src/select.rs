@@ -197,11 +197,11 @@ pub fn requirements(kind: TierKind, settings: &TierSettings) -> Option<Requireme
     match kind {
         TierKind::Reference => None,
         TierKind::Direct | TierKind::Path => Some(path),
-        // The screen-probe passes' layouts (mobile/screen.rs): 19 storage buffers of their own,
+        // The screen-probe passes' layouts (mobile/screen.rs): 20 storage buffers of their own,
         // the probe volume's 3 and the brick cache's 7; four groups (the cache's is group 2,
         // the textures group 3); `cache/propagate` runs 256 invocations in x.
         TierKind::Mobile => Some(Requirements {
-            storage_buffers_per_stage: 29,
+            storage_buffers_per_stage: 30,
             bind_groups: 4,
             sampled_textures_per_stage: gi_gpu::textures::TEXTURE_ARRAYS,
             invocations_per_workgroup: 256,

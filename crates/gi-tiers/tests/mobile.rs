@@ -4,7 +4,10 @@
 
 mod common;
 
-use common::{check_occlusion_scaling, open_ground, settings, with_occlusion};
+use common::{
+    check_glass_blends, check_occlusion_scaling, ground_behind_glass, open_ground, settings,
+    with_occlusion,
+};
 use gi_gpu::{GpuContext, ShaderLibrary, rust_field_offsets, wgpu, wgsl_struct_layout};
 use gi_image::Image;
 use gi_reference::{Mode, Reference, RenderSettings};
@@ -360,6 +363,31 @@ fn the_occlusion_map_darkens_the_gathered_diffuse_light_only_when_asked() {
     let half = gi(&with_occlusion(ground, 0.0, 0.5), true);
     let lit = check_occlusion_scaling(&plain, &plain_again, [(&quarter, 0.25), (&half, 0.5)]);
     assert!(lit > 64 * 48 / 3, "only {lit} pixels see the ground");
+}
+
+#[test]
+fn blended_glass_is_composited_over_the_gi_behind_it() {
+    let Some(ctx) = GpuContext::new_or_skip("blended_glass_is_composited_over_the_gi_behind_it")
+    else {
+        return;
+    };
+    drop(ctx);
+    let camera = CameraView::look_at(Vec3::new(0.0, 3.0, 3.0), Vec3::ZERO, 0.9);
+    let gi = |alpha: f32| {
+        let (scene, first) = ground_behind_glass(&camera, alpha);
+        let (tier, _) = run(
+            GpuContext::new().unwrap(),
+            &scene,
+            idle_cache(),
+            (64, 48),
+            4,
+            Some(camera),
+        );
+        (scene, first, tier.frame_data().unwrap().gi)
+    };
+    let (_, _, clear) = gi(0.0);
+    let (scene, first, half) = gi(0.5);
+    check_glass_blends(&scene, first, &camera, &half, &clear);
 }
 
 /// Pixels of the half-resolution samples (even coordinates) of a `width` x `height` image.

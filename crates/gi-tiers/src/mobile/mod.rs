@@ -304,6 +304,7 @@ impl MobileTier {
             seed,
             &self.settings.textures,
         )?;
+        self.gbuffer.prepare_layers(&self.ctx, &state.scene);
         let dynamic_triangles = dynamic_triangle_bits(&self.ctx, input.scene, input.frame);
         let screen = self.screen_buffers(&state.direct, &dynamic_triangles);
         self.prepared = Some(Prepared {
@@ -338,6 +339,7 @@ impl MobileTier {
                 triangle: find("gbuffer.triangle"),
                 motion: find("gbuffer.motion"),
                 emissive: find("gbuffer.emissive"),
+                blend_layer: find("gbuffer.blend_layer"),
                 dynamic_triangles,
                 direct_mean: &direct.mean,
             },
@@ -462,7 +464,7 @@ impl MobileTier {
         if cache_stats.filling {
             screen.reset_history();
         }
-        let uniforms = screen_uniforms(
+        let mut uniforms = screen_uniforms(
             &self.config.screen,
             screen.layout,
             camera,
@@ -471,6 +473,9 @@ impl MobileTier {
             self.frame_index,
             self.settings.seed,
         );
+        if self.gbuffer.has_blend_layer() {
+            uniforms.flags |= screen::FLAG_BLEND_LAYER;
+        }
         screen.begin_frame(ctx, uniforms);
         let cache_group = &self.cache.buffers().bind_group;
         let groups = (self.volume.bind_group(), cache_group);

@@ -39,9 +39,14 @@ pub struct ScreenUniforms {
     pub normal_cos: f32,
     pub ray_offset_voxels: f32,
     /// Bit 0: SmartGI, else HSGI ([`ScreenProbeMode`]); bit 1: the material's occlusion map
-    /// darkens the gathered diffuse light ([`ScreenConfig::material_occlusion`]).
+    /// darkens the gathered diffuse light ([`ScreenConfig::material_occlusion`]); bit 2
+    /// ([`FLAG_BLEND_LAYER`]): `gbuffer.blend_layer` holds a blended layer per pixel.
     pub flags: u32,
 }
+
+/// [`ScreenUniforms::flags`] bit: the G-buffer found blended layers (the scene has alpha-`BLEND`
+/// materials), which compose blends over the GI behind them.
+pub const FLAG_BLEND_LAYER: u32 = 4;
 
 /// Mirror of `ScreenProbe` in the shader, 32 bytes.
 #[repr(C)]
@@ -110,10 +115,10 @@ impl ScreenPipelines {
     ) -> Result<Self, GpuError> {
         let module = shaders.create_module(ctx, "mobile/screen.wgsl", &[])?;
         // G-buffer, dynamic bits, history_in, direct, the previous frame's probes.
-        let read_only = [1u32, 2, 3, 4, 5, 6, 7, 12, 14, 16, 17, 19];
+        let read_only = [1u32, 2, 3, 4, 5, 6, 7, 12, 14, 16, 17, 19, 20];
         let mut entries = vec![uniform_entry(0)];
         entries
-            .extend((1..=19).map(|binding| storage_entry(binding, read_only.contains(&binding))));
+            .extend((1..=20).map(|binding| storage_entry(binding, read_only.contains(&binding))));
         let layout0 = ctx
             .device
             .create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
@@ -164,6 +169,8 @@ pub struct ScreenSources<'a> {
     pub motion: &'a wgpu::Buffer,
     /// `gbuffer.emissive`, for the material's occlusion factor in its w.
     pub emissive: &'a wgpu::Buffer,
+    /// `gbuffer.blend_layer`, the blended layers in front of the pixels.
+    pub blend_layer: &'a wgpu::Buffer,
     pub dynamic_triangles: &'a wgpu::Buffer,
     pub direct_mean: &'a wgpu::Buffer,
 }
@@ -251,6 +258,7 @@ impl ScreenBuffers {
                     &probe_radiance[1 - write],
                     &tile_claims,
                     sources.emissive,
+                    sources.blend_layer,
                 ],
             ));
             ctx.device.create_bind_group(&wgpu::BindGroupDescriptor {

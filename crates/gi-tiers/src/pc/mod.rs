@@ -149,6 +149,7 @@ mod flags {
     pub const SPECULAR: u32 = 64;
     pub const REUSE_SPECULAR: u32 = 128;
     pub const MATERIAL_OCCLUSION: u32 = 256;
+    pub const BLEND_LAYER: u32 = 512;
 }
 
 /// GPU memory of the PC tier by what it scales with.
@@ -230,7 +231,7 @@ impl PcPipelines {
         }
         let trace_layout = layout("pc/trace.layout0", &entries);
         let mut entries = vec![uniform_entry(0)];
-        for binding in 8..=27 {
+        for binding in 8..=28 {
             let written = matches!(binding, 16 | 18 | 19 | 22 | 24 | 25);
             entries.push(storage_entry(binding, !written));
         }
@@ -539,6 +540,7 @@ impl PcTier {
             (self.config.specular.traced, flags::SPECULAR),
             (self.config.specular.reuse_diffuse, flags::REUSE_SPECULAR),
             (self.config.material_occlusion, flags::MATERIAL_OCCLUSION),
+            (self.gbuffer.has_blend_layer(), flags::BLEND_LAYER),
         ] {
             if on {
                 bits |= bit;
@@ -606,6 +608,7 @@ impl PcTier {
             seed,
             &self.settings.textures,
         )?;
+        self.gbuffer.prepare_layers(&self.ctx, &state.scene);
         let buffers = PcBuffers::new(
             &self.ctx,
             size,
@@ -687,6 +690,7 @@ impl PcTier {
                 &b.specular_history[cur],
                 &b.specular_history[prev],
                 self.gbuffer.output("gbuffer.emissive"),
+                self.gbuffer.output("gbuffer.blend_layer"),
             ],
         ));
         self.ctx

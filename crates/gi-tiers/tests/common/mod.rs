@@ -98,3 +98,89 @@ pub fn check_occlusion_scaling(
     );
     lit
 }
+
+/// The open ground of [`open_ground`] seen from `camera`, with a black, double-sided alpha-`BLEND`
+/// square of `alpha` floating half a meter in front of the camera across its view's center.
+/// Returns the scene and the frame index of the square's first triangle.
+pub fn ground_behind_glass(camera: &gi_scene::CameraView, alpha: f32) -> (Scene, usize) {
+    let mut scene = open_ground("glass-over-ground", 20.0, 0.5);
+    let first = scene.evaluate(0.0, Some(*camera)).triangles.len();
+    scene.add_diffuse_quad(
+        camera.position + camera.forward * 0.5,
+        camera.right * 0.1,
+        camera.up * 0.1,
+        0.0,
+    );
+    let glass = scene.materials.last_mut().expect("the square's material");
+    glass.alpha_mode = gi_scene::AlphaMode::Blend;
+    glass.base_color.w = alpha;
+    glass.double_sided = true;
+    (scene, first)
+}
+
+/// Checks the GI term `gi` of [`ground_behind_glass`] at alpha one half against `clear`, the
+/// same view with alpha 0 (the glass passes every ray): behind the black glass the GI is half
+/// the ground's (the glass's own GI is black), give or take the light the glass takes from the
+/// ground, and as smooth as the GI behind it: from one pixel to the next it changes relatively
+/// little more than `clear` does there (its noise), where a hashed dither of black glass and
+/// ground would change by about its own size. Returns the covered pixels.
+pub fn check_glass_blends(
+    scene: &Scene,
+    first_glass_triangle: usize,
+    camera: &gi_scene::CameraView,
+    gi: &gi_image::Image,
+    clear: &gi_image::Image,
+) -> usize {
+    let frame = scene.evaluate(0.0, Some(*camera));
+    let bvh = gi_scene::SceneBvh::build(&frame.triangles);
+    let (width, height) = (gi.width, gi.height);
+    let covered = |x: u32, y: u32| {
+        let u = (x as f32 + 0.5) / width as f32;
+        let v = (y as f32 + 0.5) / height as f32;
+        let dir = camera.ray_direction(u, v, width as f32 / height as f32);
+        bvh.closest_hit(&frame.triangles, camera.position, dir, 0.0, f32::INFINITY)
+            .is_some_and(|hit| hit.triangle as usize >= first_glass_triangle)
+    };
+    let luminance = |image: &gi_image::Image, x: u32, y: u32| {
+        f64::from(image.pixels[(y * width + x) as usize].element_sum()) / 3.0
+    };
+    let (mut count, mut blended, mut behind) = (0, 0.0, 0.0);
+    let (mut steps, mut step_sum, mut clear_step_sum) = (0, 0.0, 0.0);
+    for y in 0..height {
+        for x in 0..width {
+            if !covered(x, y) {
+                continue;
+            }
+            count += 1;
+            blended += luminance(gi, x, y);
+            behind += luminance(clear, x, y);
+            if x + 1 < width && covered(x + 1, y) {
+                steps += 1;
+                step_sum += (luminance(gi, x + 1, y) - luminance(gi, x, y)).abs();
+                clear_step_sum += (luminance(clear, x + 1, y) - luminance(clear, x, y)).abs();
+            }
+        }
+    }
+    assert!(
+        count > 20 && steps > 10,
+        "the glass covers only {count} pixels"
+    );
+    let (blended, behind) = (blended / count as f64, behind / count as f64);
+    let ratio = blended / behind;
+    let step = step_sum / steps as f64 / blended;
+    let clear_step = clear_step_sum / steps as f64 / behind;
+    println!(
+        "glass: GI {blended:.4} behind it {behind:.4} (ratio {ratio:.3}), mean step {step:.4} of \
+         it, {clear_step:.4} without the glass"
+    );
+    assert!(
+        (0.42..=0.52).contains(&ratio),
+        "GI behind the glass {blended} against {behind}"
+    );
+    assert!(
+        step <= 1.5 * clear_step + 0.01,
+        "the GI behind the glass varies by {step} of itself between neighbours, {clear_step} \
+         without the glass"
+    );
+    count
+}
