@@ -27,7 +27,7 @@
 #import gi::brdf::{ViewedBrdf, brdf_seen_from, viewed_eval, viewed_pdf, viewed_sample, is_finite}
 #import gi::bvh::{Ray, Hit, trace_closest, trace_any, BVH_MISS}
 #import gi::camera::{Camera, camera_ray}
-#import gi::scene::{triangles, selection, lights, emission, geometric_normal, material_of, tex_coords, mapped_normal, material_brdf, normalize_or, orient_shading_normal}
+#import gi::scene::{triangles, selection, lights, emission, geometric_normal, material_of, tex_coords, mapped_normal, material_brdf, normalize_or, orient_shading_normal, material_alpha, set_blend_policy, BLEND_HASHED, BLEND_PASS, BLEND_OPAQUE, ALPHA_BLEND}
 #import gi::lights::{LIGHT_DIRECTIONAL, Sky, light_incident, sky_radiance, sample_emitter}
 
 const RUSSIAN_ROULETTE_START: u32 = 3u;
@@ -234,6 +234,32 @@ fn sample_sky(s: Surface, x: vec3<f32>, sampler: ptr<function, Sampler>) -> vec3
 // Radiance along one camera ray, as the reference's `direct_radiance` or `path_radiance`.
 fn radiance(camera_origin: vec3<f32>, camera_dir: vec3<f32>, sampler: ptr<function, Sampler>) -> vec3<f32> {
 #ifdef DIRECT_ONLY
+#ifdef BLEND_LAYER
+    // The real-time tiers' direct light sees the nearest alpha-`BLEND` surface as their G-buffer
+    // does: a layer over the surface behind it, blended by its alpha (the hashed rule would
+    // leave the binomial noise of the few samples a pixel gets).
+    set_blend_policy(BLEND_OPAQUE);
+    let front = closest(camera_origin, camera_dir);
+    set_blend_policy(BLEND_HASHED);
+    if front.triangle != BVH_MISS {
+        let material = material_of(front.triangle, uniforms.default_material);
+        if material.alpha_mode == ALPHA_BLEND {
+            let b = front.barycentrics;
+            let alpha = clamp(material_alpha(material, tex_coords(front.triangle, vec3(1.0 - b.x - b.y, b.x, b.y), 0.0)), 0.0, 1.0);
+            let s = surface_at(camera_dir, front.triangle, b);
+            let layer = s.emitted + punctual_lights(s, offset_origin(s.p, s.ng));
+            set_blend_policy(BLEND_PASS);
+            let hit = closest(camera_origin, camera_dir);
+            set_blend_policy(BLEND_HASHED);
+            var behind = sky_radiance(sky(), camera_dir);
+            if hit.triangle != BVH_MISS {
+                let t = surface_at(camera_dir, hit.triangle, hit.barycentrics);
+                behind = t.emitted + punctual_lights(t, offset_origin(t.p, t.ng));
+            }
+            return mix(behind, layer, alpha);
+        }
+    }
+#endif
     let hit = closest(camera_origin, camera_dir);
     if hit.triangle == BVH_MISS {
         return sky_radiance(sky(), camera_dir);

@@ -281,9 +281,10 @@ fn blended_glass_is_composited_over_the_gi_behind_it() {
     };
     drop(ctx);
     let camera = CameraView::look_at(Vec3::new(0.0, 3.0, 3.0), Vec3::ZERO, 0.9);
-    let gi = |alpha: f32| {
+    // The GI term and the direct light (the image less the GI) of the last frame.
+    let render = |alpha: f32| {
         let (scene, first) = ground_behind_glass(&camera, alpha);
-        let tier = run(
+        let mut tier = run(
             GpuContext::new().unwrap(),
             &scene,
             idle_cache(PcConfig::default()),
@@ -291,11 +292,38 @@ fn blended_glass_is_composited_over_the_gi_behind_it() {
             4,
             Some(camera),
         );
-        (scene, first, tier.frame_data().unwrap().gi)
+        let frame = scene.evaluate(0.0, Some(camera));
+        let image = tier
+            .render(&FrameInput {
+                scene: &scene,
+                frame: &frame,
+                index: 4,
+                progress: None,
+            })
+            .unwrap()
+            .image;
+        let gi = tier.frame_data().unwrap().gi;
+        let direct = gi_image::Image {
+            width: gi.width,
+            height: gi.height,
+            pixels: image
+                .pixels
+                .iter()
+                .zip(&gi.pixels)
+                .map(|(o, g)| *o - *g)
+                .collect(),
+        };
+        (scene, first, gi, direct)
     };
-    let (_, _, clear) = gi(0.0);
-    let (scene, first, half) = gi(0.5);
-    check_glass_blends(&scene, first, &camera, &half, &clear);
+    let (_, _, clear_gi, clear_direct) = render(0.0);
+    let (scene, first, gi, direct) = render(0.5);
+    check_glass_blends(&scene, first, &camera, ("GI", &gi, &clear_gi));
+    check_glass_blends(
+        &scene,
+        first,
+        &camera,
+        ("direct light", &direct, &clear_direct),
+    );
 }
 
 /// A black ground of half-size `half_m` under a black sky: what lights it, the test adds.

@@ -124,16 +124,32 @@ impl PathPipelines {
     /// The pipelines of `tier` (`"path"` or `"direct"`, which compiles `DIRECT_ONLY`), labeled
     /// `<tier>/trace` and `<tier>/resolve` like the timer scopes of their passes.
     pub(crate) fn new(ctx: &GpuContext, tier: &'static str) -> Result<Self, GpuError> {
+        Self::with_blend_layer(ctx, tier, false)
+    }
+
+    /// The direct-light pipelines of the real-time tiers (`"direct"` labels): as the direct
+    /// tier's, except that a camera ray meeting an alpha-`BLEND` surface blends the light of
+    /// that surface and of the one behind it by its alpha (`BLEND_LAYER`), as their G-buffer
+    /// and GI see it, instead of passing it by the hashed rule.
+    pub(crate) fn real_time_direct(ctx: &GpuContext) -> Result<Self, GpuError> {
+        Self::with_blend_layer(ctx, "direct", true)
+    }
+
+    fn with_blend_layer(
+        ctx: &GpuContext,
+        tier: &'static str,
+        blend_layer: bool,
+    ) -> Result<Self, GpuError> {
         let direct_only = tier == "direct";
         let shaders = ShaderLibrary::new();
-        let defs: &[(&str, ShaderDefValue)] = if direct_only {
-            &[
-                ("DIRECT_ONLY", ShaderDefValue::Bool(true)),
-                gi_gpu::ALPHA_TEST,
-            ]
-        } else {
-            &[gi_gpu::ALPHA_TEST]
-        };
+        let mut defs = vec![gi_gpu::ALPHA_TEST];
+        if direct_only {
+            defs.push(("DIRECT_ONLY", ShaderDefValue::Bool(true)));
+        }
+        if blend_layer {
+            defs.push(("BLEND_LAYER", ShaderDefValue::Bool(true)));
+        }
+        let defs = defs.as_slice();
         let trace = shaders.create_module(ctx, "path/trace.wgsl", defs)?;
         let resolve = shaders.create_module(ctx, "path/resolve.wgsl", &[])?;
         // An explicit layout: the BVH's bind group is made with `GpuBvh::bind_group_layout`,

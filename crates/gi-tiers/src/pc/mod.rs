@@ -420,7 +420,7 @@ impl PcTier {
         config.validate().map_err(unavailable)?;
         let shaders = ShaderLibrary::new();
         let gpu = |e: GpuError| unavailable(e.to_string());
-        let direct_pipelines = PathPipelines::new(&ctx, "direct").map_err(gpu)?;
+        let direct_pipelines = PathPipelines::real_time_direct(&ctx).map_err(gpu)?;
         let gbuffer = GBuffer::new(&ctx, &shaders, settings.width, settings.height).map_err(gpu)?;
         let mut cache =
             RadianceCache::new(&ctx, &config.cache).map_err(|e| unavailable(e.to_string()))?;

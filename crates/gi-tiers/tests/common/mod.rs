@@ -99,11 +99,23 @@ pub fn check_occlusion_scaling(
     lit
 }
 
-/// The open ground of [`open_ground`] seen from `camera`, with a black, double-sided alpha-`BLEND`
-/// square of `alpha` floating half a meter in front of the camera across its view's center.
-/// Returns the scene and the frame index of the square's first triangle.
+/// The open ground of [`open_ground`] under a sun, seen from `camera`, with a black, double-sided
+/// alpha-`BLEND` square of `alpha` floating half a meter in front of the camera across its
+/// view's center. Returns the scene and the frame index of the square's first triangle.
 pub fn ground_behind_glass(camera: &gi_scene::CameraView, alpha: f32) -> (Scene, usize) {
     let mut scene = open_ground("glass-over-ground", 20.0, 0.5);
+    scene.lights.push(gi_scene::Light {
+        name: "sun".into(),
+        kind: gi_scene::LightKind::Directional,
+        color: Vec3::ONE,
+        intensity: 3.0,
+        range: None,
+    });
+    scene.nodes.push(gi_scene::Node {
+        light: Some(scene.lights.len() - 1),
+        rotation: glam::Quat::from_rotation_x(-1.1),
+        ..gi_scene::Node::default()
+    });
     let first = scene.evaluate(0.0, Some(*camera)).triangles.len();
     scene.add_diffuse_quad(
         camera.position + camera.forward * 0.5,
@@ -118,28 +130,31 @@ pub fn ground_behind_glass(camera: &gi_scene::CameraView, alpha: f32) -> (Scene,
     (scene, first)
 }
 
-/// Checks the GI term `gi` of [`ground_behind_glass`] at alpha one half against `clear`, the
-/// same view with alpha 0 (the glass passes every ray): behind the black glass the GI is half
-/// the ground's (the glass's own GI is black), give or take the light the glass takes from the
-/// ground, and as smooth as the GI behind it: from one pixel to the next it changes relatively
-/// little more than `clear` does there (its noise), where a hashed dither of black glass and
-/// ground would change by about its own size. Returns the covered pixels.
+/// Checks an image of [`ground_behind_glass`] at alpha one half (`what`: the GI term or the
+/// direct light) against `clear`, the same view with alpha 0 (the glass passes every ray):
+/// behind the black glass it is half the ground's, give or take the light the glass takes from
+/// the ground, and as smooth as without the glass: from one pixel to the next it changes
+/// relatively little more than `clear` does there (its noise), where a hashed dither of black
+/// glass and ground would change by about its own size. Returns the covered pixels.
 pub fn check_glass_blends(
     scene: &Scene,
     first_glass_triangle: usize,
     camera: &gi_scene::CameraView,
-    gi: &gi_image::Image,
-    clear: &gi_image::Image,
+    (what, image, clear): (&str, &gi_image::Image, &gi_image::Image),
 ) -> usize {
     let frame = scene.evaluate(0.0, Some(*camera));
     let bvh = gi_scene::SceneBvh::build(&frame.triangles);
-    let (width, height) = (gi.width, gi.height);
+    let (width, height) = (image.width, image.height);
+    // Pixels the glass covers whole (all four corners): at its edges the direct light's
+    // jittered rays see both glass and ground, which is anti-aliasing, not dither.
     let covered = |x: u32, y: u32| {
-        let u = (x as f32 + 0.5) / width as f32;
-        let v = (y as f32 + 0.5) / height as f32;
-        let dir = camera.ray_direction(u, v, width as f32 / height as f32);
-        bvh.closest_hit(&frame.triangles, camera.position, dir, 0.0, f32::INFINITY)
-            .is_some_and(|hit| hit.triangle as usize >= first_glass_triangle)
+        [(0, 0), (1, 0), (0, 1), (1, 1)].iter().all(|&(dx, dy)| {
+            let u = (x + dx) as f32 / width as f32;
+            let v = (y + dy) as f32 / height as f32;
+            let dir = camera.ray_direction(u, v, width as f32 / height as f32);
+            bvh.closest_hit(&frame.triangles, camera.position, dir, 0.0, f32::INFINITY)
+                .is_some_and(|hit| hit.triangle as usize >= first_glass_triangle)
+        })
     };
     let luminance = |image: &gi_image::Image, x: u32, y: u32| {
         f64::from(image.pixels[(y * width + x) as usize].element_sum()) / 3.0
@@ -152,11 +167,11 @@ pub fn check_glass_blends(
                 continue;
             }
             count += 1;
-            blended += luminance(gi, x, y);
+            blended += luminance(image, x, y);
             behind += luminance(clear, x, y);
             if x + 1 < width && covered(x + 1, y) {
                 steps += 1;
-                step_sum += (luminance(gi, x + 1, y) - luminance(gi, x, y)).abs();
+                step_sum += (luminance(image, x + 1, y) - luminance(image, x, y)).abs();
                 clear_step_sum += (luminance(clear, x + 1, y) - luminance(clear, x, y)).abs();
             }
         }
@@ -170,17 +185,17 @@ pub fn check_glass_blends(
     let step = step_sum / steps as f64 / blended;
     let clear_step = clear_step_sum / steps as f64 / behind;
     println!(
-        "glass: GI {blended:.4} behind it {behind:.4} (ratio {ratio:.3}), mean step {step:.4} of \
-         it, {clear_step:.4} without the glass"
+        "glass, {what}: {blended:.4} behind it {behind:.4} (ratio {ratio:.3}), mean step \
+         {step:.4} of it, {clear_step:.4} without the glass"
     );
     assert!(
         (0.42..=0.52).contains(&ratio),
-        "GI behind the glass {blended} against {behind}"
+        "{what} behind the glass {blended} against {behind}"
     );
     assert!(
         step <= 1.5 * clear_step + 0.01,
-        "the GI behind the glass varies by {step} of itself between neighbours, {clear_step} \
-         without the glass"
+        "the {what} behind the glass varies by {step} of itself between neighbours, \
+         {clear_step} without the glass"
     );
     count
 }
