@@ -18,8 +18,8 @@
 // Bind group 0: uniforms, the scene (`gi_gpu::GpuScene`, declared in `path/scene.wgsl`), the
 // per-node motion transforms, the outputs. Bind group 1: the BVH (`gi_gpu::bvh::GpuBvh`).
 
-#import gi::bvh::{Ray, trace_closest, BVH_MISS}
-#import gi::scene::{triangles, sample_texture, emission, material_occlusion, material_brdf, material_alpha, set_blend_policy, BLEND_PASS, BLEND_OPAQUE, ALPHA_BLEND, dielectric_specular, geometric_normal, material_of, tex_coords, cone_footprint, mapped_normal, normalize_or, orient_shading_normal}
+#import gi::bvh::{Ray, Hit, trace_closest, BVH_MISS}
+#import gi::scene::{triangles, sample_texture, emission, material_occlusion, material_brdf, material_alpha, set_blend_policy, BLEND_PASS, BLEND_OPAQUE, ALPHA_BLEND, Material, dielectric_specular, geometric_normal, material_of, tex_coords, cone_footprint, mapped_normal, normalize_or, orient_shading_normal}
 #import gi::packing::pack_unit_vector
 #import gi::brdf::{pack_dielectric_specular, brdf_split_sum_albedos}
 #import gi::camera::{Camera, camera_ray, camera_project}
@@ -65,19 +65,9 @@ struct GBufferUniforms {
 // as bits) and its alpha.
 @group(0) @binding(16) var<storage, read_write> blend_layer: array<vec4<f32>>;
 
-// The nearest alpha-`BLEND` surface along the camera ray before `t_max` (`blend_layer`'s
-// entry), for a ray whose cone spreads by `spread` per unit of distance. One layer: blended
-// surfaces behind the first are seen through, as if absent.
-fn find_blend_layer(origin: vec3<f32>, dir: vec3<f32>, t_max: f32, spread: f32) -> vec4<f32> {
-    set_blend_policy(BLEND_OPAQUE);
-    let hit = trace_closest(Ray(origin, 0.0, dir, t_max));
-    if hit.triangle == BVH_MISS {
-        return vec4<f32>(0.0);
-    }
-    let material = material_of(hit.triangle, uniforms.default_material);
-    if material.alpha_mode != ALPHA_BLEND {
-        return vec4<f32>(0.0);
-    }
+// `blend_layer`'s entry for `hit`, an alpha-`BLEND` surface of `material` along the camera
+// ray `dir`, whose cone spreads by `spread` per unit of distance.
+fn blend_layer_entry(hit: Hit, material: Material, dir: vec3<f32>, spread: f32) -> vec4<f32> {
     let tri = triangles[hit.triangle];
     let b = vec3(1.0 - hit.barycentrics.x - hit.barycentrics.y, hit.barycentrics.x, hit.barycentrics.y);
     let wo = -dir;
@@ -109,14 +99,24 @@ fn primary(@builtin(global_invocation_id) id: vec3<u32>) {
     let camera = uniforms.camera;
     let dir = camera_ray(camera, center / vec2<f32>(size));
     // With blended surfaces, the G-buffer holds the surface behind them, and the nearest
-    // blended layer in front of it is found apart (`blend_layer`).
+    // blended layer in front of it goes to `blend_layer`. The first ray stops at blended
+    // surfaces; only when it stops at one does a second ray pass them (all of them: one layer).
+    var hit: Hit;
     if uniforms.blend_layer_on != 0u {
-        set_blend_policy(BLEND_PASS);
-    }
-    let hit = trace_closest(Ray(camera.position, 0.0, dir, FAR));
-    if uniforms.blend_layer_on != 0u {
-        let behind = select(hit.t, FAR, hit.triangle == BVH_MISS);
-        blend_layer[pixel] = find_blend_layer(camera.position, dir, behind, 2.0 * camera.tan_half_fov / f32(size.y));
+        set_blend_policy(BLEND_OPAQUE);
+        hit = trace_closest(Ray(camera.position, 0.0, dir, FAR));
+        var layer = vec4<f32>(0.0);
+        if hit.triangle != BVH_MISS {
+            let front = material_of(hit.triangle, uniforms.default_material);
+            if front.alpha_mode == ALPHA_BLEND {
+                layer = blend_layer_entry(hit, front, dir, 2.0 * camera.tan_half_fov / f32(size.y));
+                set_blend_policy(BLEND_PASS);
+                hit = trace_closest(Ray(camera.position, 0.0, dir, FAR));
+            }
+        }
+        blend_layer[pixel] = layer;
+    } else {
+        hit = trace_closest(Ray(camera.position, 0.0, dir, FAR));
     }
     triangle_id[pixel] = hit.triangle;
     if hit.triangle == BVH_MISS {

@@ -237,35 +237,41 @@ fn radiance(camera_origin: vec3<f32>, camera_dir: vec3<f32>, sampler: ptr<functi
 #ifdef BLEND_LAYER
     // The real-time tiers' direct light sees the nearest alpha-`BLEND` surface as their G-buffer
     // does: a layer over the surface behind it, blended by its alpha (the hashed rule would
-    // leave the binomial noise of the few samples a pixel gets).
+    // leave the binomial noise of the few samples a pixel gets). Blended surfaces stop the first
+    // ray; when it stops at another surface, nothing blended lies in front, and that is the hit
+    // the hashed rule gives too.
     set_blend_policy(BLEND_OPAQUE);
     let front = closest(camera_origin, camera_dir);
     set_blend_policy(BLEND_HASHED);
-    if front.triangle != BVH_MISS {
-        let material = material_of(front.triangle, uniforms.default_material);
-        if material.alpha_mode == ALPHA_BLEND {
-            let b = front.barycentrics;
-            let alpha = clamp(material_alpha(material, tex_coords(front.triangle, vec3(1.0 - b.x - b.y, b.x, b.y), 0.0)), 0.0, 1.0);
-            let s = surface_at(camera_dir, front.triangle, b);
-            let layer = s.emitted + punctual_lights(s, offset_origin(s.p, s.ng));
-            set_blend_policy(BLEND_PASS);
-            let hit = closest(camera_origin, camera_dir);
-            set_blend_policy(BLEND_HASHED);
-            var behind = sky_radiance(sky(), camera_dir);
-            if hit.triangle != BVH_MISS {
-                let t = surface_at(camera_dir, hit.triangle, hit.barycentrics);
-                behind = t.emitted + punctual_lights(t, offset_origin(t.p, t.ng));
-            }
-            return mix(behind, layer, alpha);
-        }
+    if front.triangle == BVH_MISS {
+        return sky_radiance(sky(), camera_dir);
     }
-#endif
+    let s = surface_at(camera_dir, front.triangle, front.barycentrics);
+    let lit = s.emitted + punctual_lights(s, offset_origin(s.p, s.ng));
+    let material = material_of(front.triangle, uniforms.default_material);
+    if material.alpha_mode != ALPHA_BLEND {
+        return lit;
+    }
+    let b = front.barycentrics;
+    let alpha = clamp(material_alpha(material, tex_coords(front.triangle, vec3(1.0 - b.x - b.y, b.x, b.y), 0.0)), 0.0, 1.0);
+    // Behind it, every blended surface is passed: one layer, as in the G-buffer.
+    set_blend_policy(BLEND_PASS);
+    let hit = closest(camera_origin, camera_dir);
+    set_blend_policy(BLEND_HASHED);
+    var behind = sky_radiance(sky(), camera_dir);
+    if hit.triangle != BVH_MISS {
+        let t = surface_at(camera_dir, hit.triangle, hit.barycentrics);
+        behind = t.emitted + punctual_lights(t, offset_origin(t.p, t.ng));
+    }
+    return mix(behind, lit, alpha);
+#else
     let hit = closest(camera_origin, camera_dir);
     if hit.triangle == BVH_MISS {
         return sky_radiance(sky(), camera_dir);
     }
     let s = surface_at(camera_dir, hit.triangle, hit.barycentrics);
     return s.emitted + punctual_lights(s, offset_origin(s.p, s.ng));
+#endif
 #else
     let sky_emits = uniforms.sky_emits != 0u;
     var origin = camera_origin;
