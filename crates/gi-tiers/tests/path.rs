@@ -27,11 +27,13 @@ fn settings(spp: u32) -> TierSettings {
     }
 }
 
-/// A scene, the camera it is seen through (`None`: its default camera) and the image size.
+/// A scene, the camera it is seen through (`None`: its default camera), the image size and the
+/// scene time of the frame.
 struct Case {
     scene: Scene,
     camera: Option<CameraView>,
     size: (u32, u32),
+    time_s: f32,
 }
 
 impl Case {
@@ -40,6 +42,7 @@ impl Case {
             scene: gi_scene::load(name).unwrap(),
             camera: None,
             size: (WIDTH, HEIGHT),
+            time_s: 0.0,
         }
     }
 
@@ -60,7 +63,7 @@ impl Case {
     }
 
     fn frame(&self) -> SceneFrame {
-        self.scene.evaluate(0.0, self.camera)
+        self.scene.evaluate(self.time_s, self.camera)
     }
 }
 
@@ -260,6 +263,23 @@ fn path_on_the_gpu_matches_the_reference_with_normal_maps_alpha_and_texture_tran
     path_matches_reference("real content", real_content(), 8);
 }
 
+#[test]
+fn path_on_the_gpu_matches_the_reference_on_a_bent_skinned_arm() {
+    // Half way to the bend: the elbow turned by 45 degrees, so the arm's world-space level
+    // holds skinned, deformed triangles.
+    let case = Case {
+        scene: gi_scene::generate::skinned_arm(),
+        camera: Some(CameraView::look_at(
+            Vec3::new(0.5, 1.5, 4.0),
+            Vec3::new(0.0, 1.2, 0.0),
+            0.9,
+        )),
+        size: (WIDTH, HEIGHT),
+        time_s: 0.5 * gi_scene::generate::ARM_BENT_TIME_S,
+    };
+    path_matches_reference("skinned arm", case, 8);
+}
+
 /// A thousand samples per pixel in one frame, as `gi render --spp 1024` asks: more loop
 /// iterations per invocation than lavapipe runs (it stops an invocation's loops after 65,535)
 /// and, at a larger size, longer than a desktop GPU's watchdog allows one dispatch. The tier
@@ -324,6 +344,7 @@ fn a_scene_that_outruns_the_cost_estimate_still_matches_the_reference() {
             0.9,
         )),
         size: (8, 8),
+        time_s: 0.0,
     };
     path_matches_reference("stacked-wall", case, 16);
 }
@@ -547,6 +568,7 @@ fn textured() -> Case {
             0.9,
         )),
         size: (WIDTH, HEIGHT),
+        time_s: 0.0,
     }
 }
 
@@ -707,5 +729,6 @@ fn real_content() -> Case {
             0.9,
         )),
         size: (WIDTH, HEIGHT),
+        time_s: 0.0,
     }
 }
