@@ -211,15 +211,7 @@ impl GpuBvh {
         };
         self.deform_seconds = start.elapsed().as_secs_f64();
         if grown {
-            self.bind_group = Self::bind_group(
-                ctx,
-                [
-                    &self.nodes,
-                    &self.triangles,
-                    &self.top_nodes,
-                    &self.instances,
-                ],
-            );
+            self.rebind(ctx);
         }
         let top = self.levels.top_level(&frame.world_from_node)?;
         self.write_top(ctx, top)?;
@@ -325,6 +317,19 @@ impl GpuBvh {
         self.write_header(ctx, self.header.instance_count);
     }
 
+    /// Makes the bind group again over the current buffers (after one was replaced).
+    fn rebind(&mut self, ctx: &GpuContext) {
+        self.bind_group = Self::bind_group(
+            ctx,
+            [
+                &self.nodes,
+                &self.triangles,
+                &self.top_nodes,
+                &self.instances,
+            ],
+        );
+    }
+
     fn write_top(&mut self, ctx: &GpuContext, top: TopLevel) -> Result<(), BvhError> {
         let start = Instant::now();
         let limit = ctx.limits.max_storage_buffer_binding_size;
@@ -349,15 +354,7 @@ impl GpuBvh {
             grown = true;
         }
         if grown {
-            self.bind_group = Self::bind_group(
-                ctx,
-                [
-                    &self.nodes,
-                    &self.triangles,
-                    &self.top_nodes,
-                    &self.instances,
-                ],
-            );
+            self.rebind(ctx);
         }
         ctx.queue.write_buffer(&self.top_nodes, 0, node_bytes);
         ctx.queue
