@@ -121,6 +121,10 @@ enum Command {
         /// Override of the level-0 voxel edge in meters.
         #[arg(long)]
         voxel_size: Option<f32>,
+        /// Override of the triangle list entries binning scans per frame
+        /// (`voxelize_scan_per_frame`).
+        #[arg(long)]
+        voxelize_scan: Option<u32>,
         /// Also ray-cast a G-buffer each frame and correct visible bricks from it
         /// (`cache/screen_inject`).
         #[arg(long)]
@@ -345,6 +349,7 @@ fn main() -> anyhow::Result<()> {
             pool_bricks,
             levels,
             voxel_size,
+            voxelize_scan,
             screen_inject,
             size,
             json,
@@ -356,6 +361,7 @@ fn main() -> anyhow::Result<()> {
                 // Fewer levels than the default near field keep every level near.
                 near_levels: defaults.near_levels.min(levels.unwrap_or(defaults.levels)),
                 voxel_size_m: voxel_size.unwrap_or(defaults.voxel_size_m),
+                voxelize_scan_per_frame: voxelize_scan.unwrap_or(defaults.voxelize_scan_per_frame),
                 ..defaults
             };
             let options = cache_update::CacheUpdateOptions {

@@ -51,6 +51,48 @@ const NORMAL_CANCEL_FRACTION: f32 = 0.5;
 
 var<workgroup> occupancy: array<atomic<u32>, 2>;
 
+// Triangles are read in chunks of 64, one per thread: each thread loads its triangle once and
+// stores the range of the brick's voxels its bounds can touch, so a voxel's thread runs the
+// exact tests only on the triangles near it instead of loading every triangle of the brick
+// (a coarse brick can list tens of thousands). The range is conservative by half a voxel, so
+// every voxel the exact test accepts is inside it, and the voxel's thread still sees its
+// triangles in list order: the results are those of testing every triangle.
+const CHUNK: u32 = 64u;
+// A chunk entry's range: lo.xyz in bits 0..6, hi.xyz in bits 6..12 (2 bits per axis);
+// NO_VOXELS when the triangle touches none of the brick's voxels or the slot is past the list.
+const NO_VOXELS: u32 = 0xffffffffu;
+var<workgroup> chunk_ranges: array<u32, 64>;
+
+// Loads chunk `chunk` of `job`'s list: slot `slot` (this thread's) gets its triangle's voxel
+// range within the brick whose lowest corner is `origin`.
+fn load_chunk(job: VoxelizeJob, chunk: u32, slot: u32, origin: vec3<f32>, voxel_size: f32) {
+    let i = chunk * CHUNK + slot;
+    var range = NO_VOXELS;
+    if i < job.triangle_count {
+        let tri = triangles[brick_triangles[job.first_triangle + i] & ~TRIANGLE_DYNAMIC_BIT];
+        let lo = (min(min(tri.pa.xyz, tri.pb.xyz), tri.pc.xyz) - origin) / voxel_size;
+        let hi = (max(max(tri.pa.xyz, tri.pb.xyz), tri.pc.xyz) - origin) / voxel_size;
+        let first = floor(lo - 0.5);
+        let last = floor(hi + 0.5);
+        if all(last >= vec3(0.0)) && all(first <= vec3(3.0)) {
+            let a = vec3<u32>(clamp(first, vec3(0.0), vec3(3.0)));
+            let b = vec3<u32>(clamp(last, vec3(0.0), vec3(3.0)));
+            range = a.x | (a.y << 2u) | (a.z << 4u) | (b.x << 6u) | (b.y << 8u) | (b.z << 10u);
+        }
+    }
+    chunk_ranges[slot] = range;
+}
+
+// Whether voxel `cell` (0..3 per axis) lies in chunk entry `range`.
+fn in_range(range: u32, cell: vec3<u32>) -> bool {
+    if range == NO_VOXELS {
+        return false;
+    }
+    let lo = vec3(range & 3u, (range >> 2u) & 3u, (range >> 4u) & 3u);
+    let hi = vec3((range >> 6u) & 3u, (range >> 8u) & 3u, (range >> 10u) & 3u);
+    return all(cell >= lo) && all(cell <= hi);
+}
+
 // True when the axis separates the triangle (relative to the box center) from the box.
 fn separated_on(axis: vec3<f32>, v0: vec3<f32>, v1: vec3<f32>, v2: vec3<f32>, half: f32) -> bool {
     let p0 = dot(axis, v0);
@@ -242,8 +284,18 @@ fn voxelize(@builtin(workgroup_id) workgroup: vec3<u32>, @builtin(local_invocati
     var closest_distance_sq = 0.0;
     var closest_triangle = 0u;
     var closest_b = vec3(0.0);
-    for (var i = 0u; i < job.triangle_count; i++) {
-        let reference = brick_triangles[job.first_triangle + i];
+    let cell = cache_mask_cell(bit);
+    let origin = vec3<f32>(job.brick * 4) * voxel_size;
+    let chunks = (job.triangle_count + CHUNK - 1u) / CHUNK;
+    for (var chunk = 0u; chunk < chunks; chunk++) {
+    workgroupBarrier();
+    load_chunk(job, chunk, bit, origin, voxel_size);
+    workgroupBarrier();
+    for (var slot = 0u; slot < CHUNK; slot++) {
+        if !in_range(chunk_ranges[slot], cell) {
+            continue;
+        }
+        let reference = brick_triangles[job.first_triangle + chunk * CHUNK + slot];
         let index = reference & ~TRIANGLE_DYNAMIC_BIT;
         let tri = triangles[index];
         let a = tri.pa.xyz;
@@ -270,27 +322,34 @@ fn voxelize(@builtin(workgroup_id) workgroup: vec3<u32>, @builtin(local_invocati
             closest_b = w;
         }
     }
+    }
 
-    var surface = VoxelSurface(0u, 0u, 0u, 0u);
+    // The normal the projected areas are taken along (only voxels with geometry use it).
+    var normal = vec3(0.0, 0.0, 1.0);
     if found {
         let sum_length = length(area_sum);
-        var normal: vec3<f32>;
         if area_total > 0.0 && sum_length > NORMAL_CANCEL_FRACTION * area_total {
             normal = area_sum / sum_length;
         } else {
             normal = geometric_normal(triangles[closest_triangle]);
         }
-        // Second pass for the coverage and the emission: the clipped areas projected on the
-        // final normal.
-        var projected = 0.0;
-        var emitted = vec3(0.0);
-        for (var i = 0u; i < job.triangle_count; i++) {
-            let index = brick_triangles[job.first_triangle + i] & ~TRIANGLE_DYNAMIC_BIT;
+    }
+    // Projected area and emission: a second pass over the chunks, which every thread walks
+    // (their barriers need the whole workgroup); voxels without geometry test nothing.
+    var projected = 0.0;
+    var emitted = vec3(0.0);
+    for (var chunk = 0u; chunk < chunks; chunk++) {
+        workgroupBarrier();
+        load_chunk(job, chunk, bit, origin, voxel_size);
+        workgroupBarrier();
+        for (var slot = 0u; slot < CHUNK; slot++) {
+            if !found || !in_range(chunk_ranges[slot], cell) {
+                continue;
+            }
+            let index = brick_triangles[job.first_triangle + chunk * CHUNK + slot] & ~TRIANGLE_DYNAMIC_BIT;
             let tri = triangles[index];
             if triangle_box_overlap(tri.pa.xyz, tri.pb.xyz, tri.pc.xyz, center, half) {
                 let w = closest_point_barycentrics(tri.pa.xyz, tri.pb.xyz, tri.pc.xyz, center);
-                // Alpha-tested surfaces cover the voxel where they exist (sampled at the point
-                // closest to its center).
                 let area = abs(dot(clipped_area_vector(tri.pa.xyz, tri.pb.xyz, tri.pc.xyz, center, half), normal))
                     * surface_coverage(index, voxelize_uniforms.default_material, w);
                 projected += area;
@@ -300,6 +359,10 @@ fn voxelize(@builtin(workgroup_id) workgroup: vec3<u32>, @builtin(local_invocati
                 }
             }
         }
+    }
+
+    var surface = VoxelSurface(0u, 0u, 0u, 0u);
+    if found {
         let coverage = min(projected / (4.0 * half * half), 1.0);
         var box_bits = 0u;
         if all(box_lo <= box_hi) {

@@ -1,6 +1,8 @@
 //! [`RadianceCache`]: the cache's resources and its per-frame update.
 //!
 //! Each [`RadianceCache::update`]:
+//! 0. keeps its triangle index while the frame's geometry revision is the same (a static
+//!    scene's frames cost no pass over its triangles);
 //! 1. re-centers the level windows on the camera; bricks of the slabs that leave are released
 //!    (link cleared, ID freed), the slabs that enter are queued (toroidal addressing: nothing
 //!    else moves in memory);
@@ -9,7 +11,10 @@
 //!    joints does, even where its own transform stays put;
 //! 3. queues again bricks that were dropped for lack of pool, when IDs are free;
 //! 4. takes up to [`CacheConfig::voxelize_bricks_per_frame`] queued bricks, finer levels and
-//!    nearer bricks first, bins the frame's triangles to them, allocates IDs (evicting the
+//!    nearer bricks first, as long as binning them scans at most
+//!    [`CacheConfig::voxelize_scan_per_frame`] triangle list entries (the rest wait: a frame's
+//!    CPU and `cache/voxelize` work stay bounded where coarse bricks hold tens of thousands of
+//!    triangles), bins the frame's triangles to them, allocates IDs (evicting the
 //!    farthest brick of a coarser level when the pool is full), links them and records
 //!    `cache/voxelize`;
 //! 5. uploads the changed link and group-mask slots and the uniforms;
@@ -132,6 +137,10 @@ pub struct CacheUpdateStats {
     pub queued_dynamic: u32,
     /// Bricks voxelized (`cache/voxelize` workgroups).
     pub voxelized: u32,
+    /// Triangle list entries binning scanned for them ([`CacheConfig::voxelize_scan_per_frame`]).
+    pub scanned_triangles: u64,
+    /// Triangle references binned to them, which `cache/voxelize` reads.
+    pub voxelized_triangles: u64,
     /// Bricks of coarser levels evicted to make room for finer ones.
     pub evicted: u32,
     /// Bricks with geometry left unfilled because the pool was full.
@@ -186,6 +195,8 @@ pub struct RadianceCache {
     previous_world_from_node: Vec<Mat4>,
     /// World bounds of each node's triangles at the previous update.
     previous_node_bounds: Vec<Option<(Vec3, Vec3)>>,
+    /// The geometry revision those were taken from (0: none).
+    previous_revision: u64,
     /// The previous update's triangles and grids, reused while the triangles stand still.
     triangle_index: Option<TriangleIndex>,
     frame_index: u32,
@@ -246,6 +257,7 @@ impl RadianceCache {
             dropped: HashSet::new(),
             previous_world_from_node: Vec::new(),
             previous_node_bounds: Vec::new(),
+            previous_revision: 0,
             triangle_index: None,
             frame_index: 0,
             dropped_for_pool: 0,
@@ -390,9 +402,7 @@ impl RadianceCache {
         };
         let shifts = windows.recenter(&self.config, camera);
         stats.levels_moved = shifts.len() as u32;
-        let windows = windows.clone();
         for shift in shifts {
-            let window = windows.window(shift.level);
             for slab in &shift.leaving {
                 for brick in slab.bricks() {
                     if self.release(shift.level, brick) {
@@ -401,7 +411,7 @@ impl RadianceCache {
                 }
             }
             for slab in &shift.entering {
-                let bins = index.bin_region(shift.level, slab, &window);
+                let bins = index.bin_region(shift.level, slab);
                 for brick in bins.into_keys() {
                     stats.queued_entering += u32::from(self.enqueue(shift.level, brick));
                 }
@@ -418,7 +428,7 @@ impl RadianceCache {
         region: &BrickBox,
         window: &BrickBox,
     ) -> u32 {
-        let bins = index.bin_region(level, region, window);
+        let bins = index.bin_region(level, &region.intersection(window));
         bins.into_keys()
             .map(|brick| u32::from(self.enqueue(level, brick)))
             .sum()
@@ -456,6 +466,18 @@ impl RadianceCache {
         index: &mut TriangleIndex,
         stats: &mut CacheUpdateStats,
     ) {
+        // Nothing can have moved in the same geometry, and a scene without dynamic nodes has
+        // nothing to follow: both skip the pass over every triangle that the bounds take.
+        let revision = scene.frame.geometry_revision;
+        if revision != 0 && revision == self.previous_revision {
+            return;
+        }
+        if !scene.dynamic_node.contains(&true) {
+            self.previous_world_from_node.clear();
+            self.previous_node_bounds.clear();
+            self.previous_revision = 0;
+            return;
+        }
         let world = &scene.frame.world_from_node;
         let bounds = scene.node_bounds();
         let comparable = self.previous_world_from_node.len() == world.len()
@@ -491,6 +513,7 @@ impl RadianceCache {
         }
         self.previous_world_from_node = world.clone();
         self.previous_node_bounds = bounds;
+        self.previous_revision = revision;
     }
 
     /// Queues again, finest levels and nearest bricks first, as many bricks that lost their place
@@ -536,7 +559,35 @@ impl RadianceCache {
         self.queue
             .sort_by(|&a, &b| fill_order(config, camera, b, a));
         let take = (self.config.voxelize_bricks_per_frame as usize).min(self.queue.len());
-        let batch: Vec<(u32, IVec3)> = self.queue.split_off(self.queue.len() - take);
+        let mut batch: Vec<(u32, IVec3)> = self.queue.split_off(self.queue.len() - take);
+        // Nearest first, then within the scan budget: a cell's list is scanned once for all of
+        // its bricks taken, and bricks whose cell does not fit go back to the queue.
+        batch.reverse();
+        let budget = self.config.voxelize_scan_per_frame as usize;
+        let mut scanned = 0usize;
+        let mut cells_taken: HashSet<(u32, IVec3)> = HashSet::new();
+        let mut kept = Vec::with_capacity(batch.len());
+        let mut returned = Vec::new();
+        for (level, brick) in batch {
+            let cell = (level, index.cell_of(level, brick));
+            if cells_taken.contains(&cell) {
+                kept.push((level, brick));
+                continue;
+            }
+            let cost = index.scan_cost(level, brick);
+            if !cells_taken.is_empty() && scanned + cost > budget {
+                returned.push((level, brick));
+                continue;
+            }
+            scanned += cost;
+            cells_taken.insert(cell);
+            kept.push((level, brick));
+        }
+        stats.scanned_triangles = scanned as u64;
+        // The queue is sorted farthest first: the returned bricks go back to its end, nearest
+        // last, as they were.
+        self.queue.extend(returned.into_iter().rev());
+        let batch = kept;
         for entry in &batch {
             self.queued.remove(entry);
         }
@@ -546,14 +597,13 @@ impl RadianceCache {
         for level in 0..self.config.levels {
             let bricks: Vec<IVec3> = batch
                 .iter()
-                .rev()
                 .filter(|(l, _)| *l == level)
                 .map(|(_, b)| *b)
                 .collect();
             if bricks.is_empty() {
                 continue;
             }
-            let mut bins = index.bin_bricks(level, &bricks, &windows.window(level));
+            let mut bins = index.bin_bricks(level, &bricks);
             for brick in bricks {
                 let Some(triangles) = bins.remove(&brick) else {
                     if self.release(level, brick) {
@@ -590,6 +640,7 @@ impl RadianceCache {
             }
         }
         stats.voxelized = jobs.len() as u32;
+        stats.voxelized_triangles = jobs.iter().map(|job| job.triangles.len() as u64).sum();
         (jobs, new_bricks)
     }
 

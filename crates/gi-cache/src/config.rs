@@ -47,6 +47,12 @@ pub struct CacheConfig {
     /// Bricks voxelized per frame at most (the rest wait in a queue, nearest first).
     /// Higher values fill a new view faster at the cost of frame time spikes.
     pub voxelize_bricks_per_frame: u32,
+    /// Triangle list entries that binning scans per frame at most: the lists of the grid
+    /// cells holding the bricks taken ([`crate::binning::TriangleIndex`]). A brick's binned
+    /// triangles, which `cache/voxelize` reads, are among them, so this bounds the CPU's and
+    /// the GPU's work per frame where coarse bricks hold tens of thousands of triangles each;
+    /// the first cell of a frame is taken whatever its cost, so the fill always advances.
+    pub voxelize_scan_per_frame: u32,
     /// Visible resident bricks `cache/screen_inject` checks against the G-buffer per update at
     /// most, finer levels and nearer bricks first. Higher values correct stale occupancy and
     /// materials further out each frame at the cost of 64 threads per brick, each reading up to
@@ -100,6 +106,7 @@ impl Default for CacheConfig {
             level_bricks: [32, 16, 32],
             pool_bricks: 12288,
             voxelize_bricks_per_frame: 512,
+            voxelize_scan_per_frame: 65_536,
             screen_inject_bricks_per_frame: 2048,
             light_bricks_per_frame: 512,
             settle_bricks_per_frame: 1536,
@@ -168,6 +175,7 @@ impl CacheConfig {
         }
         for (field, value) in [
             ("voxelize_bricks_per_frame", self.voxelize_bricks_per_frame),
+            ("voxelize_scan_per_frame", self.voxelize_scan_per_frame),
             (
                 "screen_inject_bricks_per_frame",
                 self.screen_inject_bricks_per_frame,

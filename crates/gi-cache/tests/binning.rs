@@ -29,7 +29,7 @@ fn compare(name: &str, time: f32) {
     let frame = scene.evaluate(time, None);
     let config = CacheConfig::default();
     let cache_scene = CacheScene::new(&scene, &frame);
-    let mut index = TriangleIndex::new(&config, &cache_scene);
+    let index = TriangleIndex::new(&config, &cache_scene);
     let camera = frame.camera.position;
     let windows = ClipmapWindows::new(&config, camera);
     let mut moved = windows.clone();
@@ -42,7 +42,7 @@ fn compare(name: &str, time: f32) {
     let mut nonempty = 0;
     for level in 0..config.levels {
         let window = windows.window(level);
-        let bins = index.bin_region(level, &window, &window);
+        let bins = index.bin_region(level, &window);
         assert_eq!(
             bins,
             brute_force(&config, &cache_scene, level, &window),
@@ -52,7 +52,7 @@ fn compare(name: &str, time: f32) {
 
         let straddling = BrickBox::new(window.min - IVec3::new(3, 2, 5), UVec3::new(9, 7, 11));
         assert_eq!(
-            index.bin_region(level, &straddling, &window),
+            index.bin_region(level, &straddling),
             brute_force(&config, &cache_scene, level, &straddling),
             "{name} at {time}: level {level} region across the window edge"
         );
@@ -73,7 +73,7 @@ fn compare(name: &str, time: f32) {
             })
             .collect();
         assert_eq!(
-            index.bin_bricks(level, &bricks, &window),
+            index.bin_bricks(level, &bricks),
             expected,
             "{name} at {time}: level {level} single bricks"
         );
@@ -83,10 +83,9 @@ fn compare(name: &str, time: f32) {
         "{name}: only {nonempty} bricks hold geometry"
     );
     for shift in shifts {
-        let window = moved.window(shift.level);
         for slab in &shift.entering {
             assert_eq!(
-                index.bin_region(shift.level, slab, &window),
+                index.bin_region(shift.level, slab),
                 brute_force(&config, &cache_scene, shift.level, slab),
                 "{name} at {time}: level {} entering slab {slab:?}",
                 shift.level
@@ -116,17 +115,88 @@ fn update_follows_a_moved_triangle() {
     let mut frame = scene.evaluate(0.0, None);
     let window = ClipmapWindows::new(&config, frame.camera.position).window(level);
     let mut index = TriangleIndex::new(&config, &CacheScene::new(&scene, &frame));
-    let before = index.bin_region(level, &window, &window);
+    let before = index.bin_region(level, &window);
     // The same frame again: the same bins.
     index.update(&config, &CacheScene::new(&scene, &frame));
-    assert_eq!(index.bin_region(level, &window, &window), before);
+    assert_eq!(index.bin_region(level, &window), before);
     // Move the first triangle by a metre: the bins follow it.
     let offset = glam::Vec3A::new(0.0, 1.0, 0.0);
     let t = &mut frame.triangles[0];
     (t.v0, t.v1, t.v2) = (t.v0 + offset, t.v1 + offset, t.v2 + offset);
+    frame.geometry_changed();
     let moved = CacheScene::new(&scene, &frame);
     index.update(&config, &moved);
-    let after = index.bin_region(level, &window, &window);
+    let after = index.bin_region(level, &window);
     assert_ne!(after, before, "the moved triangle's bins did not change");
     assert_eq!(after, brute_force(&config, &moved, level, &window));
+}
+
+/// Triangles too large for the grid cells (a 20 km ground triangle under the scene, a long
+/// thin one crossing it) are binned from their level's separate list: the bins and their order
+/// are still the scan's.
+#[test]
+fn large_triangles_bin_like_a_scan() {
+    let scene = gi_scene::load("open-world").unwrap();
+    let mut frame = scene.evaluate(0.0, None);
+    let attributes = frame.attributes[0];
+    let tri = |a: [f32; 3], b: [f32; 3], c: [f32; 3]| obvhs::triangle::Triangle {
+        v0: a.into(),
+        v1: b.into(),
+        v2: c.into(),
+    };
+    // Inserted in the middle, so frame order puts them between gridded triangles.
+    let middle = frame.triangles.len() / 2;
+    // Through the finest window, about the camera.
+    let c = frame.camera.position;
+    let (y, z) = (c.y - 0.5, c.z + 0.3);
+    for (offset, t) in [
+        tri([-1e4, y, -1e4], [1e4, y, -1e4], [0.0, y, 1e4]),
+        tri(
+            [-3e3, y + 1.0, z],
+            [3e3, y + 1.2, z],
+            [3e3, y + 1.3, z + 0.05],
+        ),
+    ]
+    .into_iter()
+    .enumerate()
+    {
+        frame.triangles.insert(middle + offset, t);
+        frame.attributes.insert(middle + offset, attributes);
+    }
+    frame.geometry_changed();
+    let config = CacheConfig::default();
+    let cache_scene = CacheScene::new(&scene, &frame);
+    let index = TriangleIndex::new(&config, &cache_scene);
+    let windows = ClipmapWindows::new(&config, frame.camera.position);
+    for level in 0..config.levels {
+        let window = windows.window(level);
+        let bins = index.bin_region(level, &window);
+        let middle = middle as u32;
+        assert!(
+            bins.values().any(|list| list.contains(&middle)),
+            "level {level}: the ground triangle is in no bin"
+        );
+        assert_eq!(
+            bins,
+            brute_force(&config, &cache_scene, level, &window),
+            "level {level}"
+        );
+    }
+}
+
+/// A new evaluation of the same geometry (another revision, the same triangles) keeps the
+/// index's bins.
+#[test]
+fn a_new_revision_of_the_same_geometry_keeps_the_bins() {
+    let scene = gi_scene::load("cornell-box").unwrap();
+    let config = CacheConfig::default();
+    let first = scene.evaluate(0.0, None);
+    let second = scene.evaluate(0.0, None);
+    assert_ne!(first.geometry_revision, second.geometry_revision);
+    let window = ClipmapWindows::new(&config, first.camera.position).window(0);
+    let mut index = TriangleIndex::new(&config, &CacheScene::new(&scene, &first));
+    let before = index.bin_region(0, &window);
+    index.update(&config, &CacheScene::new(&scene, &second));
+    assert_eq!(index.bin_region(0, &window), before);
+    assert!(!before.is_empty());
 }

@@ -19,6 +19,7 @@ fn config() -> CacheConfig {
     CacheConfig {
         levels: 3,
         voxelize_bricks_per_frame: 100_000,
+        voxelize_scan_per_frame: u32::MAX,
         ..Default::default()
     }
 }

@@ -61,6 +61,7 @@ fn camera_move_keeps_staying_bricks_in_place() {
         level_bricks: [16, 8, 16],
         pool_bricks: 4096,
         voxelize_bricks_per_frame: 100_000,
+        voxelize_scan_per_frame: u32::MAX,
         ..Default::default()
     };
     let mut cache = RadianceCache::new(&ctx, &config).unwrap();
@@ -213,6 +214,7 @@ fn pool_exhaustion_keeps_the_finest_levels() {
         level_bricks: [16, 8, 16],
         pool_bricks: 300,
         voxelize_bricks_per_frame: 100_000,
+        voxelize_scan_per_frame: u32::MAX,
         ..Default::default()
     };
     let mut cache = RadianceCache::new(&ctx, &config).unwrap();
@@ -269,6 +271,7 @@ fn bricks_dropped_for_pool_are_filled_when_a_shift_frees_space() {
         level_bricks: [16, 8, 16],
         pool_bricks: 300,
         voxelize_bricks_per_frame: 100_000,
+        voxelize_scan_per_frame: u32::MAX,
         ..Default::default()
     };
     let mut cache = RadianceCache::new(&ctx, &config).unwrap();
@@ -326,6 +329,7 @@ fn dynamic_object_is_revoxelized_locally_and_exactly() {
     let config = CacheConfig {
         levels: 3,
         voxelize_bricks_per_frame: 100_000,
+        voxelize_scan_per_frame: u32::MAX,
         ..Default::default()
     };
     let mut cache = RadianceCache::new(&ctx, &config).unwrap();
@@ -421,6 +425,7 @@ fn bundled_scene_fill_figures() {
         let frame = scene.evaluate(0.0, None);
         let config = CacheConfig {
             voxelize_bricks_per_frame: 100_000,
+            voxelize_scan_per_frame: u32::MAX,
             ..Default::default()
         };
         let mut cache = RadianceCache::new(&ctx, &config).unwrap();
@@ -452,6 +457,7 @@ fn skinned_object_is_revoxelized_when_its_joints_move() {
     let config = CacheConfig {
         levels: 3,
         voxelize_bricks_per_frame: 100_000,
+        voxelize_scan_per_frame: u32::MAX,
         ..Default::default()
     };
     let mut cache = RadianceCache::new(&ctx, &config).unwrap();

@@ -143,6 +143,44 @@ pub struct SceneFrame {
     pub exposure: f32,
     /// World transform of every node at this time.
     pub world_from_node: Vec<Mat4>,
+    /// Names the geometry (`triangles`, `attributes`, `world_from_node`) of one evaluation:
+    /// every [`Scene::evaluate`] draws a new one and clones keep it; 0 means unknown. State
+    /// derived from the triangles (the brick cache's triangle index) is kept without looking
+    /// at them while the revision stays the same, so code that edits a frame's geometry in
+    /// place calls [`SceneFrame::geometry_changed`].
+    pub geometry_revision: u64,
+}
+
+/// Source of [`SceneFrame::geometry_revision`]s, unique within the process.
+static NEXT_GEOMETRY_REVISION: std::sync::atomic::AtomicU64 = std::sync::atomic::AtomicU64::new(1);
+
+impl SceneFrame {
+    /// Everything of the frame but its geometry (no triangles, no attributes, revision 0):
+    /// what a renderer keeps of the last frame for the next one (its camera, lights and node
+    /// transforms), without copying megabytes of triangles per frame.
+    pub fn without_geometry(&self) -> SceneFrame {
+        SceneFrame {
+            time_s: self.time_s,
+            triangles: Vec::new(),
+            attributes: Vec::new(),
+            lights: self.lights.clone(),
+            camera: self.camera,
+            sky: self.sky,
+            exposure: self.exposure,
+            world_from_node: self.world_from_node.clone(),
+            geometry_revision: 0,
+        }
+    }
+
+    /// Gives the frame a new [`SceneFrame::geometry_revision`], after its geometry was edited
+    /// in place.
+    pub fn geometry_changed(&mut self) {
+        self.geometry_revision = next_geometry_revision();
+    }
+}
+
+fn next_geometry_revision() -> u64 {
+    NEXT_GEOMETRY_REVISION.fetch_add(1, std::sync::atomic::Ordering::Relaxed)
 }
 
 impl Scene {
@@ -363,6 +401,7 @@ impl Scene {
             sky: self.sky,
             exposure: self.exposure,
             world_from_node,
+            geometry_revision: next_geometry_revision(),
         }
     }
 }

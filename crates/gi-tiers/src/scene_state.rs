@@ -152,16 +152,7 @@ fn unavailable(tier: &'static str, e: impl std::fmt::Display) -> TierError {
 /// What the next frame needs of `frame`: everything but its triangles and their attributes,
 /// which a copy per frame would cost megabytes on large scenes.
 pub(crate) fn frame_history(frame: &SceneFrame) -> SceneFrame {
-    SceneFrame {
-        time_s: frame.time_s,
-        triangles: Vec::new(),
-        attributes: Vec::new(),
-        lights: frame.lights.clone(),
-        camera: frame.camera,
-        sky: frame.sky,
-        exposure: frame.exposure,
-        world_from_node: frame.world_from_node.clone(),
-    }
+    frame.without_geometry()
 }
 
 /// A `size` image read back from an `array<vec4<f32>>` buffer (rgb; stalls the GPU).
