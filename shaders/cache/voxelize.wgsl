@@ -149,6 +149,16 @@ fn clipped_area_vector(a: vec3<f32>, b: vec3<f32>, c: vec3<f32>, center: vec3<f3
 
 // `gi_cache::cpu_voxelize::clip_to_box`: Sutherland-Hodgman against the six faces.
 fn clip_to_box(a: vec3<f32>, b: vec3<f32>, c: vec3<f32>, center: vec3<f32>, half: f32) -> Clipped {
+    // A triangle inside the box passes every face unchanged: the polygon below would be its
+    // three vertices, so its area vector and bounds are computed directly (the same values,
+    // bit for bit). Small triangles in coarse voxels, the bulk of a coarse brick's list, take
+    // this path.
+    let r0 = a - center;
+    let r1 = b - center;
+    let r2 = c - center;
+    if all(abs(r0) <= vec3(half)) && all(abs(r1) <= vec3(half)) && all(abs(r2) <= vec3(half)) {
+        return Clipped(cross(r1 - r0, r2 - r0) * 0.5, min(min(r0, r1), r2), max(max(r0, r1), r2));
+    }
     let empty = Clipped(vec3(0.0), vec3(half), vec3(-half));
     var polygon: array<vec3<f32>, 10>;
     polygon[0] = a - center;
