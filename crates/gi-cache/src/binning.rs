@@ -240,6 +240,9 @@ struct LevelGrid {
     cells: HashMap<IVec3, Vec<u32>>,
     /// Triangles too large for the cells (see [`LARGE_TRIANGLE_CELLS`]), in frame order.
     large: Vec<u32>,
+    /// Per cell, the bricks ([`LevelGrid::brick_bit`]) that the cell's triangles overlap
+    /// (the exact test of the bins), read without testing a triangle again.
+    occupied: HashMap<IVec3, u64>,
 }
 
 /// Bricks per cell edge at bricks of `brick_size_m`: cells of about 2 m (at most
@@ -285,6 +288,7 @@ impl LevelGrid {
             cell_bricks: cell_bricks(brick_size_m),
             cells: HashMap::new(),
             large: Vec::new(),
+            occupied: HashMap::new(),
         };
         for (index, t) in triangles.iter().enumerate() {
             let (lo, hi) = (t.lo / brick_size_m, t.hi / brick_size_m);
@@ -295,8 +299,17 @@ impl LevelGrid {
                 .filter(|range| range.volume() <= LARGE_TRIANGLE_CELLS);
             match range {
                 Some(range) => {
+                    let bricks = BrickBox::from_world(t.lo, t.hi, brick_size_m);
                     for cell in range.bricks() {
                         grid.cells.entry(cell).or_default().push(index as u32);
+                        let mut mask = 0;
+                        for brick in bricks.intersection(&grid.cell_box(cell)).bricks() {
+                            let center = (brick.as_vec3() + 0.5) * brick_size_m;
+                            if overlaps_brick(t, center, 0.5 * brick_size_m) {
+                                mask |= 1 << grid.brick_bit(cell, brick);
+                            }
+                        }
+                        *grid.occupied.entry(cell).or_default() |= mask;
                     }
                 }
                 None => grid.large.push(index as u32),
@@ -479,6 +492,44 @@ impl TriangleIndex {
     pub fn scan_cost(&self, level: u32, brick: IVec3) -> usize {
         let grid = &self.grids[level as usize];
         grid.scan_cost(grid.cell_of(brick))
+    }
+
+    /// The bricks of `region` at `level` that some triangle overlaps: the keys of
+    /// [`TriangleIndex::bin_region`]'s bins, read from per-cell masks made with the grid (only
+    /// the few large triangles are tested again), so queuing the bricks of a window or an
+    /// entering slab costs a lookup per cell instead of a pass over its triangles.
+    pub fn candidate_bricks(&self, level: u32, region: &BrickBox) -> Vec<IVec3> {
+        let grid = &self.grids[level as usize];
+        let mut bricks = Vec::new();
+        if region.is_empty() {
+            return bricks;
+        }
+        for cell in grid.cells_of(region).bricks() {
+            let Some(&mask) = grid.occupied.get(&cell) else {
+                continue;
+            };
+            for brick in grid.cell_box(cell).intersection(region).bricks() {
+                if mask & (1 << grid.brick_bit(cell, brick)) != 0 {
+                    bricks.push(brick);
+                }
+            }
+        }
+        if !grid.large.is_empty() {
+            // Large triangles are tested exactly: their bounds may span the whole region.
+            let brick_size_m = self.brick_size_m[level as usize];
+            let mut bins = HashMap::new();
+            for &entry in &grid.large {
+                Self::bin_one(
+                    brick_size_m,
+                    &self.triangles[entry as usize],
+                    region,
+                    &mut bins,
+                );
+            }
+            let listed: std::collections::HashSet<IVec3> = bricks.iter().copied().collect();
+            bricks.extend(bins.into_keys().filter(|brick| !listed.contains(brick)));
+        }
+        bricks
     }
 
     /// The cell `brick` at `level` lies in: bricks of one cell share one scan.

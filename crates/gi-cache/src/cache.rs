@@ -411,8 +411,7 @@ impl RadianceCache {
                 }
             }
             for slab in &shift.entering {
-                let bins = index.bin_region(shift.level, slab);
-                for brick in bins.into_keys() {
+                for brick in index.candidate_bricks(shift.level, slab) {
                     stats.queued_entering += u32::from(self.enqueue(shift.level, brick));
                 }
             }
@@ -420,7 +419,8 @@ impl RadianceCache {
     }
 
     /// Queues every brick of `region` at `level` (inside `window`, the level's window) that
-    /// some triangle touches; returns how many were newly queued.
+    /// some triangle touches ([`TriangleIndex::candidate_bricks`]); returns how many were
+    /// newly queued.
     fn queue_geometry(
         &mut self,
         index: &mut TriangleIndex,
@@ -428,8 +428,9 @@ impl RadianceCache {
         region: &BrickBox,
         window: &BrickBox,
     ) -> u32 {
-        let bins = index.bin_region(level, &region.intersection(window));
-        bins.into_keys()
+        index
+            .candidate_bricks(level, &region.intersection(window))
+            .into_iter()
             .map(|brick| u32::from(self.enqueue(level, brick)))
             .sum()
     }

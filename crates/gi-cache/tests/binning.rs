@@ -49,6 +49,15 @@ fn compare(name: &str, time: f32) {
             "{name} at {time}: level {level} window"
         );
         nonempty += bins.len();
+        // The occupancy masks give the same bricks without binning.
+        let mut candidates = index.candidate_bricks(level, &window);
+        candidates.sort_by_key(|b| (b.z, b.y, b.x));
+        let mut keys: Vec<IVec3> = bins.keys().copied().collect();
+        keys.sort_by_key(|b| (b.z, b.y, b.x));
+        assert_eq!(
+            candidates, keys,
+            "{name} at {time}: level {level}: occupied bricks"
+        );
 
         let straddling = BrickBox::new(window.min - IVec3::new(3, 2, 5), UVec3::new(9, 7, 11));
         assert_eq!(
