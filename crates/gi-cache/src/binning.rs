@@ -223,6 +223,9 @@ fn overlaps_brick(triangle: &PreparedTriangle, center: Vec3, half: f32) -> bool 
     triangle_box_overlap(triangle.vertices, center, half)
 }
 
+/// Triangles per part of a level's grid built on one core ([`LevelGrid::build`]).
+const BUILD_CHUNK: usize = 1 << 15;
+
 /// Triangles whose brick bounds span more grid cells than this are kept in their level's
 /// `large` list, which every query tests, instead of being listed in each cell: a few huge
 /// triangles (a ground plane under a city) would otherwise fill millions of cells.
@@ -283,39 +286,65 @@ impl LevelGrid {
         }
     }
 
+    /// The grid of `triangles` at bricks of `brick_size_m`: parts of [`BUILD_CHUNK`]
+    /// triangles are gridded on all cores, then joined in frame order.
     fn build(brick_size_m: f32, triangles: &[PreparedTriangle]) -> Self {
-        let mut grid = Self {
+        let empty = || Self {
             cell_bricks: cell_bricks(brick_size_m),
             cells: HashMap::new(),
             large: Vec::new(),
             occupied: HashMap::new(),
         };
-        for (index, t) in triangles.iter().enumerate() {
+        let parts: Vec<Self> = triangles
+            .par_chunks(BUILD_CHUNK)
+            .enumerate()
+            .map(|(chunk, part)| {
+                let mut grid = empty();
+                grid.add(brick_size_m, chunk * BUILD_CHUNK, part);
+                grid
+            })
+            .collect();
+        let mut parts = parts.into_iter();
+        let mut grid = parts.next().unwrap_or_else(empty);
+        for part in parts {
+            for (cell, entries) in part.cells {
+                grid.cells.entry(cell).or_default().extend(entries);
+            }
+            grid.large.extend(part.large);
+            for (cell, mask) in part.occupied {
+                *grid.occupied.entry(cell).or_default() |= mask;
+            }
+        }
+        grid
+    }
+
+    /// Grids `triangles`, the first of which is triangle `first` of the index.
+    fn add(&mut self, brick_size_m: f32, first: usize, triangles: &[PreparedTriangle]) {
+        for (offset, t) in triangles.iter().enumerate() {
+            let index = (first + offset) as u32;
             let (lo, hi) = (t.lo / brick_size_m, t.hi / brick_size_m);
             let gridded =
                 lo.abs().max_element() < MAX_GRID_BRICK && hi.abs().max_element() < MAX_GRID_BRICK;
             let range = gridded
-                .then(|| grid.cells_of(&BrickBox::from_world(t.lo, t.hi, brick_size_m)))
+                .then(|| self.cells_of(&BrickBox::from_world(t.lo, t.hi, brick_size_m)))
                 .filter(|range| range.volume() <= LARGE_TRIANGLE_CELLS);
-            match range {
-                Some(range) => {
-                    let bricks = BrickBox::from_world(t.lo, t.hi, brick_size_m);
-                    for cell in range.bricks() {
-                        grid.cells.entry(cell).or_default().push(index as u32);
-                        let mut mask = 0;
-                        for brick in bricks.intersection(&grid.cell_box(cell)).bricks() {
-                            let center = (brick.as_vec3() + 0.5) * brick_size_m;
-                            if overlaps_brick(t, center, 0.5 * brick_size_m) {
-                                mask |= 1 << grid.brick_bit(cell, brick);
-                            }
-                        }
-                        *grid.occupied.entry(cell).or_default() |= mask;
+            let Some(range) = range else {
+                self.large.push(index);
+                continue;
+            };
+            let bricks = BrickBox::from_world(t.lo, t.hi, brick_size_m);
+            for cell in range.bricks() {
+                self.cells.entry(cell).or_default().push(index);
+                let mut mask = 0;
+                for brick in bricks.intersection(&self.cell_box(cell)).bricks() {
+                    let center = (brick.as_vec3() + 0.5) * brick_size_m;
+                    if overlaps_brick(t, center, 0.5 * brick_size_m) {
+                        mask |= 1 << self.brick_bit(cell, brick);
                     }
                 }
-                None => grid.large.push(index as u32),
+                *self.occupied.entry(cell).or_default() |= mask;
             }
         }
-        grid
     }
 
     /// Entries that binning a brick of cell `cell` scans: the cell's list and the large ones.
