@@ -21,8 +21,8 @@ use crate::layout::GROUP_BRICKS;
 pub const TRIANGLE_DYNAMIC_BIT: u32 = 1 << 31;
 
 /// `dynamic[node]`: the node or one of its ancestors is moved by an animation channel, or the
-/// node is skinned and one of its joints moves ([`Scene::deforming_nodes`]), so its triangles
-/// may move from frame to frame.
+/// node deforms (skinned with a moving joint, or morphed by animated weights;
+/// [`Scene::deforming_nodes`]), so its triangles may move from frame to frame.
 pub fn dynamic_nodes(scene: &Scene) -> Vec<bool> {
     let deforming = scene.deforming_nodes();
     scene
@@ -34,7 +34,7 @@ pub fn dynamic_nodes(scene: &Scene) -> Vec<bool> {
 }
 
 /// `dynamic[triangle]` for each triangle of `frame`: its node is moved by an animation or
-/// deformed by animated joints ([`dynamic_nodes`]).
+/// deformed by animated joints or weights ([`dynamic_nodes`]).
 pub fn dynamic_triangles(scene: &Scene, frame: &SceneFrame) -> Vec<bool> {
     let dynamic = dynamic_nodes(scene);
     frame

@@ -27,7 +27,7 @@ use std::collections::HashSet;
 use gi_gpu::bvh::GpuBvh;
 use gi_gpu::{GpuContext, GpuError, GpuScene, GpuTimer, ShaderLibrary, wgpu};
 use gi_scene::{Scene, SceneFrame};
-use glam::{IVec3, Mat4, Vec3};
+use glam::{IVec3, Vec3};
 
 use crate::alloc::BrickAllocator;
 use crate::binning::{CacheScene, TriangleIndex, fill_order};
@@ -191,8 +191,9 @@ pub struct RadianceCache {
     /// Bricks with geometry that lost their place for lack of pool (dropped or evicted), queued
     /// again when IDs are free (`requeue_dropped`).
     dropped: HashSet<(u32, IVec3)>,
-    /// World transforms of the previous update, to find moved dynamic nodes.
-    previous_world_from_node: Vec<Mat4>,
+    /// Node transforms and morph weights of the previous update (its frame without geometry),
+    /// to find moved and reshaped dynamic nodes.
+    previous_frame: Option<SceneFrame>,
     /// World bounds of each node's triangles at the previous update.
     previous_node_bounds: Vec<Option<(Vec3, Vec3)>>,
     /// The geometry revision those were taken from (0: none).
@@ -255,7 +256,7 @@ impl RadianceCache {
             queue: Vec::new(),
             queued: HashSet::new(),
             dropped: HashSet::new(),
-            previous_world_from_node: Vec::new(),
+            previous_frame: None,
             previous_node_bounds: Vec::new(),
             previous_revision: 0,
             triangle_index: None,
@@ -458,9 +459,9 @@ impl RadianceCache {
     }
 
     /// Queues, at every level, the bricks inside the old and the new bounds of each dynamic
-    /// node whose geometry moved (its transform changed or, for a skinned node, one of its
-    /// joints' transforms did): allocated ones are voxelized again (or released when empty),
-    /// new ones filled.
+    /// node whose geometry moved (its transform changed, for a skinned node one of its joints'
+    /// transforms did, or its morph target weights did): allocated ones are voxelized again
+    /// (or released when empty), new ones filled.
     fn queue_moved_dynamic_nodes(
         &mut self,
         scene: &CacheScene<'_>,
@@ -474,22 +475,21 @@ impl RadianceCache {
             return;
         }
         if !scene.dynamic_node.contains(&true) {
-            self.previous_world_from_node.clear();
+            self.previous_frame = None;
             self.previous_node_bounds.clear();
             self.previous_revision = 0;
             return;
         }
         let world = &scene.frame.world_from_node;
         let bounds = scene.node_bounds();
-        let comparable = self.previous_world_from_node.len() == world.len()
-            && self.previous_node_bounds.len() == bounds.len();
-        if comparable {
+        let comparable = |previous: &SceneFrame| {
+            previous.world_from_node.len() == world.len()
+                && self.previous_node_bounds.len() == bounds.len()
+        };
+        if let Some(previous_frame) = self.previous_frame.take().filter(comparable) {
             let windows = self.windows.clone().expect("placed by move_windows");
             for (node, &current_bounds) in bounds.iter().enumerate() {
-                let moved =
-                    scene
-                        .scene
-                        .node_geometry_changed(node, &self.previous_world_from_node, world);
+                let moved = (scene.scene).node_geometry_changed(node, &previous_frame, scene.frame);
                 if !scene.dynamic_node[node] || !moved {
                     continue;
                 }
@@ -512,7 +512,7 @@ impl RadianceCache {
                 }
             }
         }
-        self.previous_world_from_node = world.clone();
+        self.previous_frame = Some(scene.frame.without_geometry());
         self.previous_node_bounds = bounds;
         self.previous_revision = revision;
     }

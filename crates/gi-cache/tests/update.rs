@@ -1,5 +1,6 @@
 //! `RadianceCache::update` on the GPU: window moves keep staying bricks in place, the pool
-//! degrades gracefully, and moved dynamic objects are re-voxelized locally and exactly.
+//! degrades gracefully, and moved or reshaped dynamic objects are re-voxelized locally and
+//! exactly.
 
 use std::collections::HashMap;
 
@@ -7,7 +8,7 @@ use gi_cache::binning::{CacheScene, bin_triangles};
 use gi_cache::layout::{NO_BRICK, SIDE_COUNT, VOXELS_PER_BRICK, VoxelSurface, join_mask};
 use gi_cache::{CacheConfig, CacheInputs, CacheUpdateStats, CpuCache, RadianceCache};
 use gi_gpu::{GpuContext, GpuScene, GpuTimer};
-use gi_scene::{Scene, SceneFrame};
+use gi_scene::{Animation, Channel, ChannelValues, Interpolation, MorphTarget, Scene, SceneFrame};
 use glam::{IVec3, Vec3};
 
 fn update(
@@ -507,6 +508,74 @@ fn skinned_object_is_revoxelized_when_its_joints_move() {
     }
 
     // A frame where nothing moved queues nothing.
+    let again = update(&ctx, &mut cache, &scene, &frame1, camera);
+    assert_eq!(again.queued_dynamic, 0, "{again:?}");
+}
+
+/// The skinned arm without its skin, morphed instead: one target shifts it 1 m along +X and an
+/// animation ramps its weight from 0 to 1. Its node's transform never changes, yet its
+/// triangles move, so it is a dynamic node that moved; the occupancy equals a fresh CPU
+/// voxelization at the new time.
+#[test]
+fn morphed_object_is_revoxelized_when_its_weights_change() {
+    let Some(ctx) =
+        GpuContext::new_or_skip("morphed_object_is_revoxelized_when_its_weights_change")
+    else {
+        return;
+    };
+    let mut scene = gi_scene::generate::skinned_arm();
+    let arm = scene.nodes.iter().position(|n| n.name == "arm").unwrap();
+    scene.nodes[arm].skin = None;
+    let mesh = scene.nodes[arm].mesh.unwrap();
+    let primitive = &mut scene.meshes[mesh].primitives[0];
+    primitive.targets = vec![MorphTarget {
+        positions: vec![Vec3::X; primitive.positions.len()],
+        ..MorphTarget::default()
+    }];
+    scene.animations = vec![Animation {
+        name: "shift".into(),
+        channels: vec![Channel {
+            node: arm,
+            times: vec![0.0, 1.0],
+            values: ChannelValues::Weights(vec![vec![0.0], vec![1.0]]),
+            interpolation: Interpolation::Linear,
+        }],
+    }];
+    let config = CacheConfig {
+        levels: 3,
+        voxelize_bricks_per_frame: 100_000,
+        voxelize_scan_per_frame: u32::MAX,
+        ..Default::default()
+    };
+    let mut cache = RadianceCache::new(&ctx, &config).unwrap();
+    let camera = Vec3::new(0.0, 1.0, 4.0);
+    let frame0 = scene.evaluate(0.0, None);
+    let first = update(&ctx, &mut cache, &scene, &frame0, camera);
+    assert!(first.voxelized > 0);
+
+    let frame1 = scene.evaluate(0.5, None);
+    assert_eq!(frame0.world_from_node, frame1.world_from_node);
+    assert!(
+        CacheScene::new(&scene, &frame1).dynamic_node[arm],
+        "a node with animated weights is dynamic"
+    );
+    let stats = update(&ctx, &mut cache, &scene, &frame1, camera);
+    assert!(
+        stats.queued_dynamic > 0,
+        "the arm counts as moved: {stats:?}"
+    );
+
+    let cpu = CpuCache::build(&config, &scene, &frame1, camera).unwrap();
+    let masks = cache.buffers().read_brick_masks(&ctx);
+    let gpu = residents(&cache);
+    assert_eq!(gpu.len(), cpu.bricks.len());
+    for b in &cpu.bricks {
+        let id = gpu.get(&(b.level, b.brick)).copied().unwrap_or(NO_BRICK);
+        assert_ne!(id, NO_BRICK, "level {} brick {} missing", b.level, b.brick);
+        assert_eq!(masks[id as usize], cpu.structure.brick_mask(b.id));
+    }
+
+    // The same weights queue nothing.
     let again = update(&ctx, &mut cache, &scene, &frame1, camera);
     assert_eq!(again.queued_dynamic, 0, "{again:?}");
 }

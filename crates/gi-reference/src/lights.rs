@@ -209,6 +209,7 @@ mod tests {
         let scene = Scene {
             meshes: vec![Mesh {
                 name: String::new(),
+                weights: Vec::new(),
                 primitives: vec![
                     triangle(
                         vec![

@@ -414,6 +414,7 @@ mod tests {
         let scene = Scene {
             meshes: vec![Mesh {
                 name: String::new(),
+                weights: Vec::new(),
                 primitives: vec![Primitive {
                     positions: vec![
                         Vec3::ZERO,

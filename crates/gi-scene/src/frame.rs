@@ -9,6 +9,7 @@ use obvhs::triangle::Triangle;
 use crate::model::{
     Animation, CameraPath, Channel, ChannelValues, Interpolation, LightKind, Scene, Sky,
 };
+use crate::morph::morph;
 use crate::skin::{skin_positions, skin_primitive};
 
 /// Shading attributes of one world-space triangle (index-aligned with
@@ -143,11 +144,14 @@ pub struct SceneFrame {
     pub exposure: f32,
     /// World transform of every node at this time.
     pub world_from_node: Vec<Mat4>,
-    /// Names the geometry (`triangles`, `attributes`, `world_from_node`) of one evaluation:
-    /// every [`Scene::evaluate`] draws a new one and clones keep it; 0 means unknown. State
-    /// derived from the triangles (the brick cache's triangle index) is kept without looking
-    /// at them while the revision stays the same, so code that edits a frame's geometry in
-    /// place calls [`SceneFrame::geometry_changed`].
+    /// Morph target weights of every node at this time ([`Scene::morph_weights`]; empty for
+    /// nodes whose mesh has no targets).
+    pub morph_weights: Vec<Vec<f32>>,
+    /// Names the geometry (`triangles`, `attributes`, `world_from_node`, `morph_weights`) of
+    /// one evaluation: every [`Scene::evaluate`] draws a new one and clones keep it; 0 means
+    /// unknown. State derived from the triangles (the brick cache's triangle index) is kept
+    /// without looking at them while the revision stays the same, so code that edits a frame's
+    /// geometry in place calls [`SceneFrame::geometry_changed`].
     pub geometry_revision: u64,
 }
 
@@ -168,6 +172,7 @@ impl SceneFrame {
             sky: self.sky,
             exposure: self.exposure,
             world_from_node: self.world_from_node.clone(),
+            morph_weights: self.morph_weights.clone(),
             geometry_revision: 0,
         }
     }
@@ -189,14 +194,9 @@ impl Scene {
         index as f32 * self.frame_time_s
     }
 
-    /// Local transforms of every node at `time_s`, with animations applied (each animation
-    /// loops over its own duration).
-    pub fn local_transforms(&self, time_s: f32) -> Vec<(Vec3, Quat, Vec3)> {
-        let mut trs: Vec<_> = self
-            .nodes
-            .iter()
-            .map(|n| (n.translation, n.rotation, n.scale))
-            .collect();
+    /// Calls `apply(channel, t)` for every animation channel, `t` being `time_s` in its
+    /// animation's time (each animation loops over its own duration).
+    fn for_each_channel_at(&self, time_s: f32, mut apply: impl FnMut(&Channel, f32)) {
         for animation in &self.animations {
             let duration = animation_duration(animation);
             let t = if duration > 0.0 {
@@ -205,12 +205,40 @@ impl Scene {
                 0.0
             };
             for channel in &animation.channels {
-                if let Some(slot) = trs.get_mut(channel.node) {
-                    apply_channel(channel, t, slot);
-                }
+                apply(channel, t);
             }
         }
+    }
+
+    /// Local transforms of every node at `time_s`, with animations applied (each animation
+    /// loops over its own duration).
+    pub fn local_transforms(&self, time_s: f32) -> Vec<(Vec3, Quat, Vec3)> {
+        let mut trs: Vec<_> = self
+            .nodes
+            .iter()
+            .map(|n| (n.translation, n.rotation, n.scale))
+            .collect();
+        self.for_each_channel_at(time_s, |channel, t| {
+            if let Some(slot) = trs.get_mut(channel.node) {
+                apply_channel(channel, t, slot);
+            }
+        });
         trs
+    }
+
+    /// Morph target weights of every node at `time_s`: one per target of the node's mesh, from
+    /// its weights channel where one animates it, else [`Scene::rest_morph_weights`]. Empty
+    /// for nodes whose mesh has no targets.
+    pub fn morph_weights(&self, time_s: f32) -> Vec<Vec<f32>> {
+        let mut weights: Vec<Vec<f32>> = (0..self.nodes.len())
+            .map(|node| self.rest_morph_weights(node))
+            .collect();
+        self.for_each_channel_at(time_s, |channel, t| {
+            if let Some(slot) = weights.get_mut(channel.node) {
+                apply_weights_channel(channel, t, slot);
+            }
+        });
+        weights
     }
 
     /// World transform of every node at `time_s`.
@@ -227,7 +255,7 @@ impl Scene {
     }
 
     /// True when anything in the scene moves over time (node transforms, and with them skinned
-    /// meshes whose joints they animate).
+    /// meshes whose joints they animate, and morph target weights).
     pub fn is_animated(&self) -> bool {
         self.animations.iter().any(|a| !a.channels.is_empty())
     }
@@ -257,12 +285,14 @@ impl Scene {
                 continue;
             };
             let joint_matrices = self.node_skin(index).map(|skin| skin.joint_matrices(world));
+            let weights = self.rest_morph_weights(index);
             for primitive in &mesh.primitives {
+                let morphed = morph(primitive, &weights);
                 let points = match &joint_matrices {
                     Some(joints) if primitive.is_skinned() => {
-                        skin_positions(primitive, joints, *world_from_node)
+                        skin_positions(primitive, &morphed.positions, joints, *world_from_node)
                     }
-                    _ => (primitive.positions.iter())
+                    _ => (morphed.positions.iter())
                         .map(|p| world_from_node.transform_point3(*p))
                         .collect(),
                 };
@@ -291,10 +321,13 @@ impl Scene {
     }
 
     /// Flatten the scene at `time_s` into world space, viewed through `camera`
-    /// (`None`: the default camera). Skinned meshes are deformed by their joints on the CPU
-    /// (linear blend skinning; see the `skin` module for normals, tangents and fallbacks).
+    /// (`None`: the default camera). Meshes with morph targets are morphed by their weights at
+    /// `time_s` (see the `morph` module), then skinned meshes are deformed by their joints
+    /// (linear blend skinning; see the `skin` module for normals, tangents and fallbacks), all
+    /// on the CPU.
     pub fn evaluate(&self, time_s: f32, camera: Option<CameraView>) -> SceneFrame {
         let world_from_node = self.world_transforms(time_s);
+        let morph_weights = self.morph_weights(time_s);
         let mut triangles = Vec::new();
         let mut attributes = Vec::new();
         for (node_index, node) in self.nodes.iter().enumerate() {
@@ -311,9 +344,11 @@ impl Scene {
                 .node_skin(node_index)
                 .map(|skin| skin.joint_matrices(&world_from_node));
             for primitive in &mesh.primitives {
+                // glTF 2.0: morph targets first, then the skin.
+                let morphed = morph(primitive, &morph_weights[node_index]);
                 let (positions, normals, tangents, mirrored) = match &joint_matrices {
                     Some(joint_matrices) if primitive.is_skinned() => {
-                        let skinned = skin_primitive(primitive, joint_matrices, world);
+                        let skinned = skin_primitive(primitive, &morphed, joint_matrices, world);
                         let mirrored = Some(skinned.mirrored);
                         (
                             skinned.positions,
@@ -323,19 +358,19 @@ impl Scene {
                         )
                     }
                     _ => {
-                        let positions: Vec<Vec3> = primitive
+                        let positions: Vec<Vec3> = morphed
                             .positions
                             .iter()
                             .map(|p| world.transform_point3(*p))
                             .collect();
-                        let normals: Vec<Vec3> = primitive
+                        let normals: Vec<Vec3> = morphed
                             .normals
                             .iter()
                             .map(|n| normal_matrix.transform_vector3(*n).normalize_or(Vec3::Y))
                             .collect();
                         // A mirroring transform also flips the bitangent's handedness.
                         let handedness = if flips { -1.0 } else { 1.0 };
-                        let tangents: Vec<Vec4> = primitive
+                        let tangents: Vec<Vec4> = morphed
                             .tangents
                             .iter()
                             .map(|t| {
@@ -401,6 +436,7 @@ impl Scene {
             sky: self.sky,
             exposure: self.exposure,
             world_from_node,
+            morph_weights,
             geometry_revision: next_geometry_revision(),
         }
     }
@@ -433,14 +469,15 @@ fn animation_duration(animation: &Animation) -> f32 {
         .fold(0.0, f32::max)
 }
 
-fn apply_channel(channel: &Channel, t: f32, slot: &mut (Vec3, Quat, Vec3)) {
+/// The keys `i` and `j` around time `t` of `channel` and the blend factor `f` between them
+/// (`i == j` and `f == 0` before the first key and after the last), or `None` without keys.
+fn key_interval(channel: &Channel, t: f32) -> Option<(usize, usize, f32)> {
     let times = &channel.times;
     if times.is_empty() {
-        return;
+        return None;
     }
-    // Key interval [i, i + 1] containing t, and the blend factor inside it.
     let next = times.partition_point(|&k| k <= t);
-    let (i, j, f) = if next == 0 {
+    Some(if next == 0 {
         (0, 0, 0.0)
     } else if next >= times.len() {
         (times.len() - 1, times.len() - 1, 0.0)
@@ -451,12 +488,37 @@ fn apply_channel(channel: &Channel, t: f32, slot: &mut (Vec3, Quat, Vec3)) {
             Interpolation::Linear => ((t - a) / (b - a).max(1e-9)).clamp(0.0, 1.0),
         };
         (next - 1, next, f)
+    })
+}
+
+/// Sets the transform part that `channel` animates to its value at `t` (weights channels
+/// leave the transform alone; see [`apply_weights_channel`]).
+fn apply_channel(channel: &Channel, t: f32, slot: &mut (Vec3, Quat, Vec3)) {
+    let Some((i, j, f)) = key_interval(channel, t) else {
+        return;
     };
     match &channel.values {
         ChannelValues::Translation(v) if j < v.len() => slot.0 = v[i].lerp(v[j], f),
         ChannelValues::Rotation(v) if j < v.len() => slot.1 = v[i].slerp(v[j], f).normalize(),
         ChannelValues::Scale(v) if j < v.len() => slot.2 = v[i].lerp(v[j], f),
         _ => {}
+    }
+}
+
+/// Sets `weights` (one per morph target of the node's mesh) to a weights channel's values at
+/// `t`; a key with fewer weights than targets leaves the rest as they were.
+fn apply_weights_channel(channel: &Channel, t: f32, weights: &mut [f32]) {
+    let ChannelValues::Weights(keys) = &channel.values else {
+        return;
+    };
+    let Some((i, j, f)) = key_interval(channel, t) else {
+        return;
+    };
+    let (Some(a), Some(b)) = (keys.get(i), keys.get(j)) else {
+        return;
+    };
+    for ((weight, a), b) in weights.iter_mut().zip(a).zip(b) {
+        *weight = a + (b - a) * f;
     }
 }
 

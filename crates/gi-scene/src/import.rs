@@ -7,6 +7,9 @@
 //! represent is either converted (strips, fans, cubic splines, missing normals) or skipped with
 //! an [`ImportWarning`]. Skins are imported with the nodes that use them: joints, inverse bind
 //! matrices, and per-vertex `JOINTS_0`/`WEIGHTS_0` checked against the skin's joint list.
+//! Morph targets are imported with their meshes (`POSITION`, `NORMAL` and `TANGENT`
+//! displacements), their weights from the mesh, the nodes and `weights` animation channels,
+//! each checked against the mesh's number of targets.
 
 mod animation;
 mod buffers;
@@ -16,6 +19,7 @@ mod extras;
 mod images;
 mod material;
 mod mesh;
+mod morph;
 mod nodes;
 mod skins;
 mod tangents;
@@ -154,6 +158,7 @@ fn import(bytes: &[u8], base: &Path, warnings: &mut Warnings) -> Result<Scene> {
     let gltf::Gltf { document, blob } = parse(bytes)?;
     let root = document.as_json();
     extensions::warn_ignored(root, warnings);
+    morph::warn_unsupported_attributes(bytes, root, warnings);
     let dir = base.parent().unwrap_or(Path::new(""));
     let source = Source {
         root,
@@ -232,6 +237,11 @@ fn import(bytes: &[u8], base: &Path, warnings: &mut Warnings) -> Result<Scene> {
             }
             node.mesh = *slot;
         }
+        if let Some(weights) = &node.weights {
+            let mesh = json_node.mesh.and_then(|m| root.meshes.get(m.value()));
+            let targets = mesh.map_or(0, morph::target_count);
+            morph::check_weights(weights, targets, &format!("nodes[{file_index}].weights"))?;
+        }
         if let Some(skin) = json_node.skin {
             let slot = skin_map.get_mut(skin.value()).ok_or_else(|| {
                 malformed(format!("nodes[{file_index}]: no skin {}", skin.value()))
@@ -255,7 +265,7 @@ fn import(bytes: &[u8], base: &Path, warnings: &mut Warnings) -> Result<Scene> {
         scene.nodes.push(node);
     }
 
-    scene.animations = animation::import_animations(&source, &node_map, warnings)?;
+    scene.animations = animation::import_animations(&source, &node_map, &scene, warnings)?;
     for (model_index, &(file_index, _)) in order.iter().enumerate() {
         let node = &scene.nodes[model_index];
         let label = if node.name.is_empty() {

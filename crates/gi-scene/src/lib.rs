@@ -14,6 +14,7 @@ pub mod generate;
 mod import;
 mod lighting;
 mod model;
+mod morph;
 mod skin;
 
 pub use bundled::{

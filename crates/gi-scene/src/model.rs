@@ -52,6 +52,7 @@ impl Scene {
         });
         self.meshes.push(Mesh {
             name: String::new(),
+            weights: Vec::new(),
             primitives: vec![Primitive {
                 positions: vec![
                     center - u - v,
@@ -89,6 +90,10 @@ pub struct Node {
     /// Index into [`Scene::skins`]: the node's mesh is skinned by that skin's joints, and the
     /// node's own transform does not place it (glTF 2.0; see [`Skin`]).
     pub skin: Option<usize>,
+    /// glTF node `weights`: the morph target weights of the node's mesh, overriding
+    /// [`Mesh::weights`] for this instance (`None`: the mesh's). An animation channel with
+    /// [`ChannelValues::Weights`] overrides both.
+    pub weights: Option<Vec<f32>>,
 }
 
 impl Default for Node {
@@ -103,6 +108,7 @@ impl Default for Node {
             light: None,
             camera: None,
             skin: None,
+            weights: None,
         }
     }
 }
@@ -112,6 +118,25 @@ impl Default for Node {
 pub struct Mesh {
     pub name: String,
     pub primitives: Vec<Primitive>,
+    /// Default weight of each morph target (glTF mesh `weights`; every primitive has the same
+    /// number of targets). Empty means all zero. See [`MorphTarget`].
+    pub weights: Vec<f32>,
+}
+
+impl Mesh {
+    /// Most morph targets a mesh may have. glTF sets no limit, but every target costs a pass
+    /// over the vertices in each evaluation and 36 bytes per vertex; rigs with many shapes
+    /// (ARKit faces have 52, film faces a few hundred) fit, while a hostile file cannot ask
+    /// for thousands of full-size copies of a mesh.
+    pub const MAX_MORPH_TARGETS: usize = 256;
+
+    /// Number of morph targets (the most any primitive has).
+    pub fn morph_target_count(&self) -> usize {
+        (self.primitives.iter())
+            .map(|p| p.targets.len())
+            .max()
+            .unwrap_or(0)
+    }
 }
 
 /// Indexed triangles with one material. `normals` always has one entry per position (the importer
@@ -136,6 +161,9 @@ pub struct Primitive {
     /// `WEIGHTS_0`: per vertex, the weights of its four joints (non-negative; normalized by
     /// their sum when they do not add up to 1). Empty, or one entry per position.
     pub weights: Vec<Vec4>,
+    /// Morph targets (blend shapes): displacements added to the vertices in proportion to
+    /// the target weights. Empty for a primitive without targets.
+    pub targets: Vec<MorphTarget>,
     /// Three indices per triangle.
     pub indices: Vec<u32>,
     /// Index into [`Scene::materials`].
@@ -150,6 +178,21 @@ impl Primitive {
             && self.joints.len() == self.positions.len()
             && self.weights.len() == self.positions.len()
     }
+}
+
+/// One morph target of a primitive: per vertex, displacements of its position, normal and
+/// tangent. Each list is empty (the target does not move that attribute) or has one entry per
+/// position.
+///
+/// With weights `w`, a vertex is placed at `p + sum_i w_i * positions_i`, its normal is
+/// `normalize(n + sum_i w_i * normals_i)` and its tangent direction
+/// `normalize(t.xyz + sum_i w_i * tangents_i)` with the sign `t.w` kept (glTF 2.0). Morphing
+/// comes before skinning.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct MorphTarget {
+    pub positions: Vec<Vec3>,
+    pub normals: Vec<Vec3>,
+    pub tangents: Vec<Vec3>,
 }
 
 /// A glTF skin: the joint nodes that deform a skinned mesh and the matrices that take the mesh
@@ -603,7 +646,7 @@ pub struct CameraKey {
     pub target: Vec3,
 }
 
-/// A keyframed animation of node transforms.
+/// A keyframed animation of node transforms and morph target weights.
 #[derive(Clone, Debug, Default)]
 pub struct Animation {
     pub name: String,
@@ -620,11 +663,21 @@ pub struct Channel {
     pub interpolation: Interpolation,
 }
 
+impl Channel {
+    /// True for a channel of morph target weights, which changes the shape of the node's mesh
+    /// rather than the node's transform.
+    pub fn is_weights(&self) -> bool {
+        matches!(self.values, ChannelValues::Weights(_))
+    }
+}
+
 #[derive(Clone, Debug)]
 pub enum ChannelValues {
     Translation(Vec<Vec3>),
     Rotation(Vec<Quat>),
     Scale(Vec<Vec3>),
+    /// Morph target weights of the node's mesh: per key, one weight per target.
+    Weights(Vec<Vec<f32>>),
 }
 
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]

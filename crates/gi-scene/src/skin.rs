@@ -1,4 +1,5 @@
-//! Linear blend skinning (glTF 2.0 skins) on the CPU, and which nodes move or deform over time.
+//! Linear blend skinning (glTF 2.0 skins) on the CPU, and which nodes move or deform over time
+//! (by their skins or by animated morph target weights).
 //!
 //! A skinned vertex is placed by the matrix `sum_i w_i * joint_matrix[j_i]`, where
 //! `joint_matrix[k] = world_from_node[skin.joints[k]] * skin.inverse_bind_matrices[k]` and the
@@ -15,7 +16,9 @@
 
 use glam::{Mat3, Mat4, Vec3, Vec4};
 
+use crate::SceneFrame;
 use crate::model::{Primitive, Scene, Skin};
+use crate::morph::MorphedVertices;
 
 /// A primitive's vertices placed in world space by its skin.
 pub(crate) struct SkinnedVertices {
@@ -30,11 +33,12 @@ pub(crate) struct SkinnedVertices {
 
 impl Scene {
     /// `moving[node]`: the node's world transform changes over time (an animation channel with
-    /// keys targets it or one of its ancestors).
+    /// keys targets the transform of it or one of its ancestors; weights channels do not).
     pub fn moving_nodes(&self) -> Vec<bool> {
         let mut animated = vec![false; self.nodes.len()];
         for channel in self.animations.iter().flat_map(|a| &a.channels) {
             if !channel.times.is_empty()
+                && !channel.is_weights()
                 && let Some(flag) = animated.get_mut(channel.node)
             {
                 *flag = true;
@@ -70,29 +74,46 @@ impl Scene {
             .then_some(skin)
     }
 
-    /// `deforming[node]`: the node's mesh is skinned ([`Scene::node_skin`]) and one of its
-    /// joints or the node itself moves ([`Scene::moving_nodes`]), so its triangles change
-    /// shape from frame to frame. A skinned node whose joints stand still is static geometry,
-    /// skinned once by every evaluation.
+    /// `deforming[node]`: the node's triangles change shape from frame to frame, because
+    /// - its mesh is skinned ([`Scene::node_skin`]) and one of its joints or the node itself
+    ///   moves ([`Scene::moving_nodes`]), or
+    /// - an animation sets its morph target weights ([`Scene::morph_animated_nodes`]), or
+    /// - it moves and is drawn morphed at rest ([`Scene::morphed_at_rest`]): its shape is not
+    ///   its mesh's, so it cannot be placed as a rigid copy of the mesh.
+    ///
+    /// A skinned node whose joints stand still, and a still node with constant weights, are
+    /// static geometry, deformed once by every evaluation.
     pub fn deforming_nodes(&self) -> Vec<bool> {
         let moving = self.moving_nodes();
         let moves = |node: usize| moving.get(node).copied().unwrap_or(false);
+        let morph_animated = self.morph_animated_nodes();
         (0..self.nodes.len())
             .map(|node| {
-                self.node_skin(node)
-                    .is_some_and(|skin| moves(node) || skin.joints.iter().any(|&j| moves(j)))
+                let skinned = self
+                    .node_skin(node)
+                    .is_some_and(|skin| moves(node) || skin.joints.iter().any(|&j| moves(j)));
+                skinned || morph_animated[node] || (moves(node) && self.morphed_at_rest(node))
             })
             .collect()
     }
 
-    /// Whether node `node`'s geometry moved between two frames' world transforms: its own
-    /// transform changed, or, for a skinned node, the transform of one of its joints did.
-    pub fn node_geometry_changed(&self, node: usize, previous: &[Mat4], current: &[Mat4]) -> bool {
-        let changed = |n: usize| previous.get(n) != current.get(n);
+    /// Whether node `node`'s geometry changed between two evaluations of the scene: its own
+    /// transform changed, or, for a skinned node, the transform of one of its joints did, or
+    /// its morph target weights did. Frames without geometry
+    /// ([`SceneFrame::without_geometry`]) are enough.
+    pub fn node_geometry_changed(
+        &self,
+        node: usize,
+        previous: &SceneFrame,
+        current: &SceneFrame,
+    ) -> bool {
+        let (previous_world, current_world) = (&previous.world_from_node, &current.world_from_node);
+        let changed = |n: usize| previous_world.get(n) != current_world.get(n);
         changed(node)
             || self
                 .node_skin(node)
                 .is_some_and(|skin| skin.joints.iter().any(|&j| changed(j)))
+            || previous.morph_weights.get(node) != current.morph_weights.get(node)
     }
 }
 
@@ -160,13 +181,15 @@ fn normal_matrix(m: &Mat4) -> Mat3 {
     }
 }
 
-/// The skinned positions of `primitive` alone (see [`skin_primitive`]).
+/// The skinned `positions` of `primitive` (its own or morphed) alone (see
+/// [`skin_primitive`]).
 pub(crate) fn skin_positions(
     primitive: &Primitive,
+    positions: &[Vec3],
     joint_matrices: &[Option<Mat4>],
     world_from_node: Mat4,
 ) -> Vec<Vec3> {
-    (primitive.positions.iter().enumerate())
+    (positions.iter().enumerate())
         .map(|(i, p)| {
             let joints = primitive.joints.get(i).copied().unwrap_or_default();
             let weights = primitive.weights.get(i).copied().unwrap_or(Vec4::ZERO);
@@ -177,14 +200,16 @@ pub(crate) fn skin_positions(
         .collect()
 }
 
-/// Skins `primitive` with `joint_matrices` (from [`Skin::joint_matrices`]); vertices without a
-/// usable weight are placed by `world_from_node`.
+/// Skins `vertices` (`primitive`'s, morphed by its targets) with `joint_matrices` (from
+/// [`Skin::joint_matrices`]) and `primitive`'s joints and weights; vertices without a usable
+/// weight are placed by `world_from_node`.
 pub(crate) fn skin_primitive(
     primitive: &Primitive,
+    vertices: &MorphedVertices,
     joint_matrices: &[Option<Mat4>],
     world_from_node: Mat4,
 ) -> SkinnedVertices {
-    let matrices: Vec<Mat4> = (0..primitive.positions.len())
+    let matrices: Vec<Mat4> = (0..vertices.positions.len())
         .map(|i| {
             let joints = primitive.joints.get(i).copied().unwrap_or_default();
             let weights = primitive.weights.get(i).copied().unwrap_or(Vec4::ZERO);
@@ -192,19 +217,19 @@ pub(crate) fn skin_primitive(
         })
         .collect();
     let mirrored: Vec<bool> = matrices.iter().map(|m| m.determinant() < 0.0).collect();
-    let positions = primitive
+    let positions = vertices
         .positions
         .iter()
         .zip(&matrices)
         .map(|(p, m)| m.transform_point3(*p))
         .collect();
-    let normals = primitive
+    let normals = vertices
         .normals
         .iter()
         .zip(&matrices)
         .map(|(n, m)| (normal_matrix(m) * *n).normalize_or(Vec3::Y))
         .collect();
-    let tangents = primitive
+    let tangents = vertices
         .tangents
         .iter()
         .zip(&matrices)

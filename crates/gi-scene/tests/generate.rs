@@ -501,6 +501,7 @@ fn feature_scene() -> Scene {
         ],
         meshes: vec![Mesh {
             name: "tri".into(),
+            weights: Vec::new(),
             primitives: vec![quad],
         }],
         materials: vec![Material {
@@ -822,6 +823,7 @@ fn normal_maps_alpha_modes_and_second_uv_set_round_trip() {
         tangents: vec![Vec4::new(1.0, 0.0, 0.0, -1.0); 3],
         joints: Vec::new(),
         weights: Vec::new(),
+        targets: Vec::new(),
         indices: vec![0, 1, 2],
         material: 0,
     };
@@ -852,6 +854,7 @@ fn normal_maps_alpha_modes_and_second_uv_set_round_trip() {
         }],
         meshes: vec![Mesh {
             name: "quad".into(),
+            weights: Vec::new(),
             primitives: vec![
                 primitive.clone(),
                 Primitive {

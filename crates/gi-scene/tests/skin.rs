@@ -123,7 +123,7 @@ fn skinned_arm_deforms_as_computed_by_hand() {
         "only the arm deforms"
     );
     // A pose change of a joint is a change of the arm's geometry.
-    let (rest, bent) = (scene.world_transforms(0.0), scene.world_transforms(1.0));
+    let (rest, bent) = (scene.evaluate(0.0, None), scene.evaluate(1.0, None));
     assert!(scene.node_geometry_changed(arm, &rest, &bent));
     assert!(!scene.node_geometry_changed(arm, &rest, &rest));
     assert!(!scene.node_geometry_changed(node(&scene, "floor"), &rest, &bent));

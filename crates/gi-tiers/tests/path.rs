@@ -321,6 +321,7 @@ fn a_scene_that_outruns_the_cost_estimate_still_matches_the_reference() {
         name: "stacked-wall".into(),
         meshes: vec![Mesh {
             name: String::new(),
+            weights: Vec::new(),
             primitives: vec![wall],
         }],
         materials: vec![Material {
@@ -503,6 +504,7 @@ fn textured() -> Case {
     let scene = Scene {
         meshes: vec![Mesh {
             name: String::new(),
+            weights: Vec::new(),
             primitives: vec![floor, emitter],
         }],
         materials: vec![
@@ -688,6 +690,7 @@ fn real_content() -> Case {
         name: "real-content".into(),
         meshes: vec![Mesh {
             name: String::new(),
+            weights: Vec::new(),
             primitives: vec![floor, leaf, pane],
         }],
         materials: vec![floor_material, leaf_material, pane_material],

@@ -11,13 +11,14 @@
 //! boxes: hundreds of moving objects stay logarithmic to traverse, and rebuilding it is a PLOC
 //! build over that many boxes, far cheaper than the triangles.
 //!
-//! Deforming nodes (skinned meshes whose joints move, [`Scene::deforming_nodes`]) change shape,
-//! so no fixed level can hold them: each gets a world-space level over its frame triangles,
-//! placed with the identity, kept after every fixed level in the node and primitive lists and
-//! rebuilt from each new frame ([`BottomLevels::rebuild_deforming`], obvhs's `fast_build`).
-//! This is CPU skinning (in `Scene::evaluate`) plus a CPU rebuild per frame: the current limit.
-//! Its cost grows with the deforming triangles only; a compute-shader skinning pass with a
-//! refit would move it to the GPU. A skinned node whose joints stand still is static geometry.
+//! Deforming nodes (skinned meshes whose joints move, meshes whose morph target weights are
+//! animated; [`Scene::deforming_nodes`]) change shape, so no fixed level can hold them: each
+//! gets a world-space level over its frame triangles, placed with the identity, kept after
+//! every fixed level in the node and primitive lists and rebuilt from each new frame
+//! ([`BottomLevels::rebuild_deforming`], obvhs's `fast_build`). This is CPU skinning and
+//! morphing (in `Scene::evaluate`) plus a CPU rebuild per frame: the current limit. Its cost
+//! grows with the deforming triangles only; a compute-shader skinning pass with a refit would
+//! move it to the GPU. A skinned node whose joints stand still is static geometry.
 
 use std::time::{Duration, Instant};
 
@@ -461,11 +462,14 @@ const DEGENERATE: Triangle = Triangle {
 };
 
 /// Nodes whose world transform changes over time: animated, or below an animated ancestor.
-/// (Skinned nodes are not placed by their transform; see [`Scene::deforming_nodes`].)
+/// (Skinned nodes are not placed by their transform, and morph target weights change a
+/// node's shape, not its transform; see [`Scene::deforming_nodes`].)
 pub fn moving_nodes(scene: &Scene) -> Vec<bool> {
     let mut animated = vec![false; scene.nodes.len()];
     for channel in scene.animations.iter().flat_map(|a| &a.channels) {
-        if let Some(flag) = animated.get_mut(channel.node) {
+        if !channel.is_weights()
+            && let Some(flag) = animated.get_mut(channel.node)
+        {
             *flag = true;
         }
     }

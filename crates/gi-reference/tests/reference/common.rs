@@ -34,6 +34,7 @@ impl SceneBuilder {
         self.scene.materials.push(material);
         self.scene.meshes.push(Mesh {
             name: String::new(),
+            weights: Vec::new(),
             primitives: vec![primitive],
         });
         self.scene.nodes.push(Node {

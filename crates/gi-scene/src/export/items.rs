@@ -6,8 +6,8 @@ use serde_json::{Value, json};
 
 use crate::Texture;
 use crate::model::{
-    AlphaMode, ChannelValues, Interpolation, LightKind, Material, Scene, Sky, TextureRef,
-    TextureTransform,
+    AlphaMode, ChannelValues, Interpolation, LightKind, Material, MorphTarget, Scene, Sky,
+    TextureRef, TextureTransform,
 };
 
 use super::{
@@ -54,10 +54,48 @@ pub(super) fn mesh_json(mesh: &crate::model::Mesh, writer: &mut Writer) -> Value
             }
             let indices = p.indices.iter().map(|i| i.to_le_bytes());
             let indices = writer.accessor(indices, p.indices.len(), "SCALAR", UNSIGNED_INT, Some(ELEMENT_ARRAY_BUFFER));
-            json!({ "attributes": attributes, "indices": indices, "material": p.material, "mode": 4 })
+            let mut primitive = json!({ "attributes": attributes, "indices": indices, "material": p.material, "mode": 4 });
+            if !p.targets.is_empty() {
+                let targets: Vec<Value> = p.targets.iter().map(|t| target_json(t, p.positions.len(), writer)).collect();
+                primitive["targets"] = json!(targets);
+            }
+            primitive
         })
         .collect();
-    json!({ "name": mesh.name, "primitives": primitives })
+    let mut value = json!({ "name": mesh.name, "primitives": primitives });
+    if !mesh.weights.is_empty() {
+        value["weights"] = floats_json(&mesh.weights);
+    }
+    value
+}
+
+/// One morph target's displacement accessors. glTF wants at least one attribute per target,
+/// so a target that moves nothing is written as zero position displacements.
+fn target_json(target: &MorphTarget, vertex_count: usize, writer: &mut Writer) -> Value {
+    let vec3s = |v: &[Vec3]| -> Vec<[f32; 3]> { v.iter().map(Vec3::to_array).collect() };
+    let mut value = json!({});
+    if !target.positions.is_empty() || (target.normals.is_empty() && target.tangents.is_empty()) {
+        let positions = if target.positions.is_empty() {
+            vec![[0.0; 3]; vertex_count]
+        } else {
+            vec3s(&target.positions)
+        };
+        // glTF requires bounds on morph target positions as on base positions.
+        value["POSITION"] = json!(writer.floats_bounded(&positions, "VEC3", Some(ARRAY_BUFFER)));
+    }
+    if !target.normals.is_empty() {
+        value["NORMAL"] = json!(writer.floats(&vec3s(&target.normals), "VEC3", Some(ARRAY_BUFFER)));
+    }
+    if !target.tangents.is_empty() {
+        value["TANGENT"] =
+            json!(writer.floats(&vec3s(&target.tangents), "VEC3", Some(ARRAY_BUFFER)));
+    }
+    value
+}
+
+/// A JSON array of floats, each written as its shortest exact decimal.
+fn floats_json(values: &[f32]) -> Value {
+    Value::Array(values.iter().map(|&w| num(w)).collect())
 }
 
 pub(super) fn animation_json(animation: &crate::model::Animation, writer: &mut Writer) -> Value {
@@ -78,6 +116,10 @@ pub(super) fn animation_json(animation: &crate::model::Animation, writer: &mut W
             ChannelValues::Scale(v) => {
                 let data: Vec<[f32; 3]> = v.iter().map(Vec3::to_array).collect();
                 ("scale", writer.floats(&data, "VEC3", None))
+            }
+            ChannelValues::Weights(keys) => {
+                let data: Vec<[f32; 1]> = keys.iter().flatten().map(|w| [*w]).collect();
+                ("weights", writer.floats(&data, "SCALAR", None))
             }
         };
         let interpolation = match channel.interpolation {
@@ -130,6 +172,9 @@ pub(super) fn node_json(scene: &Scene, index: usize, name: &str) -> Value {
     }
     if let Some(skin) = node.skin {
         value["skin"] = json!(skin);
+    }
+    if let Some(weights) = &node.weights {
+        value["weights"] = floats_json(weights);
     }
     if let Some(camera) = node.camera {
         value["camera"] = json!(camera);

@@ -1,6 +1,8 @@
 //! glTF 2.0 export: a `.gltf` JSON file, one `.bin` buffer beside it, and one PNG per texture.
 //! Skins are written with their joints, inverse bind matrices and the primitives' `JOINTS_0`
-//! (16-bit) and `WEIGHTS_0` (float), so an export reads back with the same skinning.
+//! (16-bit) and `WEIGHTS_0` (float), so an export reads back with the same skinning. Morph
+//! targets are written with their displacements, the mesh and node `weights` and `weights`
+//! animation channels, so an export reads back with the same shapes.
 //!
 //! The JSON is built with `serde_json` values, whose objects keep a fixed key order and whose
 //! numbers are printed by a fixed algorithm, so the same scene always gives the same bytes.

@@ -39,6 +39,50 @@ pub(super) fn validate(scene: &Scene) -> Result<(), String> {
                 )
             })?;
         }
+        let targets = mesh.morph_target_count();
+        let ok = targets <= crate::model::Mesh::MAX_MORPH_TARGETS
+            && (mesh.weights.is_empty() || mesh.weights.len() == targets)
+            && finite(&mesh.weights)
+            && mesh.primitives.iter().all(|p| {
+                let count = p.positions.len();
+                p.targets.len() == targets
+                    && p.targets.iter().all(|t| {
+                        let fits = |v: &[glam::Vec3]| {
+                            (v.is_empty() || v.len() == count) && v.iter().all(|d| d.is_finite())
+                        };
+                        fits(&t.positions)
+                            && fits(&t.normals)
+                            && fits(&t.tangents)
+                            && (t.tangents.is_empty() || !p.tangents.is_empty())
+                    })
+            });
+        ensure(ok, || {
+            format!(
+                "mesh {i} '{}': too many morph targets, primitives with different numbers of \
+                 them, a displacement count that does not match the positions (or tangents \
+                 displaced on a primitive without them), weights that are not one per target \
+                 or a non-finite value",
+                mesh.name
+            )
+        })?;
+    }
+    let morph_targets = |node: usize| {
+        (scene.nodes.get(node))
+            .and_then(|n| scene.meshes.get(n.mesh?))
+            .map_or(0, |m| m.morph_target_count())
+    };
+    for (i, node) in scene.nodes.iter().enumerate() {
+        let ok = node
+            .weights
+            .as_ref()
+            .is_none_or(|w| w.len() == morph_targets(i) && finite(w));
+        ensure(ok, || {
+            format!(
+                "node {i} '{}': weights that are not one per morph target of its mesh, or \
+                 not finite",
+                node.name
+            )
+        })?;
     }
     for (i, m) in scene.materials.iter().enumerate() {
         let ok = m.base_color.is_finite()
@@ -150,6 +194,11 @@ pub(super) fn validate(scene: &Scene) -> Result<(), String> {
                     (v.len(), v.iter().all(|v| v.is_finite()))
                 }
                 ChannelValues::Rotation(v) => (v.len(), v.iter().all(|q| q.is_finite())),
+                ChannelValues::Weights(keys) => {
+                    let targets = morph_targets(channel.node);
+                    let ok = targets > 0 && keys.iter().all(|k| k.len() == targets && finite(k));
+                    (keys.len(), ok)
+                }
             };
             let ok = channel.node < n
                 && !channel.times.is_empty()

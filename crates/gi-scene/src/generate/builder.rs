@@ -64,6 +64,7 @@ impl SceneBuilder {
             .collect();
         self.scene.meshes.push(Mesh {
             name: name.to_string(),
+            weights: Vec::new(),
             primitives,
         });
         self.node(Node {

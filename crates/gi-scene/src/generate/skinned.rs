@@ -69,6 +69,7 @@ pub fn skinned_arm() -> Scene {
     });
     scene.meshes.push(Mesh {
         name: "arm".into(),
+        weights: Vec::new(),
         primitives: vec![arm_primitive(scene.materials.len() - 1)],
     });
     scene.skins.push(Skin {

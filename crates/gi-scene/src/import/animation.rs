@@ -1,4 +1,4 @@
-//! Keyframe animations of node translation, rotation and scale.
+//! Keyframe animations of node translation, rotation, scale and morph target weights.
 
 use glam::{Quat, Vec4};
 use gltf::json;
@@ -6,14 +6,15 @@ use gltf::json::animation::{Interpolation as FileInterpolation, Property};
 use gltf::json::validation::Checked;
 
 use super::{Result, Source, Warnings, malformed};
-use crate::{Animation, Channel, ChannelValues, Interpolation};
+use crate::{Animation, Channel, ChannelValues, Interpolation, Scene};
 
 /// Imports every animation, keeping the channels that target nodes of the imported scene
-/// (`node_map` maps file node indices to model indices). Animations left without channels are
-/// dropped.
+/// (`node_map` maps file node indices to model indices; `scene` holds those nodes and their
+/// meshes). Animations left without channels are dropped.
 pub(super) fn import_animations(
     source: &Source,
     node_map: &[Option<usize>],
+    scene: &Scene,
     warnings: &mut Warnings,
 ) -> Result<Vec<Animation>> {
     let mut animations = Vec::new();
@@ -25,8 +26,14 @@ pub(super) fn import_animations(
             let Some(node) = node_map.get(channel.target.node.value()).copied().flatten() else {
                 continue;
             };
+            // Weights channels need the number of targets of the node's mesh.
+            let targets = scene
+                .nodes
+                .get(node)
+                .and_then(|n| scene.meshes.get(n.mesh?))
+                .map_or(0, |m| m.morph_target_count());
             if let Some(imported) =
-                import_channel(source, animation, channel, node, &label, warnings)?
+                import_channel(source, animation, channel, node, targets, &label, warnings)?
             {
                 channels.push(imported);
             }
@@ -44,19 +51,23 @@ pub(super) fn import_animations(
     Ok(animations)
 }
 
-/// One channel, or `None` for the morph-weight channels the model cannot represent.
+/// One channel of model node `node` whose mesh has `targets` morph targets, or `None` for a
+/// weights channel of a node without morph targets (warned and ignored). A weights channel's
+/// output must hold one weight per target per key (three per target and key for cubic
+/// splines).
 fn import_channel(
     source: &Source,
     animation: &json::Animation,
     channel: &json::animation::Channel,
     node: usize,
+    targets: usize,
     label: &str,
     warnings: &mut Warnings,
 ) -> Result<Option<Channel>> {
     let property = match channel.target.path {
-        Checked::Valid(Property::MorphTargetWeights) => {
-            warnings.once("morph-weights", || {
-                format!("{label}: morph target weight animation is not supported; ignored")
+        Checked::Valid(Property::MorphTargetWeights) if targets == 0 => {
+            warnings.once("weights-without-targets", || {
+                format!("{label} animates the weights of a node whose mesh has no morph targets; ignored")
             });
             return Ok(None);
         }
@@ -119,7 +130,13 @@ fn import_channel(
                 })?;
             ChannelValues::Rotation(rotations)
         }
-        Property::MorphTargetWeights => return Ok(None),
+        Property::MorphTargetWeights => ChannelValues::Weights(keyframe_weights(
+            source.buffers.scalars(output, &output_label)?,
+            times.len(),
+            targets,
+            cubic,
+            label,
+        )?),
     };
     Ok(Some(Channel {
         node,
@@ -127,6 +144,37 @@ fn import_channel(
         values,
         interpolation,
     }))
+}
+
+/// The keyframe weights of a weights sampler's output for a mesh with `targets` (at least one)
+/// morph targets: `targets` per key, or for cubic splines the middle `targets` of each
+/// (in-tangents, values, out-tangents) triple of runs.
+fn keyframe_weights(
+    output: Vec<f32>,
+    keys: usize,
+    targets: usize,
+    cubic: bool,
+    label: &str,
+) -> Result<Vec<Vec<f32>>> {
+    let per_key = if cubic { 3 * targets } else { targets };
+    if output.len() != keys * per_key {
+        return Err(malformed(format!(
+            "{label}: {} output weights for {keys} keyframes of {targets} morph targets (expected {})",
+            output.len(),
+            keys * per_key
+        )));
+    }
+    Ok(output
+        .chunks_exact(per_key)
+        .map(|key| {
+            let values = if cubic {
+                &key[targets..2 * targets]
+            } else {
+                key
+            };
+            values.to_vec()
+        })
+        .collect())
 }
 
 /// The keyframe values of a sampler output: one per key, or for cubic splines the middle of

@@ -1,6 +1,6 @@
 //! Mesh primitives: triangle lists, strips and fans become indexed triangle lists with one
 //! unit normal per vertex, up to two texture coordinate sets, and tangents where the material
-//! has a normal texture (the file's, else MikkTSpace's).
+//! has a normal texture (the file's, else MikkTSpace's), and morph targets.
 
 use glam::{Vec3, Vec4};
 use gltf::json;
@@ -8,11 +8,12 @@ use gltf::json::mesh::{Mode, Semantic};
 use gltf::json::validation::Checked;
 
 use super::material::Materials;
-use super::{Result, Source, Warnings, malformed, tangents, unusable};
+use super::{Result, Source, Warnings, malformed, morph, tangents, unusable};
 use crate::{Mesh, Primitive, Scene};
 
 /// Imports file mesh `index` (its materials go through `materials`). Point and line
-/// primitives are skipped with a warning.
+/// primitives are skipped with a warning. Morph targets and weights are checked as
+/// [`morph::mesh_weights`] describes.
 pub(super) fn import_mesh(
     source: &Source,
     index: usize,
@@ -24,6 +25,7 @@ pub(super) fn import_mesh(
     let mut mesh = Mesh {
         name: json.name.clone().unwrap_or_else(|| format!("mesh {index}")),
         primitives: Vec::new(),
+        weights: morph::mesh_weights(json, &format!("meshes[{index}]"))?,
     };
     for (p, primitive) in json.primitives.iter().enumerate() {
         let label = format!("meshes[{index}].primitives[{p}]");
@@ -167,9 +169,19 @@ fn import_primitive(
             format!("{label}: vertex colors (COLOR_0) are not supported; ignored")
         });
     }
-    if primitive.targets.as_ref().is_some_and(|t| !t.is_empty()) {
-        warnings.once("morph-targets", || {
-            format!("{label}: morph targets are not supported; the base shape is used")
+    let mut targets = morph::import_targets(
+        source,
+        primitive,
+        vertex_count,
+        !tangents.is_empty(),
+        label,
+        warnings,
+    )?;
+    if !targets.is_empty() && normals.is_none() {
+        warnings.once("morph-computed-normals", || {
+            format!(
+                "{label} has morph targets but no NORMAL; the normals computed for the base shape are used for every shape"
+            )
         });
     }
 
@@ -212,6 +224,17 @@ fn import_primitive(
             joints = indices.iter().map(|&i| joints[i as usize]).collect();
             weights = indices.iter().map(|&i| weights[i as usize]).collect();
         }
+        for target in &mut targets {
+            for deltas in [
+                &mut target.positions,
+                &mut target.normals,
+                &mut target.tangents,
+            ] {
+                if !deltas.is_empty() {
+                    *deltas = indices.iter().map(|&i| deltas[i as usize]).collect();
+                }
+            }
+        }
         let corners = u32::try_from(indices.len())
             .map_err(|_| unusable(format!("{label} has too many vertices")))?;
         indices = (0..corners).collect();
@@ -238,6 +261,7 @@ fn import_primitive(
         tangents,
         joints,
         weights,
+        targets,
         indices,
         material: 0,
     }))

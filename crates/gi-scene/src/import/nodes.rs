@@ -57,7 +57,8 @@ pub(super) fn depth_first(
     Ok(order)
 }
 
-/// A node's name and local transform (matrices are decomposed into TRS).
+/// A node's name, local transform (matrices are decomposed into TRS) and morph target
+/// weights (checked against its mesh by the caller).
 pub(super) fn import_node(json_node: &json::Node, index: usize) -> Result<Node> {
     let label = format!("nodes[{index}]");
     let (translation, rotation, scale) = match json_node.matrix {
@@ -91,11 +92,17 @@ pub(super) fn import_node(json_node: &json::Node, index: usize) -> Result<Node> 
             (t, r.normalize(), s)
         }
     };
+    if let Some(weights) = &json_node.weights
+        && weights.iter().any(|w| !w.is_finite())
+    {
+        return Err(malformed(format!("{label}.weights has non-finite values")));
+    }
     Ok(Node {
         name: json_node.name.clone().unwrap_or_default(),
         translation,
         rotation,
         scale,
+        weights: json_node.weights.clone(),
         ..Node::default()
     })
 }

@@ -36,7 +36,7 @@ pub(super) fn repair(tangents: &mut [Vec4], normals: &[Vec3]) -> usize {
 /// and texture coordinates `uvs` (one per vertex: the set the normal texture reads, with its
 /// transform applied). A vertex whose corners get different tangents (a UV seam or mirrored
 /// UVs) is split into one vertex per tangent, so `positions`, `normals`, `uvs`, `uvs1`,
-/// `joints`, `weights` and `indices` may grow. Fails only when the split vertices would
+/// `joints`, `weights`, the morph targets' displacements and `indices` may grow. Fails only when the split vertices would
 /// overflow 32-bit indices.
 pub(super) fn generate(primitive: &mut Primitive, uvs: &[Vec2]) -> Result<(), String> {
     let vertex_count = primitive.positions.len();
@@ -87,6 +87,17 @@ pub(super) fn generate(primitive: &mut Primitive, uvs: &[Vec2]) -> Result<(), St
                         }
                         if let Some(&weights) = primitive.weights.get(vertex) {
                             primitive.weights.push(weights);
+                        }
+                        for target in &mut primitive.targets {
+                            for deltas in [
+                                &mut target.positions,
+                                &mut target.normals,
+                                &mut target.tangents,
+                            ] {
+                                if let Some(&delta) = deltas.get(vertex) {
+                                    deltas.push(delta);
+                                }
+                            }
                         }
                         tangents.push(tangent);
                         splits.insert((vertex, bits), copy);
