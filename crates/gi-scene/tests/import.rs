@@ -1,6 +1,9 @@
 //! glTF import: Khronos sample models, hand-written documents for the product's extras and the
 //! conversions the importer performs, malformed inputs, and corrupted bytes.
 
+mod common;
+use common::base64;
+
 use std::f32::consts::{FRAC_PI_2, FRAC_PI_4};
 use std::path::{Path, PathBuf};
 
@@ -64,27 +67,6 @@ fn node(scene: &Scene, name: &str) -> usize {
 
 fn has_warning(warnings: &[ImportWarning], text: &str) -> bool {
     warnings.iter().any(|w| w.0.contains(text))
-}
-
-fn base64(bytes: &[u8]) -> String {
-    const ALPHABET: &[u8; 64] = b"ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz0123456789+/";
-    let mut out = String::new();
-    for chunk in bytes.chunks(3) {
-        let b = [
-            chunk[0],
-            *chunk.get(1).unwrap_or(&0),
-            *chunk.get(2).unwrap_or(&0),
-        ];
-        let n = u32::from(b[0]) << 16 | u32::from(b[1]) << 8 | u32::from(b[2]);
-        for i in 0..4 {
-            if i <= chunk.len() {
-                out.push(ALPHABET[(n >> (18 - 6 * i)) as usize & 63] as char);
-            } else {
-                out.push('=');
-            }
-        }
-    }
-    out
 }
 
 /// Builds small glTF documents whose single buffer is an embedded `data:` URI.

@@ -2,6 +2,9 @@
 //! and animation channels, which nodes deform, morphing before skinning, the export/import
 //! round trip, and hostile morph data (errors or warnings, never a panic).
 
+mod common;
+use common::base64;
+
 use std::path::Path;
 
 use gi_scene::generate::{ARM_BENT_TIME_S, skinned_arm};
@@ -374,27 +377,6 @@ fn merge(doc: &mut Value, extra: &Value) {
         }
         (doc, extra) => *doc = extra.clone(),
     }
-}
-
-fn base64(bytes: &[u8]) -> String {
-    const ALPHABET: &[u8; 64] = b"ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz0123456789+/";
-    let mut out = String::new();
-    for chunk in bytes.chunks(3) {
-        let b = [
-            chunk[0],
-            *chunk.get(1).unwrap_or(&0),
-            *chunk.get(2).unwrap_or(&0),
-        ];
-        let n = u32::from(b[0]) << 16 | u32::from(b[1]) << 8 | u32::from(b[2]);
-        for i in 0..4 {
-            if i <= chunk.len() {
-                out.push(ALPHABET[(n >> (18 - 6 * i)) as usize & 63] as char);
-            } else {
-                out.push('=');
-            }
-        }
-    }
-    out
 }
 
 fn load(bytes: &[u8]) -> (Scene, Vec<ImportWarning>) {

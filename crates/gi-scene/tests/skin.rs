@@ -2,6 +2,9 @@
 //! export/import round trip, the accessor encodings `JOINTS_0` and `WEIGHTS_0` may use, and
 //! hostile skin data (errors or documented fallbacks, never a panic).
 
+mod common;
+use common::base64;
+
 use std::path::Path;
 
 use gi_scene::generate::{ARM_BENT_TIME_S, ARM_LENGTH, ARM_NODE_TRANSLATION, skinned_arm};
@@ -364,27 +367,6 @@ impl SkinDoc {
     fn import(&self) -> Result<(Scene, Vec<gi_scene::ImportWarning>), SceneError> {
         import_gltf_slice(&self.bytes(), Path::new("skin.gltf"))
     }
-}
-
-fn base64(bytes: &[u8]) -> String {
-    const ALPHABET: &[u8; 64] = b"ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz0123456789+/";
-    let mut out = String::new();
-    for chunk in bytes.chunks(3) {
-        let b = [
-            chunk[0],
-            *chunk.get(1).unwrap_or(&0),
-            *chunk.get(2).unwrap_or(&0),
-        ];
-        let n = u32::from(b[0]) << 16 | u32::from(b[1]) << 8 | u32::from(b[2]);
-        for i in 0..4 {
-            out.push(if i <= chunk.len() {
-                ALPHABET[(n >> (18 - 6 * i)) as usize & 63] as char
-            } else {
-                '='
-            });
-        }
-    }
-    out
 }
 
 /// The quad's vertices as evaluated: the joint's translation (0, 0, 2) moves them, the skinned
