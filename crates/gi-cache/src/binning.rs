@@ -429,6 +429,14 @@ impl TriangleIndex {
         }
     }
 
+    /// Bins the large triangles of `level` (those kept out of the grid's cells) in `region`.
+    fn bin_large(&self, level: u32, region: &BrickBox, bins: &mut HashMap<IVec3, Vec<u32>>) {
+        let brick_size_m = self.brick_size_m[level as usize];
+        for &entry in &self.grids[level as usize].large {
+            Self::bin_one(brick_size_m, &self.triangles[entry as usize], region, bins);
+        }
+    }
+
     /// The bins of `region` at `level`: for every brick of the region that some triangle
     /// overlaps, the references of those triangles in frame order (exactly what
     /// [`bin_triangles`] returns over every triangle).
@@ -456,14 +464,7 @@ impl TriangleIndex {
             }
         }
         if !grid.large.is_empty() {
-            for &entry in &grid.large {
-                Self::bin_one(
-                    brick_size_m,
-                    &self.triangles[entry as usize],
-                    region,
-                    &mut bins,
-                );
-            }
+            self.bin_large(level, region, &mut bins);
             // The large triangles went last; frame order is reference order without the flag.
             for list in bins.values_mut() {
                 list.sort_unstable_by_key(|reference| reference & !TRIANGLE_DYNAMIC_BIT);
@@ -545,16 +546,8 @@ impl TriangleIndex {
         }
         if !grid.large.is_empty() {
             // Large triangles are tested exactly: their bounds may span the whole region.
-            let brick_size_m = self.brick_size_m[level as usize];
             let mut bins = HashMap::new();
-            for &entry in &grid.large {
-                Self::bin_one(
-                    brick_size_m,
-                    &self.triangles[entry as usize],
-                    region,
-                    &mut bins,
-                );
-            }
+            self.bin_large(level, region, &mut bins);
             let listed: std::collections::HashSet<IVec3> = bricks.iter().copied().collect();
             bricks.extend(bins.into_keys().filter(|brick| !listed.contains(brick)));
         }
