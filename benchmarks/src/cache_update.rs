@@ -405,14 +405,17 @@ impl CacheUpdateReport {
                     .unwrap_or(0),
             );
         }
-        out += "| frame | time s | voxelized | queued | scheduled (new/near/far/settle) | \
-                cache GPU ms | cpu update ms |\n|---:|---:|---:|---:|---|---:|---:|\n";
+        out += "| frame | time s | voxelized (list entries/parts) | queued | \
+                scheduled (new/near/far/settle) | cache GPU ms | cpu update ms |\n\
+                |---:|---:|---:|---:|---|---:|---:|\n";
         for (index, frame) in self.frames.iter().enumerate() {
             let s = frame.scheduled;
             out += &format!(
-                "| {index} | {:.3} | {} | {} | {} ({}/{}/{}/{}) | {:.3} | {:.3} |\n",
+                "| {index} | {:.3} | {} ({}/{}) | {} | {} ({}/{}/{}/{}) | {:.3} | {:.3} |\n",
                 frame.time_s,
                 frame.update.voxelized,
+                frame.update.voxelized_triangles,
+                frame.update.voxelize_parts,
                 frame.update.queued_remaining,
                 s.total(),
                 s.new,
@@ -444,6 +447,7 @@ impl CacheUpdateReport {
                 "pool_bricks": config.pool_bricks,
                 "voxelize_bricks_per_frame": config.voxelize_bricks_per_frame,
                 "voxelize_scan_per_frame": config.voxelize_scan_per_frame,
+                "voxelize_part_triangles": config.voxelize_part_triangles,
                 "screen_inject_bricks_per_frame": config.screen_inject_bricks_per_frame,
                 "light_bricks_per_frame": config.light_bricks_per_frame,
                 "settle_bricks_per_frame": config.settle_bricks_per_frame,
@@ -483,6 +487,7 @@ impl CacheUpdateReport {
                     "voxelized": f.update.voxelized,
                     "scanned_triangles": f.update.scanned_triangles,
                     "voxelized_triangles": f.update.voxelized_triangles,
+                    "voxelize_parts": f.update.voxelize_parts,
                     "queued_remaining": f.update.queued_remaining,
                     "dropped_for_pool": f.update.dropped_for_pool,
                     "evicted": f.update.evicted,

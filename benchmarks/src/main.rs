@@ -125,6 +125,10 @@ enum Command {
         /// (`voxelize_scan_per_frame`).
         #[arg(long)]
         voxelize_scan: Option<u32>,
+        /// Override of the triangle list entries per `cache/voxelize` part
+        /// (`voxelize_part_triangles`).
+        #[arg(long)]
+        voxelize_part: Option<u32>,
         /// Also ray-cast a G-buffer each frame and correct visible bricks from it
         /// (`cache/screen_inject`).
         #[arg(long)]
@@ -350,6 +354,7 @@ fn main() -> anyhow::Result<()> {
             levels,
             voxel_size,
             voxelize_scan,
+            voxelize_part,
             screen_inject,
             size,
             json,
@@ -362,6 +367,7 @@ fn main() -> anyhow::Result<()> {
                 near_levels: defaults.near_levels.min(levels.unwrap_or(defaults.levels)),
                 voxel_size_m: voxel_size.unwrap_or(defaults.voxel_size_m),
                 voxelize_scan_per_frame: voxelize_scan.unwrap_or(defaults.voxelize_scan_per_frame),
+                voxelize_part_triangles: voxelize_part.unwrap_or(defaults.voxelize_part_triangles),
                 ..defaults
             };
             let options = cache_update::CacheUpdateOptions {

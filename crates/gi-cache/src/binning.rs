@@ -485,36 +485,44 @@ impl TriangleIndex {
             let cell = grid.cell_of(brick);
             *by_cell.entry(cell).or_default() |= 1 << grid.brick_bit(cell, brick);
         }
-        let mut bins: HashMap<IVec3, Vec<u32>> = HashMap::new();
-        for (&cell, &wanted) in &by_cell {
-            let cell_box = grid.cell_box(cell);
-            let mut test = |triangle: &PreparedTriangle| {
-                let bounds = BrickBox::from_world(triangle.lo, triangle.hi, brick_size_m)
-                    .intersection(&cell_box);
-                for brick in bounds.bricks() {
-                    if wanted & (1 << grid.brick_bit(cell, brick)) == 0 {
-                        continue;
+        // Cells are binned side by side on all cores: each brick lies in one cell, so their
+        // bins are disjoint.
+        let cells: Vec<(IVec3, u64)> = by_cell.into_iter().collect();
+        let per_cell: Vec<Vec<(IVec3, Vec<u32>)>> = cells
+            .par_iter()
+            .map(|&(cell, wanted)| {
+                let mut bins: HashMap<IVec3, Vec<u32>> = HashMap::new();
+                let cell_box = grid.cell_box(cell);
+                let mut test = |triangle: &PreparedTriangle| {
+                    let bounds = BrickBox::from_world(triangle.lo, triangle.hi, brick_size_m)
+                        .intersection(&cell_box);
+                    for brick in bounds.bricks() {
+                        if wanted & (1 << grid.brick_bit(cell, brick)) == 0 {
+                            continue;
+                        }
+                        let center = (brick.as_vec3() + 0.5) * brick_size_m;
+                        if overlaps_brick(triangle, center, 0.5 * brick_size_m) {
+                            bins.entry(brick).or_default().push(triangle.reference);
+                        }
                     }
-                    let center = (brick.as_vec3() + 0.5) * brick_size_m;
-                    if overlaps_brick(triangle, center, 0.5 * brick_size_m) {
-                        bins.entry(brick).or_default().push(triangle.reference);
+                };
+                for &entry in grid.cells.get(&cell).map_or(&[][..], Vec::as_slice) {
+                    test(&self.triangles[entry as usize]);
+                }
+                for &entry in &grid.large {
+                    test(&self.triangles[entry as usize]);
+                }
+                if !grid.large.is_empty() {
+                    // The large triangles went last; frame order is reference order without
+                    // the flag.
+                    for list in bins.values_mut() {
+                        list.sort_unstable_by_key(|reference| reference & !TRIANGLE_DYNAMIC_BIT);
                     }
                 }
-            };
-            for &entry in grid.cells.get(&cell).map_or(&[][..], Vec::as_slice) {
-                test(&self.triangles[entry as usize]);
-            }
-            for &entry in &grid.large {
-                test(&self.triangles[entry as usize]);
-            }
-        }
-        if !grid.large.is_empty() {
-            // The large triangles went last; frame order is reference order without the flag.
-            for list in bins.values_mut() {
-                list.sort_unstable_by_key(|reference| reference & !TRIANGLE_DYNAMIC_BIT);
-            }
-        }
-        bins
+                bins.into_iter().collect()
+            })
+            .collect();
+        per_cell.into_iter().flatten().collect()
     }
 
     /// Entries [`TriangleIndex::bin_bricks`] scans for a brick at `level` whose cell it has

@@ -16,7 +16,8 @@
 //!    CPU and `cache/voxelize` work stay bounded where coarse bricks hold tens of thousands of
 //!    triangles), bins the frame's triangles to them, allocates IDs (evicting the
 //!    farthest brick of a coarser level when the pool is full), links them and records
-//!    `cache/voxelize`;
+//!    `cache/voxelize` (lists cut into parts of [`CacheConfig::voxelize_part_triangles`]
+//!    voxelized side by side);
 //! 5. uploads the changed link and group-mask slots and the uniforms;
 //! 6. when [`CacheInputs::gbuffer`] is set, records `cache/screen_inject` over the visible
 //!    resident bricks not voxelized in this update ([`crate::screen_inject`]);
@@ -135,12 +136,15 @@ pub struct CacheUpdateStats {
     pub queued_entering: u32,
     /// Bricks queued around moved dynamic nodes.
     pub queued_dynamic: u32,
-    /// Bricks voxelized (`cache/voxelize` workgroups).
+    /// Bricks voxelized.
     pub voxelized: u32,
     /// Triangle list entries binning scanned for them ([`CacheConfig::voxelize_scan_per_frame`]).
     pub scanned_triangles: u64,
     /// Triangle references binned to them, which `cache/voxelize` reads.
     pub voxelized_triangles: u64,
+    /// Parts their lists were cut into (`cache/voxelize` workgroups per part-wise dispatch;
+    /// [`CacheConfig::voxelize_part_triangles`]).
+    pub voxelize_parts: u32,
     /// Bricks of coarser levels evicted to make room for finer ones.
     pub evicted: u32,
     /// Bricks with geometry left unfilled because the pool was full.
@@ -206,8 +210,8 @@ pub struct RadianceCache {
     pub lighting: Option<Box<dyn CacheLightingHook>>,
 }
 
-/// Storage buffers `cache/voxelize` binds: seven of the scene, two of its own, seven of the cache.
-const VOXELIZE_STORAGE_BUFFERS: u32 = 16;
+/// Storage buffers `cache/voxelize` binds: seven of the scene, four of its own, seven of the cache.
+const VOXELIZE_STORAGE_BUFFERS: u32 = 18;
 
 impl RadianceCache {
     /// Validates `config` against itself and the device, creates the buffers (counted under
@@ -242,7 +246,7 @@ impl RadianceCache {
             });
         }
         let shaders = ShaderLibrary::new();
-        let voxelizer = Voxelizer::new(ctx, &shaders)?;
+        let voxelizer = Voxelizer::new(ctx, &shaders, config.voxelize_part_triangles)?;
         let screen_injector = ScreenInjector::new(ctx, &shaders)?;
         Ok(Self {
             config: config.clone(),
@@ -353,8 +357,10 @@ impl RadianceCache {
             ctx,
             &cache_uniforms(&self.config, windows, self.frame_index),
         );
-        self.voxelizer
-            .record(ctx, encoder, timer, inputs.gpu_scene, &self.buffers, &jobs);
+        let plan =
+            self.voxelizer
+                .record(ctx, encoder, timer, inputs.gpu_scene, &self.buffers, &jobs);
+        stats.voxelize_parts = plan.parts.len() as u32;
         let resident = self.resident_bricks();
         stats.filling = crate::lighting::is_filling(new_bricks.len(), resident.len());
         if let Some(screen) = &inputs.gbuffer {
@@ -552,18 +558,29 @@ impl RadianceCache {
     ) -> (Vec<VoxelizeJob>, Vec<ResidentBrick>) {
         let windows = self.windows.clone().expect("placed by move_windows");
         // Bricks whose window moved away are dropped from the queue.
-        self.queue
-            .retain(|(level, brick)| windows.window(*level).contains(*brick));
-        self.queued = self.queue.iter().copied().collect();
+        let queued = &mut self.queued;
+        self.queue.retain(|entry| {
+            let inside = windows.window(entry.0).contains(entry.1);
+            if !inside {
+                queued.remove(entry);
+            }
+            inside
+        });
+        // The nearest bricks, in fill order: selected in linear time rather than sorting the
+        // whole queue every frame (it holds thousands of bricks while the camera flies). The
+        // order is total, so the batch does not depend on the queue's order.
         let config = &self.config;
-        // Sorted farthest first, so the batch pops off the end.
-        self.queue
-            .sort_by(|&a, &b| fill_order(config, camera, b, a));
-        let take = (self.config.voxelize_bricks_per_frame as usize).min(self.queue.len());
-        let mut batch: Vec<(u32, IVec3)> = self.queue.split_off(self.queue.len() - take);
+        let order = |a: &(u32, IVec3), b: &(u32, IVec3)| fill_order(config, camera, *a, *b);
+        let take = (config.voxelize_bricks_per_frame as usize)
+            .min(self.voxelizer.max_jobs())
+            .min(self.queue.len());
+        if take < self.queue.len() {
+            self.queue.select_nth_unstable_by(take, order);
+        }
+        let mut batch: Vec<(u32, IVec3)> = self.queue.drain(..take).collect();
+        batch.sort_unstable_by(order);
         // Nearest first, then within the scan budget: a cell's list is scanned once for all of
         // its bricks taken, and bricks whose cell does not fit go back to the queue.
-        batch.reverse();
         let budget = self.config.voxelize_scan_per_frame as usize;
         let mut scanned = 0usize;
         let mut cells_taken: HashSet<(u32, IVec3)> = HashSet::new();
@@ -585,9 +602,7 @@ impl RadianceCache {
             kept.push((level, brick));
         }
         stats.scanned_triangles = scanned as u64;
-        // The queue is sorted farthest first: the returned bricks go back to its end, nearest
-        // last, as they were.
-        self.queue.extend(returned.into_iter().rev());
+        self.queue.extend(returned);
         let batch = kept;
         for entry in &batch {
             self.queued.remove(entry);

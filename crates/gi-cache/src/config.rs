@@ -53,6 +53,12 @@ pub struct CacheConfig {
     /// the GPU's work per frame where coarse bricks hold tens of thousands of triangles each;
     /// the first cell of a frame is taken whatever its cost, so the fill always advances.
     pub voxelize_scan_per_frame: u32,
+    /// Triangle list entries `cache/voxelize` gives one workgroup at most: a brick's list is
+    /// cut into parts of this size, voxelized side by side and merged in list order
+    /// ([`crate::voxelize`]). Smaller parts spread a coarse brick's tens of thousands of
+    /// triangles over more of the GPU at the cost of 8 KiB of records per part written and
+    /// read again; the results do not depend on it beyond the order of f32 sums.
+    pub voxelize_part_triangles: u32,
     /// Visible resident bricks `cache/screen_inject` checks against the G-buffer per update at
     /// most, finer levels and nearer bricks first. Higher values correct stale occupancy and
     /// materials further out each frame at the cost of 64 threads per brick, each reading up to
@@ -107,6 +113,7 @@ impl Default for CacheConfig {
             pool_bricks: 12288,
             voxelize_bricks_per_frame: 512,
             voxelize_scan_per_frame: 65_536,
+            voxelize_part_triangles: 128,
             screen_inject_bricks_per_frame: 2048,
             light_bricks_per_frame: 512,
             settle_bricks_per_frame: 1536,
@@ -176,6 +183,7 @@ impl CacheConfig {
         for (field, value) in [
             ("voxelize_bricks_per_frame", self.voxelize_bricks_per_frame),
             ("voxelize_scan_per_frame", self.voxelize_scan_per_frame),
+            ("voxelize_part_triangles", self.voxelize_part_triangles),
             (
                 "screen_inject_bricks_per_frame",
                 self.screen_inject_bricks_per_frame,
