@@ -136,6 +136,10 @@ enum Command {
         /// G-buffer size for `--screen-inject`, WIDTHxHEIGHT.
         #[arg(long, default_value = "1920x1080", value_parser = parse_size)]
         size: (u32, u32),
+        /// Seconds of G-buffer frames before the fill frame for the GPU's clock to climb
+        /// (with `--screen-inject`; 0 times at once).
+        #[arg(long, default_value_t = 1.0, value_parser = parse_settle)]
+        settle_s: f64,
         /// Also write the results as JSON to this file.
         #[arg(long)]
         json: Option<PathBuf>,
@@ -357,6 +361,7 @@ fn main() -> anyhow::Result<()> {
             voxelize_part,
             screen_inject,
             size,
+            settle_s,
             json,
         } => {
             let defaults = gi_cache::CacheConfig::default();
@@ -375,6 +380,7 @@ fn main() -> anyhow::Result<()> {
                 frames,
                 config,
                 screen_inject: screen_inject.then_some(size),
+                settle_s,
             };
             let report = cache_update::run(&options)?;
             out!("{}", report.table());

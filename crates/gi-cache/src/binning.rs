@@ -133,6 +133,9 @@ pub fn bin_triangles(
     bins
 }
 
+/// Entries of a cell's list one task of [`TriangleIndex::bin_bricks`] tests.
+const BIN_RUN: usize = 8192;
+
 /// Fill order of bricks: finer levels first, then nearer bricks (distance from the camera to
 /// the brick center in bricks of its level). Smaller keys fill first; when the pool runs out,
 /// what is left unfilled is the coarse and far end of this order. Bricks at the same distance
@@ -485,15 +488,23 @@ impl TriangleIndex {
             let cell = grid.cell_of(brick);
             *by_cell.entry(cell).or_default() |= 1 << grid.brick_bit(cell, brick);
         }
-        // Cells are binned side by side on all cores: each brick lies in one cell, so their
-        // bins are disjoint.
-        let cells: Vec<(IVec3, u64)> = by_cell.into_iter().collect();
-        let per_cell: Vec<Vec<(IVec3, Vec<u32>)>> = cells
+        // Runs of a cell's list are binned side by side on all cores (a coarse cell can list
+        // a hundred thousand triangles), each into its own bins, joined in list order.
+        let mut runs: Vec<(IVec3, u64, &[u32])> = Vec::new();
+        for (&cell, &wanted) in &by_cell {
+            let list = grid.cells.get(&cell).map_or(&[][..], Vec::as_slice);
+            runs.extend(list.chunks(BIN_RUN).map(|run| (cell, wanted, run)));
+            if !grid.large.is_empty() {
+                runs.push((cell, wanted, &grid.large));
+            }
+        }
+        let per_run: Vec<Vec<(IVec3, Vec<u32>)>> = runs
             .par_iter()
-            .map(|&(cell, wanted)| {
+            .map(|&(cell, wanted, run)| {
                 let mut bins: HashMap<IVec3, Vec<u32>> = HashMap::new();
                 let cell_box = grid.cell_box(cell);
-                let mut test = |triangle: &PreparedTriangle| {
+                for &entry in run {
+                    let triangle = &self.triangles[entry as usize];
                     let bounds = BrickBox::from_world(triangle.lo, triangle.hi, brick_size_m)
                         .intersection(&cell_box);
                     for brick in bounds.bricks() {
@@ -505,24 +516,21 @@ impl TriangleIndex {
                             bins.entry(brick).or_default().push(triangle.reference);
                         }
                     }
-                };
-                for &entry in grid.cells.get(&cell).map_or(&[][..], Vec::as_slice) {
-                    test(&self.triangles[entry as usize]);
-                }
-                for &entry in &grid.large {
-                    test(&self.triangles[entry as usize]);
-                }
-                if !grid.large.is_empty() {
-                    // The large triangles went last; frame order is reference order without
-                    // the flag.
-                    for list in bins.values_mut() {
-                        list.sort_unstable_by_key(|reference| reference & !TRIANGLE_DYNAMIC_BIT);
-                    }
                 }
                 bins.into_iter().collect()
             })
             .collect();
-        per_cell.into_iter().flatten().collect()
+        let mut bins: HashMap<IVec3, Vec<u32>> = HashMap::new();
+        for (brick, list) in per_run.into_iter().flatten() {
+            bins.entry(brick).or_default().extend(list);
+        }
+        if !grid.large.is_empty() {
+            // The large triangles went last; frame order is reference order without the flag.
+            bins.par_iter_mut().for_each(|(_, list)| {
+                list.sort_unstable_by_key(|reference| reference & !TRIANGLE_DYNAMIC_BIT);
+            });
+        }
+        bins
     }
 
     /// Entries [`TriangleIndex::bin_bricks`] scans for a brick at `level` whose cell it has

@@ -163,6 +163,31 @@ pub struct CacheUpdateStats {
     /// ([`CacheLightingHook::converging`]): temporal filters that read the cache should keep
     /// short histories.
     pub converging: bool,
+    /// Wall-clock milliseconds of the update's CPU steps.
+    pub cpu: CpuSteps,
+}
+
+/// Wall-clock milliseconds of the CPU steps of one update (see the module docs).
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct CpuSteps {
+    /// Keeping or rebuilding the triangle index (step 0).
+    pub index_ms: f64,
+    /// Moving the windows and queuing entering slabs (step 1).
+    pub windows_ms: f64,
+    /// Queuing around moved dynamic nodes and dropped bricks (steps 2 and 3).
+    pub dynamic_ms: f64,
+    /// Choosing the bricks to fill within the budgets (step 4).
+    pub select_ms: f64,
+    /// Binning their triangles (step 4).
+    pub binning_ms: f64,
+    /// Allocating and linking them (step 4).
+    pub allocate_ms: f64,
+    /// Uploading the structure and recording `cache/voxelize` (step 5).
+    pub record_ms: f64,
+    /// Listing the resident bricks, choosing and recording `cache/screen_inject` (step 6).
+    pub screen_ms: f64,
+    /// Recording the lighting passes, their schedule included (step 7).
+    pub lighting_ms: f64,
 }
 
 /// The cache's state.
@@ -336,6 +361,7 @@ impl RadianceCache {
     ) -> CacheUpdateStats {
         self.frame_index = self.frame_index.wrapping_add(1);
         let mut stats = CacheUpdateStats::default();
+        let mut clock = StepClock::start();
         let scene = CacheScene::new(inputs.scene, inputs.frame);
         let mut index = match self.triangle_index.take() {
             Some(mut index) => {
@@ -344,12 +370,16 @@ impl RadianceCache {
             }
             None => TriangleIndex::new(&self.config, &scene),
         };
+        stats.cpu.index_ms = clock.lap();
         self.move_windows(&mut index, inputs.camera_position, &mut stats);
+        stats.cpu.windows_ms = clock.lap();
         self.queue_moved_dynamic_nodes(&scene, &mut index, &mut stats);
         self.requeue_dropped(inputs.camera_position, &mut stats);
+        stats.cpu.dynamic_ms = clock.lap();
         let (jobs, new_bricks) =
             self.fill_from_queue(&mut index, inputs.camera_position, &mut stats);
         self.triangle_index = Some(index);
+        clock.lap();
 
         self.buffers.upload_structure(ctx, &mut self.structure);
         let windows = self.windows.as_ref().expect("placed by move_windows");
@@ -361,6 +391,7 @@ impl RadianceCache {
             self.voxelizer
                 .record(ctx, encoder, timer, inputs.gpu_scene, &self.buffers, &jobs);
         stats.voxelize_parts = plan.parts.len() as u32;
+        stats.cpu.record_ms = clock.lap();
         let resident = self.resident_bricks();
         stats.filling = crate::lighting::is_filling(new_bricks.len(), resident.len());
         if let Some(screen) = &inputs.gbuffer {
@@ -371,6 +402,7 @@ impl RadianceCache {
             self.screen_injector
                 .record(ctx, encoder, timer, &self.buffers, screen, &bricks);
         }
+        stats.cpu.screen_ms = clock.lap();
 
         // The lighting passes run here, after voxelization, on the updated cache.
         if let Some(mut lighting) = self.lighting.take() {
@@ -386,6 +418,7 @@ impl RadianceCache {
             stats.converging = stats.filling || lighting.converging();
             self.lighting = Some(lighting);
         }
+        stats.cpu.lighting_ms = clock.lap();
         stats.queued_remaining = self.queue.len() as u32;
         stats
     }
@@ -556,6 +589,7 @@ impl RadianceCache {
         camera: Vec3,
         stats: &mut CacheUpdateStats,
     ) -> (Vec<VoxelizeJob>, Vec<ResidentBrick>) {
+        let mut clock = StepClock::start();
         let windows = self.windows.clone().expect("placed by move_windows");
         // Bricks whose window moved away are dropped from the queue.
         let queued = &mut self.queued;
@@ -608,6 +642,9 @@ impl RadianceCache {
             self.queued.remove(entry);
         }
 
+        stats.cpu.select_ms = clock.lap();
+        let wanted = batch.len();
+        let mut victims = None;
         let mut jobs = Vec::new();
         let mut new_bricks = Vec::new();
         for level in 0..self.config.levels {
@@ -619,7 +656,9 @@ impl RadianceCache {
             if bricks.is_empty() {
                 continue;
             }
+            clock.lap();
             let mut bins = index.bin_bricks(level, &bricks);
+            stats.cpu.binning_ms += clock.lap();
             for brick in bricks {
                 let Some(triangles) = bins.remove(&brick) else {
                     if self.release(level, brick) {
@@ -629,7 +668,7 @@ impl RadianceCache {
                 };
                 let mut id = self.structure.brick_id(level, brick);
                 if id == NO_BRICK {
-                    id = match self.allocate(level, camera, stats) {
+                    id = match self.allocate(level, camera, &mut victims, wanted, stats) {
                         Some(id) => id,
                         None => {
                             stats.dropped_for_pool += 1;
@@ -654,6 +693,7 @@ impl RadianceCache {
                     triangles,
                 });
             }
+            stats.cpu.allocate_ms += clock.lap();
         }
         stats.voxelized = jobs.len() as u32;
         stats.voxelized_triangles = jobs.iter().map(|job| job.triangles.len() as u64).sum();
@@ -662,22 +702,61 @@ impl RadianceCache {
 
     /// A free ID, or the ID of the farthest brick of the coarsest level above `level` (evicted
     /// so finer levels are kept), or `None`.
-    fn allocate(&mut self, level: u32, camera: Vec3, stats: &mut CacheUpdateStats) -> Option<u32> {
+    ///
+    /// `victims` holds this update's candidates, last in fill order at the end, made on the
+    /// first eviction: the `wanted` last resident bricks in fill order, found in linear time
+    /// (a pass over the pool for every eviction cost tens of milliseconds when a frame evicted
+    /// hundreds). Fill order goes by level first, so the last resident brick is the victim
+    /// when it is coarser than `level`, and no brick is otherwise; the bricks allocated during
+    /// the update are never coarser than the one being allocated (levels go in order).
+    fn allocate(
+        &mut self,
+        level: u32,
+        camera: Vec3,
+        victims: &mut Option<Vec<(u32, IVec3)>>,
+        wanted: usize,
+        stats: &mut CacheUpdateStats,
+    ) -> Option<u32> {
         if let Some(id) = self.allocator.alloc() {
             return Some(id);
         }
-        let config = &self.config;
-        let victim = self
-            .owner
-            .iter()
-            .flatten()
-            .filter(|(l, _)| *l > level)
-            .max_by(|&&a, &&b| fill_order(config, camera, a, b))
-            .copied()?;
-        self.release(victim.0, victim.1);
-        self.dropped.insert(victim);
-        stats.evicted += 1;
-        self.allocator.alloc()
+        let mut rebuilt = false;
+        loop {
+            let config = &self.config;
+            let owner = &self.owner;
+            let list = victims.get_or_insert_with(|| {
+                let mut resident: Vec<(u32, IVec3)> = owner.iter().flatten().copied().collect();
+                // Last in fill order first.
+                let order = |a: &(u32, IVec3), b: &(u32, IVec3)| fill_order(config, camera, *b, *a);
+                let wanted = wanted.min(resident.len());
+                if wanted < resident.len() {
+                    resident.select_nth_unstable_by(wanted, order);
+                    resident.truncate(wanted);
+                }
+                resident.sort_unstable_by(order);
+                resident.reverse();
+                resident
+            });
+            let Some(&victim) = list.last() else {
+                // Candidates used up (some were released as empty): look again once.
+                if rebuilt {
+                    return None;
+                }
+                rebuilt = true;
+                *victims = None;
+                continue;
+            };
+            if victim.0 <= level {
+                return None;
+            }
+            list.pop();
+            // A candidate released since (found empty in this update) frees no ID now.
+            if self.release(victim.0, victim.1) {
+                self.dropped.insert(victim);
+                stats.evicted += 1;
+                return self.allocator.alloc();
+            }
+        }
     }
 
     /// What the last `cache/screen_inject` did (stalls; for tests and tools).
@@ -690,5 +769,22 @@ impl RadianceCache {
         self.buffers.release(ctx);
         self.voxelizer.release(ctx);
         self.screen_injector.release(ctx);
+    }
+}
+
+/// Milliseconds between laps.
+struct StepClock(std::time::Instant);
+
+impl StepClock {
+    fn start() -> Self {
+        Self(std::time::Instant::now())
+    }
+
+    /// Milliseconds since the last lap (or the start).
+    fn lap(&mut self) -> f64 {
+        let now = std::time::Instant::now();
+        let ms = (now - self.0).as_secs_f64() * 1e3;
+        self.0 = now;
+        ms
     }
 }

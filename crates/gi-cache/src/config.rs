@@ -113,7 +113,7 @@ impl Default for CacheConfig {
             pool_bricks: 12288,
             voxelize_bricks_per_frame: 512,
             voxelize_scan_per_frame: 65_536,
-            voxelize_part_triangles: 128,
+            voxelize_part_triangles: 64,
             screen_inject_bricks_per_frame: 2048,
             light_bricks_per_frame: 512,
             settle_bricks_per_frame: 1536,

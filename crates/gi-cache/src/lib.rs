@@ -39,7 +39,7 @@ pub mod voxelize;
 pub use alloc::{BrickAllocator, FreeError};
 pub use buffers::CacheBuffers;
 pub use cache::{
-    CacheError, CacheFrame, CacheInputs, CacheLightingHook, CacheStats, CacheUpdateStats,
+    CacheError, CacheFrame, CacheInputs, CacheLightingHook, CacheStats, CacheUpdateStats, CpuSteps,
     RadianceCache, ResidentBrick,
 };
 pub use clipmap::{BrickBox, ClipmapWindows, WindowShift};
