@@ -162,12 +162,20 @@ pub fn select_bricks(
                 .then(|| (b.level, ((lo + hi) * 0.5 - position).length(), *b))
         })
         .collect();
-    visible.sort_by(|a, b| a.0.cmp(&b.0).then(a.1.total_cmp(&b.1)));
-    visible
-        .into_iter()
-        .take(budget as usize)
-        .map(|(_, _, b)| b)
-        .collect()
+    // Finer levels first, then nearer, then by pool ID (`resident`'s order): the budget's
+    // share is selected in linear time and only it is sorted.
+    let order = |a: &(u32, f32, ResidentBrick), b: &(u32, f32, ResidentBrick)| {
+        a.0.cmp(&b.0)
+            .then(a.1.total_cmp(&b.1))
+            .then(a.2.brick_id.cmp(&b.2.brick_id))
+    };
+    let budget = (budget as usize).min(visible.len());
+    if budget < visible.len() {
+        visible.select_nth_unstable_by(budget, order);
+        visible.truncate(budget);
+    }
+    visible.sort_unstable_by(order);
+    visible.into_iter().map(|(_, _, b)| b).collect()
 }
 
 /// The screen injection pass: its pipeline, job buffer and counters.
