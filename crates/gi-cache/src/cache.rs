@@ -395,9 +395,9 @@ impl RadianceCache {
         let resident = self.resident_bricks();
         stats.filling = crate::lighting::is_filling(new_bricks.len(), resident.len());
         if let Some(screen) = &inputs.gbuffer {
-            let fresh = new_bricks.iter().map(|b| (b.level, b.brick)).collect();
             let budget = self.config.screen_inject_bricks_per_frame.min(65_535);
-            let bricks = select_bricks(&self.config, &resident, &screen.camera, &fresh, budget);
+            let bricks =
+                select_bricks(&self.config, &resident, &screen.camera, &new_bricks, budget);
             stats.screen_injected = bricks.len() as u32;
             self.screen_injector
                 .record(ctx, encoder, timer, &self.buffers, screen, &bricks);

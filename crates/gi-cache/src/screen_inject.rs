@@ -34,7 +34,7 @@ use bytemuck::{Pod, Zeroable};
 use gi_gpu::binding::{buffer_entries, storage_entry, uniform_entry};
 use gi_gpu::{GBuffer, GpuCamera, GpuContext, GpuError, GpuTimer, ShaderLibrary, wgpu};
 use gi_scene::CameraView;
-use glam::{IVec3, Vec3};
+use glam::Vec3;
 
 use crate::buffers::CacheBuffers;
 use crate::cache::ResidentBrick;
@@ -147,13 +147,25 @@ pub fn select_bricks(
     config: &CacheConfig,
     resident: &[ResidentBrick],
     camera: &GpuCamera,
-    skip: &std::collections::HashSet<(u32, IVec3)>,
+    skip: &[ResidentBrick],
     budget: u32,
 ) -> Vec<ResidentBrick> {
     let position = Vec3::from(camera.position);
+    // Skipped pool IDs as flags: a lookup per resident brick, thousands per frame.
+    let ids = resident
+        .iter()
+        .map(|b| b.brick_id as usize + 1)
+        .max()
+        .unwrap_or(0);
+    let mut skipped = vec![false; ids];
+    for b in skip {
+        if let Some(flag) = skipped.get_mut(b.brick_id as usize) {
+            *flag = true;
+        }
+    }
     let mut visible: Vec<(u32, f32, ResidentBrick)> = resident
         .iter()
-        .filter(|b| !skip.contains(&(b.level, b.brick)))
+        .filter(|b| !skipped[b.brick_id as usize])
         .filter_map(|b| {
             let size = config.brick_size_at(b.level);
             let lo = b.brick.as_vec3() * size;
