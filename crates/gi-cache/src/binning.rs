@@ -501,23 +501,31 @@ impl TriangleIndex {
         let per_run: Vec<Vec<(IVec3, Vec<u32>)>> = runs
             .par_iter()
             .map(|&(cell, wanted, run)| {
-                let mut bins: HashMap<IVec3, Vec<u32>> = HashMap::new();
+                // A list per brick of the cell, by its bit (at most 4^3): no hashing per entry.
+                let mut lists: Vec<Vec<u32>> = vec![Vec::new(); 64];
                 let cell_box = grid.cell_box(cell);
                 for &entry in run {
                     let triangle = &self.triangles[entry as usize];
                     let bounds = BrickBox::from_world(triangle.lo, triangle.hi, brick_size_m)
                         .intersection(&cell_box);
                     for brick in bounds.bricks() {
-                        if wanted & (1 << grid.brick_bit(cell, brick)) == 0 {
+                        let bit = grid.brick_bit(cell, brick);
+                        if wanted & (1 << bit) == 0 {
                             continue;
                         }
                         let center = (brick.as_vec3() + 0.5) * brick_size_m;
                         if overlaps_brick(triangle, center, 0.5 * brick_size_m) {
-                            bins.entry(brick).or_default().push(triangle.reference);
+                            lists[bit as usize].push(triangle.reference);
                         }
                     }
                 }
-                bins.into_iter().collect()
+                cell_box
+                    .bricks()
+                    .filter_map(|brick| {
+                        let list = std::mem::take(&mut lists[grid.brick_bit(cell, brick) as usize]);
+                        (!list.is_empty()).then_some((brick, list))
+                    })
+                    .collect()
             })
             .collect();
         let mut bins: HashMap<IVec3, Vec<u32>> = HashMap::new();
