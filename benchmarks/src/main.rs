@@ -82,6 +82,10 @@ enum Command {
         /// Timed repetitions (after one warm-up); the median is reported.
         #[arg(long, default_value_t = 5)]
         repeats: usize,
+        /// Which static meshes get a bottom level shared by their copies: `auto` (the tiers'
+        /// rule), `off` (all static geometry flattened) or `all` (every mesh placed twice).
+        #[arg(long, default_value = "auto", value_parser = rays::parse_sharing)]
+        mesh_sharing: gi_gpu::bvh::MeshSharing,
         /// Also write the results as JSON to this file.
         #[arg(long)]
         json: Option<PathBuf>,
@@ -335,9 +339,10 @@ fn main() -> anyhow::Result<()> {
             scene,
             rays,
             repeats,
+            mesh_sharing,
             json,
         } => {
-            let report = rays::run(&scene, rays, repeats.max(1))?;
+            let report = rays::run(&scene, rays, repeats.max(1), mesh_sharing)?;
             out!("{}", report.table());
             write_json(json, &report.json())
         }

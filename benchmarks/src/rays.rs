@@ -20,7 +20,7 @@
 use std::time::Instant;
 
 use anyhow::{Context, bail};
-use gi_gpu::bvh::{BvhTracer, GpuBvh, GpuRay, TraceTimings};
+use gi_gpu::bvh::{BvhTracer, GpuBvh, GpuRay, MeshSharing, TraceTimings};
 use gi_gpu::{GpuContext, ShaderLibrary, TimerMode};
 use gi_scene::{SceneBvh, SceneFrame};
 use glam::Vec3;
@@ -73,14 +73,32 @@ pub struct RaysReport {
     pub kinds: Vec<KindResult>,
 }
 
-/// Loads `scene`, builds and uploads its BVH, and times `count` rays of each kind.
-pub fn run(scene_name: &str, count: usize, repeats: usize) -> anyhow::Result<RaysReport> {
+/// `--mesh-sharing`: `auto`, `off` or `all`.
+pub fn parse_sharing(value: &str) -> Result<MeshSharing, String> {
+    match value {
+        "auto" => Ok(MeshSharing::default()),
+        "off" => Ok(MeshSharing::OFF),
+        "all" => Ok(MeshSharing::ALL),
+        other => Err(format!(
+            "unknown mesh sharing '{other}': expected auto, off or all"
+        )),
+    }
+}
+
+/// Loads `scene`, builds and uploads its BVH (static meshes shared by `sharing`), and times
+/// `count` rays of each kind.
+pub fn run(
+    scene_name: &str,
+    count: usize,
+    repeats: usize,
+    sharing: MeshSharing,
+) -> anyhow::Result<RaysReport> {
     if count == 0 {
         bail!("--rays must be at least 1");
     }
     let scene = gi_scene::load(scene_name).with_context(|| format!("loading {scene_name}"))?;
     let ctx = GpuContext::new()?;
-    let mut gpu_bvh = GpuBvh::from_scene(&ctx, &scene, &scene.evaluate(0.0, None))?;
+    let mut gpu_bvh = GpuBvh::from_scene_with(&ctx, &scene, &scene.evaluate(0.0, None), sharing)?;
     let mut updates = Vec::with_capacity(repeats);
     let mut time_s = 0.0;
     for frame_index in 1..=repeats as u32 {

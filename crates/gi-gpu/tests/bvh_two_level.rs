@@ -16,7 +16,9 @@
 mod common;
 
 use common::{Rng, test_rays};
-use gi_gpu::bvh::{BVH_MISS, BvhTracer, GpuBvh, GpuHit, GpuRay, TraceResults, moving_nodes};
+use gi_gpu::bvh::{
+    BVH_MISS, BvhTracer, GpuBvh, GpuHit, GpuRay, MeshSharing, TraceResults, moving_nodes,
+};
 use gi_gpu::{GpuContext, ShaderLibrary};
 use gi_scene::{
     Animation, Channel, ChannelValues, Interpolation, Node, Scene, SceneBvh, SceneFrame, Triangle,
@@ -290,6 +292,56 @@ fn dynamic_scene_updates_match_cpu_and_fresh_builds() {
 fn many_moving_instances_match_cpu_and_fresh_builds() {
     let scene = crowd_scene(80);
     updates_match_cpu_and_fresh_builds(&scene, "crowd", &[0.5, 1.7]);
+}
+
+/// Static copies of meshes (mirrored ones, children of static parents) share object-space
+/// levels when [`MeshSharing`] says so: their hits agree with the CPU's flattened frame within
+/// the object-space allowance, the bottom levels hold fewer primitives than flattened ones,
+/// and with sharing off the copies go back into the one static level.
+#[test]
+fn static_copies_share_levels_with_the_cpu_hits() {
+    let Some((ctx, tracer)) = context("static_copies_share_levels_with_the_cpu_hits") else {
+        return;
+    };
+    let copies = 60;
+    let mut scene = crowd_scene(copies);
+    scene.animations.retain(|a| a.name != "crowd");
+    let frame = scene.evaluate(0.7, None);
+    let shared = GpuBvh::from_scene_with(&ctx, &scene, &frame, MeshSharing::ALL).expect("uploads");
+    let flat = GpuBvh::from_scene_with(&ctx, &scene, &frame, MeshSharing::OFF).expect("uploads");
+    let default = GpuBvh::from_scene(&ctx, &scene, &frame).expect("uploads");
+    eprintln!(
+        "instances: shared {}, flattened {}, default {}; primitives {} / {} / {}",
+        shared.instance_count,
+        flat.instance_count,
+        default.instance_count,
+        shared.primitive_count,
+        flat.primitive_count,
+        default.primitive_count
+    );
+    assert!(
+        shared.instance_count as usize >= flat.instance_count as usize + copies - 1,
+        "every static copy an instance"
+    );
+    assert!(
+        shared.primitive_count < flat.primitive_count,
+        "shared meshes stored once"
+    );
+    // The copies' meshes are small: the default rule keeps them flattened.
+    assert_eq!(default.instance_count, flat.instance_count);
+    let rays = test_rays(&frame, &SceneBvh::build(&frame.triangles), 77);
+    // Any triangle may be traced in object space here.
+    let object_space = vec![true; frame.triangles.len()];
+    for (label, gpu) in [("shared", &shared), ("flattened", &flat)] {
+        let results = tracer.trace(&ctx, gpu, &rays);
+        check(
+            label,
+            &compare(label, &frame, &object_space, &rays, &results),
+        );
+    }
+    for gpu in [shared, flat, default] {
+        gpu.release(&ctx);
+    }
 }
 
 /// A scene whose only instance is the static level starts its rays at that level's root;

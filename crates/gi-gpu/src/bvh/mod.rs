@@ -3,7 +3,8 @@
 //! tracing.
 //!
 //! Bottom levels are built once per scene ([`BottomLevels`]: one world-space level over the
-//! static geometry, one object-space level per mesh of a moving node); a small top level over
+//! static geometry, one object-space level per mesh of a moving node or of many static copies,
+//! see [`MeshSharing`]); a small top level over
 //! their instances is rebuilt every frame ([`GpuBvh::update`]), so moving objects never force a
 //! rebuild of their triangles.
 //!
@@ -40,7 +41,7 @@ pub use layout::{
     BVH_TRIANGLE_ALPHA, BvhError, GpuBvhInstance, GpuBvhInstanceHeader, GpuBvhTriangle,
     GpuCwBvhNode, GpuHit, GpuRay, PackedBvh,
 };
-pub use levels::{BottomLevels, TopLevel, moving_nodes};
+pub use levels::{BottomLevels, MeshSharing, TopLevel, moving_nodes};
 pub use tracer::{BvhTracer, TraceResults, TraceTimings};
 
 use std::time::Instant;
@@ -134,7 +135,17 @@ impl GpuBvh {
         scene: &Scene,
         frame: &SceneFrame,
     ) -> Result<Self, BvhError> {
-        let levels = BottomLevels::from_scene(scene, frame)?;
+        Self::from_scene_with(ctx, scene, frame, MeshSharing::default())
+    }
+
+    /// [`GpuBvh::from_scene`] with the given rule for sharing the levels of static meshes.
+    pub fn from_scene_with(
+        ctx: &GpuContext,
+        scene: &Scene,
+        frame: &SceneFrame,
+        sharing: MeshSharing,
+    ) -> Result<Self, BvhError> {
+        let levels = BottomLevels::from_scene_with(scene, frame, sharing)?;
         Self::upload_levels(ctx, levels, &frame.world_from_node)
     }
 
