@@ -86,6 +86,9 @@ enum Command {
         /// rule), `off` (all static geometry flattened) or `all` (every mesh placed twice).
         #[arg(long, default_value = "auto", value_parser = rays::parse_sharing)]
         mesh_sharing: gi_gpu::bvh::MeshSharing,
+        /// Seconds of tracing before timing, while the GPU's clock climbs.
+        #[arg(long, default_value_t = 1.0)]
+        settle_s: f64,
         /// Also write the results as JSON to this file.
         #[arg(long)]
         json: Option<PathBuf>,
@@ -340,9 +343,10 @@ fn main() -> anyhow::Result<()> {
             rays,
             repeats,
             mesh_sharing,
+            settle_s,
             json,
         } => {
-            let report = rays::run(&scene, rays, repeats.max(1), mesh_sharing)?;
+            let report = rays::run(&scene, rays, repeats.max(1), mesh_sharing, settle_s)?;
             out!("{}", report.table());
             write_json(json, &report.json())
         }

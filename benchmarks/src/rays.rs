@@ -14,8 +14,10 @@
 //! - incoherent: cosine-distributed bounces off the primary hits (closest hit).
 //!
 //! GPU times are the median of `repeats` dispatches measured with timestamp queries (CPU
-//! wall-clock around each pass when the adapter has none); CPU times are the median wall-clock
-//! of `repeats` parallel runs over all cores.
+//! wall-clock around each pass when the adapter has none), after `--settle-s` seconds of
+//! tracing so the GPU's clock has climbed (an idle H100 read up to 5x slower otherwise), all
+//! kinds back to back; CPU times are the median wall-clock of `repeats` parallel runs over all
+//! cores, timed afterwards.
 
 use std::time::Instant;
 
@@ -70,6 +72,8 @@ pub struct RaysReport {
     pub timer_mode: TimerMode,
     pub cpu_threads: usize,
     pub repeats: usize,
+    /// Seconds of tracing before anything was timed (the GPU's clock settling).
+    pub settle_s: f64,
     pub kinds: Vec<KindResult>,
 }
 
@@ -85,13 +89,14 @@ pub fn parse_sharing(value: &str) -> Result<MeshSharing, String> {
     }
 }
 
-/// Loads `scene`, builds and uploads its BVH (static meshes shared by `sharing`), and times
-/// `count` rays of each kind.
+/// Loads `scene`, builds and uploads its BVH (static meshes shared by `sharing`), traces for
+/// `settle_s` seconds, and times `count` rays of each kind.
 pub fn run(
     scene_name: &str,
     count: usize,
     repeats: usize,
     sharing: MeshSharing,
+    settle_s: f64,
 ) -> anyhow::Result<RaysReport> {
     if count == 0 {
         bail!("--rays must be at least 1");
@@ -113,34 +118,38 @@ pub fn run(
 
     let primary = primary_rays(&frame, count);
     let surfaces = surfaces(&frame, &cpu_bvh, &primary);
-    let mut kinds = Vec::new();
+    let sets = [
+        ("primary", "closest", primary),
+        ("shadow", "occluded", shadow_rays(&frame, &surfaces, count)),
+        ("incoherent", "closest", bounce_rays(&surfaces, count)),
+    ];
+    // The GPU's clock climbs under load only: trace until it has, then time every kind on the
+    // GPU back to back, and only then the CPU, which would leave the GPU idle in between.
+    let started = Instant::now();
+    while started.elapsed().as_secs_f64() < settle_s {
+        tracer.time(&ctx, &gpu_bvh, &sets[2].2, 1);
+    }
     let mut timer_mode = TimerMode::Gpu;
-    for (kind, rays) in [
-        ("primary", primary),
-        ("shadow", shadow_rays(&frame, &surfaces, count)),
-        ("incoherent", bounce_rays(&surfaces, count)),
-    ] {
-        let query = if kind == "shadow" {
-            "occluded"
-        } else {
-            "closest"
-        };
-        let gpu: TraceTimings = tracer.time(&ctx, &gpu_bvh, &rays, repeats);
-        timer_mode = gpu.mode;
-        let gpu_ms = if query == "occluded" {
-            gpu.occluded_ms
-        } else {
-            gpu.closest_ms
-        };
-        let cpu_ms = cpu_time_ms(&frame, &cpu_bvh, &rays, query, repeats);
-        kinds.push(KindResult {
+    let gpu_ms: Vec<f64> = (sets.iter())
+        .map(|(_, query, rays)| {
+            let gpu: TraceTimings = tracer.time(&ctx, &gpu_bvh, rays, repeats);
+            timer_mode = gpu.mode;
+            if *query == "occluded" {
+                gpu.occluded_ms
+            } else {
+                gpu.closest_ms
+            }
+        })
+        .collect();
+    let kinds = (sets.iter().zip(gpu_ms))
+        .map(|((kind, query, rays), gpu_ms)| KindResult {
             kind,
             query,
             rays: rays.len(),
             gpu_ms,
-            cpu_ms,
-        });
-    }
+            cpu_ms: cpu_time_ms(&frame, &cpu_bvh, rays, query, repeats),
+        })
+        .collect();
     let report = RaysReport {
         scene: scene.name.clone(),
         triangles: frame.triangles.len(),
@@ -155,6 +164,7 @@ pub fn run(
         timer_mode,
         cpu_threads: rayon::current_num_threads(),
         repeats,
+        settle_s,
         kinds,
     };
     gpu_bvh.release(&ctx);
@@ -317,7 +327,7 @@ impl RaysReport {
         let mut out = format!(
             "scene {}: {} triangles; GPU bottom levels {} nodes, depth {}, build {:.2} ms; \
              top level {} instances, {} nodes, update {:.3} ms per frame; CPU BVH build {:.2} ms\n\
-             GPU: {} ({}), CPU: {} threads, median of {} runs\n\n",
+             GPU: {} ({}, after {:.1} s of tracing), CPU: {} threads, median of {} runs\n\n",
             self.scene,
             self.triangles,
             self.bvh_nodes,
@@ -332,6 +342,7 @@ impl RaysReport {
                 TimerMode::Gpu => "GPU timestamps",
                 TimerMode::Cpu => "CPU wall-clock per pass",
             },
+            self.settle_s,
             self.cpu_threads,
             self.repeats
         );
@@ -388,6 +399,7 @@ impl RaysReport {
             "gpu_timer": format!("{:?}", self.timer_mode),
             "cpu_threads": self.cpu_threads,
             "repeats": self.repeats,
+            "settle_s": self.settle_s,
             "kinds": kinds,
         })
     }

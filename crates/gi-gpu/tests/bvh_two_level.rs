@@ -344,6 +344,109 @@ fn static_copies_share_levels_with_the_cpu_hits() {
     }
 }
 
+/// `scene`'s node forest placed `copies` times under new root nodes, like a tiled level: the
+/// first copy is the original nodes, the others renumbered duplicates; the last copy is turned
+/// and mirrored.
+fn tiled_scene(mut scene: Scene, copies: usize) -> Scene {
+    let original = scene.nodes.len();
+    let roots: Vec<usize> = (0..original)
+        .filter(|&n| scene.nodes[n].parent.is_none())
+        .collect();
+    for copy in 0..copies {
+        let offset = if copy == 0 { 0 } else { scene.nodes.len() };
+        if copy > 0 {
+            for n in 0..original {
+                let mut node = scene.nodes[n].clone();
+                node.name = format!("{} copy {copy}", node.name);
+                node.parent = node.parent.map(|p| p + offset);
+                scene.nodes.push(node);
+            }
+        }
+        let root = scene.nodes.len();
+        let last = copy + 1 == copies;
+        scene.nodes.push(Node {
+            name: format!("copy {copy}"),
+            translation: Vec3::new(300.0 * copy as f32, 0.0, 0.0),
+            rotation: if last {
+                Quat::from_rotation_y(0.7)
+            } else {
+                Quat::IDENTITY
+            },
+            scale: if last {
+                Vec3::new(-1.0, 1.0, 1.0)
+            } else {
+                Vec3::ONE
+            },
+            ..Node::default()
+        });
+        for &r in &roots {
+            scene.nodes[r + offset].parent = Some(root);
+        }
+    }
+    scene
+}
+
+/// A static scene tiled four times (one copy mirrored, and a mirrored node inside every copy):
+/// each copy's node tree is one instance
+/// of one shared level under the default rule, stored once, and its hits agree with the CPU's
+/// flattened frame; shared per mesh only (`MeshSharing::OFF` flattens everything) the copies'
+/// triangles are all in the static level.
+#[test]
+fn repeated_node_trees_share_one_level() {
+    let Some((ctx, tracer)) = context("repeated_node_trees_share_one_level") else {
+        return;
+    };
+    let copies = 4;
+    let mut single = gi_scene::load("open-world").expect("open-world");
+    assert!(!moving_nodes(&single).contains(&true), "a static scene");
+    // A mirrored node inside every copy (its triangles' winding flips in the shared level).
+    let mirrored = (single.nodes.iter())
+        .position(|n| n.mesh.is_some())
+        .expect("a mesh node");
+    single.nodes[mirrored].scale.x = -single.nodes[mirrored].scale.x;
+    let single_triangles = single.evaluate(0.0, None).triangles.len();
+    let scene = tiled_scene(single, copies);
+    let frame = scene.evaluate(0.0, None);
+    assert_eq!(frame.triangles.len(), copies * single_triangles);
+    let shared = GpuBvh::from_scene(&ctx, &scene, &frame).expect("uploads");
+    let flat = GpuBvh::from_scene_with(&ctx, &scene, &frame, MeshSharing::OFF).expect("uploads");
+    eprintln!(
+        "instances: shared {}, flattened {}; primitives {} / {}",
+        shared.instance_count, flat.instance_count, shared.primitive_count, flat.primitive_count
+    );
+    assert_eq!(shared.instance_count as usize, copies, "one instance per copy");
+    assert_eq!(flat.instance_count, 1, "one static level");
+    // Spatial splits may reference a triangle from several leaves, so the counts are bounded,
+    // not equal: one copy's primitives against four.
+    assert!(
+        (shared.primitive_count as usize) < flat.primitive_count as usize / (copies - 1),
+        "the copies stored once"
+    );
+    let rays = test_rays(&frame, &SceneBvh::build(&frame.triangles), 91);
+    let object_space = vec![true; frame.triangles.len()];
+    for (label, gpu) in [("trees", &shared), ("flattened", &flat)] {
+        let results = tracer.trace(&ctx, gpu, &rays);
+        check(label, &compare(label, &frame, &object_space, &rays, &results));
+    }
+    // A copy whose node differs (one mesh node moved) is a different shape: it is flattened
+    // into the static level (a shape with one copy is not worth a level) while the others
+    // stay shared.
+    let mut changed = scene.clone();
+    let moved = (0..changed.nodes.len())
+        .rev()
+        .find(|&n| changed.nodes[n].mesh.is_some())
+        .expect("a mesh node");
+    changed.nodes[moved].translation += Vec3::new(0.0, 0.01, 0.0);
+    let frame = changed.evaluate(0.0, None);
+    let gpu = GpuBvh::from_scene(&ctx, &changed, &frame).expect("uploads");
+    assert_eq!(gpu.instance_count as usize, copies, "three copies and the static level");
+    let results = tracer.trace(&ctx, &gpu, &rays);
+    check("changed", &compare("changed", &frame, &object_space, &rays, &results));
+    for gpu in [shared, flat, gpu] {
+        gpu.release(&ctx);
+    }
+}
+
 /// A scene whose only instance is the static level starts its rays at that level's root;
 /// forced through the top level instead, every hit is the same bit for bit. Scenes with moving
 /// instances, and an empty one, always go through the top level.

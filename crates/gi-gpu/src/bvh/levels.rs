@@ -7,15 +7,16 @@
 //! triangle index and its instance has the identity transform. Each mesh used by a moving node
 //! gets one bottom level in the mesh's object space, shared by every moving node that uses it;
 //! an instance per moving node carries its `object_from_world` and the first index of its
-//! triangle range in the frame.
-//!
-//! A mesh that many static nodes place (glTF instancing: a column, a tree, a whole tiled
-//! building) is treated like a moving one when [`MeshSharing`] says flattening its copies
-//! would cost too much: one object-space level, one instance per node. Its copies are then
-//! built and stored once, at the price of a top-level leaf and a ray transform per copy a ray
-//! enters; a scene without such meshes keeps the single flattened static level. The top level is an obvhs CWBVH over the instances' world
+//! triangle range in the frame. The top level is an obvhs CWBVH over the instances' world
 //! boxes: hundreds of moving objects stay logarithmic to traverse, and rebuilding it is a PLOC
 //! build over that many boxes, far cheaper than the triangles.
+//!
+//! Static geometry placed many times (glTF instancing: a node tree or a mesh repeated, from a
+//! column to a whole tiled building) gets one level in its own space when [`MeshSharing`]
+//! says flattening its copies would cost too much (see the `sharing` module), and one
+//! instance per copy, placed by its root node's constant transform. Its copies are then built
+//! and stored once, at the price of a top-level leaf and a ray transform per copy a ray
+//! enters; a scene without such copies keeps the single flattened static level.
 //!
 //! Deforming nodes (skinned meshes whose joints move, meshes whose morph target weights are
 //! animated; [`Scene::deforming_nodes`]) change shape, so no fixed level can hold them: each
@@ -37,80 +38,11 @@ use obvhs::{
     triangle::Triangle,
 };
 
+use super::sharing::{MeshSharing, node_ranges, shared_trees};
 use super::layout::{
     BVH_INSTANCE_IDENTITY, BVH_INSTANCE_MIRRORED, BVH_STACK_SIZE, BVH_TRIANGLE_ALPHA, BvhError,
     GpuBvhInstance, GpuBvhTriangle, GpuCwBvhNode, PackedBvh,
 };
-
-/// Which meshes placed by static nodes get a bottom level of their own, shared by their
-/// copies, instead of being flattened into the world-space static level.
-///
-/// A mesh is shared when it has at least [`MeshSharing::min_triangles`] triangles and
-/// flattening would store at least [`MeshSharing::min_saved_triangles`] more triangles than
-/// sharing does (`(copies - 1) * triangles`). Small meshes stay flattened however often they
-/// are placed: entering an instance costs a ray transform and a top-level leaf, more than a
-/// few hundred triangles cost inside the static level. Skinned nodes and meshes with morph
-/// targets are never shared (their frame triangles are not the mesh's positions).
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub struct MeshSharing {
-    /// Fewest triangles a shared mesh has.
-    pub min_triangles: usize,
-    /// Fewest triangles sharing must save against flattening the copies.
-    pub min_saved_triangles: usize,
-}
-
-impl MeshSharing {
-    /// Every static copy flattened into the static level.
-    pub const OFF: Self = Self {
-        min_triangles: usize::MAX,
-        min_saved_triangles: usize::MAX,
-    };
-
-    /// Every mesh placed by two static nodes or more shared, however small.
-    pub const ALL: Self = Self {
-        min_triangles: 1,
-        min_saved_triangles: 1,
-    };
-
-    /// Per mesh: whether its static copies share one level.
-    fn shared_meshes(&self, scene: &Scene, is_static: impl Fn(usize) -> bool) -> Vec<bool> {
-        let mut copies = vec![0usize; scene.meshes.len()];
-        for (index, node) in scene.nodes.iter().enumerate() {
-            if let Some(mesh) = node.mesh
-                && is_static(index)
-                && scene.node_skin(index).is_none()
-                && let Some(count) = copies.get_mut(mesh)
-            {
-                *count += 1;
-            }
-        }
-        scene
-            .meshes
-            .iter()
-            .zip(copies)
-            .map(|(mesh, copies)| {
-                let triangles: usize = mesh.primitives.iter().map(|p| p.indices.len() / 3).sum();
-                copies >= 2
-                    && mesh.morph_target_count() == 0
-                    && triangles >= self.min_triangles
-                    && (copies - 1).saturating_mul(triangles) >= self.min_saved_triangles
-            })
-            .collect()
-    }
-}
-
-impl Default for MeshSharing {
-    /// Meshes of at least 512 triangles whose copies would add at least 65,536 triangles.
-    /// Sponza's own repeated pieces stay flattened (the most any of them would save is 14k
-    /// triangles); tiled four times, 223k of its 1.05M triangles are shared, sixteen times
-    /// 3.66M of 4.19M.
-    fn default() -> Self {
-        Self {
-            min_triangles: 512,
-            min_saved_triangles: 65_536,
-        }
-    }
-}
 
 /// One bottom level's place in the concatenated buffers.
 #[derive(Clone, Copy, Debug)]
@@ -218,19 +150,30 @@ impl BottomLevels {
             .map(|(node, moving)| moving && scene.node_skin(node).is_none())
             .collect();
         let flag = |flags: &[bool], node: usize| flags.get(node).copied().unwrap_or(false);
-        let shared_mesh = sharing.shared_meshes(scene, |node| {
-            !flag(&moving, node) && !flag(&deforming, node)
-        });
-        // Static nodes whose mesh is shared are placed like moving ones: by their (constant)
-        // transform.
+        // Static, unskinned nodes whose frame triangles are their meshes' positions placed
+        // by their transforms: the ones a shared level may stand for.
+        let animated = moving_nodes(scene);
+        let plain: Vec<bool> = (0..scene.nodes.len())
+            .map(|node| {
+                !flag(&animated, node)
+                    && !flag(&deforming, node)
+                    && scene.node_skin(node).is_none()
+                    && (scene.nodes[node].mesh)
+                        .and_then(|m| scene.meshes.get(m))
+                        .is_none_or(|m| m.morph_target_count() == 0)
+            })
+            .collect();
+        let ranges = node_ranges(scene, frame.attributes.iter().map(|a| a.node));
+        let trees = shared_trees(scene, &plain, &ranges, sharing);
+        let shared_mesh =
+            sharing.shared_meshes(scene, |node| flag(&plain, node) && !flag(&trees.covered, node));
+        // Moving nodes, and static ones whose mesh is shared, are placed by their transforms.
         let placed: Vec<bool> = (0..scene.nodes.len())
             .map(|node| {
                 flag(&moving, node)
-                    || (!flag(&deforming, node)
-                        && scene.node_skin(node).is_none()
-                        && scene.nodes[node]
-                            .mesh
-                            .is_some_and(|m| flag(&shared_mesh, m)))
+                    || (flag(&plain, node)
+                        && !flag(&trees.covered, node)
+                        && (scene.nodes[node].mesh).is_some_and(|m| flag(&shared_mesh, m)))
             })
             .collect();
         let mut levels = Self::empty();
@@ -241,6 +184,8 @@ impl BottomLevels {
             let node = attributes.node as usize;
             if flag(&deforming, node) {
                 deforming_indices[node].push(index as u32);
+            } else if flag(&trees.covered, node) {
+                // Traced through its tree's instance.
             } else if flag(&placed, node) {
                 first_triangle[node].get_or_insert(index as u32);
             } else {
@@ -265,6 +210,23 @@ impl BottomLevels {
                 placement: Placement::Static,
                 triangle_base: 0,
             });
+        }
+        // One level per repeated tree, in its root's space, shared by its copies.
+        let mut shape_blas = Vec::with_capacity(trees.shapes.len());
+        for shape in &trees.shapes {
+            let alpha: Vec<bool> = (shape.materials.iter())
+                .map(|&m| material_alpha(m as usize))
+                .collect();
+            shape_blas.push(levels.add_blas(&shape.triangles, None, &alpha)?);
+        }
+        for copy in &trees.copies {
+            if let Some(blas) = shape_blas[copy.shape] {
+                levels.instances.push(Instance {
+                    blas,
+                    placement: Placement::Node(copy.root),
+                    triangle_base: copy.first_triangle,
+                });
+            }
         }
         // One level per mesh, shared by the moving (or placed static) nodes that instance it.
         let mut mesh_blas: Vec<Option<Option<usize>>> = vec![None; scene.meshes.len()];

@@ -34,6 +34,7 @@
 
 mod layout;
 mod levels;
+mod sharing;
 mod tracer;
 
 pub use layout::{
@@ -41,7 +42,8 @@ pub use layout::{
     BVH_TRIANGLE_ALPHA, BvhError, GpuBvhInstance, GpuBvhInstanceHeader, GpuBvhTriangle,
     GpuCwBvhNode, GpuHit, GpuRay, PackedBvh,
 };
-pub use levels::{BottomLevels, MeshSharing, TopLevel, moving_nodes};
+pub use levels::{BottomLevels, TopLevel, moving_nodes};
+pub use sharing::MeshSharing;
 pub use tracer::{BvhTracer, TraceResults, TraceTimings};
 
 use std::time::Instant;
