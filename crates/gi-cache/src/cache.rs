@@ -671,6 +671,18 @@ impl RadianceCache {
                     id = match self.allocate(level, camera, &mut victims, wanted, stats) {
                         Some(id) => id,
                         None => {
+                            if self.dropped_for_pool == 0 {
+                                // Once per cache: the GI then misses geometry, and rays
+                                // through the holes see the sky (over-bright far walls).
+                                tracing::warn!(
+                                    "the brick cache's pool of {} bricks is full: bricks with \
+                                     geometry are left out from level {level} on, so the GI \
+                                     misses that geometry and its rays may see the sky through \
+                                     it; raise `CacheConfig::pool_bricks` (`gi render \
+                                     --cache-pool-bricks`)",
+                                    self.config.pool_bricks
+                                );
+                            }
                             stats.dropped_for_pool += 1;
                             self.dropped_for_pool += 1;
                             self.dropped.insert((level, brick));

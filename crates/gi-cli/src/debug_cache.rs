@@ -39,6 +39,9 @@ pub struct DebugCacheArgs {
     /// run time; small scenes settle within the default.
     #[arg(long, default_value_t = 32)]
     frames: u32,
+    /// Bricks the cache's pool holds (default 12288).
+    #[arg(long, value_name = "N")]
+    pool_bricks: Option<u32>,
     /// Output PNG (default `debug-cache-<scene>-<view>.png`).
     #[arg(long)]
     out: Option<PathBuf>,
@@ -87,7 +90,11 @@ pub fn run(args: &DebugCacheArgs) -> anyhow::Result<()> {
     let frame = scene.evaluate(args.time, None);
     let ctx = GpuContext::new().context("debug-cache needs a GPU (or lavapipe)")?;
     let shaders = ShaderLibrary::new();
-    let config = CacheConfig::default();
+    let mut config = CacheConfig::default();
+    if let Some(bricks) = args.pool_bricks {
+        config.pool_bricks = bricks;
+    }
+    config.validate()?;
     let gpu_scene = GpuScene::upload(&ctx, &scene, &frame)?;
     let mut cache = RadianceCache::new(&ctx, &config)?;
     CacheLighting::attach(&ctx, &shaders, &mut cache)?;

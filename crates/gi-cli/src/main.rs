@@ -26,7 +26,7 @@ use std::{
 
 use clap::{Args, Parser, Subcommand};
 use gi_tiers::pc::TraceMode;
-use gi_tiers::{PcConfig, TierKind};
+use gi_tiers::{MobileConfig, PcConfig, TierKind};
 use tiers::{CameraChoice, RenderRequest, ScreenProbes};
 
 /// Real-time global illumination tiers, measured against a path-traced reference.
@@ -131,6 +131,11 @@ pub struct ViewArgs {
     /// Only the PC tier reads it.
     #[arg(long, value_name = "MODE", value_parser = parse_trace_mode)]
     pc_trace_mode: Option<TraceMode>,
+    /// Bricks the brick cache's pool holds (default 12288, about 2.8 KB each). A scene whose
+    /// geometry needs more (the cache warns) loses its farthest bricks from the GI. Only the
+    /// mobile and PC tiers read it.
+    #[arg(long, value_name = "N")]
+    cache_pool_bricks: Option<u32>,
 }
 
 /// Largest accepted image side, and largest pixel count (a 16K x 4K image).
@@ -178,7 +183,7 @@ impl ViewArgs {
             seed: self.seed,
             camera: self.camera,
             warmup: self.warmup,
-            mobile: ScreenProbes::mobile_config(self.screen_probes),
+            mobile: self.mobile_config()?,
             pc: self.pc_config()?,
             pc_without: self.pc_without.clone(),
             pc_with: self.pc_with.clone(),
@@ -206,6 +211,19 @@ impl ViewArgs {
         }
         if let Some(mode) = self.pc_trace_mode {
             config.trace_mode = mode;
+        }
+        if let Some(bricks) = self.cache_pool_bricks {
+            config.cache.pool_bricks = bricks;
+        }
+        config.validate().map_err(anyhow::Error::msg)?;
+        Ok(config)
+    }
+
+    /// The mobile tier's configuration from `--screen-probes` and `--cache-pool-bricks`.
+    fn mobile_config(&self) -> anyhow::Result<MobileConfig> {
+        let mut config = ScreenProbes::mobile_config(self.screen_probes);
+        if let Some(bricks) = self.cache_pool_bricks {
+            config.cache.pool_bricks = bricks;
         }
         config.validate().map_err(anyhow::Error::msg)?;
         Ok(config)

@@ -414,7 +414,10 @@ fn repeated_node_trees_share_one_level() {
         "instances: shared {}, flattened {}; primitives {} / {}",
         shared.instance_count, flat.instance_count, shared.primitive_count, flat.primitive_count
     );
-    assert_eq!(shared.instance_count as usize, copies, "one instance per copy");
+    assert_eq!(
+        shared.instance_count as usize, copies,
+        "one instance per copy"
+    );
     assert_eq!(flat.instance_count, 1, "one static level");
     // Spatial splits may reference a triangle from several leaves, so the counts are bounded,
     // not equal: one copy's primitives against four.
@@ -426,7 +429,10 @@ fn repeated_node_trees_share_one_level() {
     let object_space = vec![true; frame.triangles.len()];
     for (label, gpu) in [("trees", &shared), ("flattened", &flat)] {
         let results = tracer.trace(&ctx, gpu, &rays);
-        check(label, &compare(label, &frame, &object_space, &rays, &results));
+        check(
+            label,
+            &compare(label, &frame, &object_space, &rays, &results),
+        );
     }
     // A copy whose node differs (one mesh node moved) is a different shape: it is flattened
     // into the static level (a shape with one copy is not worth a level) while the others
@@ -439,9 +445,15 @@ fn repeated_node_trees_share_one_level() {
     changed.nodes[moved].translation += Vec3::new(0.0, 0.01, 0.0);
     let frame = changed.evaluate(0.0, None);
     let gpu = GpuBvh::from_scene(&ctx, &changed, &frame).expect("uploads");
-    assert_eq!(gpu.instance_count as usize, copies, "three copies and the static level");
+    assert_eq!(
+        gpu.instance_count as usize, copies,
+        "three copies and the static level"
+    );
     let results = tracer.trace(&ctx, &gpu, &rays);
-    check("changed", &compare("changed", &frame, &object_space, &rays, &results));
+    check(
+        "changed",
+        &compare("changed", &frame, &object_space, &rays, &results),
+    );
     for gpu in [shared, flat, gpu] {
         gpu.release(&ctx);
     }

@@ -38,11 +38,11 @@ use obvhs::{
     triangle::Triangle,
 };
 
-use super::sharing::{MeshSharing, node_ranges, shared_trees};
 use super::layout::{
     BVH_INSTANCE_IDENTITY, BVH_INSTANCE_MIRRORED, BVH_STACK_SIZE, BVH_TRIANGLE_ALPHA, BvhError,
     GpuBvhInstance, GpuBvhTriangle, GpuCwBvhNode, PackedBvh,
 };
+use super::sharing::{MeshSharing, node_ranges, shared_trees};
 
 /// One bottom level's place in the concatenated buffers.
 #[derive(Clone, Copy, Debug)]
@@ -165,8 +165,9 @@ impl BottomLevels {
             .collect();
         let ranges = node_ranges(scene, frame.attributes.iter().map(|a| a.node));
         let trees = shared_trees(scene, &plain, &ranges, sharing);
-        let shared_mesh =
-            sharing.shared_meshes(scene, |node| flag(&plain, node) && !flag(&trees.covered, node));
+        let shared_mesh = sharing.shared_meshes(scene, |node| {
+            flag(&plain, node) && !flag(&trees.covered, node)
+        });
         // Moving nodes, and static ones whose mesh is shared, are placed by their transforms.
         let placed: Vec<bool> = (0..scene.nodes.len())
             .map(|node| {

@@ -318,7 +318,11 @@ fn tree_shape(scene: &Scene, children: &[Vec<usize>], root: usize) -> Shape {
             for primitive in &mesh.primitives {
                 for tri in primitive.indices.chunks_exact(3) {
                     let [a, b, c] = [tri[0], tri[1], tri[2]].map(|i| {
-                        let p = primitive.positions.get(i as usize).copied().unwrap_or_default();
+                        let p = primitive
+                            .positions
+                            .get(i as usize)
+                            .copied()
+                            .unwrap_or_default();
                         root_from_node.transform_point3(p).into()
                     });
                     let (v1, v2) = if flips { (c, b) } else { (b, c) };
