@@ -353,6 +353,58 @@ fn debug_cache_writes_the_view_and_reports_the_cache() {
     assert!(seen * 2 >= 32 * 24, "{seen} of {} pixels hit", 32 * 24);
 }
 
+/// A pool too small for the scene's bricks: the cache warns once, naming the setting, and the
+/// report counts what was left out; an absurd pool size is refused before anything runs.
+#[test]
+fn a_full_cache_pool_warns_once_and_bad_pool_sizes_are_refused() {
+    let dir = tempfile::tempdir().unwrap();
+    for (args, value) in [
+        (&["render", "cornell-box", "--tier", "mobile"][..], "0"),
+        (&["render", "cornell-box", "--tier", "pc"][..], "99999999"),
+        (&["debug-cache", "cornell-box"][..], "0"),
+    ] {
+        let flag = if args[0] == "debug-cache" {
+            "--pool-bricks"
+        } else {
+            "--cache-pool-bricks"
+        };
+        let mut all = args.to_vec();
+        all.extend([flag, value, "--out", "a.png"]);
+        let output = gi(&all, dir.path());
+        assert_fails_with(&output, "pool_bricks");
+        assert!(!dir.path().join("a.png").exists());
+    }
+    if gi_gpu::GpuContext::new_or_skip("a_full_cache_pool_warns_once").is_none() {
+        return;
+    }
+    let output = gi(
+        &[
+            "debug-cache",
+            "cornell-box",
+            "--size",
+            "16x12",
+            "--frames",
+            "2",
+            "--pool-bricks",
+            "8",
+            "--out",
+            "occupancy.png",
+        ],
+        dir.path(),
+    );
+    assert!(output.status.success(), "{}", stderr(&output));
+    let err = stderr(&output);
+    assert_eq!(err.matches("pool of 8 bricks is full").count(), 1, "{err}");
+    assert!(err.contains("CacheConfig::pool_bricks"), "{err}");
+    let stdout = String::from_utf8_lossy(&output.stdout);
+    let dropped = stdout
+        .lines()
+        .find_map(|l| l.strip_prefix("dropped"))
+        .and_then(|rest| rest.split_whitespace().next()?.parse::<u32>().ok())
+        .expect("a dropped line");
+    assert!(dropped > 0, "{stdout}");
+}
+
 #[test]
 fn debug_cache_lights_the_cache_on_the_gpu() {
     if gi_gpu::GpuContext::new_or_skip("debug_cache_lights_the_cache_on_the_gpu").is_none() {
