@@ -144,15 +144,13 @@ impl BottomLevels {
         let deforming = scene.deforming_nodes();
         // A skinned node is placed by its joints, never rigidly by its own transform: it either
         // deforms or is static.
-        let moving: Vec<bool> = moving_nodes(scene)
-            .into_iter()
-            .enumerate()
-            .map(|(node, moving)| moving && scene.node_skin(node).is_none())
+        let animated = moving_nodes(scene);
+        let moving: Vec<bool> = (animated.iter().enumerate())
+            .map(|(node, &moving)| moving && scene.node_skin(node).is_none())
             .collect();
         let flag = |flags: &[bool], node: usize| flags.get(node).copied().unwrap_or(false);
         // Static, unskinned nodes whose frame triangles are their meshes' positions placed
         // by their transforms: the ones a shared level may stand for.
-        let animated = moving_nodes(scene);
         let plain: Vec<bool> = (0..scene.nodes.len())
             .map(|node| {
                 !flag(&animated, node)
@@ -214,11 +212,25 @@ impl BottomLevels {
         }
         // One level per repeated tree, in its root's space, shared by its copies.
         let mut shape_blas = Vec::with_capacity(trees.shapes.len());
-        for shape in &trees.shapes {
-            let alpha: Vec<bool> = (shape.materials.iter())
-                .map(|&m| material_alpha(m as usize))
-                .collect();
-            shape_blas.push(levels.add_blas(&shape.triangles, None, &alpha)?);
+        for placements in &trees.shapes {
+            let (mut triangles, mut alpha) = (Vec::new(), Vec::new());
+            for &(mesh, root_from_node) in placements {
+                // The frame's order: a mirroring transform below the root swaps a triangle's
+                // last two vertices, as `Scene::evaluate` does (a mirroring root is the
+                // instance's flag).
+                let flips = root_from_node.determinant() < 0.0;
+                let at = |v: Vec3A| Vec3A::from(root_from_node.transform_point3(v.into()));
+                triangles.extend(object_triangles(scene, mesh).into_iter().map(|t| {
+                    let (v1, v2) = if flips { (t.v2, t.v1) } else { (t.v1, t.v2) };
+                    Triangle {
+                        v0: at(t.v0),
+                        v1: at(v1),
+                        v2: at(v2),
+                    }
+                }));
+                alpha.extend(object_alpha(scene, mesh, &material_alpha));
+            }
+            shape_blas.push(levels.add_blas(&triangles, None, &alpha)?);
         }
         for copy in &trees.copies {
             if let Some(blas) = shape_blas[copy.shape] {

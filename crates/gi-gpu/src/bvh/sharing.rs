@@ -20,7 +20,6 @@ use std::hash::{DefaultHasher, Hash, Hasher};
 
 use gi_scene::Scene;
 use glam::Mat4;
-use obvhs::triangle::Triangle;
 
 /// Which static geometry placed more than once gets a bottom level of its own, shared by its
 /// copies, instead of being flattened into the world-space static level.
@@ -74,8 +73,7 @@ impl MeshSharing {
         }
         (scene.meshes.iter().zip(copies))
             .map(|(mesh, copies)| {
-                let triangles: usize = mesh.primitives.iter().map(|p| p.indices.len() / 3).sum();
-                mesh.morph_target_count() == 0 && self.shares(copies, triangles)
+                mesh.morph_target_count() == 0 && self.shares(copies, mesh_triangles(mesh))
             })
             .collect()
     }
@@ -102,17 +100,12 @@ pub(super) struct TreeCopy {
     pub shape: usize,
 }
 
-/// A tree's geometry in its root's space, in the copies' frame order.
-pub(super) struct Shape {
-    pub triangles: Vec<Triangle>,
-    /// Per triangle, its material index.
-    pub materials: Vec<u32>,
-}
-
 /// The repeated trees of a scene, and which nodes they cover.
 pub(super) struct SharedTrees {
     pub copies: Vec<TreeCopy>,
-    pub shapes: Vec<Shape>,
+    /// Per shape, its mesh nodes in preorder (the copies' frame order): each one's mesh and
+    /// its transform into the tree root's space.
+    pub shapes: Vec<Vec<(usize, Mat4)>>,
     /// Per node: whether a copy's tree contains it.
     pub covered: Vec<bool>,
 }
@@ -175,8 +168,7 @@ pub(super) fn shared_trees(
         let mut ok = plain.get(node).copied().unwrap_or(false);
         // The frame holds every triangle of the node's mesh (a copy maps them one to one).
         if let Some(mesh) = scene.nodes[node].mesh.and_then(|m| scene.meshes.get(m)) {
-            let mesh_triangles: usize = mesh.primitives.iter().map(|p| p.indices.len() / 3).sum();
-            ok &= mesh_triangles == own_count as usize;
+            ok &= mesh_triangles(mesh) == own_count as usize;
         }
         let mut run_first = if own_count > 0 { own_first } else { u32::MAX };
         let mut next = own_first.saturating_add(own_count);
@@ -265,6 +257,10 @@ pub(super) fn shared_trees(
     result
 }
 
+fn mesh_triangles(mesh: &gi_scene::Mesh) -> usize {
+    mesh.primitives.iter().map(|p| p.indices.len() / 3).sum()
+}
+
 /// The bits of a node's local transform (translation, rotation, scale).
 fn local_bits(scene: &Scene, node: usize) -> [u32; 10] {
     let n = &scene.nodes[node];
@@ -303,37 +299,18 @@ fn same_tree(scene: &Scene, children: &[Vec<usize>], a: usize, b: usize) -> bool
     true
 }
 
-/// The triangles of the tree at `root` in its root's space, in preorder, each mesh node's in
-/// the order `Scene::evaluate` emits them: a mirroring transform below the root swaps a
-/// triangle's last two vertices as the frame does (a mirroring root is the instance's flag).
-fn tree_shape(scene: &Scene, children: &[Vec<usize>], root: usize) -> Shape {
-    let mut shape = Shape {
-        triangles: Vec::new(),
-        materials: Vec::new(),
-    };
+/// The mesh nodes of the tree at `root` in preorder, children in index order (the frame order
+/// of its triangles): each one's mesh and `root_from_node`.
+fn tree_shape(scene: &Scene, children: &[Vec<usize>], root: usize) -> Vec<(usize, Mat4)> {
+    let mut placements = Vec::new();
     let mut stack = vec![(root, Mat4::IDENTITY)];
     while let Some((node, root_from_node)) = stack.pop() {
-        if let Some(mesh) = scene.nodes[node].mesh.and_then(|m| scene.meshes.get(m)) {
-            let flips = root_from_node.determinant() < 0.0;
-            for primitive in &mesh.primitives {
-                for tri in primitive.indices.chunks_exact(3) {
-                    let [a, b, c] = [tri[0], tri[1], tri[2]].map(|i| {
-                        let p = primitive
-                            .positions
-                            .get(i as usize)
-                            .copied()
-                            .unwrap_or_default();
-                        root_from_node.transform_point3(p).into()
-                    });
-                    let (v1, v2) = if flips { (c, b) } else { (b, c) };
-                    shape.triangles.push(Triangle { v0: a, v1, v2 });
-                    shape.materials.push(primitive.material as u32);
-                }
-            }
+        if let Some(mesh) = scene.nodes[node].mesh {
+            placements.push((mesh, root_from_node));
         }
         for &child in children[node].iter().rev() {
             stack.push((child, root_from_node * local_matrix(scene, child)));
         }
     }
-    shape
+    placements
 }
