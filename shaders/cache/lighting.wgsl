@@ -65,6 +65,17 @@ struct ScheduledBrick {
 @group(0) @binding(0) var<uniform> lighting: LightingUniforms;
 @group(0) @binding(8) var<storage, read> scheduled_bricks: array<ScheduledBrick>;
 @group(0) @binding(9) var<storage, read_write> propagate_scratch: array<u32>;
+// The occupied voxel sides of this frame's bricks, one entry each (`propagate_entry`), written
+// by `cache/propagate_list` in no fixed order and read by `cache/propagate`.
+@group(0) @binding(10) var<storage, read_write> propagate_entries: array<u32>;
+
+// An entry of `propagate_entries`: side `side` of voxel `bit` of the `scheduled`-th brick, plus one
+// (a cleared entry, 0, is none: `PROPAGATE_NO_ENTRY`).
+fn propagate_entry(scheduled: u32, bit: u32, side: u32) -> u32 {
+    return ((scheduled << 7u) | (bit << 1u) | side) + 1u;
+}
+
+const PROPAGATE_NO_ENTRY: u32 = 0u;
 
 // A voxel of a brick scheduled this frame: thread `bit` of workgroup `i` of each lighting pass
 // updates voxel `bit` of `scheduled_bricks[i]`.

@@ -4,8 +4,10 @@
 // Injection" (multi bounce: each visible face gathers the previous frame's voxel lighting; here
 // each surfel side, HSGI's surfel being "voxel + normal").
 //
-// Two 256-thread workgroups per scheduled brick, one per surfel side (`workgroup_id.y`), four
-// threads per voxel sharing its rays. For each side of every occupied voxel (normals +n and -n),
+// One 64-thread workgroup per 16 occupied voxel sides of the scheduled bricks (the list
+// `cache/propagate_list` made), four threads per side sharing its rays; the workgroups past the
+// listed sides end at once. For each side of every
+// occupied voxel (normals +n and -n),
 // `rays_per_side` cosine-distributed directions about the side's normal are traced through the
 // cache from the point just outside the surfel on that side (`gi::cache::lighting::side_point`,
 // half a voxel diagonal off the center). A hit contributes the reflected radiance of the side it
@@ -42,8 +44,8 @@
 }
 #import gi::cache::trace::{cache_trace, cache_hit_radiance}
 #import gi::cache::lighting::{
-    lighting, scheduled_voxel, scheduled_voxel_occupied, propagate_scratch,
-    propagate_scratch_slot, propagated_age, side_point
+    lighting, scheduled_voxel, propagate_scratch, propagate_scratch_slot, propagated_age,
+    side_point, propagate_entries, PROPAGATE_NO_ENTRY
 }
 
 const FAR: f32 = 3.0e38;
@@ -99,13 +101,17 @@ fn emitter_irradiance(
 // Threads per voxel side: each takes every RAY_LANES-th of the side's rays (and emitter
 // samples), and the workgroup sums them. Spreading a side's rays over threads shortens each
 // invocation's serial chain of cache traces and shadow rays: the pass has too few voxels per
-// frame (512 bricks x 64 voxels x 2 sides) to hide that latency otherwise.
+// frame (512 bricks x about 20 occupied voxels x 2 sides) to hide that latency otherwise.
 const RAY_LANES: u32 = 4u;
+// Voxel sides per workgroup (`propagate_list.wgsl`'s `GROUP_SIDES`), and workgroups per
+// scheduled brick: a brick lists at most 64 x 2 sides.
+const GROUP_SIDES: u32 = 16u;
+const PROPAGATE_ROWS: u32 = 8u;
 
 // Each thread's share of its side's irradiance sum (bounced x pi + emitted), and of its emitted
 // part, by thread index.
-var<workgroup> lane_sums: array<vec3<f32>, 256>;
-var<workgroup> lane_emitted: array<vec3<f32>, 256>;
+var<workgroup> lane_sums: array<vec3<f32>, 64>;
+var<workgroup> lane_emitted: array<vec3<f32>, 64>;
 
 // The random sequence of lane `lane` of side `side` of world voxel `voxel` at `level` for this
 // update. Keyed by the side's place in the world rather than its pool slot, so the result does
@@ -117,22 +123,41 @@ fn side_sampler(level: u32, voxel: vec3<i32>, side: u32, lane: u32) -> Sampler {
     return sampler_new(key, place, lighting.frame_index * RAY_LANES + lane);
 }
 
-// Workgroups: one per scheduled brick (x) and surfel side (y); threads: RAY_LANES per voxel
-// (thread t serves voxel t % 64, lane t / 64).
-@compute @workgroup_size(256)
+// The first entry of this workgroup, for the whole workgroup.
+var<workgroup> first_entry: u32;
+
+// Workgroups: GROUP_SIDES entries of `propagate_entries` each, (x, y) covering entries
+// (x * PROPAGATE_ROWS + y) * GROUP_SIDES onwards, as many as the scheduled bricks could list
+// (`gi_cache::lighting` dispatches one x per brick); those past the entries listed this frame
+// stop at once. Threads: RAY_LANES per entry (thread t serves entry t % GROUP_SIDES, lane
+// t / GROUP_SIDES).
+@compute @workgroup_size(64)
 fn propagate(
     @builtin(workgroup_id) group: vec3<u32>,
     @builtin(local_invocation_index) thread: u32,
 ) {
-    let bit = thread % 64u;
-    let lane = thread / 64u;
-    let side = group.y;
-    let occupied = scheduled_voxel_occupied(group.x, bit);
+    let slot_in_group = thread % GROUP_SIDES;
+    let lane = thread / GROUP_SIDES;
+    let first = (group.x * PROPAGATE_ROWS + group.y) * GROUP_SIDES;
+    if thread == 0u {
+        first_entry = propagate_entries[first];
+    }
+    // Entries are listed from the start, so a workgroup whose first entry is none has none.
+    if workgroupUniformLoad(&first_entry) == PROPAGATE_NO_ENTRY {
+        return;
+    }
+    var entry = propagate_entries[first + slot_in_group];
+    // The last workgroup's tail: the list is cleared before `cache/propagate_list`.
+    let listed = entry != PROPAGATE_NO_ENTRY;
+    entry -= 1u;
+    let scheduled = entry >> 7u;
+    let bit = (entry >> 1u) & 63u;
+    let side = entry & 1u;
     let rays = max(lighting.rays_per_side, 1u);
     var sum = vec3<f32>(0.0);
     var emitted = vec3<f32>(0.0);
-    if occupied {
-        let lit = scheduled_voxel(group.x, bit);
+    if listed {
+        let lit = scheduled_voxel(scheduled, bit);
         let n_side = cache_side_normal(lit.n, side);
         let frame = frame_from_normal(n_side);
         // Gather rays and emitter samples leave from the same point. It lies in a neighbouring
@@ -154,23 +179,23 @@ fn propagate(
     lane_sums[thread] = sum + emitted;
     lane_emitted[thread] = emitted;
     workgroupBarrier();
-    if !occupied || lane != 0u {
+    if !listed || lane != 0u {
         return;
     }
     var total = vec3<f32>(0.0);
     var total_emitted = vec3<f32>(0.0);
     for (var l = 0u; l < RAY_LANES; l++) {
-        total += lane_sums[bit + 64u * l];
-        total_emitted += lane_emitted[bit + 64u * l];
+        total += lane_sums[slot_in_group + GROUP_SIDES * l];
+        total_emitted += lane_emitted[slot_in_group + GROUP_SIDES * l];
     }
-    let lit = scheduled_voxel(group.x, bit);
+    let lit = scheduled_voxel(scheduled, bit);
     let age = propagated_age(lit);
     // Age 0 (max_age 0, during a fill) replaces without keeping history.
     let weight = 1.0 / f32(max(age, 1u));
     let slot = cache_side_slot(lit.v, side);
     let irradiance = total / f32(rays);
     let history = unpack_rgb9e5(cache_indirect[slot]);
-    let scratch = propagate_scratch_slot(group.x, bit, side);
+    let scratch = propagate_scratch_slot(scheduled, bit, side);
     propagate_scratch[scratch] = pack_rgb9e5(mix(history, irradiance, weight));
     if cache_keeps_emitted() {
         let emitted_history = unpack_rgb9e5(cache_emitted[slot]);

@@ -32,10 +32,15 @@
 //! normal from outside the corner; a side facing into solid geometry sees it through its
 //! shadow rays and gather. [`side_point`] mirrors `gi::cache::lighting::side_point`.
 //!
-//! All three passes run one 64-thread workgroup per scheduled brick (one thread per voxel), on
-//! the same list of bricks. Bind group 0 is this module's (uniforms at binding 0, the scene's
-//! buffers at `gi::scene`'s bindings 1 to 7, the scheduled bricks at binding 8, the scratch at
-//! binding 9), group 1 the BVH (not used by `cache/propagate_resolve`), group 2 the cache.
+//! `cache/inject` and `cache/propagate_resolve` run one 64-thread workgroup per scheduled brick
+//! (one thread per voxel), on the same list of bricks. `cache/propagate` spends its rays on the
+//! occupied voxels only: its first dispatch (`shaders/cache/propagate_list.wgsl`, one workgroup
+//! per brick) lists every occupied voxel side, and the second runs 16 listed sides per 64-thread
+//! workgroup (eight per brick dispatched; those past the list end at once). Bind group 0 is this module's (uniforms
+//! at binding 0, the scene's buffers at `gi::scene`'s bindings 1 to 7, the scheduled bricks at
+//! binding 8, the scratch at binding 9, the list at binding 10), group 1 the BVH (not used by
+//! `cache/propagate_resolve`; the list's count in `cache/propagate_list`), group 2
+//! the cache.
 
 use bytemuck::{Pod, Zeroable};
 use gi_gpu::binding::{buffer_entries, storage_entry, uniform_entry};
@@ -68,8 +73,8 @@ pub const SETTLE_MAX_AGE: u32 = 2;
 /// [`CacheConfig::settle_updates`] updates).
 pub const CONVERGING_FRACTION: usize = 16;
 
-/// Surfel sides per voxel, one `cache/propagate` workgroup row each.
-const CACHE_SIDES: u32 = crate::layout::SIDE_COUNT;
+/// Surfel sides per voxel, one `cache/propagate` list entry each.
+const CACHE_SIDES: u64 = crate::layout::SIDE_COUNT as u64;
 
 /// A cache update that voxelizes at least one brick for every `FILL_FRACTION` resident ones is
 /// (re)filling the cache: a first fill, or a jump to a new place. Rays traced then pass through
@@ -528,16 +533,30 @@ impl<'a> LightingInputs<'a> {
 /// twice that with [`CacheConfig::keep_emitted`] (the emitted part too).
 pub const SCRATCH_BYTES_PER_BRICK: u64 = 64 * 2 * 4;
 
+/// Bytes of `cache.lighting.list` per scheduled brick: an entry (u32) per voxel side.
+pub const LIST_BYTES_PER_BRICK: u64 = 64 * CACHE_SIDES * 4;
+
+/// `cache/propagate` workgroups per scheduled brick (`PROPAGATE_ROWS` in
+/// `shaders/cache/propagate.wgsl`): 16 of its at most 128 listed voxel sides each.
+const PROPAGATE_ROWS: u32 = 8;
+
+/// Storage buffers `cache/propagate` binds: the lighting's ten (seven of the scene), the BVH's
+/// four, the cache's seven.
+const LIGHTING_STORAGE_BUFFERS: u32 = 21;
+
 /// The cache's lighting technique: the `cache/inject`, `cache/propagate` and
 /// `cache/propagate_resolve` pipelines, the schedule, the per-frame brick list and the
 /// propagation's scratch. Memory: the uniforms (96 bytes) and, per brick of the schedule's
 /// largest frame ([`ScheduleBudget::max_bricks`]: [`CacheConfig::light_bricks_per_frame`] plus
-/// the settling budget), 32 bytes of brick list and [`SCRATCH_BYTES_PER_BRICK`] (512; 1024 with
-/// [`CacheConfig::keep_emitted`]) of scratch, counted under `cache.lighting.*` (the default
-/// 2048 bricks: 1.1 MB; 2.2 MB keeping the emitted part).
+/// the settling budget), 32 bytes of brick list, [`SCRATCH_BYTES_PER_BRICK`] (512; 1024 with
+/// [`CacheConfig::keep_emitted`]) of scratch and [`LIST_BYTES_PER_BRICK`] (512) of propagation
+/// list, counted under `cache.lighting.*` (the default 2048 bricks: 2.2 MB; 3.3 MB keeping the
+/// emitted part).
 pub struct CacheLighting {
     /// Entry point `inject` of `cache/inject.wgsl`.
     inject: wgpu::ComputePipeline,
+    /// Entry point `propagate_list` of `cache/propagate_list.wgsl`.
+    propagate_list: wgpu::ComputePipeline,
     /// Entry point `propagate` of `cache/propagate.wgsl`.
     propagate: wgpu::ComputePipeline,
     /// Entry point `propagate_resolve` of `cache/propagate_resolve.wgsl`.
@@ -551,6 +570,13 @@ pub struct CacheLighting {
     /// irradiance `cache/propagate` computed (and its emitted part, when the cache keeps it),
     /// stored by `cache/propagate_resolve`.
     scratch: wgpu::Buffer,
+    /// `cache.lighting.list`: the occupied voxel sides of the scheduled bricks
+    /// (`cache/propagate_list`), [`LIST_BYTES_PER_BRICK`] per brick of the largest frame.
+    list: wgpu::Buffer,
+    /// `cache.lighting.list_count`: the entries listed so far, and its bind group (group 1 of
+    /// `cache/propagate_list`).
+    list_count: wgpu::Buffer,
+    list_count_group: wgpu::BindGroup,
     /// `cache.lighting.all_uniforms` and `cache.lighting.all_bricks`: the uniforms and brick
     /// list of `cache/inject_all`, which relights every resident brick's direct light in the
     /// update where the lights change (the list grows with the resident bricks).
@@ -587,7 +613,29 @@ impl CacheLighting {
     ) -> Result<Self, GpuError> {
         let mut entries = vec![uniform_entry(0)];
         entries.extend(GpuScene::layout_entries());
-        entries.extend([storage_entry(8, true), storage_entry(9, false)]);
+        entries.extend([
+            storage_entry(8, true),
+            storage_entry(9, false),
+            storage_entry(10, false),
+        ]);
+        let available = ctx.limits.max_storage_buffers_per_shader_stage;
+        if available < LIGHTING_STORAGE_BUFFERS {
+            return Err(GpuError::LimitTooSmall {
+                limit: "max_storage_buffers_per_shader_stage",
+                needed: LIGHTING_STORAGE_BUFFERS.into(),
+                available: available.into(),
+            });
+        }
+        let max_bricks = u64::from(ScheduleBudget::new(config).max_bricks().max(1));
+        let list_bytes = max_bricks * LIST_BYTES_PER_BRICK;
+        let binding_limit = ctx.limits.max_storage_buffer_binding_size;
+        if list_bytes > binding_limit {
+            return Err(GpuError::LimitTooSmall {
+                limit: "max_storage_buffer_binding_size",
+                needed: list_bytes,
+                available: binding_limit,
+            });
+        }
         let lighting_layout =
             ctx.device
                 .create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
@@ -613,6 +661,21 @@ impl CacheLighting {
                 Some(&bvh_layout),
                 Some(cache_layout),
                 Some(&texture_layout),
+            ],
+        )?;
+        let list_layout = ctx
+            .device
+            .create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+                label: Some("cache.lighting.list_count_layout"),
+                entries: &[storage_entry(0, false)],
+            });
+        let propagate_list = pipeline(
+            "propagate_list",
+            "cache/propagate_list.wgsl",
+            &[
+                Some(&lighting_layout),
+                Some(&list_layout),
+                Some(cache_layout),
             ],
         )?;
         let propagate = pipeline(
@@ -653,6 +716,21 @@ impl CacheLighting {
                 * if config.keep_emitted { 2 } else { 1 },
             wgpu::BufferUsages::STORAGE,
         );
+        let list = ctx.create_buffer(
+            "cache.lighting.list",
+            list_bytes,
+            wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_DST,
+        );
+        let list_count = ctx.create_buffer(
+            "cache.lighting.list_count",
+            4,
+            wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_DST,
+        );
+        let list_count_group = ctx.device.create_bind_group(&wgpu::BindGroupDescriptor {
+            label: Some("cache.lighting.list_count_bind_group"),
+            layout: &list_layout,
+            entries: &buffer_entries(0, [&list_count]),
+        });
         let all_uniforms = ctx.create_buffer(
             "cache.lighting.all_uniforms",
             size_of::<GpuLightingUniforms>() as u64,
@@ -665,12 +743,16 @@ impl CacheLighting {
         );
         Ok(Self {
             inject,
+            propagate_list,
             propagate,
             propagate_resolve,
             lighting_layout,
             uniforms,
             bricks,
             scratch,
+            list,
+            list_count,
+            list_count_group,
             all_uniforms,
             all_bricks,
             schedule: LightSchedule::default(),
@@ -788,7 +870,7 @@ impl CacheLighting {
         // Uniforms, the scene's seven buffers (bindings 1..=7), the brick list, the scratch.
         let mut entries = buffer_entries(0, [&self.uniforms]);
         entries.extend(inputs.scene.bind_group_entries());
-        entries.extend(buffer_entries(8, [&self.bricks, &self.scratch]));
+        entries.extend(buffer_entries(8, [&self.bricks, &self.scratch, &self.list]));
         let lighting_group = ctx.device.create_bind_group(&wgpu::BindGroupDescriptor {
             label: Some("cache.lighting.bind_group"),
             layout: &self.lighting_layout,
@@ -803,14 +885,26 @@ impl CacheLighting {
             inputs.scene.set_texture_bind_group(pass);
             pass.dispatch_workgroups(workgroups, 1, 1);
         });
+        // The list of occupied voxel sides is made anew: its tail past this frame's entries
+        // must read as none, and the count starts at zero.
+        let list_bytes = u64::from(workgroups) * LIST_BYTES_PER_BRICK;
+        encoder.clear_buffer(&self.list, 0, Some(list_bytes.min(self.list.size())));
+        ctx.queue
+            .write_buffer(&self.list_count, 0, bytemuck::bytes_of(&0u32));
         timer.compute_pass(ctx, encoder, "cache/propagate", |pass| {
+            pass.set_pipeline(&self.propagate_list);
+            pass.set_bind_group(0, &lighting_group, &[]);
+            pass.set_bind_group(1, &self.list_count_group, &[]);
+            pass.set_bind_group(2, inputs.cache_bind_group, &[]);
+            pass.dispatch_workgroups(workgroups, 1, 1);
             pass.set_pipeline(&self.propagate);
             pass.set_bind_group(0, &lighting_group, &[]);
             pass.set_bind_group(1, &inputs.bvh.bind_group, &[]);
             pass.set_bind_group(2, inputs.cache_bind_group, &[]);
             inputs.scene.set_texture_bind_group(pass);
-            // One row of workgroups per surfel side (`@builtin(workgroup_id).y`).
-            pass.dispatch_workgroups(workgroups, CACHE_SIDES, 1);
+            // As many workgroups as the bricks could fill; those past the list stop at once
+            // (cheaper than an indirect dispatch and its validation).
+            pass.dispatch_workgroups(workgroups, PROPAGATE_ROWS, 1);
         });
         // A pass of its own: the next compute pass sees everything `cache/propagate` wrote.
         timer.compute_pass(ctx, encoder, "cache/propagate_resolve", |pass| {
@@ -855,7 +949,10 @@ impl CacheLighting {
             .write_buffer(&self.all_uniforms, 0, bytemuck::bytes_of(&uniforms));
         let mut entries = buffer_entries(0, [&self.all_uniforms]);
         entries.extend(inputs.scene.bind_group_entries());
-        entries.extend(buffer_entries(8, [&self.all_bricks, &self.scratch]));
+        entries.extend(buffer_entries(
+            8,
+            [&self.all_bricks, &self.scratch, &self.list],
+        ));
         let group = ctx.device.create_bind_group(&wgpu::BindGroupDescriptor {
             label: Some("cache.lighting.all_bind_group"),
             layout: &self.lighting_layout,
@@ -886,6 +983,8 @@ impl CacheLighting {
         self.uniforms.size()
             + self.bricks.size()
             + self.scratch.size()
+            + self.list.size()
+            + self.list_count.size()
             + self.all_uniforms.size()
             + self.all_bricks.size()
     }
@@ -895,6 +994,8 @@ impl CacheLighting {
         ctx.release_buffer(&self.uniforms);
         ctx.release_buffer(&self.bricks);
         ctx.release_buffer(&self.scratch);
+        ctx.release_buffer(&self.list);
+        ctx.release_buffer(&self.list_count);
         ctx.release_buffer(&self.all_uniforms);
         ctx.release_buffer(&self.all_bricks);
     }
