@@ -16,9 +16,7 @@
 mod common;
 
 use common::{Rng, test_rays};
-use gi_gpu::bvh::{
-    BVH_MISS, BvhTracer, GpuBvh, GpuHit, GpuRay, MeshSharing, TraceResults, moving_nodes,
-};
+use gi_gpu::bvh::{BVH_MISS, BvhTracer, GpuBvh, GpuHit, GpuRay, MeshSharing, TraceResults};
 use gi_gpu::{GpuContext, ShaderLibrary};
 use gi_scene::{
     Animation, Channel, ChannelValues, Interpolation, Node, Scene, SceneBvh, SceneFrame, Triangle,
@@ -181,7 +179,7 @@ fn scene_radius(triangles: &[Triangle]) -> f32 {
 
 /// Per frame triangle: whether its node moves.
 fn moving_triangles(scene: &Scene, frame: &SceneFrame) -> Vec<bool> {
-    let moving = moving_nodes(scene);
+    let moving = scene.moving_nodes();
     frame
         .attributes
         .iter()
@@ -398,7 +396,7 @@ fn repeated_node_trees_share_one_level() {
     };
     let copies = 4;
     let mut single = gi_scene::load("open-world").expect("open-world");
-    assert!(!moving_nodes(&single).contains(&true), "a static scene");
+    assert!(!single.moving_nodes().contains(&true), "a static scene");
     // A mirrored node inside every copy (its triangles' winding flips in the shared level).
     let mirrored = (single.nodes.iter())
         .position(|n| n.mesh.is_some())
@@ -475,7 +473,7 @@ fn static_scenes_skip_the_top_level_with_identical_hits() {
         let scene = gi_scene::load(name).unwrap_or_else(|e| panic!("{name}: {e}"));
         let frame = scene.evaluate(0.0, None);
         let mut gpu = GpuBvh::from_scene(&ctx, &scene, &frame).expect("BVH uploads");
-        let is_static = !moving_nodes(&scene).contains(&true);
+        let is_static = !scene.moving_nodes().contains(&true);
         assert_eq!(gpu.traces_static_directly(), is_static, "{name}");
         if !is_static {
             gpu.release(&ctx);

@@ -257,7 +257,10 @@ impl Scene {
     /// True when anything in the scene moves over time (node transforms, and with them skinned
     /// meshes whose joints they animate, and morph target weights).
     pub fn is_animated(&self) -> bool {
-        self.animations.iter().any(|a| !a.channels.is_empty())
+        self.animations
+            .iter()
+            .flat_map(|a| &a.channels)
+            .any(|c| !c.is_constant())
     }
 
     /// The default camera at `time_s`: the default camera node if any, else a view of the

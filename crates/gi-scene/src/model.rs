@@ -669,6 +669,20 @@ impl Channel {
     pub fn is_weights(&self) -> bool {
         matches!(self.values, ChannelValues::Weights(_))
     }
+
+    /// True when the channel sets the same value at every time: all its keys hold one value
+    /// (bit for bit), or it has no keys and sets nothing.
+    pub fn is_constant(&self) -> bool {
+        fn same<T: PartialEq>(values: &[T]) -> bool {
+            values.windows(2).all(|w| w[0] == w[1])
+        }
+        self.times.is_empty()
+            || match &self.values {
+                ChannelValues::Translation(v) | ChannelValues::Scale(v) => same(v),
+                ChannelValues::Rotation(v) => same(v),
+                ChannelValues::Weights(v) => same(v),
+            }
+    }
 }
 
 #[derive(Clone, Debug)]
@@ -766,5 +780,57 @@ mod tests {
         for code in 0..=255u8 {
             assert_eq!(linear_to_srgb(srgb_to_linear(code)), code);
         }
+    }
+
+    /// A parent node and its child, the parent animated by `channel`.
+    fn animated_pair(channel: Channel) -> Scene {
+        let mut scene = Scene::default();
+        scene.nodes.push(Node::default());
+        scene.nodes.push(Node {
+            parent: Some(0),
+            translation: Vec3::X,
+            ..Node::default()
+        });
+        scene.animations.push(Animation {
+            name: "a".into(),
+            channels: vec![channel],
+        });
+        scene
+    }
+
+    fn rotation_channel(keys: &[(f32, Quat)]) -> Channel {
+        Channel {
+            node: 0,
+            times: keys.iter().map(|k| k.0).collect(),
+            values: ChannelValues::Rotation(keys.iter().map(|k| k.1).collect()),
+            interpolation: Interpolation::Linear,
+        }
+    }
+
+    #[test]
+    fn a_channel_whose_keys_agree_poses_the_scene_without_animating_it() {
+        let turn = Quat::from_rotation_y(1.0);
+        // One key (a pose, as exported by tools that store a take of one frame), and three
+        // equal keys.
+        for keys in [
+            vec![(0.0, turn)],
+            vec![(0.0, turn), (1.0, turn), (2.0, turn)],
+        ] {
+            let scene = animated_pair(rotation_channel(&keys));
+            assert!(scene.animations[0].channels[0].is_constant());
+            assert!(!scene.is_animated());
+            assert_eq!(scene.moving_nodes(), vec![false, false]);
+            assert_eq!(scene.deforming_nodes(), vec![false, false]);
+            // The pose applies at every time.
+            for time_s in [0.0, 0.5, 7.0] {
+                let child = scene.world_transforms(time_s)[1].transform_point3(Vec3::ZERO);
+                assert!(child.distance(turn * Vec3::X) < 1e-6, "{time_s}: {child}");
+            }
+        }
+        // Keys that differ move the parent and its child.
+        let scene = animated_pair(rotation_channel(&[(0.0, Quat::IDENTITY), (1.0, turn)]));
+        assert!(!scene.animations[0].channels[0].is_constant());
+        assert!(scene.is_animated());
+        assert_eq!(scene.moving_nodes(), vec![true, true]);
     }
 }

@@ -32,12 +32,13 @@ pub(crate) struct SkinnedVertices {
 }
 
 impl Scene {
-    /// `moving[node]`: the node's world transform changes over time (an animation channel with
-    /// keys targets the transform of it or one of its ancestors; weights channels do not).
+    /// `moving[node]`: the node's world transform changes over time (an animation channel whose
+    /// keys differ targets the transform of it or one of its ancestors; weights channels do
+    /// not).
     pub fn moving_nodes(&self) -> Vec<bool> {
         let mut animated = vec![false; self.nodes.len()];
         for channel in self.animations.iter().flat_map(|a| &a.channels) {
-            if !channel.times.is_empty()
+            if !channel.is_constant()
                 && !channel.is_weights()
                 && let Some(flag) = animated.get_mut(channel.node)
             {

@@ -102,6 +102,11 @@ fn gas_station_loads_with_the_dds_extension_it_requires() {
         .filter(|m| m.alpha_mode == AlphaMode::Blend)
         .count();
     assert_eq!(blended, 2);
+    // Its one animation holds a single key per channel: a pose, not motion, so nothing is
+    // rebuilt from frame to frame.
+    assert_eq!(scene.animations.len(), 1);
+    assert!(!scene.is_animated());
+    assert!(!scene.moving_nodes().contains(&true));
 }
 
 #[test]

@@ -144,7 +144,7 @@ impl BottomLevels {
         let deforming = scene.deforming_nodes();
         // A skinned node is placed by its joints, never rigidly by its own transform: it either
         // deforms or is static.
-        let animated = moving_nodes(scene);
+        let animated = scene.moving_nodes();
         let moving: Vec<bool> = (animated.iter().enumerate())
             .map(|(node, &moving)| moving && scene.node_skin(node).is_none())
             .collect();
@@ -535,36 +535,6 @@ const DEGENERATE: Triangle = Triangle {
     v1: Vec3A::ZERO,
     v2: Vec3A::ZERO,
 };
-
-/// Nodes whose world transform changes over time: animated, or below an animated ancestor.
-/// (Skinned nodes are not placed by their transform, and morph target weights change a
-/// node's shape, not its transform; see [`Scene::deforming_nodes`].)
-pub fn moving_nodes(scene: &Scene) -> Vec<bool> {
-    let mut animated = vec![false; scene.nodes.len()];
-    for channel in scene.animations.iter().flat_map(|a| &a.channels) {
-        if !channel.is_weights()
-            && let Some(flag) = animated.get_mut(channel.node)
-        {
-            *flag = true;
-        }
-    }
-    (0..scene.nodes.len())
-        .map(|node| {
-            // Bounded walk up the parents, so a cyclic hand-built hierarchy cannot hang.
-            let mut current = Some(node);
-            for _ in 0..=scene.nodes.len() {
-                let Some(index) = current.filter(|&i| i < scene.nodes.len()) else {
-                    return false;
-                };
-                if animated[index] {
-                    return true;
-                }
-                current = scene.nodes[index].parent;
-            }
-            false
-        })
-        .collect()
-}
 
 /// The triangles of mesh `mesh` in object space, in the order `Scene::evaluate` emits them
 /// (winding as authored: a mirroring instance swaps barycentrics instead).

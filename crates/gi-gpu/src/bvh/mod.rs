@@ -42,7 +42,7 @@ pub use layout::{
     BVH_TRIANGLE_ALPHA, BvhError, GpuBvhInstance, GpuBvhInstanceHeader, GpuBvhTriangle,
     GpuCwBvhNode, GpuHit, GpuRay, PackedBvh,
 };
-pub use levels::{BottomLevels, TopLevel, moving_nodes};
+pub use levels::{BottomLevels, TopLevel};
 pub use sharing::MeshSharing;
 pub use tracer::{BvhTracer, TraceResults, TraceTimings};
 
