@@ -33,7 +33,7 @@
 #import gi::brdf::{brdf_new, brdf_split_sum_albedos, sample_ggx_vndf, brdf_specular_pdf}
 #import gi::bvh::{Ray, trace_closest, trace_any, BVH_MISS}
 #import gi::camera::camera_ray
-#import gi::scene::{triangles, lights, selection, emission, geometric_normal, material_of, tex_coords, cone_footprint, material_brdf}
+#import gi::scene::{triangles, lights, selection, emission, geometric_normal, material_of, tex_coords, cone_footprint, material_brdf, mapped_normal, normalize_or, orient_shading_normal}
 #import gi::lights::{LIGHT_DIRECTIONAL, EmitterSample, light_incident, sky_radiance, sample_emitter}
 #import gi::packing::{pack_unit_vector, unpack_unit_vector, pack_rgb9e5, unpack_rgb9e5}
 #import gi::cache::data::cache
@@ -123,8 +123,8 @@ fn visible_emitter_sample(
 // of the punctual lights (shadow rays) and of the emitters (one next-event sample with a shadow
 // ray, drawn from `sampler`), and the cache's bounced light (`cache_bounced_irradiance`: the
 // cache's emitted part would count the emitters twice), reflected by the diffuse albedo plus the
-// split-sum specular albedo towards the ray. Also returns the hit's geometric normal facing the
-// ray. The cache's estimate of the emitters' light is taken over a voxel side and interpolated,
+// split-sum specular albedo towards the ray, all weighed with the hit's shading normal (vertex
+// normals and normal map). Also returns the hit's geometric normal facing the ray. The cache's estimate of the emitters' light is taken over a voxel side and interpolated,
 // so at a hit near an edge or a contact shadow it is wrong by the voxel's extent; the sample is
 // exact in expectation wherever the ray lands.
 struct HitShading {
@@ -152,9 +152,15 @@ fn shade_hit(dir: vec3<f32>, t: f32, triangle: u32, b: vec2<f32>, sampler: ptr<f
     let footprint = cone_footprint(tri, t * TRACE_CONE_SPREAD, dot(ng, dir));
     let tc = tex_coords(triangle, vec3(b0, b.x, b.y), footprint);
     let brdf = material_brdf(material, tc);
+    // The shading normal as the G-buffer and the path tracer take it: the interpolated vertex
+    // normal, bent by the normal map, on the ray's side. It weighs the light the hit receives
+    // and reflects; the geometric normal still decides which side light can arrive from and
+    // which side of the cache's voxels the hit reads.
+    let n_vertex = tri.na.xyz * b0 + tri.nb.xyz * b.x + tri.nc.xyz * b.y;
+    let ns = orient_shading_normal(ng, mapped_normal(material, normalize_or(n_vertex, ng), tc), -dir);
     // The hit reflects towards the ray its diffuse lobe and, by the split-sum approximation,
     // its specular lobe: metals (no diffuse lobe) would otherwise reflect nothing.
-    let albedos = brdf_split_sum_albedos(brdf, max(dot(ng, -dir), 0.0));
+    let albedos = brdf_split_sum_albedos(brdf, max(dot(ns, -dir), 0.0));
     let albedo = albedos.diffuse + albedos.specular;
     var radiance = vec3(0.0);
     if front_facing || material.double_sided != 0u {
@@ -165,8 +171,8 @@ fn shade_hit(dir: vec3<f32>, t: f32, triangle: u32, b: vec2<f32>, sampler: ptr<f
     for (var i = 0u; i < u.light_count; i++) {
         let light = lights[i];
         let incident = light_incident(light, p);
-        let cos_l = dot(incident.wi, ng);
-        if cos_l <= 0.0 || all(incident.irradiance == vec3(0.0)) {
+        let cos_l = dot(incident.wi, ns);
+        if cos_l <= 0.0 || dot(incident.wi, ng) <= 0.0 || all(incident.irradiance == vec3(0.0)) {
             continue;
         }
         var t_max = FAR;
@@ -180,7 +186,7 @@ fn shade_hit(dir: vec3<f32>, t: f32, triangle: u32, b: vec2<f32>, sampler: ptr<f
     if u.emitter_count > 0u {
         let light = visible_emitter_sample(p, ng, origin, sampler);
         if light.pdf > 0.0 {
-            irradiance += light.radiance * (dot(light.wi, ng) / light.pdf);
+            irradiance += light.radiance * (max(dot(light.wi, ns), 0.0) / light.pdf);
         }
     }
     radiance += albedo * INV_PI * irradiance;
