@@ -19,7 +19,7 @@
 // per-node motion transforms, the outputs. Bind group 1: the BVH (`gi_gpu::bvh::GpuBvh`).
 
 #import gi::bvh::{Ray, Hit, trace_closest, BVH_MISS}
-#import gi::scene::{triangles, sample_texture, emission, material_occlusion, material_brdf, material_alpha, set_blend_policy, BLEND_PASS, BLEND_OPAQUE, ALPHA_BLEND, Material, dielectric_specular, geometric_normal, material_of, tex_coords, cone_footprint, mapped_normal, normalize_or, orient_shading_normal}
+#import gi::scene::{TriangleShading, triangles, sample_texture, emission, material_occlusion, material_brdf, material_alpha, set_blend_policy, BLEND_PASS, BLEND_OPAQUE, ALPHA_BLEND, Material, dielectric_specular, geometric_normal, material_of, tex_coords, cone_footprint, mapped_normal, normalize_or, orient_shading_normal}
 #import gi::packing::pack_unit_vector
 #import gi::brdf::{pack_dielectric_specular, brdf_split_sum_albedos}
 #import gi::camera::{Camera, camera_ray, camera_project}
@@ -38,6 +38,8 @@ struct GBufferUniforms {
     has_previous_transforms: u32,
     // 1 when the scene has alpha-`BLEND` materials and `blend_layer` is one entry per pixel.
     blend_layer_on: u32,
+    // 1 when `previous_triangles` holds the previous frame's triangles.
+    has_previous_triangles: u32,
 }
 
 @group(0) @binding(0) var<uniform> uniforms: GBufferUniforms;
@@ -64,6 +66,8 @@ struct GBufferUniforms {
 // its albedo towards the camera (the split-sum diffuse plus specular, sqrt-encoded 8-bit rgb,
 // as bits) and its alpha.
 @group(0) @binding(16) var<storage, read_write> blend_layer: array<vec4<f32>>;
+// The previous frame's `triangles` (scenes with skinned or morphed meshes), else one entry.
+@group(0) @binding(17) var<storage, read> previous_triangles: array<TriangleShading>;
 
 // `blend_layer`'s entry for `hit`, an alpha-`BLEND` surface of `material` along the camera
 // ray `dir`, whose cone spreads by `spread` per unit of distance.
@@ -162,9 +166,14 @@ fn primary(@builtin(global_invocation_id) id: vec3<u32>) {
     }
     emissive[pixel] = vec4<f32>(emitted, material_occlusion(material, tc));
 
-    // Where the surface point was: moved back by its node's motion (node index in `pa.w`).
+    // Where the surface point was: the same barycentric point of the triangle as the
+    // previous frame placed it (deforming meshes), else moved back by its node's motion (node
+    // index in `pa.w`).
     var p = tri.pa.xyz + (tri.pb.xyz - tri.pa.xyz) * b1 + (tri.pc.xyz - tri.pa.xyz) * b2;
-    if uniforms.has_previous_transforms != 0u {
+    if uniforms.has_previous_triangles != 0u {
+        let was = previous_triangles[hit.triangle];
+        p = was.pa.xyz + (was.pb.xyz - was.pa.xyz) * b1 + (was.pc.xyz - was.pa.xyz) * b2;
+    } else if uniforms.has_previous_transforms != 0u {
         p = vec4<f32>(p, 1.0) * previous_from_current[u32(tri.pa.w)];
     }
     let previous = camera_project(uniforms.previous_camera, p - uniforms.previous_camera.position, uniforms.size_px);

@@ -68,7 +68,10 @@ pub struct GBufferUniforms {
     /// 1 when the scene has alpha-`BLEND` materials and `gbuffer.blend_layer` holds one entry
     /// per pixel.
     pub blend_layer_on: u32,
-    pub pad: [u32; 3],
+    /// 1 when `gbuffer.previous_triangles` holds the previous frame's triangles (scenes with
+    /// deforming meshes).
+    pub has_previous_triangles: u32,
+    pub pad: [u32; 2],
 }
 
 /// The inputs of one G-buffer frame.
@@ -106,7 +109,8 @@ pub struct GBufferData {
 
 /// The G-buffer technique: its pipeline, its output buffers and the per-node motion since the
 /// previous frame. Memory: 60 bytes per pixel (76 for scenes with alpha-`BLEND` materials)
-/// plus 48 bytes per scene node.
+/// plus 48 bytes per scene node, and for scenes with deforming meshes a copy of the scene's
+/// triangles (112 bytes each).
 pub struct GBuffer {
     /// Image size in pixels.
     pub size: (u32, u32),
@@ -125,7 +129,17 @@ pub struct GBuffer {
     /// one placeholder entry otherwise.
     blend_layer: wgpu::Buffer,
     blend_layer_on: bool,
+    /// `gbuffer.previous_triangles` (binding 17): for scenes with deforming meshes
+    /// ([`GpuScene::has_deforming`]), a copy of the last recorded frame's `scene.triangles`
+    /// made after its pass, so the next frame finds where a point of a skinned or morphed
+    /// triangle was; one placeholder entry otherwise.
+    previous_triangles: wgpu::Buffer,
+    /// The time and triangle count of the frame `previous_triangles` holds.
+    previous_triangles_of: Option<(f32, usize)>,
 }
+
+/// Bytes of a `scene.triangles` entry (`GpuTriangleShading`).
+const TRIANGLE_BYTES: u64 = 112;
 
 /// Output labels and bytes per pixel, in binding order from binding 9.
 const OUTPUTS: [(&str, u64); 7] = [
@@ -153,6 +167,7 @@ impl GBuffer {
         entries.extend(GpuScene::layout_entries());
         entries.push(storage_entry(8, true));
         entries.extend((9..=16).map(|binding| storage_entry(binding, false)));
+        entries.push(storage_entry(17, true));
         let frame_layout = ctx
             .device
             .create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
@@ -193,7 +208,17 @@ impl GBuffer {
             outputs,
             blend_layer: Self::blend_layer_buffer(ctx, 1),
             blend_layer_on: false,
+            previous_triangles: Self::previous_triangles_buffer(ctx, 1),
+            previous_triangles_of: None,
         })
+    }
+
+    fn previous_triangles_buffer(ctx: &GpuContext, triangles: u64) -> wgpu::Buffer {
+        ctx.create_buffer(
+            "gbuffer.previous_triangles",
+            triangles.max(1) * TRIANGLE_BYTES,
+            wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_DST,
+        )
     }
 
     fn blend_layer_buffer(ctx: &GpuContext, pixels: u64) -> wgpu::Buffer {
@@ -236,10 +261,14 @@ impl GBuffer {
     /// uniforms and one 48-byte motion transform per scene node through the queue, so record
     /// one G-buffer frame per submission.
     ///
-    /// Motion comes from the previous frame's node transforms rather than a copy of its
-    /// triangles: a hit on node `n` moved by `previous_world_from_node[n] *
-    /// node_from_world[n]`, and nodes whose transform did not change get the exact identity,
-    /// so static geometry moves only with the camera.
+    /// Motion comes from the previous frame's node transforms: a hit on node `n` moved by
+    /// `previous_world_from_node[n] * node_from_world[n]`, and nodes whose transform did not
+    /// change get the exact identity, so static geometry moves only with the camera. Skinned
+    /// and morphed triangles change shape, which no node transform describes: in scenes that
+    /// have them ([`GpuScene::has_deforming`]), every pass is followed by a GPU copy of the
+    /// scene's triangles, and the next frame, when its `previous` is the copied frame (same
+    /// time, same triangle count), takes the hit's barycentric point on the copied triangle
+    /// instead, for every triangle.
     pub fn record(
         &mut self,
         ctx: &GpuContext,
@@ -275,6 +304,18 @@ impl GBuffer {
             ctx.queue
                 .write_buffer(&self.previous_from_current, 0, bytes);
         }
+        // Deforming meshes: the previous frame's own triangles, when the copy made after the
+        // last pass is of that frame and of as many triangles.
+        let triangle_count = inputs.frame.triangles.len();
+        let deforming = inputs.scene.has_deforming && triangle_count > 0;
+        let needed = triangle_count as u64 * TRIANGLE_BYTES;
+        if deforming && self.previous_triangles.size() < needed {
+            ctx.release_buffer(&self.previous_triangles);
+            self.previous_triangles = Self::previous_triangles_buffer(ctx, triangle_count as u64);
+            self.previous_triangles_of = None;
+        }
+        let has_previous_triangles = deforming
+            && self.previous_triangles_of == Some((inputs.previous.time_s, triangle_count));
         let uniforms = GBufferUniforms {
             camera: GpuCamera::new(&inputs.frame.camera, self.size),
             previous_camera: GpuCamera::new(&inputs.previous.camera, self.size),
@@ -282,7 +323,8 @@ impl GBuffer {
             default_material: inputs.scene.default_material,
             has_previous_transforms: u32::from(has_previous),
             blend_layer_on: u32::from(self.blend_layer_on && inputs.scene.has_blend),
-            pad: [0; 3],
+            has_previous_triangles: u32::from(has_previous_triangles),
+            pad: [0; 2],
         };
         ctx.queue
             .write_buffer(&self.uniforms, 0, bytemuck::bytes_of(&uniforms));
@@ -293,7 +335,7 @@ impl GBuffer {
             8,
             std::iter::once(&self.previous_from_current)
                 .chain(&self.outputs)
-                .chain(std::iter::once(&self.blend_layer)),
+                .chain([&self.blend_layer, &self.previous_triangles]),
         ));
         let frame_group = ctx.device.create_bind_group(&wgpu::BindGroupDescriptor {
             label: Some("gbuffer/primary.frame"),
@@ -311,6 +353,16 @@ impl GBuffer {
             inputs.scene.set_texture_bind_group(pass);
             pass.dispatch_workgroups(width.div_ceil(TILE), height.div_ceil(TILE), 1);
         });
+        if deforming {
+            encoder.copy_buffer_to_buffer(
+                &inputs.scene.triangles,
+                0,
+                &self.previous_triangles,
+                0,
+                needed,
+            );
+            self.previous_triangles_of = Some((inputs.frame.time_s, triangle_count));
+        }
     }
 
     /// Reads every output back (stalls the GPU; for tests and tools).
@@ -380,5 +432,6 @@ impl GBuffer {
             ctx.release_buffer(buffer);
         }
         ctx.release_buffer(&self.blend_layer);
+        ctx.release_buffer(&self.previous_triangles);
     }
 }

@@ -237,6 +237,10 @@ pub struct GpuScene {
     /// Whether a material is alpha `BLEND` (the real-time tiers then composite a blended
     /// layer over the surface behind it: `gi_gpu::gbuffer`).
     pub has_blend: bool,
+    /// Whether some node's triangles change shape from frame to frame
+    /// ([`Scene::deforming_nodes`]: skins, morph targets), so their motion does not follow
+    /// a node transform.
+    pub has_deforming: bool,
 }
 
 /// Per-triangle shading data of `frame`, in frame order.
@@ -398,7 +402,15 @@ impl GpuScene {
             ctx.create_buffer_init(label, bytes, usage)
         };
         Ok(Self {
-            triangles: upload("scene.triangles", bytemuck::cast_slice(&triangles), 112),
+            triangles: {
+                let bytes: &[u8] = bytemuck::cast_slice(&triangles);
+                let zero = [0u8; 112];
+                ctx.create_buffer_init(
+                    "scene.triangles",
+                    if bytes.is_empty() { &zero } else { bytes },
+                    usage | wgpu::BufferUsages::COPY_SRC,
+                )
+            },
             materials: upload("scene.materials", bytemuck::cast_slice(&materials), 112),
             texture_refs: upload(
                 "scene.texture_refs",
@@ -418,6 +430,7 @@ impl GpuScene {
                 .materials
                 .iter()
                 .any(|m| m.alpha_mode == AlphaMode::Blend),
+            has_deforming: scene.deforming_nodes().contains(&true),
             textures,
             bvh,
         })
@@ -452,12 +465,9 @@ impl GpuScene {
                 return;
             }
             if bytes.len() as u64 > buffer.size() {
+                let usage = buffer.usage();
                 ctx.release_buffer(buffer);
-                *buffer = ctx.create_buffer_init(
-                    label,
-                    bytes,
-                    wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_DST,
-                );
+                *buffer = ctx.create_buffer_init(label, bytes, usage);
                 replaced = true;
             } else {
                 ctx.queue.write_buffer(buffer, 0, bytes);

@@ -7,6 +7,7 @@ use gi_gpu::{
     GBuffer, GBufferData, GBufferInputs, GpuContext, GpuScene, GpuTimer, ShaderLibrary,
     rust_field_offsets, wgsl_struct_layout,
 };
+use gi_scene::generate::{ARM_BENT_TIME_S, skinned_arm};
 use gi_scene::{CameraView, Scene, SceneBvh, SceneFrame};
 use glam::{Vec2, Vec3};
 
@@ -427,7 +428,8 @@ fn gbuffer_structs_match_wgsl() {
             size_px,
             default_material,
             has_previous_transforms,
-            blend_layer_on
+            blend_layer_on,
+            has_previous_triangles
         })
     );
 }
@@ -566,5 +568,91 @@ fn blended_surfaces_are_a_layer_over_the_surface_behind() {
     assert!(
         clear * 100 >= open * 98,
         "{clear} of {open} pixels without a layer matched"
+    );
+}
+
+/// Barycentric weights of v1 and v2 where `dir` from `origin` crosses the plane of triangle
+/// `(v0, v1, v2)` (Möller-Trumbore without the range checks).
+fn barycentrics(origin: Vec3, dir: Vec3, [v0, v1, v2]: [Vec3; 3]) -> Vec2 {
+    let (e1, e2) = (v1 - v0, v2 - v0);
+    let p = dir.cross(e2);
+    let inv_det = 1.0 / e1.dot(p);
+    let s = origin - v0;
+    let q = s.cross(e1);
+    Vec2::new(s.dot(p) * inv_det, dir.dot(q) * inv_det)
+}
+
+/// A skinned arm bending at its elbow changes the shape of its triangles, which no node
+/// transform describes (its node does not move): the motion of a pixel on the arm is where the
+/// same barycentric point of its triangle was in the previous frame, projected by the previous
+/// camera. The previous frame's triangles are the G-buffer's own copy, made after the pass of
+/// the frame before.
+#[test]
+fn skinned_triangles_move_with_their_vertices() {
+    let Some(ctx) = GpuContext::new_or_skip("skinned_triangles_move_with_their_vertices") else {
+        return;
+    };
+    let scene = skinned_arm();
+    let camera = CameraView::look_at(Vec3::new(0.5, 1.3, 5.0), Vec3::new(0.5, 1.3, 0.0), 0.9);
+    let previous = scene.evaluate(0.4 * ARM_BENT_TIME_S, Some(camera));
+    let frame = scene.evaluate(0.7 * ARM_BENT_TIME_S, Some(camera));
+    let mut gpu_scene = GpuScene::upload(&ctx, &scene, &previous).expect("scene uploads");
+    assert!(gpu_scene.has_deforming);
+    let mut gbuffer =
+        GBuffer::new(&ctx, &ShaderLibrary::new(), WIDTH, HEIGHT).expect("gbuffer/primary compiles");
+    gbuffer.prepare_layers(&ctx, &gpu_scene);
+    let mut timer = GpuTimer::new(&ctx, "gbuffer", 4);
+    for (this, before) in [(&previous, &previous), (&frame, &previous)] {
+        if std::ptr::eq(this, &frame) {
+            gpu_scene
+                .update(&ctx, &scene, &frame)
+                .expect("scene updates");
+        }
+        let mut encoder = ctx.create_encoder("gbuffer");
+        let inputs = GBufferInputs {
+            frame: this,
+            scene: &gpu_scene,
+            previous: before,
+        };
+        gbuffer.record(&ctx, &mut encoder, &mut timer, &inputs);
+        timer.finish(&ctx, encoder);
+    }
+    let data = gbuffer.read(&ctx);
+    let arm = 3;
+    let mut moving = 0;
+    for y in 0..HEIGHT {
+        for x in 0..WIDTH {
+            let pixel = (y * WIDTH + x) as usize;
+            let triangle = data.triangle[pixel];
+            if triangle == GBUFFER_MISS {
+                continue;
+            }
+            let (now, then) = (
+                &frame.triangles[triangle as usize],
+                &previous.triangles[triangle as usize],
+            );
+            let dir = pixel_ray(&camera, x, y);
+            let b = barycentrics(
+                camera.position,
+                dir,
+                [now.v0, now.v1, now.v2].map(Vec3::from),
+            );
+            let [t0, t1, t2] = [then.v0, then.v1, then.v2].map(Vec3::from);
+            let was = t0 + (t1 - t0) * b.x + (t2 - t0) * b.y;
+            let center = Vec2::new(x as f32 + 0.5, y as f32 + 0.5);
+            let expected = project(&camera, was - camera.position).unwrap() - center;
+            let motion = Vec2::from(data.motion[pixel]);
+            assert!(
+                (motion - expected).length() <= MOTION_PX,
+                "pixel ({x}, {y}), triangle {triangle}: motion {motion}, expected {expected}"
+            );
+            if frame.attributes[triangle as usize].node == arm && expected.length() > 0.5 {
+                moving += 1;
+            }
+        }
+    }
+    assert!(
+        moving >= 10,
+        "{moving} arm pixels moved more than half a pixel"
     );
 }
