@@ -199,13 +199,14 @@ pub fn requirements(kind: TierKind, settings: &TierSettings) -> Option<Requireme
         TierKind::Direct | TierKind::Path => Some(path),
         // The screen-probe passes' layouts (mobile/screen.rs): 20 storage buffers of their own,
         // the probe volume's 3 and the brick cache's 7; four groups (the cache's is group 2,
-        // the textures group 3); `cache/propagate` runs 256 invocations in x.
+        // the textures group 3); the largest workgroups (the cache's passes, the probe
+        // volume's, the 1D screen passes) run 64 invocations in x.
         TierKind::Mobile => Some(Requirements {
             storage_buffers_per_stage: 30,
             bind_groups: 4,
             sampled_textures_per_stage: gi_gpu::textures::TEXTURE_ARRAYS,
-            invocations_per_workgroup: 256,
-            workgroup_size_x: 256,
+            invocations_per_workgroup: 64,
+            workgroup_size_x: 64,
             largest_binding_bytes: image,
         }),
         TierKind::Pc => {
@@ -226,8 +227,8 @@ pub fn requirements(kind: TierKind, settings: &TierSettings) -> Option<Requireme
                 storage_buffers_per_stage: 28,
                 bind_groups: 4,
                 sampled_textures_per_stage: gi_gpu::textures::TEXTURE_ARRAYS,
-                invocations_per_workgroup: 256,
-                workgroup_size_x: 256,
+                invocations_per_workgroup: 64,
+                workgroup_size_x: 64,
                 largest_binding_bytes: image.max(traced * per_trace_pixel),
             })
         }

@@ -152,11 +152,16 @@ fn a_tier_whose_limit_the_adapter_misses_is_rejected_with_the_limit_named() {
     );
     assert!(plan.chosen().reason.contains("requirements"), "{plan:?}");
 
-    // A workgroup limit below the brick cache's 256 invocations leaves mobile out too.
+    // A workgroup limit below the 64 invocations of every GPU tier's largest workgroups
+    // leaves the CPU reference alone.
     let mut narrow = adapter(wgpu::DeviceType::IntegratedGpu);
-    narrow.limits.max_compute_invocations_per_workgroup = 128;
+    narrow.limits.max_compute_invocations_per_workgroup = 32;
     let plan = select::plan(Some(&narrow), &SIZE_640, None);
-    assert_eq!(plan.chosen().kind, TierKind::Direct, "{plan:?}");
+    assert_eq!(
+        kinds(&plan),
+        [(TierKind::Reference, RunsOn::Cpu)],
+        "{plan:?}"
+    );
     assert!(rejection(&plan, TierKind::Mobile).contains("max_compute_invocations_per_workgroup"));
 
     // WebGPU's baseline (8 storage buffers per stage) runs no GPU tier: only the reference.
@@ -350,6 +355,7 @@ fn tier_requirements_match_the_shaders() {
         "cache/screen_inject.wgsl",
         "cache/query.wgsl",
         "cache/inject.wgsl",
+        "cache/propagate_list.wgsl",
         "cache/propagate.wgsl",
         "cache/propagate_resolve.wgsl",
     ];
