@@ -36,11 +36,11 @@
 //! (one thread per voxel), on the same list of bricks. `cache/propagate` spends its rays on the
 //! occupied voxels only: its first dispatch (`shaders/cache/propagate_list.wgsl`, one workgroup
 //! per brick) lists every occupied voxel side, and the second runs 16 listed sides per 64-thread
-//! workgroup (eight per brick dispatched; those past the list end at once). Bind group 0 is this module's (uniforms
-//! at binding 0, the scene's buffers at `gi::scene`'s bindings 1 to 7, the scheduled bricks at
-//! binding 8, the scratch at binding 9, the list at binding 10), group 1 the BVH (not used by
-//! `cache/propagate_resolve`; the list's count in `cache/propagate_list`), group 2
-//! the cache.
+//! workgroup (eight per brick dispatched; those past the list end at once). Bind group 0 is
+//! this module's (uniforms at binding 0, the scene's buffers at `gi::scene`'s bindings 1 to 7,
+//! the scheduled bricks at binding 8, the scratch at binding 9, the list at binding 10), group
+//! 1 the BVH (not used by `cache/propagate_resolve`; the list's count in
+//! `cache/propagate_list`), group 2 the cache.
 
 use bytemuck::{Pod, Zeroable};
 use gi_gpu::binding::{buffer_entries, storage_entry, uniform_entry};

@@ -138,8 +138,8 @@ pub struct GBuffer {
     previous_triangles_of: Option<(f32, usize)>,
 }
 
-/// Bytes of a `scene.triangles` entry (`GpuTriangleShading`).
-const TRIANGLE_BYTES: u64 = 112;
+/// Bytes of a `scene.triangles` entry.
+const TRIANGLE_BYTES: u64 = size_of::<crate::scene::GpuTriangleShading>() as u64;
 
 /// Output labels and bytes per pixel, in binding order from binding 9.
 const OUTPUTS: [(&str, u64); 7] = [

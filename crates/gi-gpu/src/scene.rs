@@ -393,7 +393,10 @@ impl GpuScene {
         let default_material = materials.len() as u32 - 1;
         let table = EmitterTable::build(scene, frame);
         let lights: Vec<GpuLight> = frame.lights.iter().map(gpu_light).collect();
-        let usage = wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_DST;
+        // Copyable: the G-buffer keeps a copy of the triangles of scenes with deforming meshes.
+        let usage = wgpu::BufferUsages::STORAGE
+            | wgpu::BufferUsages::COPY_DST
+            | wgpu::BufferUsages::COPY_SRC;
         // Storage bindings may not be empty: empty tables get one zeroed element that the
         // counts keep unread.
         let upload = |label: &str, bytes: &[u8], element: usize| {
@@ -402,15 +405,7 @@ impl GpuScene {
             ctx.create_buffer_init(label, bytes, usage)
         };
         Ok(Self {
-            triangles: {
-                let bytes: &[u8] = bytemuck::cast_slice(&triangles);
-                let zero = [0u8; 112];
-                ctx.create_buffer_init(
-                    "scene.triangles",
-                    if bytes.is_empty() { &zero } else { bytes },
-                    usage | wgpu::BufferUsages::COPY_SRC,
-                )
-            },
+            triangles: upload("scene.triangles", bytemuck::cast_slice(&triangles), 112),
             materials: upload("scene.materials", bytemuck::cast_slice(&materials), 112),
             texture_refs: upload(
                 "scene.texture_refs",
