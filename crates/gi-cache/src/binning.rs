@@ -133,8 +133,16 @@ pub fn bin_triangles(
     bins
 }
 
-/// Entries of a cell's list one task of [`TriangleIndex::bin_bricks`] tests.
+/// Entries of a cell's list one task of [`TriangleIndex::bin_bricks`] reads.
 const BIN_RUN: usize = 8192;
+
+/// Calls `f` with every set bit of `mask`, lowest first.
+fn for_each_bit(mut mask: u64, mut f: impl FnMut(u32)) {
+    while mask != 0 {
+        f(mask.trailing_zeros());
+        mask &= mask - 1;
+    }
+}
 
 /// Fill order of bricks: finer levels first, then nearer bricks (distance from the camera to
 /// the brick center in bricks of its level). Smaller keys fill first; when the pool runs out,
@@ -182,9 +190,11 @@ pub fn fill_order(
 /// coarse ones), built for all levels at once on all cores. The
 /// grids do not depend on the clipmap windows, so a window that moves costs only the lookups of
 /// the cells its entering bricks lie in, whatever the scene's size. A cell lists every triangle
-/// whose brick bounds (as [`bin_triangles`] computes them) touch it, in frame order, so the
-/// bins are exactly [`bin_triangles`]'s, lists in the same order. Memory: four bytes per
-/// (triangle, cell) pair and level, about five bytes per triangle and level.
+/// that overlaps one of its bricks (the exact test of [`bin_triangles`]), in frame order, with
+/// the bricks it overlaps as a mask, so the bins are exactly [`bin_triangles`]'s, lists in the
+/// same order, and binning a brick tests no triangle again: the tests were run once, when the
+/// grid was built. Memory: 12 bytes per (triangle, cell) pair at levels whose cells hold
+/// several bricks, 4 bytes where a cell is one brick (the mask is then implied).
 pub struct TriangleIndex {
     /// Brick edge in meters per level.
     brick_size_m: Vec<f32>,
@@ -234,6 +244,9 @@ const BUILD_CHUNK: usize = 1 << 15;
 /// triangles (a ground plane under a city) would otherwise fill millions of cells.
 const LARGE_TRIANGLE_CELLS: u64 = 64;
 
+/// Cells per block edge of [`LevelGrid::large_blocks`].
+const LARGE_BLOCK_CELLS: i32 = 8;
+
 /// Brick coordinates beyond this magnitude are not gridded (their triangles go to the
 /// `large` list): the integer brick arithmetic stays far from overflow.
 const MAX_GRID_BRICK: f32 = (1 << 28) as f32;
@@ -242,13 +255,43 @@ const MAX_GRID_BRICK: f32 = (1 << 28) as f32;
 struct LevelGrid {
     /// Bricks per cell edge ([`cell_bricks`]).
     cell_bricks: i32,
-    /// Indices into [`TriangleIndex::triangles`] per cell, in frame order.
-    cells: HashMap<IVec3, Vec<u32>>,
+    /// Per cell, the triangles overlapping its bricks.
+    cells: HashMap<IVec3, CellList>,
     /// Triangles too large for the cells (see [`LARGE_TRIANGLE_CELLS`]), in frame order.
     large: Vec<u32>,
+    /// The large triangles again, listed per block of [`LARGE_BLOCK_CELLS`]³ cells whose
+    /// cells their brick bounds touch, so binning a cell reads its block's list rather than
+    /// every large triangle (Sponza's floors and walls make hundreds at the finest level).
+    large_blocks: HashMap<IVec3, Vec<u32>>,
+    /// The large triangles whose bounds span more than [`LARGE_TRIANGLE_CELLS`] blocks (or
+    /// are not gridded), which binning any cell tests.
+    huge: Vec<u32>,
     /// Per cell, the bricks ([`LevelGrid::brick_bit`]) that the cell's triangles overlap
     /// (the exact test of the bins), read without testing a triangle again.
     occupied: HashMap<IVec3, u64>,
+}
+
+/// The triangles of one grid cell that overlap at least one of its bricks.
+#[derive(Default)]
+struct CellList {
+    /// Indices into [`TriangleIndex::triangles`], in frame order.
+    entries: Vec<u32>,
+    /// Per entry, the bricks it overlaps ([`LevelGrid::brick_bit`]); empty when the cell is
+    /// one brick, which every entry then overlaps.
+    masks: Vec<u64>,
+}
+
+impl CellList {
+    /// Appends `other`, whose entries come after this list's in frame order.
+    fn extend(&mut self, other: CellList) {
+        self.entries.extend(other.entries);
+        self.masks.extend(other.masks);
+    }
+
+    /// The bricks entry `i` overlaps.
+    fn mask(&self, i: usize) -> u64 {
+        self.masks.get(i).copied().unwrap_or(1)
+    }
 }
 
 /// Bricks per cell edge at bricks of `brick_size_m`: cells of about 2 m (at most
@@ -257,6 +300,15 @@ struct LevelGrid {
 /// bricks so that a floor triangle does not have to be listed in hundreds of cells.
 fn cell_bricks(brick_size_m: f32) -> i32 {
     ((2.0 / brick_size_m).floor() as i32).clamp(1, GROUP_BRICKS as i32)
+}
+
+/// The blocks of [`LevelGrid::large_blocks`] holding the cells of `cells`.
+fn blocks_of(cells: &BrickBox) -> BrickBox {
+    let block = IVec3::splat(LARGE_BLOCK_CELLS);
+    BrickBox {
+        min: cells.min.div_euclid(block),
+        max: (cells.max - IVec3::ONE).div_euclid(block) + IVec3::ONE,
+    }
 }
 
 impl LevelGrid {
@@ -272,6 +324,25 @@ impl LevelGrid {
     /// The cell holding `brick`.
     fn cell_of(&self, brick: IVec3) -> IVec3 {
         brick.div_euclid(IVec3::splat(self.cell_bricks))
+    }
+
+    /// The mask of the bricks of cell `cell` inside `region`.
+    fn region_mask(&self, cell: IVec3, region: &BrickBox) -> u64 {
+        self.cell_box(cell)
+            .intersection(region)
+            .bricks()
+            .fold(0, |mask, brick| mask | 1 << self.brick_bit(cell, brick))
+    }
+
+    /// The brick of bit `bit` of cell `cell`.
+    fn brick_of_bit(&self, cell: IVec3, bit: u32) -> IVec3 {
+        let n = self.cell_bricks as u32;
+        let local = IVec3::new(
+            (bit % n) as i32,
+            (bit / n % n) as i32,
+            (bit / (n * n)) as i32,
+        );
+        cell * self.cell_bricks + local
     }
 
     /// Bit of `brick` (in cell `cell`) in a 64-bit mask of the cell's bricks.
@@ -296,6 +367,8 @@ impl LevelGrid {
             cell_bricks: cell_bricks(brick_size_m),
             cells: HashMap::new(),
             large: Vec::new(),
+            large_blocks: HashMap::new(),
+            huge: Vec::new(),
             occupied: HashMap::new(),
         };
         let parts: Vec<Self> = triangles
@@ -310,10 +383,14 @@ impl LevelGrid {
         let mut parts = parts.into_iter();
         let mut grid = parts.next().unwrap_or_else(empty);
         for part in parts {
-            for (cell, entries) in part.cells {
-                grid.cells.entry(cell).or_default().extend(entries);
+            for (cell, list) in part.cells {
+                grid.cells.entry(cell).or_default().extend(list);
             }
             grid.large.extend(part.large);
+            for (block, entries) in part.large_blocks {
+                grid.large_blocks.entry(block).or_default().extend(entries);
+            }
+            grid.huge.extend(part.huge);
             for (cell, mask) in part.occupied {
                 *grid.occupied.entry(cell).or_default() |= mask;
             }
@@ -328,16 +405,25 @@ impl LevelGrid {
             let (lo, hi) = (t.lo / brick_size_m, t.hi / brick_size_m);
             let gridded =
                 lo.abs().max_element() < MAX_GRID_BRICK && hi.abs().max_element() < MAX_GRID_BRICK;
-            let range = gridded
-                .then(|| self.cells_of(&BrickBox::from_world(t.lo, t.hi, brick_size_m)))
-                .filter(|range| range.volume() <= LARGE_TRIANGLE_CELLS);
-            let Some(range) = range else {
+            let cells =
+                gridded.then(|| self.cells_of(&BrickBox::from_world(t.lo, t.hi, brick_size_m)));
+            let Some(range) = cells.filter(|range| range.volume() <= LARGE_TRIANGLE_CELLS) else {
                 self.large.push(index);
+                match cells
+                    .map(|cells| blocks_of(&cells))
+                    .filter(|blocks| blocks.volume() <= LARGE_TRIANGLE_CELLS)
+                {
+                    Some(blocks) => {
+                        for block in blocks.bricks() {
+                            self.large_blocks.entry(block).or_default().push(index);
+                        }
+                    }
+                    None => self.huge.push(index),
+                }
                 continue;
             };
             let bricks = BrickBox::from_world(t.lo, t.hi, brick_size_m);
             for cell in range.bricks() {
-                self.cells.entry(cell).or_default().push(index);
                 let mut mask = 0;
                 for brick in bricks.intersection(&self.cell_box(cell)).bricks() {
                     let center = (brick.as_vec3() + 0.5) * brick_size_m;
@@ -345,14 +431,31 @@ impl LevelGrid {
                         mask |= 1 << self.brick_bit(cell, brick);
                     }
                 }
+                if mask == 0 {
+                    continue;
+                }
+                let list = self.cells.entry(cell).or_default();
+                list.entries.push(index);
+                if self.cell_bricks > 1 {
+                    list.masks.push(mask);
+                }
                 *self.occupied.entry(cell).or_default() |= mask;
             }
         }
     }
 
-    /// Entries that binning a brick of cell `cell` scans: the cell's list and the large ones.
+    /// The large triangles that may touch cell `cell`: its block's and the huge ones.
+    fn large_near(&self, cell: IVec3) -> [&[u32]; 2] {
+        let block = cell.div_euclid(IVec3::splat(LARGE_BLOCK_CELLS));
+        let listed = self.large_blocks.get(&block).map_or(&[][..], Vec::as_slice);
+        [listed, &self.huge]
+    }
+
+    /// Entries that binning a brick of cell `cell` scans: the cell's list and the large
+    /// triangles near it.
     fn scan_cost(&self, cell: IVec3) -> usize {
-        self.cells.get(&cell).map_or(0, Vec::len) + self.large.len()
+        let [listed, huge] = self.large_near(cell);
+        self.cells.get(&cell).map_or(0, |list| list.entries.len()) + listed.len() + huge.len()
     }
 }
 
@@ -444,26 +547,24 @@ impl TriangleIndex {
     /// overlaps, the references of those triangles in frame order (exactly what
     /// [`bin_triangles`] returns over every triangle).
     pub fn bin_region(&self, level: u32, region: &BrickBox) -> HashMap<IVec3, Vec<u32>> {
-        let brick_size_m = self.brick_size_m[level as usize];
         let grid = &self.grids[level as usize];
         let mut bins = HashMap::new();
         if region.is_empty() {
             return bins;
         }
-        // Cells partition the bricks, so each (triangle, brick) pair is tested once and each
+        // Cells partition the bricks, so each (triangle, brick) pair is read once and each
         // brick's list keeps the cell's frame order.
         for cell in grid.cells_of(region).bricks() {
-            let Some(entries) = grid.cells.get(&cell) else {
+            let Some(list) = grid.cells.get(&cell) else {
                 continue;
             };
-            let part = grid.cell_box(cell).intersection(region);
-            for &entry in entries {
-                Self::bin_one(
-                    brick_size_m,
-                    &self.triangles[entry as usize],
-                    &part,
-                    &mut bins,
-                );
+            let inside = grid.region_mask(cell, region);
+            for (i, &entry) in list.entries.iter().enumerate() {
+                let reference = self.triangles[entry as usize].reference;
+                for_each_bit(list.mask(i) & inside, |bit| {
+                    let brick = grid.brick_of_bit(cell, bit);
+                    bins.entry(brick).or_default().push(reference);
+                });
             }
         }
         if !grid.large.is_empty() {
@@ -490,32 +591,61 @@ impl TriangleIndex {
         }
         // Runs of a cell's list are binned side by side on all cores (a coarse cell can list
         // a hundred thousand triangles), each into its own bins, joined in list order.
-        let mut runs: Vec<(IVec3, u64, &[u32])> = Vec::new();
+        // A run is a part of a cell's list read through its masks, or the level's large
+        // triangles, which are tested.
+        enum Run<'a> {
+            Listed(&'a [u32], Option<&'a [u64]>),
+            Large(&'a [u32]),
+        }
+        let mut runs: Vec<(IVec3, u64, Run)> = Vec::new();
         for (&cell, &wanted) in &by_cell {
-            let list = grid.cells.get(&cell).map_or(&[][..], Vec::as_slice);
-            runs.extend(list.chunks(BIN_RUN).map(|run| (cell, wanted, run)));
-            if !grid.large.is_empty() {
-                runs.push((cell, wanted, &grid.large));
+            if let Some(list) = grid.cells.get(&cell) {
+                for (i, entries) in list.entries.chunks(BIN_RUN).enumerate() {
+                    let masks = (!list.masks.is_empty())
+                        .then(|| &list.masks[i * BIN_RUN..i * BIN_RUN + entries.len()]);
+                    runs.push((cell, wanted, Run::Listed(entries, masks)));
+                }
+            }
+            for large in grid.large_near(cell) {
+                if !large.is_empty() {
+                    runs.push((cell, wanted, Run::Large(large)));
+                }
             }
         }
         let per_run: Vec<Vec<(IVec3, Vec<u32>)>> = runs
             .par_iter()
-            .map(|&(cell, wanted, run)| {
+            .map(|(cell, wanted, run)| {
+                let (cell, wanted) = (*cell, *wanted);
                 // A list per brick of the cell, by its bit (at most 4^3): no hashing per entry.
                 let mut lists: Vec<Vec<u32>> = vec![Vec::new(); 64];
                 let cell_box = grid.cell_box(cell);
-                for &entry in run {
-                    let triangle = &self.triangles[entry as usize];
-                    let bounds = BrickBox::from_world(triangle.lo, triangle.hi, brick_size_m)
-                        .intersection(&cell_box);
-                    for brick in bounds.bricks() {
-                        let bit = grid.brick_bit(cell, brick);
-                        if wanted & (1 << bit) == 0 {
-                            continue;
+                match run {
+                    Run::Listed(entries, masks) => {
+                        for (i, &entry) in entries.iter().enumerate() {
+                            let mask = masks.map_or(1, |masks| masks[i]) & wanted;
+                            if mask == 0 {
+                                continue;
+                            }
+                            let reference = self.triangles[entry as usize].reference;
+                            for_each_bit(mask, |bit| lists[bit as usize].push(reference));
                         }
-                        let center = (brick.as_vec3() + 0.5) * brick_size_m;
-                        if overlaps_brick(triangle, center, 0.5 * brick_size_m) {
-                            lists[bit as usize].push(triangle.reference);
+                    }
+                    Run::Large(large) => {
+                        for &entry in *large {
+                            let triangle = &self.triangles[entry as usize];
+                            let bounds =
+                                BrickBox::from_world(triangle.lo, triangle.hi, brick_size_m)
+                                    .intersection(&cell_box);
+                            for brick in bounds.bricks() {
+                                let bit = grid.brick_bit(cell, brick);
+                                if wanted & (1 << bit) == 0 {
+                                    continue;
+                                }
+                                let center = (brick.as_vec3() + 0.5) * brick_size_m;
+                                if overlaps_brick(triangle, center, 0.5 * brick_size_m) {
+                                    lists[bit as usize].push(triangle.reference);
+                                }
+                            }
                         }
                     }
                 }

@@ -165,6 +165,12 @@ fn large_triangles_bin_like_a_scan() {
             [3e3, y + 1.2, z],
             [3e3, y + 1.3, z + 0.05],
         ),
+        // Large at fine levels yet listed per block of cells, not tested everywhere.
+        tri(
+            [c.x - 12.0, y + 0.7, c.z - 12.0],
+            [c.x + 12.0, y + 0.8, c.z - 11.0],
+            [c.x + 1.0, y + 0.75, c.z + 12.0],
+        ),
     ]
     .into_iter()
     .enumerate()
@@ -189,6 +195,17 @@ fn large_triangles_bin_like_a_scan() {
             bins,
             brute_force(&config, &cache_scene, level, &window),
             "level {level}"
+        );
+        // Binning chosen bricks, as the cache's fill does, reads the same lists.
+        let bricks: Vec<IVec3> = bins.keys().copied().step_by(3).collect();
+        let expected: HashMap<IVec3, Vec<u32>> = bricks
+            .iter()
+            .map(|brick| (*brick, bins[brick].clone()))
+            .collect();
+        assert_eq!(
+            index.bin_bricks(level, &bricks),
+            expected,
+            "level {level}: chosen bricks"
         );
     }
 }
