@@ -172,14 +172,50 @@ pub fn fill_order(
     a: (u32, IVec3),
     b: (u32, IVec3),
 ) -> std::cmp::Ordering {
-    let (ka, kb) = (
-        fill_priority(config, a.0, a.1, camera_position),
-        fill_priority(config, b.0, b.1, camera_position),
-    );
-    ka.0.cmp(&kb.0)
-        .then(ka.1.total_cmp(&kb.1))
-        .then_with(|| (a.1.z, a.1.y, a.1.x).cmp(&(b.1.z, b.1.y, b.1.x)))
+    fill_key(config, camera_position, a).cmp(&fill_key(config, camera_position, b))
 }
+
+/// The key of `entry` in [`fill_order`], for sorting many entries with one distance each.
+pub fn fill_key(config: &CacheConfig, camera_position: Vec3, entry: (u32, IVec3)) -> FillKey {
+    let (level, distance) = fill_priority(config, entry.0, entry.1, camera_position);
+    FillKey {
+        level,
+        distance,
+        brick: entry.1,
+    }
+}
+
+/// A brick's place in [`fill_order`] ([`fill_key`]).
+#[derive(Clone, Copy, Debug)]
+pub struct FillKey {
+    level: u32,
+    distance: f32,
+    brick: IVec3,
+}
+
+impl Ord for FillKey {
+    fn cmp(&self, other: &Self) -> std::cmp::Ordering {
+        let zyx = |b: IVec3| (b.z, b.y, b.x);
+        self.level
+            .cmp(&other.level)
+            .then(self.distance.total_cmp(&other.distance))
+            .then_with(|| zyx(self.brick).cmp(&zyx(other.brick)))
+    }
+}
+
+impl PartialOrd for FillKey {
+    fn partial_cmp(&self, other: &Self) -> Option<std::cmp::Ordering> {
+        Some(self.cmp(other))
+    }
+}
+
+impl PartialEq for FillKey {
+    fn eq(&self, other: &Self) -> bool {
+        self.cmp(other).is_eq()
+    }
+}
+
+impl Eq for FillKey {}
 
 /// A frame's triangles prepared for binning, with a grid of triangle lists per level so a
 /// region or brick is tested only against the triangles near it, not the whole frame.

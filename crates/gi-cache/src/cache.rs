@@ -31,7 +31,7 @@ use gi_scene::{Scene, SceneFrame};
 use glam::{IVec3, Vec3};
 
 use crate::alloc::BrickAllocator;
-use crate::binning::{CacheScene, TriangleIndex, fill_order};
+use crate::binning::{CacheScene, FillKey, TriangleIndex, fill_key, fill_order};
 use crate::buffers::{CacheBuffers, cache_uniforms};
 use crate::clipmap::{BrickBox, ClipmapWindows};
 use crate::config::{CacheConfig, ConfigError};
@@ -603,16 +603,24 @@ impl RadianceCache {
         // The nearest bricks, in fill order: selected in linear time rather than sorting the
         // whole queue every frame (it holds thousands of bricks while the camera flies). The
         // order is total, so the batch does not depend on the queue's order.
+        // Each entry's key (a distance) is computed once, not at every comparison.
         let config = &self.config;
-        let order = |a: &(u32, IVec3), b: &(u32, IVec3)| fill_order(config, camera, *a, *b);
+        let mut keyed: Vec<(FillKey, (u32, IVec3))> = self
+            .queue
+            .drain(..)
+            .map(|entry| (fill_key(config, camera, entry), entry))
+            .collect();
         let take = (config.voxelize_bricks_per_frame as usize)
             .min(self.voxelizer.max_jobs())
-            .min(self.queue.len());
-        if take < self.queue.len() {
-            self.queue.select_nth_unstable_by(take, order);
+            .min(keyed.len());
+        if take < keyed.len() {
+            keyed.select_nth_unstable_by_key(take, |(key, _)| *key);
         }
-        let mut batch: Vec<(u32, IVec3)> = self.queue.drain(..take).collect();
-        batch.sort_unstable_by(order);
+        self.queue
+            .extend(keyed[take..].iter().map(|(_, entry)| *entry));
+        keyed.truncate(take);
+        keyed.sort_unstable_by_key(|(key, _)| *key);
+        let batch = keyed.into_iter().map(|(_, entry)| entry);
         // Nearest first, then within the scan budget: a cell's list is scanned once for all of
         // its bricks taken, and bricks whose cell does not fit go back to the queue.
         let budget = self.config.voxelize_scan_per_frame as usize;

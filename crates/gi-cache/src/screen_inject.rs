@@ -119,26 +119,44 @@ pub struct ScreenInjectCounts {
 /// True when the box `[lo, hi]` intersects the view frustum of `camera` (the four side
 /// planes and the plane through the camera facing forward; no far plane).
 pub fn box_in_frustum(camera: &GpuCamera, lo: Vec3, hi: Vec3) -> bool {
-    let position = Vec3::from(camera.position);
-    let (right, up, forward) = (
-        Vec3::from(camera.right),
-        Vec3::from(camera.up),
-        Vec3::from(camera.forward),
-    );
-    let tx = camera.tan_half_fov * camera.aspect;
-    let ty = camera.tan_half_fov;
-    let planes = [
-        forward,
-        forward * tx - right,
-        forward * tx + right,
-        forward * ty - up,
-        forward * ty + up,
-    ];
-    planes.iter().all(|n| {
-        // The box corner farthest along the plane's inward normal.
-        let corner = Vec3::select(n.cmpge(Vec3::ZERO), hi, lo);
-        (corner - position).dot(*n) >= 0.0
-    })
+    Frustum::new(camera).touches(lo, hi)
+}
+
+/// The planes of [`box_in_frustum`], made once for many boxes.
+struct Frustum {
+    position: Vec3,
+    /// Inward normals.
+    planes: [Vec3; 5],
+}
+
+impl Frustum {
+    fn new(camera: &GpuCamera) -> Self {
+        let (right, up, forward) = (
+            Vec3::from(camera.right),
+            Vec3::from(camera.up),
+            Vec3::from(camera.forward),
+        );
+        let tx = camera.tan_half_fov * camera.aspect;
+        let ty = camera.tan_half_fov;
+        Self {
+            position: Vec3::from(camera.position),
+            planes: [
+                forward,
+                forward * tx - right,
+                forward * tx + right,
+                forward * ty - up,
+                forward * ty + up,
+            ],
+        }
+    }
+
+    fn touches(&self, lo: Vec3, hi: Vec3) -> bool {
+        self.planes.iter().all(|n| {
+            // The box corner farthest along the plane's inward normal.
+            let corner = Vec3::select(n.cmpge(Vec3::ZERO), hi, lo);
+            (corner - self.position).dot(*n) >= 0.0
+        })
+    }
 }
 
 /// The bricks `cache/screen_inject` corrects this update: those of `resident` inside the
@@ -151,6 +169,7 @@ pub fn select_bricks(
     budget: u32,
 ) -> Vec<ResidentBrick> {
     let position = Vec3::from(camera.position);
+    let frustum = Frustum::new(camera);
     // Skipped pool IDs as flags: a lookup per resident brick, thousands per frame.
     let ids = resident
         .iter()
@@ -170,7 +189,8 @@ pub fn select_bricks(
             let size = config.brick_size_at(b.level);
             let lo = b.brick.as_vec3() * size;
             let hi = lo + Vec3::splat(size);
-            box_in_frustum(camera, lo, hi)
+            frustum
+                .touches(lo, hi)
                 .then(|| (b.level, ((lo + hi) * 0.5 - position).length(), *b))
         })
         .collect();
