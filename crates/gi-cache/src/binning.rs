@@ -133,8 +133,9 @@ pub fn bin_triangles(
     bins
 }
 
-/// Entries of a cell's list one task of [`TriangleIndex::bin_bricks`] reads.
-const BIN_RUN: usize = 8192;
+/// List entries from which [`TriangleIndex::bin_bricks`] bins cells on all cores; below it,
+/// sharing the work costs more than it saves.
+const PARALLEL_BIN_ENTRIES: usize = 32_768;
 
 /// Calls `f` with every set bit of `mask`, lowest first.
 fn for_each_bit(mut mask: u64, mut f: impl FnMut(u32)) {
@@ -310,8 +311,9 @@ struct LevelGrid {
 /// The triangles of one grid cell that overlap at least one of its bricks.
 #[derive(Default)]
 struct CellList {
-    /// Indices into [`TriangleIndex::triangles`], in frame order.
-    entries: Vec<u32>,
+    /// The triangles' references ([`CacheScene::reference`]), in frame order: binning reads
+    /// them here rather than from the frame's triangles, scattered over memory.
+    references: Vec<u32>,
     /// Per entry, the bricks it overlaps ([`LevelGrid::brick_bit`]); empty when the cell is
     /// one brick, which every entry then overlaps.
     masks: Vec<u64>,
@@ -320,7 +322,7 @@ struct CellList {
 impl CellList {
     /// Appends `other`, whose entries come after this list's in frame order.
     fn extend(&mut self, other: CellList) {
-        self.entries.extend(other.entries);
+        self.references.extend(other.references);
         self.masks.extend(other.masks);
     }
 
@@ -471,7 +473,7 @@ impl LevelGrid {
                     continue;
                 }
                 let list = self.cells.entry(cell).or_default();
-                list.entries.push(index);
+                list.references.push(t.reference);
                 if self.cell_bricks > 1 {
                     list.masks.push(mask);
                 }
@@ -487,11 +489,37 @@ impl LevelGrid {
         [listed, &self.huge]
     }
 
+    /// The large triangles that may touch `region` (bricks), each once, in frame order: those
+    /// listed in the blocks of its cells and the huge ones.
+    fn large_in(&self, region: &BrickBox) -> Vec<u32> {
+        if self.large.is_empty() || region.is_empty() {
+            return Vec::new();
+        }
+        let blocks = blocks_of(&self.cells_of(region));
+        if blocks.volume() > self.large_blocks.len() as u64 {
+            // A region wider than the blocks that list anything: every large triangle.
+            return self.large.clone();
+        }
+        let mut near = self.huge.clone();
+        for block in blocks.bricks() {
+            if let Some(listed) = self.large_blocks.get(&block) {
+                near.extend_from_slice(listed);
+            }
+        }
+        near.sort_unstable();
+        near.dedup();
+        near
+    }
+
     /// Entries that binning a brick of cell `cell` scans: the cell's list and the large
     /// triangles near it.
     fn scan_cost(&self, cell: IVec3) -> usize {
         let [listed, huge] = self.large_near(cell);
-        self.cells.get(&cell).map_or(0, |list| list.entries.len()) + listed.len() + huge.len()
+        self.cells
+            .get(&cell)
+            .map_or(0, |list| list.references.len())
+            + listed.len()
+            + huge.len()
     }
 }
 
@@ -574,7 +602,7 @@ impl TriangleIndex {
     /// Bins the large triangles of `level` (those kept out of the grid's cells) in `region`.
     fn bin_large(&self, level: u32, region: &BrickBox, bins: &mut HashMap<IVec3, Vec<u32>>) {
         let brick_size_m = self.brick_size_m[level as usize];
-        for &entry in &self.grids[level as usize].large {
+        for entry in self.grids[level as usize].large_in(region) {
             Self::bin_one(brick_size_m, &self.triangles[entry as usize], region, bins);
         }
     }
@@ -595,8 +623,7 @@ impl TriangleIndex {
                 continue;
             };
             let inside = grid.region_mask(cell, region);
-            for (i, &entry) in list.entries.iter().enumerate() {
-                let reference = self.triangles[entry as usize].reference;
+            for (i, &reference) in list.references.iter().enumerate() {
                 for_each_bit(list.mask(i) & inside, |bit| {
                     let brick = grid.brick_of_bit(cell, bit);
                     bins.entry(brick).or_default().push(reference);
@@ -617,93 +644,76 @@ impl TriangleIndex {
     /// [`bin_triangles`] returns for a region holding them, restricted to them. Each cell's
     /// list is scanned once for all of its bricks among `bricks`.
     pub fn bin_bricks(&self, level: u32, bricks: &[IVec3]) -> HashMap<IVec3, Vec<u32>> {
-        let brick_size_m = self.brick_size_m[level as usize];
         let grid = &self.grids[level as usize];
         // Per cell, a mask of the bricks wanted (a cell has at most 4³ bricks).
-        let mut by_cell: HashMap<IVec3, u64> = HashMap::new();
+        let mut by_cell: HashMap<IVec3, u64> = HashMap::with_capacity(bricks.len());
         for &brick in bricks {
             let cell = grid.cell_of(brick);
             *by_cell.entry(cell).or_default() |= 1 << grid.brick_bit(cell, brick);
         }
-        // Runs of a cell's list are binned side by side on all cores (a coarse cell can list
-        // a hundred thousand triangles), each into its own bins, joined in list order.
-        // A run is a part of a cell's list read through its masks, or the level's large
-        // triangles, which are tested.
-        enum Run<'a> {
-            Listed(&'a [u32], Option<&'a [u64]>),
-            Large(&'a [u32]),
-        }
-        let mut runs: Vec<(IVec3, u64, Run)> = Vec::new();
-        for (&cell, &wanted) in &by_cell {
-            if let Some(list) = grid.cells.get(&cell) {
-                for (i, entries) in list.entries.chunks(BIN_RUN).enumerate() {
-                    let masks = (!list.masks.is_empty())
-                        .then(|| &list.masks[i * BIN_RUN..i * BIN_RUN + entries.len()]);
-                    runs.push((cell, wanted, Run::Listed(entries, masks)));
+        let cells: Vec<(IVec3, u64)> = by_cell.into_iter().collect();
+        let work: usize = cells.iter().map(|(cell, _)| grid.scan_cost(*cell)).sum();
+        let bin_cell = |&(cell, wanted): &(IVec3, u64)| self.bin_cell(level, cell, wanted);
+        // Cells are binned side by side on all cores when there is enough work to share.
+        let per_cell: Vec<Vec<(IVec3, Vec<u32>)>> = if work >= PARALLEL_BIN_ENTRIES {
+            cells.par_iter().map(bin_cell).collect()
+        } else {
+            cells.iter().map(bin_cell).collect()
+        };
+        per_cell.into_iter().flatten().collect()
+    }
+
+    /// The bins of the bricks `wanted` (a mask of [`LevelGrid::brick_bit`]s) of cell `cell` at
+    /// `level`: the cell's list read through its masks, then the large triangles near it,
+    /// tested, each list in frame order.
+    fn bin_cell(&self, level: u32, cell: IVec3, wanted: u64) -> Vec<(IVec3, Vec<u32>)> {
+        let brick_size_m = self.brick_size_m[level as usize];
+        let grid = &self.grids[level as usize];
+        // A list per wanted brick, by the rank of its bit among the wanted ones.
+        let rank = |bit: u32| (wanted & ((1u64 << bit) - 1)).count_ones() as usize;
+        let mut lists: Vec<Vec<u32>> = vec![Vec::new(); wanted.count_ones() as usize];
+        if let Some(list) = grid.cells.get(&cell) {
+            for (i, &reference) in list.references.iter().enumerate() {
+                let mask = list.mask(i) & wanted;
+                if mask != 0 {
+                    for_each_bit(mask, |bit| lists[rank(bit)].push(reference));
                 }
             }
-            for large in grid.large_near(cell) {
-                if !large.is_empty() {
-                    runs.push((cell, wanted, Run::Large(large)));
+        }
+        let mut appended = false;
+        let cell_box = grid.cell_box(cell);
+        for large in grid.large_near(cell) {
+            for &entry in large {
+                let triangle = &self.triangles[entry as usize];
+                let bounds = BrickBox::from_world(triangle.lo, triangle.hi, brick_size_m)
+                    .intersection(&cell_box);
+                for brick in bounds.bricks() {
+                    let bit = grid.brick_bit(cell, brick);
+                    if wanted & (1 << bit) == 0 {
+                        continue;
+                    }
+                    let center = (brick.as_vec3() + 0.5) * brick_size_m;
+                    if overlaps_brick(triangle, center, 0.5 * brick_size_m) {
+                        lists[rank(bit)].push(triangle.reference);
+                        appended = true;
+                    }
                 }
             }
         }
-        let per_run: Vec<Vec<(IVec3, Vec<u32>)>> = runs
-            .par_iter()
-            .map(|(cell, wanted, run)| {
-                let (cell, wanted) = (*cell, *wanted);
-                // A list per brick of the cell, by its bit (at most 4^3): no hashing per entry.
-                let mut lists: Vec<Vec<u32>> = vec![Vec::new(); 64];
-                let cell_box = grid.cell_box(cell);
-                match run {
-                    Run::Listed(entries, masks) => {
-                        for (i, &entry) in entries.iter().enumerate() {
-                            let mask = masks.map_or(1, |masks| masks[i]) & wanted;
-                            if mask == 0 {
-                                continue;
-                            }
-                            let reference = self.triangles[entry as usize].reference;
-                            for_each_bit(mask, |bit| lists[bit as usize].push(reference));
-                        }
-                    }
-                    Run::Large(large) => {
-                        for &entry in *large {
-                            let triangle = &self.triangles[entry as usize];
-                            let bounds =
-                                BrickBox::from_world(triangle.lo, triangle.hi, brick_size_m)
-                                    .intersection(&cell_box);
-                            for brick in bounds.bricks() {
-                                let bit = grid.brick_bit(cell, brick);
-                                if wanted & (1 << bit) == 0 {
-                                    continue;
-                                }
-                                let center = (brick.as_vec3() + 0.5) * brick_size_m;
-                                if overlaps_brick(triangle, center, 0.5 * brick_size_m) {
-                                    lists[bit as usize].push(triangle.reference);
-                                }
-                            }
-                        }
-                    }
-                }
-                cell_box
-                    .bricks()
-                    .filter_map(|brick| {
-                        let list = std::mem::take(&mut lists[grid.brick_bit(cell, brick) as usize]);
-                        (!list.is_empty()).then_some((brick, list))
-                    })
-                    .collect()
-            })
-            .collect();
-        let mut bins: HashMap<IVec3, Vec<u32>> = HashMap::new();
-        for (brick, list) in per_run.into_iter().flatten() {
-            bins.entry(brick).or_default().extend(list);
-        }
-        if !grid.large.is_empty() {
+        if appended {
             // The large triangles went last; frame order is reference order without the flag.
-            bins.par_iter_mut().for_each(|(_, list)| {
+            for list in &mut lists {
                 list.sort_unstable_by_key(|reference| reference & !TRIANGLE_DYNAMIC_BIT);
-            });
+            }
         }
+        let mut bins = Vec::with_capacity(lists.len());
+        let mut lists = lists.into_iter();
+        for_each_bit(wanted, |bit| {
+            let list = lists.next().expect("a list per wanted bit");
+            if !list.is_empty() {
+                bins.push((grid.brick_of_bit(cell, bit), list));
+            }
+        });
         bins
     }
 

@@ -23,6 +23,7 @@
 //!    resident bricks not voxelized in this update ([`crate::screen_inject`]);
 //! 7. records the lighting passes, when a [`CacheLightingHook`] is set.
 
+use std::cmp::Reverse;
 use std::collections::HashSet;
 
 use gi_gpu::bvh::GpuBvh;
@@ -31,7 +32,7 @@ use gi_scene::{Scene, SceneFrame};
 use glam::{IVec3, Vec3};
 
 use crate::alloc::BrickAllocator;
-use crate::binning::{CacheScene, FillKey, TriangleIndex, fill_key, fill_order};
+use crate::binning::{CacheScene, FillKey, TriangleIndex, fill_key};
 use crate::buffers::{CacheBuffers, cache_uniforms};
 use crate::clipmap::{BrickBox, ClipmapWindows};
 use crate::config::{CacheConfig, ConfigError};
@@ -574,7 +575,7 @@ impl RadianceCache {
             .filter(|entry| !self.queued.contains(entry))
             .copied()
             .collect();
-        candidates.sort_by(|&a, &b| fill_order(config, camera, a, b));
+        candidates.sort_by_cached_key(|&entry| fill_key(config, camera, entry));
         for entry in candidates.into_iter().take(free) {
             self.dropped.remove(&entry);
             stats.requeued_dropped += u32::from(self.enqueue(entry.0, entry.1));
@@ -745,17 +746,20 @@ impl RadianceCache {
             let config = &self.config;
             let owner = &self.owner;
             let list = victims.get_or_insert_with(|| {
-                let mut resident: Vec<(u32, IVec3)> = owner.iter().flatten().copied().collect();
-                // Last in fill order first.
-                let order = |a: &(u32, IVec3), b: &(u32, IVec3)| fill_order(config, camera, *b, *a);
+                // Last in fill order first; each brick's key computed once.
+                let mut resident: Vec<(Reverse<FillKey>, (u32, IVec3))> = owner
+                    .iter()
+                    .flatten()
+                    .map(|&entry| (Reverse(fill_key(config, camera, entry)), entry))
+                    .collect();
                 let wanted = wanted.min(resident.len());
                 if wanted < resident.len() {
-                    resident.select_nth_unstable_by(wanted, order);
+                    resident.select_nth_unstable_by_key(wanted, |(key, _)| *key);
                     resident.truncate(wanted);
                 }
-                resident.sort_unstable_by(order);
+                resident.sort_unstable_by_key(|(key, _)| *key);
                 resident.reverse();
-                resident
+                resident.into_iter().map(|(_, entry)| entry).collect()
             });
             let Some(&victim) = list.last() else {
                 // Candidates used up (some were released as empty): look again once.

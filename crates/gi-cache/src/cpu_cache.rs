@@ -19,7 +19,7 @@ use gi_scene::{Scene, SceneFrame};
 use glam::{IVec3, Vec3};
 
 use crate::alloc::BrickAllocator;
-use crate::binning::{CacheScene, bin_triangles, fill_order};
+use crate::binning::{CacheScene, bin_triangles, fill_key};
 use crate::buffers::{CacheBuffers, cache_uniforms};
 use crate::clipmap::ClipmapWindows;
 use crate::config::{CacheConfig, ConfigError};
@@ -86,7 +86,7 @@ impl CpuCache {
             );
             candidates.extend(bins.into_iter().map(|(brick, tris)| (level, brick, tris)));
         }
-        candidates.sort_by(|a, b| fill_order(config, camera_position, (a.0, a.1), (b.0, b.1)));
+        candidates.sort_by_cached_key(|c| fill_key(config, camera_position, (c.0, c.1)));
         let voxels_len = (config.pool_bricks as usize + 1) * VOXELS_PER_BRICK as usize;
         let mut cache = Self {
             config: config.clone(),

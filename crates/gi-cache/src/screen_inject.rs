@@ -150,6 +150,7 @@ impl Frustum {
         }
     }
 
+    #[inline]
     fn touches(&self, lo: Vec3, hi: Vec3) -> bool {
         self.planes.iter().all(|n| {
             // The box corner farthest along the plane's inward normal.
@@ -182,32 +183,48 @@ pub fn select_bricks(
             *flag = true;
         }
     }
-    let mut visible: Vec<(u32, f32, ResidentBrick)> = resident
-        .iter()
-        .filter(|b| !skipped[b.brick_id as usize])
-        .filter_map(|b| {
-            let size = config.brick_size_at(b.level);
-            let lo = b.brick.as_vec3() * size;
-            let hi = lo + Vec3::splat(size);
-            frustum
-                .touches(lo, hi)
-                .then(|| (b.level, ((lo + hi) * 0.5 - position).length(), *b))
-        })
-        .collect();
-    // Finer levels first, then nearer, then by pool ID (`resident`'s order): the budget's
-    // share is selected in linear time and only it is sorted.
-    let order = |a: &(u32, f32, ResidentBrick), b: &(u32, f32, ResidentBrick)| {
-        a.0.cmp(&b.0)
-            .then(a.1.total_cmp(&b.1))
-            .then(a.2.brick_id.cmp(&b.2.brick_id))
-    };
-    let budget = (budget as usize).min(visible.len());
-    if budget < visible.len() {
-        visible.select_nth_unstable_by(budget, order);
-        visible.truncate(budget);
+    // Finer levels first, then nearer, then by pool ID: levels are taken whole in order
+    // until the budget is reached, so coarser levels are not even tested, and only the last
+    // level's share is selected (in linear time) and sorted.
+    let mut by_level: Vec<Vec<ResidentBrick>> = vec![Vec::new(); config.levels as usize];
+    for b in resident {
+        if !skipped[b.brick_id as usize]
+            && let Some(list) = by_level.get_mut(b.level as usize)
+        {
+            list.push(*b);
+        }
     }
-    visible.sort_unstable_by(order);
-    visible.into_iter().map(|(_, _, b)| b).collect()
+    let budget = budget as usize;
+    let mut selected = Vec::with_capacity(budget);
+    for (level, bricks) in by_level.iter().enumerate() {
+        if selected.len() >= budget {
+            break;
+        }
+        let size = config.brick_size_at(level as u32);
+        // Distance bits order like the distances (non-negative floats), then the pool ID.
+        let mut visible: Vec<(u64, ResidentBrick)> = bricks
+            .iter()
+            .filter_map(|b| {
+                let lo = b.brick.as_vec3() * size;
+                let hi = lo + Vec3::splat(size);
+                frustum.touches(lo, hi).then(|| {
+                    let distance = ((lo + hi) * 0.5 - position).length();
+                    (
+                        (u64::from(distance.to_bits()) << 32) | u64::from(b.brick_id),
+                        *b,
+                    )
+                })
+            })
+            .collect();
+        let take = (budget - selected.len()).min(visible.len());
+        if take < visible.len() {
+            visible.select_nth_unstable_by_key(take, |(key, _)| *key);
+            visible.truncate(take);
+        }
+        visible.sort_unstable_by_key(|(key, _)| *key);
+        selected.extend(visible.into_iter().map(|(_, b)| b));
+    }
+    selected
 }
 
 /// The screen injection pass: its pipeline, job buffer and counters.
@@ -349,6 +366,57 @@ impl ScreenInjector {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// The selection taken level by level equals a sort of every visible, unskipped brick by
+    /// level, distance and pool ID, cut at the budget, whichever level the budget ends in.
+    #[test]
+    fn selection_is_the_finest_nearest_visible_bricks() {
+        let config = CacheConfig::default();
+        let view = CameraView::look_at(Vec3::new(0.3, 1.1, 0.2), Vec3::new(-0.4, 0.1, -1.0), 1.0);
+        let camera = GpuCamera::new(&view, (160, 90));
+        let mut resident = Vec::new();
+        let mut id = 0;
+        for level in 0..config.levels {
+            for z in -6..6 {
+                for y in -2..3 {
+                    for x in -6..6 {
+                        // Pool IDs in no particular order, some levels sparse.
+                        if (x + 2 * y + 3 * z + level as i32).rem_euclid(3) != 0 {
+                            resident.push(ResidentBrick {
+                                level,
+                                brick: glam::IVec3::new(x, y, z),
+                                brick_id: (id * 7919) % 100_003,
+                            });
+                            id += 1;
+                        }
+                    }
+                }
+            }
+        }
+        let skip: Vec<ResidentBrick> = resident.iter().step_by(5).copied().collect();
+        let mut expected: Vec<(u32, f32, u32)> = resident
+            .iter()
+            .filter(|b| !skip.contains(b))
+            .filter_map(|b| {
+                let size = config.brick_size_at(b.level);
+                let lo = b.brick.as_vec3() * size;
+                let hi = lo + Vec3::splat(size);
+                let distance = ((lo + hi) * 0.5 - view.position).length();
+                box_in_frustum(&camera, lo, hi).then_some((b.level, distance, b.brick_id))
+            })
+            .collect();
+        expected.sort_by(|a, b| a.0.cmp(&b.0).then(a.1.total_cmp(&b.1)).then(a.2.cmp(&b.2)));
+        let levels_seen: std::collections::HashSet<u32> = expected.iter().map(|e| e.0).collect();
+        assert!(levels_seen.len() >= 3, "the view sees too few levels");
+        for budget in [0, 1, 17, 150, 400, expected.len() as u32, 100_000] {
+            let selected: Vec<u32> = select_bricks(&config, &resident, &camera, &skip, budget)
+                .iter()
+                .map(|b| b.brick_id)
+                .collect();
+            let want: Vec<u32> = expected.iter().take(budget as usize).map(|e| e.2).collect();
+            assert_eq!(selected, want, "budget {budget}");
+        }
+    }
 
     #[test]
     fn frustum_keeps_boxes_in_view_and_drops_those_behind_or_beside() {

@@ -196,6 +196,12 @@ fn large_triangles_bin_like_a_scan() {
             brute_force(&config, &cache_scene, level, &window),
             "level {level}"
         );
+        // The bricks an entering slab queues are the bins' bricks.
+        let mut candidates = index.candidate_bricks(level, &window);
+        candidates.sort_by_key(|b| (b.z, b.y, b.x));
+        let mut keys: Vec<IVec3> = bins.keys().copied().collect();
+        keys.sort_by_key(|b| (b.z, b.y, b.x));
+        assert_eq!(candidates, keys, "level {level}: occupied bricks");
         // Binning chosen bricks, as the cache's fill does, reads the same lists.
         let bricks: Vec<IVec3> = bins.keys().copied().step_by(3).collect();
         let expected: HashMap<IVec3, Vec<u32>> = bricks
