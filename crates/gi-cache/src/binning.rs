@@ -277,9 +277,22 @@ fn overlaps_brick(triangle: &PreparedTriangle, center: Vec3, half: f32) -> bool 
 const BUILD_CHUNK: usize = 1 << 15;
 
 /// Triangles whose brick bounds span more grid cells than this are kept in their level's
-/// `large` list, which every query tests, instead of being listed in each cell: a few huge
-/// triangles (a ground plane under a city) would otherwise fill millions of cells.
+/// `large` list (and listed per block of cells), which queries test, instead of being listed
+/// in each cell, unless they are wide ([`WIDE_TRIANGLE_CELLS`]): a few huge triangles (a
+/// ground plane under a city) would otherwise fill millions of cells.
 const LARGE_TRIANGLE_CELLS: u64 = 64;
+
+/// Triangles spanning more than [`LARGE_TRIANGLE_CELLS`] cells but at most this many are
+/// still listed in their cells while the level's budget of such (triangle, cell) pairs
+/// ([`WIDE_PAIRS_PER_LEVEL`]) lasts: a floor or wall then costs binning no test at all, where
+/// as a large triangle it is tested in every cell binned near it (Sponza has 540 at the
+/// finest level).
+const WIDE_TRIANGLE_CELLS: u64 = 1024;
+
+/// (triangle, cell) pairs per level that triangles wider than [`LARGE_TRIANGLE_CELLS`] may
+/// add to the cell lists (12 bytes each: 48 MiB at most), shared evenly by the parts of the
+/// grid's build, so that the grid is the same however its parts are scheduled.
+const WIDE_PAIRS_PER_LEVEL: u64 = 1 << 22;
 
 /// Cells per block edge of [`LevelGrid::large_blocks`].
 const LARGE_BLOCK_CELLS: i32 = 8;
@@ -409,12 +422,14 @@ impl LevelGrid {
             huge: Vec::new(),
             occupied: HashMap::new(),
         };
+        let chunks = triangles.len().div_ceil(BUILD_CHUNK).max(1) as u64;
         let parts: Vec<Self> = triangles
             .par_chunks(BUILD_CHUNK)
             .enumerate()
             .map(|(chunk, part)| {
                 let mut grid = empty();
-                grid.add(brick_size_m, chunk * BUILD_CHUNK, part);
+                let mut wide_pairs = WIDE_PAIRS_PER_LEVEL / chunks;
+                grid.add(brick_size_m, chunk * BUILD_CHUNK, part, &mut wide_pairs);
                 grid
             })
             .collect();
@@ -437,7 +452,14 @@ impl LevelGrid {
     }
 
     /// Grids `triangles`, the first of which is triangle `first` of the index.
-    fn add(&mut self, brick_size_m: f32, first: usize, triangles: &[PreparedTriangle]) {
+    /// `wide_pairs` is what is left of the part's budget of [`WIDE_PAIRS_PER_LEVEL`].
+    fn add(
+        &mut self,
+        brick_size_m: f32,
+        first: usize,
+        triangles: &[PreparedTriangle],
+        wide_pairs: &mut u64,
+    ) {
         for (offset, t) in triangles.iter().enumerate() {
             let index = (first + offset) as u32;
             let (lo, hi) = (t.lo / brick_size_m, t.hi / brick_size_m);
@@ -445,7 +467,18 @@ impl LevelGrid {
                 lo.abs().max_element() < MAX_GRID_BRICK && hi.abs().max_element() < MAX_GRID_BRICK;
             let cells =
                 gridded.then(|| self.cells_of(&BrickBox::from_world(t.lo, t.hi, brick_size_m)));
-            let Some(range) = cells.filter(|range| range.volume() <= LARGE_TRIANGLE_CELLS) else {
+            let listed = cells.filter(|range| {
+                let volume = range.volume();
+                if volume <= LARGE_TRIANGLE_CELLS {
+                    return true;
+                }
+                let wide = volume <= WIDE_TRIANGLE_CELLS && volume <= *wide_pairs;
+                if wide {
+                    *wide_pairs -= volume;
+                }
+                wide
+            });
+            let Some(range) = listed else {
                 self.large.push(index);
                 match cells
                     .map(|cells| blocks_of(&cells))

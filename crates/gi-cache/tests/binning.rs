@@ -165,11 +165,18 @@ fn large_triangles_bin_like_a_scan() {
             [3e3, y + 1.2, z],
             [3e3, y + 1.3, z + 0.05],
         ),
-        // Large at fine levels yet listed per block of cells, not tested everywhere.
+        // Listed per block of cells at the finest level (too wide for its cells), in the
+        // cells at coarser ones.
         tri(
-            [c.x - 12.0, y + 0.7, c.z - 12.0],
-            [c.x + 12.0, y + 0.8, c.z - 11.0],
-            [c.x + 1.0, y + 0.75, c.z + 12.0],
+            [c.x - 30.0, y + 0.7, c.z - 30.0],
+            [c.x + 30.0, y + 0.8, c.z - 29.0],
+            [c.x + 1.0, y + 0.75, c.z + 30.0],
+        ),
+        // Wide: listed in its cells at every level.
+        tri(
+            [c.x - 9.0, y + 1.7, c.z - 9.0],
+            [c.x + 9.0, y + 1.4, c.z - 8.0],
+            [c.x + 2.0, y + 1.6, c.z + 9.0],
         ),
     ]
     .into_iter()
