@@ -248,7 +248,7 @@ pub struct TriangleIndex {
 }
 
 /// One triangle as binning reads it.
-#[derive(PartialEq)]
+#[derive(Clone, PartialEq)]
 struct PreparedTriangle {
     vertices: [Vec3; 3],
     lo: Vec3,
@@ -414,6 +414,11 @@ impl LevelGrid {
     /// The grid of `triangles` at bricks of `brick_size_m`: parts of [`BUILD_CHUNK`]
     /// triangles are gridded on all cores, then joined in frame order.
     fn build(brick_size_m: f32, triangles: &[PreparedTriangle]) -> Self {
+        Self::build_within(brick_size_m, triangles, WIDE_PAIRS_PER_LEVEL)
+    }
+
+    /// [`LevelGrid::build`] with a budget of `wide_budget` pairs for wide triangles.
+    fn build_within(brick_size_m: f32, triangles: &[PreparedTriangle], wide_budget: u64) -> Self {
         let empty = || Self {
             cell_bricks: cell_bricks(brick_size_m),
             cells: HashMap::new(),
@@ -428,7 +433,7 @@ impl LevelGrid {
             .enumerate()
             .map(|(chunk, part)| {
                 let mut grid = empty();
-                let mut wide_pairs = WIDE_PAIRS_PER_LEVEL / chunks;
+                let mut wide_pairs = wide_budget / chunks;
                 grid.add(brick_size_m, chunk * BUILD_CHUNK, part, &mut wide_pairs);
                 grid
             })
@@ -797,6 +802,82 @@ impl TriangleIndex {
 mod tests {
     use super::*;
     use rand::{RngExt, SeedableRng};
+
+    /// Wide triangles are listed in their cells while the budget lasts and tested as large
+    /// ones past it; the bins are the same either way, and those of a scan of every triangle.
+    #[test]
+    fn wide_triangles_past_the_budget_bin_the_same() {
+        let brick = 0.25;
+        let mut rng = rand_pcg::Pcg32::seed_from_u64(3);
+        // Floors and ramps of 6 to 20 m at bricks of 0.25 m (cells of 1 m): 36 to 400 cells.
+        let triangles: Vec<PreparedTriangle> = (0..40)
+            .map(|i| {
+                let c = Vec3::new(
+                    rng.random_range(-15.0..15.0),
+                    rng.random_range(-2.0..2.0),
+                    rng.random_range(-15.0..15.0),
+                );
+                let r = rng.random_range(3.0..10.0);
+                let tilt = rng.random_range(-0.04..0.04);
+                let vertices = [
+                    c + Vec3::new(-r, -tilt * r, -r),
+                    c + Vec3::new(r, tilt * r, -r * 0.5),
+                    c + Vec3::new(0.2 * r, 0.5 * tilt * r, r),
+                ];
+                let [a, b, d] = vertices;
+                PreparedTriangle {
+                    vertices,
+                    lo: a.min(b).min(d),
+                    hi: a.max(b).max(d),
+                    reference: i,
+                }
+            })
+            .collect();
+        let index = |wide_budget: u64| TriangleIndex {
+            brick_size_m: vec![brick],
+            source: Vec::new(),
+            revision: 0,
+            dynamic_node: Vec::new(),
+            triangles: triangles.clone(),
+            grids: vec![LevelGrid::build_within(brick, &triangles, wide_budget)],
+        };
+        let (all, some, none) = (index(WIDE_PAIRS_PER_LEVEL), index(1500), index(0));
+        let large = |index: &TriangleIndex| index.grids[0].large.len();
+        assert_eq!(large(&all), 0);
+        assert!(
+            large(&some) > 0 && large(&some) < large(&none),
+            "{}",
+            large(&some)
+        );
+        assert!(large(&none) > 20, "{}", large(&none));
+
+        let region = BrickBox {
+            min: IVec3::new(-60, -20, -60),
+            max: IVec3::new(60, 20, 60),
+        };
+        let mut scan: HashMap<IVec3, Vec<u32>> = HashMap::new();
+        for t in &triangles {
+            let bounds = BrickBox::from_world(t.lo, t.hi, brick).intersection(&region);
+            for b in bounds.bricks() {
+                let center = (b.as_vec3() + 0.5) * brick;
+                if triangle_box_overlap(t.vertices, center, 0.5 * brick) {
+                    scan.entry(b).or_default().push(t.reference);
+                }
+            }
+        }
+        assert!(scan.len() > 1000, "{}", scan.len());
+        let chosen: Vec<IVec3> = scan.keys().copied().step_by(5).collect();
+        let wanted: HashMap<IVec3, Vec<u32>> =
+            chosen.iter().map(|b| (*b, scan[b].clone())).collect();
+        for (name, index) in [("all", &all), ("some", &some), ("none", &none)] {
+            assert_eq!(index.bin_region(0, &region), scan, "{name}: region");
+            assert_eq!(
+                index.bin_bricks(0, &chosen),
+                wanted,
+                "{name}: chosen bricks"
+            );
+        }
+    }
 
     /// The shortcut of [`overlaps_brick`] never disagrees with the exact test: random
     /// triangles inside, across and just inside the faces of a box, slivers and points.
