@@ -303,6 +303,12 @@ pub struct LightSchedule {
     class: Vec<u8>,
     /// Scratch of [`LightSchedule::pick`], by pool ID: the brick's place in `resident`.
     place: Vec<u32>,
+    /// Scratch of [`LightSchedule::pick`]: the near and far fields and the young bricks, kept
+    /// between frames so that their memory (hundreds of kilobytes) is not mapped anew each
+    /// frame.
+    near: Vec<ResidentBrick>,
+    far: Vec<ResidentBrick>,
+    young: Vec<(u32, ResidentBrick)>,
 }
 
 /// [`LightSchedule::class`]: not resident this frame.
@@ -363,8 +369,10 @@ impl LightSchedule {
         }
         // Both fields in pool-ID order, each brick once; bricks released since the last frame
         // (not resident now) are forgotten.
-        let mut near: Vec<ResidentBrick> = Vec::new();
-        let mut far: Vec<ResidentBrick> = Vec::new();
+        let mut near = std::mem::take(&mut self.near);
+        let mut far = std::mem::take(&mut self.far);
+        near.clear();
+        far.clear();
         for (id, class) in self.class.iter().enumerate() {
             match *class {
                 NEAR => near.push(resident[self.place[id] as usize]),
@@ -402,18 +410,26 @@ impl LightSchedule {
             for b in &picked {
                 self.class[b.brick_id as usize] |= PICKED;
             }
-            let mut young: Vec<(u32, ResidentBrick)> = near
-                .iter()
-                .chain(&far)
-                .filter(|b| self.class[b.brick_id as usize] & PICKED == 0)
-                .map(|b| (self.updates[b.brick_id as usize], *b))
-                .filter(|&(n, _)| n < settled)
-                .collect();
+            let mut young = std::mem::take(&mut self.young);
+            young.clear();
+            for field in [&near, &far] {
+                for b in field.iter() {
+                    let id = b.brick_id as usize;
+                    let n = self.updates[id];
+                    if n < settled && self.class[id] & PICKED == 0 {
+                        young.push((n, *b));
+                    }
+                }
+            }
             let take = (budget.settle_bricks as usize).min(young.len());
             if take > 0 {
                 let near_levels = budget.near_levels;
+                // Near field first, then fewest updates, finest level, pool ID, as one integer.
                 let key = |&(n, b): &(u32, ResidentBrick)| {
-                    (b.level >= near_levels, n, b.level, b.brick_id)
+                    u128::from(b.level >= near_levels) << 96
+                        | u128::from(n) << 64
+                        | u128::from(b.level) << 32
+                        | u128::from(b.brick_id)
                 };
                 if take < young.len() {
                     young.select_nth_unstable_by_key(take - 1, key);
@@ -423,6 +439,7 @@ impl LightSchedule {
                 picked.extend(young.iter().map(|&(_, b)| b));
                 counts.settle = take as u32;
             }
+            self.young = young;
         }
         self.settling.fill(false);
         for b in &picked {
@@ -440,6 +457,8 @@ impl LightSchedule {
             let resident_bricks = fresh + near.len() + far.len();
             counts.young = resident_bricks.saturating_sub(settled_bricks) as u32;
         }
+        self.near = near;
+        self.far = far;
         (picked, counts)
     }
 

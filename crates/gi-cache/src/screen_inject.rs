@@ -186,43 +186,39 @@ pub fn select_bricks(
     // Finer levels first, then nearer, then by pool ID: levels are taken whole in order
     // until the budget is reached, so coarser levels are not even tested, and only the last
     // level's share is selected (in linear time) and sorted.
-    let mut by_level: Vec<Vec<ResidentBrick>> = vec![Vec::new(); config.levels as usize];
-    for b in resident {
-        if !skipped[b.brick_id as usize]
-            && let Some(list) = by_level.get_mut(b.level as usize)
-        {
-            list.push(*b);
-        }
-    }
     let budget = budget as usize;
-    let mut selected = Vec::with_capacity(budget);
-    for (level, bricks) in by_level.iter().enumerate() {
+    let mut selected = Vec::with_capacity(budget.min(resident.len()));
+    let mut visible: Vec<(u64, ResidentBrick)> = Vec::new();
+    for level in 0..config.levels {
         if selected.len() >= budget {
             break;
         }
-        let size = config.brick_size_at(level as u32);
+        let size = config.brick_size_at(level);
         // Distance bits order like the distances (non-negative floats), then the pool ID.
-        let mut visible: Vec<(u64, ResidentBrick)> = bricks
-            .iter()
-            .filter_map(|b| {
-                let lo = b.brick.as_vec3() * size;
-                let hi = lo + Vec3::splat(size);
-                frustum.touches(lo, hi).then(|| {
-                    let distance = ((lo + hi) * 0.5 - position).length();
-                    (
-                        (u64::from(distance.to_bits()) << 32) | u64::from(b.brick_id),
-                        *b,
-                    )
-                })
-            })
-            .collect();
+        visible.clear();
+        visible.extend(
+            resident
+                .iter()
+                .filter(|b| b.level == level && !skipped[b.brick_id as usize])
+                .filter_map(|b| {
+                    let lo = b.brick.as_vec3() * size;
+                    let hi = lo + Vec3::splat(size);
+                    frustum.touches(lo, hi).then(|| {
+                        let distance = ((lo + hi) * 0.5 - position).length();
+                        (
+                            (u64::from(distance.to_bits()) << 32) | u64::from(b.brick_id),
+                            *b,
+                        )
+                    })
+                }),
+        );
         let take = (budget - selected.len()).min(visible.len());
         if take < visible.len() {
             visible.select_nth_unstable_by_key(take, |(key, _)| *key);
             visible.truncate(take);
         }
         visible.sort_unstable_by_key(|(key, _)| *key);
-        selected.extend(visible.into_iter().map(|(_, b)| b));
+        selected.extend(visible.iter().map(|(_, b)| *b));
     }
     selected
 }
