@@ -232,6 +232,10 @@ pub struct RadianceCache {
     triangle_index: Option<TriangleIndex>,
     frame_index: u32,
     dropped_for_pool: u64,
+    /// The resident bricks of the last update and the queue's fill keys, kept between updates
+    /// so that their memory (hundreds of kilobytes at a full pool) is not mapped anew.
+    resident: Vec<ResidentBrick>,
+    keyed: Vec<(FillKey, (u32, IVec3))>,
     /// The lighting passes, recorded after voxelization (see [`CacheLightingHook`]).
     pub lighting: Option<Box<dyn CacheLightingHook>>,
 }
@@ -293,6 +297,8 @@ impl RadianceCache {
             frame_index: 0,
             dropped_for_pool: 0,
             lighting: None,
+            resident: Vec::new(),
+            keyed: Vec::new(),
         })
     }
 
@@ -324,17 +330,9 @@ impl RadianceCache {
 
     /// Every allocated brick, in ID order.
     pub fn resident_bricks(&self) -> Vec<ResidentBrick> {
-        self.owner
-            .iter()
-            .enumerate()
-            .filter_map(|(id, owner)| {
-                owner.map(|(level, brick)| ResidentBrick {
-                    level,
-                    brick,
-                    brick_id: id as u32,
-                })
-            })
-            .collect()
+        let mut resident = Vec::new();
+        list_resident(&self.owner, &mut resident);
+        resident
     }
 
     pub fn stats(&self) -> CacheStats {
@@ -393,7 +391,8 @@ impl RadianceCache {
                 .record(ctx, encoder, timer, inputs.gpu_scene, &self.buffers, &jobs);
         stats.voxelize_parts = plan.parts.len() as u32;
         stats.cpu.record_ms = clock.lap();
-        let resident = self.resident_bricks();
+        let mut resident = std::mem::take(&mut self.resident);
+        list_resident(&self.owner, &mut resident);
         stats.filling = crate::lighting::is_filling(new_bricks.len(), resident.len());
         if let Some(screen) = &inputs.gbuffer {
             let budget = self.config.screen_inject_bricks_per_frame.min(65_535);
@@ -420,6 +419,7 @@ impl RadianceCache {
             self.lighting = Some(lighting);
         }
         stats.cpu.lighting_ms = clock.lap();
+        self.resident = resident;
         stats.queued_remaining = self.queue.len() as u32;
         stats
     }
@@ -606,11 +606,13 @@ impl RadianceCache {
         // order is total, so the batch does not depend on the queue's order.
         // Each entry's key (a distance) is computed once, not at every comparison.
         let config = &self.config;
-        let mut keyed: Vec<(FillKey, (u32, IVec3))> = self
-            .queue
-            .drain(..)
-            .map(|entry| (fill_key(config, camera, entry), entry))
-            .collect();
+        let mut keyed = std::mem::take(&mut self.keyed);
+        keyed.clear();
+        keyed.extend(
+            self.queue
+                .drain(..)
+                .map(|entry| (fill_key(config, camera, entry), entry)),
+        );
         let take = (config.voxelize_bricks_per_frame as usize)
             .min(self.voxelizer.max_jobs())
             .min(keyed.len());
@@ -621,7 +623,8 @@ impl RadianceCache {
             .extend(keyed[take..].iter().map(|(_, entry)| *entry));
         keyed.truncate(take);
         keyed.sort_unstable_by_key(|(key, _)| *key);
-        let batch = keyed.into_iter().map(|(_, entry)| entry);
+        let batch: Vec<(u32, IVec3)> = keyed.iter().map(|(_, entry)| *entry).collect();
+        self.keyed = keyed;
         // Nearest first, then within the scan budget: a cell's list is scanned once for all of
         // its bricks taken, and bricks whose cell does not fit go back to the queue.
         let budget = self.config.voxelize_scan_per_frame as usize;
@@ -794,6 +797,18 @@ impl RadianceCache {
         self.voxelizer.release(ctx);
         self.screen_injector.release(ctx);
     }
+}
+
+/// Replaces `resident` with the allocated bricks of `owner` (by pool ID), in pool-ID order.
+fn list_resident(owner: &[Option<(u32, IVec3)>], resident: &mut Vec<ResidentBrick>) {
+    resident.clear();
+    resident.extend(owner.iter().enumerate().filter_map(|(id, owner)| {
+        owner.map(|(level, brick)| ResidentBrick {
+            level,
+            brick,
+            brick_id: id as u32,
+        })
+    }));
 }
 
 /// Milliseconds between laps.
