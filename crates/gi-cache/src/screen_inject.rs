@@ -186,32 +186,49 @@ pub fn select_bricks(
     // Finer levels first, then nearer, then by pool ID: levels are taken whole in order
     // until the budget is reached, so coarser levels are not even tested, and only the last
     // level's share is selected (in linear time) and sorted.
+    // The unskipped bricks grouped by level (a counting sort of their places in `resident`).
+    let levels = config.levels as usize;
+    let mut starts = vec![0u32; levels + 1];
+    for b in resident {
+        if (b.level as usize) < levels && !skipped[b.brick_id as usize] {
+            starts[b.level as usize + 1] += 1;
+        }
+    }
+    for level in 0..levels {
+        starts[level + 1] += starts[level];
+    }
+    let mut next = starts.clone();
+    let mut by_level = vec![0u32; starts[levels] as usize];
+    for (i, b) in resident.iter().enumerate() {
+        if (b.level as usize) < levels && !skipped[b.brick_id as usize] {
+            let slot = &mut next[b.level as usize];
+            by_level[*slot as usize] = i as u32;
+            *slot += 1;
+        }
+    }
     let budget = budget as usize;
     let mut selected = Vec::with_capacity(budget.min(resident.len()));
     let mut visible: Vec<(u64, ResidentBrick)> = Vec::new();
-    for level in 0..config.levels {
+    for level in 0..levels {
         if selected.len() >= budget {
             break;
         }
-        let size = config.brick_size_at(level);
+        let size = config.brick_size_at(level as u32);
+        let places = &by_level[starts[level] as usize..starts[level + 1] as usize];
         // Distance bits order like the distances (non-negative floats), then the pool ID.
         visible.clear();
-        visible.extend(
-            resident
-                .iter()
-                .filter(|b| b.level == level && !skipped[b.brick_id as usize])
-                .filter_map(|b| {
-                    let lo = b.brick.as_vec3() * size;
-                    let hi = lo + Vec3::splat(size);
-                    frustum.touches(lo, hi).then(|| {
-                        let distance = ((lo + hi) * 0.5 - position).length();
-                        (
-                            (u64::from(distance.to_bits()) << 32) | u64::from(b.brick_id),
-                            *b,
-                        )
-                    })
-                }),
-        );
+        visible.extend(places.iter().filter_map(|&i| {
+            let b = resident[i as usize];
+            let lo = b.brick.as_vec3() * size;
+            let hi = lo + Vec3::splat(size);
+            frustum.touches(lo, hi).then(|| {
+                let distance = ((lo + hi) * 0.5 - position).length();
+                (
+                    (u64::from(distance.to_bits()) << 32) | u64::from(b.brick_id),
+                    b,
+                )
+            })
+        }));
         let take = (budget - selected.len()).min(visible.len());
         if take < visible.len() {
             visible.select_nth_unstable_by_key(take, |(key, _)| *key);
