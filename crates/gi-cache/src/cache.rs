@@ -748,22 +748,8 @@ impl RadianceCache {
         loop {
             let config = &self.config;
             let owner = &self.owner;
-            let list = victims.get_or_insert_with(|| {
-                // Last in fill order first; each brick's key computed once.
-                let mut resident: Vec<(Reverse<FillKey>, (u32, IVec3))> = owner
-                    .iter()
-                    .flatten()
-                    .map(|&entry| (Reverse(fill_key(config, camera, entry)), entry))
-                    .collect();
-                let wanted = wanted.min(resident.len());
-                if wanted < resident.len() {
-                    resident.select_nth_unstable_by_key(wanted, |(key, _)| *key);
-                    resident.truncate(wanted);
-                }
-                resident.sort_unstable_by_key(|(key, _)| *key);
-                resident.reverse();
-                resident.into_iter().map(|(_, entry)| entry).collect()
-            });
+            let list =
+                victims.get_or_insert_with(|| eviction_candidates(config, camera, owner, wanted));
             let Some(&victim) = list.last() else {
                 // Candidates used up (some were released as empty): look again once.
                 if rebuilt {
@@ -799,6 +785,42 @@ impl RadianceCache {
     }
 }
 
+/// The `wanted` last allocated bricks of `owner` in fill order ([`fill_key`] from `camera`),
+/// the very last at the end: the eviction candidates of an update.
+fn eviction_candidates(
+    config: &CacheConfig,
+    camera: Vec3,
+    owner: &[Option<(u32, IVec3)>],
+    wanted: usize,
+) -> Vec<(u32, IVec3)> {
+    // Fill order goes by level first, so the `wanted` last bricks lie in the coarsest levels
+    // that hold that many: only those are keyed, each once.
+    let mut per_level = vec![0usize; config.levels as usize];
+    for &(level, _) in owner.iter().flatten() {
+        per_level[level as usize] += 1;
+    }
+    let mut finest = per_level.len();
+    let mut held = 0;
+    while finest > 0 && held < wanted {
+        finest -= 1;
+        held += per_level[finest];
+    }
+    let mut resident: Vec<(Reverse<FillKey>, (u32, IVec3))> = owner
+        .iter()
+        .flatten()
+        .filter(|(level, _)| *level as usize >= finest)
+        .map(|&entry| (Reverse(fill_key(config, camera, entry)), entry))
+        .collect();
+    let wanted = wanted.min(resident.len());
+    if wanted < resident.len() {
+        resident.select_nth_unstable_by_key(wanted, |(key, _)| *key);
+        resident.truncate(wanted);
+    }
+    resident.sort_unstable_by_key(|(key, _)| *key);
+    resident.reverse();
+    resident.into_iter().map(|(_, entry)| entry).collect()
+}
+
 /// Replaces `resident` with the allocated bricks of `owner` (by pool ID), in pool-ID order.
 fn list_resident(owner: &[Option<(u32, IVec3)>], resident: &mut Vec<ResidentBrick>) {
     resident.clear();
@@ -825,5 +847,40 @@ impl StepClock {
         let ms = (now - self.0).as_secs_f64() * 1e3;
         self.0 = now;
         ms
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The candidates keyed from the coarsest levels only are the last bricks of a full sort
+    /// in fill order, whichever level the count ends in.
+    #[test]
+    fn eviction_candidates_are_the_last_in_fill_order() {
+        let config = CacheConfig::default();
+        let camera = Vec3::new(0.3, -0.2, 1.7);
+        let mut owner = Vec::new();
+        for level in 0..4u32 {
+            for i in 0..(40 - 7 * level as i32) {
+                owner.push(Some((
+                    level,
+                    IVec3::new(i % 5 - 2, i / 5 % 3 - 1, i / 15 - 1),
+                )));
+                if i % 4 == 0 {
+                    owner.push(None);
+                }
+            }
+        }
+        let mut all: Vec<(u32, IVec3)> = owner.iter().flatten().copied().collect();
+        all.sort_by_key(|&entry| fill_key(&config, camera, entry));
+        for wanted in [0, 1, 5, 19, 20, 45, 60, all.len(), all.len() + 3] {
+            let expected = all[all.len() - wanted.min(all.len())..].to_vec();
+            assert_eq!(
+                eviction_candidates(&config, camera, &owner, wanted),
+                expected,
+                "wanted {wanted}"
+            );
+        }
     }
 }
