@@ -429,7 +429,9 @@ impl CacheUpdateReport {
                 ("binning", step(&|c| c.binning_ms)),
                 ("allocate", step(&|c| c.allocate_ms)),
                 ("record", step(&|c| c.record_ms)),
+                ("screen selection", step(&|c| c.screen_select_ms)),
                 ("screen", step(&|c| c.screen_ms)),
+                ("schedule", step(&|c| c.schedule_ms)),
                 ("lighting", step(&|c| c.lighting_ms)),
             ] {
                 out += &format!(" {name} {med:.3} / {max:.3};");
@@ -528,7 +530,9 @@ impl CacheUpdateReport {
                         "binning": f.update.cpu.binning_ms,
                         "allocate": f.update.cpu.allocate_ms,
                         "record": f.update.cpu.record_ms,
+                        "screen_select": f.update.cpu.screen_select_ms,
                         "screen": f.update.cpu.screen_ms,
+                        "schedule": f.update.cpu.schedule_ms,
                         "lighting": f.update.cpu.lighting_ms,
                     },
                     "queued_remaining": f.update.queued_remaining,

@@ -122,6 +122,12 @@ pub trait CacheLightingHook: Send {
     fn converging(&self) -> bool {
         false
     }
+
+    /// Wall-clock milliseconds of the last `record` spent choosing what to record (for
+    /// [`CpuSteps::schedule_ms`]); 0 unless the hook says otherwise.
+    fn schedule_ms(&self) -> f64 {
+        0.0
+    }
 }
 
 /// What one update did.
@@ -185,9 +191,13 @@ pub struct CpuSteps {
     pub allocate_ms: f64,
     /// Uploading the structure and recording `cache/voxelize` (step 5).
     pub record_ms: f64,
-    /// Listing the resident bricks, choosing and recording `cache/screen_inject` (step 6).
+    /// Listing the resident bricks and choosing those `cache/screen_inject` corrects (step 6).
+    pub screen_select_ms: f64,
+    /// Recording `cache/screen_inject` (step 6).
     pub screen_ms: f64,
-    /// Recording the lighting passes, their schedule included (step 7).
+    /// The lighting's schedule: choosing the bricks relit (step 7).
+    pub schedule_ms: f64,
+    /// Recording the lighting passes (step 7).
     pub lighting_ms: f64,
 }
 
@@ -393,11 +403,13 @@ impl RadianceCache {
         stats.cpu.record_ms = clock.lap();
         let mut resident = std::mem::take(&mut self.resident);
         list_resident(&self.owner, &mut resident);
+        stats.cpu.screen_select_ms = clock.lap();
         stats.filling = crate::lighting::is_filling(new_bricks.len(), resident.len());
         if let Some(screen) = &inputs.gbuffer {
             let budget = self.config.screen_inject_bricks_per_frame.min(65_535);
             let bricks =
                 select_bricks(&self.config, &resident, &screen.camera, &new_bricks, budget);
+            stats.cpu.screen_select_ms += clock.lap();
             stats.screen_injected = bricks.len() as u32;
             self.screen_injector
                 .record(ctx, encoder, timer, &self.buffers, screen, &bricks);
@@ -419,6 +431,10 @@ impl RadianceCache {
             self.lighting = Some(lighting);
         }
         stats.cpu.lighting_ms = clock.lap();
+        if let Some(lighting) = &self.lighting {
+            stats.cpu.schedule_ms = lighting.schedule_ms().min(stats.cpu.lighting_ms);
+            stats.cpu.lighting_ms -= stats.cpu.schedule_ms;
+        }
         self.resident = resident;
         stats.queued_remaining = self.queue.len() as u32;
         stats

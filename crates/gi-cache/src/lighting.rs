@@ -607,6 +607,8 @@ pub struct CacheLighting {
     updates: u32,
     /// The schedule of the last update.
     last_counts: ScheduleCounts,
+    /// Wall-clock milliseconds the last update's schedule took on the CPU.
+    last_schedule_ms: f64,
     /// Whether the last update left the lighting converging
     /// ([`CacheLightingHook::converging`]).
     converging: bool,
@@ -778,6 +780,7 @@ impl CacheLighting {
             config: config.clone(),
             updates: 0,
             last_counts: ScheduleCounts::default(),
+            last_schedule_ms: 0.0,
             converging: false,
             light_key: Vec::new(),
             fast_updates_left: 0,
@@ -833,9 +836,11 @@ impl CacheLighting {
         } else {
             ScheduleBudget::new(&self.config)
         };
+        let clock = std::time::Instant::now();
         let (bricks, counts) =
             self.schedule
                 .pick(&budget, inputs.new_bricks, inputs.resident, filling);
+        self.last_schedule_ms = clock.elapsed().as_secs_f64() * 1e3;
         self.relighting &= counts.young > 0;
         self.last_counts = counts;
         self.converging = filling
@@ -1064,6 +1069,10 @@ impl CacheLightingHook for CacheLighting {
 
     fn converging(&self) -> bool {
         self.converging
+    }
+
+    fn schedule_ms(&self) -> f64 {
+        self.last_schedule_ms
     }
 }
 
