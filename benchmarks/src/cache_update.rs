@@ -99,6 +99,14 @@ impl CacheLightingHook for ScheduledLighting {
         let counts = self.lighting.record(ctx, timer, encoder, &inputs);
         *self.last.lock().expect("not poisoned") = counts;
     }
+
+    fn converging(&self) -> bool {
+        CacheLightingHook::converging(&self.lighting)
+    }
+
+    fn schedule_ms(&self) -> f64 {
+        CacheLightingHook::schedule_ms(&self.lighting)
+    }
 }
 
 /// Runs the cache along `options.scene`'s camera path and measures every frame.
