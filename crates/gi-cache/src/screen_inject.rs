@@ -34,7 +34,7 @@ use bytemuck::{Pod, Zeroable};
 use gi_gpu::binding::{buffer_entries, storage_entry, uniform_entry};
 use gi_gpu::{GBuffer, GpuCamera, GpuContext, GpuError, GpuTimer, ShaderLibrary, wgpu};
 use gi_scene::CameraView;
-use glam::Vec3;
+use glam::{IVec3, Vec3, Vec4};
 
 use crate::buffers::CacheBuffers;
 use crate::cache::ResidentBrick;
@@ -158,6 +158,61 @@ impl Frustum {
             (corner - self.position).dot(*n) >= 0.0
         })
     }
+
+    /// The test of [`Frustum::touches`] for the bricks of edge `size` (brick `b` spans
+    /// `[b, b + 1] * size`), with the four side planes side by side and the same arithmetic,
+    /// so it agrees with [`box_in_frustum`] to the bit.
+    fn for_bricks(&self, size: f32) -> BrickFrustum {
+        // The farthest corner along `n` is `lo + size` on the axes where `n >= 0`, else `lo`.
+        let step = |n: f32| if n >= 0.0 { size } else { 0.0 };
+        let [front, sides @ ..] = self.planes;
+        BrickFrustum {
+            size,
+            position: self.position,
+            x: Vec4::from_array(sides.map(|n| n.x)),
+            y: Vec4::from_array(sides.map(|n| n.y)),
+            z: Vec4::from_array(sides.map(|n| n.z)),
+            step_x: Vec4::from_array(sides.map(|n| step(n.x))),
+            step_y: Vec4::from_array(sides.map(|n| step(n.y))),
+            step_z: Vec4::from_array(sides.map(|n| step(n.z))),
+            front,
+        }
+    }
+}
+
+/// [`Frustum`] for the bricks of one level: whether a brick touches it, from its integer
+/// coordinates.
+struct BrickFrustum {
+    size: f32,
+    position: Vec3,
+    /// The side planes' inward normals, a plane per lane.
+    x: Vec4,
+    y: Vec4,
+    z: Vec4,
+    /// Per side plane, what its farthest corner adds to the brick's low corner.
+    step_x: Vec4,
+    step_y: Vec4,
+    step_z: Vec4,
+    front: Vec3,
+}
+
+impl BrickFrustum {
+    #[inline]
+    fn touches(&self, brick: IVec3) -> bool {
+        let lo = brick.as_vec3() * self.size;
+        let hi = lo + Vec3::splat(self.size);
+        let corner = Vec3::select(self.front.cmpge(Vec3::ZERO), hi, lo);
+        if (corner - self.position).dot(self.front) < 0.0 {
+            return false;
+        }
+        let p = self.position;
+        let dx = (Vec4::splat(lo.x) + self.step_x) - Vec4::splat(p.x);
+        let dy = (Vec4::splat(lo.y) + self.step_y) - Vec4::splat(p.y);
+        let dz = (Vec4::splat(lo.z) + self.step_z) - Vec4::splat(p.z);
+        (dx * self.x + dy * self.y + dz * self.z)
+            .cmpge(Vec4::ZERO)
+            .all()
+    }
 }
 
 /// The bricks `cache/screen_inject` corrects this update: those of `resident` inside the
@@ -186,43 +241,31 @@ pub fn select_bricks(
     // Finer levels first, then nearer, then by pool ID: levels are taken whole in order
     // until the budget is reached, so coarser levels are not even tested, and only the last
     // level's share is selected (in linear time) and sorted.
-    // The unskipped bricks grouped by level (a counting sort of their places in `resident`).
-    let levels = config.levels as usize;
-    let mut starts = vec![0u32; levels + 1];
-    for b in resident {
-        if (b.level as usize) < levels && !skipped[b.brick_id as usize] {
-            starts[b.level as usize + 1] += 1;
-        }
-    }
-    for level in 0..levels {
-        starts[level + 1] += starts[level];
-    }
-    let mut next = starts.clone();
-    let mut by_level = vec![0u32; starts[levels] as usize];
+    // The unskipped bricks grouped by level (their places in `resident`).
+    let mut by_level: Vec<Vec<u32>> = vec![Vec::new(); config.levels as usize];
     for (i, b) in resident.iter().enumerate() {
-        if (b.level as usize) < levels && !skipped[b.brick_id as usize] {
-            let slot = &mut next[b.level as usize];
-            by_level[*slot as usize] = i as u32;
-            *slot += 1;
+        if !skipped[b.brick_id as usize]
+            && let Some(list) = by_level.get_mut(b.level as usize)
+        {
+            list.push(i as u32);
         }
     }
     let budget = budget as usize;
     let mut selected = Vec::with_capacity(budget.min(resident.len()));
     let mut visible: Vec<(u64, ResidentBrick)> = Vec::new();
-    for level in 0..levels {
+    for (level, places) in by_level.iter().enumerate() {
         if selected.len() >= budget {
             break;
         }
         let size = config.brick_size_at(level as u32);
-        let places = &by_level[starts[level] as usize..starts[level + 1] as usize];
+        let bricks = frustum.for_bricks(size);
         // Distance bits order like the distances (non-negative floats), then the pool ID.
         visible.clear();
         visible.extend(places.iter().filter_map(|&i| {
             let b = resident[i as usize];
-            let lo = b.brick.as_vec3() * size;
-            let hi = lo + Vec3::splat(size);
-            frustum.touches(lo, hi).then(|| {
-                let distance = ((lo + hi) * 0.5 - position).length();
+            bricks.touches(b.brick).then(|| {
+                let center = (b.brick.as_vec3() + 0.5) * size;
+                let distance = (center - position).length();
                 (
                     (u64::from(distance.to_bits()) << 32) | u64::from(b.brick_id),
                     b,
@@ -380,6 +423,39 @@ impl ScreenInjector {
 mod tests {
     use super::*;
 
+    /// The brick test of each level agrees with the box test on every brick of a grid around
+    /// cameras looking along and across the axes.
+    #[test]
+    fn brick_frustum_agrees_with_the_box_test() {
+        let config = CacheConfig::default();
+        let mut inside = 0;
+        for (eye, target) in [
+            (Vec3::new(0.3, 1.1, 0.2), Vec3::new(-0.4, 0.1, -1.0)),
+            (Vec3::new(-2.0, 0.5, 3.0), Vec3::new(1.0, 0.7, 0.2)),
+            (Vec3::new(0.0, 0.0, 0.0), Vec3::new(0.0, -1.0, 0.01)),
+        ] {
+            let view = CameraView::look_at(eye, target, 1.0);
+            let camera = GpuCamera::new(&view, (160, 90));
+            let frustum = Frustum::new(&camera);
+            for level in 0..config.levels {
+                let size = config.brick_size_at(level);
+                let bricks = frustum.for_bricks(size);
+                for z in -12..12 {
+                    for y in -12..12 {
+                        for x in -12..12 {
+                            let b = IVec3::new(x, y, z);
+                            let lo = b.as_vec3() * size;
+                            let expected = box_in_frustum(&camera, lo, lo + Vec3::splat(size));
+                            assert_eq!(bricks.touches(b), expected, "level {level}, brick {b}");
+                            inside += usize::from(expected);
+                        }
+                    }
+                }
+            }
+        }
+        assert!(inside > 10_000, "{inside}");
+    }
+
     /// The selection taken level by level equals a sort of every visible, unskipped brick by
     /// level, distance and pool ID, cut at the budget, whichever level the budget ends in.
     #[test]
@@ -397,7 +473,7 @@ mod tests {
                         if (x + 2 * y + 3 * z + level as i32).rem_euclid(3) != 0 {
                             resident.push(ResidentBrick {
                                 level,
-                                brick: glam::IVec3::new(x, y, z),
+                                brick: IVec3::new(x, y, z),
                                 brick_id: (id * 7919) % 100_003,
                             });
                             id += 1;
