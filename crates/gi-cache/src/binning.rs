@@ -284,8 +284,8 @@ const LARGE_TRIANGLE_CELLS: u64 = 64;
 
 /// Triangles spanning more than [`LARGE_TRIANGLE_CELLS`] cells but at most this many are
 /// still listed in their cells while the level's budget of such (triangle, cell) pairs
-/// ([`WIDE_PAIRS_PER_LEVEL`]) lasts: a floor or wall then costs binning no test at all, where
-/// as a large triangle it is tested in every cell binned near it (Sponza has 540 at the
+/// ([`WIDE_PAIRS_PER_LEVEL`]) lasts: a floor or wall then costs binning no test at all,
+/// whereas a large triangle is tested in every cell binned near it (Sponza has 540 at the
 /// finest level).
 const WIDE_TRIANGLE_CELLS: u64 = 1024;
 
