@@ -239,9 +239,9 @@ pub fn select_bricks(
         }
     }
     // Finer levels first, then nearer, then by pool ID: levels are taken whole in order
-    // until the budget is reached, so coarser levels are not even tested, and only the last
-    // level's share is selected (in linear time) and sorted.
-    // The unskipped bricks grouped by level (their places in `resident`).
+    // until the budget is reached, so coarser levels are not even tested; the last level's
+    // share is selected in linear time before its bricks are sorted. The unskipped bricks
+    // grouped by level (their places in `resident`):
     let mut by_level: Vec<Vec<u32>> = vec![Vec::new(); config.levels as usize];
     for (i, b) in resident.iter().enumerate() {
         if !skipped[b.brick_id as usize]
