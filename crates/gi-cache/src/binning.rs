@@ -148,7 +148,7 @@ fn for_each_bit(mut mask: u64, mut f: impl FnMut(u32)) {
 /// Fill order of bricks: finer levels first, then nearer bricks (distance from the camera to
 /// the brick center in bricks of its level). Smaller keys fill first; when the pool runs out,
 /// what is left unfilled is the coarse and far end of this order. Bricks at the same distance
-/// tie here: [`fill_order`] breaks the ties.
+/// tie here: [`fill_key`] breaks the ties.
 pub fn fill_priority(
     config: &CacheConfig,
     level: u32,
@@ -162,21 +162,12 @@ pub fn fill_priority(
     )
 }
 
-/// [`fill_priority`]'s order of `(level, brick)` entries as a total order: ties (bricks at the
-/// same distance, which a symmetric view has many of) go by brick coordinates, z, then y, then
-/// x. The fill order decides which pool ID a brick gets and so when the lighting schedule's
-/// round-robin reaches it: with ties left to the order the entries arrived in (hash order, which
-/// differs from run to run) the same scene lit the same way gave different images.
-pub fn fill_order(
-    config: &CacheConfig,
-    camera_position: Vec3,
-    a: (u32, IVec3),
-    b: (u32, IVec3),
-) -> std::cmp::Ordering {
-    fill_key(config, camera_position, a).cmp(&fill_key(config, camera_position, b))
-}
-
-/// The key of `entry` in [`fill_order`], for sorting many entries with one distance each.
+/// The key of `entry` in the fill order: [`fill_priority`]'s order as a total order. Ties
+/// (bricks at the same distance, which a symmetric view has many of) go by brick coordinates,
+/// z, then y, then x. The fill order decides which pool ID a brick gets and so when the lighting
+/// schedule's round-robin reaches it: with ties left to the order the entries arrived in (hash
+/// order, which differs from run to run) the same scene lit the same way gave different
+/// images. One key per entry: sorting many entries computes each distance once.
 pub fn fill_key(config: &CacheConfig, camera_position: Vec3, entry: (u32, IVec3)) -> FillKey {
     let (level, distance) = fill_priority(config, entry.0, entry.1, camera_position);
     FillKey {
@@ -186,7 +177,7 @@ pub fn fill_key(config: &CacheConfig, camera_position: Vec3, entry: (u32, IVec3)
     }
 }
 
-/// A brick's place in [`fill_order`] ([`fill_key`]).
+/// A brick's place in the fill order ([`fill_key`]).
 #[derive(Clone, Copy, Debug)]
 pub struct FillKey {
     level: u32,

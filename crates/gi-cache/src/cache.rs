@@ -23,7 +23,6 @@
 //!    resident bricks not voxelized in this update ([`crate::screen_inject`]);
 //! 7. records the lighting passes, when a [`CacheLightingHook`] is set.
 
-use std::cmp::Reverse;
 use std::collections::HashSet;
 
 use gi_gpu::bvh::GpuBvh;
@@ -821,20 +820,19 @@ fn eviction_candidates(
         finest -= 1;
         held += per_level[finest];
     }
-    let mut resident: Vec<(Reverse<FillKey>, (u32, IVec3))> = owner
+    let mut keyed: Vec<(FillKey, (u32, IVec3))> = owner
         .iter()
         .flatten()
         .filter(|(level, _)| *level as usize >= finest)
-        .map(|&entry| (Reverse(fill_key(config, camera, entry)), entry))
+        .map(|&entry| (fill_key(config, camera, entry), entry))
         .collect();
-    let wanted = wanted.min(resident.len());
-    if wanted < resident.len() {
-        resident.select_nth_unstable_by_key(wanted, |(key, _)| *key);
-        resident.truncate(wanted);
+    let first = keyed.len().saturating_sub(wanted);
+    if first > 0 && first < keyed.len() {
+        keyed.select_nth_unstable_by_key(first, |(key, _)| *key);
     }
-    resident.sort_unstable_by_key(|(key, _)| *key);
-    resident.reverse();
-    resident.into_iter().map(|(_, entry)| entry).collect()
+    let mut last = keyed.split_off(first);
+    last.sort_unstable_by_key(|(key, _)| *key);
+    last.into_iter().map(|(_, entry)| entry).collect()
 }
 
 /// Replaces `resident` with the allocated bricks of `owner` (by pool ID), in pool-ID order.
