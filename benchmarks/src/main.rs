@@ -16,6 +16,7 @@
 //! gi-bench rays --scene open-world --rays 1048576 --json rays.json
 //! gi-bench cache-rays --scene atrium --rays 65536 --json cache-rays.json
 //! gi-bench cache-update --scene atrium --frames 16 --json cache-update.json
+//! gi-bench deform --rings 256 --sides 64 --frames 60 --rays 262144 --json deform.json
 //! gi-bench path --scene atrium --width 1920 --height 1080 --spp 4 --json path.json
 //! gi-bench mobile --scenes cornell-box,atrium,thin-wall --size 1920x1080 --frames 64 \
 //!     --screen-probes both --json mobile.json
@@ -41,6 +42,7 @@ macro_rules! out {
 mod cache_rays;
 mod cache_update;
 mod churn;
+mod deform;
 mod mobile;
 mod path;
 mod pc;
@@ -89,6 +91,28 @@ enum Command {
         /// Seconds of tracing before timing, while the GPU's clock climbs.
         #[arg(long, default_value_t = 1.0)]
         settle_s: f64,
+        /// Also write the results as JSON to this file.
+        #[arg(long)]
+        json: Option<PathBuf>,
+    },
+    /// Deforming geometry in the GPU BVH: per-frame CPU and GPU cost of refitting a skinned
+    /// tube's level against building it again, and the rays per second through each.
+    Deform {
+        /// Rings of the tube (2 x rings x sides triangles).
+        #[arg(long, default_value_t = 256)]
+        rings: u32,
+        /// Vertices around each ring.
+        #[arg(long, default_value_t = 64)]
+        sides: u32,
+        /// Animation frames followed (at the scene's 30 frames per second).
+        #[arg(long, default_value_t = 60)]
+        frames: u32,
+        /// Rays traced at the last frame, aimed at the tube.
+        #[arg(long, default_value_t = 1 << 18)]
+        rays: usize,
+        /// Timed repetitions of the trace; the median is reported.
+        #[arg(long, default_value_t = 5)]
+        repeats: usize,
         /// Also write the results as JSON to this file.
         #[arg(long)]
         json: Option<PathBuf>,
@@ -347,6 +371,18 @@ fn main() -> anyhow::Result<()> {
             json,
         } => {
             let report = rays::run(&scene, rays, repeats.max(1), mesh_sharing, settle_s)?;
+            out!("{}", report.table());
+            write_json(json, &report.json())
+        }
+        Command::Deform {
+            rings,
+            sides,
+            frames,
+            rays,
+            repeats,
+            json,
+        } => {
+            let report = deform::run(rings, sides, frames, rays, repeats.max(1))?;
             out!("{}", report.table());
             write_json(json, &report.json())
         }

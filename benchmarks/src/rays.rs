@@ -223,7 +223,7 @@ fn surfaces(frame: &SceneFrame, bvh: &SceneBvh, primary: &[GpuRay]) -> Vec<Surfa
 
 /// SplitMix64 hash of `(index, salt)` to a float in `[0, 1)`: deterministic per ray, and free
 /// of shared state so rays can be made in any order.
-fn random(index: usize, salt: u64) -> f32 {
+pub(crate) fn random(index: usize, salt: u64) -> f32 {
     let mut z = (index as u64 ^ salt.rotate_left(32)).wrapping_add(0x9e37_79b9_7f4a_7c15);
     z = (z ^ (z >> 30)).wrapping_mul(0xbf58_476d_1ce4_e5b9);
     z = (z ^ (z >> 27)).wrapping_mul(0x94d0_49bb_1331_11eb);

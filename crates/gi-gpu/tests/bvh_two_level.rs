@@ -16,7 +16,9 @@
 mod common;
 
 use common::{Rng, test_rays};
-use gi_gpu::bvh::{BVH_MISS, BvhTracer, GpuBvh, GpuHit, GpuRay, MeshSharing, TraceResults};
+use gi_gpu::bvh::{
+    BVH_MISS, BvhTracer, GpuBvh, GpuCwBvhNode, GpuHit, GpuRay, MeshSharing, TraceResults,
+};
 use gi_gpu::{GpuContext, ShaderLibrary};
 use gi_scene::{
     Animation, Channel, ChannelValues, Interpolation, Node, Scene, SceneBvh, SceneFrame, Triangle,
@@ -633,21 +635,11 @@ fn crowd_scene(count: usize) -> Scene {
 #[test]
 fn skinned_scene_updates_match_cpu_and_fresh_builds() {
     let mut scene = gi_scene::generate::skinned_arm();
-    // Walls and a ceiling around the floor, so that most test rays hit something.
-    let (x, y, z) = (Vec3::X * 3.0, Vec3::Y * 1.5, Vec3::Z * 3.0);
-    for (center, u, v) in [
-        (x + y, z, y),
-        (-x + y, y, z),
-        (z + y, y, x),
-        (-z + y, x, y),
-        (y * 2.0, x, z),
-    ] {
-        scene.add_diffuse_quad(center, u, v, 0.5);
-    }
+    add_room(&mut scene);
     updates_match_cpu_and_fresh_builds(&scene, "skinned-arm", &[0.5, 1.0, 1.5]);
 }
 
-/// The deforming arm's level is rebuilt by each update in its own region: the static floor's
+/// The deforming arm's level follows each update in its own region: the static floor's
 /// level stays as built, and a ray through where only the bent forearm is hits it at the
 /// distance the hand computation gives, on the GPU as on the CPU.
 #[test]
@@ -717,4 +709,225 @@ fn deforming_levels_are_rebuilt_after_the_static_ones() {
         0,
         "every BVH buffer released"
     );
+}
+
+/// Walls and a ceiling around the skinned arm's floor, so that most test rays hit something.
+fn add_room(scene: &mut Scene) {
+    let (x, y, z) = (Vec3::X * 3.0, Vec3::Y * 1.5, Vec3::Z * 3.0);
+    for (center, u, v) in [
+        (x + y, z, y),
+        (-x + y, y, z),
+        (z + y, y, x),
+        (-z + y, x, y),
+        (y * 2.0, x, z),
+    ] {
+        scene.add_diffuse_quad(center, u, v, 0.5);
+    }
+}
+
+/// The skinned arm in its closed room, its tube made of 48 rings of 16 sides (1,536 triangles,
+/// a level of several depths).
+fn skinned_room() -> Scene {
+    let mut scene = gi_scene::generate::skinned_tube(48, 16);
+    add_room(&mut scene);
+    scene
+}
+
+/// The deforming levels' nodes as the GPU holds them.
+fn gpu_deforming_nodes(ctx: &GpuContext, gpu: &GpuBvh) -> Vec<GpuCwBvhNode> {
+    let (fixed_nodes, _) = gpu.bottom_levels().fixed_len();
+    let words: Vec<u32> = ctx.read_buffer(&gpu.nodes);
+    let bytes: &[u8] = bytemuck::cast_slice(&words);
+    let node = size_of::<GpuCwBvhNode>();
+    bytemuck::pod_collect_to_vec(&bytes[fixed_nodes * node..gpu.node_count as usize * node])
+}
+
+/// Refitting at the pose the levels were built in gives back the builder's nodes bit for bit:
+/// the shader's exact boxes, grid exponents and rounding of child planes are obvhs's.
+#[test]
+fn refit_at_the_build_pose_gives_the_built_nodes() {
+    let Some((ctx, _)) = context("refit_at_the_build_pose_gives_the_built_nodes") else {
+        return;
+    };
+    let scene = skinned_room();
+    for time in [0.0, 0.5, gi_scene::generate::ARM_BENT_TIME_S] {
+        let frame = scene.evaluate(time, None);
+        let mut gpu = GpuBvh::from_scene(&ctx, &scene, &frame).expect("uploads");
+        gpu.set_deforming_rebuild_growth(f32::INFINITY);
+        let (fixed_nodes, _) = gpu.bottom_levels().fixed_len();
+        let built = gpu.bottom_levels().nodes[fixed_nodes..].to_vec();
+        assert!(built.len() > 1, "the arm's level has inner nodes");
+        // Zero the boxes first, so that every node must be written by the refit.
+        let blank: Vec<GpuCwBvhNode> = built
+            .iter()
+            .map(|n| GpuCwBvhNode {
+                p: [0.0; 3],
+                e: [0; 3],
+                child_min_x: [0; 8],
+                child_max_x: [0; 8],
+                ..*n
+            })
+            .collect();
+        let offset = (fixed_nodes * size_of::<GpuCwBvhNode>()) as u64;
+        ctx.queue
+            .write_buffer(&gpu.nodes, offset, bytemuck::cast_slice(&blank));
+        gpu.update(&ctx, &frame).expect("updates");
+        assert_eq!((gpu.deform_refits, gpu.deform_rebuilds), (1, 0));
+        let refit = gpu_deforming_nodes(&ctx, &gpu);
+        assert_eq!(refit.len(), built.len());
+        for (i, (r, b)) in refit.iter().zip(&built).enumerate() {
+            assert_eq!(r, b, "at {time} s, node {i} of the arm's level");
+        }
+        gpu.release(&ctx);
+    }
+}
+
+/// Built at rest, then only refit while the elbow bends through 90 degrees: every frame's hits
+/// agree with the CPU's over that frame's skinned triangles, the nearest distances equal a
+/// fresh build's bit for bit and so does occlusion, and every refit node's decoded child boxes
+/// hold the triangles below them.
+#[test]
+fn refit_levels_trace_like_fresh_builds() {
+    let Some((ctx, tracer)) = context("refit_levels_trace_like_fresh_builds") else {
+        return;
+    };
+    let scene = skinned_room();
+    let rest = scene.evaluate(0.0, None);
+    let mut gpu = GpuBvh::from_scene(&ctx, &scene, &rest).expect("uploads");
+    gpu.set_deforming_rebuild_growth(f32::INFINITY);
+    let buffers = (gpu.nodes.clone(), gpu.triangles.clone());
+    let times = [0.25, 0.5, 1.0, gi_scene::generate::ARM_BENT_TIME_S, 1.75];
+    for (k, &time) in times.iter().enumerate() {
+        let frame = scene.evaluate(time, None);
+        gpu.update(&ctx, &frame).expect("updates");
+        assert_eq!((gpu.deform_refits, gpu.deform_rebuilds), (k as u32 + 1, 0));
+        let rays = test_rays(&frame, &SceneBvh::build(&frame.triangles), 700 + k as u64);
+        let refit = tracer.trace(&ctx, &gpu, &rays);
+        let moving = moving_triangles(&scene, &frame);
+        let at = format!("refit arm at {time} s");
+        check(&at, &compare(&at, &frame, &moving, &rays, &refit));
+
+        let fresh = GpuBvh::from_scene(&ctx, &scene, &frame).expect("uploads");
+        let rebuilt = tracer.trace(&ctx, &fresh, &rays);
+        for (i, (a, b)) in refit.hits.iter().zip(&rebuilt.hits).enumerate() {
+            assert_eq!(a.t.to_bits(), b.t.to_bits(), "{at}, ray {i}: {a:?} / {b:?}");
+        }
+        assert_eq!(refit.occluded, rebuilt.occluded, "{at}");
+        fresh.release(&ctx);
+
+        check_boxes_hold_triangles(&at, &gpu, &gpu_deforming_nodes(&ctx, &gpu));
+    }
+    assert!(
+        (gpu.nodes.clone(), gpu.triangles.clone()) == buffers,
+        "a refit never replaces the bottom buffers"
+    );
+    gpu.release(&ctx);
+}
+
+/// Every child box that `nodes` (the deforming region, as refit) decode to holds the triangles
+/// below that child.
+fn check_boxes_hold_triangles(label: &str, gpu: &GpuBvh, nodes: &[GpuCwBvhNode]) {
+    let levels = gpu.bottom_levels();
+    let (fixed_nodes, _) = levels.fixed_len();
+    // Exact box of node `index` (absolute), from its subtree's triangles.
+    fn subtree(
+        nodes: &[GpuCwBvhNode],
+        base: usize,
+        triangles: &[gi_gpu::bvh::GpuBvhTriangle],
+        index: usize,
+    ) -> (Vec3, Vec3) {
+        let node = &nodes[index - base];
+        let (mut lo, mut hi) = (Vec3::INFINITY, Vec3::NEG_INFINITY);
+        for slot in 0..8 {
+            let (a, b) = child_exact(nodes, base, triangles, node, slot);
+            (lo, hi) = (lo.min(a), hi.max(b));
+        }
+        (lo, hi)
+    }
+    fn child_exact(
+        nodes: &[GpuCwBvhNode],
+        base: usize,
+        triangles: &[gi_gpu::bvh::GpuBvhTriangle],
+        node: &GpuCwBvhNode,
+        slot: usize,
+    ) -> (Vec3, Vec3) {
+        let info = node.child_meta[slot];
+        if info == 0 {
+            return (Vec3::INFINITY, Vec3::NEG_INFINITY);
+        }
+        if node.imask & (1 << slot) != 0 {
+            let rank = (node.imask & ((1u8 << slot) - 1)).count_ones();
+            return subtree(
+                nodes,
+                base,
+                triangles,
+                (node.child_base_idx + rank) as usize,
+            );
+        }
+        let first = (node.primitive_base_idx + u32::from(info & 0x1f)) as usize;
+        let (mut lo, mut hi) = (Vec3::INFINITY, Vec3::NEG_INFINITY);
+        for tri in &triangles[first..first + (info & 0xe0).count_ones() as usize] {
+            for v in [tri.a, tri.b, tri.c].map(Vec3::from) {
+                (lo, hi) = (lo.min(v), hi.max(v));
+            }
+        }
+        (lo, hi)
+    }
+    let mut children = 0;
+    for node in nodes {
+        let scale = Vec3::from(node.e.map(|e| f32::from_bits(u32::from(e) << 23)));
+        let p = Vec3::from(node.p);
+        for slot in 0..8 {
+            if node.child_meta[slot] == 0 {
+                continue;
+            }
+            let (lo, hi) = child_exact(nodes, fixed_nodes, &levels.triangles, node, slot);
+            let q_lo = Vec3::new(
+                f32::from(node.child_min_x[slot]),
+                f32::from(node.child_min_y[slot]),
+                f32::from(node.child_min_z[slot]),
+            );
+            let q_hi = Vec3::new(
+                f32::from(node.child_max_x[slot]),
+                f32::from(node.child_max_y[slot]),
+                f32::from(node.child_max_z[slot]),
+            );
+            let (decoded_lo, decoded_hi) = (p + q_lo * scale, p + q_hi * scale);
+            // The decode's own rounding: a few ulps of the coordinates.
+            let slack = (p.abs() + hi.abs()).max_element() * 4.0 * f32::EPSILON;
+            assert!(
+                decoded_lo.cmple(lo + slack).all() && decoded_hi.cmpge(hi - slack).all(),
+                "{label}: child box {decoded_lo}..{decoded_hi} misses {lo}..{hi}"
+            );
+            children += 1;
+        }
+    }
+    assert!(children > nodes.len(), "{label}: the level has children");
+}
+
+/// With a growth of 0 every update builds the deforming levels again; with the default, an
+/// arm that bends within its box is refit.
+#[test]
+fn rebuild_growth_chooses_between_refit_and_rebuild() {
+    let Some((ctx, _)) = context("rebuild_growth_chooses_between_refit_and_rebuild") else {
+        return;
+    };
+    let scene = skinned_room();
+    let rest = scene.evaluate(0.0, None);
+    let mut always = GpuBvh::from_scene(&ctx, &scene, &rest).expect("uploads");
+    always.set_deforming_rebuild_growth(0.0);
+    let mut default = GpuBvh::from_scene(&ctx, &scene, &rest).expect("uploads");
+    for time in [0.25, 0.5, 0.75] {
+        let frame = scene.evaluate(time, None);
+        always.update(&ctx, &frame).expect("updates");
+        default.update(&ctx, &frame).expect("updates");
+    }
+    assert_eq!((always.deform_refits, always.deform_rebuilds), (0, 3));
+    assert_eq!(default.deform_refits + default.deform_rebuilds, 3);
+    assert!(
+        default.deform_refits > 0,
+        "the default refits a bending arm"
+    );
+    always.release(&ctx);
+    default.release(&ctx);
 }

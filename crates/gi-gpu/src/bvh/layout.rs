@@ -181,6 +181,10 @@ pub enum BvhError {
         bytes: u64,
         limit: u64,
     },
+    /// The refit shader of the deforming levels failed to compile (a shader folder named by
+    /// `GI_SHADER_DIR` with an error in it).
+    #[error("the BVH refit shader does not compile: {message}")]
+    Shader { message: String },
 }
 
 /// A CWBVH in the shader's layout, ready to upload.

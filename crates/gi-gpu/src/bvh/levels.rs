@@ -20,12 +20,14 @@
 //!
 //! Deforming nodes (skinned meshes whose joints move, meshes whose morph target weights are
 //! animated; [`Scene::deforming_nodes`]) change shape, so no fixed level can hold them: each
-//! gets a world-space level over its frame triangles, placed with the identity, kept after
-//! every fixed level in the node and primitive lists and rebuilt from each new frame
-//! ([`BottomLevels::rebuild_deforming`], obvhs's `fast_build`). This is CPU skinning and
-//! morphing (in `Scene::evaluate`) plus a CPU rebuild per frame: the current limit. Its cost
-//! grows with the deforming triangles only; a compute-shader skinning pass with a refit would
-//! move it to the GPU. A skinned node whose joints stand still is static geometry.
+//! gets a world-space level over its frame triangles, placed with the identity and kept after
+//! every fixed level in the node and primitive lists. Later frames keep its tree and refit it
+//! ([`BottomLevels::refit_deforming`] writes the new vertices into its primitives, in the same
+//! leaf order; `shaders/bvh/refit.wgsl` gives its nodes new boxes on the GPU, deepest first),
+//! the standard treatment of skinned geometry in real-time ray tracing: the tree's shape stays
+//! the one fitted to the pose it was built in, so it is built again (obvhs's `fast_build`) when
+//! its root box outgrows that pose's by a set factor. Skinning and morphing themselves run on
+//! the CPU in `Scene::evaluate`, which every tier's frame reads.
 
 use std::time::{Duration, Instant};
 
@@ -75,7 +77,9 @@ struct Instance {
 /// indices rebased to the concatenation), and the instances that place them.
 #[derive(Clone, Debug)]
 pub struct BottomLevels {
-    /// All bottom-level nodes; each level's root at [`Blas::root`].
+    /// All bottom-level nodes; each level's root at [`Blas::root`]. The deforming levels'
+    /// nodes keep the boxes of their last build: after a [`DeformUpdate::Refit`] only the
+    /// GPU's copy is current.
     pub nodes: Vec<GpuCwBvhNode>,
     /// All bottom-level primitives in leaf order.
     pub triangles: Vec<GpuBvhTriangle>,
@@ -91,6 +95,7 @@ pub struct BottomLevels {
     /// follow them and are replaced by every [`BottomLevels::rebuild_deforming`].
     fixed: FixedPart,
     deforming: Vec<DeformingNode>,
+    refit_plan: RefitPlan,
 }
 
 /// Sizes of the part of [`BottomLevels`] built once.
@@ -110,6 +115,39 @@ struct DeformingNode {
     frame_indices: Vec<u32>,
     /// Per triangle: whether its material is alpha-tested.
     alpha: Vec<bool>,
+    /// Its level as last built (`None` for a node without triangles).
+    level: Option<DeformingLevel>,
+}
+
+/// Where a deforming node's level lies in the concatenated lists, and its size when built.
+#[derive(Clone, Debug)]
+struct DeformingLevel {
+    blas: usize,
+    /// Its primitives in [`BottomLevels::triangles`].
+    triangles: std::ops::Range<usize>,
+    /// Half the surface area of its root box when it was built.
+    built_half_area: f32,
+}
+
+/// How [`BottomLevels::refit_deforming`] followed a frame.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum DeformUpdate {
+    /// The trees were kept: the primitives hold the frame's vertices in the same leaf order,
+    /// and the nodes still hold the boxes of an earlier frame until the GPU refit
+    /// (`shaders/bvh/refit.wgsl`) gives them new ones.
+    Refit,
+    /// The deforming levels were built again over the frame (nodes and primitives replaced).
+    Rebuilt,
+}
+
+/// The deforming levels' nodes in the order the GPU refit visits them: a node's internal
+/// children are always refit by an earlier dispatch than the node itself.
+#[derive(Clone, Debug, Default, PartialEq, Eq)]
+pub struct RefitPlan {
+    /// Indices into [`BottomLevels::nodes`], deepest first.
+    pub order: Vec<u32>,
+    /// One dispatch per depth, deepest first: the first index into `order` and the count.
+    pub steps: Vec<(u32, u32)>,
 }
 
 /// A top level built for one frame: nodes, and the instances in its leaf order.
@@ -281,6 +319,7 @@ impl BottomLevels {
                     .map(|&i| material_alpha(frame.attributes[i as usize].material as usize))
                     .collect(),
                 frame_indices,
+                level: None,
             })
             .collect();
         levels.build_deforming(frame)?;
@@ -319,9 +358,10 @@ impl BottomLevels {
         self.blases.truncate(self.fixed.blases);
         self.instances.truncate(self.fixed.instances);
         self.depth = self.fixed.depth;
-        let deforming = std::mem::take(&mut self.deforming);
+        let mut deforming = std::mem::take(&mut self.deforming);
         let mut result = Ok(());
-        for node in &deforming {
+        for node in &mut deforming {
+            node.level = None;
             // A frame of another scene cannot panic here: a missing triangle is degenerate.
             let triangles: Vec<Triangle> = (node.frame_indices.iter())
                 .map(|&i| {
@@ -332,17 +372,25 @@ impl BottomLevels {
                         .unwrap_or(DEGENERATE)
                 })
                 .collect();
+            let first = self.triangles.len();
             match self.add_blas_with(
                 &triangles,
                 Some(&node.frame_indices),
                 &node.alpha,
                 BvhBuildParams::fast_build(),
             ) {
-                Ok(Some(blas)) => self.instances.push(Instance {
-                    blas,
-                    placement: Placement::Static,
-                    triangle_base: 0,
-                }),
+                Ok(Some(blas)) => {
+                    self.instances.push(Instance {
+                        blas,
+                        placement: Placement::Static,
+                        triangle_base: 0,
+                    });
+                    node.level = Some(DeformingLevel {
+                        blas,
+                        triangles: first..self.triangles.len(),
+                        built_half_area: self.blases[blas].bounds.half_area(),
+                    });
+                }
                 Ok(None) => {}
                 Err(e) => {
                     result = Err(e);
@@ -351,8 +399,81 @@ impl BottomLevels {
             }
         }
         self.deforming = deforming;
+        self.refit_plan = self.plan_refit();
         self.deform_time = start.elapsed();
         result
+    }
+
+    /// Follows `frame` (an evaluation of the scene the levels were built for) with the
+    /// deforming levels' trees kept: writes its vertices into their primitives and their new
+    /// root boxes into the top level's inputs ([`DeformUpdate::Refit`]; the nodes then need
+    /// the GPU refit). Builds them again instead ([`DeformUpdate::Rebuilt`]) when a level's
+    /// root box has grown past `rebuild_growth` times the surface area it had when built: a
+    /// tree fitted to one pose holds its boxes' overlap in another, and traversal slows as
+    /// they grow. Cost: one pass over the deforming primitives; a build when rebuilt.
+    pub fn refit_deforming(
+        &mut self,
+        frame: &SceneFrame,
+        rebuild_growth: f32,
+    ) -> Result<DeformUpdate, BvhError> {
+        let start = Instant::now();
+        let mut rebuild = false;
+        for node in &self.deforming {
+            let Some(level) = &node.level else {
+                continue;
+            };
+            let mut bounds = Aabb::empty();
+            for tri in &mut self.triangles[level.triangles.clone()] {
+                let t = (frame.triangles.get(tri.triangle as usize))
+                    .copied()
+                    .unwrap_or(DEGENERATE);
+                (tri.a, tri.b, tri.c) = (t.v0.into(), t.v1.into(), t.v2.into());
+                bounds = bounds.union(&t.aabb());
+            }
+            self.blases[level.blas].bounds = bounds;
+            rebuild |= bounds.half_area() > rebuild_growth * level.built_half_area;
+        }
+        if rebuild {
+            self.rebuild_deforming(frame)?;
+            return Ok(DeformUpdate::Rebuilt);
+        }
+        self.deform_time = start.elapsed();
+        Ok(DeformUpdate::Refit)
+    }
+
+    /// The deforming levels' nodes grouped by depth below their roots, deepest first.
+    fn plan_refit(&self) -> RefitPlan {
+        let mut by_depth: Vec<(u32, u32)> = Vec::new();
+        let mut pending: Vec<(u32, u32)> = (self.deforming.iter())
+            .filter_map(|node| node.level.as_ref())
+            .map(|level| (self.blases[level.blas].root, 0))
+            .collect();
+        while let Some((index, depth)) = pending.pop() {
+            by_depth.push((depth, index));
+            let node = &self.nodes[index as usize];
+            let mut rank = 0;
+            for slot in 0..8 {
+                if node.imask & (1 << slot) != 0 {
+                    pending.push((node.child_base_idx + rank, depth + 1));
+                    rank += 1;
+                }
+            }
+        }
+        by_depth.sort_unstable_by_key(|&(depth, index)| (std::cmp::Reverse(depth), index));
+        let mut plan = RefitPlan::default();
+        for (position, &(depth, index)) in by_depth.iter().enumerate() {
+            match plan.steps.last_mut() {
+                Some(step) if by_depth[step.0 as usize].0 == depth => step.1 += 1,
+                _ => plan.steps.push((position as u32, 1)),
+            }
+            plan.order.push(index);
+        }
+        plan
+    }
+
+    /// The deforming levels' nodes in refit order (empty without deforming nodes).
+    pub fn refit_plan(&self) -> &RefitPlan {
+        &self.refit_plan
     }
 
     /// One world-space level from an already built CWBVH over `frame_triangles`, placed with
@@ -385,6 +506,7 @@ impl BottomLevels {
             instances: Vec::new(),
             fixed: FixedPart::default(),
             deforming: Vec::new(),
+            refit_plan: RefitPlan::default(),
         }
     }
 

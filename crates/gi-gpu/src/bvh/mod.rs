@@ -8,13 +8,16 @@
 //! their instances is rebuilt every frame ([`GpuBvh::update`]), so moving objects never force a
 //! rebuild of their triangles.
 //!
-//! Deforming nodes (skinned meshes with animated joints) are the exception: their world-space
-//! levels are rebuilt on the CPU from each frame's skinned triangles and written into a region
-//! reserved for them at the end of `bvh.nodes` and `bvh.triangles`, after the levels built
-//! once, which are not uploaded again. The region has headroom
-//! ([`DEFORMING_HEADROOM`]); when a rebuild outgrows it the two buffers are made again, larger,
-//! and so is the bind group. Skinning runs on the CPU in `Scene::evaluate` and the rebuild on
-//! the CPU too: the current limit, its cost proportional to the deforming triangles.
+//! Deforming nodes (skinned meshes with animated joints, animated morph weights) are the
+//! exception: each has a world-space level in a region at the end of `bvh.nodes` and
+//! `bvh.triangles`, after the levels built once, which are not uploaded again. Each update
+//! writes the frame's vertices into that region's primitives and refits the region's nodes on
+//! the GPU (`bvh/refit`, one dispatch per depth, submitted before the frame's passes); when a
+//! level's root box outgrows the pose it was built in by [`DEFORMING_REBUILD_GROWTH`] in
+//! surface area, the levels are built again on the CPU and the region is rewritten. The region
+//! has headroom ([`DEFORMING_HEADROOM`]); when a rebuild outgrows it the two buffers are made
+//! again, larger, and so is the bind group. Skinning itself runs on the CPU in
+//! `Scene::evaluate`.
 //!
 //! A pass that traces rays imports `gi::bvh::{Ray, Hit, trace_closest, trace_any}` and binds a
 //! [`GpuBvh`] as bind group 1 (layout from [`GpuBvh::bind_group_layout`]):
@@ -34,6 +37,7 @@
 
 mod layout;
 mod levels;
+mod refit;
 mod sharing;
 mod tracer;
 
@@ -42,7 +46,7 @@ pub use layout::{
     BVH_TRIANGLE_ALPHA, BvhError, GpuBvhInstance, GpuBvhInstanceHeader, GpuBvhTriangle,
     GpuCwBvhNode, GpuHit, GpuRay, PackedBvh,
 };
-pub use levels::{BottomLevels, TopLevel};
+pub use levels::{BottomLevels, DeformUpdate, RefitPlan, TopLevel};
 pub use sharing::MeshSharing;
 pub use tracer::{BvhTracer, TraceResults, TraceTimings};
 
@@ -51,8 +55,9 @@ use std::time::Instant;
 use gi_scene::{Scene, SceneFrame};
 use obvhs::{cwbvh::CwBvh, triangle::Triangle};
 
-use crate::GpuContext;
 use crate::binding::storage_entry;
+use crate::{GpuContext, GpuTimer};
+use refit::DeformRefit;
 
 /// Bind group index that `gi::bvh` declares its buffers in.
 pub const BVH_BIND_GROUP: u32 = 1;
@@ -61,6 +66,11 @@ pub const BVH_BIND_GROUP: u32 = 1;
 /// last growth): a rebuild's node count varies with the pose, and more room means fewer
 /// reallocations (and bind group rebuilds) at the cost of idle memory in that region only.
 pub const DEFORMING_HEADROOM: f64 = 1.5;
+
+/// Growth of a deforming level's root box (in surface area, over the pose it was built in)
+/// past which an update builds the deforming levels again instead of refitting them (see
+/// [`GpuBvh::set_deforming_rebuild_growth`]).
+pub const DEFORMING_REBUILD_GROWTH: f32 = 1.5;
 
 /// A two-level CWBVH in GPU storage buffers, with the bind group that exposes it to
 /// `gi::bvh`. Memory: 80 bytes per bottom-level node plus 48 per primitive (spatial splits may
@@ -99,8 +109,13 @@ pub struct GpuBvh {
     /// Seconds of the last update: the deforming levels' rebuild and upload (if any), the top
     /// level's build on the CPU, and queueing their uploads.
     pub update_seconds: f64,
-    /// Seconds of the last rebuild of the deforming levels and its upload (0 without them).
+    /// CPU seconds of the last update of the deforming levels (0 without them): writing the
+    /// frame's vertices and recording the refit, or a rebuild and its upload.
     pub deform_seconds: f64,
+    /// Updates that refit the deforming levels on the GPU.
+    pub deform_refits: u32,
+    /// Updates that built the deforming levels again.
+    pub deform_rebuilds: u32,
     /// Times `bvh.nodes` and `bvh.triangles` were made again because the deforming levels
     /// outgrew their region.
     pub bottom_reallocations: u32,
@@ -114,6 +129,10 @@ pub struct GpuBvh {
     /// Whether a lone static instance may be traced directly (see
     /// [`GpuBvh::set_static_fast_path`]).
     static_fast_path: bool,
+    /// The refit of the deforming levels (`None` without them).
+    refit: Option<DeformRefit>,
+    /// See [`GpuBvh::set_deforming_rebuild_growth`].
+    rebuild_growth: f32,
 }
 
 impl GpuBvh {
@@ -181,6 +200,11 @@ impl GpuBvh {
         let top_nodes = Self::top_nodes_buffer(ctx, top_capacity);
         let instances = Self::instances_buffer(ctx, top.instances.len() as u64);
         let bind_group = Self::bind_group(ctx, [&nodes, &triangles, &top_nodes, &instances]);
+        let refit = if levels.has_deforming() {
+            Some(DeformRefit::new(ctx, &levels, &nodes, &triangles)?)
+        } else {
+            None
+        };
         let build_seconds = levels.build_time.as_secs_f64() + start.elapsed().as_secs_f64();
         let mut bvh = Self {
             nodes,
@@ -197,31 +221,88 @@ impl GpuBvh {
             build_seconds,
             update_seconds: 0.0,
             deform_seconds: 0.0,
+            deform_refits: 0,
+            deform_rebuilds: 0,
             bottom_reallocations: 0,
             update_count: 0,
             levels,
             header: GpuBvhInstanceHeader::default(),
             lone_static_root: None,
             static_fast_path: true,
+            refit,
+            rebuild_growth: DEFORMING_REBUILD_GROWTH,
         };
         bvh.write_top(ctx, top)?;
         Ok(bvh)
     }
 
-    /// Places the instances at `frame`'s transforms: rebuilds the deforming levels over its
-    /// triangles (if the scene has any) and the top level, and uploads them with the new
-    /// instance transforms. The levels built once are not touched. Cost: a CWBVH build over
-    /// the deforming triangles and a write of their region, then a CWBVH build over one box per
-    /// instance and a write of 80 bytes per top-level node plus 64 per instance. `frame` must
-    /// come from the scene the BVH was built for.
+    /// Places the instances at `frame`'s transforms: refits the deforming levels to its
+    /// triangles (or builds them again, see [`DEFORMING_REBUILD_GROWTH`]) if the scene has any,
+    /// rebuilds the top level, and uploads them with the new instance transforms. The levels
+    /// built once are not touched. Cost: a write of 48 bytes per deforming primitive and the
+    /// refit's dispatches, submitted here so that they precede the frame's passes (or a CWBVH
+    /// build over the deforming triangles and a write of their region), then a CWBVH build
+    /// over one box per instance and a write of 80 bytes per top-level node plus 64 per
+    /// instance. `frame` must come from the scene the BVH was built for.
     pub fn update(&mut self, ctx: &GpuContext, frame: &SceneFrame) -> Result<(), BvhError> {
+        self.update_with_timer(ctx, frame, None)
+    }
+
+    /// [`GpuBvh::update`] with the refit timed as pass `bvh/refit` of `timer`'s current frame
+    /// (submitted through [`GpuTimer::submit`]; the caller's [`GpuTimer::finish`] reports it).
+    pub fn update_timed(
+        &mut self,
+        ctx: &GpuContext,
+        frame: &SceneFrame,
+        timer: &mut GpuTimer,
+    ) -> Result<(), BvhError> {
+        self.update_with_timer(ctx, frame, Some(timer))
+    }
+
+    fn update_with_timer(
+        &mut self,
+        ctx: &GpuContext,
+        frame: &SceneFrame,
+        timer: Option<&mut GpuTimer>,
+    ) -> Result<(), BvhError> {
         let start = Instant::now();
-        let grown = if self.levels.has_deforming() {
-            self.levels.rebuild_deforming(frame)?;
-            self.write_deforming(ctx)?
-        } else {
-            false
-        };
+        let mut grown = false;
+        if self.levels.has_deforming() {
+            match self.levels.refit_deforming(frame, self.rebuild_growth)? {
+                DeformUpdate::Refit => {
+                    self.write_deformed_triangles(ctx);
+                    if let Some(refit) = &self.refit {
+                        let mut encoder = ctx.create_encoder("bvh.refit");
+                        match timer {
+                            Some(timer) => {
+                                timer.compute_pass(ctx, &mut encoder, "bvh/refit", |pass| {
+                                    refit.record(pass)
+                                });
+                                timer.submit(ctx, encoder);
+                            }
+                            None => {
+                                let mut pass =
+                                    encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
+                                        label: Some("bvh/refit"),
+                                        timestamp_writes: None,
+                                    });
+                                refit.record(&mut pass);
+                                drop(pass);
+                                ctx.queue.submit([encoder.finish()]);
+                            }
+                        }
+                    }
+                    self.deform_refits += 1;
+                }
+                DeformUpdate::Rebuilt => {
+                    grown = self.write_deforming(ctx)?;
+                    if let Some(refit) = &mut self.refit {
+                        refit.replan(ctx, &self.levels, &self.nodes, &self.triangles)?;
+                    }
+                    self.deform_rebuilds += 1;
+                }
+            }
+        }
         self.deform_seconds = start.elapsed().as_secs_f64();
         if grown {
             self.rebind(ctx);
@@ -230,6 +311,22 @@ impl GpuBvh {
         self.write_top(ctx, top)?;
         self.update_seconds += self.deform_seconds;
         Ok(())
+    }
+
+    /// Sets the growth of a deforming level's root box (surface area over that of the pose it
+    /// was built in) past which an update builds the deforming levels again rather than
+    /// refitting them; [`DEFORMING_REBUILD_GROWTH`] by default. `f32::INFINITY` always refits,
+    /// 0 always rebuilds (the cost of a build per frame, the tightest boxes).
+    pub fn set_deforming_rebuild_growth(&mut self, growth: f32) {
+        self.rebuild_growth = growth;
+    }
+
+    /// Writes the deforming levels' primitives (the frame's vertices in their leaf order).
+    fn write_deformed_triangles(&self, ctx: &GpuContext) {
+        let (_, fixed_triangles) = self.levels.fixed_len();
+        let bytes: &[u8] = bytemuck::cast_slice(&self.levels.triangles[fixed_triangles..]);
+        let offset = (fixed_triangles * size_of::<GpuBvhTriangle>()) as u64;
+        ctx.queue.write_buffer(&self.triangles, offset, bytes);
     }
 
     /// Creates `bvh.nodes` and `bvh.triangles` holding `levels`, with room for the deforming
@@ -241,7 +338,10 @@ impl GpuBvh {
         let node_bytes: &[u8] = bytemuck::cast_slice(&levels.nodes);
         let triangle_bytes: &[u8] = bytemuck::cast_slice(&levels.triangles);
         let limit = ctx.limits.max_storage_buffer_binding_size;
-        let usage = wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_DST;
+        // Copyable, so that tests can read back what the refit wrote.
+        let usage = wgpu::BufferUsages::STORAGE
+            | wgpu::BufferUsages::COPY_DST
+            | wgpu::BufferUsages::COPY_SRC;
         if !levels.has_deforming() {
             for (label, bytes) in [("bvh.nodes", node_bytes), ("bvh.triangles", triangle_bytes)] {
                 check_size(label, bytes.len() as u64, limit)?;
@@ -447,9 +547,9 @@ impl GpuBvh {
         self.top_nodes.size() + self.instances.size()
     }
 
-    /// Bytes of all four buffers.
+    /// Bytes of all four buffers and of the deforming levels' refit.
     pub fn bytes(&self) -> u64 {
-        self.bottom_bytes() + self.top_bytes()
+        self.bottom_bytes() + self.top_bytes() + self.refit.as_ref().map_or(0, DeformRefit::bytes)
     }
 
     /// Stops counting and destroys the buffers (for a BVH replaced by a rebuild).
@@ -461,6 +561,9 @@ impl GpuBvh {
             &self.instances,
         ] {
             ctx.release_buffer(buffer);
+        }
+        if let Some(refit) = &self.refit {
+            refit.release(ctx);
         }
     }
 }

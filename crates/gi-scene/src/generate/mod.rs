@@ -25,7 +25,9 @@ use std::path::{Path, PathBuf};
 use crate::{BUNDLED_SCENES, Scene, SceneError, export};
 
 pub(crate) use builder::{SUN_COLOR, SUN_IRRADIANCE, daylight_sky, sun_direction};
-pub use skinned::{ARM_BENT_TIME_S, ARM_HALF_WIDTH, ARM_LENGTH, ARM_NODE_TRANSLATION, skinned_arm};
+pub use skinned::{
+    ARM_BENT_TIME_S, ARM_HALF_WIDTH, ARM_LENGTH, ARM_NODE_TRANSLATION, skinned_arm, skinned_tube,
+};
 
 /// Builds the bundled scene `name` in memory; `None` for an unknown name.
 pub fn build(name: &str) -> Option<Scene> {

@@ -141,3 +141,49 @@ fn arm_primitive(material: usize) -> Primitive {
     }
     primitive
 }
+
+/// The `skinned-arm` scene with a finer arm: a round tube of `rings` rings of `sides` vertices
+/// (radius [`ARM_HALF_WIDTH`], [`ARM_LENGTH`] tall; 2 x `rings` x `sides` triangles, shared
+/// vertices with radial normals), the elbow's weight rising linearly from 0 at y = 0.5 to 1 at
+/// y = 1.5 (the shoulder's is the rest). For tests and benchmarks of deforming geometry at any
+/// size; `rings` and `sides` are clamped to at least 1 and 3.
+pub fn skinned_tube(rings: u32, sides: u32) -> Scene {
+    let (rings, sides) = (rings.max(1), sides.max(3));
+    let mut scene = skinned_arm();
+    let material = scene.materials.len() - 1;
+    let mut primitive = Primitive {
+        material,
+        ..Primitive::default()
+    };
+    for ring in 0..=rings {
+        let y = ARM_LENGTH * ring as f32 / rings as f32;
+        let elbow = (y - 0.25 * ARM_LENGTH).clamp(0.0, 0.5 * ARM_LENGTH) / (0.5 * ARM_LENGTH);
+        for side in 0..sides {
+            let angle = std::f32::consts::TAU * side as f32 / sides as f32;
+            let normal = Vec3::new(angle.cos(), 0.0, -angle.sin());
+            primitive
+                .positions
+                .push(normal * ARM_HALF_WIDTH + Vec3::Y * y);
+            primitive.normals.push(normal);
+            primitive.joints.push([0, 1, 0, 0]);
+            primitive
+                .weights
+                .push(Vec4::new(1.0 - elbow, elbow, 0.0, 0.0));
+        }
+    }
+    for ring in 0..rings {
+        for side in 0..sides {
+            let next = (side + 1) % sides;
+            let (a0, b0) = (ring * sides + side, ring * sides + next);
+            let (a1, b1) = (a0 + sides, b0 + sides);
+            primitive
+                .indices
+                .extend_from_slice(&[a0, b0, b1, a0, b1, a1]);
+        }
+    }
+    if let Some(mesh) = scene.meshes.last_mut() {
+        mesh.primitives = vec![primitive];
+    }
+    scene.name = "skinned-tube".into();
+    scene
+}
