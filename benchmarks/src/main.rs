@@ -16,7 +16,7 @@
 //! gi-bench rays --scene open-world --rays 1048576 --json rays.json
 //! gi-bench cache-rays --scene atrium --rays 65536 --json cache-rays.json
 //! gi-bench cache-update --scene atrium --frames 16 --json cache-update.json
-//! gi-bench deform --rings 256 --sides 64 --frames 60 --rays 262144 --json deform.json
+//! gi-bench deform --rings 256 --sides 64 --frames 30 --rays 262144 --json deform.json
 //! gi-bench path --scene atrium --width 1920 --height 1080 --spp 4 --json path.json
 //! gi-bench mobile --scenes cornell-box,atrium,thin-wall --size 1920x1080 --frames 64 \
 //!     --screen-probes both --json mobile.json
@@ -104,8 +104,9 @@ enum Command {
         /// Vertices around each ring.
         #[arg(long, default_value_t = 64)]
         sides: u32,
-        /// Animation frames followed (at the scene's 30 frames per second).
-        #[arg(long, default_value_t = 60)]
+        /// Animation frames followed (at the scene's 30 frames per second; the 30th is the
+        /// most bent).
+        #[arg(long, default_value_t = 30)]
         frames: u32,
         /// Rays traced at the last frame, aimed at the tube.
         #[arg(long, default_value_t = 1 << 18)]
@@ -113,6 +114,9 @@ enum Command {
         /// Timed repetitions of the trace; the median is reported.
         #[arg(long, default_value_t = 5)]
         repeats: usize,
+        /// Seconds of tracing before each timed trace, while the GPU's clock climbs.
+        #[arg(long, default_value_t = 1.0)]
+        settle_s: f64,
         /// Also write the results as JSON to this file.
         #[arg(long)]
         json: Option<PathBuf>,
@@ -380,9 +384,10 @@ fn main() -> anyhow::Result<()> {
             frames,
             rays,
             repeats,
+            settle_s,
             json,
         } => {
-            let report = deform::run(rings, sides, frames, rays, repeats.max(1))?;
+            let report = deform::run(rings, sides, frames, rays, repeats.max(1), settle_s)?;
             out!("{}", report.table());
             write_json(json, &report.json())
         }

@@ -26,7 +26,7 @@
 //! leaf order; `shaders/bvh/refit.wgsl` gives its nodes new boxes on the GPU, deepest first),
 //! the standard treatment of skinned geometry in real-time ray tracing: the tree's shape stays
 //! the one fitted to the pose it was built in, so it is built again (obvhs's `fast_build`) when
-//! its root box outgrows that pose's by a set factor. Skinning and morphing themselves run on
+//! the boxes of its upper nodes outgrow that pose's by a set factor. Skinning and morphing themselves run on
 //! the CPU in `Scene::evaluate`, which every tier's frame reads.
 
 use std::time::{Duration, Instant};
@@ -125,9 +125,16 @@ struct DeformingLevel {
     blas: usize,
     /// Its primitives in [`BottomLevels::triangles`].
     triangles: std::ops::Range<usize>,
-    /// Half the surface area of its root box when it was built.
-    built_half_area: f32,
+    /// The primitives below each of its nodes down to [`WATCHED_DEPTH`] (a subtree's
+    /// primitives are contiguous in leaf order), as ranges of [`BottomLevels::triangles`].
+    watched: Vec<std::ops::Range<usize>>,
+    /// [`watched_area`] when it was built.
+    built_area: f32,
 }
+
+/// Depth below a deforming level's root down to which its nodes' boxes are watched for the
+/// decision to rebuild (root, children, grandchildren: at most 73 boxes).
+const WATCHED_DEPTH: u32 = 2;
 
 /// How [`BottomLevels::refit_deforming`] followed a frame.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -385,10 +392,12 @@ impl BottomLevels {
                         placement: Placement::Static,
                         triangle_base: 0,
                     });
+                    let watched = self.subtree_ranges(self.blases[blas].root);
                     node.level = Some(DeformingLevel {
                         blas,
                         triangles: first..self.triangles.len(),
-                        built_half_area: self.blases[blas].bounds.half_area(),
+                        built_area: watched_area(&self.triangles, &watched),
+                        watched,
                     });
                 }
                 Ok(None) => {}
@@ -408,9 +417,11 @@ impl BottomLevels {
     /// deforming levels' trees kept: writes its vertices into their primitives and their new
     /// root boxes into the top level's inputs ([`DeformUpdate::Refit`]; the nodes then need
     /// the GPU refit). Builds them again instead ([`DeformUpdate::Rebuilt`]) when a level's
-    /// root box has grown past `rebuild_growth` times the surface area it had when built: a
-    /// tree fitted to one pose holds its boxes' overlap in another, and traversal slows as
-    /// they grow. Cost: one pass over the deforming primitives; a build when rebuilt.
+    /// upper nodes have grown past `rebuild_growth` times the summed surface area they had
+    /// when built (root, children and grandchildren): a tree fitted to
+    /// one pose keeps its groups in another, where their boxes overlap and traversal slows (a
+    /// limb bent by 90 degrees grows them by half and costs rays aimed at it 1.7x). Cost: one
+    /// pass over the deforming primitives and three over their boxes; a build when rebuilt.
     pub fn refit_deforming(
         &mut self,
         frame: &SceneFrame,
@@ -431,7 +442,8 @@ impl BottomLevels {
                 bounds = bounds.union(&t.aabb());
             }
             self.blases[level.blas].bounds = bounds;
-            rebuild |= bounds.half_area() > rebuild_growth * level.built_half_area;
+            let area = watched_area(&self.triangles, &level.watched);
+            rebuild |= area > rebuild_growth * level.built_area;
         }
         if rebuild {
             self.rebuild_deforming(frame)?;
@@ -439,6 +451,49 @@ impl BottomLevels {
         }
         self.deform_time = start.elapsed();
         Ok(DeformUpdate::Refit)
+    }
+
+    /// The growth of each deforming level's watched nodes since it was built: their summed
+    /// surface area now over then (1 right after a build).
+    pub fn deforming_growth(&self) -> Vec<f32> {
+        (self.deforming.iter())
+            .filter_map(|node| node.level.as_ref())
+            .map(|level| watched_area(&self.triangles, &level.watched) / level.built_area)
+            .collect()
+    }
+
+    /// The primitive ranges of the subtrees of `root`'s nodes down to [`WATCHED_DEPTH`].
+    fn subtree_ranges(&self, root: u32) -> Vec<std::ops::Range<usize>> {
+        let mut ranges = Vec::new();
+        let mut pending = vec![(root, 0)];
+        while let Some((index, depth)) = pending.pop() {
+            ranges.push(self.subtree_range(index));
+            if depth < WATCHED_DEPTH {
+                let node = &self.nodes[index as usize];
+                let internal = (node.imask as u32).count_ones();
+                pending.extend((0..internal).map(|k| (node.child_base_idx + k, depth + 1)));
+            }
+        }
+        ranges
+    }
+
+    /// The primitives below node `index`: from its first leaf primitive to the end of its last
+    /// internal child's subtree (obvhs lays a node's leaf primitives out before its children's).
+    fn subtree_range(&self, index: u32) -> std::ops::Range<usize> {
+        let node = &self.nodes[index as usize];
+        let mut end = node.primitive_base_idx as usize;
+        for slot in 0..8 {
+            let info = node.child_meta[slot];
+            if info != 0 && node.imask & (1 << slot) == 0 {
+                let first = node.primitive_base_idx as usize + usize::from(info & 0x1f);
+                end = end.max(first + (info & 0xe0).count_ones() as usize);
+            }
+        }
+        let internal = (node.imask as u32).count_ones();
+        if internal > 0 {
+            end = end.max(self.subtree_range(node.child_base_idx + internal - 1).end);
+        }
+        node.primitive_base_idx as usize..end
     }
 
     /// The deforming levels' nodes grouped by depth below their roots, deepest first.
@@ -651,6 +706,22 @@ impl BottomLevels {
     }
 }
 
+/// Summed half surface areas of the boxes of `watched`'s primitive ranges of `triangles`.
+fn watched_area(triangles: &[GpuBvhTriangle], watched: &[std::ops::Range<usize>]) -> f32 {
+    watched
+        .iter()
+        .map(|range| {
+            let mut bounds = Aabb::empty();
+            for tri in &triangles[range.clone()] {
+                for v in [tri.a, tri.b, tri.c] {
+                    bounds.extend(Vec3A::from(v));
+                }
+            }
+            bounds.half_area()
+        })
+        .sum()
+}
+
 /// A triangle standing in for one missing from a frame: a point at the origin, never hit.
 const DEGENERATE: Triangle = Triangle {
     v0: Vec3A::ZERO,
@@ -753,4 +824,59 @@ fn padded(bounds: Aabb) -> Aabb {
         bounds.max.abs().max(bounds.min.abs()).max_element() + bounds.diagonal().max_element();
     let pad = Vec3A::splat(scale * 1e-5 + f32::MIN_POSITIVE);
     Aabb::new(bounds.min - pad, bounds.max + pad)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Every primitive a node's subtree reaches by traversal, as a sorted list.
+    fn reached(levels: &BottomLevels, index: u32) -> Vec<usize> {
+        let node = &levels.nodes[index as usize];
+        let mut out = Vec::new();
+        let mut rank = 0;
+        for slot in 0..8 {
+            let info = node.child_meta[slot];
+            if info == 0 {
+                continue;
+            }
+            if node.imask & (1 << slot) != 0 {
+                out.extend(reached(levels, node.child_base_idx + rank));
+                rank += 1;
+            } else {
+                let first = node.primitive_base_idx as usize + usize::from(info & 0x1f);
+                out.extend(first..first + (info & 0xe0).count_ones() as usize);
+            }
+        }
+        out.sort_unstable();
+        out
+    }
+
+    /// A subtree's primitives are one contiguous range, the one `subtree_range` gives, for
+    /// every node of a deforming level; the watched ranges are the top three depths'.
+    #[test]
+    fn subtree_ranges_are_the_primitives_below_each_node() {
+        let scene = gi_scene::generate::skinned_tube(64, 24);
+        let frame = scene.evaluate(0.5, None);
+        let levels = BottomLevels::from_scene(&scene, &frame).expect("builds");
+        let (fixed_nodes, _) = levels.fixed_len();
+        assert!(
+            levels.nodes.len() - fixed_nodes > 73,
+            "a level deeper than the watched part"
+        );
+        for index in fixed_nodes..levels.nodes.len() {
+            let range = levels.subtree_range(index as u32);
+            assert_eq!(reached(&levels, index as u32), range.collect::<Vec<_>>());
+        }
+        let level = levels.deforming[0]
+            .level
+            .as_ref()
+            .expect("the arm has a level");
+        assert_eq!(
+            level.watched[0], level.triangles,
+            "the root's range is the level's"
+        );
+        assert!(level.watched.len() > 9 && level.watched.len() <= 73);
+        assert_eq!(levels.deforming_growth(), vec![1.0]);
+    }
 }

@@ -13,8 +13,8 @@
 //! `bvh.triangles`, after the levels built once, which are not uploaded again. Each update
 //! writes the frame's vertices into that region's primitives and refits the region's nodes on
 //! the GPU (`bvh/refit`, one dispatch per depth, submitted before the frame's passes); when a
-//! level's root box outgrows the pose it was built in by [`DEFORMING_REBUILD_GROWTH`] in
-//! surface area, the levels are built again on the CPU and the region is rewritten. The region
+//! level's upper nodes (root, children, grandchildren) outgrow the pose it was built in by
+//! [`DEFORMING_REBUILD_GROWTH`] in summed surface area, the levels are built again on the CPU and the region is rewritten. The region
 //! has headroom ([`DEFORMING_HEADROOM`]); when a rebuild outgrows it the two buffers are made
 //! again, larger, and so is the bind group. Skinning itself runs on the CPU in
 //! `Scene::evaluate`.
@@ -67,8 +67,9 @@ pub const BVH_BIND_GROUP: u32 = 1;
 /// reallocations (and bind group rebuilds) at the cost of idle memory in that region only.
 pub const DEFORMING_HEADROOM: f64 = 1.5;
 
-/// Growth of a deforming level's root box (in surface area, over the pose it was built in)
-/// past which an update builds the deforming levels again instead of refitting them (see
+/// Growth of a deforming level's upper nodes (their summed surface area over that in the pose
+/// it was built in; see [`BottomLevels::refit_deforming`]) past which an update builds the
+/// deforming levels again instead of refitting them (see
 /// [`GpuBvh::set_deforming_rebuild_growth`]).
 pub const DEFORMING_REBUILD_GROWTH: f32 = 1.5;
 
@@ -313,9 +314,9 @@ impl GpuBvh {
         Ok(())
     }
 
-    /// Sets the growth of a deforming level's root box (surface area over that of the pose it
-    /// was built in) past which an update builds the deforming levels again rather than
-    /// refitting them; [`DEFORMING_REBUILD_GROWTH`] by default. `f32::INFINITY` always refits,
+    /// Sets the growth of a deforming level's upper nodes (summed surface area over that in the
+    /// pose it was built in) past which an update builds the deforming levels again rather
+    /// than refitting them; [`DEFORMING_REBUILD_GROWTH`] by default. `f32::INFINITY` always refits,
     /// 0 always rebuilds (the cost of a build per frame, the tightest boxes).
     pub fn set_deforming_rebuild_growth(&mut self, growth: f32) {
         self.rebuild_growth = growth;
