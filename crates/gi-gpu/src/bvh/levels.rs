@@ -417,11 +417,11 @@ impl BottomLevels {
     /// deforming levels' trees kept: writes its vertices into their primitives and their new
     /// root boxes into the top level's inputs ([`DeformUpdate::Refit`]; the nodes then need
     /// the GPU refit). Builds them again instead ([`DeformUpdate::Rebuilt`]) when a level's
-    /// upper nodes have grown past `rebuild_growth` times the summed surface area they had
-    /// when built (root, children and grandchildren): a tree fitted to
-    /// one pose keeps its groups in another, where their boxes overlap and traversal slows (a
-    /// limb bent by 90 degrees grows them by half and costs rays aimed at it 1.7x). Cost: one
-    /// pass over the deforming primitives and three over their boxes; a build when rebuilt.
+    /// upper nodes (root, children and grandchildren) have grown past `rebuild_growth` times
+    /// the summed surface area they had when built: a tree fitted to one pose keeps its groups
+    /// in another, where their boxes overlap and traversal slows (`gi-bench deform`: a tube
+    /// bent by 90 degrees grows them 2.5x and costs rays aimed at it 1.4-1.7x). Cost: one pass
+    /// over the deforming primitives and three over their boxes; a build when rebuilt.
     pub fn refit_deforming(
         &mut self,
         frame: &SceneFrame,
