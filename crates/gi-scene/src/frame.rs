@@ -6,8 +6,10 @@
 use glam::{Mat4, Quat, Vec2, Vec3, Vec3A, Vec4};
 use obvhs::triangle::Triangle;
 
+use rayon::prelude::*;
+
 use crate::model::{
-    Animation, CameraPath, Channel, ChannelValues, Interpolation, LightKind, Scene, Sky,
+    Animation, CameraPath, Channel, ChannelValues, Interpolation, LightKind, Primitive, Scene, Sky,
 };
 use crate::morph::morph;
 use crate::skin::{skin_positions, skin_primitive};
@@ -331,86 +333,7 @@ impl Scene {
     pub fn evaluate(&self, time_s: f32, camera: Option<CameraView>) -> SceneFrame {
         let world_from_node = self.world_transforms(time_s);
         let morph_weights = self.morph_weights(time_s);
-        let mut triangles = Vec::new();
-        let mut attributes = Vec::new();
-        for (node_index, node) in self.nodes.iter().enumerate() {
-            let Some(mesh) = node.mesh.and_then(|m| self.meshes.get(m)) else {
-                continue;
-            };
-            let world = world_from_node[node_index];
-            let normal_matrix = world.inverse().transpose();
-            // A mirroring transform flips the winding; keep geometric normals facing the same
-            // side as the authored ones.
-            let flips = world.determinant() < 0.0;
-            // A skinned node is placed by its joints, its own transform ignored (glTF 2.0).
-            let joint_matrices = self
-                .node_skin(node_index)
-                .map(|skin| skin.joint_matrices(&world_from_node));
-            for primitive in &mesh.primitives {
-                // glTF 2.0: morph targets first, then the skin.
-                let morphed = morph(primitive, &morph_weights[node_index]);
-                let (positions, normals, tangents, mirrored) = match &joint_matrices {
-                    Some(joint_matrices) if primitive.is_skinned() => {
-                        let skinned = skin_primitive(primitive, &morphed, joint_matrices, world);
-                        let mirrored = Some(skinned.mirrored);
-                        (
-                            skinned.positions,
-                            skinned.normals,
-                            skinned.tangents,
-                            mirrored,
-                        )
-                    }
-                    _ => {
-                        let positions: Vec<Vec3> = morphed
-                            .positions
-                            .iter()
-                            .map(|p| world.transform_point3(*p))
-                            .collect();
-                        let normals: Vec<Vec3> = morphed
-                            .normals
-                            .iter()
-                            .map(|n| normal_matrix.transform_vector3(*n).normalize_or(Vec3::Y))
-                            .collect();
-                        // A mirroring transform also flips the bitangent's handedness.
-                        let handedness = if flips { -1.0 } else { 1.0 };
-                        let tangents: Vec<Vec4> = morphed
-                            .tangents
-                            .iter()
-                            .map(|t| {
-                                let xyz = world.transform_vector3(t.truncate()).normalize_or_zero();
-                                xyz.extend(if t.w < 0.0 { -handedness } else { handedness })
-                            })
-                            .collect();
-                        (positions, normals, tangents, None)
-                    }
-                };
-                for tri in primitive.indices.chunks_exact(3) {
-                    let mut idx = [tri[0] as usize, tri[1] as usize, tri[2] as usize];
-                    // A skinned triangle follows the matrix of its first vertex.
-                    let flips = mirrored.as_ref().map_or(flips, |m| m[idx[0]]);
-                    if flips {
-                        idx.swap(1, 2);
-                    }
-                    let [a, b, c] = idx.map(|i| positions[i]);
-                    triangles.push(Triangle {
-                        v0: Vec3A::from(a),
-                        v1: Vec3A::from(b),
-                        v2: Vec3A::from(c),
-                    });
-                    let uv = |i: usize| primitive.uvs.get(i).copied().unwrap_or(Vec2::ZERO);
-                    let uv1 = |i: usize| primitive.uvs1.get(i).copied().unwrap_or(Vec2::ZERO);
-                    let tangent = |i: usize| tangents.get(i).copied().unwrap_or(Vec4::ZERO);
-                    attributes.push(TriangleAttributes {
-                        normals: idx.map(|i| normals[i]),
-                        uvs: idx.map(uv),
-                        uvs1: idx.map(uv1),
-                        tangents: idx.map(tangent),
-                        material: primitive.material as u32,
-                        node: node_index as u32,
-                    });
-                }
-            }
-        }
+        let (triangles, attributes) = self.flatten(&world_from_node, &morph_weights);
         let lights = self
             .nodes
             .iter()
@@ -547,4 +470,177 @@ fn resolve_world(
     };
     world[index] = Some(matrix);
     matrix
+}
+
+/// Triangles of one primitive and more are evaluated on several threads; below it the
+/// thread pool's overhead outweighs the work.
+const PARALLEL_TRIANGLES: usize = 4096;
+
+/// One mesh primitive placed by a node, with what its evaluation needs.
+struct PrimitiveJob<'a> {
+    node_index: usize,
+    primitive: &'a Primitive,
+    world: Mat4,
+    normal_matrix: Mat4,
+    /// The node's transform mirrors (negative determinant).
+    flips: bool,
+    /// The node's skin's joint matrices, for a skinned node.
+    joints: Option<&'a [Option<Mat4>]>,
+    weights: &'a [f32],
+}
+
+impl Scene {
+    /// Every mesh primitive of every node in world space, in node then primitive order: the
+    /// primitives' vertices on all cores (a large one's in parallel too), then the triangles,
+    /// written in place on all cores (the first touch of a large frame's memory is a large
+    /// part of its cost). Each value is computed by the same operations whatever the split, so
+    /// the frame is the same bit for bit on any number of threads.
+    fn flatten(
+        &self,
+        world_from_node: &[Mat4],
+        morph_weights: &[Vec<f32>],
+    ) -> (Vec<Triangle>, Vec<TriangleAttributes>) {
+        // A skinned node is placed by its joints, its own transform ignored (glTF 2.0).
+        let joint_matrices: Vec<Option<Vec<Option<Mat4>>>> = (0..self.nodes.len())
+            .map(|node| {
+                self.node_skin(node)
+                    .map(|skin| skin.joint_matrices(world_from_node))
+            })
+            .collect();
+        let mut jobs = Vec::new();
+        for (node_index, node) in self.nodes.iter().enumerate() {
+            let Some(mesh) = node.mesh.and_then(|m| self.meshes.get(m)) else {
+                continue;
+            };
+            let world = world_from_node[node_index];
+            for primitive in &mesh.primitives {
+                jobs.push(PrimitiveJob {
+                    node_index,
+                    primitive,
+                    world,
+                    normal_matrix: world.inverse().transpose(),
+                    // A mirroring transform flips the winding; keep geometric normals facing
+                    // the same side as the authored ones.
+                    flips: world.determinant() < 0.0,
+                    joints: joint_matrices[node_index].as_deref(),
+                    weights: &morph_weights[node_index],
+                });
+            }
+        }
+        // Each primitive's vertices (morphed, skinned or placed), on all cores.
+        let vertices: Vec<PrimitiveVertices> = jobs.par_iter().map(primitive_vertices).collect();
+        // Then every triangle, written in place in frame order: job `j`'s start at `starts[j]`.
+        let mut starts = Vec::with_capacity(jobs.len());
+        let mut total = 0;
+        for job in &jobs {
+            starts.push(total);
+            total += job.primitive.indices.len() / 3;
+        }
+        let mut triangles = Vec::with_capacity(total);
+        let mut attributes = Vec::with_capacity(total);
+        (0..total)
+            .into_par_iter()
+            .with_min_len(PARALLEL_TRIANGLES)
+            .map(|index| {
+                let j = starts.partition_point(|&start| start <= index) - 1;
+                triangle(&jobs[j], &vertices[j], index - starts[j])
+            })
+            .unzip_into_vecs(&mut triangles, &mut attributes);
+        (triangles, attributes)
+    }
+}
+
+/// A primitive's vertices in world space.
+struct PrimitiveVertices {
+    positions: Vec<Vec3>,
+    normals: Vec<Vec3>,
+    tangents: Vec<Vec4>,
+    /// Per vertex, whether its skinning matrix mirrors (skinned primitives only).
+    mirrored: Option<Vec<bool>>,
+}
+
+/// `job`'s vertices: morph targets first, then the skin (glTF 2.0), or the node's transform.
+fn primitive_vertices(job: &PrimitiveJob) -> PrimitiveVertices {
+    let primitive = job.primitive;
+    let morphed = morph(primitive, job.weights);
+    match job.joints {
+        Some(joint_matrices) if primitive.is_skinned() => {
+            let skinned = skin_primitive(primitive, &morphed, joint_matrices, job.world);
+            PrimitiveVertices {
+                positions: skinned.positions,
+                normals: skinned.normals,
+                tangents: skinned.tangents,
+                mirrored: Some(skinned.mirrored),
+            }
+        }
+        _ => {
+            let (world, normal_matrix) = (job.world, job.normal_matrix);
+            // A mirroring transform also flips the bitangent's handedness.
+            let handedness = if job.flips { -1.0 } else { 1.0 };
+            PrimitiveVertices {
+                positions: par_map(&morphed.positions, |p| world.transform_point3(*p)),
+                normals: par_map(&morphed.normals, |n| {
+                    normal_matrix.transform_vector3(*n).normalize_or(Vec3::Y)
+                }),
+                tangents: par_map(&morphed.tangents, |t| {
+                    let xyz = world.transform_vector3(t.truncate()).normalize_or_zero();
+                    xyz.extend(if t.w < 0.0 { -handedness } else { handedness })
+                }),
+                mirrored: None,
+            }
+        }
+    }
+}
+
+/// Triangle `t` of `job`'s primitive, from its world-space `vertices`.
+fn triangle(
+    job: &PrimitiveJob,
+    vertices: &PrimitiveVertices,
+    t: usize,
+) -> (Triangle, TriangleAttributes) {
+    let primitive = job.primitive;
+    let tri = &primitive.indices[3 * t..3 * t + 3];
+    let mut idx = [tri[0] as usize, tri[1] as usize, tri[2] as usize];
+    // A skinned triangle follows the matrix of its first vertex.
+    let flips = (vertices.mirrored.as_ref()).map_or(job.flips, |m| m[idx[0]]);
+    if flips {
+        idx.swap(1, 2);
+    }
+    let [a, b, c] = idx.map(|i| vertices.positions[i]);
+    let uv = |i: usize| primitive.uvs.get(i).copied().unwrap_or(Vec2::ZERO);
+    let uv1 = |i: usize| primitive.uvs1.get(i).copied().unwrap_or(Vec2::ZERO);
+    let tangent = |i: usize| vertices.tangents.get(i).copied().unwrap_or(Vec4::ZERO);
+    (
+        Triangle {
+            v0: Vec3A::from(a),
+            v1: Vec3A::from(b),
+            v2: Vec3A::from(c),
+        },
+        TriangleAttributes {
+            normals: idx.map(|i| vertices.normals[i]),
+            uvs: idx.map(uv),
+            uvs1: idx.map(uv1),
+            tangents: idx.map(tangent),
+            material: primitive.material as u32,
+            node: job.node_index as u32,
+        },
+    )
+}
+
+/// `items.map(f)`, on several threads when there are many.
+fn par_map<T: Sync, U: Send>(items: &[T], f: impl Fn(&T) -> U + Sync + Send) -> Vec<U> {
+    par_map_index(items.len(), |i| f(&items[i]))
+}
+
+/// `(0..count).map(f)`, on several threads when `count` is large.
+pub(crate) fn par_map_index<U: Send>(count: usize, f: impl Fn(usize) -> U + Sync + Send) -> Vec<U> {
+    if count < PARALLEL_TRIANGLES {
+        (0..count).map(f).collect()
+    } else {
+        (0..count)
+            .into_par_iter()
+            .with_min_len(PARALLEL_TRIANGLES)
+            .map(f)
+            .collect()
+    }
 }

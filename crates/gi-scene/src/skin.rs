@@ -17,6 +17,7 @@
 use glam::{Mat3, Mat4, Vec3, Vec4};
 
 use crate::SceneFrame;
+use crate::frame::par_map_index;
 use crate::model::{Primitive, Scene, Skin};
 use crate::morph::MorphedVertices;
 
@@ -210,37 +211,26 @@ pub(crate) fn skin_primitive(
     joint_matrices: &[Option<Mat4>],
     world_from_node: Mat4,
 ) -> SkinnedVertices {
-    let matrices: Vec<Mat4> = (0..vertices.positions.len())
-        .map(|i| {
-            let joints = primitive.joints.get(i).copied().unwrap_or_default();
-            let weights = primitive.weights.get(i).copied().unwrap_or(Vec4::ZERO);
-            blend(joint_matrices, joints, weights).unwrap_or(world_from_node)
-        })
-        .collect();
-    let mirrored: Vec<bool> = matrices.iter().map(|m| m.determinant() < 0.0).collect();
-    let positions = vertices
-        .positions
-        .iter()
-        .zip(&matrices)
-        .map(|(p, m)| m.transform_point3(*p))
-        .collect();
-    let normals = vertices
-        .normals
-        .iter()
-        .zip(&matrices)
-        .map(|(n, m)| (normal_matrix(m) * *n).normalize_or(Vec3::Y))
-        .collect();
-    let tangents = vertices
-        .tangents
-        .iter()
-        .zip(&matrices)
-        .zip(&mirrored)
-        .map(|((t, m), &mirror)| {
-            let xyz = m.transform_vector3(t.truncate()).normalize_or_zero();
-            let sign = if t.w < 0.0 { -1.0 } else { 1.0 };
-            xyz.extend(if mirror { -sign } else { sign })
-        })
-        .collect();
+    let matrices: Vec<Mat4> = par_map_index(vertices.positions.len(), |i| {
+        let joints = primitive.joints.get(i).copied().unwrap_or_default();
+        let weights = primitive.weights.get(i).copied().unwrap_or(Vec4::ZERO);
+        blend(joint_matrices, joints, weights).unwrap_or(world_from_node)
+    });
+    let mirrored: Vec<bool> = par_map_index(matrices.len(), |i| matrices[i].determinant() < 0.0);
+    let positions = par_map_index(matrices.len(), |i| {
+        matrices[i].transform_point3(vertices.positions[i])
+    });
+    let normals = par_map_index(vertices.normals.len().min(matrices.len()), |i| {
+        (normal_matrix(&matrices[i]) * vertices.normals[i]).normalize_or(Vec3::Y)
+    });
+    let tangents = par_map_index(vertices.tangents.len().min(matrices.len()), |i| {
+        let t = vertices.tangents[i];
+        let xyz = matrices[i]
+            .transform_vector3(t.truncate())
+            .normalize_or_zero();
+        let sign = if t.w < 0.0 { -1.0 } else { 1.0 };
+        xyz.extend(if mirrored[i] { -sign } else { sign })
+    });
     SkinnedVertices {
         positions,
         normals,

@@ -561,3 +561,68 @@ fn hostile_skin_data_gives_errors_or_warnings_never_panics() {
         assert!(doc.import().is_err(), "component types {joints}/{weights}");
     }
 }
+
+/// A skinned tube large enough to be evaluated in parallel (19,200 triangles, chunks of 4,096)
+/// gives the same frame bit for bit on one thread and on four, and every vertex is the blend
+/// of its two joints' matrices computed here, within rounding.
+#[test]
+fn large_skinned_meshes_evaluate_the_same_on_any_number_of_threads() {
+    let scene = gi_scene::generate::skinned_tube(200, 48);
+    let on = |threads: usize| {
+        rayon::ThreadPoolBuilder::new()
+            .num_threads(threads)
+            .build()
+            .expect("a thread pool")
+            .install(|| scene.evaluate(ARM_BENT_TIME_S * 0.5, None))
+    };
+    let (one, four) = (on(1), on(4));
+    let bits = |frame: &SceneFrame| -> Vec<u32> {
+        let mut out = Vec::new();
+        for (t, a) in frame.triangles.iter().zip(&frame.attributes) {
+            for v in [t.v0, t.v1, t.v2] {
+                out.extend(v.to_array().map(f32::to_bits));
+            }
+            for k in 0..3 {
+                out.extend(a.normals[k].to_array().map(f32::to_bits));
+                out.extend(a.uvs[k].to_array().map(f32::to_bits));
+                out.extend(a.tangents[k].to_array().map(f32::to_bits));
+            }
+            out.extend([a.material, a.node]);
+        }
+        out
+    };
+    assert_eq!(
+        one.triangles.len(),
+        2 + 2 * 200 * 48,
+        "the floor and the tube"
+    );
+    assert!(
+        bits(&one) == bits(&four),
+        "the frame depends on the thread count"
+    );
+
+    let arm = node(&scene, "arm");
+    let primitive = &scene.meshes[scene.nodes[arm].mesh.unwrap()].primitives[0];
+    let skin = &scene.skins[scene.nodes[arm].skin.unwrap()];
+    let joints = skin.joint_matrices(&four.world_from_node);
+    let first = (four.attributes.iter())
+        .position(|a| a.node == arm as u32)
+        .unwrap();
+    for (t, corners) in primitive.indices.chunks_exact(3).enumerate() {
+        let triangle = four.triangles[first + t];
+        for (k, world) in [triangle.v0, triangle.v1, triangle.v2]
+            .into_iter()
+            .enumerate()
+        {
+            let v = corners[k] as usize;
+            let w = primitive.weights[v];
+            let blended = joints[0].unwrap() * w.x + joints[1].unwrap() * w.y;
+            let expected = blended.transform_point3(primitive.positions[v]);
+            assert_near(
+                Vec3::from(world),
+                expected,
+                &format!("triangle {t} vertex {k}"),
+            );
+        }
+    }
+}

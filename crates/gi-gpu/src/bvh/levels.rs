@@ -39,6 +39,7 @@ use obvhs::{
     cwbvh::{CwBvh, builder::build_cwbvh, builder::build_cwbvh_from_tris},
     triangle::Triangle,
 };
+use rayon::prelude::*;
 
 use super::layout::{
     BVH_INSTANCE_IDENTITY, BVH_INSTANCE_MIRRORED, BVH_STACK_SIZE, BVH_TRIANGLE_ALPHA, BvhError,
@@ -433,14 +434,20 @@ impl BottomLevels {
             let Some(level) = &node.level else {
                 continue;
             };
-            let mut bounds = Aabb::empty();
-            for tri in &mut self.triangles[level.triangles.clone()] {
-                let t = (frame.triangles.get(tri.triangle as usize))
-                    .copied()
-                    .unwrap_or(DEGENERATE);
-                (tri.a, tri.b, tri.c) = (t.v0.into(), t.v1.into(), t.v2.into());
-                bounds = bounds.union(&t.aabb());
-            }
+            let bounds = self.triangles[level.triangles.clone()]
+                .par_chunks_mut(PARALLEL_PRIMITIVES)
+                .map(|chunk| {
+                    let mut bounds = Aabb::empty();
+                    for tri in chunk {
+                        let t = (frame.triangles.get(tri.triangle as usize))
+                            .copied()
+                            .unwrap_or(DEGENERATE);
+                        (tri.a, tri.b, tri.c) = (t.v0.into(), t.v1.into(), t.v2.into());
+                        bounds = bounds.union(&t.aabb());
+                    }
+                    bounds
+                })
+                .reduce(Aabb::empty, |a, b| a.union(&b));
             self.blases[level.blas].bounds = bounds;
             let area = watched_area(&self.triangles, &level.watched);
             rebuild |= area > rebuild_growth * level.built_area;
@@ -708,8 +715,8 @@ impl BottomLevels {
 
 /// Summed half surface areas of the boxes of `watched`'s primitive ranges of `triangles`.
 fn watched_area(triangles: &[GpuBvhTriangle], watched: &[std::ops::Range<usize>]) -> f32 {
-    watched
-        .iter()
+    let areas: Vec<f32> = watched
+        .par_iter()
         .map(|range| {
             let mut bounds = Aabb::empty();
             for tri in &triangles[range.clone()] {
@@ -719,8 +726,13 @@ fn watched_area(triangles: &[GpuBvhTriangle], watched: &[std::ops::Range<usize>]
             }
             bounds.half_area()
         })
-        .sum()
+        .collect();
+    // Summed in a fixed order, so the decision does not depend on the threads.
+    areas.iter().sum()
 }
+
+/// Deforming primitives written per task in [`BottomLevels::refit_deforming`].
+const PARALLEL_PRIMITIVES: usize = 8192;
 
 /// A triangle standing in for one missing from a frame: a point at the origin, never hit.
 const DEGENERATE: Triangle = Triangle {
