@@ -6,8 +6,11 @@
 //! The WGSL side of these layouts is declared in `shaders/path/scene.wgsl` (`gi::scene`);
 //! a test checks every struct's size and member offsets against these Rust mirrors.
 
+use std::ops::Range;
+
 use bytemuck::{Pod, Zeroable};
 use gi_scene::{AlphaMode, EmitterDistribution, LightKind, Scene, SceneFrame};
+use rayon::prelude::*;
 
 use crate::GpuContext;
 use crate::bvh::{BvhError, GpuBvh};
@@ -234,6 +237,9 @@ pub struct GpuScene {
     pub bvh_build_seconds: f64,
     /// Whether `scene.triangle_extras` holds every triangle.
     has_extras: bool,
+    /// The frame triangles whose shading data can change between frames (those of moving and
+    /// deforming nodes), as sorted, disjoint ranges; [`GpuScene::update`] rewrites only these.
+    changing: Vec<Range<usize>>,
     /// Whether a material is alpha `BLEND` (the real-time tiers then composite a blended
     /// layer over the surface behind it: `gi_gpu::gbuffer`).
     pub has_blend: bool,
@@ -244,11 +250,9 @@ pub struct GpuScene {
 }
 
 /// Per-triangle shading data of `frame`, in frame order.
-fn triangle_shading(frame: &SceneFrame) -> Vec<GpuTriangleShading> {
-    frame
-        .triangles
-        .iter()
-        .zip(&frame.attributes)
+fn triangle_shading(frame: &SceneFrame, range: Range<usize>) -> Vec<GpuTriangleShading> {
+    (frame.triangles[range.clone()].par_iter())
+        .zip(&frame.attributes[range])
         .map(|(tri, a)| {
             let p = |v: glam::Vec3A, w: f32| [v.x, v.y, v.z, w];
             let n = |i: usize| {
@@ -269,20 +273,64 @@ fn triangle_shading(frame: &SceneFrame) -> Vec<GpuTriangleShading> {
         .collect()
 }
 
-/// Tangents and second texture coordinates of `frame`'s triangles, in frame order; empty when
-/// the scene has neither.
-fn triangle_extras(scene: &Scene, frame: &SceneFrame) -> Vec<GpuTriangleExtras> {
-    let any = scene
+/// Writes `bytes` at `offset` of `buffer`, or makes `buffer` again holding `bytes` alone when
+/// they do not fit (returns true then: bind groups over it must be made again).
+fn write_at(
+    ctx: &GpuContext,
+    buffer: &mut wgpu::Buffer,
+    label: &str,
+    offset: u64,
+    bytes: &[u8],
+) -> bool {
+    if bytes.is_empty() {
+        return false;
+    }
+    if offset + bytes.len() as u64 > buffer.size() {
+        let usage = buffer.usage();
+        ctx.release_buffer(buffer);
+        *buffer = ctx.create_buffer_init(label, bytes, usage);
+        return true;
+    }
+    ctx.queue.write_buffer(buffer, offset, bytes);
+    false
+}
+
+/// The triangles of `frame` (an evaluation of `scene`) whose nodes move or deform, as sorted,
+/// disjoint ranges: a node's triangles are contiguous in a frame, and the others are the same
+/// in every evaluation.
+fn changing_ranges(scene: &Scene, frame: &SceneFrame) -> Vec<Range<usize>> {
+    let (moving, deforming) = (scene.moving_nodes(), scene.deforming_nodes());
+    let changes = |node: u32| {
+        let node = node as usize;
+        moving.get(node).copied().unwrap_or(true) || deforming.get(node).copied().unwrap_or(true)
+    };
+    let mut ranges: Vec<Range<usize>> = Vec::new();
+    for (index, attributes) in frame.attributes.iter().enumerate() {
+        if !changes(attributes.node) {
+            continue;
+        }
+        match ranges.last_mut() {
+            Some(last) if last.end == index => last.end = index + 1,
+            _ => ranges.push(index..index + 1),
+        }
+    }
+    ranges
+}
+
+/// Whether some primitive of `scene` has tangents or a second texture coordinate set: then
+/// the triangles have extras ([`triangle_extras`]).
+fn has_extras(scene: &Scene) -> bool {
+    scene
         .meshes
         .iter()
         .flat_map(|m| &m.primitives)
-        .any(|p| !p.tangents.is_empty() || !p.uvs1.is_empty());
-    if !any {
-        return Vec::new();
-    }
-    frame
-        .attributes
-        .iter()
+        .any(|p| !p.tangents.is_empty() || !p.uvs1.is_empty())
+}
+
+/// Tangents and second texture coordinates of `frame`'s triangles `range`, in frame order.
+fn triangle_extras(frame: &SceneFrame, range: Range<usize>) -> Vec<GpuTriangleExtras> {
+    frame.attributes[range]
+        .par_iter()
         .map(|a| {
             let [u0, u1, u2] = a.uvs1;
             GpuTriangleExtras {
@@ -387,8 +435,13 @@ impl GpuScene {
             tracing::warn!("{warning}");
         }
         let bvh = GpuBvh::from_scene(ctx, scene, frame)?;
-        let triangles = triangle_shading(frame);
-        let extras = triangle_extras(scene, frame);
+        let all = 0..frame.triangles.len();
+        let triangles = triangle_shading(frame, all.clone());
+        let extras = if has_extras(scene) {
+            triangle_extras(frame, all)
+        } else {
+            Vec::new()
+        };
         let materials = gpu_materials(scene, &mut textures);
         let default_material = materials.len() as u32 - 1;
         let table = EmitterTable::build(scene, frame);
@@ -426,6 +479,7 @@ impl GpuScene {
                 .iter()
                 .any(|m| m.alpha_mode == AlphaMode::Blend),
             has_deforming: scene.deforming_nodes().contains(&true),
+            changing: changing_ranges(scene, frame),
             textures,
             bvh,
         })
@@ -434,9 +488,10 @@ impl GpuScene {
     /// Moves the scene to `frame`, a later evaluation of the same scene: the BVH's top level
     /// and instance transforms ([`GpuBvh::update`], bottom levels untouched), the lights and
     /// the emitter table. The per-triangle shading buffers hold world-space vertices, normals
-    /// and tangents, so they are re-uploaded whole (112 bytes per triangle, 80 more with
-    /// tangents or a second texture coordinate set) when the scene is animated; a camera move
-    /// alone needs no update at all.
+    /// and tangents, so the triangles of moving and deforming nodes are written again (112
+    /// bytes per triangle, 80 more with tangents or a second texture coordinate set); static
+    /// triangles are the same in every evaluation and stay as uploaded (a frame of a scene
+    /// with more triangles is uploaded whole). A camera move alone needs no update at all.
     ///
     /// Returns true when a buffer had to be replaced (an emitter table that grew), so bind
     /// groups made over [`GpuScene::buffers`] must be made again.
@@ -447,33 +502,41 @@ impl GpuScene {
         frame: &SceneFrame,
     ) -> Result<bool, BvhError> {
         self.bvh.update(ctx, frame)?;
-        let triangles = triangle_shading(frame);
-        let triangle_bytes: &[u8] = bytemuck::cast_slice(&triangles);
-        let extras = if self.has_extras {
-            triangle_extras(scene, frame)
-        } else {
-            Vec::new()
-        };
         let mut replaced = false;
+        let shading = size_of::<GpuTriangleShading>() as u64;
+        let extra = size_of::<GpuTriangleExtras>() as u64;
+        let fits = frame.triangles.len() as u64 * shading <= self.triangles.size()
+            && (!self.has_extras
+                || frame.triangles.len() as u64 * extra <= self.triangle_extras.size());
+        // Another scene's frame (more triangles than the buffers hold) is uploaded whole.
+        let whole = [0..frame.triangles.len()];
+        let ranges: &[Range<usize>] = if fits { &self.changing } else { &whole };
+        for range in ranges {
+            let range =
+                range.start.min(frame.triangles.len())..range.end.min(frame.triangles.len());
+            let triangles = triangle_shading(frame, range.clone());
+            let offset = range.start as u64;
+            replaced |= write_at(
+                ctx,
+                &mut self.triangles,
+                "scene.triangles",
+                offset * shading,
+                bytemuck::cast_slice(&triangles),
+            );
+            if self.has_extras {
+                let extras = triangle_extras(frame, range);
+                replaced |= write_at(
+                    ctx,
+                    &mut self.triangle_extras,
+                    "scene.triangle_extras",
+                    offset * extra,
+                    bytemuck::cast_slice(&extras),
+                );
+            }
+        }
         let mut write = |buffer: &mut wgpu::Buffer, label: &str, bytes: &[u8]| {
-            if bytes.is_empty() {
-                return;
-            }
-            if bytes.len() as u64 > buffer.size() {
-                let usage = buffer.usage();
-                ctx.release_buffer(buffer);
-                *buffer = ctx.create_buffer_init(label, bytes, usage);
-                replaced = true;
-            } else {
-                ctx.queue.write_buffer(buffer, 0, bytes);
-            }
+            replaced |= write_at(ctx, buffer, label, 0, bytes);
         };
-        write(&mut self.triangles, "scene.triangles", triangle_bytes);
-        write(
-            &mut self.triangle_extras,
-            "scene.triangle_extras",
-            bytemuck::cast_slice(&extras),
-        );
         let table = EmitterTable::build(scene, frame);
         let lights: Vec<GpuLight> = frame.lights.iter().map(gpu_light).collect();
         write(
