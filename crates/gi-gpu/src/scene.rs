@@ -509,8 +509,12 @@ impl GpuScene {
             && (!self.has_extras
                 || frame.triangles.len() as u64 * extra <= self.triangle_extras.size());
         // Another scene's frame (more triangles than the buffers hold) is uploaded whole.
-        let whole = [0..frame.triangles.len()];
-        let ranges: &[Range<usize>] = if fits { &self.changing } else { &whole };
+        let whole = 0..frame.triangles.len();
+        let ranges = if fits {
+            &self.changing[..]
+        } else {
+            std::slice::from_ref(&whole)
+        };
         for range in ranges {
             let range =
                 range.start.min(frame.triangles.len())..range.end.min(frame.triangles.len());
