@@ -2,13 +2,15 @@
 //! rebuilt, on `skinned_tube(rings, sides)` (a skinned arm of 2 x rings x sides triangles
 //! whose elbow bends through 90 degrees and back every 2 s).
 //!
-//! For each way of following the frames (refit: the level built at rest, then refit on the GPU
-//! every frame; default: refit until the level's upper nodes grow past
-//! `DEFORMING_REBUILD_GROWTH`, then built again; rebuild: built again on the CPU every frame,
-//! the behaviour before refits), the
-//! same `frames` frames of the animation are skinned on the CPU (`Scene::evaluate`, reported
-//! apart), then [`GpuBvh::update_timed`] follows each: its CPU time (writing the vertices and
-//! recording the refit, or the build and its upload) and the GPU time of pass `bvh/refit`, as
+//! The same `frames` frames of the animation are skinned on the CPU once (`Scene::evaluate`,
+//! reported apart) and followed by a `GpuScene`, as a tier follows them (`GpuScene::update`:
+//! the BVH with the default rule, the deforming triangles' shading data; its CPU time is
+//! reported apart too). Then for each way of following them in the BVH alone (refit: the
+//! level built at rest, then refit on the GPU every frame; default: refit until the level's
+//! upper nodes grow past `DEFORMING_REBUILD_GROWTH`, then built again; rebuild: built again
+//! on the CPU every frame, the behaviour before refits), [`GpuBvh::update_timed`] follows
+//! each frame: its CPU time (writing the vertices and recording the refit, or the build and
+//! its upload) and the GPU time of pass `bvh/refit`, as
 //! medians. Then, at the last frame, each BVH traces the same `rays` rays aimed at the arm
 //! (from points around it towards random points in its box; closest hit), after `settle_s`
 //! seconds of tracing for the GPU's clock to climb: what the refit's looser boxes cost the
@@ -18,7 +20,7 @@ use std::time::Instant;
 
 use anyhow::bail;
 use gi_gpu::bvh::{BvhTracer, DEFORMING_REBUILD_GROWTH, GpuBvh, GpuRay};
-use gi_gpu::{GpuContext, GpuTimer, ShaderLibrary, TimerMode};
+use gi_gpu::{GpuContext, GpuScene, GpuTimer, ShaderLibrary, TimerMode};
 use glam::Vec3;
 
 /// One way of following the frames.
@@ -47,6 +49,9 @@ pub struct DeformReport {
     pub timer_mode: TimerMode,
     /// Median CPU milliseconds of `Scene::evaluate` per frame (skinning), the same for both.
     pub skinning_ms: f64,
+    /// Median CPU milliseconds of `GpuScene::update` per frame (the BVH with the default rule,
+    /// the shading data of the deforming triangles, lights and emitters).
+    pub scene_update_ms: f64,
     pub modes: Vec<ModeResult>,
 }
 
@@ -101,6 +106,14 @@ pub fn run(
             GpuRay::new(origin, (target - origin).normalize(), 0.0, f32::INFINITY)
         })
         .collect();
+    let mut gpu_scene = GpuScene::upload(&ctx, &scene, &rest)?;
+    let mut scene_update = Vec::with_capacity(evaluated.len());
+    for frame in &evaluated {
+        let start = Instant::now();
+        gpu_scene.update(&ctx, &scene, frame)?;
+        scene_update.push(start.elapsed().as_secs_f64() * 1e3);
+    }
+    gpu_scene.release(&ctx);
     let mut timer_mode = TimerMode::Gpu;
     let mut modes = Vec::new();
     for (mode, growth) in [
@@ -146,6 +159,7 @@ pub fn run(
         adapter: ctx.adapter_info.name.clone(),
         timer_mode,
         skinning_ms: median(&mut skinning),
+        scene_update_ms: median(&mut scene_update),
         modes,
     })
 }
@@ -154,7 +168,8 @@ impl DeformReport {
     pub fn table(&self) -> String {
         let mut out = format!(
             "skinned tube: {} deforming triangles, {} frames, {} rays aimed at it; {} ({}); \
-             CPU skinning (Scene::evaluate) {:.3} ms per frame\n\n\
+             CPU skinning (Scene::evaluate) {:.3} ms per frame; GpuScene::update {:.3} ms per \
+             frame\n\n\
              | mode | update CPU ms | bvh/refit GPU ms | refits / rebuilds | growth | trace ms | Mrays/s |\n\
              |---|---:|---:|---:|---:|---:|---:|\n",
             self.triangles,
@@ -166,6 +181,7 @@ impl DeformReport {
                 TimerMode::Cpu => "CPU wall-clock per pass",
             },
             self.skinning_ms,
+            self.scene_update_ms,
         );
         for m in &self.modes {
             out.push_str(&format!(
@@ -204,6 +220,7 @@ impl DeformReport {
             "rays": self.rays,
             "adapter": self.adapter,
             "skinning_ms": self.skinning_ms,
+            "scene_update_ms": self.scene_update_ms,
             "modes": modes,
         })
     }
