@@ -240,6 +240,8 @@ pub struct GpuScene {
     /// The frame triangles whose shading data can change between frames (those of moving and
     /// deforming nodes), as sorted, disjoint ranges; [`GpuScene::update`] rewrites only these.
     changing: Vec<Range<usize>>,
+    /// Whether a changing triangle emits light: only then can the emitter table change.
+    changing_emitters: bool,
     /// Whether a material is alpha `BLEND` (the real-time tiers then composite a blended
     /// layer over the surface behind it: `gi_gpu::gbuffer`).
     pub has_blend: bool,
@@ -315,6 +317,17 @@ fn changing_ranges(scene: &Scene, frame: &SceneFrame) -> Vec<Range<usize>> {
         }
     }
     ranges
+}
+
+/// Whether a triangle of `ranges` of `frame` (an evaluation of `scene`) has an emissive
+/// material.
+fn emits(scene: &Scene, frame: &SceneFrame, ranges: &[Range<usize>]) -> bool {
+    let exitance = EmitterDistribution::exitance(&scene.materials, &scene.textures);
+    ranges.iter().any(|range| {
+        frame.attributes[range.clone()]
+            .iter()
+            .any(|a| exitance.get(a.material as usize).is_some_and(|&e| e > 0.0))
+    })
 }
 
 /// Whether some primitive of `scene` has tangents or a second texture coordinate set: then
@@ -457,6 +470,7 @@ impl GpuScene {
             let bytes = if bytes.is_empty() { &zero[..] } else { bytes };
             ctx.create_buffer_init(label, bytes, usage)
         };
+        let changing = changing_ranges(scene, frame);
         Ok(Self {
             triangles: upload("scene.triangles", bytemuck::cast_slice(&triangles), 112),
             materials: upload("scene.materials", bytemuck::cast_slice(&materials), 112),
@@ -479,7 +493,8 @@ impl GpuScene {
                 .iter()
                 .any(|m| m.alpha_mode == AlphaMode::Blend),
             has_deforming: scene.deforming_nodes().contains(&true),
-            changing: changing_ranges(scene, frame),
+            changing_emitters: emits(scene, frame, &changing),
+            changing,
             textures,
             bvh,
         })
@@ -491,7 +506,8 @@ impl GpuScene {
     /// and tangents, so the triangles of moving and deforming nodes are written again (112
     /// bytes per triangle, 80 more with tangents or a second texture coordinate set); static
     /// triangles are the same in every evaluation and stay as uploaded (a frame of a scene
-    /// with more triangles is uploaded whole). A camera move alone needs no update at all.
+    /// with more triangles is uploaded whole). The emitter table is built again only when a
+    /// moving or deforming triangle emits light. A camera move alone needs no update at all.
     ///
     /// Returns true when a buffer had to be replaced (an emitter table that grew), so bind
     /// groups made over [`GpuScene::buffers`] must be made again.
@@ -541,24 +557,27 @@ impl GpuScene {
         let mut write = |buffer: &mut wgpu::Buffer, label: &str, bytes: &[u8]| {
             replaced |= write_at(ctx, buffer, label, 0, bytes);
         };
-        let table = EmitterTable::build(scene, frame);
+        // Static emitters keep their power: the table changes only when an emitter moves.
+        if self.changing_emitters || !fits {
+            let table = EmitterTable::build(scene, frame);
+            write(
+                &mut self.emitters,
+                "scene.emitters",
+                bytemuck::cast_slice(&table.entries),
+            );
+            write(
+                &mut self.selection,
+                "scene.selection",
+                bytemuck::cast_slice(&table.selection),
+            );
+            self.emitter_count = table.entries.len() as u32;
+        }
         let lights: Vec<GpuLight> = frame.lights.iter().map(gpu_light).collect();
-        write(
-            &mut self.emitters,
-            "scene.emitters",
-            bytemuck::cast_slice(&table.entries),
-        );
-        write(
-            &mut self.selection,
-            "scene.selection",
-            bytemuck::cast_slice(&table.selection),
-        );
         write(
             &mut self.lights,
             "scene.lights",
             bytemuck::cast_slice(&lights),
         );
-        self.emitter_count = table.entries.len() as u32;
         self.light_count = lights.len() as u32;
         Ok(replaced)
     }

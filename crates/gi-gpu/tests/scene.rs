@@ -41,10 +41,12 @@ fn emitter_tables_match_the_reference_on_every_bundled_scene() {
     }
 }
 
-/// Uploaded at time 0 and then only updated, the scene's shading buffers hold what a fresh
-/// upload at each later time holds, bit for bit, although updates rewrite only the triangles
-/// of moving and deforming nodes: the animated `dynamic` scene (moving nodes, static ones,
-/// tangents) and a skinned tube on a static floor.
+/// Uploaded at time 0 and then only updated, the scene's shading buffers and emitter table
+/// hold what a fresh upload at each later time holds, bit for bit, although updates rewrite
+/// only the triangles of moving and deforming nodes and rebuild the table only when one of
+/// them emits: the animated `dynamic` scene (moving nodes, static ones, tangents, a static
+/// emitter), a skinned tube on a static floor, and the same tube glowing (a deforming
+/// emitter).
 #[test]
 fn updates_rewrite_moving_triangles_like_a_fresh_upload() {
     let Some(ctx) = gi_gpu::GpuContext::new_or_skip("updates_rewrite_moving_triangles") else {
@@ -52,7 +54,15 @@ fn updates_rewrite_moving_triangles_like_a_fresh_upload() {
     };
     let dynamic = gi_scene::load("dynamic").unwrap();
     let tube = gi_scene::generate::skinned_tube(16, 8);
-    for (label, scene) in [("dynamic", dynamic), ("skinned-tube", tube)] {
+    let mut glowing = tube.clone();
+    let arm = glowing.nodes.iter().position(|n| n.name == "arm").unwrap();
+    let material = glowing.meshes[glowing.nodes[arm].mesh.unwrap()].primitives[0].material;
+    glowing.materials[material].emissive = glam::Vec3::splat(3.0);
+    for (label, scene) in [
+        ("dynamic", dynamic),
+        ("skinned-tube", tube),
+        ("glowing-tube", glowing),
+    ] {
         assert!(scene.is_animated(), "{label}");
         let mut gpu =
             gi_gpu::GpuScene::upload(&ctx, &scene, &scene.evaluate(0.0, None)).expect("uploads");
@@ -68,6 +78,15 @@ fn updates_rewrite_moving_triangles_like_a_fresh_upload() {
             assert!(
                 read(&gpu.triangle_extras) == read(&fresh.triangle_extras),
                 "{label} at {time} s: extras differ from a fresh upload"
+            );
+            assert_eq!(
+                gpu.emitter_count, fresh.emitter_count,
+                "{label} at {time} s"
+            );
+            assert!(
+                read(&gpu.emitters) == read(&fresh.emitters)
+                    && read(&gpu.selection) == read(&fresh.selection),
+                "{label} at {time} s: the emitter table differs from a fresh upload"
             );
             fresh.release(&ctx);
         }

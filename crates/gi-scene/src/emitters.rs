@@ -30,9 +30,10 @@ pub struct EmitterDistribution {
 }
 
 impl EmitterDistribution {
-    /// The distribution of `frame`'s emitters; `materials` and `textures` are the scene's.
-    pub fn build(frame: &SceneFrame, materials: &[Material], textures: &[Texture]) -> Self {
-        let exitance: Vec<f32> = materials
+    /// Per material, the emitted power per unit area that weighs its triangles (0 for a
+    /// material that emits nothing): `luminance(emission) * pi`, doubled when double-sided.
+    pub fn exitance(materials: &[Material], textures: &[Texture]) -> Vec<f32> {
+        materials
             .iter()
             .map(|m| {
                 let texture = m
@@ -43,7 +44,12 @@ impl EmitterDistribution {
                 let sides = if m.double_sided { 2.0 } else { 1.0 };
                 luminance(emission).max(0.0) * PI * sides
             })
-            .collect();
+            .collect()
+    }
+
+    /// The distribution of `frame`'s emitters; `materials` and `textures` are the scene's.
+    pub fn build(frame: &SceneFrame, materials: &[Material], textures: &[Texture]) -> Self {
+        let exitance = Self::exitance(materials, textures);
         let mut triangles = Vec::new();
         let mut power = Vec::new();
         for (index, (tri, attributes)) in frame.triangles.iter().zip(&frame.attributes).enumerate()

@@ -26,8 +26,8 @@
 //! leaf order; `shaders/bvh/refit.wgsl` gives its nodes new boxes on the GPU, deepest first),
 //! the standard treatment of skinned geometry in real-time ray tracing: the tree's shape stays
 //! the one fitted to the pose it was built in, so it is built again (obvhs's `fast_build`) when
-//! the boxes of its upper nodes outgrow that pose's by a set factor. Skinning and morphing themselves run on
-//! the CPU in `Scene::evaluate`, which every tier's frame reads.
+//! the boxes of its upper nodes outgrow that pose's by a set factor. Skinning and morphing
+//! themselves run on the CPU in `Scene::evaluate`, which every tier's frame reads.
 
 use std::time::{Duration, Instant};
 

@@ -14,10 +14,10 @@
 //! writes the frame's vertices into that region's primitives and refits the region's nodes on
 //! the GPU (`bvh/refit`, one dispatch per depth, submitted before the frame's passes); when a
 //! level's upper nodes (root, children, grandchildren) outgrow the pose it was built in by
-//! [`DEFORMING_REBUILD_GROWTH`] in summed surface area, the levels are built again on the CPU and the region is rewritten. The region
-//! has headroom ([`DEFORMING_HEADROOM`]); when a rebuild outgrows it the two buffers are made
-//! again, larger, and so is the bind group. Skinning itself runs on the CPU in
-//! `Scene::evaluate`.
+//! [`DEFORMING_REBUILD_GROWTH`] in summed surface area, the levels are built again on the CPU
+//! and the region is rewritten. The region has headroom ([`DEFORMING_HEADROOM`]); when a
+//! rebuild outgrows it the two buffers are made again, larger, and so is the bind group.
+//! Skinning itself runs on the CPU in `Scene::evaluate`.
 //!
 //! A pass that traces rays imports `gi::bvh::{Ray, Hit, trace_closest, trace_any}` and binds a
 //! [`GpuBvh`] as bind group 1 (layout from [`GpuBvh::bind_group_layout`]):
