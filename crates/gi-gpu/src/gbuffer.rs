@@ -51,6 +51,10 @@ const TILE: u32 = 8;
 /// The camera of the G-buffer: the shared [`GpuCamera`] (`Camera` of `gi::camera`).
 pub type GBufferCamera = GpuCamera;
 
+/// Most ranges of moving triangles copied one by one into `gbuffer.previous_triangles`; a
+/// scene with more copies everything in one command.
+const MAX_RANGE_COPIES: usize = 256;
+
 /// Uniforms of `gbuffer/primary`, 160 bytes (`GBufferUniforms` in WGSL).
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
@@ -354,13 +358,25 @@ impl GBuffer {
             pass.dispatch_workgroups(width.div_ceil(TILE), height.div_ceil(TILE), 1);
         });
         if deforming {
-            encoder.copy_buffer_to_buffer(
-                &inputs.scene.triangles,
-                0,
-                &self.previous_triangles,
-                0,
-                needed,
-            );
+            // Holding the previous frame, the copy differs from this one only where triangles
+            // move or deform; otherwise it is made whole.
+            let ranges = inputs.scene.changing_ranges();
+            if has_previous_triangles && ranges.len() <= MAX_RANGE_COPIES {
+                for range in ranges {
+                    let offset = range.start as u64 * TRIANGLE_BYTES;
+                    let size = range.len() as u64 * TRIANGLE_BYTES;
+                    let (src, dst) = (&inputs.scene.triangles, &self.previous_triangles);
+                    encoder.copy_buffer_to_buffer(src, offset, dst, offset, size);
+                }
+            } else {
+                encoder.copy_buffer_to_buffer(
+                    &inputs.scene.triangles,
+                    0,
+                    &self.previous_triangles,
+                    0,
+                    needed,
+                );
+            }
             self.previous_triangles_of = Some((inputs.frame.time_s, triangle_count));
         }
     }

@@ -582,6 +582,12 @@ impl GpuScene {
         Ok(replaced)
     }
 
+    /// The frame triangles that [`GpuScene::update`] rewrites (those of moving and deforming
+    /// nodes), as sorted, disjoint ranges; the others hold the same data in every frame.
+    pub fn changing_ranges(&self) -> &[Range<usize>] {
+        &self.changing
+    }
+
     /// Bytes of every buffer and texture array, BVH included.
     pub fn bytes(&self) -> u64 {
         self.buffers().iter().map(|b| b.size()).sum::<u64>()

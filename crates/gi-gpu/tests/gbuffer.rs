@@ -595,18 +595,22 @@ fn skinned_triangles_move_with_their_vertices() {
     let scene = skinned_arm();
     let camera = CameraView::look_at(Vec3::new(0.5, 1.3, 5.0), Vec3::new(0.5, 1.3, 0.0), 0.9);
     let previous = scene.evaluate(0.4 * ARM_BENT_TIME_S, Some(camera));
-    let frame = scene.evaluate(0.7 * ARM_BENT_TIME_S, Some(camera));
+    let middle = scene.evaluate(0.7 * ARM_BENT_TIME_S, Some(camera));
+    // The third frame reads the copy that followed the second, which rewrote only the arm.
+    let frame = scene.evaluate(0.95 * ARM_BENT_TIME_S, Some(camera));
     let mut gpu_scene = GpuScene::upload(&ctx, &scene, &previous).expect("scene uploads");
     assert!(gpu_scene.has_deforming);
     let mut gbuffer =
         GBuffer::new(&ctx, &ShaderLibrary::new(), WIDTH, HEIGHT).expect("gbuffer/primary compiles");
     gbuffer.prepare_layers(&ctx, &gpu_scene);
     let mut timer = GpuTimer::new(&ctx, "gbuffer", 4);
-    for (this, before) in [(&previous, &previous), (&frame, &previous)] {
-        if std::ptr::eq(this, &frame) {
-            gpu_scene
-                .update(&ctx, &scene, &frame)
-                .expect("scene updates");
+    for (this, before) in [
+        (&previous, &previous),
+        (&middle, &previous),
+        (&frame, &middle),
+    ] {
+        if !std::ptr::eq(this, before) {
+            gpu_scene.update(&ctx, &scene, this).expect("scene updates");
         }
         let mut encoder = ctx.create_encoder("gbuffer");
         let inputs = GBufferInputs {
@@ -629,7 +633,7 @@ fn skinned_triangles_move_with_their_vertices() {
             }
             let (now, then) = (
                 &frame.triangles[triangle as usize],
-                &previous.triangles[triangle as usize],
+                &middle.triangles[triangle as usize],
             );
             let dir = pixel_ray(&camera, x, y);
             let b = barycentrics(
