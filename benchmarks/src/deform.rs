@@ -176,10 +176,7 @@ impl DeformReport {
             self.frames,
             self.rays,
             self.adapter,
-            match self.timer_mode {
-                TimerMode::Gpu => "GPU timestamps",
-                TimerMode::Cpu => "CPU wall-clock per pass",
-            },
+            self.timer_mode.describe(),
             self.skinning_ms,
             self.scene_update_ms,
         );

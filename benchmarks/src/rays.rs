@@ -338,10 +338,7 @@ impl RaysReport {
             self.update_ms,
             self.cpu_bvh_build_ms,
             self.adapter,
-            match self.timer_mode {
-                TimerMode::Gpu => "GPU timestamps",
-                TimerMode::Cpu => "CPU wall-clock per pass",
-            },
+            self.timer_mode.describe(),
             self.settle_s,
             self.cpu_threads,
             self.repeats

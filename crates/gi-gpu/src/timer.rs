@@ -33,6 +33,16 @@ pub enum TimerMode {
     Cpu,
 }
 
+impl TimerMode {
+    /// How the passes were timed, for the heading of a benchmark table.
+    pub fn describe(self) -> &'static str {
+        match self {
+            TimerMode::Gpu => "GPU timestamps",
+            TimerMode::Cpu => "CPU wall-clock per pass",
+        }
+    }
+}
+
 /// Frames [`GpuTimer::finish_async`] lets the GPU hold, submitted and not yet reported:
 /// while the GPU runs one frame the CPU records the next, and no further (the CPU never runs
 /// more than a frame ahead, so the frame it shows is never older than that).

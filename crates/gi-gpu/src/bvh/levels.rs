@@ -512,14 +512,10 @@ impl BottomLevels {
             .collect();
         while let Some((index, depth)) = pending.pop() {
             by_depth.push((depth, index));
+            // A node's internal children are consecutive from `child_base_idx`.
             let node = &self.nodes[index as usize];
-            let mut rank = 0;
-            for slot in 0..8 {
-                if node.imask & (1 << slot) != 0 {
-                    pending.push((node.child_base_idx + rank, depth + 1));
-                    rank += 1;
-                }
-            }
+            let internal = (node.imask as u32).count_ones();
+            pending.extend((0..internal).map(|k| (node.child_base_idx + k, depth + 1)));
         }
         by_depth.sort_unstable_by_key(|&(depth, index)| (std::cmp::Reverse(depth), index));
         let mut plan = RefitPlan::default();
