@@ -2,10 +2,13 @@
 //! rebuilt, on `skinned_tube(rings, sides)` (a skinned arm of 2 x rings x sides triangles
 //! whose elbow bends through 90 degrees and back every 2 s).
 //!
-//! The same `frames` frames of the animation are skinned on the CPU once (`Scene::evaluate`,
-//! reported apart) and followed by a `GpuScene`, as a tier follows them (`GpuScene::update`:
-//! the BVH with the default rule, the deforming triangles' shading data; its CPU time is
-//! reported apart too). Then for each way of following them in the BVH alone (refit: the
+//! The same `frames` frames of the animation are evaluated on the CPU once, complete
+//! (`Scene::evaluate`) and as the GPU tiers evaluate them (`Scene::evaluate_with` leaving out
+//! the normals and tangents of the meshes skinned on the GPU), both reported apart, and
+//! followed by a `GpuScene`, as a tier follows them (`GpuScene::update` with the tiers'
+//! frames: the BVH with the default rule, the deforming triangles' shading data written by
+//! the GPU skinning pass `skin`; its CPU time and the GPU time of `skin` are reported apart
+//! too). Then for each way of following them in the BVH alone (refit: the
 //! level built at rest, then refit on the GPU every frame; default: refit until the level's
 //! upper nodes grow past `DEFORMING_REBUILD_GROWTH`, then built again; rebuild: built again
 //! on the CPU every frame, the behaviour before refits), [`GpuBvh::update_timed`] follows
@@ -49,9 +52,14 @@ pub struct DeformReport {
     pub timer_mode: TimerMode,
     /// Median CPU milliseconds of `Scene::evaluate` per frame (skinning), the same for both.
     pub skinning_ms: f64,
+    /// Median CPU milliseconds of the GPU tiers' evaluation (`Scene::evaluate_with`, normals
+    /// and tangents of the GPU-skinned meshes left out).
+    pub positions_only_ms: f64,
     /// Median CPU milliseconds of `GpuScene::update` per frame (the BVH with the default rule,
     /// the shading data of the deforming triangles, lights and emitters).
     pub scene_update_ms: f64,
+    /// Median GPU milliseconds of its pass `skin` (0 when no mesh is skinned on the GPU).
+    pub skin_gpu_ms: f64,
     pub modes: Vec<ModeResult>,
 }
 
@@ -75,13 +83,20 @@ pub fn run(
     let scene = gi_scene::generate::skinned_tube(rings, sides);
     let ctx = GpuContext::new()?;
     let tracer = BvhTracer::new(&ctx, &ShaderLibrary::new())?;
-    let rest = scene.evaluate(0.0, None);
+    let evaluation = gi_scene::Evaluation {
+        positions_only: gi_gpu::gpu_skinned_nodes(&scene),
+    };
+    let rest = scene.evaluate_with(0.0, None, &evaluation);
     let mut skinning = Vec::with_capacity(frames as usize);
+    let mut positions_only = Vec::with_capacity(frames as usize);
     let evaluated: Vec<_> = (1..=frames)
         .map(|f| {
             let start = Instant::now();
-            let frame = scene.evaluate(scene.frame_time(f), None);
+            drop(scene.evaluate(scene.frame_time(f), None));
             skinning.push(start.elapsed().as_secs_f64() * 1e3);
+            let start = Instant::now();
+            let frame = scene.evaluate_with(scene.frame_time(f), None, &evaluation);
+            positions_only.push(start.elapsed().as_secs_f64() * 1e3);
             frame
         })
         .collect();
@@ -108,10 +123,14 @@ pub fn run(
         .collect();
     let mut gpu_scene = GpuScene::upload(&ctx, &scene, &rest)?;
     let mut scene_update = Vec::with_capacity(evaluated.len());
+    let mut skin_gpu = Vec::with_capacity(evaluated.len());
+    let mut timer = GpuTimer::new(&ctx, "deform.scene_timer", 2);
     for frame in &evaluated {
         let start = Instant::now();
-        gpu_scene.update(&ctx, &scene, frame)?;
+        gpu_scene.update_timed(&ctx, &scene, frame, &mut timer)?;
         scene_update.push(start.elapsed().as_secs_f64() * 1e3);
+        let timings = timer.finish(&ctx, ctx.create_encoder("deform.scene_frame"));
+        skin_gpu.push(timings.get("skin").unwrap_or(0.0));
     }
     gpu_scene.release(&ctx);
     let mut timer_mode = TimerMode::Gpu;
@@ -159,7 +178,9 @@ pub fn run(
         adapter: ctx.adapter_info.name.clone(),
         timer_mode,
         skinning_ms: median(&mut skinning),
+        positions_only_ms: median(&mut positions_only),
         scene_update_ms: median(&mut scene_update),
+        skin_gpu_ms: median(&mut skin_gpu),
         modes,
     })
 }
@@ -168,8 +189,9 @@ impl DeformReport {
     pub fn table(&self) -> String {
         let mut out = format!(
             "skinned tube: {} deforming triangles, {} frames, {} rays aimed at it; {} ({}); \
-             CPU skinning (Scene::evaluate) {:.3} ms per frame; GpuScene::update {:.3} ms per \
-             frame\n\n\
+             CPU skinning (Scene::evaluate) {:.3} ms per frame, positions only \
+             (Scene::evaluate_with, as the GPU tiers) {:.3} ms; GpuScene::update {:.3} ms of CPU \
+             per frame, its pass skin {:.4} ms of GPU\n\n\
              | mode | update CPU ms | bvh/refit GPU ms | refits / rebuilds | growth | trace ms | Mrays/s |\n\
              |---|---:|---:|---:|---:|---:|---:|\n",
             self.triangles,
@@ -178,7 +200,9 @@ impl DeformReport {
             self.adapter,
             self.timer_mode.describe(),
             self.skinning_ms,
+            self.positions_only_ms,
             self.scene_update_ms,
+            self.skin_gpu_ms,
         );
         for m in &self.modes {
             out.push_str(&format!(
@@ -217,6 +241,8 @@ impl DeformReport {
             "rays": self.rays,
             "adapter": self.adapter,
             "skinning_ms": self.skinning_ms,
+            "positions_only_ms": self.positions_only_ms,
+            "skin_gpu_ms": self.skin_gpu_ms,
             "scene_update_ms": self.scene_update_ms,
             "modes": modes,
         })

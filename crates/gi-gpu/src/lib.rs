@@ -52,6 +52,7 @@ mod layout;
 mod memory;
 mod scene;
 mod shaders;
+mod skin;
 pub mod textures;
 mod timer;
 
@@ -67,6 +68,7 @@ pub use scene::{
     GpuMaterial, GpuScene, GpuTriangleExtras, GpuTriangleShading, NO_TEXTURE, SceneUploadError,
 };
 pub use shaders::{SHADER_CAPABILITIES, SHADER_DIR_ENV, ShaderDefValue, ShaderLibrary};
+pub use skin::gpu_skinned_nodes;
 pub use textures::{
     GpuTextureRef, SceneTextures, TEXTURE_BIND_GROUP, TextureError, TextureOptions,
 };

@@ -12,9 +12,10 @@ use bytemuck::{Pod, Zeroable};
 use gi_scene::{AlphaMode, EmitterDistribution, LightKind, Scene, SceneFrame};
 use rayon::prelude::*;
 
-use crate::GpuContext;
 use crate::bvh::{BvhError, GpuBvh};
+use crate::skin::GpuSkinning;
 use crate::textures::{SceneTextures, TextureError, TextureOptions};
+use crate::{GpuContext, GpuTimer};
 
 /// Texture and emitter index meaning "none" in the GPU tables.
 pub const NO_TEXTURE: u32 = u32::MAX;
@@ -203,6 +204,16 @@ pub enum SceneUploadError {
         bytes: u64,
         limit: u64,
     },
+    /// The frame left out the normals and tangents of a node that is not skinned on the GPU
+    /// (`gi_scene::Evaluation::positions_only` beyond [`crate::gpu_skinned_nodes`]).
+    #[error(
+        "the frame has no normals for node {node}, which is not skinned on the GPU: evaluate \
+         it with `Scene::evaluate`, or leave out only `gpu_skinned_nodes`"
+    )]
+    PositionsOnly { node: usize },
+    /// A shader of the upload's passes (the GPU skinning) failed to compile.
+    #[error("a scene shader failed to compile: {message}")]
+    Shader { message: String },
 }
 
 /// One scene frame on the GPU. Buffers are labeled `scene.*` and counted by the context until
@@ -240,6 +251,10 @@ pub struct GpuScene {
     /// The frame triangles whose shading data can change between frames (those of moving and
     /// deforming nodes), as sorted, disjoint ranges; [`GpuScene::update`] rewrites only these.
     changing: Vec<Range<usize>>,
+    /// The part of `changing` the CPU writes: all of it but the triangles skinned on the GPU.
+    cpu_changing: Vec<Range<usize>>,
+    /// The skinning of skinned meshes whose joints move, on the GPU (`None`: no such mesh).
+    skinning: Option<GpuSkinning>,
     /// Whether a changing triangle emits light: only then can the emitter table change.
     changing_emitters: bool,
     /// Whether a material is alpha `BLEND` (the real-time tiers then composite a blended
@@ -317,6 +332,27 @@ fn changing_ranges(scene: &Scene, frame: &SceneFrame) -> Vec<Range<usize>> {
         }
     }
     ranges
+}
+
+/// The parts of the sorted, disjoint `ranges` outside the sorted, disjoint `removed`.
+fn subtract_ranges(ranges: &[Range<usize>], removed: &[Range<usize>]) -> Vec<Range<usize>> {
+    let mut out = Vec::new();
+    for range in ranges {
+        let mut start = range.start;
+        for cut in removed
+            .iter()
+            .filter(|c| c.end > range.start && c.start < range.end)
+        {
+            if cut.start > start {
+                out.push(start..cut.start);
+            }
+            start = start.max(cut.end);
+        }
+        if start < range.end {
+            out.push(start..range.end);
+        }
+    }
+    out
 }
 
 /// Whether a triangle of `ranges` of `frame` (an evaluation of `scene`) has an emissive
@@ -418,6 +454,13 @@ impl GpuScene {
         frame: &SceneFrame,
         texture_options: &TextureOptions,
     ) -> Result<Self, SceneUploadError> {
+        // A node whose shading the frame left out must be one this scene skins on the GPU.
+        let skinned = crate::gpu_skinned_nodes(scene);
+        if let Some(node) = (frame.positions_only.iter().enumerate())
+            .position(|(node, &only)| only && !skinned.get(node).copied().unwrap_or(false))
+        {
+            return Err(SceneUploadError::PositionsOnly { node });
+        }
         // Every buffer is checked against the device's limits before anything is created.
         let triangle_count = frame.triangles.len() as u64;
         let limit = ctx
@@ -471,15 +514,34 @@ impl GpuScene {
             ctx.create_buffer_init(label, bytes, usage)
         };
         let changing = changing_ranges(scene, frame);
+        let triangles = upload("scene.triangles", bytemuck::cast_slice(&triangles), 112);
+        let triangle_extras = upload("scene.triangle_extras", bytemuck::cast_slice(&extras), 80);
+        let skinning = GpuSkinning::new(
+            ctx,
+            scene,
+            frame,
+            &triangles,
+            &triangle_extras,
+            !extras.is_empty(),
+        )?;
+        let cpu_changing = match &skinning {
+            Some(skinning) => {
+                // The frame's normals and tangents of these nodes may have been left out
+                // (`Evaluation::positions_only`): the GPU writes their shading now.
+                skinning.run(ctx, scene, frame, None);
+                subtract_ranges(&changing, skinning.ranges())
+            }
+            None => changing.clone(),
+        };
         Ok(Self {
-            triangles: upload("scene.triangles", bytemuck::cast_slice(&triangles), 112),
+            triangles,
             materials: upload("scene.materials", bytemuck::cast_slice(&materials), 112),
             texture_refs: upload(
                 "scene.texture_refs",
                 bytemuck::cast_slice(&textures.refs),
                 48,
             ),
-            triangle_extras: upload("scene.triangle_extras", bytemuck::cast_slice(&extras), 80),
+            triangle_extras,
             emitters: upload("scene.emitters", bytemuck::cast_slice(&table.entries), 8),
             selection: upload("scene.selection", bytemuck::cast_slice(&table.selection), 4),
             lights: upload("scene.lights", bytemuck::cast_slice(&lights), 64),
@@ -495,6 +557,8 @@ impl GpuScene {
             has_deforming: scene.deforming_nodes().contains(&true),
             changing_emitters: emits(scene, frame, &changing),
             changing,
+            cpu_changing,
+            skinning,
             textures,
             bvh,
         })
@@ -503,10 +567,12 @@ impl GpuScene {
     /// Moves the scene to `frame`, a later evaluation of the same scene: the BVH's top level
     /// and instance transforms ([`GpuBvh::update`], bottom levels untouched), the lights and
     /// the emitter table. The per-triangle shading buffers hold world-space vertices, normals
-    /// and tangents, so the triangles of moving and deforming nodes are written again (112
-    /// bytes per triangle, 80 more with tangents or a second texture coordinate set); static
-    /// triangles are the same in every evaluation and stay as uploaded (a frame of a scene
-    /// with more triangles is uploaded whole). The emitter table is built again only when a
+    /// and tangents, so the triangles of moving and deforming nodes are written again: those
+    /// of moving skinned meshes by the GPU skinning pass (`skin`, [`crate::gpu_skinned_nodes`];
+    /// 64 bytes per joint go up), the others from `frame` (112 bytes per triangle, 80 more with
+    /// tangents or a second texture coordinate set). Static triangles are the same in every
+    /// evaluation and stay as uploaded (a frame of a scene with more triangles is uploaded
+    /// whole, from `frame`). The emitter table is built again only when a
     /// moving or deforming triangle emits light. A camera move alone needs no update at all.
     ///
     /// Returns true when a buffer had to be replaced (an emitter table that grew), so bind
@@ -517,7 +583,33 @@ impl GpuScene {
         scene: &Scene,
         frame: &SceneFrame,
     ) -> Result<bool, BvhError> {
-        self.bvh.update(ctx, frame)?;
+        self.update_with_timer(ctx, scene, frame, None)
+    }
+
+    /// [`GpuScene::update`] with its GPU passes timed in `timer`'s current frame: `skin` and
+    /// the BVH's `bvh/refit` (submitted through [`GpuTimer::submit`]; the caller's
+    /// [`GpuTimer::finish`] reports them).
+    pub fn update_timed(
+        &mut self,
+        ctx: &GpuContext,
+        scene: &Scene,
+        frame: &SceneFrame,
+        timer: &mut GpuTimer,
+    ) -> Result<bool, BvhError> {
+        self.update_with_timer(ctx, scene, frame, Some(timer))
+    }
+
+    fn update_with_timer(
+        &mut self,
+        ctx: &GpuContext,
+        scene: &Scene,
+        frame: &SceneFrame,
+        mut timer: Option<&mut GpuTimer>,
+    ) -> Result<bool, BvhError> {
+        match timer.as_deref_mut() {
+            Some(timer) => self.bvh.update_timed(ctx, frame, timer)?,
+            None => self.bvh.update(ctx, frame)?,
+        }
         let mut replaced = false;
         let shading = size_of::<GpuTriangleShading>() as u64;
         let extra = size_of::<GpuTriangleExtras>() as u64;
@@ -527,7 +619,7 @@ impl GpuScene {
         // Another scene's frame (more triangles than the buffers hold) is uploaded whole.
         let whole = 0..frame.triangles.len();
         let ranges = if fits {
-            &self.changing[..]
+            &self.cpu_changing[..]
         } else {
             std::slice::from_ref(&whole)
         };
@@ -553,6 +645,17 @@ impl GpuScene {
                     bytemuck::cast_slice(&extras),
                 );
             }
+        }
+        match &self.skinning {
+            Some(skinning) if fits => skinning.run(ctx, scene, frame, timer),
+            // Another scene's frame was uploaded whole: the skinning is not its.
+            Some(_) => {
+                if let Some(skinning) = self.skinning.take() {
+                    skinning.release(ctx);
+                }
+                self.cpu_changing = self.changing.clone();
+            }
+            None => {}
         }
         let mut write = |buffer: &mut wgpu::Buffer, label: &str, bytes: &[u8]| {
             replaced |= write_at(ctx, buffer, label, 0, bytes);
@@ -588,11 +691,19 @@ impl GpuScene {
         &self.changing
     }
 
+    /// Vertices and triangles skinned on the GPU at each update (skinned meshes whose joints
+    /// move and whose morph weights are constant: [`crate::gpu_skinned_nodes`]); `None` when
+    /// there are none.
+    pub fn gpu_skinned(&self) -> Option<(u32, u32)> {
+        self.skinning.as_ref().map(GpuSkinning::counts)
+    }
+
     /// Bytes of every buffer and texture array, BVH included.
     pub fn bytes(&self) -> u64 {
         self.buffers().iter().map(|b| b.size()).sum::<u64>()
             + self.bvh.bytes()
             + self.textures.bytes
+            + self.skinning.as_ref().map_or(0, GpuSkinning::bytes)
     }
 
     /// The binding of `scene.triangles`, the first of `gi::scene`'s seven in group 0.
@@ -649,6 +760,9 @@ impl GpuScene {
         }
         self.textures.release(ctx);
         self.bvh.release(ctx);
+        if let Some(skinning) = &self.skinning {
+            skinning.release(ctx);
+        }
     }
 }
 

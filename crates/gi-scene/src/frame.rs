@@ -155,6 +155,21 @@ pub struct SceneFrame {
     /// without looking at them while the revision stays the same, so code that edits a frame's
     /// geometry in place calls [`SceneFrame::geometry_changed`].
     pub geometry_revision: u64,
+    /// Per node, whether [`Scene::evaluate_with`] left its triangles' normals and tangents out
+    /// (zero in `attributes`; positions, texture coordinates, material and node are there).
+    /// Empty when the frame is complete, as [`Scene::evaluate`] makes it.
+    pub positions_only: Vec<bool>,
+}
+
+/// What [`Scene::evaluate_with`] evaluates.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct Evaluation {
+    /// Per node (missing entries false): evaluate only where its triangles are, leaving their
+    /// normals and tangents zero, for a renderer that places their shading itself (the GPU
+    /// tiers skin moving skinned meshes on the GPU: `gi_gpu::gpu_skinned_nodes`). A skinned
+    /// node's vertices are still blended, so its positions and winding are exact; the normal
+    /// and tangent transforms and their normalization, about half the work, are skipped.
+    pub positions_only: Vec<bool>,
 }
 
 /// Source of [`SceneFrame::geometry_revision`]s, unique within the process.
@@ -176,6 +191,7 @@ impl SceneFrame {
             world_from_node: self.world_from_node.clone(),
             morph_weights: self.morph_weights.clone(),
             geometry_revision: 0,
+            positions_only: Vec::new(),
         }
     }
 
@@ -331,9 +347,28 @@ impl Scene {
     /// (linear blend skinning; see the `skin` module for normals, tangents and fallbacks), all
     /// on the CPU.
     pub fn evaluate(&self, time_s: f32, camera: Option<CameraView>) -> SceneFrame {
+        self.evaluate_with(time_s, camera, &Evaluation::default())
+    }
+
+    /// [`Scene::evaluate`], with the parts `evaluation` leaves out left out (see
+    /// [`Evaluation`]; [`SceneFrame::positions_only`] records them).
+    pub fn evaluate_with(
+        &self,
+        time_s: f32,
+        camera: Option<CameraView>,
+        evaluation: &Evaluation,
+    ) -> SceneFrame {
         let world_from_node = self.world_transforms(time_s);
         let morph_weights = self.morph_weights(time_s);
-        let (triangles, attributes) = self.flatten(&world_from_node, &morph_weights);
+        let positions_only: Vec<bool> = if evaluation.positions_only.contains(&true) {
+            (0..self.nodes.len())
+                .map(|node| evaluation.positions_only.get(node) == Some(&true))
+                .collect()
+        } else {
+            Vec::new()
+        };
+        let (triangles, attributes) =
+            self.flatten(&world_from_node, &morph_weights, &positions_only);
         let lights = self
             .nodes
             .iter()
@@ -364,6 +399,7 @@ impl Scene {
             world_from_node,
             morph_weights,
             geometry_revision: next_geometry_revision(),
+            positions_only,
         }
     }
 }
@@ -487,6 +523,8 @@ struct PrimitiveJob<'a> {
     /// The node's skin's joint matrices, for a skinned node.
     joints: Option<&'a [Option<Mat4>]>,
     weights: &'a [f32],
+    /// Normals and tangents are left out ([`Evaluation::positions_only`]).
+    positions_only: bool,
 }
 
 impl Scene {
@@ -499,6 +537,7 @@ impl Scene {
         &self,
         world_from_node: &[Mat4],
         morph_weights: &[Vec<f32>],
+        positions_only: &[bool],
     ) -> (Vec<Triangle>, Vec<TriangleAttributes>) {
         // A skinned node is placed by its joints, its own transform ignored (glTF 2.0).
         let joint_matrices: Vec<Option<Vec<Option<Mat4>>>> = (0..self.nodes.len())
@@ -524,6 +563,7 @@ impl Scene {
                     flips: world.determinant() < 0.0,
                     joints: joint_matrices[node_index].as_deref(),
                     weights: &morph_weights[node_index],
+                    positions_only: positions_only.get(node_index) == Some(&true),
                 });
             }
         }
@@ -565,7 +605,13 @@ fn primitive_vertices(job: &PrimitiveJob) -> PrimitiveVertices {
     let morphed = morph(primitive, job.weights);
     match job.joints {
         Some(joint_matrices) if primitive.is_skinned() => {
-            let skinned = skin_primitive(primitive, &morphed, joint_matrices, job.world);
+            let skinned = skin_primitive(
+                primitive,
+                &morphed,
+                joint_matrices,
+                job.world,
+                job.positions_only,
+            );
             PrimitiveVertices {
                 positions: skinned.positions,
                 normals: skinned.normals,
@@ -577,8 +623,17 @@ fn primitive_vertices(job: &PrimitiveJob) -> PrimitiveVertices {
             let (world, normal_matrix) = (job.world, job.normal_matrix);
             // A mirroring transform also flips the bitangent's handedness.
             let handedness = if job.flips { -1.0 } else { 1.0 };
+            let positions = par_map(&morphed.positions, |p| world.transform_point3(*p));
+            if job.positions_only {
+                return PrimitiveVertices {
+                    positions,
+                    normals: Vec::new(),
+                    tangents: Vec::new(),
+                    mirrored: None,
+                };
+            }
             PrimitiveVertices {
-                positions: par_map(&morphed.positions, |p| world.transform_point3(*p)),
+                positions,
                 normals: par_map(&morphed.normals, |n| {
                     normal_matrix.transform_vector3(*n).normalize_or(Vec3::Y)
                 }),
@@ -617,7 +672,8 @@ fn triangle(
             v2: Vec3A::from(c),
         },
         TriangleAttributes {
-            normals: idx.map(|i| vertices.normals[i]),
+            // Left out ([`Evaluation::positions_only`]): zero.
+            normals: idx.map(|i| vertices.normals.get(i).copied().unwrap_or(Vec3::ZERO)),
             uvs: idx.map(uv),
             uvs1: idx.map(uv1),
             tangents: idx.map(tangent),

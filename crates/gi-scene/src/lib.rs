@@ -25,13 +25,14 @@ pub use bvh::{Hit, SceneBvh, WideBvh};
 pub use emitters::{EmitterDistribution, luminance};
 pub use error::SceneError;
 pub use export::write_gltf;
-pub use frame::{CameraView, SceneFrame, TriangleAttributes, WorldLight};
+pub use frame::{CameraView, Evaluation, SceneFrame, TriangleAttributes, WorldLight};
 pub use import::{ImportWarning, import_gltf, import_gltf_slice};
 pub use lighting::{
     CameraChoice, LIGHTING_SUN_NAME, Lighting, SkyPreset, SkySetting, Sun, lighting_path_for,
     no_emitter_warning,
 };
 pub use model::*;
+pub use morph::MorphedVertices;
 
 /// Re-exported so callers can name BVH primitives without depending on obvhs directly.
 pub use obvhs::triangle::Triangle;

@@ -20,8 +20,9 @@ use glam::{Vec3, Vec4};
 use crate::model::{Mesh, Primitive, Scene};
 
 /// A primitive's positions, normals and tangents in its mesh's local space, with its morph
-/// targets applied (borrowed from the primitive when no target has a weight).
-pub(crate) struct MorphedVertices<'a> {
+/// targets applied (borrowed from the primitive when no target has a weight):
+/// [`Primitive::morphed`].
+pub struct MorphedVertices<'a> {
     pub positions: Cow<'a, [Vec3]>,
     pub normals: Cow<'a, [Vec3]>,
     pub tangents: Cow<'a, [Vec4]>,
@@ -70,6 +71,15 @@ impl Scene {
         self.rest_morph_weights(node)
             .iter()
             .any(|&w| w != 0.0 && w.is_finite())
+    }
+}
+
+impl Primitive {
+    /// The primitive's vertices with its morph targets applied at `weights` (one per target,
+    /// missing ones zero; a node's are [`SceneFrame::morph_weights`](crate::SceneFrame)), in
+    /// its mesh's local space: what skinning or the node's transform then places.
+    pub fn morphed(&self, weights: &[f32]) -> MorphedVertices<'_> {
+        morph(self, weights)
     }
 }
 

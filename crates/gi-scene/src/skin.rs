@@ -204,12 +204,14 @@ pub(crate) fn skin_positions(
 
 /// Skins `vertices` (`primitive`'s, morphed by its targets) with `joint_matrices` (from
 /// [`Skin::joint_matrices`]) and `primitive`'s joints and weights; vertices without a usable
-/// weight are placed by `world_from_node`.
+/// weight are placed by `world_from_node`. With `positions_only`, normals and tangents are
+/// left empty.
 pub(crate) fn skin_primitive(
     primitive: &Primitive,
     vertices: &MorphedVertices,
     joint_matrices: &[Option<Mat4>],
     world_from_node: Mat4,
+    positions_only: bool,
 ) -> SkinnedVertices {
     let matrices: Vec<Mat4> = par_map_index(vertices.positions.len(), |i| {
         let joints = primitive.joints.get(i).copied().unwrap_or_default();
@@ -220,6 +222,14 @@ pub(crate) fn skin_primitive(
     let positions = par_map_index(matrices.len(), |i| {
         matrices[i].transform_point3(vertices.positions[i])
     });
+    if positions_only {
+        return SkinnedVertices {
+            positions,
+            normals: Vec::new(),
+            tangents: Vec::new(),
+            mirrored,
+        };
+    }
     let normals = par_map_index(vertices.normals.len().min(matrices.len()), |i| {
         (normal_matrix(&matrices[i]) * vertices.normals[i]).normalize_or(Vec3::Y)
     });

@@ -626,3 +626,55 @@ fn large_skinned_meshes_evaluate_the_same_on_any_number_of_threads() {
         }
     }
 }
+
+/// Evaluated with a skinned node's shading left out, a frame has the same triangles (winding
+/// included, with a mirroring joint), texture coordinates, materials and nodes as a complete
+/// evaluation, bit for bit, and zero normals and tangents on that node only; the other nodes
+/// are complete.
+#[test]
+fn positions_only_evaluation_keeps_geometry_and_leaves_out_shading() {
+    let mut scene = gi_scene::generate::skinned_tube(6, 5);
+    let arm = node(&scene, "arm");
+    let elbow = node(&scene, "elbow");
+    scene.nodes[elbow].scale = Vec3::new(-1.0, 1.0, 1.0);
+    let tube = &mut scene.meshes[scene.nodes[arm].mesh.unwrap()].primitives[0];
+    for i in 0..tube.positions.len() {
+        tube.tangents.push(Vec4::new(1.0, 0.0, 0.0, 1.0));
+        tube.uvs.push(glam::Vec2::splat(i as f32));
+    }
+    let mut only = vec![false; scene.nodes.len()];
+    only[arm] = true;
+    let evaluation = gi_scene::Evaluation {
+        positions_only: only.clone(),
+    };
+    for time in [0.0, 0.5, ARM_BENT_TIME_S] {
+        let full = scene.evaluate(time, None);
+        let partial = scene.evaluate_with(time, None, &evaluation);
+        assert!(full.positions_only.is_empty());
+        assert_eq!(partial.positions_only, only);
+        assert_eq!(full.triangles.len(), partial.triangles.len());
+        let mut mirrored = 0;
+        for (t, (a, b)) in full.attributes.iter().zip(&partial.attributes).enumerate() {
+            let (x, y) = (&full.triangles[t], &partial.triangles[t]);
+            assert_eq!(
+                (x.v0, x.v1, x.v2),
+                (y.v0, y.v1, y.v2),
+                "{time} s, triangle {t}"
+            );
+            assert_eq!(
+                (a.uvs, a.uvs1, a.material, a.node),
+                (b.uvs, b.uvs1, b.material, b.node),
+                "{time} s, triangle {t}"
+            );
+            if a.node as usize == arm {
+                assert_eq!(b.normals, [Vec3::ZERO; 3], "{time} s, triangle {t}");
+                assert_eq!(b.tangents, [Vec4::ZERO; 3], "{time} s, triangle {t}");
+                // A mirrored vertex turns its tangent's sign: the complete frame shows it.
+                mirrored += usize::from(a.tangents[0].w < 0.0);
+            } else {
+                assert_eq!((a.normals, a.tangents), (b.normals, b.tangents));
+            }
+        }
+        assert!(mirrored > 0, "{time} s: some triangles mirror");
+    }
+}

@@ -3,7 +3,7 @@
 
 use std::any::Any;
 
-use gi_scene::{CameraView, Scene, SceneFrame};
+use gi_scene::{CameraView, Evaluation, Scene, SceneFrame};
 
 use gi_gpu::{GpuContext, wgpu};
 
@@ -61,6 +61,22 @@ pub struct Renderer {
     /// instead of transforming every triangle again (5 ms per frame for open-world's 43k on
     /// the development machine). [`Renderer::scene_mut`] drops it.
     still_frame: Option<SceneFrame>,
+    /// What each frame's evaluation leaves out: the normals and tangents of the meshes a GPU
+    /// tier skins itself ([`Tier::skins_on_gpu`]). Fixed when the renderer is made, as the
+    /// tier's upload of the scene fixes which meshes it skins; [`Renderer::scene_mut`] keeps
+    /// it.
+    evaluation: Evaluation,
+}
+
+/// The evaluation `tier` needs of `scene`'s frames.
+fn evaluation_for(scene: &Scene, tier: &dyn Tier) -> Evaluation {
+    if tier.skins_on_gpu() {
+        Evaluation {
+            positions_only: gi_gpu::gpu_skinned_nodes(scene),
+        }
+    } else {
+        Evaluation::default()
+    }
 }
 
 impl Renderer {
@@ -178,6 +194,7 @@ impl Renderer {
     /// [`MobileConfig`] than the default `new` uses.
     pub fn with_tier(scene: Scene, tier: Box<dyn Tier>, camera: CameraMode) -> Self {
         Self {
+            evaluation: evaluation_for(&scene, tier.as_ref()),
             scene,
             tier,
             camera,
@@ -358,7 +375,7 @@ impl Renderer {
                 frame.camera = camera;
                 frame
             }
-            _ => self.scene.evaluate(time_s, Some(camera)),
+            _ => (self.scene).evaluate_with(time_s, Some(camera), &self.evaluation),
         }
     }
 

@@ -228,6 +228,14 @@ pub trait Tier: Send + Any {
     /// without history render only the frames that are asked for.
     fn is_temporal(&self) -> bool;
 
+    /// True when the tier places the shading of moving skinned meshes itself (the GPU tiers
+    /// skin them on the GPU: `gi_gpu::gpu_skinned_nodes`), so [`crate::Renderer`] evaluates
+    /// their frames without those meshes' normals and tangents
+    /// ([`gi_scene::Evaluation::positions_only`]). False unless the tier says otherwise.
+    fn skins_on_gpu(&self) -> bool {
+        false
+    }
+
     /// Renders one frame.
     ///
     /// A tier keeps what it uploaded for the scene of its first frame (geometry,

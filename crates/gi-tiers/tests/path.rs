@@ -65,6 +65,15 @@ impl Case {
     fn frame(&self) -> SceneFrame {
         self.scene.evaluate(self.time_s, self.camera)
     }
+
+    /// The frame as `Renderer` evaluates it for a GPU tier: without the normals and tangents
+    /// of the meshes the GPU skins (their shading comes from the GPU skinning pass).
+    fn gpu_frame(&self) -> SceneFrame {
+        let evaluation = gi_scene::Evaluation {
+            positions_only: gi_gpu::gpu_skinned_nodes(&self.scene),
+        };
+        (self.scene).evaluate_with(self.time_s, self.camera, &evaluation)
+    }
 }
 
 /// Renders `frames` frames of `scene` on the GPU and returns the accumulation's moments and
@@ -77,7 +86,7 @@ fn gpu_render(
     frames: u32,
 ) -> (Moments, u64) {
     let mut tier = GpuPathTier::new(kind, case.settings(spp), ctx).unwrap();
-    let (scene, frame) = (&case.scene, case.frame());
+    let (scene, frame) = (&case.scene, case.gpu_frame());
     let mut rays = 0;
     for index in 0..frames {
         let output = tier

@@ -344,8 +344,10 @@ fn shader_needs(files: &[&str]) -> ShaderNeeds {
 
 #[test]
 fn tier_requirements_match_the_shaders() {
-    let path = ["path/trace.wgsl", "path/resolve.wgsl"];
+    // Every GPU tier skins moving skinned meshes (`gi_gpu::GpuScene::update`).
+    let path = ["path/trace.wgsl", "path/resolve.wgsl", "skin/skin.wgsl"];
     let frame = [
+        "skin/skin.wgsl",
         "gbuffer/primary.wgsl",
         "path/trace.wgsl",
         "path/resolve.wgsl",

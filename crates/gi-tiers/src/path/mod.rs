@@ -300,6 +300,10 @@ impl Tier for GpuPathTier {
         true
     }
 
+    fn skins_on_gpu(&self) -> bool {
+        true
+    }
+
     fn render(&mut self, input: &FrameInput) -> Result<FrameOutput, TierError> {
         self.prepare(input)?;
         let (timings, trace) = self.add_samples(self.settings.spp)?;

@@ -713,6 +713,10 @@ impl Tier for PcTier {
         true
     }
 
+    fn skins_on_gpu(&self) -> bool {
+        true
+    }
+
     fn render(&mut self, input: &FrameInput) -> Result<FrameOutput, TierError> {
         let passes = self.advance(input)?;
         let prepared = self.prepared.as_ref().expect("prepared by advance");
