@@ -8,7 +8,10 @@
 //! followed by a `GpuScene`, as a tier follows them (`GpuScene::update` with the tiers'
 //! frames: the BVH with the default rule, the deforming triangles' shading data written by
 //! the GPU skinning pass `skin`; its CPU time and the GPU time of `skin` are reported apart
-//! too). Then for each way of following them in the BVH alone (refit: the
+//! too). The renderer's own evaluation, each frame moving the last one in place
+//! (`Scene::evaluate_into`, which evaluates only the animated nodes' triangles again), is
+//! reported as well; `--level-triangles` adds a static grid of that many triangles below the
+//! tube, a level around an animated character. Then for each way of following them in the BVH alone (refit: the
 //! level built at rest, then refit on the GPU every frame; default: refit until the level's
 //! upper nodes grow past `DEFORMING_REBUILD_GROWTH`, then built again; rebuild: built again
 //! on the CPU every frame, the behaviour before refits), [`GpuBvh::update_timed`] follows
@@ -55,6 +58,12 @@ pub struct DeformReport {
     /// Median CPU milliseconds of the GPU tiers' evaluation (`Scene::evaluate_with`, normals
     /// and tangents of the GPU-skinned meshes left out).
     pub positions_only_ms: f64,
+    /// Median CPU milliseconds of the renderer's evaluation of the same frames: the last frame
+    /// moved in place (`Scene::evaluate_into`, positions only as above).
+    pub in_place_ms: f64,
+    /// Triangles of the scene, and triangles `evaluate_into` evaluated at the last frame.
+    pub scene_triangles: usize,
+    pub evaluated_triangles: usize,
     /// Median CPU milliseconds of `GpuScene::update` per frame (the BVH with the default rule,
     /// the shading data of the deforming triangles, lights and emitters).
     pub scene_update_ms: f64,
@@ -68,37 +77,111 @@ fn median(values: &mut [f64]) -> f64 {
     values.get(values.len() / 2).copied().unwrap_or(0.0)
 }
 
+/// What `gi-bench deform` runs.
+pub struct DeformOptions {
+    pub rings: u32,
+    pub sides: u32,
+    pub frames: u32,
+    pub rays: usize,
+    pub repeats: usize,
+    pub settle_s: f64,
+    /// Static triangles in a grid below the tube (0: none).
+    pub level_triangles: u32,
+}
+
+/// Adds a static node to `scene`: a grid of at least `triangles` triangles 40 m wide, 0.5 m
+/// below the origin, in the scene's last material.
+fn add_level(scene: &mut gi_scene::Scene, triangles: u32) {
+    let cells = ((f64::from(triangles) / 2.0).sqrt().ceil() as u32).max(1);
+    let mut grid = gi_scene::Primitive {
+        material: scene.materials.len().saturating_sub(1),
+        ..gi_scene::Primitive::default()
+    };
+    for z in 0..=cells {
+        for x in 0..=cells {
+            let at = |i: u32| 40.0 * (i as f32 / cells as f32 - 0.5);
+            grid.positions.push(Vec3::new(at(x), -0.5, at(z)));
+            grid.normals.push(Vec3::Y);
+        }
+    }
+    let row = cells + 1;
+    for z in 0..cells {
+        for x in 0..cells {
+            let a = z * row + x;
+            grid.indices
+                .extend_from_slice(&[a, a + row, a + 1, a + 1, a + row, a + row + 1]);
+        }
+    }
+    scene.meshes.push(gi_scene::Mesh {
+        name: "level".into(),
+        primitives: vec![grid],
+        weights: Vec::new(),
+    });
+    scene.nodes.push(gi_scene::Node {
+        name: "level".into(),
+        mesh: Some(scene.meshes.len() - 1),
+        ..gi_scene::Node::default()
+    });
+}
+
 /// Runs both modes; see the module docs.
-pub fn run(
-    rings: u32,
-    sides: u32,
-    frames: u32,
-    rays: usize,
-    repeats: usize,
-    settle_s: f64,
-) -> anyhow::Result<DeformReport> {
+pub fn run(options: &DeformOptions) -> anyhow::Result<DeformReport> {
+    let &DeformOptions {
+        rings,
+        sides,
+        frames,
+        rays,
+        repeats,
+        settle_s,
+        level_triangles,
+    } = options;
     if frames == 0 || rays == 0 {
         bail!("--frames and --rays must be at least 1");
     }
-    let scene = gi_scene::generate::skinned_tube(rings, sides);
+    let mut scene = gi_scene::generate::skinned_tube(rings, sides);
+    if level_triangles > 0 {
+        add_level(&mut scene, level_triangles);
+    }
     let ctx = GpuContext::new()?;
     let tracer = BvhTracer::new(&ctx, &ShaderLibrary::new())?;
     let evaluation = gi_scene::Evaluation {
         positions_only: gi_gpu::gpu_skinned_nodes(&scene),
     };
     let rest = scene.evaluate_with(0.0, None, &evaluation);
-    let mut skinning = Vec::with_capacity(frames as usize);
-    let mut positions_only = Vec::with_capacity(frames as usize);
-    let evaluated: Vec<_> = (1..=frames)
-        .map(|f| {
+    // Each way of evaluating in its own pass over the frames, each frame dropped before the
+    // next as a renderer drops it, so that all pay the same allocations.
+    let times: Vec<f32> = (1..=frames).map(|f| scene.frame_time(f)).collect();
+    let timed = |evaluate: &dyn Fn(f32) -> gi_scene::SceneFrame| -> Vec<f64> {
+        (times.iter())
+            .map(|&time_s| {
+                let start = Instant::now();
+                drop(evaluate(time_s));
+                start.elapsed().as_secs_f64() * 1e3
+            })
+            .collect()
+    };
+    // The first pass over large frames pays for memory the later ones reuse (1.6x on a 2-core
+    // machine): an untimed pass first, then the two ways alternate over two rounds.
+    drop(timed(&|time_s| scene.evaluate(time_s, None)));
+    let (mut skinning, mut positions_only) = (Vec::new(), Vec::new());
+    for _ in 0..2 {
+        skinning.extend(timed(&|time_s| scene.evaluate(time_s, None)));
+        positions_only.extend(timed(&|time_s| {
+            scene.evaluate_with(time_s, None, &evaluation)
+        }));
+    }
+    // As the renderer evaluates an animated scene's frames: the last one moved in place.
+    let mut moved = rest.clone();
+    let mut evaluated_triangles = 0;
+    let mut in_place: Vec<f64> = (times.iter())
+        .map(|&time_s| {
             let start = Instant::now();
-            drop(scene.evaluate(scene.frame_time(f), None));
-            skinning.push(start.elapsed().as_secs_f64() * 1e3);
-            let start = Instant::now();
-            let frame = scene.evaluate_with(scene.frame_time(f), None, &evaluation);
-            positions_only.push(start.elapsed().as_secs_f64() * 1e3);
-            frame
+            evaluated_triangles = scene.evaluate_into(&mut moved, time_s, None, &evaluation);
+            start.elapsed().as_secs_f64() * 1e3
         })
+        .collect();
+    let evaluated: Vec<_> = (times.iter())
+        .map(|&time_s| scene.evaluate_with(time_s, None, &evaluation))
         .collect();
     let last = evaluated.last().expect("frames >= 1");
     let arm = scene.nodes.iter().position(|n| n.name == "arm");
@@ -169,16 +252,17 @@ pub fn run(
         bvh.release(&ctx);
     }
     Ok(DeformReport {
-        triangles: scene
-            .meshes
-            .last()
-            .map_or(0, |m| m.primitives[0].indices.len() / 3),
+        triangles: (arm.and_then(|a| scene.nodes[a].mesh))
+            .map_or(0, |m| scene.meshes[m].primitives[0].indices.len() / 3),
         frames,
         rays,
         adapter: ctx.adapter_info.name.clone(),
         timer_mode,
         skinning_ms: median(&mut skinning),
         positions_only_ms: median(&mut positions_only),
+        in_place_ms: median(&mut in_place),
+        scene_triangles: rest.triangles.len(),
+        evaluated_triangles,
         scene_update_ms: median(&mut scene_update),
         skin_gpu_ms: median(&mut skin_gpu),
         modes,
@@ -190,8 +274,9 @@ impl DeformReport {
         let mut out = format!(
             "skinned tube: {} deforming triangles, {} frames, {} rays aimed at it; {} ({}); \
              CPU skinning (Scene::evaluate) {:.3} ms per frame, positions only \
-             (Scene::evaluate_with, as the GPU tiers) {:.3} ms; GpuScene::update {:.3} ms of CPU \
-             per frame, its pass skin {:.4} ms of GPU\n\n\
+             (Scene::evaluate_with, as the GPU tiers) {:.3} ms, moved in place \
+             (Scene::evaluate_into, as the renderer) {:.3} ms for {} of {} triangles; \
+             GpuScene::update {:.3} ms of CPU per frame, its pass skin {:.4} ms of GPU\n\n\
              | mode | update CPU ms | bvh/refit GPU ms | refits / rebuilds | growth | trace ms | Mrays/s |\n\
              |---|---:|---:|---:|---:|---:|---:|\n",
             self.triangles,
@@ -201,6 +286,9 @@ impl DeformReport {
             self.timer_mode.describe(),
             self.skinning_ms,
             self.positions_only_ms,
+            self.in_place_ms,
+            self.evaluated_triangles,
+            self.scene_triangles,
             self.scene_update_ms,
             self.skin_gpu_ms,
         );
@@ -242,6 +330,9 @@ impl DeformReport {
             "adapter": self.adapter,
             "skinning_ms": self.skinning_ms,
             "positions_only_ms": self.positions_only_ms,
+            "in_place_ms": self.in_place_ms,
+            "scene_triangles": self.scene_triangles,
+            "evaluated_triangles": self.evaluated_triangles,
             "skin_gpu_ms": self.skin_gpu_ms,
             "scene_update_ms": self.scene_update_ms,
             "modes": modes,

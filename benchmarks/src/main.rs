@@ -117,6 +117,10 @@ enum Command {
         /// Seconds of tracing before each timed trace, while the GPU's clock climbs.
         #[arg(long, default_value_t = 1.0)]
         settle_s: f64,
+        /// Static triangles around the tube (a grid below it, as a level around an animated
+        /// character): what a frame's evaluation keeps rather than evaluates again.
+        #[arg(long, default_value_t = 0)]
+        level_triangles: u32,
         /// Also write the results as JSON to this file.
         #[arg(long)]
         json: Option<PathBuf>,
@@ -385,9 +389,18 @@ fn main() -> anyhow::Result<()> {
             rays,
             repeats,
             settle_s,
+            level_triangles,
             json,
         } => {
-            let report = deform::run(rings, sides, frames, rays, repeats.max(1), settle_s)?;
+            let report = deform::run(&deform::DeformOptions {
+                rings,
+                sides,
+                frames,
+                rays,
+                repeats: repeats.max(1),
+                settle_s,
+                level_triangles,
+            })?;
             out!("{}", report.table());
             write_json(json, &report.json())
         }

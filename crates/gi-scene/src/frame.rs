@@ -360,17 +360,43 @@ impl Scene {
     ) -> SceneFrame {
         let world_from_node = self.world_transforms(time_s);
         let morph_weights = self.morph_weights(time_s);
-        let positions_only: Vec<bool> = if evaluation.positions_only.contains(&true) {
+        let positions_only = self.positions_only(evaluation);
+        let (triangles, attributes) =
+            self.flatten(&world_from_node, &morph_weights, &positions_only);
+        let lights = self.world_lights(&world_from_node);
+        let camera = camera.unwrap_or_else(|| self.default_view_with(&world_from_node));
+        SceneFrame {
+            time_s,
+            triangles,
+            attributes,
+            lights,
+            camera,
+            sky: self.sky,
+            exposure: self.exposure,
+            world_from_node,
+            morph_weights,
+            geometry_revision: next_geometry_revision(),
+            positions_only,
+        }
+    }
+}
+
+impl Scene {
+    /// [`Evaluation::positions_only`] with one entry per node, or empty when it leaves
+    /// nothing out (the form [`SceneFrame::positions_only`] records).
+    fn positions_only(&self, evaluation: &Evaluation) -> Vec<bool> {
+        if evaluation.positions_only.contains(&true) {
             (0..self.nodes.len())
                 .map(|node| evaluation.positions_only.get(node) == Some(&true))
                 .collect()
         } else {
             Vec::new()
-        };
-        let (triangles, attributes) =
-            self.flatten(&world_from_node, &morph_weights, &positions_only);
-        let lights = self
-            .nodes
+        }
+    }
+
+    /// The punctual lights of the nodes placed by `world_from_node`.
+    fn world_lights(&self, world_from_node: &[Mat4]) -> Vec<WorldLight> {
+        self.nodes
             .iter()
             .enumerate()
             .filter_map(|(i, node)| {
@@ -386,21 +412,7 @@ impl Scene {
                     range: light.range,
                 })
             })
-            .collect();
-        let camera = camera.unwrap_or_else(|| self.default_view_with(&world_from_node));
-        SceneFrame {
-            time_s,
-            triangles,
-            attributes,
-            lights,
-            camera,
-            sky: self.sky,
-            exposure: self.exposure,
-            world_from_node,
-            morph_weights,
-            geometry_revision: next_geometry_revision(),
-            positions_only,
-        }
+            .collect()
     }
 }
 
@@ -528,25 +540,18 @@ struct PrimitiveJob<'a> {
 }
 
 impl Scene {
-    /// Every mesh primitive of every node in world space, in node then primitive order: the
-    /// primitives' vertices on all cores (a large one's in parallel too), then the triangles,
-    /// written in place on all cores (the first touch of a large frame's memory is a large
-    /// part of its cost). Each value is computed by the same operations whatever the split, so
-    /// the frame is the same bit for bit on any number of threads.
-    fn flatten(
-        &self,
+    /// Every mesh primitive of every node, in node then primitive order (the frame's triangle
+    /// order), with what its evaluation needs and where its triangles start.
+    fn primitive_jobs<'a>(
+        &'a self,
         world_from_node: &[Mat4],
-        morph_weights: &[Vec<f32>],
+        morph_weights: &'a [Vec<f32>],
+        joint_matrices: &'a [Option<Vec<Option<Mat4>>>],
         positions_only: &[bool],
-    ) -> (Vec<Triangle>, Vec<TriangleAttributes>) {
-        // A skinned node is placed by its joints, its own transform ignored (glTF 2.0).
-        let joint_matrices: Vec<Option<Vec<Option<Mat4>>>> = (0..self.nodes.len())
-            .map(|node| {
-                self.node_skin(node)
-                    .map(|skin| skin.joint_matrices(world_from_node))
-            })
-            .collect();
+    ) -> (Vec<PrimitiveJob<'a>>, Vec<usize>) {
         let mut jobs = Vec::new();
+        let mut starts = Vec::new();
+        let mut total = 0;
         for (node_index, node) in self.nodes.iter().enumerate() {
             let Some(mesh) = node.mesh.and_then(|m| self.meshes.get(m)) else {
                 continue;
@@ -565,17 +570,47 @@ impl Scene {
                     weights: &morph_weights[node_index],
                     positions_only: positions_only.get(node_index) == Some(&true),
                 });
+                starts.push(total);
+                total += primitive.indices.len() / 3;
             }
         }
+        starts.push(total);
+        (jobs, starts)
+    }
+
+    /// The joint matrices of every skinned node ([`Scene::node_skin`]) at `world_from_node`.
+    fn all_joint_matrices(&self, world_from_node: &[Mat4]) -> Vec<Option<Vec<Option<Mat4>>>> {
+        // A skinned node is placed by its joints, its own transform ignored (glTF 2.0).
+        (0..self.nodes.len())
+            .map(|node| {
+                self.node_skin(node)
+                    .map(|skin| skin.joint_matrices(world_from_node))
+            })
+            .collect()
+    }
+
+    /// Every mesh primitive of every node in world space, in node then primitive order: the
+    /// primitives' vertices on all cores (a large one's in parallel too), then the triangles,
+    /// written in place on all cores (the first touch of a large frame's memory is a large
+    /// part of its cost). Each value is computed by the same operations whatever the split, so
+    /// the frame is the same bit for bit on any number of threads.
+    fn flatten(
+        &self,
+        world_from_node: &[Mat4],
+        morph_weights: &[Vec<f32>],
+        positions_only: &[bool],
+    ) -> (Vec<Triangle>, Vec<TriangleAttributes>) {
+        let joint_matrices = self.all_joint_matrices(world_from_node);
+        let (jobs, starts) = self.primitive_jobs(
+            world_from_node,
+            morph_weights,
+            &joint_matrices,
+            positions_only,
+        );
         // Each primitive's vertices (morphed, skinned or placed), on all cores.
         let vertices: Vec<PrimitiveVertices> = jobs.par_iter().map(primitive_vertices).collect();
         // Then every triangle, written in place in frame order: job `j`'s start at `starts[j]`.
-        let mut starts = Vec::with_capacity(jobs.len());
-        let mut total = 0;
-        for job in &jobs {
-            starts.push(total);
-            total += job.primitive.indices.len() / 3;
-        }
+        let total = starts.last().copied().unwrap_or(0);
         let mut triangles = Vec::with_capacity(total);
         let mut attributes = Vec::with_capacity(total);
         (0..total)
@@ -587,6 +622,87 @@ impl Scene {
             })
             .unzip_into_vecs(&mut triangles, &mut attributes);
         (triangles, attributes)
+    }
+
+    /// Moves `frame`, an earlier evaluation of this scene with the same `evaluation`, to
+    /// `time_s` through `camera` (`None`: the default camera): what
+    /// [`Scene::evaluate_with`] returns, bit for bit, at the cost of the nodes whose geometry
+    /// changed ([`Scene::node_geometry_changed`]: moved, their joints moved, their morph
+    /// weights changed). Their triangles are evaluated again in place; the others are kept, so
+    /// a frame of a large scene with a few animated objects costs those objects, not the
+    /// scene. [`SceneFrame::geometry_revision`] changes only when some triangle did. A frame
+    /// of another scene (another triangle or node count) or of another evaluation is
+    /// evaluated whole. Edits to the scene's meshes between the two evaluations are not seen:
+    /// evaluate afresh after them. Returns the number of triangles evaluated.
+    pub fn evaluate_into(
+        &self,
+        frame: &mut SceneFrame,
+        time_s: f32,
+        camera: Option<CameraView>,
+        evaluation: &Evaluation,
+    ) -> usize {
+        let positions_only = self.positions_only(evaluation);
+        let world_from_node = self.world_transforms(time_s);
+        let morph_weights = self.morph_weights(time_s);
+        let joint_matrices = self.all_joint_matrices(&world_from_node);
+        let (jobs, starts) = self.primitive_jobs(
+            &world_from_node,
+            &morph_weights,
+            &joint_matrices,
+            &positions_only,
+        );
+        let total = starts.last().copied().unwrap_or(0);
+        let same_scene = frame.triangles.len() == total
+            && frame.attributes.len() == total
+            && frame.world_from_node.len() == self.nodes.len()
+            && frame.morph_weights.len() == self.nodes.len()
+            && frame.positions_only == positions_only;
+        if !same_scene {
+            *frame = self.evaluate_with(time_s, camera, evaluation);
+            return total;
+        }
+        let next = SceneFrame {
+            time_s,
+            triangles: Vec::new(),
+            attributes: Vec::new(),
+            lights: Vec::new(),
+            camera: frame.camera,
+            sky: self.sky,
+            exposure: self.exposure,
+            world_from_node,
+            morph_weights: morph_weights.clone(),
+            geometry_revision: 0,
+            positions_only: Vec::new(),
+        };
+        let changed: Vec<usize> = (0..jobs.len())
+            .filter(|&j| self.node_geometry_changed(jobs[j].node_index, frame, &next))
+            .collect();
+        let vertices: Vec<PrimitiveVertices> = changed
+            .par_iter()
+            .map(|&j| primitive_vertices(&jobs[j]))
+            .collect();
+        for (&j, vertices) in changed.iter().zip(&vertices) {
+            let range = starts[j]..starts[j + 1];
+            (frame.triangles[range.clone()].par_iter_mut())
+                .zip(frame.attributes[range].par_iter_mut())
+                .with_min_len(PARALLEL_TRIANGLES)
+                .enumerate()
+                .for_each(|(t, (triangle_out, attributes_out))| {
+                    (*triangle_out, *attributes_out) = triangle(&jobs[j], vertices, t);
+                });
+        }
+        let camera = camera.unwrap_or_else(|| self.default_view_with(&next.world_from_node));
+        frame.lights = self.world_lights(&next.world_from_node);
+        frame.time_s = time_s;
+        frame.camera = camera;
+        frame.sky = self.sky;
+        frame.exposure = self.exposure;
+        frame.world_from_node = next.world_from_node;
+        frame.morph_weights = next.morph_weights;
+        if !changed.is_empty() || frame.geometry_revision == 0 {
+            frame.geometry_changed();
+        }
+        changed.iter().map(|&j| starts[j + 1] - starts[j]).sum()
     }
 }
 
