@@ -369,19 +369,29 @@ impl Renderer {
     /// frame ([`Scene::evaluate_into`]: only the animated nodes' triangles are evaluated
     /// again); else a fresh evaluation.
     fn frame(&mut self, index: u32) -> SceneFrame {
-        let (time_s, camera) = (self.frame_time(index), self.view(index));
+        let time_s = self.frame_time(index);
         match self.last_frame.take() {
             Some(mut frame) if !self.scene.is_animated() => {
                 frame.time_s = time_s;
-                frame.camera = camera;
+                // Without animation only a camera path moves the camera: the default view
+                // (a camera node, or a framing of the scene's bounds, which is a pass over
+                // every vertex) is the same at every time.
+                let path = self.scene.camera_path.as_ref();
+                if self.camera == CameraMode::Path && path.is_some_and(|p| !p.keys.is_empty()) {
+                    frame.camera = self.view(index);
+                }
                 frame
             }
             Some(mut frame) => {
+                let camera = Some(self.view(index));
                 let scene = &self.scene;
-                scene.evaluate_into(&mut frame, time_s, Some(camera), &self.evaluation);
+                scene.evaluate_into(&mut frame, time_s, camera, &self.evaluation);
                 frame
             }
-            None => (self.scene).evaluate_with(time_s, Some(camera), &self.evaluation),
+            None => {
+                let camera = Some(self.view(index));
+                (self.scene).evaluate_with(time_s, camera, &self.evaluation)
+            }
         }
     }
 

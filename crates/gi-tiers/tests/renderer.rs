@@ -369,18 +369,47 @@ impl gi_tiers::Tier for Recorder {
 /// `scene_mut` reaches the next frame.
 #[test]
 fn each_frame_is_the_scene_at_its_time_and_camera() {
+    // A scene with no camera node and no animation: its default view frames its bounds.
+    let mut camera_less = gi_scene::Scene {
+        frame_time_s: 1.0 / 30.0,
+        ..gi_scene::Scene::default()
+    };
+    camera_less.add_diffuse_quad(glam::Vec3::ZERO, glam::Vec3::X, glam::Vec3::Z, 0.5);
+    camera_less.lights.push(gi_scene::Light {
+        name: "bulb".into(),
+        kind: gi_scene::LightKind::Point,
+        color: glam::Vec3::ONE,
+        intensity: 10.0,
+        range: None,
+    });
+    camera_less.nodes.push(gi_scene::Node {
+        light: Some(0),
+        translation: glam::Vec3::Y,
+        ..gi_scene::Node::default()
+    });
     // Frames are compared by what they hold (every evaluation draws a new geometry revision).
-    for name in ["atrium", "dynamic"] {
-        let scene = gi_scene::load(name).unwrap();
+    for (name, mode) in [
+        ("atrium", CameraMode::Path),
+        ("dynamic", CameraMode::Path),
+        ("camera-less", CameraMode::Default),
+    ] {
+        let scene = match name {
+            "camera-less" => camera_less.clone(),
+            _ => gi_scene::load(name).unwrap(),
+        };
         let frames = std::sync::Arc::new(std::sync::Mutex::new(Vec::new()));
         let recorder = Recorder {
             frames: frames.clone(),
         };
-        let mut renderer = Renderer::with_tier(scene, Box::new(recorder), CameraMode::Path);
+        let mut renderer = Renderer::with_tier(scene, Box::new(recorder), mode);
         let expected = |renderer: &Renderer, index: u32| {
             let scene = renderer.scene();
             let time = scene.frame_time(index);
-            frame_contents(&scene.evaluate(time, Some(scene.path_view(time))))
+            let view = match mode {
+                CameraMode::Path => scene.path_view(time),
+                CameraMode::Default => scene.default_view(time),
+            };
+            frame_contents(&scene.evaluate(time, Some(view)))
         };
         let mut wanted = Vec::new();
         for index in 0..3 {
@@ -401,7 +430,7 @@ fn each_frame_is_the_scene_at_its_time_and_camera() {
                 "{name}: frame {index} differs from its evaluation"
             );
         }
-        // The camera moves along the path, so the frames differ.
+        // The camera moves along the path (and the time), so the frames differ.
         assert_ne!(got[0], got[1], "{name}");
         assert_ne!(got[3], got[4], "{name}: the edit did not reach the frame");
     }
