@@ -794,3 +794,28 @@ fn gpu_light(light: &gi_scene::WorldLight) -> GpuLight {
         pad: [0; 2],
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::subtract_ranges;
+
+    /// The CPU writes the changing triangles outside the GPU-skinned ranges: cuts at the start,
+    /// inside, at the end, across two ranges, covering a range whole, and none.
+    #[test]
+    fn subtracted_ranges_are_what_is_left_outside_the_cuts() {
+        let ranges = [0..10, 20..30, 40..50];
+        assert_eq!(subtract_ranges(&ranges, &[]), ranges.to_vec());
+        assert_eq!(
+            subtract_ranges(&ranges, &[0..3, 5..7, 9..22, 40..50]),
+            vec![3..5, 7..9, 22..30]
+        );
+        assert_eq!(
+            subtract_ranges(&ranges, &[25..45]),
+            vec![0..10, 20..25, 45..50]
+        );
+        assert_eq!(
+            subtract_ranges(&ranges, &[0..50]),
+            Vec::<std::ops::Range<usize>>::new()
+        );
+    }
+}
