@@ -96,6 +96,13 @@ struct TierReport {
     rays_per_second: Option<f64>,
 }
 
+/// A tier that could not render on this machine (`gi_tiers::TierError::Unavailable`).
+#[derive(Serialize)]
+struct MissingTier {
+    tier: &'static str,
+    reason: String,
+}
+
 #[derive(Serialize)]
 struct CompareReport {
     scene: String,
@@ -107,6 +114,9 @@ struct CompareReport {
     warmup: Option<u32>,
     reference: ReferenceReport,
     tiers: Vec<TierReport>,
+    /// Tiers of the default list that could not render here, with why (asked for by name with
+    /// `--tiers`, such a tier is an error instead).
+    missing: Vec<MissingTier>,
 }
 
 /// The reference image: from the cache when an identical render exists, else rendered now.
@@ -166,13 +176,25 @@ pub fn run(args: &CompareArgs) -> Result<()> {
 
     // gain_vs_direct needs the direct-only error even when `direct` is not in the list.
     let mut renders = Vec::new();
+    let mut missing = Vec::new();
     for &tier in &tiers {
         let bar = progress_bar(request.spp, tier.name());
         let render = render_tier(&scene, tier, &request, &|done| {
             bar.set_position(u64::from(done))
-        })?;
+        });
         bar.finish_and_clear();
-        renders.push((tier, render));
+        match render {
+            Ok(render) => renders.push((tier, render)),
+            // The default list renders what this machine can (the CPU tiers without a Vulkan
+            // driver) and marks the rest; tiers asked for by name must render.
+            Err(err) if args.tiers.is_empty() && is_unavailable(&err) => {
+                missing.push(MissingTier {
+                    tier: tier.name(),
+                    reason: format!("{err:#}"),
+                });
+            }
+            Err(err) => return Err(err),
+        }
     }
     let direct_rmse = match renders.iter().find(|(t, _)| *t == TierKind::Direct) {
         Some((_, render)) => gi_image::rmse_srgb8(&render.image, &reference, scene.exposure)?,
@@ -232,6 +254,7 @@ pub fn run(args: &CompareArgs) -> Result<()> {
             engine: reference_engine,
         },
         tiers: reports,
+        missing,
     };
     print_table(&report)?;
     let json = args
@@ -242,6 +265,29 @@ pub fn run(args: &CompareArgs) -> Result<()> {
         .with_context(|| format!("writing {}", json.display()))?;
     outln!("images and JSON: {}", out_dir.display());
     Ok(())
+}
+
+/// Whether `err` says a tier cannot run on this machine (no Vulkan adapter, a device too
+/// small), rather than that the render failed.
+fn is_unavailable(err: &anyhow::Error) -> bool {
+    err.chain().any(|cause| {
+        matches!(
+            cause.downcast_ref::<gi_tiers::TierError>(),
+            Some(gi_tiers::TierError::Unavailable { .. })
+        )
+    })
+}
+
+/// The command that adds the GPU tiers when no Vulkan adapter exists, or `None` when one does
+/// (or an adapter filter excludes them: the filter is the user's to change).
+fn vulkan_install_hint() -> Option<&'static str> {
+    match gi_gpu::GpuContext::new() {
+        Err(gi_gpu::GpuError::NoAdapter { filter: None }) => Some(
+            "sudo apt-get install mesa-vulkan-drivers libvulkan1   (Debian/Ubuntu: Vulkan on \
+             the CPU, lavapipe; a GPU's own Vulkan driver is faster)",
+        ),
+        _ => None,
+    }
 }
 
 fn print_table(report: &CompareReport) -> std::io::Result<()> {
@@ -283,12 +329,30 @@ fn print_table(report: &CompareReport) -> std::io::Result<()> {
             tier.memory_bytes as f64 / (1 << 20) as f64
         );
     }
+    for missing in &report.missing {
+        outln!(
+            "{:<10} {:>10}  not rendered: {}",
+            missing.tier,
+            "-",
+            missing.reason
+        );
+    }
     for tier in &report.tiers {
         if let Some(mobile) = &tier.mobile {
             outln!("{}", mobile.line(tier.ms_per_frame, tier.warmup));
         }
         if let Some(pc) = &tier.pc {
             outln!("{}", pc.line(tier.ms_per_frame, tier.warmup));
+        }
+    }
+    if !report.missing.is_empty() {
+        let names: Vec<&str> = report.missing.iter().map(|m| m.tier).collect();
+        match vulkan_install_hint() {
+            Some(command) => outln!(
+                "{} need a Vulkan driver; add them with:\n  {command}\nthen run this command again",
+                names.join(", ")
+            ),
+            None => outln!("{} could not render here (see above)", names.join(", ")),
         }
     }
     Ok(())

@@ -867,3 +867,78 @@ fn a_reader_that_closes_the_pipe_early_ends_the_output_quietly() {
     assert!(output.status.success(), "{}", stderr(&output));
     assert!(stderr(&output).is_empty(), "{}", stderr(&output));
 }
+
+/// On a machine without a Vulkan driver (simulated by pointing the Vulkan loader at a driver
+/// file that does not exist), the main job still renders the CPU tiers, prints its table with
+/// the GPU tiers marked as not rendered and the command that adds them, and succeeds; a GPU
+/// tier asked for by name is an error.
+#[test]
+fn compare_without_a_vulkan_driver_renders_the_cpu_tiers_and_marks_the_rest() {
+    let dir = tempfile::tempdir().unwrap();
+    let without_vulkan = |args: &[&str]| {
+        Command::new(env!("CARGO_BIN_EXE_gi"))
+            .args(args)
+            .current_dir(dir.path())
+            .env("GI_CACHE_DIR", dir.path().join("cache"))
+            .env("VK_DRIVER_FILES", dir.path().join("no-driver.json"))
+            .env("VK_ICD_FILENAMES", dir.path().join("no-driver.json"))
+            .env_remove("GI_ADAPTER")
+            .env_remove("RUST_LOG")
+            .output()
+            .expect("gi runs")
+    };
+    let size = [
+        "--width",
+        "8",
+        "--height",
+        "6",
+        "--spp",
+        "1",
+        "--reference-spp",
+        "4",
+    ];
+    let output =
+        without_vulkan(&[&["compare", "cornell-box", "--out-dir", "cmp"][..], &size].concat());
+    assert!(output.status.success(), "{}", stderr(&output));
+    let stdout = String::from_utf8_lossy(&output.stdout);
+    for tier in ["reference", "direct"] {
+        assert!(
+            stdout
+                .lines()
+                .any(|l| l.starts_with(tier) && !l.contains("not rendered")),
+            "{tier} missing from:\n{stdout}"
+        );
+    }
+    for tier in ["path", "mobile", "pc"] {
+        assert!(
+            stdout
+                .lines()
+                .any(|l| l.starts_with(tier) && l.contains("not rendered")),
+            "{tier} not marked in:\n{stdout}"
+        );
+    }
+    assert!(
+        stdout.contains("sudo apt-get install mesa-vulkan-drivers libvulkan1"),
+        "{stdout}"
+    );
+    let json: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(dir.path().join("cmp/compare.json")).unwrap())
+            .unwrap();
+    let rendered: Vec<&str> = (json["tiers"].as_array().unwrap().iter())
+        .map(|t| t["tier"].as_str().unwrap())
+        .collect();
+    let missing: Vec<&str> = (json["missing"].as_array().unwrap().iter())
+        .map(|t| t["tier"].as_str().unwrap())
+        .collect();
+    assert_eq!(rendered, ["reference", "direct"]);
+    assert_eq!(missing, ["path", "mobile", "pc"]);
+
+    let named =
+        without_vulkan(&[&["compare", "cornell-box", "--tiers", "path"][..], &size].concat());
+    assert!(!named.status.success());
+    assert!(
+        stderr(&named).contains("the path tier is not available"),
+        "{}",
+        stderr(&named)
+    );
+}
