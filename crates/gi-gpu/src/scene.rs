@@ -810,11 +810,11 @@ mod tests {
             vec![3..5, 7..9, 22..30]
         );
         assert_eq!(
-            subtract_ranges(&ranges, &[25..45]),
+            subtract_ranges(&ranges, std::slice::from_ref(&(25..45))),
             vec![0..10, 20..25, 45..50]
         );
         assert_eq!(
-            subtract_ranges(&ranges, &[0..50]),
+            subtract_ranges(&ranges, std::slice::from_ref(&(0..50))),
             Vec::<std::ops::Range<usize>>::new()
         );
     }
