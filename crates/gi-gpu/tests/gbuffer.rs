@@ -571,6 +571,110 @@ fn blended_surfaces_are_a_layer_over_the_surface_behind() {
     );
 }
 
+/// Two panes of blended glass, a small one (alpha 0.4) in front of a larger one (alpha 0.5):
+/// where the camera sees both they fold into one layer at the nearer pane with coverage
+/// 1 - 0.6 x 0.5 = 0.7 and albedo (0.4 a_front + 0.6 x 0.5 a_back) / 0.7; where it sees the
+/// back pane alone the layer is that pane; the G-buffer holds the box behind them everywhere.
+#[test]
+fn several_blended_surfaces_fold_into_one_layer() {
+    let Some(ctx) = GpuContext::new_or_skip("several_blended_surfaces_fold_into_one_layer") else {
+        return;
+    };
+    let mut scene = load("cornell-box");
+    let camera = scene.evaluate(0.0, None).camera;
+    let mut pane = |distance: f32, half: f32, base: f32, alpha: f32| {
+        scene.add_diffuse_quad(
+            camera.position + camera.forward * distance,
+            camera.right * half,
+            camera.up * half,
+            base,
+        );
+        let glass = scene.materials.last_mut().expect("the quad's material");
+        glass.alpha_mode = gi_scene::AlphaMode::Blend;
+        glass.base_color.w = alpha;
+        glass.double_sided = true;
+    };
+    pane(0.5, 0.08, 0.5, 0.4);
+    pane(0.7, 0.3, 0.2, 0.5);
+    let frame = scene.evaluate(0.0, None);
+    let (data, layer) = render_with_layer(&ctx, &scene, &frame, &frame);
+    let bvh = SceneBvh::build(&frame.triangles);
+    let (front, back) = (frame.triangles.len() - 4, frame.triangles.len() - 2);
+    let albedo_of = |packed: f32| {
+        let rgb = packed.to_bits().to_le_bytes().map(|b| f32::from(b) / 255.0);
+        glam::Vec3::new(rgb[0], rgb[1], rgb[2]).powf(2.0)
+    };
+    // The back pane's albedo, where it is seen alone.
+    let (mut back_alone, mut both) = (Vec::new(), Vec::new());
+    for y in 0..HEIGHT {
+        for x in 0..WIDTH {
+            let pixel = (y * WIDTH + x) as usize;
+            let dir = pixel_ray(&frame.camera, x, y);
+            let Some(first) =
+                bvh.closest_hit(&frame.triangles, camera.position, dir, 0.0, f32::INFINITY)
+            else {
+                continue;
+            };
+            let t_min = first.t * (1.0 + 1e-5) + 1e-6;
+            let second =
+                bvh.closest_hit(&frame.triangles, camera.position, dir, t_min, f32::INFINITY);
+            let [t, _, albedo, coverage] = layer[pixel];
+            let first_triangle = first.triangle as usize;
+            if first_triangle < front {
+                continue;
+            }
+            // The G-buffer holds what is behind the glass (the box, or the sky past its edge).
+            let behind = data.triangle[pixel];
+            assert!(
+                behind == GBUFFER_MISS || (behind as usize) < front,
+                "pixel ({x}, {y}): {behind}"
+            );
+            assert!(
+                (t - first.t).abs() <= 1e-4 * first.t,
+                "pixel ({x}, {y}): {t} vs {}",
+                first.t
+            );
+            if first_triangle >= back {
+                assert!(
+                    (coverage - 0.5).abs() < 1e-5,
+                    "pixel ({x}, {y}): coverage {coverage}"
+                );
+                back_alone.push(albedo_of(albedo));
+            } else {
+                let behind = second.expect("the back pane or the box").triangle as usize;
+                assert!(
+                    behind >= back,
+                    "pixel ({x}, {y}): the back pane is behind the front one"
+                );
+                assert!(
+                    (coverage - 0.7).abs() < 1e-5,
+                    "pixel ({x}, {y}): coverage {coverage}"
+                );
+                both.push(albedo_of(albedo));
+            }
+        }
+    }
+    assert!(
+        back_alone.len() > 20 && both.len() > 8,
+        "{} {}",
+        back_alone.len(),
+        both.len()
+    );
+    let back_albedo = back_alone.iter().sum::<glam::Vec3>() / back_alone.len() as f32;
+    assert!(
+        (back_albedo - glam::Vec3::splat(0.2)).abs().max_element() < 0.02,
+        "{back_albedo}"
+    );
+    // The front pane's albedo is its base color within 0.01, as in the single-pane test.
+    let expected = (0.4 * glam::Vec3::splat(0.5) + 0.6 * 0.5 * back_albedo) / 0.7;
+    for albedo in &both {
+        assert!(
+            (*albedo - expected).abs().max_element() < 0.015,
+            "folded albedo {albedo}, expected {expected}"
+        );
+    }
+}
+
 /// Barycentric weights of v1 and v2 where `dir` from `origin` crosses the plane of triangle
 /// `(v0, v1, v2)` (Möller-Trumbore without the range checks).
 fn barycentrics(origin: Vec3, dir: Vec3, [v0, v1, v2]: [Vec3; 3]) -> Vec2 {
