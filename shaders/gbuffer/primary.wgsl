@@ -61,29 +61,17 @@ struct GBufferUniforms {
 @group(0) @binding(14) var<storage, read_write> triangle_id: array<u32>;
 // Previous pixel position minus this pixel's center, in pixels (+x right, +y down).
 @group(0) @binding(15) var<storage, read_write> motion: array<vec2<f32>>;
-// The alpha-`BLEND` surfaces in front of the pixel's surface as one layer (`blend_layer_on`
-// only; see `primary`): the nearest one's distance along the unit camera ray (0: none) and
-// normal facing the camera (packed, as bits), their folded albedo towards the camera (the
-// split-sum diffuse plus specular, sqrt-encoded 8-bit rgb, as bits) and their coverage.
+// The nearest alpha-`BLEND` surface in front of the pixel's surface (`blend_layer_on` only):
+// distance along the unit camera ray (0: none), its normal facing the camera (packed, as bits),
+// its albedo towards the camera (the split-sum diffuse plus specular, sqrt-encoded 8-bit rgb,
+// as bits) and its alpha.
 @group(0) @binding(16) var<storage, read_write> blend_layer: array<vec4<f32>>;
 // The previous frame's `triangles` (scenes with skinned or morphed meshes), else one entry.
 @group(0) @binding(17) var<storage, read> previous_triangles: array<TriangleShading>;
 
-// Most alpha-`BLEND` surfaces folded into a pixel's `blend_layer`; those behind them pass.
-const MAX_BLEND_LAYERS: u32 = 4u;
-
-// An alpha-`BLEND` surface as the camera sees it.
-struct BlendSurface {
-    // Its albedo towards the camera (split-sum diffuse plus specular, in [0, 1]).
-    albedo: vec3<f32>,
-    alpha: f32,
-    // Its geometric normal, facing the camera.
-    normal: vec3<f32>,
-}
-
-// `hit`, an alpha-`BLEND` surface of `material` along the camera ray `dir`, whose cone spreads
-// by `spread` per unit of distance.
-fn blend_surface(hit: Hit, material: Material, dir: vec3<f32>, spread: f32) -> BlendSurface {
+// `blend_layer`'s entry for `hit`, an alpha-`BLEND` surface of `material` along the camera
+// ray `dir`, whose cone spreads by `spread` per unit of distance.
+fn blend_layer_entry(hit: Hit, material: Material, dir: vec3<f32>, spread: f32) -> vec4<f32> {
     let tri = triangles[hit.triangle];
     let b = vec3(1.0 - hit.barycentrics.x - hit.barycentrics.y, hit.barycentrics.x, hit.barycentrics.y);
     let wo = -dir;
@@ -93,11 +81,14 @@ fn blend_surface(hit: Hit, material: Material, dir: vec3<f32>, spread: f32) -> B
     }
     ng = select(-ng, ng, dot(ng, wo) >= 0.0);
     let tc = tex_coords(hit.triangle, b, cone_footprint(tri, hit.t * spread, dot(ng, wo)));
+    let alpha = clamp(material_alpha(material, tc), 0.0, 1.0);
     let albedos = brdf_split_sum_albedos(material_brdf(material, tc), max(dot(ng, wo), 0.0));
-    return BlendSurface(
-        clamp(albedos.diffuse + albedos.specular, vec3(0.0), vec3(1.0)),
-        clamp(material_alpha(material, tc), 0.0, 1.0),
-        ng,
+    let albedo = clamp(albedos.diffuse + albedos.specular, vec3(0.0), vec3(1.0));
+    return vec4<f32>(
+        hit.t,
+        bitcast<f32>(pack_unit_vector(ng)),
+        bitcast<f32>(pack4x8unorm(vec4(sqrt(albedo), 0.0))),
+        alpha,
     );
 }
 
@@ -111,62 +102,20 @@ fn primary(@builtin(global_invocation_id) id: vec3<u32>) {
     let center = vec2<f32>(f32(id.x) + 0.5, f32(id.y) + 0.5);
     let camera = uniforms.camera;
     let dir = camera_ray(camera, center / vec2<f32>(size));
-    // With blended surfaces, the G-buffer holds the surface behind them, and the blended
-    // surfaces in front of it go to `blend_layer`, folded into one layer: the rays stop at
-    // blended surfaces and step from one to the next, up to `MAX_BLEND_LAYERS`, compositing
-    // them front to back; the layer has their summed coverage (1 - prod(1 - alpha)), their
-    // albedos weighted by what of each the camera sees, and the nearest one's distance and
-    // normal, where it is lit (so the surfaces behind the nearest are lit as it is). The ray
-    // that leaves the last one finds the surface behind; past `MAX_BLEND_LAYERS` a ray that
-    // passes every blended surface finds it.
+    // With blended surfaces, the G-buffer holds the surface behind them, and the nearest
+    // blended layer in front of it goes to `blend_layer`. The first ray stops at blended
+    // surfaces; only when it stops at one does a second ray pass them (all of them: one layer).
     var hit: Hit;
     if uniforms.blend_layer_on != 0u {
         set_blend_policy(BLEND_OPAQUE);
         hit = trace_closest(Ray(camera.position, 0.0, dir, FAR));
         var layer = vec4<f32>(0.0);
         if hit.triangle != BVH_MISS {
-            var material = material_of(hit.triangle, uniforms.default_material);
-            if material.alpha_mode == ALPHA_BLEND {
-                let spread = 2.0 * camera.tan_half_fov / f32(size.y);
-                let nearest = blend_surface(hit, material, dir, spread);
-                let nearest_t = hit.t;
-                var surface = nearest;
-                var transmittance = 1.0;
-                var albedo = vec3(0.0);
-                var behind_found = false;
-                for (var k = 0u; k < MAX_BLEND_LAYERS; k++) {
-                    albedo += transmittance * surface.alpha * surface.albedo;
-                    transmittance *= 1.0 - surface.alpha;
-                    if k + 1u == MAX_BLEND_LAYERS {
-                        break;
-                    }
-                    // Just past this surface (relative to its distance, so the same
-                    // triangle is not found again).
-                    let t_min = hit.t * (1.0 + 1e-5) + 1e-6;
-                    hit = trace_closest(Ray(camera.position, t_min, dir, FAR));
-                    if hit.triangle == BVH_MISS {
-                        behind_found = true;
-                        break;
-                    }
-                    material = material_of(hit.triangle, uniforms.default_material);
-                    if material.alpha_mode != ALPHA_BLEND {
-                        behind_found = true;
-                        break;
-                    }
-                    surface = blend_surface(hit, material, dir, spread);
-                }
-                let coverage = 1.0 - transmittance;
-                let folded = select(nearest.albedo, albedo / coverage, coverage > 0.0);
-                layer = vec4<f32>(
-                    nearest_t,
-                    bitcast<f32>(pack_unit_vector(nearest.normal)),
-                    bitcast<f32>(pack4x8unorm(vec4(sqrt(clamp(folded, vec3(0.0), vec3(1.0))), 0.0))),
-                    coverage,
-                );
-                if !behind_found {
-                    set_blend_policy(BLEND_PASS);
-                    hit = trace_closest(Ray(camera.position, 0.0, dir, FAR));
-                }
+            let front = material_of(hit.triangle, uniforms.default_material);
+            if front.alpha_mode == ALPHA_BLEND {
+                layer = blend_layer_entry(hit, front, dir, 2.0 * camera.tan_half_fov / f32(size.y));
+                set_blend_policy(BLEND_PASS);
+                hit = trace_closest(Ray(camera.position, 0.0, dir, FAR));
             }
         }
         blend_layer[pixel] = layer;

@@ -22,19 +22,16 @@
 //! | `gbuffer.emissive` | `[f32; 4]` radiance toward the camera (0 behind single-sided emitters), w = the material's occlusion factor (`occlusionTexture`, 1 without) | 0 |
 //! | `gbuffer.triangle` | `u32` frame triangle index | [`GBUFFER_MISS`] |
 //! | `gbuffer.motion` | `[f32; 2]` previous pixel position minus this pixel's center, pixels, +y down | camera rotation only |
-//! | `gbuffer.blend_layer` | `[f32; 4]` the alpha-`BLEND` surfaces in front, folded into one layer: the nearest one's distance (0: none) and normal (packed), their albedo towards the camera (packed), their coverage; only for scenes with `BLEND` materials | 0 |
+//! | `gbuffer.blend_layer` | `[f32; 4]` the nearest alpha-`BLEND` surface in front: distance (0: none), normal (packed), albedo towards the camera (packed), alpha; only for scenes with `BLEND` materials | 0 |
 //!
 //! Alpha `BLEND`: the rays of every tier pass a blended surface with probability 1 - alpha (a
 //! hash of the hit), which averages to alpha blending over many rays per pixel, but one ray
 //! through each pixel center would show a fixed dither. In scenes with `BLEND` materials the
-//! G-buffer's rays stop at blended surfaces and step from one to the next (up to four; the rest
-//! pass) until the surface behind them, which the G-buffer describes. The blended surfaces are
-//! folded into one layer, composited front to back: coverage `1 - prod(1 - alpha_i)`, albedo
-//! `sum(alpha_i * prod_{j<i}(1 - alpha_j) * albedo_i) / coverage`, at the nearest one's
-//! distance and normal. The real-time tiers composite their GI over the layer's (its albedo
-//! times the brick cache's irradiance at the nearest surface, so the ones behind it are lit as
-//! it is) with its coverage: the GI behind two panes of glass passes both. Their direct light
-//! already is the blend: it averages jittered rays that follow the hash.
+//! G-buffer's ray therefore passes blended surfaces (the G-buffer describes the surface behind
+//! them) and a second ray, which stops at them, finds the nearest blended layer in front; the
+//! real-time tiers composite their GI over the layer's (its albedo times the brick cache's
+//! irradiance there) with its alpha. Their direct light already is the blend: it averages
+//! jittered rays that follow the hash.
 //!
 //! Motion is 0 where the surface point was behind the previous camera.
 
