@@ -42,6 +42,25 @@ pub(crate) fn check_frame_settings(
     Ok(())
 }
 
+/// Bytes of what a GPU GI tier named `tier` needs besides its GI, by their labels: the scene
+/// (textures and GPU skinning included), the BVH, the G-buffer, the direct light, and the tier's
+/// output image and pass timers. The tiers' memory reports sum their parts from labels, so a
+/// buffer under no known label shows as a gap between the parts and the total.
+pub(crate) fn frame_bytes(memory: &gi_gpu::MemoryReport, tier: &str) -> u64 {
+    let shared: u64 = ["scene.", "bvh.", "skin.", "gbuffer.", "direct."]
+        .iter()
+        .map(|prefix| memory.bytes_with_prefix(prefix))
+        .sum();
+    shared + tier_overhead_bytes(memory, tier)
+}
+
+/// Bytes of the tier's output image and pass timers (labels `<tier>.output`,
+/// `<tier>.timestamps`).
+pub(crate) fn tier_overhead_bytes(memory: &gi_gpu::MemoryReport, tier: &str) -> u64 {
+    memory.bytes_with_prefix(&format!("{tier}.output"))
+        + memory.bytes_with_prefix(&format!("{tier}.timestamps"))
+}
+
 pub(crate) struct SceneState {
     pub(crate) scene: GpuScene,
     /// The direct light (the direct tier's shader), accumulated while the view holds still.

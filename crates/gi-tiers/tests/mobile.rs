@@ -530,8 +530,11 @@ fn every_bundled_scene_renders_finite_and_accounts_its_memory() {
         return;
     };
     drop(ctx);
-    for (name, _) in gi_scene::BUNDLED_SCENES {
-        let scene = gi_scene::load(name).unwrap();
+    // The bundled scenes, and a skinned arm (the GPU skinning's buffers).
+    let scenes = (gi_scene::BUNDLED_SCENES.iter())
+        .map(|(name, _)| (*name, gi_scene::load(name).unwrap()))
+        .chain([("skinned-arm", gi_scene::generate::skinned_arm())]);
+    for (name, scene) in scenes {
         let ctx = GpuContext::new().unwrap();
         let (tier, output) = run(ctx, &scene, idle_cache(), (40, 30), 3, None);
         assert!(
@@ -561,11 +564,14 @@ fn every_bundled_scene_renders_finite_and_accounts_its_memory() {
                 "{name}: no {pass} pass"
             );
         }
+        // The parts are summed from the buffers' labels: every byte the tier owns is in one
+        // of them (a buffer under a label none names would leave a gap).
         let memory = tier.memory();
         assert_eq!(
             memory.coverage_bytes + memory.screen_bytes + memory.frame_bytes,
             tier.memory_bytes(),
-            "{name}"
+            "{name}: {:?}",
+            tier.context().memory().by_label
         );
         assert!(
             memory.coverage_bytes > 20 << 20 && memory.screen_bytes > 0,

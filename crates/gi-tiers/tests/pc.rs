@@ -575,8 +575,11 @@ fn every_bundled_scene_renders_finite_and_accounts_its_memory() {
         return;
     };
     drop(ctx);
-    for (name, _) in gi_scene::BUNDLED_SCENES {
-        let scene = gi_scene::load(name).unwrap();
+    // The bundled scenes, and a skinned arm (the GPU skinning's buffers).
+    let scenes = (gi_scene::BUNDLED_SCENES.iter())
+        .map(|(name, _)| (*name, gi_scene::load(name).unwrap()))
+        .chain([("skinned-arm", gi_scene::generate::skinned_arm())]);
+    for (name, scene) in scenes {
         let mut config = PcConfig::with("temporal").unwrap();
         config.restir.spatial = false;
         // What is checked does not depend on how far the cache's light has come: a trickle of
@@ -611,11 +614,14 @@ fn every_bundled_scene_renders_finite_and_accounts_its_memory() {
         // Without spatial reuse the shaded reservoirs are the temporal ones: M is clamped.
         let most = data.reservoirs.iter().map(|r| r.m).fold(0.0, f32::max);
         assert!(most <= config.restir.m_clamp + 1.0, "{name}: M {most}");
+        // The parts are summed from the buffers' labels: every byte the tier owns is in one
+        // of them (a buffer under a label none names would leave a gap).
         let memory = tier.memory();
         assert_eq!(
             memory.coverage_bytes + memory.screen_bytes + memory.frame_bytes,
             tier.memory_bytes(),
-            "{name}"
+            "{name}: {:?}",
+            tier.context().memory().by_label
         );
         assert!(
             memory.coverage_bytes > 20 << 20 && memory.screen_bytes > 0,

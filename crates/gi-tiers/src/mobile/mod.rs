@@ -21,7 +21,7 @@ use gi_scene::SceneFrame;
 use glam::Vec3;
 
 use crate::path::{Accumulation, PathPipelines};
-use crate::scene_state::{Followed, SceneState, check_frame_settings, read_image};
+use crate::scene_state::{self, Followed, SceneState, check_frame_settings, read_image};
 use crate::tier::{FrameInput, FrameOutput, FrameTimings, Tier, TierError, TierKind, TierSettings};
 use screen::{
     ScreenBuffers, ScreenLayout, ScreenPipelines, ScreenSources, ScreenStep, screen_uniforms,
@@ -39,7 +39,9 @@ pub struct MobileMemory {
     /// Resolution-dependent GI buffers: lite G-buffer, screen probes, half-resolution
     /// irradiance and its history, full-resolution GI.
     pub screen_bytes: u64,
-    /// What every tier of the product needs besides GI: scene, BVH, G-buffer, direct light.
+    /// What every tier of the product needs besides GI: scene, BVH, G-buffer, direct light,
+    /// output and pass timers. The three parts are summed from the buffers' labels, so a buffer
+    /// none of them names makes their sum fall short of the tier's total.
     pub frame_bytes: u64,
 }
 
@@ -257,11 +259,11 @@ impl MobileTier {
         let coverage_bytes = memory.bytes_with_prefix("cache.") + volume;
         let screen_bytes = memory.bytes_with_prefix("mobile.")
             - volume
-            - memory.bytes_with_prefix("mobile.output");
+            - scene_state::tier_overhead_bytes(&memory, "mobile");
         MobileMemory {
             coverage_bytes,
             screen_bytes,
-            frame_bytes: memory.total_bytes() - coverage_bytes - screen_bytes,
+            frame_bytes: scene_state::frame_bytes(&memory, "mobile"),
         }
     }
 

@@ -38,7 +38,7 @@ use gi_image::Image;
 use gi_scene::SceneFrame;
 
 use crate::path::PathPipelines;
-use crate::scene_state::{SceneState, check_frame_settings, read_image};
+use crate::scene_state::{self, SceneState, check_frame_settings, read_image};
 use crate::tier::{FrameInput, FrameOutput, FrameTimings, Tier, TierError, TierKind, TierSettings};
 use denoise::{DenoisePipelines, DenoiseSources, Denoiser};
 
@@ -159,7 +159,9 @@ pub struct PcMemory {
     pub coverage_bytes: u64,
     /// Resolution-dependent GI buffers: surfaces, reservoirs, irradiance, denoiser history.
     pub screen_bytes: u64,
-    /// What every tier needs besides GI: scene, BVH, G-buffer, direct light, output.
+    /// What every tier needs besides GI: scene, BVH, G-buffer, direct light, output and pass
+    /// timers. The three parts are summed from the buffers' labels, so a buffer none of them
+    /// names makes their sum fall short of the tier's total.
     pub frame_bytes: u64,
 }
 
@@ -476,11 +478,12 @@ impl PcTier {
     pub fn memory(&self) -> PcMemory {
         let memory = self.ctx.memory();
         let coverage_bytes = memory.bytes_with_prefix("cache.");
-        let screen_bytes = memory.bytes_with_prefix("pc.") - memory.bytes_with_prefix("pc.output");
+        let screen_bytes =
+            memory.bytes_with_prefix("pc.") - scene_state::tier_overhead_bytes(&memory, "pc");
         PcMemory {
             coverage_bytes,
             screen_bytes,
-            frame_bytes: memory.total_bytes() - coverage_bytes - screen_bytes,
+            frame_bytes: scene_state::frame_bytes(&memory, "pc"),
         }
     }
 
