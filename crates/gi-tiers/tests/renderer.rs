@@ -47,12 +47,20 @@ fn direct_tier_renders_exactly_what_the_reference_crate_renders() {
             &|_| {},
         )
         .unwrap();
-    // On a hardware GPU the direct tier runs there (tests/path.rs bounds its f32 rounding);
-    // on the CPU it is the reference crate itself, bit for bit.
+    // On a hardware GPU the direct tier runs there (tests/path.rs bounds its f32 rounding
+    // against the reference pixel by pixel, on any adapter); without one (no adapter, or only
+    // a software one such as lavapipe, slower than the CPU) it is the reference crate itself,
+    // bit for bit. The renderer must have chosen by that rule.
     let on_gpu = output
         .passes
         .iter()
         .any(|(name, _)| name == "direct/resolve");
+    let hardware = gi_gpu::GpuContext::new()
+        .is_ok_and(|ctx| ctx.adapter_info.device_type != gi_gpu::wgpu::DeviceType::Cpu);
+    assert_eq!(
+        on_gpu, hardware,
+        "the direct tier ran on the wrong processor"
+    );
     if on_gpu {
         let sum = |pixels: &[glam::Vec3]| pixels.iter().sum::<glam::Vec3>();
         let (gpu, cpu) = (sum(&output.image.pixels), sum(&expected.image.pixels));
