@@ -100,20 +100,20 @@ impl Renderer {
                 let adapter = adapter.map(|a| a.label());
                 return Self::create_planned(scene, plan, settings, camera, ctx, adapter);
             }
-            TierChoice::Mobile | TierChoice::Tier(TierKind::Mobile) => {
+            TierChoice::Tier(TierKind::Mobile) => {
                 Box::new(MobileTier::open(settings, MobileConfig::default())?)
             }
-            TierChoice::Pc | TierChoice::Tier(TierKind::Pc) => {
+            TierChoice::Tier(TierKind::Pc) => {
                 Box::new(PcTier::open(settings, PcConfig::default())?)
             }
-            TierChoice::Path | TierChoice::Tier(TierKind::Path) => {
+            TierChoice::Tier(TierKind::Path) => {
                 Box::new(GpuPathTier::open(TierKind::Path, settings)?)
             }
             TierChoice::Tier(TierKind::Direct) => match hardware_gpu() {
                 Some(ctx) => Box::new(GpuPathTier::new(TierKind::Direct, settings, ctx)?),
                 None => Box::new(CpuTier::new(TierKind::Direct, settings)?),
             },
-            TierChoice::Reference | TierChoice::Tier(TierKind::Reference) => {
+            TierChoice::Tier(TierKind::Reference) => {
                 Box::new(CpuTier::new(TierKind::Reference, settings)?)
             }
         };

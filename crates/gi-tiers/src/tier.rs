@@ -111,17 +111,10 @@ pub enum TierChoice {
     /// The best real-time GI tier whose estimated frame time on the adapter fits the budget;
     /// `mobile` with a reason saying so when none fits ([`crate::select`]).
     AutoWithin(FrameBudget),
-    /// The mobile tier (surfel brick cache, probe volume, screen probes) with its default
-    /// configuration; [`crate::Renderer::with_tier`] takes one configured otherwise.
-    Mobile,
-    /// The PC tier (BVH ray tracing, ReSTIR GI, SVGF) with its default configuration;
-    /// [`crate::Renderer::with_tier`] takes one configured otherwise.
-    Pc,
-    /// The GPU path tracer; `Unavailable` without a Vulkan adapter.
-    Path,
-    /// The CPU path tracer (the ground truth); needs no GPU.
-    Reference,
-    /// One tier by kind.
+    /// One tier by kind, with its default configuration ([`crate::Renderer::with_tier`] takes
+    /// one configured otherwise): `mobile` and `pc` need a Vulkan adapter, `path` too
+    /// (`Unavailable` without one); `direct` runs on a hardware GPU when there is one, else on
+    /// the CPU; `reference` is the CPU path tracer, the ground truth, and needs no GPU.
     Tier(TierKind),
 }
 

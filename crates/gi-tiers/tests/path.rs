@@ -451,8 +451,13 @@ fn path_is_unavailable_for_cpu_kinds_and_auto_follows_the_policy() {
     assert_eq!(auto.tier(), plan.chosen().kind);
     assert_ne!(auto.tier(), TierKind::Path);
 
-    let mut path =
-        Renderer::new(scene(), TierChoice::Path, settings(1), CameraMode::Default).unwrap();
+    let mut path = Renderer::new(
+        scene(),
+        TierChoice::Tier(TierKind::Path),
+        settings(1),
+        CameraMode::Default,
+    )
+    .unwrap();
     assert_eq!(path.tier(), TierKind::Path);
     let first = path.render_frame(None).unwrap();
     assert!(first.passes.iter().any(|(name, _)| name == "path/resolve"));

@@ -128,8 +128,8 @@ fn unknown_and_invalid_requests_are_errors() {
     // The path tier's choices are tested with the GPU tiers (tests/path.rs).
     // The mobile and PC tiers need a Vulkan adapter, and say so without one.
     for (choice, kind) in [
-        (TierChoice::Mobile, TierKind::Mobile),
-        (TierChoice::Pc, TierKind::Pc),
+        (TierChoice::Tier(TierKind::Mobile), TierKind::Mobile),
+        (TierChoice::Tier(TierKind::Pc), TierKind::Pc),
     ] {
         let scene = gi_scene::load("cornell-box").unwrap();
         match Renderer::new(scene, choice, SETTINGS, CameraMode::Default) {
@@ -306,8 +306,13 @@ fn path_warm_up_adds_samples_to_the_still_view() {
         return;
     }
     let scene = gi_scene::load("cornell-box").unwrap();
-    let mut renderer = Renderer::new(scene, TierChoice::Path, SETTINGS, CameraMode::Default)
-        .expect("a path tier on the adapter");
+    let mut renderer = Renderer::new(
+        scene,
+        TierChoice::Tier(TierKind::Path),
+        SETTINGS,
+        CameraMode::Default,
+    )
+    .expect("a path tier on the adapter");
     renderer.warm_up(2, None).unwrap();
     let samples = std::sync::atomic::AtomicU32::new(0);
     let record = |n| samples.store(n, std::sync::atomic::Ordering::Relaxed);

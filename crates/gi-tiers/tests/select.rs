@@ -450,7 +450,7 @@ fn auto_within_a_budget_renders_the_tier_the_plan_chose() {
     let scene = gi_scene::load("cornell-box").unwrap();
     let explicit = Renderer::new(
         scene,
-        TierChoice::Reference,
+        TierChoice::Tier(TierKind::Reference),
         GPU_SETTINGS,
         CameraMode::Default,
     );
