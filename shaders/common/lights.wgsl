@@ -107,6 +107,28 @@ fn pick_emitter(u: f32, emitter_count: u32) -> u32 {
     return emitters[min(lo, emitter_count - 1u)].triangle;
 }
 
+// The solid-angle pdf with which `sample_emitter` draws the point of emitter triangle
+// `triangle` that a ray from the receiver along `dir` hit at distance `t`; 0 for triangles
+// outside the emitter table (the path tracer's MIS weights and the PC tier's candidates).
+fn emitter_pdf(triangle: u32, t: f32, dir: vec3<f32>) -> f32 {
+    let p_select = selection[triangle];
+    if p_select <= 0.0 {
+        return 0.0;
+    }
+    let tri = triangles[triangle];
+    let c = cross(tri.pb.xyz - tri.pa.xyz, tri.pc.xyz - tri.pa.xyz);
+    let len = sqrt(dot(c, c));
+    let area = 0.5 * len;
+    var cos_light = 0.0;
+    if len > 0.0 {
+        cos_light = abs(dot(c * (1.0 / len), dir));
+    }
+    if area <= 0.0 || cos_light <= 0.0 {
+        return 0.0;
+    }
+    return p_select * t * t / (area * cos_light);
+}
+
 // `Reference::sample_emitter(p, u_select, u_point)`; `emitter_count` must be at least 1.
 fn sample_emitter(
     p: vec3<f32>,

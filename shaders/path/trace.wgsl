@@ -28,7 +28,7 @@
 #import gi::bvh::{Ray, Hit, trace_closest, trace_any, BVH_MISS}
 #import gi::camera::{Camera, camera_ray}
 #import gi::scene::{triangles, selection, lights, emission, geometric_normal, material_of, tex_coords, mapped_normal, material_brdf, normalize_or, orient_shading_normal, material_alpha, set_blend_policy, BLEND_HASHED, BLEND_PASS, BLEND_OPAQUE, ALPHA_BLEND}
-#import gi::lights::{LIGHT_DIRECTIONAL, Sky, light_incident, sky_radiance, sample_emitter}
+#import gi::lights::{LIGHT_DIRECTIONAL, Sky, light_incident, sky_radiance, sample_emitter, emitter_pdf}
 
 const RUSSIAN_ROULETTE_START: u32 = 3u;
 const RUSSIAN_ROULETTE_MAX_SURVIVAL: f32 = 0.95;
@@ -167,26 +167,6 @@ fn punctual_lights(s: Surface, x: vec3<f32>) -> vec3<f32> {
         }
     }
     return sum;
-}
-
-// The solid-angle pdf of next-event estimation for a point a ray found on `triangle` at `t`.
-fn emitter_pdf(triangle: u32, t: f32, dir: vec3<f32>) -> f32 {
-    let p_select = selection[triangle];
-    if p_select <= 0.0 {
-        return 0.0;
-    }
-    let tri = triangles[triangle];
-    let c = cross(tri.pb.xyz - tri.pa.xyz, tri.pc.xyz - tri.pa.xyz);
-    let len = sqrt(dot(c, c));
-    let area = 0.5 * len;
-    var cos_light = 0.0;
-    if len > 0.0 {
-        cos_light = abs(dot(c * (1.0 / len), dir));
-    }
-    if area <= 0.0 || cos_light <= 0.0 {
-        return 0.0;
-    }
-    return p_select * t * t / (area * cos_light);
 }
 
 // One next-event sample of the emissive triangles, MIS-weighted against BRDF sampling.

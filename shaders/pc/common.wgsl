@@ -10,6 +10,7 @@
 #define_import_path gi::pc::common
 
 #import gi::camera::Camera
+#import gi::math::luminance
 #import gi::lights::Sky
 #import gi::packing::{unpack_unit_vector, unpack_rgb9e5}
 
@@ -143,10 +144,6 @@ fn empty_reservoir() -> Reservoir {
 
 fn is_sky_depth(depth: f32) -> bool {
     return bitcast<u32>(depth) == INFINITY_BITS || !(depth < 3.0e38);
-}
-
-fn luminance(c: vec3<f32>) -> f32 {
-    return dot(c, vec3(0.2126, 0.7152, 0.0722));
 }
 
 // The source of the specular reflection of a pixel with G-buffer depth `depth` and roughness

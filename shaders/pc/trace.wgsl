@@ -28,18 +28,18 @@
 // (`gi::scene`), then the buffers below. Group 1: the BVH (`gi::bvh`). Group 2: the cache
 // (`gi::cache::data`).
 
-#import gi::math::INV_PI
+#import gi::math::{INV_PI, luminance}
 #import gi::sampling::{Sampler, sampler_new, sampler_next_f32, sampler_next_2d, cosine_hemisphere, frame_from_normal, frame_to_world, frame_to_local}
 #import gi::brdf::{brdf_new, brdf_split_sum_albedos, sample_ggx_vndf, brdf_specular_pdf}
 #import gi::bvh::{Ray, trace_closest, trace_any, BVH_MISS}
 #import gi::camera::camera_ray
 #import gi::scene::{triangles, lights, selection, emission, geometric_normal, material_of, tex_coords, cone_footprint, material_brdf, mapped_normal, normalize_or, orient_shading_normal}
-#import gi::lights::{LIGHT_DIRECTIONAL, EmitterSample, light_incident, sky_radiance, sample_emitter}
+#import gi::lights::{LIGHT_DIRECTIONAL, EmitterSample, light_incident, sky_radiance, sample_emitter, emitter_pdf}
 #import gi::packing::{pack_unit_vector, unpack_unit_vector, pack_rgb9e5, unpack_rgb9e5}
 #import gi::cache::data::cache
 #import gi::cache::trace::{CacheHit, cache_bounced_irradiance, cache_miss, cache_trace_from, cache_hit_radiance, cache_hit_normal}
 #import gi::pc::common::{
-    PcUniforms, Surface, Reservoir, SpecularSample, empty_reservoir, is_sky_depth, has_surface, luminance,
+    PcUniforms, Surface, Reservoir, SpecularSample, empty_reservoir, is_sky_depth, has_surface,
     SAMPLE_SKY, SAMPLE_OCCLUDED, FLAG_SPATIAL, FLAG_SHADOW, FLAG_TEMPORAL
 }
 
@@ -220,24 +220,6 @@ fn trace_far_field(origin: vec3<f32>, dir: vec3<f32>, n: vec3<f32>) -> CacheHit 
         start = far.t + 1.8 * size;
     }
     return cache_miss(FAR);
-}
-
-// Solid-angle pdf with which `sample_emitter` draws the point of emitter triangle `triangle`
-// that a ray from the receiver along `dir` hit at distance `t` (the path tracer's
-// `emitter_pdf`); 0 for triangles outside the emitter table.
-fn emitter_pdf(triangle: u32, t: f32, dir: vec3<f32>) -> f32 {
-    let p_select = selection[triangle];
-    if p_select <= 0.0 {
-        return 0.0;
-    }
-    let tri = triangles[triangle];
-    let c = cross(tri.pb.xyz - tri.pa.xyz, tri.pc.xyz - tri.pa.xyz);
-    let len = sqrt(dot(c, c));
-    let cos_light = abs(dot(c, dir)) / max(len, 1e-30);
-    if len <= 0.0 || cos_light <= 0.0 {
-        return 0.0;
-    }
-    return p_select * t * t / (0.5 * len * cos_light);
 }
 
 // Initial candidates, two strategies combined by resampled importance sampling (Talbot et al.
