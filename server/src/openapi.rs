@@ -220,7 +220,7 @@ pub fn document(config: &Config) -> Value {
                 "Lighting": {
                     "type": "object",
                     "additionalProperties": false,
-                    "description": "Sun, sky, exposure and default camera applied to the scene before rendering (the lighting file format of the README)",
+                    "description": "Sun, sky, exposure and default camera applied to the scene before rendering (the lighting file format of docs/scenes.md)",
                     "properties": {
                         "sun": { "type": "object", "additionalProperties": false, "properties": {
                             "direction": { "type": "array", "items": { "type": "number" }, "minItems": 3, "maxItems": 3, "description": "The vector the light travels along" },
