@@ -67,6 +67,21 @@ pub struct Renderer {
     /// tier's upload of the scene fixes which meshes it skins; [`Renderer::scene_mut`] keeps
     /// it.
     evaluation: Evaluation,
+    /// For a scene without a camera node, the view that frames it (its bounds at time 0,
+    /// [`Scene::fallback_view`]: a pass over every vertex), computed once instead of every
+    /// frame; `None` for a scene with a camera node. `framing_stale`: the scene was edited
+    /// since ([`Renderer::scene_mut`]), so the next frame computes it again.
+    framing: Option<CameraView>,
+    framing_stale: bool,
+}
+
+/// The view that frames `scene` when it has no camera node to look through, else `None`.
+fn framing_of(scene: &Scene) -> Option<CameraView> {
+    let camera = (scene.default_camera_node)
+        .and_then(|node| scene.nodes.get(node))
+        .and_then(|node| node.camera)
+        .and_then(|camera| scene.cameras.get(camera));
+    camera.is_none().then(|| scene.default_view(0.0))
 }
 
 /// The evaluation `tier` needs of `scene`'s frames.
@@ -196,6 +211,8 @@ impl Renderer {
     pub fn with_tier(scene: Scene, tier: Box<dyn Tier>, camera: CameraMode) -> Self {
         Self {
             evaluation: evaluation_for(&scene, tier.as_ref()),
+            framing: framing_of(&scene),
+            framing_stale: false,
             scene,
             tier,
             camera,
@@ -219,6 +236,7 @@ impl Renderer {
     /// `Renderer`).
     pub fn scene_mut(&mut self) -> &mut Scene {
         self.last_frame = None;
+        self.framing_stale = true;
         &mut self.scene
     }
 
@@ -249,12 +267,24 @@ impl Renderer {
         self.scene.frame_time(index)
     }
 
-    /// The camera of frame `index`.
+    /// The camera of frame `index`: the camera path's at its time ([`CameraMode::Path`] on a
+    /// scene with one), else the default camera node's, else, for a scene without a camera
+    /// node, the view that frames the scene's bounds at time 0 (also when an animation moves
+    /// them later).
     pub fn view(&self, index: u32) -> CameraView {
         let time = self.frame_time(index);
-        match self.camera {
-            CameraMode::Default => self.scene.default_view(time),
-            CameraMode::Path => self.scene.path_view(time),
+        let path = self
+            .scene
+            .camera_path
+            .as_ref()
+            .filter(|p| !p.keys.is_empty());
+        match (self.camera, path, self.framing) {
+            (CameraMode::Path, Some(_), _) => self.scene.path_view(time),
+            (_, _, Some(framing)) if !self.framing_stale => framing,
+            (_, _, _) => match framing_of(&self.scene) {
+                Some(framing) => framing,
+                None => self.scene.default_view(time),
+            },
         }
     }
 
@@ -369,6 +399,10 @@ impl Renderer {
     /// frame ([`Scene::evaluate_into`]: only the animated nodes' triangles are evaluated
     /// again); else a fresh evaluation.
     fn frame(&mut self, index: u32) -> SceneFrame {
+        if self.framing_stale {
+            self.framing = framing_of(&self.scene);
+            self.framing_stale = false;
+        }
         let time_s = self.frame_time(index);
         match self.last_frame.take() {
             Some(mut frame) if !self.scene.is_animated() => {

@@ -456,3 +456,31 @@ fn frame_contents(frame: &gi_scene::SceneFrame) -> String {
     frame.geometry_revision = 0;
     format!("{frame:?}")
 }
+
+/// A scene without a camera node is framed once, from its bounds at time 0: an animation that
+/// moves its bounds later does not move the camera (framing them every frame was a pass over
+/// every vertex per frame), and an edit through `scene_mut` frames it again.
+#[test]
+fn a_scene_without_a_camera_is_framed_once() {
+    let scene = gi_scene::generate::skinned_tube(8, 6);
+    assert!(scene.default_camera_node.is_none() && scene.is_animated());
+    let bent = scene.frame_time(30);
+    assert_ne!(
+        scene.default_view(0.0),
+        scene.default_view(bent),
+        "the bounds move"
+    );
+    let frames = std::sync::Arc::new(std::sync::Mutex::new(Vec::new()));
+    let recorder = Recorder { frames };
+    let mut renderer = Renderer::with_tier(scene, Box::new(recorder), CameraMode::Default);
+    let framing = renderer.scene().default_view(0.0);
+    assert_eq!(renderer.view(30), framing);
+    // Moved by an edit, the scene is framed again from its new bounds.
+    for node in &mut renderer.scene_mut().nodes {
+        node.translation += glam::Vec3::new(0.0, 0.0, -4.0);
+    }
+    renderer.render_frame(None).unwrap();
+    let moved = renderer.scene().default_view(0.0);
+    assert_ne!(moved, framing);
+    assert_eq!(renderer.view(30), moved);
+}
