@@ -749,3 +749,73 @@ fn real_content() -> Case {
         time_s: 0.0,
     }
 }
+
+/// The renderer's way of following an animated, skinned scene on a GPU tier (frames moved in
+/// place, the skinned arm's normals and tangents left out and skinned on the GPU, at the
+/// upload and at every update) renders the CPU reference's direct light of complete frames
+/// evaluated afresh, pixel by pixel up to f32 rounding, at every frame.
+#[test]
+fn renderer_frames_of_a_skinned_scene_render_like_the_reference() {
+    let Some(ctx) = GpuContext::new_or_skip("renderer_frames_of_a_skinned_scene") else {
+        return;
+    };
+    // The arm fills the view, lit by a sun from the side (so its shading follows its normals).
+    let mut scene = gi_scene::generate::skinned_arm();
+    scene.lights.push(Light {
+        name: "sun".into(),
+        kind: LightKind::Directional,
+        color: Vec3::ONE,
+        intensity: 3.0,
+        range: None,
+    });
+    scene.nodes.push(Node {
+        light: Some(scene.lights.len() - 1),
+        rotation: Quat::from_rotation_y(1.2) * Quat::from_rotation_x(-0.5),
+        ..Node::default()
+    });
+    scene.camera_path = Some(gi_scene::CameraPath {
+        keys: vec![gi_scene::CameraKey {
+            time_s: 0.0,
+            position: Vec3::new(0.3, 1.6, 2.2),
+            target: Vec3::new(0.0, 1.4, 0.0),
+        }],
+        yfov: 0.9,
+    });
+    let settings = TierSettings {
+        width: 32,
+        height: 24,
+        ..settings(4)
+    };
+    let tier = GpuPathTier::new(TierKind::Direct, settings, ctx).unwrap();
+    let mut renderer = Renderer::with_tier(scene.clone(), Box::new(tier), CameraMode::Path);
+    // Frames 0, 10 and 20: the elbow bends by up to 60 degrees.
+    for index in 0..21u32 {
+        let output = renderer.render_frame(None).unwrap();
+        if index % 10 != 0 {
+            continue;
+        }
+        let frame = scene.evaluate(scene.frame_time(index), Some(renderer.view(index)));
+        let expected = Reference::new(&scene, frame)
+            .render(
+                &RenderSettings {
+                    width: settings.width,
+                    height: settings.height,
+                    spp: settings.spp,
+                    seed: settings.seed,
+                    mode: Mode::Direct,
+                    ..RenderSettings::default()
+                },
+                &|_| {},
+            )
+            .unwrap();
+        let agreeing = (output.image.pixels.iter())
+            .zip(&expected.image.pixels)
+            .filter(|&(a, b)| close(*a, *b, 1e-3))
+            .count();
+        let total = expected.image.pixels.len();
+        assert!(
+            agreeing * 100 >= total * 97,
+            "frame {index}: only {agreeing} of {total} pixels agree"
+        );
+    }
+}
