@@ -532,7 +532,7 @@ pub struct LightingInputs<'a> {
 }
 
 impl<'a> LightingInputs<'a> {
-    /// The lighting inputs of one cache update, as [`RadianceCache`](crate::RadianceCache)
+    /// The lighting inputs of one cache update, as [`RadianceCache`]
     /// hands it to its lighting hook.
     pub fn from_frame(frame: &CacheFrame<'a>) -> Self {
         Self {

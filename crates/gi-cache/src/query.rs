@@ -138,7 +138,7 @@ pub struct CacheTraceTimings {
 }
 
 /// The pipelines of `shaders/cache/query.wgsl`, one per entry point, each with its own batch
-/// layout as bind group 0 and the cache as bind group [`CACHE_BIND_GROUP`].
+/// layout as bind group 0 and the cache as bind group `CACHE_BIND_GROUP`.
 pub struct CacheTracer {
     /// Entry point `trace_rays` (timer scope `cache/trace_rays`).
     pub trace_rays: wgpu::ComputePipeline,

@@ -41,10 +41,10 @@ pub struct CompareArgs {
     /// correlated with the reference's).
     #[arg(long, default_value_t = cache::REFERENCE_SEED)]
     reference_seed: u64,
-    /// Folder for the images (default: out/<scene>).
+    /// Folder for the images (default: `out/<scene>`).
     #[arg(long)]
     out_dir: Option<PathBuf>,
-    /// Write the table as JSON here (default: <out-dir>/compare.json).
+    /// Write the table as JSON here (default: `<out-dir>/compare.json`).
     #[arg(long)]
     json: Option<PathBuf>,
     /// Reference cache folder (default: $GI_CACHE_DIR, $XDG_CACHE_HOME/gi or ~/.cache/gi).

@@ -223,7 +223,7 @@ pub struct GpuScene {
     pub triangles: wgpu::Buffer,
     /// `scene.materials`: [`GpuMaterial`]s (at least one: the default material follows them).
     pub materials: wgpu::Buffer,
-    /// `scene.texture_refs`: the [`GpuTextureRef`] table the materials index.
+    /// `scene.texture_refs`: the [`crate::GpuTextureRef`] table the materials index.
     pub texture_refs: wgpu::Buffer,
     /// `scene.triangle_extras`: [`GpuTriangleExtras`] per frame triangle, or one zeroed entry
     /// when no primitive has tangents or a second texture coordinate set.

@@ -77,7 +77,7 @@ struct SkinnedNode {
     matrix_base: usize,
 }
 
-/// `skinned[node]`: node `node` is skinned on the GPU ([`GpuSkinning`]): its mesh is skinned,
+/// `skinned[node]`: node `node` is skinned on the GPU (pass `skin`): its mesh is skinned,
 /// one of its joints or itself moves ([`Scene::deforming_nodes`]), and its morph target
 /// weights are not animated.
 pub fn gpu_skinned_nodes(scene: &Scene) -> Vec<bool> {

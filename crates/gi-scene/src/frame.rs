@@ -123,7 +123,7 @@ impl CameraView {
         }
     }
 
-    /// Unit world direction through the film point `(u, v)` in [0,1]^2, u to the right and
+    /// Unit world direction through the film point `(u, v)` in \[0,1\]^2, u to the right and
     /// v downwards (pixel (x, y) center is `((x + 0.5) / w, (y + 0.5) / h)`).
     pub fn ray_direction(&self, u: f32, v: f32, aspect: f32) -> Vec3 {
         let tan_half = (self.yfov * 0.5).tan();

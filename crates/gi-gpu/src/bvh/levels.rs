@@ -78,7 +78,7 @@ struct Instance {
 /// indices rebased to the concatenation), and the instances that place them.
 #[derive(Clone, Debug)]
 pub struct BottomLevels {
-    /// All bottom-level nodes; each level's root at [`Blas::root`]. The deforming levels'
+    /// All bottom-level nodes; each level's root at `Blas::root`. The deforming levels'
     /// nodes keep the boxes of their last build: after a [`DeformUpdate::Refit`] only the
     /// GPU's copy is current.
     pub nodes: Vec<GpuCwBvhNode>,

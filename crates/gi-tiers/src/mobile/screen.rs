@@ -40,7 +40,7 @@ pub struct ScreenUniforms {
     pub ray_offset_voxels: f32,
     /// Bit 0: SmartGI, else HSGI ([`ScreenProbeMode`]); bit 1: the material's occlusion map
     /// darkens the gathered diffuse light ([`ScreenConfig::material_occlusion`]); bit 2
-    /// ([`FLAG_BLEND_LAYER`]): `gbuffer.blend_layer` holds a blended layer per pixel.
+    /// (`FLAG_BLEND_LAYER`): `gbuffer.blend_layer` holds a blended layer per pixel.
     pub flags: u32,
 }
 

@@ -13,7 +13,7 @@
 //!   (2 s on Windows, TDR).
 //!
 //! So every dispatch is planned from a cost estimate in loop iterations
-//! ([`loop_iterations_per_sample`]) and two budgets: [`INVOCATION_LOOP_BUDGET`] caps the
+//! (`loop_iterations_per_sample`) and two budgets: [`INVOCATION_LOOP_BUDGET`] caps the
 //! samples one invocation adds per dispatch, [`DISPATCH_LOOP_BUDGET`] the work of a whole
 //! dispatch, first by fewer samples and then by fewer rows per dispatch ([`DispatchPlan`]).
 //! Splitting changes no result: each invocation continues its pixel's sums sample by sample
@@ -28,7 +28,7 @@ use gi_reference::{RUSSIAN_ROULETTE_MAX_SURVIVAL, RUSSIAN_ROULETTE_START};
 
 use super::PathUniforms;
 
-/// Estimated loop iterations ([`loop_iterations_per_sample`]) one invocation of
+/// Estimated loop iterations (`loop_iterations_per_sample`) one invocation of
 /// `<tier>/trace` may run in one dispatch: half of lavapipe's 65,535, leaving the other half
 /// to the estimate's error and to the slowest lane of a SIMD batch. Measured on lavapipe, the
 /// bundled scenes run 150 to 360 iterations per sample against estimates of 2,200 to 10,000
@@ -112,7 +112,7 @@ pub(crate) fn loop_iterations_per_sample(
 /// `rows` image rows. A dispatch's estimated cost is at most [`INVOCATION_LOOP_BUDGET`] (>>
 /// the accumulation's shift) per invocation and [`DISPATCH_LOOP_BUDGET`] in all, except that
 /// a dispatch always holds at least one sample and one workgroup row, and a pass at most
-/// [`MAX_DISPATCHES_PER_PASS`] dispatches.
+/// `MAX_DISPATCHES_PER_PASS` dispatches.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct DispatchPlan {
     /// Samples per pixel one dispatch adds, at least 1.
