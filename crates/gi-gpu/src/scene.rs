@@ -334,6 +334,21 @@ fn changing_ranges(scene: &Scene, frame: &SceneFrame) -> Vec<Range<usize>> {
     ranges
 }
 
+/// A node whose shading `frame` left out (`SceneFrame::positions_only`) must be one the GPU
+/// skins ([`crate::gpu_skinned_nodes`]), or its triangles would get zero normals.
+fn check_positions_only(scene: &Scene, frame: &SceneFrame) -> Result<(), SceneUploadError> {
+    if !frame.positions_only.contains(&true) {
+        return Ok(());
+    }
+    let skinned = crate::gpu_skinned_nodes(scene);
+    match (frame.positions_only.iter().enumerate())
+        .position(|(node, &only)| only && !skinned.get(node).copied().unwrap_or(false))
+    {
+        Some(node) => Err(SceneUploadError::PositionsOnly { node }),
+        None => Ok(()),
+    }
+}
+
 /// The parts of the sorted, disjoint `ranges` outside the sorted, disjoint `removed`.
 fn subtract_ranges(ranges: &[Range<usize>], removed: &[Range<usize>]) -> Vec<Range<usize>> {
     let mut out = Vec::new();
@@ -454,13 +469,7 @@ impl GpuScene {
         frame: &SceneFrame,
         texture_options: &TextureOptions,
     ) -> Result<Self, SceneUploadError> {
-        // A node whose shading the frame left out must be one this scene skins on the GPU.
-        let skinned = crate::gpu_skinned_nodes(scene);
-        if let Some(node) = (frame.positions_only.iter().enumerate())
-            .position(|(node, &only)| only && !skinned.get(node).copied().unwrap_or(false))
-        {
-            return Err(SceneUploadError::PositionsOnly { node });
-        }
+        check_positions_only(scene, frame)?;
         // Every buffer is checked against the device's limits before anything is created.
         let triangle_count = frame.triangles.len() as u64;
         let limit = ctx
@@ -576,13 +585,15 @@ impl GpuScene {
     /// moving or deforming triangle emits light. A camera move alone needs no update at all.
     ///
     /// Returns true when a buffer had to be replaced (an emitter table that grew), so bind
-    /// groups made over [`GpuScene::buffers`] must be made again.
+    /// groups made over [`GpuScene::buffers`] must be made again. A frame that leaves out the
+    /// normals of a node the GPU does not skin is refused
+    /// ([`SceneUploadError::PositionsOnly`]), as at the upload.
     pub fn update(
         &mut self,
         ctx: &GpuContext,
         scene: &Scene,
         frame: &SceneFrame,
-    ) -> Result<bool, BvhError> {
+    ) -> Result<bool, SceneUploadError> {
         self.update_with_timer(ctx, scene, frame, None)
     }
 
@@ -595,7 +606,7 @@ impl GpuScene {
         scene: &Scene,
         frame: &SceneFrame,
         timer: &mut GpuTimer,
-    ) -> Result<bool, BvhError> {
+    ) -> Result<bool, SceneUploadError> {
         self.update_with_timer(ctx, scene, frame, Some(timer))
     }
 
@@ -605,7 +616,8 @@ impl GpuScene {
         scene: &Scene,
         frame: &SceneFrame,
         mut timer: Option<&mut GpuTimer>,
-    ) -> Result<bool, BvhError> {
+    ) -> Result<bool, SceneUploadError> {
+        check_positions_only(scene, frame)?;
         match timer.as_deref_mut() {
             Some(timer) => self.bvh.update_timed(ctx, frame, timer)?,
             None => self.bvh.update(ctx, frame)?,

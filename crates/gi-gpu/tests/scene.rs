@@ -271,5 +271,10 @@ fn gpu_skinning_matches_the_cpu_on_awkward_vertices() {
         fresh.release(&ctx);
     }
     assert!(mirrored > 0, "the elbow mirrors");
+    // An update from a frame without the floor's normals is refused too.
+    match gpu.update(&ctx, &scene, &scene.evaluate_with(0.5, None, &wrong)) {
+        Err(gi_gpu::SceneUploadError::PositionsOnly { node: 0 }) => {}
+        other => panic!("unexpected {:?}", other.map_err(|e| e.to_string())),
+    }
     gpu.release(&ctx);
 }
