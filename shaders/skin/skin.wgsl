@@ -13,7 +13,8 @@
 // `skin_vertices` runs one invocation per vertex, `skin_triangles` one per triangle, in one
 // compute pass (its dispatches' writes are ordered before the next dispatch's reads).
 
-#import gi::scene::{TriangleShading, TriangleExtras}
+#import gi::math::FLT_MAX
+#import gi::scene::{TriangleShading, TriangleExtras, normalize_or}
 
 // A vertex at rest (morphed at the node's constant weights) in its mesh's space.
 struct SkinVertex {
@@ -66,16 +67,6 @@ struct Counts {
 @group(0) @binding(6) var<storage, read_write> scene_extras: array<TriangleExtras>;
 
 const WORKGROUP_SIZE: u32 = 64u;
-const FLOAT_MAX: f32 = 3.4028235e38;
-
-// `v` at unit length, or `fallback` when it has none.
-fn normalize_or(v: vec3<f32>, fallback: vec3<f32>) -> vec3<f32> {
-    let length_squared = dot(v, v);
-    if !(length_squared > 0.0 && length_squared <= FLOAT_MAX) {
-        return fallback;
-    }
-    return v * (1.0 / sqrt(length_squared));
-}
 
 fn blended_matrix(vertex: SkinVertex) -> mat4x4<f32> {
     var m = mat4x4<f32>(vec4(0.0), vec4(0.0), vec4(0.0), vec4(0.0));
@@ -87,7 +78,7 @@ fn blended_matrix(vertex: SkinVertex) -> mat4x4<f32> {
             total += w;
         }
     }
-    if !(total > 0.0 && total <= FLOAT_MAX) {
+    if !(total > 0.0 && total <= FLT_MAX) {
         return matrices[bitcast<u32>(vertex.position.w)];
     }
     if total == 1.0 {

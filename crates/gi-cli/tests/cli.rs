@@ -4,11 +4,21 @@
 use std::{path::Path, process::Command};
 
 fn gi(args: &[&str], cwd: &Path) -> std::process::Output {
+    gi_with_env(args, cwd, &[])
+}
+
+/// `gi` with the variables `env` set as well.
+fn gi_with_env(
+    args: &[&str],
+    cwd: &Path,
+    env: &[(&str, &std::ffi::OsStr)],
+) -> std::process::Output {
     Command::new(env!("CARGO_BIN_EXE_gi"))
         .args(args)
         .current_dir(cwd)
         // Keep the reference cache inside the test's folder.
         .env("GI_CACHE_DIR", cwd.join("cache"))
+        .envs(env.iter().copied())
         .env_remove("RUST_LOG")
         .output()
         .expect("gi runs")
@@ -875,17 +885,15 @@ fn a_reader_that_closes_the_pipe_early_ends_the_output_quietly() {
 #[test]
 fn compare_without_a_vulkan_driver_renders_the_cpu_tiers_and_marks_the_rest() {
     let dir = tempfile::tempdir().unwrap();
+    let missing = dir.path().join("no-driver.json");
     let without_vulkan = |args: &[&str]| {
-        Command::new(env!("CARGO_BIN_EXE_gi"))
-            .args(args)
-            .current_dir(dir.path())
-            .env("GI_CACHE_DIR", dir.path().join("cache"))
-            .env("VK_DRIVER_FILES", dir.path().join("no-driver.json"))
-            .env("VK_ICD_FILENAMES", dir.path().join("no-driver.json"))
-            .env_remove("GI_ADAPTER")
-            .env_remove("RUST_LOG")
-            .output()
-            .expect("gi runs")
+        // An empty adapter filter is no filter.
+        let env = [
+            ("VK_DRIVER_FILES", missing.as_os_str()),
+            ("VK_ICD_FILENAMES", missing.as_os_str()),
+            ("GI_ADAPTER", std::ffi::OsStr::new("")),
+        ];
+        gi_with_env(args, dir.path(), &env)
     };
     let size = [
         "--width",

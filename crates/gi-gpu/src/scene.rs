@@ -255,6 +255,9 @@ pub struct GpuScene {
     cpu_changing: Vec<Range<usize>>,
     /// The skinning of skinned meshes whose joints move, on the GPU (`None`: no such mesh).
     skinning: Option<GpuSkinning>,
+    /// Per node, whether it is skinned on the GPU ([`crate::gpu_skinned_nodes`] at the upload):
+    /// the nodes whose shading a frame may leave out.
+    gpu_skinned: Vec<bool>,
     /// Whether a changing triangle emits light: only then can the emitter table change.
     changing_emitters: bool,
     /// Whether a material is alpha `BLEND` (the real-time tiers then composite a blended
@@ -335,12 +338,9 @@ fn changing_ranges(scene: &Scene, frame: &SceneFrame) -> Vec<Range<usize>> {
 }
 
 /// A node whose shading `frame` left out (`SceneFrame::positions_only`) must be one the GPU
-/// skins ([`crate::gpu_skinned_nodes`]), or its triangles would get zero normals.
-fn check_positions_only(scene: &Scene, frame: &SceneFrame) -> Result<(), SceneUploadError> {
-    if !frame.positions_only.contains(&true) {
-        return Ok(());
-    }
-    let skinned = crate::gpu_skinned_nodes(scene);
+/// skins (`skinned`, from [`crate::gpu_skinned_nodes`]), or its triangles would get zero
+/// normals.
+fn check_positions_only(skinned: &[bool], frame: &SceneFrame) -> Result<(), SceneUploadError> {
     match (frame.positions_only.iter().enumerate())
         .position(|(node, &only)| only && !skinned.get(node).copied().unwrap_or(false))
     {
@@ -469,7 +469,8 @@ impl GpuScene {
         frame: &SceneFrame,
         texture_options: &TextureOptions,
     ) -> Result<Self, SceneUploadError> {
-        check_positions_only(scene, frame)?;
+        let gpu_skinned = crate::gpu_skinned_nodes(scene);
+        check_positions_only(&gpu_skinned, frame)?;
         // Every buffer is checked against the device's limits before anything is created.
         let triangle_count = frame.triangles.len() as u64;
         let limit = ctx
@@ -529,8 +530,8 @@ impl GpuScene {
             ctx,
             scene,
             frame,
-            &triangles,
-            &triangle_extras,
+            &gpu_skinned,
+            (&triangles, &triangle_extras),
             !extras.is_empty(),
         )?;
         let cpu_changing = match &skinning {
@@ -568,6 +569,7 @@ impl GpuScene {
             changing,
             cpu_changing,
             skinning,
+            gpu_skinned,
             textures,
             bvh,
         })
@@ -617,7 +619,7 @@ impl GpuScene {
         frame: &SceneFrame,
         mut timer: Option<&mut GpuTimer>,
     ) -> Result<bool, SceneUploadError> {
-        check_positions_only(scene, frame)?;
+        check_positions_only(&self.gpu_skinned, frame)?;
         match timer.as_deref_mut() {
             Some(timer) => self.bvh.update_timed(ctx, frame, timer)?,
             None => self.bvh.update(ctx, frame)?,

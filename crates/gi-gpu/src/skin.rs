@@ -110,20 +110,20 @@ pub(crate) struct GpuSkinning {
 }
 
 impl GpuSkinning {
-    /// The skinning of `scene`'s GPU-skinned nodes ([`gpu_skinned_nodes`]) at `frame` (an
-    /// evaluation of it, which gives the nodes' triangle ranges and morph weights), writing
-    /// into `scene_triangles` and `scene_extras` (`has_extras`: the latter holds every
-    /// triangle). `None` when no node is skinned on the GPU. Every buffer and dispatch size is
+    /// The skinning of `scene`'s nodes flagged in `skinned_nodes` ([`gpu_skinned_nodes`]) at
+    /// `frame` (an evaluation of it, which gives the nodes' triangle ranges and morph weights),
+    /// writing into `buffers`, the scene's triangles and extras (`has_extras`: the latter holds
+    /// every triangle). `None` when no node is skinned on the GPU. Every buffer and dispatch size is
     /// checked against the device's limits first.
     pub(crate) fn new(
         ctx: &GpuContext,
         scene: &Scene,
         frame: &SceneFrame,
-        scene_triangles: &wgpu::Buffer,
-        scene_extras: &wgpu::Buffer,
+        skinned_nodes: &[bool],
+        buffers: (&wgpu::Buffer, &wgpu::Buffer),
         has_extras: bool,
     ) -> Result<Option<Self>, SceneUploadError> {
-        let skinned_nodes = gpu_skinned_nodes(scene);
+        let (scene_triangles, scene_extras) = buffers;
         if !skinned_nodes.contains(&true) {
             return Ok(None);
         }
@@ -395,8 +395,8 @@ impl GpuSkinning {
         (self.vertex_count, self.triangle_count)
     }
 
-    /// Bytes of the pass's buffers.
-    pub(crate) fn bytes(&self) -> u64 {
+    /// The pass's own buffers.
+    fn buffers(&self) -> [&wgpu::Buffer; 5] {
         [
             &self.counts,
             &self.vertices,
@@ -404,20 +404,16 @@ impl GpuSkinning {
             &self.skinned,
             &self.triangles,
         ]
-        .iter()
-        .map(|b| b.size())
-        .sum()
+    }
+
+    /// Bytes of the pass's buffers.
+    pub(crate) fn bytes(&self) -> u64 {
+        self.buffers().iter().map(|b| b.size()).sum()
     }
 
     /// Stops counting and destroys the pass's buffers.
     pub(crate) fn release(&self, ctx: &GpuContext) {
-        for buffer in [
-            &self.counts,
-            &self.vertices,
-            &self.matrices,
-            &self.skinned,
-            &self.triangles,
-        ] {
+        for buffer in self.buffers() {
             ctx.release_buffer(buffer);
         }
     }

@@ -95,11 +95,48 @@ fn updates_rewrite_moving_triangles_like_a_fresh_upload() {
     }
 }
 
-/// The shading buffers of `updated` equal those of `fresh` (both holding `frame`, an
-/// evaluation of `scene`): bit for bit, except that the triangles of nodes skinned on the GPU
-/// ([`gi_gpu::gpu_skinned_nodes`]) may differ from the CPU's by rounding in their positions,
-/// normals and tangents (1e-5 relative); their texture coordinates, node and material are
-/// exact. Returns the number of GPU-skinned triangles compared.
+/// What the CPU writes for triangle `t` of `frame` (a complete evaluation): the layout of
+/// `gi_gpu::GpuTriangleShading` and `GpuTriangleExtras` as documented there.
+fn cpu_shading(
+    frame: &gi_scene::SceneFrame,
+    t: usize,
+) -> (gi_gpu::GpuTriangleShading, gi_gpu::GpuTriangleExtras) {
+    let (tri, a) = (&frame.triangles[t], &frame.attributes[t]);
+    let p = |v: glam::Vec3A, w: f32| [v.x, v.y, v.z, w];
+    let n = |i: usize| {
+        let n = a.normals[i];
+        [n.x, n.y, n.z, a.uvs[i].x]
+    };
+    let [u0, u1, u2] = a.uvs1;
+    (
+        gi_gpu::GpuTriangleShading {
+            pa: p(tri.v0, a.node as f32),
+            pb: p(tri.v1, 0.0),
+            pc: p(tri.v2, 0.0),
+            na: n(0),
+            nb: n(1),
+            nc: n(2),
+            v: [a.uvs[0].y, a.uvs[1].y, a.uvs[2].y],
+            material: a.material,
+        },
+        gi_gpu::GpuTriangleExtras {
+            ta: a.tangents[0].to_array(),
+            tb: a.tangents[1].to_array(),
+            tc: a.tangents[2].to_array(),
+            uv_ab: [u0.x, u0.y, u1.x, u1.y],
+            uv_c: u2.to_array(),
+            pad: [0.0; 2],
+        },
+    )
+}
+
+/// The shading buffers of `updated` hold what the CPU computes for `frame` (a complete
+/// evaluation of `scene`): the triangles of nodes not skinned on the GPU bit for bit as a
+/// `fresh` upload of `frame` holds them; those of nodes skinned on the GPU
+/// ([`gi_gpu::gpu_skinned_nodes`]; an upload skins them on the GPU too) against the CPU's own
+/// values ([`cpu_shading`]), their positions, normals and tangents up to rounding (1e-5
+/// relative), their texture coordinates, node and material exactly. Returns the number of
+/// GPU-skinned triangles compared.
 fn assert_same_shading(
     ctx: &gi_gpu::GpuContext,
     scene: &gi_scene::Scene,
@@ -138,7 +175,8 @@ fn assert_same_shading(
             continue;
         }
         skinned += 1;
-        let (x, y) = (a[t], b[t]);
+        let (cpu, cpu_extras) = cpu_shading(frame, t);
+        let (x, y) = (a[t], cpu);
         let xyz = |v: [f32; 4]| [v[0], v[1], v[2]];
         let geometry =
             |s: &GpuTriangleShading| [s.pa, s.pb, s.pc, s.na, s.nb, s.nc].map(xyz).concat();
@@ -156,7 +194,7 @@ fn assert_same_shading(
             "{label}: skinned triangle {t}: GPU {x:?}, CPU {y:?}"
         );
         if has_extras {
-            let (x, y) = (extras_a[t], extras_b[t]);
+            let (x, y) = (extras_a[t], cpu_extras);
             let tangents = |e: &GpuTriangleExtras| [e.ta, e.tb, e.tc].concat();
             assert!(
                 close(&tangents(&x), &tangents(&y))
