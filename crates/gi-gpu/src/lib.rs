@@ -66,6 +66,7 @@ pub use memory::MemoryReport;
 pub use scene::{
     ALPHA_BLEND, ALPHA_MASK, ALPHA_OPAQUE, ALPHA_TEST, EmitterTable, GpuEmitter, GpuLight,
     GpuMaterial, GpuScene, GpuTriangleExtras, GpuTriangleShading, NO_TEXTURE, SceneUploadError,
+    triangle_extras, triangle_shading,
 };
 pub use shaders::{SHADER_CAPABILITIES, SHADER_DIR_ENV, ShaderDefValue, ShaderLibrary};
 pub use skin::gpu_skinned_nodes;

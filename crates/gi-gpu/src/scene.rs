@@ -269,8 +269,9 @@ pub struct GpuScene {
     pub has_deforming: bool,
 }
 
-/// Per-triangle shading data of `frame`, in frame order.
-fn triangle_shading(frame: &SceneFrame, range: Range<usize>) -> Vec<GpuTriangleShading> {
+/// Per-triangle shading data of `frame`'s triangles `range`, in frame order, as the CPU writes
+/// them (all triangles but those skinned on the GPU).
+pub fn triangle_shading(frame: &SceneFrame, range: Range<usize>) -> Vec<GpuTriangleShading> {
     (frame.triangles[range.clone()].par_iter())
         .zip(&frame.attributes[range])
         .map(|(tri, a)| {
@@ -391,8 +392,9 @@ fn has_extras(scene: &Scene) -> bool {
         .any(|p| !p.tangents.is_empty() || !p.uvs1.is_empty())
 }
 
-/// Tangents and second texture coordinates of `frame`'s triangles `range`, in frame order.
-fn triangle_extras(frame: &SceneFrame, range: Range<usize>) -> Vec<GpuTriangleExtras> {
+/// Tangents and second texture coordinates of `frame`'s triangles `range`, in frame order, as
+/// the CPU writes them.
+pub fn triangle_extras(frame: &SceneFrame, range: Range<usize>) -> Vec<GpuTriangleExtras> {
     frame.attributes[range]
         .par_iter()
         .map(|a| {

@@ -95,46 +95,11 @@ fn updates_rewrite_moving_triangles_like_a_fresh_upload() {
     }
 }
 
-/// What the CPU writes for triangle `t` of `frame` (a complete evaluation): the layout of
-/// `gi_gpu::GpuTriangleShading` and `GpuTriangleExtras` as documented there.
-fn cpu_shading(
-    frame: &gi_scene::SceneFrame,
-    t: usize,
-) -> (gi_gpu::GpuTriangleShading, gi_gpu::GpuTriangleExtras) {
-    let (tri, a) = (&frame.triangles[t], &frame.attributes[t]);
-    let p = |v: glam::Vec3A, w: f32| [v.x, v.y, v.z, w];
-    let n = |i: usize| {
-        let n = a.normals[i];
-        [n.x, n.y, n.z, a.uvs[i].x]
-    };
-    let [u0, u1, u2] = a.uvs1;
-    (
-        gi_gpu::GpuTriangleShading {
-            pa: p(tri.v0, a.node as f32),
-            pb: p(tri.v1, 0.0),
-            pc: p(tri.v2, 0.0),
-            na: n(0),
-            nb: n(1),
-            nc: n(2),
-            v: [a.uvs[0].y, a.uvs[1].y, a.uvs[2].y],
-            material: a.material,
-        },
-        gi_gpu::GpuTriangleExtras {
-            ta: a.tangents[0].to_array(),
-            tb: a.tangents[1].to_array(),
-            tc: a.tangents[2].to_array(),
-            uv_ab: [u0.x, u0.y, u1.x, u1.y],
-            uv_c: u2.to_array(),
-            pad: [0.0; 2],
-        },
-    )
-}
-
 /// The shading buffers of `updated` hold what the CPU computes for `frame` (a complete
 /// evaluation of `scene`): the triangles of nodes not skinned on the GPU bit for bit as a
 /// `fresh` upload of `frame` holds them; those of nodes skinned on the GPU
 /// ([`gi_gpu::gpu_skinned_nodes`]; an upload skins them on the GPU too) against the CPU's own
-/// values ([`cpu_shading`]), their positions, normals and tangents up to rounding (1e-5
+/// values ([`gi_gpu::triangle_shading`]), their positions, normals and tangents up to rounding (1e-5
 /// relative), their texture coordinates, node and material exactly. Returns the number of
 /// GPU-skinned triangles compared.
 fn assert_same_shading(
@@ -175,7 +140,10 @@ fn assert_same_shading(
             continue;
         }
         skinned += 1;
-        let (cpu, cpu_extras) = cpu_shading(frame, t);
+        let (cpu, cpu_extras) = (
+            gi_gpu::triangle_shading(frame, t..t + 1)[0],
+            gi_gpu::triangle_extras(frame, t..t + 1)[0],
+        );
         let (x, y) = (a[t], cpu);
         let xyz = |v: [f32; 4]| [v[0], v[1], v[2]];
         let geometry =
