@@ -36,19 +36,20 @@ pub mod mobile;
 pub mod path;
 pub mod pc;
 mod renderer;
+pub mod requirements;
 mod scene_state;
 pub mod select;
 mod tier;
+pub mod tracer;
 
 pub use cpu::CpuTier;
 pub use gi_gpu::TextureOptions;
 pub use mobile::{MobileConfig, MobileTier};
-pub use path::{
-    GpuPathTier, GpuReferenceEngine, Moments, PathUniforms, reference_cache, reference_engine,
-};
+pub use path::{GpuPathTier, GpuReferenceEngine, Moments, reference_cache, reference_engine};
 pub use pc::{PcConfig, PcTier};
 pub use renderer::{CameraMode, Renderer, Selection};
-pub use select::FrameBudget;
 pub use tier::{
-    FrameInput, FrameOutput, FrameTimings, Tier, TierChoice, TierError, TierKind, TierSettings,
+    FrameBudget, FrameInput, FrameOutput, FrameTimings, Tier, TierChoice, TierError, TierKind,
+    TierSettings,
 };
+pub use tracer::PathUniforms;

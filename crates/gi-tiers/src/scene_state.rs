@@ -8,25 +8,26 @@ use gi_image::Image;
 use gi_scene::SceneFrame;
 use glam::Vec3;
 
-use crate::path::{Accumulation, PathPipelines, PathUniforms};
-use crate::select;
+use crate::requirements::{Requirements, check_requirements, image_bytes};
 use crate::tier::{FrameInput, TierError, TierKind, TierSettings};
+use crate::tracer::{Accumulation, PathPipelines, PathUniforms};
 
-/// Checks what the GPU tier `kind` needs of its settings on `ctx`: a usable image size and
-/// sample count, an image whose one-`vec4<f32>`-per-pixel buffers fit the device's storage
-/// binding limit, and the tier's other [`select::requirements`] (a device the caller opened,
-/// e.g. an engine's, may have smaller limits than the adapter's own).
+/// Checks what the GPU tier `kind` needs of its settings on `ctx`: usable settings
+/// ([`TierSettings::validate`]), an image whose one-`vec4<f32>`-per-pixel buffers fit the
+/// device's storage binding limit, and the tier's declared `requirements` (a device the
+/// caller opened, e.g. an engine's, may have smaller limits than the adapter's own).
 pub(crate) fn check_frame_settings(
     kind: TierKind,
     settings: &TierSettings,
+    requirements: &Requirements,
     ctx: &GpuContext,
 ) -> Result<(), TierError> {
     let unavailable = |reason: String| TierError::Unavailable {
         tier: kind.name(),
         reason,
     };
-    crate::cpu::render_settings(TierKind::Reference, settings).validate()?;
-    let pixel_bytes = u64::from(settings.width) * u64::from(settings.height) * 16;
+    settings.validate()?;
+    let pixel_bytes = image_bytes(settings);
     let limit = ctx.limits.max_storage_buffer_binding_size;
     if pixel_bytes > limit {
         return Err(unavailable(format!(
@@ -35,11 +36,8 @@ pub(crate) fn check_frame_settings(
             settings.width, settings.height
         )));
     }
-    if let Some(requirements) = select::requirements(kind, settings) {
-        select::check_requirements(&requirements, &ctx.limits)
-            .map_err(|reason| unavailable(format!("on this device: {reason}")))?;
-    }
-    Ok(())
+    check_requirements(requirements, &ctx.limits)
+        .map_err(|reason| unavailable(format!("on this device: {reason}")))
 }
 
 /// Bytes of what a GPU GI tier named `tier` needs besides its GI, by their labels: the scene

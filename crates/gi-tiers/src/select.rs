@@ -35,45 +35,14 @@
 //! GPUs nobody measured here); they rank tiers and catch budgets that are far off, they do not
 //! predict a frame to the millisecond.
 
-use std::fmt;
-
 use gi_gpu::{GpuContext, wgpu};
 
+pub use crate::requirements::{FrameCost, Requirements, check_requirements};
+pub use crate::tier::FrameBudget;
 use crate::{
-    pc::{GpuReservoir, GpuSpecularSample, GpuSurface, PcConfig},
+    mobile, path, pc,
     tier::{TierKind, TierSettings},
 };
-
-/// A frame-time budget, kept in whole microseconds so it stays `Copy + Eq` inside
-/// [`TierChoice`](crate::TierChoice).
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, PartialOrd, Ord)]
-pub struct FrameBudget {
-    micros: u64,
-}
-
-impl FrameBudget {
-    /// A budget of `ms` milliseconds, rounded to the microsecond; negative or non-finite values
-    /// give a zero budget, which nothing fits.
-    pub fn from_ms(ms: f64) -> Self {
-        let micros = if ms.is_finite() && ms > 0.0 {
-            (ms * 1000.0).round() as u64
-        } else {
-            0
-        };
-        Self { micros }
-    }
-
-    /// The budget in milliseconds.
-    pub fn ms(self) -> f64 {
-        self.micros as f64 / 1000.0
-    }
-}
-
-impl fmt::Display for FrameBudget {
-    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        write!(f, "{} ms", self.ms())
-    }
-}
 
 /// What [`plan`] knows of an adapter: what `wgpu` reports of it. Built from an opened context
 /// ([`AdapterDescription::from_context`]) or by hand, for tests and for planning another
@@ -156,139 +125,16 @@ impl Plan {
     }
 }
 
-/// What a GPU tier needs of the adapter, from the tier's pipeline layouts and shaders. The
-/// test `tier_requirements_match_the_shaders` (tests/select.rs) checks them against the WGSL:
-/// each storage-buffer count lies between what one entry point uses and what its file
-/// declares, and the other figures are the shaders' own.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub struct Requirements {
-    /// Storage buffers the tier's largest compute pipeline layout binds, summed over its bind
-    /// groups (a layout counts every buffer it binds, used by the entry point or not).
-    pub storage_buffers_per_stage: u32,
-    /// Bind groups of the pipeline with the most (`@group(0..n)`).
-    pub bind_groups: u32,
-    /// Sampled textures of one stage: the scene's texture arrays (`gi_gpu::SceneTextures`).
-    pub sampled_textures_per_stage: u32,
-    /// The largest `@workgroup_size` product.
-    pub invocations_per_workgroup: u32,
-    /// The largest `@workgroup_size` along x.
-    pub workgroup_size_x: u32,
-    /// Bytes of the largest buffer bound whole at the requested resolution: one `vec4<f32>` per
-    /// pixel for every tier, and the PC tier's reservoirs and surfaces per trace pixel.
-    pub largest_binding_bytes: u64,
-}
-
-/// Requirements of the GPU version of `kind` at `settings`' resolution; `None` for a tier
-/// that has no GPU version (`reference`).
+/// Requirements of the GPU version of `kind` at `settings`' resolution, as the tier declares
+/// them at its default configuration; `None` for a tier that has no GPU version
+/// (`reference`).
 pub fn requirements(kind: TierKind, settings: &TierSettings) -> Option<Requirements> {
-    let pixels = u64::from(settings.width) * u64::from(settings.height);
-    let image = pixels * 16;
-    // direct and path: `path/trace` binds the scene (7 storage buffers), its accumulation
-    // buffers (3) and the BVH (4), and the scene's texture arrays in group 3, 8 x 8
-    // invocations; `path/resolve` 64 x 1.
-    let path = Requirements {
-        storage_buffers_per_stage: 14,
-        bind_groups: 4,
-        sampled_textures_per_stage: gi_gpu::textures::TEXTURE_ARRAYS,
-        invocations_per_workgroup: 64,
-        workgroup_size_x: 64,
-        largest_binding_bytes: image,
-    };
     match kind {
         TierKind::Reference => None,
-        TierKind::Direct | TierKind::Path => Some(path),
-        // The screen-probe passes' layouts (mobile/screen.rs): 20 storage buffers of their own,
-        // the probe volume's 3 and the brick cache's 7; four groups (the cache's is group 2,
-        // the textures group 3); the largest workgroups (the cache's passes, the probe
-        // volume's, the 1D screen passes) run 64 invocations in x.
-        TierKind::Mobile => Some(Requirements {
-            storage_buffers_per_stage: 30,
-            bind_groups: 4,
-            sampled_textures_per_stage: gi_gpu::textures::TEXTURE_ARRAYS,
-            invocations_per_workgroup: 64,
-            workgroup_size_x: 64,
-            largest_binding_bytes: image,
-        }),
-        TierKind::Pc => {
-            let scale = PcConfig::default().trace_scale;
-            let traced = u64::from(settings.width.div_ceil(scale))
-                * u64::from(settings.height.div_ceil(scale));
-            let per_trace_pixel = [
-                size_of::<GpuReservoir>(),
-                size_of::<GpuSurface>(),
-                size_of::<GpuSpecularSample>(),
-            ]
-            .into_iter()
-            .max()
-            .unwrap_or(0) as u64;
-            // The trace passes' layouts (pc/mod.rs): the scene's 7 storage buffers and 10 of
-            // their own, the BVH's 4 and the brick cache's 7; the cache passes as for mobile.
-            Some(Requirements {
-                storage_buffers_per_stage: 28,
-                bind_groups: 4,
-                sampled_textures_per_stage: gi_gpu::textures::TEXTURE_ARRAYS,
-                invocations_per_workgroup: 64,
-                workgroup_size_x: 64,
-                largest_binding_bytes: image.max(traced * per_trace_pixel),
-            })
-        }
+        TierKind::Direct | TierKind::Path => Some(path::requirements(settings)),
+        TierKind::Mobile => Some(mobile::requirements(settings)),
+        TierKind::Pc => Some(pc::requirements(settings, &pc::PcConfig::default())),
     }
-}
-
-/// The first requirement `limits` misses, as a sentence naming the limit and both values.
-pub fn check_requirements(req: &Requirements, limits: &wgpu::Limits) -> Result<(), String> {
-    let checks: [(&str, u64, u64); 6] = [
-        (
-            "max_storage_buffers_per_shader_stage",
-            req.storage_buffers_per_stage.into(),
-            limits.max_storage_buffers_per_shader_stage.into(),
-        ),
-        (
-            "max_bind_groups",
-            req.bind_groups.into(),
-            limits.max_bind_groups.into(),
-        ),
-        (
-            "max_sampled_textures_per_shader_stage",
-            req.sampled_textures_per_stage.into(),
-            limits.max_sampled_textures_per_shader_stage.into(),
-        ),
-        (
-            "max_compute_invocations_per_workgroup",
-            req.invocations_per_workgroup.into(),
-            limits.max_compute_invocations_per_workgroup.into(),
-        ),
-        (
-            "max_compute_workgroup_size_x",
-            req.workgroup_size_x.into(),
-            limits.max_compute_workgroup_size_x.into(),
-        ),
-        (
-            "max_storage_buffer_binding_size",
-            req.largest_binding_bytes,
-            limits.max_storage_buffer_binding_size,
-        ),
-    ];
-    match checks
-        .iter()
-        .find(|(_, needed, available)| needed > available)
-    {
-        Some((limit, needed, available)) => Err(format!(
-            "needs {limit} >= {needed}, the adapter has {available}"
-        )),
-        None => Ok(()),
-    }
-}
-
-/// A tier's measured whole-frame cost on the H100 at one or two sizes.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct FrameCost {
-    pub kind: TierKind,
-    /// `(megapixels, ms per frame)`, smallest first. With two points the model is
-    /// `fixed + per-megapixel x megapixels` through both; with one it is proportional.
-    pub points: &'static [(f64, f64)],
-    /// Where the figures were measured.
-    pub source: &'static str,
 }
 
 /// Measured frame costs on an NVIDIA H100 (Vulkan): whole frames (G-buffer, direct light and
@@ -296,26 +142,8 @@ pub struct FrameCost {
 /// figures are medians over 64 frames of `dynamic`, whose moving objects make every frame
 /// re-voxelize them and re-trace the direct light, as a moving view does (a still view
 /// accumulates its direct light and stops tracing it, so still frames cost less).
-pub const H100_FRAME_COSTS: [FrameCost; 3] = [
-    FrameCost {
-        kind: TierKind::Pc,
-        points: &[(2.0736, 4.73)],
-        source: "benchmarks/RESULTS.md, benchmark suite, `gi-bench pc --scenes dynamic --size \
-                 1920x1080 --frames 64`: GI 3.709 + gbuffer/primary 0.334 + direct 0.688 ms",
-    },
-    FrameCost {
-        kind: TierKind::Mobile,
-        points: &[(2.0736, 2.61)],
-        source: "benchmarks/RESULTS.md, benchmark suite, `gi-bench mobile --scenes dynamic --size \
-                 1920x1080 --frames 64`: GI 1.589 + gbuffer/primary 0.334 + direct 0.688 ms",
-    },
-    FrameCost {
-        kind: TierKind::Direct,
-        points: &[(0.9216, 0.446)],
-        source: "benchmarks/RESULTS.md, benchmark suite at 1280x720: the direct tier's dearest \
-                 scene (open-world) 7.129 ms at 16 samples per pixel, 0.446 ms per sample",
-    },
-];
+pub const H100_FRAME_COSTS: [FrameCost; 3] =
+    [pc::H100_COST, mobile::H100_COST, path::DIRECT_H100_COST];
 
 /// Adapters whose speed was measured against [`H100_FRAME_COSTS`], by a case-insensitive
 /// substring of their name: `(name, slowdown, source)`. They take this factor instead of their

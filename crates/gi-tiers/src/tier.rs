@@ -8,8 +8,6 @@ use gi_image::Image;
 use gi_reference::RenderStats;
 use gi_scene::{Scene, SceneFrame};
 
-use crate::select::FrameBudget;
-
 /// The tiers this build can run.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
 pub enum TierKind {
@@ -149,6 +147,24 @@ pub struct TierSettings {
     pub textures: TextureOptions,
 }
 
+impl TierSettings {
+    /// Checks that the settings can render anything: an image of at least one pixel within
+    /// the reference's size limits (`gi_reference::MAX_SIDE` per side,
+    /// `gi_reference::MAX_PIXELS` in all) and at least one sample per pixel. Every tier runs
+    /// it before it creates anything.
+    pub fn validate(&self) -> Result<(), TierError> {
+        gi_reference::RenderSettings {
+            width: self.width,
+            height: self.height,
+            spp: self.spp,
+            seed: self.seed,
+            ..gi_reference::RenderSettings::default()
+        }
+        .validate()
+        .map_err(TierError::from)
+    }
+}
+
 /// One frame handed to a tier.
 pub struct FrameInput<'a> {
     pub scene: &'a Scene,
@@ -283,4 +299,35 @@ pub enum TierError {
     Unavailable { tier: &'static str, reason: String },
     #[error(transparent)]
     Render(#[from] gi_reference::RenderError),
+}
+
+/// A frame-time budget, kept in whole microseconds so it stays `Copy + Eq` inside
+/// [`TierChoice`].
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, PartialOrd, Ord)]
+pub struct FrameBudget {
+    micros: u64,
+}
+
+impl FrameBudget {
+    /// A budget of `ms` milliseconds, rounded to the microsecond; negative or non-finite values
+    /// give a zero budget, which nothing fits.
+    pub fn from_ms(ms: f64) -> Self {
+        let micros = if ms.is_finite() && ms > 0.0 {
+            (ms * 1000.0).round() as u64
+        } else {
+            0
+        };
+        Self { micros }
+    }
+
+    /// The budget in milliseconds.
+    pub fn ms(self) -> f64 {
+        self.micros as f64 / 1000.0
+    }
+}
+
+impl fmt::Display for FrameBudget {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        write!(f, "{} ms", self.ms())
+    }
 }

@@ -20,11 +20,29 @@ use gi_image::Image;
 use gi_scene::SceneFrame;
 use glam::Vec3;
 
-use crate::path::{Accumulation, PathPipelines};
+use crate::requirements::{FrameCost, Requirements, image_bytes};
 use crate::scene_state::{self, Followed, SceneState, check_frame_settings, read_image};
 use crate::tier::{FrameInput, FrameOutput, FrameTimings, Tier, TierError, TierKind, TierSettings};
+use crate::tracer::{Accumulation, PathPipelines};
 use screen::{
     ScreenBuffers, ScreenLayout, ScreenPipelines, ScreenSources, ScreenStep, screen_uniforms,
+};
+
+/// What the mobile tier needs of an adapter at `settings`' resolution. The screen-probe
+/// passes' layouts ([`screen`]): 20 storage buffers of their own, the probe volume's 3 and the
+/// brick cache's 7; four groups (the cache's is group 2, the textures group 3); the largest
+/// workgroups (the cache's passes, the probe volume's, the 1D screen passes) run 64
+/// invocations in x.
+pub fn requirements(settings: &TierSettings) -> Requirements {
+    Requirements::compute(30, image_bytes(settings))
+}
+
+/// The mobile tier's measured cost per frame on an H100, for [`crate::select`].
+pub const H100_COST: FrameCost = FrameCost {
+    kind: TierKind::Mobile,
+    points: &[(2.0736, 2.61)],
+    source: "benchmarks/RESULTS.md, benchmark suite, `gi-bench mobile --scenes dynamic --size \
+             1920x1080 --frames 64`: GI 1.589 + gbuffer/primary 0.334 + direct 0.688 ms",
 };
 
 /// Most timed passes in one frame (G-buffer, the cache's passes, the mobile passes, direct).
@@ -129,7 +147,7 @@ impl MobileTier {
             tier: "mobile",
             reason,
         };
-        check_frame_settings(TierKind::Mobile, &settings, &ctx)?;
+        check_frame_settings(TierKind::Mobile, &settings, &requirements(&settings), &ctx)?;
         config.validate().map_err(unavailable)?;
         let shaders = ShaderLibrary::new();
         let gpu = |e: gi_gpu::GpuError| unavailable(e.to_string());

@@ -7,20 +7,16 @@
 //!
 //! [`GpuReferenceEngine`] renders the reference cache's requests with this tier.
 //!
-//! A frame's samples go to the GPU in dispatches of bounded cost ([`dispatch`]'s rule,
-//! [`INVOCATION_LOOP_BUDGET`] and [`DISPATCH_LOOP_BUDGET`]), so any sample count per frame
-//! renders on lavapipe and stays clear of a desktop GPU's watchdog.
+//! A frame's samples go to the GPU in dispatches of bounded cost (the tracer's
+//! [`dispatch`](crate::tracer::dispatch) rule), so any sample count per frame renders on
+//! lavapipe and stays clear of a desktop GPU's watchdog.
 
-pub mod dispatch;
 mod engine;
-mod tracer;
 
-use tracer::TraceStats;
-pub(crate) use tracer::{Accumulation, PathPipelines};
-
-pub use dispatch::{DISPATCH_LOOP_BUDGET, DispatchPlan, INVOCATION_LOOP_BUDGET};
 pub use engine::{GpuReferenceEngine, REFERENCE_FRAME_PATHS, reference_cache, reference_engine};
-pub use tracer::PathUniforms;
+
+use crate::tracer::dispatch::DispatchPlan;
+use crate::tracer::{Accumulation, PathPipelines, PathUniforms, TraceStats};
 
 use gi_gpu::{GpuContext, GpuScene, GpuTimer, PassTimings};
 use gi_image::Image;
@@ -28,7 +24,24 @@ use gi_reference::RenderStats;
 use gi_scene::CameraView;
 use glam::Vec3;
 
+use crate::requirements::{FrameCost, Requirements, image_bytes};
 use crate::tier::{FrameInput, FrameOutput, Tier, TierError, TierKind, TierSettings};
+
+/// What `path/trace` and `path/resolve` need of an adapter at `settings`' resolution:
+/// `path/trace` binds the scene (7 storage buffers), its accumulation buffers (3) and the BVH
+/// (4), and the scene's texture arrays in group 3, 8 x 8 invocations; `path/resolve` 64 x 1.
+/// The `direct` tier runs the same shader.
+pub fn requirements(settings: &TierSettings) -> Requirements {
+    Requirements::compute(14, image_bytes(settings))
+}
+
+/// The `direct` tier's measured cost per frame on an H100, for [`crate::select`].
+pub const DIRECT_H100_COST: FrameCost = FrameCost {
+    kind: TierKind::Direct,
+    points: &[(0.9216, 0.446)],
+    source: "benchmarks/RESULTS.md, benchmark suite at 1280x720: the direct tier's dearest \
+             scene (open-world) 7.129 ms at 16 samples per pixel, 0.446 ms per sample",
+};
 
 /// Passes per frame the timer has room for at first (`<tier>/trace`, `<tier>/resolve`); a
 /// frame of more `<tier>/trace` passes makes a larger timer.
@@ -86,7 +99,7 @@ impl GpuPathTier {
         if !matches!(kind, TierKind::Path | TierKind::Direct) {
             return Err(unavailable("it has no GPU version".to_string()));
         }
-        crate::scene_state::check_frame_settings(kind, &settings, &ctx)?;
+        crate::scene_state::check_frame_settings(kind, &settings, &requirements(&settings), &ctx)?;
         let pipelines =
             PathPipelines::new(&ctx, kind.name()).map_err(|e| unavailable(e.to_string()))?;
         let timer = GpuTimer::new(&ctx, kind.name(), TIMER_SCOPES);

@@ -37,9 +37,10 @@ use gi_gpu::{GpuCamera, GpuContext, GpuError, GpuScene, GpuTimer, ShaderLibrary,
 use gi_image::Image;
 use gi_scene::SceneFrame;
 
-use crate::path::PathPipelines;
+use crate::requirements::{FrameCost, Requirements, image_bytes};
 use crate::scene_state::{self, SceneState, check_frame_settings, read_image};
 use crate::tier::{FrameInput, FrameOutput, FrameTimings, Tier, TierError, TierKind, TierSettings};
+use crate::tracer::PathPipelines;
 use denoise::{DenoisePipelines, DenoiseSources, Denoiser};
 
 /// Most timed passes in one frame.
@@ -376,6 +377,33 @@ impl PcBuffers {
     }
 }
 
+/// What the PC tier with `config` needs of an adapter at `settings`' resolution. The trace
+/// passes' layouts: the scene's 7 storage buffers and 10 of their own, the BVH's 4 and the
+/// brick cache's 7; the cache passes as for mobile. The largest binding is an image buffer or
+/// the reservoirs, surfaces or specular samples of every trace pixel.
+pub fn requirements(settings: &TierSettings, config: &PcConfig) -> Requirements {
+    let scale = config.trace_scale.max(1);
+    let traced =
+        u64::from(settings.width.div_ceil(scale)) * u64::from(settings.height.div_ceil(scale));
+    let per_trace_pixel = [
+        size_of::<GpuReservoir>(),
+        size_of::<GpuSurface>(),
+        size_of::<GpuSpecularSample>(),
+    ]
+    .into_iter()
+    .max()
+    .unwrap_or(0) as u64;
+    Requirements::compute(28, image_bytes(settings).max(traced * per_trace_pixel))
+}
+
+/// The PC tier's measured cost per frame on an H100, for [`crate::select`].
+pub const H100_COST: FrameCost = FrameCost {
+    kind: TierKind::Pc,
+    points: &[(2.0736, 4.73)],
+    source: "benchmarks/RESULTS.md, benchmark suite, `gi-bench pc --scenes dynamic --size \
+             1920x1080 --frames 64`: GI 3.709 + gbuffer/primary 0.334 + direct 0.688 ms",
+};
+
 /// The PC tier. See the module docs.
 pub struct PcTier {
     settings: TierSettings,
@@ -418,7 +446,12 @@ impl PcTier {
         ctx: GpuContext,
     ) -> Result<Self, TierError> {
         let unavailable = |reason: String| TierError::Unavailable { tier: "pc", reason };
-        check_frame_settings(TierKind::Pc, &settings, &ctx)?;
+        check_frame_settings(
+            TierKind::Pc,
+            &settings,
+            &requirements(&settings, &config),
+            &ctx,
+        )?;
         config.validate().map_err(unavailable)?;
         let shaders = ShaderLibrary::new();
         let gpu = |e: GpuError| unavailable(e.to_string());

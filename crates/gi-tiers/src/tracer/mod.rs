@@ -1,7 +1,10 @@
-//! The GPU path tracer's passes: `<tier>/trace` (adds samples to per-pixel sums, in
-//! dispatches of bounded cost: [`super::dispatch`]) and `<tier>/resolve` (the mean image),
-//! with the accumulation buffers they share. `<tier>` is `path`, or `direct` for the
-//! direct-only variant of the same shader.
+//! The GPU path tracer, a technique every GPU tier uses: `<tier>/trace` adds samples to
+//! per-pixel sums, in dispatches of bounded cost ([`dispatch`]), and `<tier>/resolve` writes
+//! the mean image, with the accumulation buffers they share. `<tier>` is `path` (full
+//! transport, the `path` tier), or `direct` for the direct-only variant of the same shader:
+//! the `direct` tier, and the direct light of the `mobile` and `pc` tiers.
+
+pub mod dispatch;
 
 use std::num::NonZeroU64;
 
@@ -13,7 +16,7 @@ use gi_gpu::{
 };
 use gi_scene::{SceneFrame, Sky};
 
-use super::dispatch::{DispatchPlan, MAX_DISPATCHES_PER_PASS, TRACE_TILE};
+use dispatch::{DispatchPlan, MAX_DISPATCHES_PER_PASS, TRACE_TILE};
 
 /// Bytes between the uniform slots of `<tier>/trace`'s dispatches: 256 is the largest
 /// `min_uniform_buffer_offset_alignment` WebGPU allows, so it suits every device.
@@ -303,11 +306,8 @@ impl Accumulation {
 
     /// How `<tier>/trace` cuts this accumulation's samples of `scene` into dispatches.
     pub(crate) fn plan(&self, scene: &GpuScene) -> DispatchPlan {
-        let per_sample = super::dispatch::loop_iterations_per_sample(
-            self.direct_only,
-            &self.uniforms,
-            &scene.bvh,
-        );
+        let per_sample =
+            dispatch::loop_iterations_per_sample(self.direct_only, &self.uniforms, &scene.bvh);
         DispatchPlan::new(per_sample, self.size, self.budget_shift)
     }
 
