@@ -207,6 +207,21 @@ impl GpuContext {
         }
     }
 
+    /// Another context on this one's device and queue, with a memory account of its own: for
+    /// a second tier on a device the caller opened ([`Self::from_device`]), whose memory is
+    /// then reported apart from the first's.
+    pub fn share(&self) -> Self {
+        Self {
+            device: self.device.clone(),
+            queue: self.queue.clone(),
+            adapter_info: self.adapter_info.clone(),
+            features: self.features,
+            limits: self.limits.clone(),
+            memory: Arc::default(),
+            serial: self.serial,
+        }
+    }
+
     /// A new context, with its own memory account, on `shared`'s device.
     fn on(shared: &SharedDevice) -> Self {
         Self {

@@ -50,6 +50,7 @@ mod frame;
 pub mod gbuffer;
 mod layout;
 mod memory;
+mod pingpong;
 mod scene;
 mod shaders;
 mod skin;
@@ -63,6 +64,7 @@ pub use frame::FrameUniforms;
 pub use gbuffer::{GBuffer, GBufferData, GBufferInputs};
 pub use layout::{StructLayout, wgsl_struct_layout};
 pub use memory::MemoryReport;
+pub use pingpong::PingPong;
 pub use scene::{
     ALPHA_BLEND, ALPHA_MASK, ALPHA_OPAQUE, ALPHA_TEST, EmitterTable, GpuEmitter, GpuLight,
     GpuMaterial, GpuScene, GpuTriangleExtras, GpuTriangleShading, NO_TEXTURE, SceneUploadError,

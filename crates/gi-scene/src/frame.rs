@@ -123,6 +123,30 @@ impl CameraView {
         }
     }
 
+    /// The camera of an engine's view and projection matrices, right-handed (the view looks
+    /// down -Z of its view space, as `glam::camera::rh` makes them), with the projection of
+    /// any graphics API's convention (clip y up or down, depth in [0, 1] or [-1, 1]): the
+    /// position and axes from the inverse of `view`, the vertical field of view from the
+    /// magnitude of `projection`'s y scale (`1 / tan(yfov / 2)`). `None` when `view` is not
+    /// invertible or `projection` is not a perspective one (an orthographic projection has no
+    /// field of view). The aspect ratio is the image's, as for every camera here.
+    pub fn from_view_projection(view: &Mat4, projection: &Mat4) -> Option<Self> {
+        let determinant = view.determinant();
+        if !determinant.is_finite() || determinant.abs() < 1e-12 {
+            return None;
+        }
+        let y_scale = projection.y_axis.y.abs();
+        let perspective = projection.z_axis.w.abs() > 0.5 && projection.w_axis.w.abs() < 1e-6;
+        if !perspective || !y_scale.is_finite() || y_scale <= 0.0 {
+            return None;
+        }
+        let yfov = 2.0 * (1.0 / y_scale).atan();
+        let world = view.inverse();
+        let view = Self::from_world_transform(&world, yfov);
+        let finite = view.position.is_finite() && view.forward.is_finite() && view.up.is_finite();
+        finite.then_some(view)
+    }
+
     /// Unit world direction through the film point `(u, v)` in \[0,1\]^2, u to the right and
     /// v downwards (pixel (x, y) center is `((x + 0.5) / w, (y + 0.5) / h)`).
     pub fn ray_direction(&self, u: f32, v: f32, aspect: f32) -> Vec3 {
@@ -193,6 +217,18 @@ impl SceneFrame {
             geometry_revision: 0,
             positions_only: Vec::new(),
         }
+    }
+
+    /// Whether the scene's content differs from `previous` (a frame of the same scene, whole or
+    /// [`SceneFrame::without_geometry`]): a node moved (by its animation or by the caller), a
+    /// morph weight, a light or the sky changed. The camera and the time are not compared:
+    /// a renderer that accumulates restarts on those itself.
+    pub fn content_changed_from(&self, previous: &SceneFrame) -> bool {
+        self.world_from_node != previous.world_from_node
+            || self.morph_weights != previous.morph_weights
+            || self.lights != previous.lights
+            || self.sky != previous.sky
+            || self.exposure != previous.exposure
     }
 
     /// Gives the frame a new [`SceneFrame::geometry_revision`], after its geometry was edited
@@ -273,12 +309,15 @@ impl Scene {
     }
 
     /// True when anything in the scene moves over time (node transforms, and with them skinned
-    /// meshes whose joints they animate, and morph target weights).
+    /// meshes whose joints they animate, and morph target weights), or the caller may move a
+    /// node between frames ([`Node::movable`](crate::Node::movable)).
     pub fn is_animated(&self) -> bool {
-        self.animations
-            .iter()
-            .flat_map(|a| &a.channels)
-            .any(|c| !c.is_constant())
+        self.nodes.iter().any(|node| node.movable)
+            || self
+                .animations
+                .iter()
+                .flat_map(|a| &a.channels)
+                .any(|c| !c.is_constant())
     }
 
     /// The default camera at `time_s`: the default camera node if any, else a view of the
@@ -395,7 +434,8 @@ impl Scene {
     }
 
     /// The punctual lights of the nodes placed by `world_from_node`.
-    fn world_lights(&self, world_from_node: &[Mat4]) -> Vec<WorldLight> {
+    /// The scene's lights placed by `world_from_node` (a frame's node transforms).
+    pub fn world_lights(&self, world_from_node: &[Mat4]) -> Vec<WorldLight> {
         self.nodes
             .iter()
             .enumerate()

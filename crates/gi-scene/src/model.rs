@@ -94,6 +94,12 @@ pub struct Node {
     /// [`Mesh::weights`] for this instance (`None`: the mesh's). An animation channel with
     /// [`ChannelValues::Weights`] overrides both.
     pub weights: Option<Vec<f32>>,
+    /// The caller moves this node between frames (an engine's dynamic object, moved through
+    /// `gi_tiers::Renderer::set_node_transform`): every level treats it and its descendants as
+    /// moving, as it treats an animated node ([`Scene::moving_nodes`]). Not part of glTF: set
+    /// it before the scene is rendered. A node that is not movable is static geometry, which
+    /// the renderers build into their BVH and caches once.
+    pub movable: bool,
 }
 
 impl Default for Node {
@@ -109,6 +115,7 @@ impl Default for Node {
             camera: None,
             skin: None,
             weights: None,
+            movable: false,
         }
     }
 }

@@ -35,9 +35,9 @@ pub(crate) struct SkinnedVertices {
 impl Scene {
     /// `moving[node]`: the node's world transform changes over time (an animation channel whose
     /// keys differ targets the transform of it or one of its ancestors; weights channels do
-    /// not).
+    /// not), or the caller moves it or an ancestor ([`Node::movable`]).
     pub fn moving_nodes(&self) -> Vec<bool> {
-        let mut animated = vec![false; self.nodes.len()];
+        let mut animated: Vec<bool> = self.nodes.iter().map(|node| node.movable).collect();
         for channel in self.animations.iter().flat_map(|a| &a.channels) {
             if !channel.is_constant()
                 && !channel.is_weights()

@@ -4,7 +4,7 @@
 use std::time::Instant;
 
 use gi_reference::{Mode, Reference, RenderSettings, Strategy};
-use gi_scene::CameraView;
+use gi_scene::{CameraView, SceneFrame};
 
 use crate::tier::{FrameInput, FrameOutput, Tier, TierError, TierKind, TierSettings};
 
@@ -17,7 +17,8 @@ pub struct CpuTier {
 }
 
 struct Prepared {
-    time_s: f32,
+    /// The frame it was made for, without its geometry.
+    previous: SceneFrame,
     camera: CameraView,
     reference: Reference,
 }
@@ -70,12 +71,14 @@ impl Tier for CpuTier {
         let mut passes = Vec::new();
         let frame = input.frame;
         let reusable = self.prepared.as_ref().is_some_and(|p| {
-            p.camera == frame.camera && (p.time_s == frame.time_s || !input.scene.is_animated())
+            p.camera == frame.camera
+                && !frame.content_changed_from(&p.previous)
+                && (p.previous.time_s == frame.time_s || !input.scene.is_animated())
         });
         if !reusable {
             let started = Instant::now();
             self.prepared = Some(Prepared {
-                time_s: frame.time_s,
+                previous: frame.without_geometry(),
                 camera: frame.camera,
                 reference: Reference::new(input.scene, frame.clone()),
             });

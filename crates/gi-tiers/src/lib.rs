@@ -33,6 +33,7 @@
 
 mod cpu;
 pub mod mobile;
+pub mod output;
 pub mod path;
 pub mod pc;
 mod renderer;
@@ -45,9 +46,10 @@ pub mod tracer;
 pub use cpu::CpuTier;
 pub use gi_gpu::TextureOptions;
 pub use mobile::{MobileConfig, MobileTier};
+pub use output::{GpuOutput, OUTPUT_FORMAT, OutputTextures};
 pub use path::{GpuPathTier, GpuReferenceEngine, Moments, reference_cache, reference_engine};
 pub use pc::{PcConfig, PcTier};
-pub use renderer::{CameraMode, Renderer, Selection};
+pub use renderer::{CameraMode, FrameRequest, Renderer, RendererBuilder, Selection};
 pub use tier::{
     FrameBudget, FrameInput, FrameOutput, FrameTimings, Tier, TierChoice, TierError, TierKind,
     TierSettings,

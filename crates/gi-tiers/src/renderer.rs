@@ -3,13 +3,15 @@
 
 use std::any::Any;
 
-use gi_scene::{CameraView, Evaluation, Scene, SceneFrame};
+use gi_scene::{CameraView, Evaluation, Light, Scene, SceneFrame};
+use glam::{Mat4, Quat, Vec3};
 
-use gi_gpu::{GpuContext, wgpu};
+use gi_gpu::{GpuContext, TextureOptions, wgpu};
 
 use crate::{
     cpu::CpuTier,
     mobile::{MobileConfig, MobileTier},
+    output::OutputTextures,
     path::GpuPathTier,
     pc::{PcConfig, PcTier},
     select::{self, AdapterDescription, Plan, RunsOn},
@@ -25,6 +27,207 @@ pub enum CameraMode {
     Default,
     /// The scene's camera path (from its extras) at each frame's time.
     Path,
+}
+
+/// What one frame shows, as an engine asks for it each frame ([`Renderer::render`],
+/// [`Renderer::submit`]): the scene's time and the camera. Left out, each comes from the
+/// renderer: the time of its frame counter ([`Scene::frame_time`]) and the view of its
+/// [`CameraMode`].
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct FrameRequest {
+    /// Scene time in seconds (animations are sampled at it).
+    pub time_s: Option<f32>,
+    /// The camera.
+    pub camera: Option<CameraView>,
+}
+
+impl FrameRequest {
+    /// The scene at `time_s`, through the renderer's camera.
+    pub fn at(time_s: f32) -> Self {
+        Self {
+            time_s: Some(time_s),
+            camera: None,
+        }
+    }
+
+    /// This request through `camera`.
+    pub fn with_camera(self, camera: CameraView) -> Self {
+        Self {
+            camera: Some(camera),
+            ..self
+        }
+    }
+
+    /// This request through the camera of an engine's view and projection matrices
+    /// ([`CameraView::from_view_projection`]); an error when they make no perspective camera.
+    pub fn with_view_projection(self, view: &Mat4, projection: &Mat4) -> Result<Self, TierError> {
+        let camera = CameraView::from_view_projection(view, projection).ok_or_else(|| {
+            TierError::InvalidRequest(
+                "the view matrix is not invertible or the projection is not a perspective one"
+                    .to_string(),
+            )
+        })?;
+        Ok(self.with_camera(camera))
+    }
+}
+
+/// Everything a [`Renderer`] is made from, set by name ([`Renderer::builder`]): the tier
+/// choice, the frame settings, each tier's configuration, the camera mode and the device.
+pub struct RendererBuilder {
+    scene: Scene,
+    choice: TierChoice,
+    settings: TierSettings,
+    camera: CameraMode,
+    context: Option<GpuContext>,
+    mobile: MobileConfig,
+    pc: PcConfig,
+}
+
+impl RendererBuilder {
+    /// The tier: `TierChoice::Auto` (the default), a budget (`TierChoice::AutoWithin`) or a
+    /// [`TierKind`].
+    pub fn tier(mut self, choice: impl Into<TierChoice>) -> Self {
+        self.choice = choice.into();
+        self
+    }
+
+    /// Image width and height in pixels (default 640 x 360).
+    pub fn size(mut self, width: u32, height: u32) -> Self {
+        self.settings.width = width;
+        self.settings.height = height;
+        self
+    }
+
+    /// Samples per pixel per frame (default 1): the accumulating tiers' samples per frame,
+    /// the temporal tiers' cap on their direct light's accumulation.
+    pub fn spp(mut self, spp: u32) -> Self {
+        self.settings.spp = spp;
+        self
+    }
+
+    /// The seed of every random number the tiers draw (default 1).
+    pub fn seed(mut self, seed: u64) -> Self {
+        self.settings.seed = seed;
+        self
+    }
+
+    /// How textures are uploaded ([`TextureOptions::DEFAULT`] unless set).
+    pub fn textures(mut self, textures: TextureOptions) -> Self {
+        self.settings.textures = textures;
+        self
+    }
+
+    /// All frame settings at once.
+    pub fn settings(mut self, settings: TierSettings) -> Self {
+        self.settings = settings;
+        self
+    }
+
+    /// Which camera frames look through when a request names none (default
+    /// [`CameraMode::Default`]).
+    pub fn camera_mode(mut self, camera: CameraMode) -> Self {
+        self.camera = camera;
+        self
+    }
+
+    /// The mobile tier's configuration, used when the mobile tier is chosen.
+    pub fn mobile_config(mut self, config: MobileConfig) -> Self {
+        self.mobile = config;
+        self
+    }
+
+    /// The PC tier's configuration, used when the PC tier is chosen.
+    pub fn pc_config(mut self, config: PcConfig) -> Self {
+        self.pc = config;
+        self
+    }
+
+    /// Renders on the caller's device (an engine's, through [`GpuContext::from_device`]),
+    /// whose textures then hold the output ([`Renderer::output_textures`]). Without it the
+    /// GPU tiers open their own. `Auto` plans for this device's adapter.
+    pub fn context(mut self, ctx: GpuContext) -> Self {
+        self.context = Some(ctx);
+        self
+    }
+
+    /// Creates the tier the choice resolves to. `Auto` and `AutoWithin` plan with
+    /// [`select::plan`] and try the plan's candidates in order ([`Renderer::from_plan`]); a
+    /// named tier is created or fails.
+    pub fn build(self) -> Result<Renderer, TierError> {
+        let configs = TierConfigs {
+            mobile: self.mobile,
+            pc: self.pc,
+        };
+        let settings = self.settings;
+        if self.choice.is_auto() {
+            let ctx = match self.context {
+                Some(ctx) => Some(ctx),
+                None => GpuContext::new()
+                    .inspect_err(|e| tracing::info!("auto tier: no GPU context ({e})"))
+                    .ok(),
+            };
+            let adapter = ctx.as_ref().map(AdapterDescription::from_context);
+            let plan = select::plan(adapter.as_ref(), &settings, self.choice.budget());
+            let adapter = adapter.map(|a| a.label());
+            return Renderer::create_planned(
+                self.scene,
+                plan,
+                settings,
+                self.camera,
+                Devices::new(ctx, adapter),
+                &configs,
+            );
+        }
+        let TierChoice::Tier(kind) = self.choice else {
+            unreachable!("every other choice is auto");
+        };
+        let tier: Box<dyn Tier> = match (kind, self.context) {
+            (TierKind::Reference, _) => Box::new(CpuTier::new(TierKind::Reference, settings)?),
+            (TierKind::Direct, None) => match hardware_gpu() {
+                Some(ctx) => create_gpu_tier(kind, settings, ctx, &configs)?,
+                None => Box::new(CpuTier::new(TierKind::Direct, settings)?),
+            },
+            (_, Some(ctx)) => create_gpu_tier(kind, settings, ctx, &configs)?,
+            (_, None) => {
+                let ctx = GpuContext::new().map_err(|e| TierError::Unavailable {
+                    tier: kind.name(),
+                    reason: e.to_string(),
+                })?;
+                create_gpu_tier(kind, settings, ctx, &configs)?
+            }
+        };
+        Ok(Renderer::with_tier(self.scene, tier, self.camera))
+    }
+}
+
+/// The configurations of the configurable tiers.
+struct TierConfigs {
+    mobile: MobileConfig,
+    pc: PcConfig,
+}
+
+/// The GPU contexts a plan's candidates are created on: the caller's device (each candidate
+/// on a context of its own over it), or one the renderer opened for the first GPU candidate
+/// and new ones for the next.
+struct Devices {
+    opened: Option<GpuContext>,
+    adapter: Option<String>,
+}
+
+impl Devices {
+    fn new(opened: Option<GpuContext>, adapter: Option<String>) -> Self {
+        Self { opened, adapter }
+    }
+
+    fn next(&mut self) -> Result<GpuContext, gi_gpu::GpuError> {
+        let ctx = match self.opened.take() {
+            Some(ctx) => ctx,
+            None => GpuContext::new()?,
+        };
+        self.adapter
+            .get_or_insert_with(|| AdapterDescription::from_context(&ctx).label());
+        Ok(ctx)
+    }
 }
 
 /// What [`TierChoice::Auto`] or [`TierChoice::AutoWithin`] chose, and why
@@ -73,6 +276,11 @@ pub struct Renderer {
     /// since ([`Renderer::scene_mut`]), so the next frame computes it again.
     framing: Option<CameraView>,
     framing_stale: bool,
+    /// The caller changed a light since the last frame ([`Renderer::light_mut`]): the next
+    /// frame evaluates the lights again though nothing else moved.
+    lights_stale: bool,
+    /// The textures of the last frame, made at the first [`Renderer::output_textures`].
+    output: Option<OutputTextures>,
 }
 
 /// The view that frames `scene` when it has no camera node to look through, else `None`.
@@ -96,43 +304,39 @@ fn evaluation_for(scene: &Scene, tier: &dyn Tier) -> Evaluation {
 }
 
 impl Renderer {
-    /// Creates the tier `choice` resolves to for `scene`. `Auto` and `AutoWithin` open the
-    /// GPU context once, plan with [`select::plan`] and try the plan's candidates in order
-    /// ([`Renderer::from_plan`]); the other choices create their tier or fail.
+    /// A builder for a renderer of `scene`: `Auto` at 640 x 360, one sample per pixel, seed
+    /// 1, default configurations, on a device of its own until told otherwise.
+    pub fn builder(scene: Scene) -> RendererBuilder {
+        RendererBuilder {
+            scene,
+            choice: TierChoice::Auto,
+            settings: TierSettings {
+                width: 640,
+                height: 360,
+                spp: 1,
+                seed: 1,
+                textures: TextureOptions::DEFAULT,
+            },
+            camera: CameraMode::Default,
+            context: None,
+            mobile: MobileConfig::default(),
+            pc: PcConfig::default(),
+        }
+    }
+
+    /// Creates the tier `choice` resolves to for `scene` with the default configurations:
+    /// [`Renderer::builder`] with the choice, the settings and the camera mode.
     pub fn new(
         scene: Scene,
         choice: TierChoice,
         settings: TierSettings,
         camera: CameraMode,
     ) -> Result<Self, TierError> {
-        let tier: Box<dyn Tier> = match choice {
-            TierChoice::Auto | TierChoice::AutoWithin(_) => {
-                let ctx = GpuContext::new()
-                    .inspect_err(|e| tracing::info!("auto tier: no GPU context ({e})"))
-                    .ok();
-                let adapter = ctx.as_ref().map(AdapterDescription::from_context);
-                let plan = select::plan(adapter.as_ref(), &settings, choice.budget());
-                let adapter = adapter.map(|a| a.label());
-                return Self::create_planned(scene, plan, settings, camera, ctx, adapter);
-            }
-            TierChoice::Tier(TierKind::Mobile) => {
-                Box::new(MobileTier::open(settings, MobileConfig::default())?)
-            }
-            TierChoice::Tier(TierKind::Pc) => {
-                Box::new(PcTier::open(settings, PcConfig::default())?)
-            }
-            TierChoice::Tier(TierKind::Path) => {
-                Box::new(GpuPathTier::open(TierKind::Path, settings)?)
-            }
-            TierChoice::Tier(TierKind::Direct) => match hardware_gpu() {
-                Some(ctx) => Box::new(GpuPathTier::new(TierKind::Direct, settings, ctx)?),
-                None => Box::new(CpuTier::new(TierKind::Direct, settings)?),
-            },
-            TierChoice::Tier(TierKind::Reference) => {
-                Box::new(CpuTier::new(TierKind::Reference, settings)?)
-            }
-        };
-        Ok(Self::with_tier(scene, tier, camera))
+        Self::builder(scene)
+            .tier(choice)
+            .settings(settings)
+            .camera_mode(camera)
+            .build()
     }
 
     /// Creates the first candidate of `plan` that can be created, trying them in order: a
@@ -146,7 +350,18 @@ impl Renderer {
         settings: TierSettings,
         camera: CameraMode,
     ) -> Result<Self, TierError> {
-        Self::create_planned(scene, plan, settings, camera, None, None)
+        let configs = TierConfigs {
+            mobile: MobileConfig::default(),
+            pc: PcConfig::default(),
+        };
+        Self::create_planned(
+            scene,
+            plan,
+            settings,
+            camera,
+            Devices::new(None, None),
+            &configs,
+        )
     }
 
     /// [`Renderer::from_plan`] with a context already open for the first GPU candidate.
@@ -155,8 +370,8 @@ impl Renderer {
         plan: Plan,
         settings: TierSettings,
         camera: CameraMode,
-        mut ctx: Option<GpuContext>,
-        mut adapter: Option<String>,
+        mut devices: Devices,
+        configs: &TierConfigs,
     ) -> Result<Self, TierError> {
         let mut fallbacks = Vec::new();
         let mut last_error = None;
@@ -164,12 +379,8 @@ impl Renderer {
             let kind = candidate.kind;
             let created = match candidate.runs_on {
                 RunsOn::Cpu => CpuTier::new(kind, settings).map(|t| Box::new(t) as Box<dyn Tier>),
-                RunsOn::Gpu => match ctx.take().map_or_else(GpuContext::new, Ok) {
-                    Ok(ctx) => {
-                        adapter
-                            .get_or_insert_with(|| AdapterDescription::from_context(&ctx).label());
-                        create_gpu_tier(kind, settings, ctx)
-                    }
+                RunsOn::Gpu => match devices.next() {
+                    Ok(ctx) => create_gpu_tier(kind, settings, ctx, configs),
                     Err(e) => Err(TierError::Unavailable {
                         tier: kind.name(),
                         reason: e.to_string(),
@@ -184,7 +395,7 @@ impl Renderer {
                         runs_on: candidate.runs_on,
                         reason: candidate.reason.clone(),
                         fallbacks,
-                        adapter,
+                        adapter: devices.adapter,
                         plan,
                     });
                     return Ok(renderer);
@@ -220,6 +431,8 @@ impl Renderer {
             warm_up_frames: 0,
             selection: None,
             last_frame: None,
+            lights_stale: false,
+            output: None,
         }
     }
 
@@ -238,6 +451,47 @@ impl Renderer {
         self.last_frame = None;
         self.framing_stale = true;
         &mut self.scene
+    }
+
+    /// Moves node `node` for the next frames: its local translation, rotation and scale, as
+    /// in glTF. Only the triangles under it are evaluated again; the rest of the frame is
+    /// kept. The node must be [`gi_scene::Node::movable`] (set before the renderer was made, so
+    /// every level treats it as moving); an animation that targets it overrides what is set
+    /// here.
+    pub fn set_node_transform(
+        &mut self,
+        node: usize,
+        translation: Vec3,
+        rotation: Quat,
+        scale: Vec3,
+    ) -> Result<(), TierError> {
+        let count = self.scene.nodes.len();
+        let target = self.scene.nodes.get_mut(node).ok_or_else(|| {
+            TierError::InvalidRequest(format!("node {node} does not exist ({count} nodes)"))
+        })?;
+        if !target.movable {
+            return Err(TierError::InvalidRequest(format!(
+                "node {node} ('{}') is static: set its `movable` before making the renderer",
+                target.name
+            )));
+        }
+        let finite = translation.is_finite() && rotation.is_finite() && scale.is_finite();
+        if !finite {
+            return Err(TierError::InvalidRequest(format!(
+                "node {node}: the transform is not finite"
+            )));
+        }
+        target.translation = translation;
+        target.rotation = rotation.normalize();
+        target.scale = scale;
+        Ok(())
+    }
+
+    /// Light `index` of the scene, to change its color, intensity, range or cone for the next
+    /// frames (move it through its node). Only the lights are evaluated again.
+    pub fn light_mut(&mut self, index: usize) -> Option<&mut Light> {
+        self.lights_stale = true;
+        self.scene.lights.get_mut(index)
     }
 
     pub fn tier(&self) -> TierKind {
@@ -272,7 +526,11 @@ impl Renderer {
     /// node, the view that frames the scene's bounds at time 0 (also when an animation moves
     /// them later).
     pub fn view(&self, index: u32) -> CameraView {
-        let time = self.frame_time(index);
+        self.view_at_time(self.frame_time(index))
+    }
+
+    /// The camera at scene time `time` ([`Renderer::view`]).
+    fn view_at_time(&self, time: f32) -> CameraView {
         let path = self
             .scene
             .camera_path
@@ -301,6 +559,59 @@ impl Renderer {
         let output = self.still(progress, |tier, input| tier.render(input))?;
         self.next_frame += 1;
         Ok(output)
+    }
+
+    /// Renders the frame `request` asks for and reads its image back (a GPU tier waits for
+    /// the GPU): [`Renderer::submit`] is the engine's per-frame call, this one is for tools
+    /// and tests. Advances the frame counter.
+    pub fn render(&mut self, request: &FrameRequest) -> Result<FrameOutput, TierError> {
+        let output = self.requested(request, None, |tier, input| tier.render(input))?;
+        self.next_frame += 1;
+        Ok(output)
+    }
+
+    /// Renders the frame `request` asks for without reading anything back or waiting for the
+    /// GPU ([`Tier::submit`]), as an engine's frame loop runs; then
+    /// [`Renderer::output_textures`] gives the frame as textures on the tier's device.
+    /// Returns the passes of the frames the GPU has finished since the last call, oldest first.
+    pub fn submit(&mut self, request: &FrameRequest) -> Result<Vec<FrameTimings>, TierError> {
+        let reported = self.requested(request, None, |tier, input| tier.submit(input))?;
+        self.next_frame += 1;
+        Ok(reported)
+    }
+
+    /// The last frame as textures on the tier's device ([`OutputTextures`]: the composited
+    /// image and the GI term, `rgba16float`), written now by one GPU pass that the queue
+    /// orders after the frame. Made at the first call and again when the size changes.
+    /// `None` for a tier that renders on the CPU and before the first frame.
+    pub fn output_textures(&mut self) -> Result<Option<&OutputTextures>, TierError> {
+        let Some(output) = self.tier.gpu_output() else {
+            return Ok(None);
+        };
+        let fits = self
+            .output
+            .as_ref()
+            .is_some_and(|textures| textures.size() == output.size);
+        if !fits {
+            if let Some(old) = self.output.take() {
+                old.release(output.ctx);
+            }
+            let textures = OutputTextures::new(output.ctx, output.size).map_err(|e| {
+                TierError::Unavailable {
+                    tier: self.tier.kind().name(),
+                    reason: e.to_string(),
+                }
+            })?;
+            self.output = Some(textures);
+        }
+        let textures = self.output.as_ref().expect("made above");
+        textures.write(&output);
+        Ok(Some(textures))
+    }
+
+    /// The device the tier renders on; `None` for a CPU tier.
+    pub fn context(&self) -> Option<&GpuContext> {
+        self.tier.gpu_context()
     }
 
     /// Renders the next frame as [`Renderer::render_frame`] does but without its image
@@ -380,7 +691,17 @@ impl Renderer {
         progress: Option<&(dyn Fn(u32) + Sync)>,
         render: impl FnOnce(&mut dyn Tier, &FrameInput) -> Result<T, TierError>,
     ) -> Result<T, TierError> {
-        let frame = self.frame(self.next_frame);
+        self.requested(&FrameRequest::default(), progress, render)
+    }
+
+    /// [`Renderer::still`] for the frame `request` asks for.
+    fn requested<T>(
+        &mut self,
+        request: &FrameRequest,
+        progress: Option<&(dyn Fn(u32) + Sync)>,
+        render: impl FnOnce(&mut dyn Tier, &FrameInput) -> Result<T, TierError>,
+    ) -> Result<T, TierError> {
+        let frame = self.frame(self.next_frame, request);
         let result = render(
             self.tier.as_mut(),
             &FrameInput {
@@ -398,35 +719,46 @@ impl Renderer {
     /// this frame's time and camera; for an animated one the last evaluation moved to this
     /// frame ([`Scene::evaluate_into`]: only the animated nodes' triangles are evaluated
     /// again); else a fresh evaluation.
-    fn frame(&mut self, index: u32) -> SceneFrame {
+    fn frame(&mut self, index: u32, request: &FrameRequest) -> SceneFrame {
         if self.framing_stale {
             self.framing = framing_of(&self.scene);
             self.framing_stale = false;
         }
-        let time_s = self.frame_time(index);
-        match self.last_frame.take() {
+        let time_s = request.time_s.unwrap_or_else(|| self.frame_time(index));
+        let view_at = |renderer: &Self| match request.camera {
+            Some(camera) => camera,
+            None => renderer.view_at_time(time_s),
+        };
+        let mut frame = match self.last_frame.take() {
             Some(mut frame) if !self.scene.is_animated() => {
                 frame.time_s = time_s;
-                // Without animation only a camera path moves the camera: the default view
-                // (a camera node, or a framing of the scene's bounds, which is a pass over
-                // every vertex) is the same at every time.
+                // Without animation only a camera path or the request moves the camera: the
+                // default view (a camera node, or a framing of the scene's bounds, which is a
+                // pass over every vertex) is the same at every time.
                 let path = self.scene.camera_path.as_ref();
-                if self.camera == CameraMode::Path && path.is_some_and(|p| !p.keys.is_empty()) {
-                    frame.camera = self.view(index);
+                let on_path =
+                    self.camera == CameraMode::Path && path.is_some_and(|p| !p.keys.is_empty());
+                if on_path || request.camera.is_some() {
+                    frame.camera = view_at(self);
                 }
                 frame
             }
             Some(mut frame) => {
-                let camera = Some(self.view(index));
+                let camera = Some(view_at(self));
                 let scene = &self.scene;
                 scene.evaluate_into(&mut frame, time_s, camera, &self.evaluation);
                 frame
             }
             None => {
-                let camera = Some(self.view(index));
+                let camera = Some(view_at(self));
                 (self.scene).evaluate_with(time_s, camera, &self.evaluation)
             }
+        };
+        if self.lights_stale {
+            frame.lights = self.scene.world_lights(&frame.world_from_node);
+            self.lights_stale = false;
         }
+        frame
     }
 
     /// Advances `count` frames (at least one) and returns the last: warm-up frames, then the
@@ -462,15 +794,16 @@ fn hardware_gpu() -> Option<GpuContext> {
         .filter(|ctx| ctx.adapter_info.device_type != wgpu::DeviceType::Cpu)
 }
 
-/// The GPU version of `kind` on `ctx`, with its default configuration.
+/// The GPU version of `kind` on `ctx`, with the configuration `configs` holds for it.
 fn create_gpu_tier(
     kind: TierKind,
     settings: TierSettings,
     ctx: GpuContext,
+    configs: &TierConfigs,
 ) -> Result<Box<dyn Tier>, TierError> {
     Ok(match kind {
-        TierKind::Mobile => Box::new(MobileTier::new(settings, MobileConfig::default(), ctx)?),
-        TierKind::Pc => Box::new(PcTier::new(settings, PcConfig::default(), ctx)?),
+        TierKind::Mobile => Box::new(MobileTier::new(settings, configs.mobile.clone(), ctx)?),
+        TierKind::Pc => Box::new(PcTier::new(settings, configs.pc.clone(), ctx)?),
         // `reference` has no GPU version: GpuPathTier says so.
         TierKind::Direct | TierKind::Path | TierKind::Reference => {
             Box::new(GpuPathTier::new(kind, settings, ctx)?)

@@ -112,8 +112,9 @@ impl SceneState {
             && self.previous.world_from_node.len() == frame.world_from_node.len()
     }
 
-    /// Makes the state follow a new frame of the same scene: an animated frame, or lights
-    /// edited between frames (a tool moving a light), update the GPU scene's transforms and
+    /// Makes the state follow a new frame of the same scene: an animated frame, a node the
+    /// caller moved, or lights edited between frames (a tool moving a light) update the GPU
+    /// scene's transforms and
     /// lights; that or a camera move restarts the direct accumulation (the GI keeps its own
     /// history and reprojects it).
     pub(crate) fn follow(
@@ -126,8 +127,7 @@ impl SceneState {
         seed: u64,
     ) -> Result<Followed, TierError> {
         let frame = input.frame;
-        let moved = (self.previous.time_s != frame.time_s && input.scene.is_animated())
-            || self.previous.lights != frame.lights;
+        let moved = frame.content_changed_from(&self.previous);
         if self.previous.camera == frame.camera && !moved {
             return Ok(Followed::Kept);
         }

@@ -116,6 +116,12 @@ pub enum TierChoice {
     Tier(TierKind),
 }
 
+impl From<TierKind> for TierChoice {
+    fn from(kind: TierKind) -> Self {
+        TierChoice::Tier(kind)
+    }
+}
+
 impl TierChoice {
     /// The frame budget of [`TierChoice::AutoWithin`], `None` for every other choice.
     pub fn budget(self) -> Option<FrameBudget> {
@@ -288,6 +294,17 @@ pub trait Tier: Send + Any {
 
     /// Bytes of every buffer, texture and acceleration structure the tier owns now.
     fn memory_bytes(&self) -> u64;
+
+    /// Where the last frame's images lie on the tier's GPU, for [`crate::OutputTextures`];
+    /// `None` for a tier that renders on the CPU or before its first frame.
+    fn gpu_output(&self) -> Option<crate::output::GpuOutput<'_>> {
+        None
+    }
+
+    /// The device the tier renders on; `None` for a tier that renders on the CPU.
+    fn gpu_context(&self) -> Option<&gi_gpu::GpuContext> {
+        None
+    }
 }
 
 /// Why a tier could not be created or could not render.
@@ -299,6 +316,10 @@ pub enum TierError {
     Unavailable { tier: &'static str, reason: String },
     #[error(transparent)]
     Render(#[from] gi_reference::RenderError),
+    /// A request the renderer cannot honour: a node that does not exist or is not movable, a
+    /// camera that is no perspective camera.
+    #[error("{0}")]
+    InvalidRequest(String),
 }
 
 /// A frame-time budget, kept in whole microseconds so it stays `Copy + Eq` inside

@@ -20,6 +20,7 @@ use gi_image::Image;
 use gi_scene::SceneFrame;
 use glam::Vec3;
 
+use crate::output::GpuOutput;
 use crate::requirements::{FrameCost, Requirements, image_bytes};
 use crate::scene_state::{self, Followed, SceneState, check_frame_settings, read_image};
 use crate::tier::{FrameInput, FrameOutput, FrameTimings, Tier, TierError, TierKind, TierSettings};
@@ -220,11 +221,9 @@ impl MobileTier {
         let output: Vec<[f32; 4]> = ctx.read_buffer(&prepared.screen.output);
         let direct: Vec<[f32; 4]> = ctx.read_buffer(&prepared.state.direct.mean);
         let lite: Vec<u32> = ctx.read_buffer(&prepared.screen.lite);
-        let history: Vec<[u32; 2]> =
-            ctx.read_buffer(&prepared.screen.history[prepared.screen.current]);
+        let history: Vec<[u32; 2]> = ctx.read_buffer(&prepared.screen.frames.current().history);
         let half = prepared.screen.layout.half;
-        let slots: Vec<GpuScreenProbe> =
-            ctx.read_buffer(&prepared.screen.probes[prepared.screen.current]);
+        let slots: Vec<GpuScreenProbe> = ctx.read_buffer(&prepared.screen.frames.current().probes);
         let mut probes = ProbeCounts::default();
         for (slot, probe) in slots.iter().enumerate() {
             let valid = probe.depth > 0.0;
@@ -443,6 +442,20 @@ impl Tier for MobileTier {
     /// volume, screen buffers, direct accumulation and timer.
     fn memory_bytes(&self) -> u64 {
         self.ctx.memory().total_bytes()
+    }
+
+    fn gpu_context(&self) -> Option<&GpuContext> {
+        Some(&self.ctx)
+    }
+
+    fn gpu_output(&self) -> Option<GpuOutput<'_>> {
+        let prepared = self.prepared.as_ref()?;
+        Some(GpuOutput {
+            ctx: &self.ctx,
+            image: &prepared.screen.output,
+            direct: Some(&prepared.state.direct.mean),
+            size: (self.settings.width, self.settings.height),
+        })
     }
 }
 

@@ -5,8 +5,8 @@
 use bytemuck::{Pod, Zeroable};
 use gi_cache::lighting::GpuSky;
 use gi_cache::{CACHE_LANES, CacheBuffers};
-use gi_gpu::binding::{buffer_entries, storage_entry, uniform_entry};
-use gi_gpu::{GpuCamera, GpuContext, GpuError, GpuTimer, ShaderLibrary, wgpu};
+use gi_gpu::binding::{buffer_entries, uniform_entry};
+use gi_gpu::{GpuCamera, GpuContext, GpuError, GpuTimer, PingPong, ShaderLibrary, wgpu};
 
 use super::config::{PROBE_TEXELS, ScreenConfig, ScreenProbeMode};
 
@@ -114,11 +114,8 @@ impl ScreenPipelines {
         volume_layout: &wgpu::BindGroupLayout,
     ) -> Result<Self, GpuError> {
         let module = shaders.create_module(ctx, "mobile/screen.wgsl", &[])?;
-        // G-buffer, dynamic bits, history_in, direct, the previous frame's probes.
-        let read_only = [1u32, 2, 3, 4, 5, 6, 7, 12, 14, 16, 17, 19, 20];
         let mut entries = vec![uniform_entry(0)];
-        entries
-            .extend((1..=20).map(|binding| storage_entry(binding, read_only.contains(&binding))));
+        entries.extend(ScreenGroup::layout_entries());
         let layout0 = ctx
             .device
             .create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
@@ -175,27 +172,59 @@ pub struct ScreenSources<'a> {
     pub direct_mean: &'a wgpu::Buffer,
 }
 
-/// The screen buffers of one image size (labels `mobile.*`), with the two bind groups of the
-/// history ping-pong.
+gi_gpu::storage_bindings! {
+    /// `mobile/screen.wgsl`'s buffers in group 0, after the uniforms (0). `*_prev` and
+    /// `history_in`: the previous frame's side of a [`PingPong`].
+    struct ScreenGroup from 1 {
+        gbuffer_depth: read,
+        gbuffer_normal: read,
+        gbuffer_base_color: read,
+        gbuffer_metallic_roughness: read,
+        gbuffer_triangle: read,
+        gbuffer_motion: read,
+        dynamic_triangles: read,
+        lite: read_write,
+        probes: read_write,
+        probe_radiance: read_write,
+        tile_marks: read_write,
+        history_in: read,
+        history_out: read_write,
+        direct_mean: read,
+        output: read_write,
+        probes_prev: read,
+        probe_radiance_prev: read,
+        tile_claims: read_write,
+        gbuffer_emissive: read,
+        gbuffer_blend_layer: read,
+    }
+}
+
+/// What one frame of the screen probes writes and the next reads as its history.
+pub struct ScreenFrame {
+    /// The probes placed this frame.
+    pub probes: wgpu::Buffer,
+    /// Their texels.
+    pub probe_radiance: wgpu::Buffer,
+    /// Half-resolution irradiance the gather wrote.
+    pub history: wgpu::Buffer,
+}
+
+/// The screen buffers of one image size (labels `mobile.*`), with the bind groups of both
+/// sides of the frames' ping-pong.
 pub struct ScreenBuffers {
     pub layout: ScreenLayout,
     uniforms: wgpu::Buffer,
     pub lite: wgpu::Buffer,
-    /// Probes and their texels, ping-pong like the history: frame `i` writes `[i % 2]` and
-    /// reads the previous frame's from the other.
-    pub probes: [wgpu::Buffer; 2],
-    pub probe_radiance: [wgpu::Buffer; 2],
+    /// This frame's probes, texels and irradiance, and the previous frame's.
+    pub frames: PingPong<ScreenFrame>,
     pub tile_marks: wgpu::Buffer,
     pub tile_claims: wgpu::Buffer,
     mode: ScreenProbeMode,
-    /// Half-resolution irradiance, ping-pong: frame `i` writes `history[i % 2]`.
-    pub history: [wgpu::Buffer; 2],
     /// The final image, 16 bytes per pixel (`mobile.output`).
     pub output: wgpu::Buffer,
-    groups: [wgpu::BindGroup; 2],
-    /// Which history buffer the last gather wrote.
-    pub current: usize,
-    frames: u32,
+    /// The bind group of each side of `frames`, swapped with it.
+    groups: PingPong<wgpu::BindGroup>,
+    frames_rendered: u32,
 }
 
 impl ScreenBuffers {
@@ -218,90 +247,82 @@ impl ScreenBuffers {
         let slots = u64::from(layout.slots());
         let probe_bytes = slots * size_of::<GpuScreenProbe>() as u64;
         let texel_bytes = slots * u64::from(PROBE_TEXELS * PROBE_TEXELS) * 8;
-        let probes = [0, 1].map(|_| ctx.create_buffer("mobile.probes", probe_bytes, storage));
-        let probe_radiance =
-            [0, 1].map(|_| ctx.create_buffer("mobile.probe_radiance", texel_bytes, storage));
+        let frames = PingPong::from_fn(|_| ScreenFrame {
+            probes: ctx.create_buffer("mobile.probes", probe_bytes, storage),
+            probe_radiance: ctx.create_buffer("mobile.probe_radiance", texel_bytes, storage),
+            history: ctx.create_buffer("mobile.history", layout.half_pixels() * 8, storage),
+        });
         let tile_bytes = u64::from(layout.tile_count()) * 4;
         let tile_marks = ctx.create_buffer("mobile.tile_marks", tile_bytes, storage);
         let tile_claims = ctx.create_buffer("mobile.tile_claims", tile_bytes, storage);
-        let history = [
-            ctx.create_buffer("mobile.history", layout.half_pixels() * 8, storage),
-            ctx.create_buffer("mobile.history", layout.half_pixels() * 8, storage),
-        ];
         let output = ctx.create_buffer("mobile.output", layout.pixels() * 16, storage);
         let group = |write: usize| {
-            let mut entries = buffer_entries(
-                0,
-                [
-                    &uniforms,
-                    sources.depth,
-                    sources.normal,
-                    sources.base_color,
-                    sources.metallic_roughness,
-                    sources.triangle,
-                    sources.motion,
-                    sources.dynamic_triangles,
-                    &lite,
-                    &probes[write],
-                    &probe_radiance[write],
-                    &tile_marks,
-                    &history[1 - write],
-                    &history[write],
-                    sources.direct_mean,
-                ],
+            let (previous, frame) = frames.read_write(write);
+            let mut entries = buffer_entries(0, [&uniforms]);
+            entries.extend(
+                ScreenGroup {
+                    gbuffer_depth: sources.depth,
+                    gbuffer_normal: sources.normal,
+                    gbuffer_base_color: sources.base_color,
+                    gbuffer_metallic_roughness: sources.metallic_roughness,
+                    gbuffer_triangle: sources.triangle,
+                    gbuffer_motion: sources.motion,
+                    dynamic_triangles: sources.dynamic_triangles,
+                    lite: &lite,
+                    probes: &frame.probes,
+                    probe_radiance: &frame.probe_radiance,
+                    tile_marks: &tile_marks,
+                    history_in: &previous.history,
+                    history_out: &frame.history,
+                    direct_mean: sources.direct_mean,
+                    output: &output,
+                    probes_prev: &previous.probes,
+                    probe_radiance_prev: &previous.probe_radiance,
+                    tile_claims: &tile_claims,
+                    gbuffer_emissive: sources.emissive,
+                    gbuffer_blend_layer: sources.blend_layer,
+                }
+                .entries(),
             );
-            entries.extend(buffer_entries(
-                15,
-                [
-                    &output,
-                    &probes[1 - write],
-                    &probe_radiance[1 - write],
-                    &tile_claims,
-                    sources.emissive,
-                    sources.blend_layer,
-                ],
-            ));
             ctx.device.create_bind_group(&wgpu::BindGroupDescriptor {
                 label: Some("mobile/screen.group"),
                 layout: &pipelines.layout0,
                 entries: &entries,
             })
         };
-        let groups = [group(0), group(1)];
+        let groups = PingPong::from_fn(group);
         Self {
             layout,
             uniforms,
             lite,
-            probes,
-            probe_radiance,
+            frames,
             tile_marks,
             tile_claims,
             mode,
-            history,
             output,
             groups,
-            current: 1,
-            frames: 0,
+            frames_rendered: 0,
         }
     }
 
     /// Forgets the history: the next gather starts every pixel at age 1.
     pub fn reset_history(&mut self) {
-        self.frames = 0;
+        self.frames_rendered = 0;
     }
 
     /// Writes this frame's uniforms (history validity and the ping-pong side included) and
     /// makes the next gather write the other history buffer.
     pub fn begin_frame(&mut self, ctx: &GpuContext, mut uniforms: ScreenUniforms) {
-        self.current = 1 - self.current;
-        uniforms.history_valid = u32::from(self.frames > 0);
+        self.frames.swap();
+        self.groups.swap();
+        uniforms.history_valid = u32::from(self.frames_rendered > 0);
         ctx.queue
             .write_buffer(&self.uniforms, 0, bytemuck::bytes_of(&uniforms));
-        self.frames += 1;
+        self.frames_rendered += 1;
     }
 
     fn group(&self) -> &wgpu::BindGroup {
-        &self.groups[self.current]
+        self.groups.current()
     }
 
     /// Records the passes of `step` (see [`ScreenStep`]), each timed under its name.
@@ -374,17 +395,16 @@ impl ScreenBuffers {
         for buffer in [
             &self.uniforms,
             &self.lite,
-            &self.probes[0],
-            &self.probes[1],
-            &self.probe_radiance[0],
-            &self.probe_radiance[1],
             &self.tile_marks,
             &self.tile_claims,
-            &self.history[0],
-            &self.history[1],
             &self.output,
         ] {
             ctx.release_buffer(buffer);
+        }
+        for frame in self.frames.both() {
+            for buffer in [&frame.probes, &frame.probe_radiance, &frame.history] {
+                ctx.release_buffer(buffer);
+            }
         }
     }
 }
@@ -418,5 +438,20 @@ pub fn screen_uniforms(
             ScreenProbeMode::Hsgi => 0,
             ScreenProbeMode::SmartGi => 1,
         } | if config.material_occlusion { 2 } else { 0 },
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_shader_declares_the_named_buffers_at_their_bindings() {
+        let shaders = ShaderLibrary::new();
+        let source = shaders
+            .source("mobile/screen.wgsl")
+            .expect("the shader is in the library");
+        gi_gpu::binding::check_declared(source, 0, ScreenGroup::FIRST_BINDING, ScreenGroup::SLOTS)
+            .unwrap_or_else(|e| panic!("mobile/screen.wgsl: {e}"));
     }
 }

@@ -21,9 +21,10 @@ use crate::tracer::{Accumulation, PathPipelines, PathUniforms, TraceStats};
 use gi_gpu::{GpuContext, GpuScene, GpuTimer, PassTimings};
 use gi_image::Image;
 use gi_reference::RenderStats;
-use gi_scene::CameraView;
+use gi_scene::{CameraView, SceneFrame};
 use glam::Vec3;
 
+use crate::output::GpuOutput;
 use crate::requirements::{FrameCost, Requirements, image_bytes};
 use crate::tier::{FrameInput, FrameOutput, Tier, TierError, TierKind, TierSettings};
 
@@ -64,7 +65,8 @@ pub struct GpuPathTier {
 
 /// The uploaded scene and its accumulation, with what they were made for.
 struct Prepared {
-    time_s: f32,
+    /// The frame it was made for, without its geometry.
+    previous: SceneFrame,
     camera: CameraView,
     scene: GpuScene,
     accumulation: Accumulation,
@@ -205,7 +207,7 @@ impl GpuPathTier {
             let uniforms = PathUniforms::new(frame, &scene, size, self.settings.seed);
             let accumulation = Accumulation::new(&self.ctx, &self.pipelines, &scene, uniforms);
             self.prepared = Some(Prepared {
-                time_s: frame.time_s,
+                previous: frame.without_geometry(),
                 camera: frame.camera,
                 scene,
                 accumulation,
@@ -216,7 +218,7 @@ impl GpuPathTier {
             return Ok(());
         }
         let prepared = self.prepared.as_mut().expect("checked above");
-        let moved = prepared.time_s != frame.time_s && input.scene.is_animated();
+        let moved = frame.content_changed_from(&prepared.previous);
         if prepared.camera == frame.camera && !moved {
             return Ok(());
         }
@@ -237,7 +239,7 @@ impl GpuPathTier {
         } else {
             prepared.accumulation.restart(uniforms);
         }
-        prepared.time_s = frame.time_s;
+        prepared.previous = frame.without_geometry();
         prepared.camera = frame.camera;
         prepared.nonfinite_before = 0;
         Ok(())
@@ -367,5 +369,19 @@ impl Tier for GpuPathTier {
     /// Everything counted by the tier's own context: scene, BVH, accumulation and timer.
     fn memory_bytes(&self) -> u64 {
         self.ctx.memory().total_bytes()
+    }
+
+    fn gpu_context(&self) -> Option<&GpuContext> {
+        Some(&self.ctx)
+    }
+
+    fn gpu_output(&self) -> Option<GpuOutput<'_>> {
+        let prepared = self.prepared.as_ref()?;
+        Some(GpuOutput {
+            ctx: &self.ctx,
+            image: &prepared.accumulation.mean,
+            direct: None,
+            size: (self.settings.width, self.settings.height),
+        })
     }
 }

@@ -56,7 +56,7 @@ use std::num::NonZeroU64;
 
 use bytemuck::{Pod, Zeroable};
 use gi_gpu::binding::{buffer_entries, storage_entry, uniform_entry};
-use gi_gpu::{GpuContext, GpuError, GpuTimer, ShaderLibrary, wgpu};
+use gi_gpu::{GpuContext, GpuError, GpuTimer, PingPong, ShaderLibrary, wgpu};
 
 /// Most a-trous iterations (the last one's taps are 256 pixels apart).
 pub const MAX_ATROUS_ITERATIONS: u32 = 8;
@@ -294,31 +294,6 @@ pub struct DenoiseSources<'a> {
     pub motion: &'a wgpu::Buffer,
 }
 
-/// Two resources of which one is this frame's ([`PingPong::current`]) and the other the
-/// previous frame's ([`PingPong::history`]); [`PingPong::swap`] starts a frame.
-struct PingPong<T> {
-    pair: [T; 2],
-    current: usize,
-}
-
-impl<T> PingPong<T> {
-    fn new(pair: [T; 2]) -> Self {
-        Self { pair, current: 0 }
-    }
-
-    fn current(&self) -> &T {
-        &self.pair[self.current]
-    }
-
-    fn swap(&mut self) {
-        self.current = 1 - self.current;
-    }
-
-    fn both(&self) -> impl Iterator<Item = &T> {
-        self.pair.iter()
-    }
-}
-
 /// The denoiser of one image size: its histories and output (labels `pc.denoise.*`) and the
 /// bind groups over them and the sources it was made with.
 pub struct Denoiser {
@@ -341,7 +316,7 @@ pub struct Denoiser {
     moments: wgpu::Buffer,
     /// The reprojected long history, then the full-precision filter buffer, then the result.
     output: wgpu::Buffer,
-    /// Group 0 writing `short_history.pair[i]`, flipped with it.
+    /// Group 0 of each side of `short_history`, swapped with it.
     frame_groups: PingPong<wgpu::BindGroup>,
     /// Group 1 of each uniform slot.
     uniform_groups: Vec<wgpu::BindGroup>,
@@ -369,12 +344,13 @@ impl Denoiser {
         );
         let previous_depth = buffer("pc.denoise.previous_depth", 4);
         let previous_normal = buffer("pc.denoise.previous_normal", 4);
-        let short_history = PingPong::new([0, 1].map(|_| buffer("pc.denoise.short_history", 4)));
+        let short_history = PingPong::from_fn(|_| buffer("pc.denoise.short_history", 4));
         let history = buffer("pc.denoise.history", 8);
         let moments = buffer("pc.denoise.moments", 4);
         let output = buffer("pc.denoise.output", 16);
 
         let frame_group = |write: usize| {
+            let (short_in, short_out) = short_history.read_write(write);
             ctx.device.create_bind_group(&wgpu::BindGroupDescriptor {
                 label: Some("pc/denoise.frame_group"),
                 layout: &pipelines.frame_layout,
@@ -387,8 +363,8 @@ impl Denoiser {
                         sources.motion,
                         &previous_depth,
                         &previous_normal,
-                        &short_history.pair[1 - write],
-                        &short_history.pair[write],
+                        short_in,
+                        short_out,
                         &history,
                         &moments,
                         &output,
@@ -396,7 +372,7 @@ impl Denoiser {
                 ),
             })
         };
-        let frame_groups = PingPong::new([frame_group(0), frame_group(1)]);
+        let frame_groups = PingPong::from_fn(frame_group);
         let uniform_groups = (0..=MAX_ATROUS_ITERATIONS)
             .map(|slot| {
                 let binding = wgpu::BufferBinding {

@@ -30,13 +30,14 @@ use gi_cache::{
     CacheBuffers, CacheLighting, RadianceCache, ScreenInputs, binning::dynamic_triangles,
 };
 use gi_gpu::TEXTURE_BIND_GROUP;
-use gi_gpu::binding::{buffer_entries, storage_entry, uniform_entry};
+use gi_gpu::binding::{buffer_entries, uniform_entry};
 use gi_gpu::bvh::{BVH_BIND_GROUP, GpuBvh};
 use gi_gpu::gbuffer::{GBUFFER_MISS, GBuffer, GBufferInputs};
-use gi_gpu::{GpuCamera, GpuContext, GpuError, GpuScene, GpuTimer, ShaderLibrary, wgpu};
+use gi_gpu::{GpuCamera, GpuContext, GpuError, GpuScene, GpuTimer, PingPong, ShaderLibrary, wgpu};
 use gi_image::Image;
 use gi_scene::SceneFrame;
 
+use crate::output::GpuOutput;
 use crate::requirements::{FrameCost, Requirements, image_bytes};
 use crate::scene_state::{self, SceneState, check_frame_settings, read_image};
 use crate::tier::{FrameInput, FrameOutput, FrameTimings, Tier, TierError, TierKind, TierSettings};
@@ -219,25 +220,10 @@ impl PcPipelines {
         };
         let mut entries = vec![uniform_entry(0)];
         entries.extend(GpuScene::layout_entries());
-        for (binding, read_only) in [
-            (8, true),
-            (9, true),
-            (10, false),
-            (11, false),
-            (12, true),
-            (13, false),
-            (14, true),
-            (15, true),
-            (16, false),
-        ] {
-            entries.push(storage_entry(binding, read_only));
-        }
+        entries.extend(TraceBuffers::layout_entries());
         let trace_layout = layout("pc/trace.layout0", &entries);
         let mut entries = vec![uniform_entry(0)];
-        for binding in 8..=28 {
-            let written = matches!(binding, 16 | 18 | 19 | 22 | 24 | 25);
-            entries.push(storage_entry(binding, !written));
-        }
+        entries.extend(RestirBuffers::layout_entries());
         let restir_layout = layout("pc/restir.layout0", &entries);
         let bvh_layout = GpuBvh::bind_group_layout(ctx);
         let cache_layout = CacheBuffers::bind_group_layout(ctx);
@@ -287,14 +273,78 @@ impl PcPipelines {
     }
 }
 
+gi_gpu::storage_bindings! {
+    /// `pc/trace.wgsl`'s buffers in group 0, after the uniforms (0) and the scene (1..=7).
+    struct TraceBuffers from 8 {
+        gbuffer_depth: read,
+        gbuffer_normal: read,
+        /// This frame's receivers, picked by `trace`.
+        surfaces: read_write,
+        initial: read_write,
+        /// The temporal reservoirs the shadow pass falls back to.
+        temporal: read,
+        resolved: read_write,
+        gbuffer_base_color: read,
+        gbuffer_metallic_roughness: read,
+        specular_samples: read_write,
+    }
+}
+
+gi_gpu::storage_bindings! {
+    /// The buffers of `pc/restir.wgsl` and `pc/specular.wgsl` in group 0, after the uniforms
+    /// (0). `*_prev`: the previous frame's side of a [`PingPong`].
+    struct RestirBuffers from 8 {
+        gbuffer_depth: read,
+        gbuffer_normal: read,
+        gbuffer_base_color: read,
+        gbuffer_metallic_roughness: read,
+        gbuffer_motion: read,
+        surfaces: read,
+        surfaces_prev: read,
+        initial: read,
+        temporal_out: read_write,
+        temporal_prev: read,
+        resolved: read_write,
+        irradiance: read_write,
+        denoised: read,
+        direct_mean: read,
+        output: read_write,
+        specular_samples: read,
+        specular_noisy: read_write,
+        specular_history: read_write,
+        specular_history_prev: read,
+        gbuffer_emissive: read,
+        gbuffer_blend_layer: read,
+    }
+}
+
+/// What one frame of the PC tier writes and the next reads as its history.
+struct FrameBuffers {
+    /// Receivers, one per trace pixel.
+    surfaces: wgpu::Buffer,
+    /// Temporal reservoirs, one per trace pixel (one in all without temporal reuse: never
+    /// read then).
+    temporal: wgpu::Buffer,
+    /// Per pixel: the specular history (radiance and length in `pack_color64`, the surface's
+    /// distance and normal).
+    specular_history: wgpu::Buffer,
+}
+
+impl FrameBuffers {
+    fn release(&self, ctx: &GpuContext) {
+        for buffer in [&self.surfaces, &self.temporal, &self.specular_history] {
+            ctx.release_buffer(buffer);
+        }
+    }
+}
+
 /// The tier's resolution-dependent buffers (labels `pc.*`).
 struct PcBuffers {
     trace_size: (u32, u32),
     uniforms: wgpu::Buffer,
-    /// Receivers of this frame and the previous one (`current` indexes this frame's).
-    surfaces: [wgpu::Buffer; 2],
+    /// This frame's and the previous frame's, swapped at the end of a frame.
+    frames: PingPong<FrameBuffers>,
     initial: wgpu::Buffer,
-    temporal: [wgpu::Buffer; 2],
     /// Per trace pixel: the spatial reuse's result, then the shadow pass's (in place).
     resolved: wgpu::Buffer,
     irradiance: wgpu::Buffer,
@@ -303,11 +353,7 @@ struct PcBuffers {
     specular_samples: wgpu::Buffer,
     /// Per pixel: the resolved specular radiance (`pack_color64`: rgb and a validity flag).
     specular_noisy: wgpu::Buffer,
-    /// Per pixel: the specular history (radiance and length in `pack_color64`, the surface's
-    /// distance and normal), this frame's and the previous one.
-    specular_history: [wgpu::Buffer; 2],
-    current: usize,
-    /// Whether the other slot holds the previous frame's surfaces and reservoirs.
+    /// Whether `frames.history()` holds the previous frame's surfaces and reservoirs.
     history: bool,
 }
 
@@ -330,15 +376,12 @@ impl PcBuffers {
                 size_of::<PcUniforms>() as u64,
                 wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
             ),
-            surfaces: [
-                buffer("pc.surfaces_a", surfaces),
-                buffer("pc.surfaces_b", surfaces),
-            ],
+            frames: PingPong::from_fn(|_| FrameBuffers {
+                surfaces: buffer("pc.surfaces", surfaces),
+                temporal: buffer("pc.temporal", if temporal { reservoirs } else { one }),
+                specular_history: buffer("pc.specular_history", pixels * 16),
+            }),
             initial: buffer("pc.initial", reservoirs),
-            temporal: [
-                buffer("pc.temporal_a", if temporal { reservoirs } else { one }),
-                buffer("pc.temporal_b", if temporal { reservoirs } else { one }),
-            ],
             resolved: buffer("pc.resolved", reservoirs),
             irradiance: buffer("pc.irradiance", pixels * 16),
             output: buffer("pc.output", pixels * 16),
@@ -347,30 +390,22 @@ impl PcBuffers {
                 traced * size_of::<GpuSpecularSample>() as u64,
             ),
             specular_noisy: buffer("pc.specular_noisy", pixels * 8),
-            specular_history: [
-                buffer("pc.specular_history_a", pixels * 16),
-                buffer("pc.specular_history_b", pixels * 16),
-            ],
-            current: 0,
             history: false,
         }
     }
 
     fn release(&self, ctx: &GpuContext) {
+        for frame in self.frames.both() {
+            frame.release(ctx);
+        }
         for buffer in [
             &self.uniforms,
-            &self.surfaces[0],
-            &self.surfaces[1],
             &self.initial,
-            &self.temporal[0],
-            &self.temporal[1],
             &self.resolved,
             &self.irradiance,
             &self.output,
             &self.specular_samples,
             &self.specular_noisy,
-            &self.specular_history[0],
-            &self.specular_history[1],
         ] {
             ctx.release_buffer(buffer);
         }
@@ -673,23 +708,24 @@ impl PcTier {
 
     fn trace_bind_group(&self, prepared: &Prepared) -> wgpu::BindGroup {
         let b = &prepared.buffers;
-        let cur = b.current;
+        let frame = b.frames.current();
+        let g = &self.gbuffer;
         let mut entries = buffer_entries(0, [&b.uniforms]);
         entries.extend(prepared.state.scene.bind_group_entries());
-        entries.extend(buffer_entries(
-            8,
-            [
-                self.gbuffer.output("gbuffer.depth"),
-                self.gbuffer.output("gbuffer.normal"),
-                &b.surfaces[cur],
-                &b.initial,
-                &b.temporal[cur],
-                &b.resolved,
-                self.gbuffer.output("gbuffer.base_color"),
-                self.gbuffer.output("gbuffer.metallic_roughness"),
-                &b.specular_samples,
-            ],
-        ));
+        entries.extend(
+            TraceBuffers {
+                gbuffer_depth: g.output("gbuffer.depth"),
+                gbuffer_normal: g.output("gbuffer.normal"),
+                surfaces: &frame.surfaces,
+                initial: &b.initial,
+                temporal: &frame.temporal,
+                resolved: &b.resolved,
+                gbuffer_base_color: g.output("gbuffer.base_color"),
+                gbuffer_metallic_roughness: g.output("gbuffer.metallic_roughness"),
+                specular_samples: &b.specular_samples,
+            }
+            .entries(),
+        );
         self.ctx
             .device
             .create_bind_group(&wgpu::BindGroupDescriptor {
@@ -701,34 +737,35 @@ impl PcTier {
 
     fn restir_bind_group(&self, prepared: &Prepared) -> wgpu::BindGroup {
         let b = &prepared.buffers;
-        let (cur, prev) = (b.current, 1 - b.current);
+        let (frame, previous) = (b.frames.current(), b.frames.history());
+        let g = &self.gbuffer;
         let mut entries = buffer_entries(0, [&b.uniforms]);
-        entries.extend(buffer_entries(
-            8,
-            [
-                self.gbuffer.output("gbuffer.depth"),
-                self.gbuffer.output("gbuffer.normal"),
-                self.gbuffer.output("gbuffer.base_color"),
-                self.gbuffer.output("gbuffer.metallic_roughness"),
-                self.gbuffer.output("gbuffer.motion"),
-                &b.surfaces[cur],
-                &b.surfaces[prev],
-                &b.initial,
-                &b.temporal[cur],
-                &b.temporal[prev],
-                &b.resolved,
-                &b.irradiance,
-                prepared.denoiser.output(),
-                &prepared.state.direct.mean,
-                &b.output,
-                &b.specular_samples,
-                &b.specular_noisy,
-                &b.specular_history[cur],
-                &b.specular_history[prev],
-                self.gbuffer.output("gbuffer.emissive"),
-                self.gbuffer.output("gbuffer.blend_layer"),
-            ],
-        ));
+        entries.extend(
+            RestirBuffers {
+                gbuffer_depth: g.output("gbuffer.depth"),
+                gbuffer_normal: g.output("gbuffer.normal"),
+                gbuffer_base_color: g.output("gbuffer.base_color"),
+                gbuffer_metallic_roughness: g.output("gbuffer.metallic_roughness"),
+                gbuffer_motion: g.output("gbuffer.motion"),
+                surfaces: &frame.surfaces,
+                surfaces_prev: &previous.surfaces,
+                initial: &b.initial,
+                temporal_out: &frame.temporal,
+                temporal_prev: &previous.temporal,
+                resolved: &b.resolved,
+                irradiance: &b.irradiance,
+                denoised: prepared.denoiser.output(),
+                direct_mean: &prepared.state.direct.mean,
+                output: &b.output,
+                specular_samples: &b.specular_samples,
+                specular_noisy: &b.specular_noisy,
+                specular_history: &frame.specular_history,
+                specular_history_prev: &previous.specular_history,
+                gbuffer_emissive: g.output("gbuffer.emissive"),
+                gbuffer_blend_layer: g.output("gbuffer.blend_layer"),
+            }
+            .entries(),
+        );
         self.ctx
             .device
             .create_bind_group(&wgpu::BindGroupDescriptor {
@@ -785,6 +822,20 @@ impl Tier for PcTier {
     /// Everything counted by the tier's own context.
     fn memory_bytes(&self) -> u64 {
         self.ctx.memory().total_bytes()
+    }
+
+    fn gpu_context(&self) -> Option<&GpuContext> {
+        Some(&self.ctx)
+    }
+
+    fn gpu_output(&self) -> Option<GpuOutput<'_>> {
+        let prepared = self.prepared.as_ref()?;
+        Some(GpuOutput {
+            ctx: &self.ctx,
+            image: &prepared.buffers.output,
+            direct: Some(&prepared.state.direct.mean),
+            size: (self.settings.width, self.settings.height),
+        })
     }
 }
 
@@ -924,12 +975,52 @@ impl PcTier {
 
         let prepared = self.prepared.as_mut().expect("prepared above");
         prepared.state.finish_frame(frame);
-        prepared.buffers.current = 1 - prepared.buffers.current;
+        prepared.buffers.frames.swap();
         prepared.buffers.history = true;
         self.frame_index = self.frame_index.wrapping_add(1);
         if let Some(progress) = input.progress {
             progress(prepared.state.direct.samples);
         }
         Ok(encoder)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use gi_gpu::binding::{Access, check_declared};
+
+    #[test]
+    fn the_shaders_declare_the_named_buffers_at_their_bindings() {
+        let shaders = ShaderLibrary::new();
+        let groups = [
+            (
+                "pc/trace.wgsl",
+                TraceBuffers::FIRST_BINDING,
+                TraceBuffers::SLOTS,
+            ),
+            (
+                "pc/restir.wgsl",
+                RestirBuffers::FIRST_BINDING,
+                RestirBuffers::SLOTS,
+            ),
+            (
+                "pc/specular.wgsl",
+                RestirBuffers::FIRST_BINDING,
+                RestirBuffers::SLOTS,
+            ),
+        ];
+        for (file, first, slots) in groups {
+            let source = shaders.source(file).expect("the shader is in the library");
+            check_declared(source, 0, first, slots).unwrap_or_else(|e| panic!("{file}: {e}"));
+        }
+        // A swapped pair or a changed access is caught.
+        let source = shaders.source("pc/restir.wgsl").expect("restir");
+        let mut swapped = RestirBuffers::SLOTS.to_vec();
+        swapped.swap(5, 6);
+        assert!(check_declared(source, 0, 8, &swapped).is_err());
+        let mut written = RestirBuffers::SLOTS.to_vec();
+        written[0].1 = Access::ReadWrite;
+        assert!(check_declared(source, 0, 8, &written).is_err());
     }
 }
