@@ -35,7 +35,7 @@ pub(crate) struct SkinnedVertices {
 impl Scene {
     /// `moving[node]`: the node's world transform changes over time (an animation channel whose
     /// keys differ targets the transform of it or one of its ancestors; weights channels do
-    /// not), or the caller moves it or an ancestor ([`Node::movable`]).
+    /// not), or the caller moves it or an ancestor ([`Node::movable`](crate::Node::movable)).
     pub fn moving_nodes(&self) -> Vec<bool> {
         let mut animated: Vec<bool> = self.nodes.iter().map(|node| node.movable).collect();
         for channel in self.animations.iter().flat_map(|a| &a.channels) {

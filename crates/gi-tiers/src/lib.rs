@@ -1,26 +1,40 @@
 //! The tiered crate: the interface every GI tier implements, the tiers, the [`Renderer`]
-//! facade that renders the frames of a scene, and [`select`], the policy by which
-//! [`TierChoice::Auto`] picks a tier for the adapter.
+//! facade that renders the frames of a scene as an engine asks for them (one
+//! [`FrameRequest`] per frame, on the engine's device if given, the frame as textures), and
+//! [`select`], the policy by which [`TierChoice::Auto`] picks a tier for the adapter.
+//!
+//! Layout: [`tier`](Tier) (what a tier is), [`requirements`] (what each tier declares for
+//! selection), [`tracer`] (the path tracer every GPU tier takes its direct light from),
+//! [`output`] (frames as textures), one module per tier (`cpu`, [`path`], [`mobile`], [`pc`];
+//! none imports another), [`select`] and the renderer on top.
 //!
 //! ```no_run
 //! # fn demo() -> Result<(), Box<dyn std::error::Error>> {
-//! use gi_tiers::{CameraMode, FrameBudget, Renderer, TierChoice, TierSettings};
+//! use gi_tiers::{FrameBudget, FrameRequest, Renderer, TierChoice};
+//! use glam::{Quat, Vec3};
 //!
-//! let scene = gi_scene::load("cornell-box")?;
-//! let settings = TierSettings {
-//!     width: 320,
-//!     height: 240,
-//!     spp: 16,
-//!     seed: 1,
-//!     textures: gi_tiers::TextureOptions::DEFAULT,
-//! };
+//! let mut scene = gi_scene::load("cornell-box")?;
+//! // A node the caller moves between frames is marked before rendering.
+//! let moving = scene.nodes.len() - 1;
+//! scene.nodes[moving].movable = true;
 //! // The best real-time GI tier whose estimated frame fits 16 ms on this adapter.
-//! let choice = TierChoice::AutoWithin(FrameBudget::from_ms(16.0));
-//! let mut renderer = Renderer::new(scene, choice, settings, CameraMode::Default)?;
+//! let mut renderer = Renderer::builder(scene)
+//!     .tier(TierChoice::AutoWithin(FrameBudget::from_ms(16.0)))
+//!     .size(320, 240)
+//!     .build()?;
 //! if let Some(selection) = renderer.selection() {
 //!     println!("{}: {}", selection.chosen, selection.reason);
 //! }
-//! let frame = renderer.render_frames(4, None)?; // three warm-up frames, then the measured one
+//! for frame in 0..4 {
+//!     let time_s = frame as f32 / 60.0;
+//!     renderer.set_node_transform(moving, Vec3::X * time_s, Quat::IDENTITY, Vec3::ONE)?;
+//!     renderer.submit(&FrameRequest::at(time_s))?; // no wait, no readback
+//! }
+//! // The last frame as textures on the renderer's device (GPU tiers), or read back.
+//! if let Some(textures) = renderer.output_textures()? {
+//!     println!("{:?} image and GI textures", textures.size());
+//! }
+//! let frame = renderer.render(&FrameRequest::at(4.0 / 60.0))?;
 //! println!("{} ms, {} bytes", frame.ms_total(), renderer.memory_bytes());
 //! # Ok(()) }
 //! ```

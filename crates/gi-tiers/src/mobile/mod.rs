@@ -30,7 +30,7 @@ use screen::{
 };
 
 /// What the mobile tier needs of an adapter at `settings`' resolution. The screen-probe
-/// passes' layouts ([`screen`]): 20 storage buffers of their own, the probe volume's 3 and the
+/// passes' layouts (`mobile/screen.rs`): 20 storage buffers of their own, the probe volume's 3 and the
 /// brick cache's 7; four groups (the cache's is group 2, the textures group 3); the largest
 /// workgroups (the cache's passes, the probe volume's, the 1D screen passes) run 64
 /// invocations in x.

@@ -3,7 +3,7 @@
 //! PNG and print its passes and the tier's memory.
 //!
 //! ```text
-//! cargo run --release -p gi-tiers --example auto -- [scene] [--frames N] [--budget-ms B]
+//! cargo run --release -p gi-examples --bin auto -- [scene] [--frames N] [--budget-ms B]
 //!     [--width W] [--height H] [--out last.png]
 //! ```
 //!
@@ -11,56 +11,29 @@
 
 use std::{error::Error, process::ExitCode};
 
+use clap::Parser;
 use gi_tiers::{CameraMode, FrameBudget, Renderer, TierChoice, TierSettings};
 
+/// Renders a scene's camera path with the tier `Auto` picks, saves the last frame and prints
+/// its passes and the memory.
+#[derive(Parser)]
 struct Args {
+    /// A bundled scene name or a glTF path.
+    #[arg(default_value = "atrium")]
     scene: String,
+    /// Frames to render (warm-up frames, then the one saved).
+    #[arg(long, default_value_t = 16)]
     frames: u32,
+    /// A frame budget in milliseconds: the best tier whose estimated frame fits it.
+    #[arg(long)]
     budget_ms: Option<f64>,
+    #[arg(long, default_value_t = 320)]
     width: u32,
+    #[arg(long, default_value_t = 240)]
     height: u32,
+    /// Where the last frame is saved.
+    #[arg(long, default_value = "last.png")]
     out: String,
-}
-
-fn parse_args() -> Result<Args, String> {
-    let mut args = Args {
-        scene: "atrium".to_string(),
-        frames: 16,
-        budget_ms: None,
-        width: 320,
-        height: 240,
-        out: "last.png".to_string(),
-    };
-    let mut scene = None;
-    let mut it = std::env::args().skip(1);
-    while let Some(arg) = it.next() {
-        let mut value = |name: &str| it.next().ok_or(format!("{name} needs a value"));
-        let number = |name: &str, text: String| {
-            text.parse::<f64>()
-                .map_err(|e| format!("{name} {text:?}: {e}"))
-        };
-        match arg.as_str() {
-            "--frames" => args.frames = number("--frames", value("--frames")?)? as u32,
-            "--budget-ms" => args.budget_ms = Some(number("--budget-ms", value("--budget-ms")?)?),
-            "--width" => args.width = number("--width", value("--width")?)? as u32,
-            "--height" => args.height = number("--height", value("--height")?)? as u32,
-            "--out" => args.out = value("--out")?,
-            "-h" | "--help" => {
-                return Err(
-                    "usage: auto [scene] [--frames N] [--budget-ms B] [--width W] \
-                            [--height H] [--out last.png]"
-                        .to_string(),
-                );
-            }
-            flag if flag.starts_with("--") => return Err(format!("unknown option {flag}")),
-            name if scene.is_none() => scene = Some(name.to_string()),
-            extra => return Err(format!("unexpected argument {extra:?}")),
-        }
-    }
-    if let Some(scene) = scene {
-        args.scene = scene;
-    }
-    Ok(args)
 }
 
 fn run(args: &Args) -> Result<(), Box<dyn Error>> {
@@ -123,18 +96,9 @@ fn run(args: &Args) -> Result<(), Box<dyn Error>> {
 }
 
 fn main() -> ExitCode {
-    let args = match parse_args() {
-        Ok(args) => args,
-        Err(message) => {
-            eprintln!("{message}");
-            return ExitCode::from(2);
-        }
-    };
-    match run(&args) {
-        Ok(()) => ExitCode::SUCCESS,
-        Err(error) => {
-            eprintln!("error: {error}");
-            ExitCode::FAILURE
-        }
+    if let Err(error) = run(&Args::parse()) {
+        eprintln!("error: {error}");
+        return ExitCode::FAILURE;
     }
+    ExitCode::SUCCESS
 }
