@@ -22,7 +22,7 @@ use glam::{Quat, Vec3};
 #[derive(Parser)]
 struct Args {
     /// `auto` or a tier name (reference, direct, path, mobile, pc).
-    #[arg(long, default_value = "auto", value_parser = parse_tier)]
+    #[arg(long, default_value = "auto")]
     tier: TierChoice,
     /// Frames to render.
     #[arg(long, default_value_t = 8)]
@@ -34,16 +34,6 @@ struct Args {
     /// Folder the frames are written to (`frame-000.png`, ...).
     #[arg(long, default_value = "frames")]
     out: PathBuf,
-}
-
-fn parse_tier(name: &str) -> Result<TierChoice, String> {
-    match name {
-        "auto" => Ok(TierChoice::Auto),
-        name => name
-            .parse()
-            .map(TierChoice::Tier)
-            .map_err(|e| format!("{e}")),
-    }
 }
 
 /// A Lambert parallelogram `center +- u +- v` of `color`, under `parent`; returns its node.

@@ -54,7 +54,7 @@ struct Args {
     #[arg(long)]
     lighting: Option<PathBuf>,
     /// `auto` or a tier name (reference, direct, path, mobile, pc).
-    #[arg(long, default_value = "auto", value_parser = parse_tier)]
+    #[arg(long, default_value = "auto")]
     tier: TierChoice,
     /// Window and render size, `WxH`.
     #[arg(long, default_value = "960x540", value_parser = parse_size)]
@@ -71,16 +71,6 @@ struct Args {
     /// With `--frames`: save the last frame as the window shows it.
     #[arg(long)]
     screenshot: Option<PathBuf>,
-}
-
-fn parse_tier(name: &str) -> Result<TierChoice, String> {
-    match name {
-        "auto" => Ok(TierChoice::Auto),
-        name => name
-            .parse()
-            .map(TierChoice::Tier)
-            .map_err(|e| format!("{e}")),
-    }
 }
 
 fn parse_size(text: &str) -> Result<(u32, u32), String> {

@@ -116,6 +116,24 @@ pub enum TierChoice {
     Tier(TierKind),
 }
 
+/// `auto` or a tier's name ([`TierKind::name`]); an unknown name is
+/// [`TierError::UnknownTier`], listing `auto` with the tiers.
+impl FromStr for TierChoice {
+    type Err = TierError;
+
+    fn from_str(s: &str) -> Result<Self, Self::Err> {
+        if s == "auto" {
+            return Ok(TierChoice::Auto);
+        }
+        s.parse()
+            .map(TierChoice::Tier)
+            .map_err(|_| TierError::UnknownTier {
+                name: s.to_string(),
+                available: format!("auto, {}", TierKind::ALL.map(TierKind::name).join(", ")),
+            })
+    }
+}
+
 impl From<TierKind> for TierChoice {
     fn from(kind: TierKind) -> Self {
         TierChoice::Tier(kind)

@@ -82,6 +82,20 @@ fn reference_renderer(scene: Scene) -> Renderer {
 }
 
 #[test]
+fn a_tier_choice_is_auto_or_a_tier_name() {
+    assert_eq!("auto".parse::<TierChoice>().unwrap(), TierChoice::Auto);
+    assert_eq!(
+        "pc".parse::<TierChoice>().unwrap(),
+        TierChoice::Tier(TierKind::Pc)
+    );
+    let unknown = "ultra".parse::<TierChoice>().unwrap_err().to_string();
+    assert!(
+        unknown.contains("ultra") && unknown.contains("auto, reference"),
+        "{unknown}"
+    );
+}
+
+#[test]
 fn a_request_sets_the_frames_camera() {
     let (scene, _) = ground_with_a_movable_square();
     let expected = reference_image(&scene, camera(), &CPU_SETTINGS);
