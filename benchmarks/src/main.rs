@@ -47,6 +47,7 @@ mod mobile;
 mod path;
 mod pc;
 mod rays;
+mod realtime;
 mod settle;
 mod stability;
 mod suite;
@@ -473,10 +474,12 @@ fn main() -> anyhow::Result<()> {
             let report = mobile::run(&mobile::MobileOptions {
                 scenes,
                 size,
-                warmup: warmup.unwrap_or(gi_tiers::TierKind::Mobile.default_warmup()),
-                frames,
+                schedule: realtime::Schedule {
+                    warmup: warmup.unwrap_or(gi_tiers::TierKind::Mobile.default_warmup()),
+                    settle_s,
+                    frames,
+                },
                 modes: screen_probes,
-                settle_s,
             })?;
             out!("{}", report.table());
             write_json(json, &report.json())
@@ -495,12 +498,14 @@ fn main() -> anyhow::Result<()> {
             let report = pc::run(&pc::PcOptions {
                 scenes,
                 size,
-                warmup: warmup.unwrap_or(gi_tiers::TierKind::Pc.default_warmup()),
-                frames,
+                schedule: realtime::Schedule {
+                    warmup: warmup.unwrap_or(gi_tiers::TierKind::Pc.default_warmup()),
+                    settle_s,
+                    frames,
+                },
                 variants,
                 trace_scale,
                 trace_mode,
-                settle_s,
             })?;
             out!("{}", report.table());
             write_json(json, &report.json())

@@ -6,17 +6,14 @@
 //! Each run makes a PC tier for the scene's default camera, renders a still warm-up
 //! ([`Renderer::warm_up`]), then still frames until the GPU's clock has settled
 //! ([`crate::settle`]), and measures `frames` frames; each pass's figure is its median over
-//! them ([`PassTimings::median`]) and the GI cost is the sum of the `cache/*` and `pc/*`
+//! them ([`PassTimings::median`](gi_gpu::PassTimings::median)) and the GI cost is the sum of the `cache/*` and `pc/*`
 //! medians ([`TierKind::is_gi_pass`]).
 
 use anyhow::Context;
-use gi_gpu::PassTimings;
-use gi_tiers::pc::{PC_OPTIONAL_STAGES, PC_STAGES, PcMemory, TraceMode};
+use gi_tiers::pc::{PC_OPTIONAL_STAGES, PC_STAGES, TraceMode};
 use gi_tiers::{CameraMode, PcConfig, PcTier, Renderer, TierKind, TierSettings};
 
-use crate::settle::{self, FrameWall, GiSpread, Settled};
-
-const MIB: f64 = (1 << 20) as f64;
+use crate::realtime::{MIB, Measured, Schedule};
 
 /// A pipeline variant: `default`, the name of a stage to switch off ([`PC_STAGES`]), or
 /// `with-` and the name of one to switch on ([`PC_OPTIONAL_STAGES`]).
@@ -62,49 +59,19 @@ fn variant_label(variant: &str) -> String {
 pub struct PcOptions {
     pub scenes: Vec<String>,
     pub size: (u32, u32),
-    pub warmup: u32,
-    pub frames: u32,
+    /// The frames of each run.
+    pub schedule: Schedule,
     pub variants: Vec<String>,
     pub trace_scale: u32,
     /// What the diffuse rays read (`rays` or `probes`).
     pub trace_mode: TraceMode,
-    /// Least seconds of still frames after the warm-up for the GPU's clock to settle
-    /// ([`settle::settle`]); 0 measures at once.
-    pub settle_s: f64,
 }
 
 /// One scene in one variant.
 pub struct PcRun {
     pub scene: String,
     pub variant: String,
-    pub adapter: String,
-    pub gpu_timestamps: bool,
-    pub median: PassTimings,
-    /// How the measured frames' GI time spread.
-    pub spread: GiSpread,
-    /// A frame's wall-clock time, waiting for the GPU and pipelined.
-    pub wall: FrameWall,
-    /// The still frames rendered for the clock after the warm-up.
-    pub settled: Settled,
-    pub memory: PcMemory,
-}
-
-impl PcRun {
-    pub fn gi_ms(&self) -> f64 {
-        settle::gi_ms(TierKind::Pc, &self.median.0)
-    }
-
-    pub fn other_ms(&self) -> f64 {
-        self.passes(false).map(|(_, ms)| ms).sum()
-    }
-
-    fn passes(&self, gi: bool) -> impl Iterator<Item = (&str, f64)> {
-        self.median
-            .0
-            .iter()
-            .filter(move |(name, _)| TierKind::Pc.is_gi_pass(name) == gi)
-            .map(|(name, ms)| (name.as_str(), *ms))
-    }
+    pub measured: Measured,
 }
 
 pub struct PcReport {
@@ -136,8 +103,9 @@ pub fn pc_renderer(
 
 /// Renders every scene in every variant and measures it.
 pub fn run(options: &PcOptions) -> anyhow::Result<PcReport> {
-    anyhow::ensure!(options.frames >= 1, "--frames must be at least 1");
+    options.schedule.check()?;
     anyhow::ensure!(!options.scenes.is_empty(), "--scenes names no scene");
+    let schedule = options.schedule;
     let mut runs = Vec::new();
     for name in &options.scenes {
         let scene = gi_scene::load(name).with_context(|| format!("loading {name}"))?;
@@ -147,22 +115,10 @@ pub fn run(options: &PcOptions) -> anyhow::Result<PcReport> {
             config.trace_mode = options.trace_mode;
             let mut renderer =
                 pc_renderer(scene.clone(), options.size, config, CameraMode::Default)?;
-            renderer.warm_up(options.warmup, None)?;
-            let settled = settle::settle(&mut renderer, TierKind::Pc, options.settle_s)?;
-            let (frames, wall) = settle::time_frames(&mut renderer, TierKind::Pc, options.frames)?;
-            let tier = renderer
-                .tier_as::<PcTier>()
-                .expect("the renderer holds a PC tier");
             runs.push(PcRun {
                 scene: scene.name.clone(),
                 variant: variant.clone(),
-                adapter: tier.context().adapter_info.name.clone(),
-                gpu_timestamps: tier.context().supports_timestamps(),
-                median: PassTimings::median(&frames),
-                spread: GiSpread::of(TierKind::Pc, &frames),
-                wall,
-                settled,
-                memory: tier.memory(),
+                measured: Measured::of(&mut renderer, &schedule)?,
             });
         }
     }
@@ -181,11 +137,7 @@ impl PcReport {
         scenes.dedup();
         for scene in scenes {
             let runs: Vec<&PcRun> = self.runs.iter().filter(|r| r.scene == scene).collect();
-            let clock = if runs[0].gpu_timestamps {
-                "GPU timestamps"
-            } else {
-                "CPU wall-clock"
-            };
+            let clock = runs[0].measured.clock();
             out += &format!(
                 "{scene} {}x{}, trace scale {}, trace mode {}, on {}: median of {} frames after \
                  {} still warm-up frames ({clock}), ms\n\n",
@@ -193,15 +145,15 @@ impl PcReport {
                 o.size.1,
                 o.trace_scale,
                 o.trace_mode.name(),
-                runs[0].adapter,
-                o.frames,
-                o.warmup
+                runs[0].measured.adapter,
+                o.schedule.frames,
+                o.schedule.warmup
             );
             for run in &runs {
                 out += &format!(
                     "- {}: {}\n",
                     variant_label(&run.variant),
-                    run.settled.describe()
+                    run.measured.settled.describe()
                 );
             }
             out += "\n| pass |";
@@ -211,16 +163,16 @@ impl PcReport {
             out += &format!("\n|---|{}\n", "---:|".repeat(runs.len()));
             let mut names: Vec<&str> = Vec::new();
             for run in &runs {
-                for (name, _) in &run.median.0 {
+                for (name, _) in &run.measured.median.0 {
                     if !names.contains(&name.as_str()) {
                         names.push(name);
                     }
                 }
             }
-            let row = |label: &str, value: &dyn Fn(&PcRun) -> Option<f64>| {
+            let row = |label: &str, value: &dyn Fn(&Measured) -> Option<f64>| {
                 let mut line = format!("| {label} |");
                 for run in &runs {
-                    match value(run) {
+                    match value(&run.measured) {
                         Some(ms) => line += &format!(" {ms:.3} |"),
                         None => line += " - |",
                     }
@@ -261,31 +213,15 @@ impl PcReport {
         serde_json::json!({
             "width": o.size.0,
             "height": o.size.1,
-            "warmup": o.warmup,
-            "settle_s": o.settle_s,
-            "frames": o.frames,
+            "warmup": o.schedule.warmup,
+            "settle_s": o.schedule.settle_s,
+            "frames": o.schedule.frames,
             "trace_scale": o.trace_scale,
             "trace_mode": o.trace_mode.name(),
-            "runs": self.runs.iter().map(|run| serde_json::json!({
+            "runs": self.runs.iter().map(|run| run.measured.json(serde_json::json!({
                 "scene": run.scene,
                 "variant": run.variant,
-                "adapter": run.adapter,
-                "gpu_timestamps": run.gpu_timestamps,
-                "passes_ms": run.median.0.iter()
-                    .map(|(name, ms)| (name.clone(), (*ms).into()))
-                    .collect::<serde_json::Map<_, _>>(),
-                "gi_ms": run.gi_ms(),
-                "gi_spread_ms": run.spread.json(),
-                "settle": run.settled.json(),
-                "frame_wall": run.wall.json(),
-                "other_ms": run.other_ms(),
-                "memory": {
-                    "coverage_bytes": run.memory.coverage_bytes,
-                    "screen_bytes": run.memory.screen_bytes,
-                    "frame_bytes": run.memory.frame_bytes,
-                    "gi_bytes": run.memory.gi_bytes(),
-                },
-            })).collect::<Vec<_>>(),
+            }))).collect::<Vec<_>>(),
         })
     }
 }
@@ -319,12 +255,14 @@ mod tests {
         let report = run(&PcOptions {
             scenes: vec!["cornell-box".into()],
             size: (32, 24),
-            warmup: 1,
-            frames: 2,
+            schedule: Schedule {
+                warmup: 1,
+                settle_s: 0.0,
+                frames: 2,
+            },
             variants: vec!["default".into(), "spatial".into(), "with-temporal".into()],
             trace_scale: 2,
             trace_mode: TraceMode::Rays,
-            settle_s: 0.0,
         })
         .unwrap();
         assert_eq!(report.runs.len(), 3);
@@ -337,16 +275,16 @@ mod tests {
         );
         assert!(table.contains("frame wall-clock, pipelined"), "{table}");
         for run in &report.runs {
-            let wall = run.wall;
+            let wall = run.measured.wall;
             assert!(
                 wall.waiting_ms > 0.0 && wall.pipelined_ms > 0.0 && wall.pipelined_gi_ms > 0.0,
                 "{wall:?}"
             );
         }
-        assert!(report.runs[0].median.get("pc/spatial").is_some());
-        assert!(report.runs[1].median.get("pc/spatial").is_none());
+        assert!(report.runs[0].measured.median.get("pc/spatial").is_some());
+        assert!(report.runs[1].measured.median.get("pc/spatial").is_none());
         // Temporal reuse is off by default: its pass runs only when switched on.
-        assert!(report.runs[0].median.get("pc/temporal").is_none());
-        assert!(report.runs[2].median.get("pc/temporal").is_some());
+        assert!(report.runs[0].measured.median.get("pc/temporal").is_none());
+        assert!(report.runs[2].measured.median.get("pc/temporal").is_some());
     }
 }

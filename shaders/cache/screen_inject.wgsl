@@ -19,6 +19,7 @@
 
 #import gi::cache::data::{cache, cache_brick_masks, cache_voxels, cache_mask_cell, cache_mask_test, cache_voxel_normal}
 #import gi::camera::{Camera, camera_ray}
+#import gi::math::{image_contains, image_index}
 #import gi::brdf::{gbuffer_brdf, brdf_diffuse_albedo}
 #import gi::packing::{pack_unit_vector, unpack_unit_vector}
 
@@ -72,11 +73,11 @@ fn project(p: vec3<f32>) -> vec3<f32> {
 }
 
 fn in_image(px: vec2<i32>) -> bool {
-    return all(px >= vec2(0)) && all(px < vec2<i32>(inject.size_px));
+    return image_contains(px, inject.size_px);
 }
 
 fn pixel_index(px: vec2<i32>) -> u32 {
-    return u32(px.y) * inject.size_px.x + u32(px.x);
+    return image_index(px, inject.size_px);
 }
 
 // The unit camera ray through the center of pixel `px`, as the G-buffer cast it.

@@ -1,5 +1,5 @@
-// Shared math for every GI shader: constants, luminance, safe normalization and an orthonormal
-// basis around a normal. The basis is Duff et al. 2017, "Building an Orthonormal Basis,
+// Shared math for every GI shader: constants, luminance, pixel indexing, safe normalization and
+// an orthonormal basis around a normal. The basis is Duff et al. 2017, "Building an Orthonormal Basis,
 // Revisited" (JCGT 6(1)), with the same axes as the CPU reference's `Frame::from_normal`, so
 // GPU and CPU map the same local sample to the same world direction.
 #define_import_path gi::math
@@ -13,6 +13,16 @@ const FLT_MAX: f32 = 3.40282347e38;
 // Rec. 709 luminance of linear RGB (the reference's weights).
 fn luminance(rgb: vec3<f32>) -> f32 {
     return dot(rgb, vec3<f32>(0.2126, 0.7152, 0.0722));
+}
+
+// Row-major index of pixel `pixel` in an image `size` pixels wide and high.
+fn image_index(pixel: vec2<i32>, size: vec2<u32>) -> u32 {
+    return u32(pixel.y) * size.x + u32(pixel.x);
+}
+
+// Whether pixel `pixel` lies inside an image of `size` pixels.
+fn image_contains(pixel: vec2<i32>, size: vec2<u32>) -> bool {
+    return all(pixel >= vec2(0)) && all(pixel < vec2<i32>(size));
 }
 
 // `v` normalized, or the zero vector when `v` is too short to have a direction (instead of

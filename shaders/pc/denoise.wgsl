@@ -40,7 +40,7 @@
 #import gi::packing::{
     unpack_unit_vector, pack_rgb9e5, unpack_rgb9e5, pack_half2, unpack_half2, pack_color64, unpack_color64
 }
-#import gi::math::luminance
+#import gi::math::{image_contains, image_index, luminance}
 
 const INFINITY_BITS: u32 = 0x7f800000u;
 // Most error of an RGB9E5 channel relative to the largest channel (half a mantissa step).
@@ -198,11 +198,11 @@ fn is_sky(z: f32) -> bool {
 }
 
 fn pixel_index(pixel: vec2<i32>) -> u32 {
-    return u32(pixel.y) * u.size_px.x + u32(pixel.x);
+    return image_index(pixel, u.size_px);
 }
 
 fn inside(pixel: vec2<i32>) -> bool {
-    return all(pixel >= vec2(0)) && all(pixel < vec2<i32>(u.size_px));
+    return image_contains(pixel, u.size_px);
 }
 
 // Depth of a pixel, +inf outside the image (so it counts as sky).

@@ -7,10 +7,9 @@ use gi_image::Image;
 use gi_reference::RenderStats;
 use gi_scene::{CameraView, Scene};
 use gi_tiers::{
-    CameraMode, MobileConfig, MobileTier, PcConfig, PcTier, Renderer, TierChoice, TierKind,
-    TierSettings,
-    mobile::{MobileMemory, ScreenConfig, ScreenProbeMode},
-    pc::PcMemory,
+    CameraMode, GiMemory, MobileConfig, MobileTier, PcConfig, PcTier, Renderer, TierChoice,
+    TierKind, TierSettings,
+    mobile::{ScreenConfig, ScreenProbeMode},
 };
 use serde::Serialize;
 
@@ -143,12 +142,13 @@ pub struct MobileReport {
     pub screen_probes: &'static str,
     /// Milliseconds of the measured frame's GI passes (`cache/*` and `mobile/*`).
     pub gi_ms: f64,
-    pub memory: MobileMemoryReport,
+    pub memory: GiMemoryReport,
 }
 
+/// A real-time tier's memory breakdown ([`GiMemory`]), in the JSON reports.
 #[derive(Clone, Debug, Serialize)]
-pub struct MobileMemoryReport {
-    /// Brick cache and probe volume (fixed by the coverage).
+pub struct GiMemoryReport {
+    /// Brick cache, and the mobile tier's probe volume (fixed by the coverage).
     pub coverage_bytes: u64,
     /// Resolution-dependent GI buffers.
     pub screen_bytes: u64,
@@ -158,19 +158,8 @@ pub struct MobileMemoryReport {
     pub gi_bytes: u64,
 }
 
-impl From<MobileMemory> for MobileMemoryReport {
-    fn from(memory: MobileMemory) -> Self {
-        Self {
-            coverage_bytes: memory.coverage_bytes,
-            screen_bytes: memory.screen_bytes,
-            frame_bytes: memory.frame_bytes,
-            gi_bytes: memory.gi_bytes(),
-        }
-    }
-}
-
-impl From<PcMemory> for MobileMemoryReport {
-    fn from(memory: PcMemory) -> Self {
+impl From<GiMemory> for GiMemoryReport {
+    fn from(memory: GiMemory) -> Self {
         Self {
             coverage_bytes: memory.coverage_bytes,
             screen_bytes: memory.screen_bytes,
@@ -196,7 +185,7 @@ pub struct PcReport {
     /// Milliseconds of the measured frame's GI passes (`cache/*` and `pc/*`).
     pub gi_ms: f64,
     /// Brick cache (coverage), resolution-dependent GI buffers (screen), the rest (frame).
-    pub memory: MobileMemoryReport,
+    pub memory: GiMemoryReport,
 }
 
 impl PcReport {

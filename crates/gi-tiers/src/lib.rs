@@ -50,6 +50,7 @@ pub mod mobile;
 pub mod output;
 pub mod path;
 pub mod pc;
+mod realtime;
 mod renderer;
 pub mod requirements;
 mod scene_state;
@@ -63,6 +64,7 @@ pub use mobile::{MobileConfig, MobileTier};
 pub use output::{GpuOutput, OUTPUT_FORMAT, OutputTextures};
 pub use path::{GpuPathTier, GpuReferenceEngine, Moments, reference_cache, reference_engine};
 pub use pc::{PcConfig, PcTier};
+pub use realtime::GiMemory;
 pub use renderer::{CameraMode, FrameRequest, Renderer, RendererBuilder, Selection};
 pub use tier::{
     FrameBudget, FrameInput, FrameOutput, FrameTimings, Tier, TierChoice, TierError, TierKind,

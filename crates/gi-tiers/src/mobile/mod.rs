@@ -22,8 +22,8 @@ use glam::Vec3;
 
 use crate::output::GpuOutput;
 use crate::requirements::{FrameCost, Requirements, image_bytes};
-use crate::scene_state::{self, Followed, SceneState, check_frame_settings, read_image};
-use crate::tier::{FrameInput, FrameOutput, FrameTimings, Tier, TierError, TierKind, TierSettings};
+use crate::scene_state::{Followed, SceneState, check_frame_settings};
+use crate::tier::{FrameInput, TierError, TierKind, TierSettings};
 use crate::tracer::{Accumulation, PathPipelines};
 use screen::{
     ScreenBuffers, ScreenLayout, ScreenPipelines, ScreenSources, ScreenStep, screen_uniforms,
@@ -50,26 +50,7 @@ pub const H100_COST: FrameCost = FrameCost {
 const TIMER_SCOPES: u32 = 32;
 
 /// GPU memory of the mobile tier by what it scales with.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
-pub struct MobileMemory {
-    /// World-space GI structures, fixed by the configuration's coverage: the brick cache and
-    /// the probe volume.
-    pub coverage_bytes: u64,
-    /// Resolution-dependent GI buffers: lite G-buffer, screen probes, half-resolution
-    /// irradiance and its history, full-resolution GI.
-    pub screen_bytes: u64,
-    /// What every tier of the product needs besides GI: scene, BVH, G-buffer, direct light,
-    /// output and pass timers. The three parts are summed from the buffers' labels, so a buffer
-    /// none of them names makes their sum fall short of the tier's total.
-    pub frame_bytes: u64,
-}
-
-impl MobileMemory {
-    /// The GI's own memory: coverage plus screen buffers.
-    pub fn gi_bytes(&self) -> u64 {
-        self.coverage_bytes + self.screen_bytes
-    }
-}
+pub type MobileMemory = crate::realtime::GiMemory;
 
 /// One frame's GI and what identifies its pixels, one entry per pixel in row-major order.
 #[derive(Clone, Debug)]
@@ -178,34 +159,6 @@ impl MobileTier {
         })
     }
 
-    /// Opens the default GPU context and makes a mobile tier on it; `Unavailable` with the GPU
-    /// error when there is no adapter.
-    pub fn open(settings: TierSettings, config: MobileConfig) -> Result<Self, TierError> {
-        let ctx = GpuContext::new().map_err(|e| TierError::Unavailable {
-            tier: "mobile",
-            reason: e.to_string(),
-        })?;
-        Self::new(settings, config, ctx)
-    }
-
-    pub fn config(&self) -> &MobileConfig {
-        &self.config
-    }
-
-    pub fn context(&self) -> &GpuContext {
-        &self.ctx
-    }
-
-    /// The shader library the tier compiled its passes from.
-    pub fn shaders(&self) -> &ShaderLibrary {
-        &self.shaders
-    }
-
-    /// The brick cache the tier reads.
-    pub fn cache(&self) -> &RadianceCache {
-        &self.cache
-    }
-
     /// The probe volume.
     pub fn volume(&self) -> &ProbeVolume {
         &self.volume
@@ -267,21 +220,6 @@ impl MobileTier {
             motion: gbuffer.motion,
             depth: gbuffer.depth,
         })
-    }
-
-    /// The tier's GPU memory now, by what it scales with.
-    pub fn memory(&self) -> MobileMemory {
-        let memory = self.ctx.memory();
-        let volume = memory.bytes_with_prefix("mobile.volume.");
-        let coverage_bytes = memory.bytes_with_prefix("cache.") + volume;
-        let screen_bytes = memory.bytes_with_prefix("mobile.")
-            - volume
-            - scene_state::tier_overhead_bytes(&memory, "mobile");
-        MobileMemory {
-            coverage_bytes,
-            screen_bytes,
-            frame_bytes: scene_state::frame_bytes(&memory, "mobile"),
-        }
     }
 
     /// Makes the GPU state match `input` ([`SceneState`]): the scene is uploaded once and
@@ -394,61 +332,16 @@ fn dynamic_triangle_bits(
     )
 }
 
-impl Tier for MobileTier {
-    fn kind(&self) -> TierKind {
-        TierKind::Mobile
-    }
+crate::realtime::real_time_tier!(
+    MobileTier,
+    TierKind::Mobile,
+    MobileConfig,
+    &["mobile.volume."]
+);
 
-    /// Temporal: the cache, the probe volume and the gathered irradiance converge over frames.
-    fn is_temporal(&self) -> bool {
-        true
-    }
-
-    fn skins_on_gpu(&self) -> bool {
-        true
-    }
-
-    fn render(&mut self, input: &FrameInput) -> Result<FrameOutput, TierError> {
-        let passes = self.advance(input)?;
-        let prepared = self.prepared.as_ref().expect("prepared by advance");
-        let size = (self.settings.width, self.settings.height);
-        Ok(FrameOutput {
-            image: read_image(&self.ctx, &prepared.screen.output, size),
-            passes,
-            stats: None,
-        })
-    }
-
-    /// The frame without reading its image back (it stays in the output buffer).
-    fn advance(&mut self, input: &FrameInput) -> Result<Vec<(String, f64)>, TierError> {
-        let encoder = self.record_frame(input)?;
-        Ok(self.timer.finish(&self.ctx, encoder).0)
-    }
-
-    fn submit(&mut self, input: &FrameInput) -> Result<Vec<FrameTimings>, TierError> {
-        let encoder = self.record_frame(input)?;
-        Ok(FrameTimings::from_timer(self.timer.finish_async(
-            &self.ctx,
-            encoder,
-            input.index,
-        )))
-    }
-
-    fn flush(&mut self) -> Vec<FrameTimings> {
-        FrameTimings::from_timer(self.timer.drain(&self.ctx))
-    }
-
-    /// Everything counted by the tier's own context: scene, BVH, G-buffer, cache, probe
-    /// volume, screen buffers, direct accumulation and timer.
-    fn memory_bytes(&self) -> u64 {
-        self.ctx.memory().total_bytes()
-    }
-
-    fn gpu_context(&self) -> Option<&GpuContext> {
-        Some(&self.ctx)
-    }
-
-    fn gpu_output(&self) -> Option<GpuOutput<'_>> {
+impl MobileTier {
+    /// Where the last frame's image and direct light lie; `None` before the first frame.
+    fn output(&self) -> Option<GpuOutput<'_>> {
         let prepared = self.prepared.as_ref()?;
         Some(GpuOutput {
             ctx: &self.ctx,
@@ -457,9 +350,7 @@ impl Tier for MobileTier {
             size: (self.settings.width, self.settings.height),
         })
     }
-}
 
-impl MobileTier {
     /// Records and submits the frame but for its last encoder, which it returns for the
     /// caller to end the timer's frame with (waiting for it or not).
     fn record_frame(&mut self, input: &FrameInput) -> Result<wgpu::CommandEncoder, TierError> {

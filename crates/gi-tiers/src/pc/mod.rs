@@ -39,8 +39,8 @@ use gi_scene::SceneFrame;
 
 use crate::output::GpuOutput;
 use crate::requirements::{FrameCost, Requirements, image_bytes};
-use crate::scene_state::{self, SceneState, check_frame_settings, read_image};
-use crate::tier::{FrameInput, FrameOutput, FrameTimings, Tier, TierError, TierKind, TierSettings};
+use crate::scene_state::{SceneState, check_frame_settings, read_image};
+use crate::tier::{FrameInput, TierError, TierKind, TierSettings};
 use crate::tracer::PathPipelines;
 use denoise::{DenoisePipelines, DenoiseSources, Denoiser};
 
@@ -155,23 +155,7 @@ mod flags {
 }
 
 /// GPU memory of the PC tier by what it scales with.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
-pub struct PcMemory {
-    /// World-space GI structures: the brick cache.
-    pub coverage_bytes: u64,
-    /// Resolution-dependent GI buffers: surfaces, reservoirs, irradiance, denoiser history.
-    pub screen_bytes: u64,
-    /// What every tier needs besides GI: scene, BVH, G-buffer, direct light, output and pass
-    /// timers. The three parts are summed from the buffers' labels, so a buffer none of them
-    /// names makes their sum fall short of the tier's total.
-    pub frame_bytes: u64,
-}
-
-impl PcMemory {
-    pub fn gi_bytes(&self) -> u64 {
-        self.coverage_bytes + self.screen_bytes
-    }
-}
+pub type PcMemory = crate::realtime::GiMemory;
 
 /// One frame's intermediate images, for tests and metrics.
 #[derive(Clone, Debug)]
@@ -514,47 +498,6 @@ impl PcTier {
         })
     }
 
-    /// Opens the default GPU context and makes a PC tier on it; `Unavailable` with the GPU
-    /// error when there is no adapter.
-    pub fn open(settings: TierSettings, config: PcConfig) -> Result<Self, TierError> {
-        let ctx = GpuContext::new().map_err(|e| TierError::Unavailable {
-            tier: "pc",
-            reason: e.to_string(),
-        })?;
-        Self::new(settings, config, ctx)
-    }
-
-    pub fn config(&self) -> &PcConfig {
-        &self.config
-    }
-
-    pub fn context(&self) -> &GpuContext {
-        &self.ctx
-    }
-
-    /// The shader library the tier compiled its passes from.
-    pub fn shaders(&self) -> &ShaderLibrary {
-        &self.shaders
-    }
-
-    /// The brick cache the hits read.
-    pub fn cache(&self) -> &RadianceCache {
-        &self.cache
-    }
-
-    /// The tier's GPU memory now, by what it scales with.
-    pub fn memory(&self) -> PcMemory {
-        let memory = self.ctx.memory();
-        let coverage_bytes = memory.bytes_with_prefix("cache.");
-        let screen_bytes =
-            memory.bytes_with_prefix("pc.") - scene_state::tier_overhead_bytes(&memory, "pc");
-        PcMemory {
-            coverage_bytes,
-            screen_bytes,
-            frame_bytes: scene_state::frame_bytes(&memory, "pc"),
-        }
-    }
-
     /// The last frame's GI term and intermediate images, read back from the GPU (stalls);
     /// `None` before the first frame. For tests and metrics.
     pub fn frame_data(&self) -> Option<PcFrameData> {
@@ -776,59 +719,11 @@ impl PcTier {
     }
 }
 
-impl Tier for PcTier {
-    fn kind(&self) -> TierKind {
-        TierKind::Pc
-    }
+crate::realtime::real_time_tier!(PcTier, TierKind::Pc, PcConfig, &[]);
 
-    /// Temporal: reservoirs, the denoiser's history and the cache converge over frames.
-    fn is_temporal(&self) -> bool {
-        true
-    }
-
-    fn skins_on_gpu(&self) -> bool {
-        true
-    }
-
-    fn render(&mut self, input: &FrameInput) -> Result<FrameOutput, TierError> {
-        let passes = self.advance(input)?;
-        let prepared = self.prepared.as_ref().expect("prepared by advance");
-        let size = (self.settings.width, self.settings.height);
-        Ok(FrameOutput {
-            image: read_image(&self.ctx, &prepared.buffers.output, size),
-            passes,
-            stats: None,
-        })
-    }
-
-    fn advance(&mut self, input: &FrameInput) -> Result<Vec<(String, f64)>, TierError> {
-        let encoder = self.record_frame(input)?;
-        Ok(self.timer.finish(&self.ctx, encoder).0)
-    }
-
-    fn submit(&mut self, input: &FrameInput) -> Result<Vec<FrameTimings>, TierError> {
-        let encoder = self.record_frame(input)?;
-        Ok(FrameTimings::from_timer(self.timer.finish_async(
-            &self.ctx,
-            encoder,
-            input.index,
-        )))
-    }
-
-    fn flush(&mut self) -> Vec<FrameTimings> {
-        FrameTimings::from_timer(self.timer.drain(&self.ctx))
-    }
-
-    /// Everything counted by the tier's own context.
-    fn memory_bytes(&self) -> u64 {
-        self.ctx.memory().total_bytes()
-    }
-
-    fn gpu_context(&self) -> Option<&GpuContext> {
-        Some(&self.ctx)
-    }
-
-    fn gpu_output(&self) -> Option<GpuOutput<'_>> {
+impl PcTier {
+    /// Where the last frame's image and direct light lie; `None` before the first frame.
+    fn output(&self) -> Option<GpuOutput<'_>> {
         let prepared = self.prepared.as_ref()?;
         Some(GpuOutput {
             ctx: &self.ctx,
@@ -837,9 +732,7 @@ impl Tier for PcTier {
             size: (self.settings.width, self.settings.height),
         })
     }
-}
 
-impl PcTier {
     /// Records and submits the frame but for its last encoder, which it returns for the
     /// caller to end the timer's frame with (waiting for it or not).
     fn record_frame(&mut self, input: &FrameInput) -> Result<wgpu::CommandEncoder, TierError> {
