@@ -151,7 +151,7 @@ pub const H100_FRAME_COSTS: [FrameCost; 3] =
 pub const MEASURED_ADAPTERS: [(&str, f64, &str); 1] = [(
     "H100",
     1.0,
-    "the GPU the cost table was measured on (benchmarks/RESULTS.md, benchmark suite)",
+    "the GPU the cost table was measured on (benchmarks/RESULTS-history.md, benchmark suite)",
 )];
 
 /// How much slower a software adapter runs the GPU tiers than the H100 figures of

@@ -29,7 +29,7 @@ use glam::Mat4;
 /// [`MeshSharing::min_saved_triangles`] more triangles than sharing does (`(copies - 1) *
 /// triangles`). Small pieces stay flattened however often they are placed: entering an
 /// instance costs a ray transform and a top-level leaf, and overlapping instances cost more
-/// than the triangles they save (measured in `benchmarks/RESULTS.md`, "Shared bottom
+/// than the triangles they save (measured in `benchmarks/RESULTS-history.md`, "Shared bottom
 /// levels"). Skinned nodes, deforming or moving ones, and meshes with morph targets are never
 /// shared this way (their frame triangles are not their meshes' positions, or they move).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]

@@ -42,8 +42,8 @@ pub fn requirements(settings: &TierSettings) -> Requirements {
 pub const H100_COST: FrameCost = FrameCost {
     kind: TierKind::Mobile,
     points: &[(2.0736, 2.61)],
-    source: "benchmarks/RESULTS.md, benchmark suite, `gi-bench mobile --scenes dynamic --size \
-             1920x1080 --frames 64`: GI 1.589 + gbuffer/primary 0.334 + direct 0.688 ms",
+    source: "benchmarks/RESULTS-history.md, benchmark suite, `gi-bench mobile --scenes dynamic \
+             --size 1920x1080 --frames 64`: GI 1.589 + gbuffer/primary 0.334 + direct 0.688 ms",
 };
 
 /// Most timed passes in one frame (G-buffer, the cache's passes, the mobile passes, direct).

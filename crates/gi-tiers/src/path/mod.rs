@@ -40,8 +40,8 @@ pub fn requirements(settings: &TierSettings) -> Requirements {
 pub const DIRECT_H100_COST: FrameCost = FrameCost {
     kind: TierKind::Direct,
     points: &[(0.9216, 0.446)],
-    source: "benchmarks/RESULTS.md, benchmark suite at 1280x720: the direct tier's dearest \
-             scene (open-world) 7.129 ms at 16 samples per pixel, 0.446 ms per sample",
+    source: "benchmarks/RESULTS-history.md, benchmark suite at 1280x720: the direct tier's \
+             dearest scene (open-world) 7.129 ms at 16 samples per pixel, 0.446 ms per sample",
 };
 
 /// Passes per frame the timer has room for at first (`<tier>/trace`, `<tier>/resolve`); a

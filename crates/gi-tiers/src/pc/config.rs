@@ -63,8 +63,8 @@ pub enum TraceMode {
     /// of far hits shaded one by one, and no BVH traversal of far geometry. What the cache
     /// blurs (thin occluders, light leaking through coarse voxels) comes out softer or
     /// brighter; on the bundled scenes it measured less accurate than `Rays` and no steadier
-    /// (benchmarks/RESULTS.md). Emitters beyond the segment are left to the emitter samples,
-    /// whose MIS weights account for the shorter rays.
+    /// (benchmarks/RESULTS-history.md). Emitters beyond the segment are left to the emitter
+    /// samples, whose MIS weights account for the shorter rays.
     Probes,
 }
 
@@ -223,13 +223,13 @@ pub struct SpecularConfig {
     /// the lobe cannot see, such as a ceiling light in a wall's reflection at a grazing view,
     /// then reflects as if it could. H100, 1280 x 720, rmse_srgb8 with / without: glossy
     /// 7.91 / 9.23, cornell-box 3.60 / 3.64, atrium 7.40 / 7.09, thin-wall 19.86 / 19.79, for
-    /// about 0.1 ms at 1080p (benchmarks/RESULTS.md).
+    /// about 0.1 ms at 1080p (benchmarks/RESULTS-history.md).
     pub reuse_diffuse: bool,
     /// Roughness above which the reused reflection blends linearly to the irradiance over pi,
     /// reached at roughness 1; 1 never blends. HSGI blends toward diffuse above 0.8; here the
     /// blend only lost: H100, 1280 x 720, rmse_srgb8 at 0.8 / 1: cornell-box 3.64 / 3.60
     /// (seeds 2 and 3: 3.66 / 3.62, 3.65 / 3.61), glossy 7.91 / 7.90, atrium 7.40 / 7.41,
-    /// thin-wall 19.86 / 19.87 (benchmarks/RESULTS.md).
+    /// thin-wall 19.86 / 19.87 (benchmarks/RESULTS-history.md).
     pub diffuse_from: f32,
     /// Most frames the specular history averages. Longer histories are smoother on still
     /// views and lag more behind moving reflections (the history follows the surface's
@@ -294,7 +294,7 @@ pub struct RestirConfig {
     /// after the denoiser it lost on atrium and thin-wall and tied elsewhere (H100, 1280 x 720,
     /// rmse_srgb8 without / with: atrium 7.51 / 7.79, thin-wall 20.11 / 20.87, cornell-box
     /// 3.99 / 3.96, glossy 9.35 / 9.32), also along a moving camera and with every M clamp
-    /// tried (benchmarks/RESULTS.md).
+    /// tried (benchmarks/RESULTS-history.md).
     pub temporal: bool,
     /// Reuse neighbours' reservoirs.
     pub spatial: bool,
@@ -330,8 +330,8 @@ pub struct RestirConfig {
     /// trace pixels whose centers lie within r of its own center per axis (at trace scale 2
     /// and r = 1, the 2 x 2 nearest it), a rough pixel's reflection ratio from the
     /// (2 r + 1)^2 around its own trace pixel (HSGI's 3 x 3 at r = 1). Measured on the H100
-    /// (720p, `RESULTS.md`): shading the irradiance from the whole 3 x 3 too read 1.5% more
-    /// error on cornell-box and 0.3% on glossy, 0.7% less on atrium and 0.9% on thin-wall.
+    /// (720p, `RESULTS-history.md`): shading the irradiance from the whole 3 x 3 too read 1.5%
+    /// more error on cornell-box and 0.3% on glossy, 0.7% less on atrium and 0.9% on thin-wall.
     pub shade_radius: u32,
     /// Multi-sample shading skips a neighbour's reservoir whose sample lies nearer its own
     /// receiver than this times the distance between the two receivers: near a contact or in

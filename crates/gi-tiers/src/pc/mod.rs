@@ -419,7 +419,7 @@ pub fn requirements(settings: &TierSettings, config: &PcConfig) -> Requirements 
 pub const H100_COST: FrameCost = FrameCost {
     kind: TierKind::Pc,
     points: &[(2.0736, 4.73)],
-    source: "benchmarks/RESULTS.md, benchmark suite, `gi-bench pc --scenes dynamic --size \
+    source: "benchmarks/RESULTS-history.md, benchmark suite, `gi-bench pc --scenes dynamic --size \
              1920x1080 --frames 64`: GI 3.709 + gbuffer/primary 0.334 + direct 0.688 ms",
 };
 
