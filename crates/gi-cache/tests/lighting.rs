@@ -452,7 +452,7 @@ const THIN_WALL_RATIOS: [f32; 4] = [0.8604, 0.9756, 0.9515, 0.9787];
 /// Measured before rays met only the box around a voxel's geometry: inner wall 0.77 and
 /// interior floor 0.87 of the reference, outer wall 0.98 and outdoor ground 0.99.
 #[test]
-#[ignore = "a measurement: minutes on the software adapter"]
+#[ignore = "the same check at the default shape: minutes on the software adapter"]
 fn thin_wall_interior_stays_dark_at_the_default_shape() {
     let Some(ctx) = GpuContext::new_or_skip("thin_wall_interior_stays_dark_at_the_default_shape")
     else {
@@ -1348,30 +1348,6 @@ fn radiance_cache_runs_the_lighting_passes_after_voxelizing() {
     let propagate = names.iter().position(|&n| n == "cache/propagate");
     let resolve = names.iter().position(|&n| n == "cache/propagate_resolve");
     assert!(propagate < resolve, "{names:?}");
-}
-
-/// The lighting passes' GPU times at the default configuration on every bundled scene (the
-/// software adapter's figures are about 850 times the H100's). Run with `--ignored`.
-#[test]
-#[ignore = "a measurement: minutes on the software adapter"]
-fn lighting_pass_times_on_bundled_scenes() {
-    let Some(ctx) = GpuContext::new_or_skip("lighting_pass_times_on_bundled_scenes") else {
-        return;
-    };
-    println!(
-        "| scene | bricks | cache/inject ms | cache/propagate ms | cache/propagate_resolve ms |"
-    );
-    println!("|---|---|---|---|---|");
-    for (name, _) in gi_scene::BUNDLED_SCENES {
-        let (timings, bricks) = radiance_cache_frames(&ctx, name, 6);
-        println!(
-            "| {name} | {bricks} | {:.1} | {:.1} | {:.2} |",
-            timings.get("cache/inject").unwrap_or(0.0),
-            timings.get("cache/propagate").unwrap_or(0.0),
-            timings.get("cache/propagate_resolve").unwrap_or(0.0)
-        );
-    }
-    println!("adapter: {}", ctx.adapter_info.name);
 }
 
 // ---------------------------------------------------------------------------------------------

@@ -413,37 +413,6 @@ fn a_pool_beyond_the_storage_binding_limit_is_refused() {
     assert!(err.to_string().contains("levels"), "{err}");
 }
 
-/// Fill figures of every bundled scene with the default configuration (a measurement, not a
-/// check): `cargo test -p gi-cache --test update -- --ignored --nocapture`.
-#[test]
-#[ignore]
-fn bundled_scene_fill_figures() {
-    let Some(ctx) = GpuContext::new_or_skip("bundled_scene_fill_figures") else {
-        return;
-    };
-    for (name, _) in gi_scene::BUNDLED_SCENES {
-        let scene = gi_scene::load(name).unwrap();
-        let frame = scene.evaluate(0.0, None);
-        let config = CacheConfig {
-            voxelize_bricks_per_frame: 100_000,
-            voxelize_scan_per_frame: u32::MAX,
-            ..Default::default()
-        };
-        let mut cache = RadianceCache::new(&ctx, &config).unwrap();
-        let start = std::time::Instant::now();
-        let stats = update(&ctx, &mut cache, &scene, &frame, frame.camera.position);
-        eprintln!(
-            "FIGURES {name}: {} bricks {:?}, {} dropped for pool, update {:.0} ms wall, cache memory {:.1} MiB",
-            cache.stats().allocated_bricks,
-            cache.stats().bricks_per_level,
-            stats.dropped_for_pool,
-            start.elapsed().as_secs_f64() * 1e3,
-            cache.memory_bytes(&ctx) as f64 / (1 << 20) as f64
-        );
-        cache.release_buffers(&ctx);
-    }
-}
-
 /// `scene`'s arm deforms between 0 and 0.5 s while its node's own transform stays: the
 /// update at 0.5 s queues it as a dynamic node that moved, the occupancy then equals a fresh
 /// CPU voxelization at the new time, and the same frame again queues nothing. Returns the

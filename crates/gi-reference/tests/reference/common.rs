@@ -4,7 +4,7 @@ use std::f64::consts::PI;
 
 use gi_image::Image;
 use gi_reference::brdf::Brdf;
-use gi_reference::{Reference, RenderSettings, RenderStats, Strategy};
+use gi_reference::{Reference, RenderSettings, Strategy};
 use gi_scene::{CameraView, Light, LightKind, Material, Mesh, Node, Primitive, Scene, Sky};
 use glam::{DVec3, Quat, Vec2, Vec3};
 
@@ -188,7 +188,6 @@ pub fn settings(size: u32, spp: u32, seed: u64, strategy: Strategy) -> RenderSet
 pub struct Rendered {
     pub image: Image,
     pub standard_error: Image,
-    pub stats: RenderStats,
 }
 
 pub fn render(reference: &Reference, settings: &RenderSettings) -> Rendered {
@@ -203,7 +202,6 @@ pub fn render(reference: &Reference, settings: &RenderSettings) -> Rendered {
     Rendered {
         image: accumulator.image(),
         standard_error: accumulator.standard_error(),
-        stats,
     }
 }
 

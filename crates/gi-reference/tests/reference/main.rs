@@ -12,4 +12,3 @@ mod emitters;
 mod furnace;
 mod irradiance;
 mod mis;
-mod throughput;
