@@ -19,6 +19,7 @@
 
 mod config;
 pub mod denoise;
+mod restir;
 
 pub use config::{
     PC_OPTIONAL_STAGES, PC_STAGES, PcConfig, RestirConfig, SpecularConfig, TraceMode,
@@ -26,14 +27,9 @@ pub use config::{
 
 use bytemuck::{Pod, Zeroable};
 use gi_cache::lighting::GpuSky;
-use gi_cache::{
-    CacheBuffers, CacheLighting, RadianceCache, ScreenInputs, binning::dynamic_triangles,
-};
-use gi_gpu::TEXTURE_BIND_GROUP;
-use gi_gpu::binding::{buffer_entries, uniform_entry};
-use gi_gpu::bvh::{BVH_BIND_GROUP, GpuBvh};
+use gi_cache::{CacheLighting, RadianceCache, ScreenInputs, binning::dynamic_triangles};
 use gi_gpu::gbuffer::{GBUFFER_MISS, GBuffer, GBufferInputs};
-use gi_gpu::{GpuCamera, GpuContext, GpuError, GpuScene, GpuTimer, PingPong, ShaderLibrary, wgpu};
+use gi_gpu::{GpuCamera, GpuContext, GpuError, GpuTimer, ShaderLibrary, wgpu};
 use gi_image::Image;
 use gi_scene::SceneFrame;
 
@@ -43,11 +39,10 @@ use crate::scene_state::{SceneState, check_frame_settings, read_image};
 use crate::tier::{FrameInput, TierError, TierKind, TierSettings};
 use crate::tracer::PathPipelines;
 use denoise::{DenoisePipelines, DenoiseSources, Denoiser};
+use restir::{RestirBuffers, RestirFrame, RestirInputs, RestirPipelines};
 
 /// Most timed passes in one frame.
 const TIMER_SCOPES: u32 = 48;
-/// Pixels per side of the passes' workgroups (`@workgroup_size(8, 8)`).
-const TILE: u32 = 8;
 
 /// Mirror of `PcUniforms` in `shaders/pc/common.wgsl`, 304 bytes.
 #[repr(C)]
@@ -178,224 +173,6 @@ pub struct PcFrameData {
     pub dynamic: Vec<bool>,
 }
 
-/// The compute pipelines of `pc/trace.wgsl` and `pc/restir.wgsl` and their layouts.
-struct PcPipelines {
-    trace_layout: wgpu::BindGroupLayout,
-    restir_layout: wgpu::BindGroupLayout,
-    trace: wgpu::ComputePipeline,
-    shadow: wgpu::ComputePipeline,
-    temporal: wgpu::ComputePipeline,
-    spatial: wgpu::ComputePipeline,
-    shade: wgpu::ComputePipeline,
-    compose: wgpu::ComputePipeline,
-    specular_trace: wgpu::ComputePipeline,
-    specular_resolve: wgpu::ComputePipeline,
-    specular_temporal: wgpu::ComputePipeline,
-}
-
-impl PcPipelines {
-    fn new(ctx: &GpuContext, shaders: &ShaderLibrary) -> Result<Self, GpuError> {
-        let layout = |label: &str, entries: &[wgpu::BindGroupLayoutEntry]| {
-            ctx.device
-                .create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
-                    label: Some(label),
-                    entries,
-                })
-        };
-        let mut entries = vec![uniform_entry(0)];
-        entries.extend(GpuScene::layout_entries());
-        entries.extend(TraceBuffers::layout_entries());
-        let trace_layout = layout("pc/trace.layout0", &entries);
-        let mut entries = vec![uniform_entry(0)];
-        entries.extend(RestirBuffers::layout_entries());
-        let restir_layout = layout("pc/restir.layout0", &entries);
-        let bvh_layout = GpuBvh::bind_group_layout(ctx);
-        let cache_layout = CacheBuffers::bind_group_layout(ctx);
-        let texture_layout = GpuScene::texture_layout(ctx);
-        let trace_module = shaders.create_module(ctx, "pc/trace.wgsl", &[gi_gpu::ALPHA_TEST])?;
-        let restir_module = shaders.create_module(ctx, "pc/restir.wgsl", &[])?;
-        let specular_module = shaders.create_module(ctx, "pc/specular.wgsl", &[])?;
-        let mut trace_groups: Vec<Option<&wgpu::BindGroupLayout>> =
-            vec![None; TEXTURE_BIND_GROUP.max(CacheBuffers::BIND_GROUP) as usize + 1];
-        trace_groups[0] = Some(&trace_layout);
-        trace_groups[BVH_BIND_GROUP as usize] = Some(&bvh_layout);
-        trace_groups[CacheBuffers::BIND_GROUP as usize] = Some(&cache_layout);
-        trace_groups[TEXTURE_BIND_GROUP as usize] = Some(&texture_layout);
-        let traced = |entry: &str| {
-            ctx.create_compute_pipeline_with_layouts(
-                &format!("pc/{entry}"),
-                &trace_module,
-                entry,
-                &trace_groups,
-            )
-        };
-        let mut restir_groups: Vec<Option<&wgpu::BindGroupLayout>> =
-            vec![None; CacheBuffers::BIND_GROUP as usize + 1];
-        restir_groups[0] = Some(&restir_layout);
-        restir_groups[CacheBuffers::BIND_GROUP as usize] = Some(&cache_layout);
-        let reused = |module: &wgpu::ShaderModule, entry: &str| {
-            ctx.create_compute_pipeline_with_layouts(
-                &format!("pc/{entry}"),
-                module,
-                entry,
-                &restir_groups,
-            )
-        };
-        Ok(Self {
-            trace: traced("trace"),
-            shadow: traced("shadow"),
-            specular_trace: traced("specular_trace"),
-            temporal: reused(&restir_module, "temporal"),
-            spatial: reused(&restir_module, "spatial"),
-            shade: reused(&restir_module, "shade"),
-            compose: reused(&restir_module, "compose"),
-            specular_resolve: reused(&specular_module, "specular_resolve"),
-            specular_temporal: reused(&specular_module, "specular_temporal"),
-            trace_layout,
-            restir_layout,
-        })
-    }
-}
-
-gi_gpu::storage_bindings! {
-    /// `pc/trace.wgsl`'s buffers in group 0, after the uniforms (0) and the scene (1..=7).
-    struct TraceBuffers from 8 {
-        gbuffer_depth: read,
-        gbuffer_normal: read,
-        /// This frame's receivers, picked by `trace`.
-        surfaces: read_write,
-        initial: read_write,
-        /// The temporal reservoirs the shadow pass falls back to.
-        temporal: read,
-        resolved: read_write,
-        gbuffer_base_color: read,
-        gbuffer_metallic_roughness: read,
-        specular_samples: read_write,
-    }
-}
-
-gi_gpu::storage_bindings! {
-    /// The buffers of `pc/restir.wgsl` and `pc/specular.wgsl` in group 0, after the uniforms
-    /// (0). `*_prev`: the previous frame's side of a [`PingPong`].
-    struct RestirBuffers from 8 {
-        gbuffer_depth: read,
-        gbuffer_normal: read,
-        gbuffer_base_color: read,
-        gbuffer_metallic_roughness: read,
-        gbuffer_motion: read,
-        surfaces: read,
-        surfaces_prev: read,
-        initial: read,
-        temporal_out: read_write,
-        temporal_prev: read,
-        resolved: read_write,
-        irradiance: read_write,
-        denoised: read,
-        direct_mean: read,
-        output: read_write,
-        specular_samples: read,
-        specular_noisy: read_write,
-        specular_history: read_write,
-        specular_history_prev: read,
-        gbuffer_emissive: read,
-        gbuffer_blend_layer: read,
-    }
-}
-
-/// What one frame of the PC tier writes and the next reads as its history.
-struct FrameBuffers {
-    /// Receivers, one per trace pixel.
-    surfaces: wgpu::Buffer,
-    /// Temporal reservoirs, one per trace pixel (one in all without temporal reuse: never
-    /// read then).
-    temporal: wgpu::Buffer,
-    /// Per pixel: the specular history (radiance and length in `pack_color64`, the surface's
-    /// distance and normal).
-    specular_history: wgpu::Buffer,
-}
-
-impl FrameBuffers {
-    fn release(&self, ctx: &GpuContext) {
-        for buffer in [&self.surfaces, &self.temporal, &self.specular_history] {
-            ctx.release_buffer(buffer);
-        }
-    }
-}
-
-/// The tier's resolution-dependent buffers (labels `pc.*`).
-struct PcBuffers {
-    trace_size: (u32, u32),
-    uniforms: wgpu::Buffer,
-    /// This frame's and the previous frame's, swapped at the end of a frame.
-    frames: PingPong<FrameBuffers>,
-    initial: wgpu::Buffer,
-    /// Per trace pixel: the spatial reuse's result, then the shadow pass's (in place).
-    resolved: wgpu::Buffer,
-    irradiance: wgpu::Buffer,
-    output: wgpu::Buffer,
-    /// Per trace pixel: this frame's specular ray.
-    specular_samples: wgpu::Buffer,
-    /// Per pixel: the resolved specular radiance (`pack_color64`: rgb and a validity flag).
-    specular_noisy: wgpu::Buffer,
-    /// Whether `frames.history()` holds the previous frame's surfaces and reservoirs.
-    history: bool,
-}
-
-impl PcBuffers {
-    /// Without temporal reuse the temporal reservoirs are never read: they hold one each.
-    fn new(ctx: &GpuContext, size: (u32, u32), trace_scale: u32, temporal: bool) -> Self {
-        let trace_size = (size.0.div_ceil(trace_scale), size.1.div_ceil(trace_scale));
-        let traced = u64::from(trace_size.0) * u64::from(trace_size.1);
-        let pixels = u64::from(size.0) * u64::from(size.1);
-        let storage = wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC;
-        let buffer = |label: &str, bytes: u64| ctx.create_buffer(label, bytes.max(16), storage);
-        let reservoirs = traced * size_of::<GpuReservoir>() as u64;
-        // A binding holds at least one element.
-        let one = size_of::<GpuReservoir>() as u64;
-        let surfaces = traced * size_of::<GpuSurface>() as u64;
-        Self {
-            trace_size,
-            uniforms: ctx.create_buffer(
-                "pc.uniforms",
-                size_of::<PcUniforms>() as u64,
-                wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
-            ),
-            frames: PingPong::from_fn(|_| FrameBuffers {
-                surfaces: buffer("pc.surfaces", surfaces),
-                temporal: buffer("pc.temporal", if temporal { reservoirs } else { one }),
-                specular_history: buffer("pc.specular_history", pixels * 16),
-            }),
-            initial: buffer("pc.initial", reservoirs),
-            resolved: buffer("pc.resolved", reservoirs),
-            irradiance: buffer("pc.irradiance", pixels * 16),
-            output: buffer("pc.output", pixels * 16),
-            specular_samples: buffer(
-                "pc.specular_samples",
-                traced * size_of::<GpuSpecularSample>() as u64,
-            ),
-            specular_noisy: buffer("pc.specular_noisy", pixels * 8),
-            history: false,
-        }
-    }
-
-    fn release(&self, ctx: &GpuContext) {
-        for frame in self.frames.both() {
-            frame.release(ctx);
-        }
-        for buffer in [
-            &self.uniforms,
-            &self.initial,
-            &self.resolved,
-            &self.irradiance,
-            &self.output,
-            &self.specular_samples,
-            &self.specular_noisy,
-        ] {
-            ctx.release_buffer(buffer);
-        }
-    }
-}
-
 /// What the PC tier with `config` needs of an adapter at `settings`' resolution. The trace
 /// passes' layouts: the scene's 7 storage buffers and 10 of their own, the BVH's 4 and the
 /// brick cache's 7; the cache passes as for mobile. The largest binding is an image buffer or
@@ -431,7 +208,7 @@ pub struct PcTier {
     shaders: ShaderLibrary,
     timer: GpuTimer,
     direct_pipelines: PathPipelines,
-    pipelines: PcPipelines,
+    pipelines: RestirPipelines,
     denoise_pipelines: DenoisePipelines,
     gbuffer: GBuffer,
     cache: RadianceCache,
@@ -442,7 +219,7 @@ pub struct PcTier {
 /// What the tier uploaded for its scene.
 struct Prepared {
     state: SceneState,
-    buffers: PcBuffers,
+    buffers: RestirBuffers,
     denoiser: Denoiser,
     /// Per triangle of the uploaded frame: moved by an animation (for [`PcFrameData`]).
     dynamic_triangles: Vec<bool>,
@@ -479,7 +256,7 @@ impl PcTier {
         let mut cache =
             RadianceCache::new(&ctx, &config.cache).map_err(|e| unavailable(e.to_string()))?;
         CacheLighting::attach(&ctx, &shaders, &mut cache).map_err(gpu)?;
-        let pipelines = PcPipelines::new(&ctx, &shaders).map_err(gpu)?;
+        let pipelines = RestirPipelines::new(&ctx, &shaders).map_err(gpu)?;
         let denoise_pipelines = DenoisePipelines::new(&ctx, &shaders).map_err(gpu)?;
         let timer = GpuTimer::new(&ctx, "pc", TIMER_SCOPES);
         Ok(Self {
@@ -623,7 +400,7 @@ impl PcTier {
             &self.settings.textures,
         )?;
         self.gbuffer.prepare_layers(&self.ctx, &state.scene);
-        let buffers = PcBuffers::new(
+        let buffers = RestirBuffers::new(
             &self.ctx,
             size,
             self.config.trace_scale,
@@ -647,75 +424,6 @@ impl PcTier {
             dynamic_triangles: dynamic_triangles(input.scene, input.frame),
         });
         Ok(())
-    }
-
-    fn trace_bind_group(&self, prepared: &Prepared) -> wgpu::BindGroup {
-        let b = &prepared.buffers;
-        let frame = b.frames.current();
-        let g = &self.gbuffer;
-        let mut entries = buffer_entries(0, [&b.uniforms]);
-        entries.extend(prepared.state.scene.bind_group_entries());
-        entries.extend(
-            TraceBuffers {
-                gbuffer_depth: g.output("gbuffer.depth"),
-                gbuffer_normal: g.output("gbuffer.normal"),
-                surfaces: &frame.surfaces,
-                initial: &b.initial,
-                temporal: &frame.temporal,
-                resolved: &b.resolved,
-                gbuffer_base_color: g.output("gbuffer.base_color"),
-                gbuffer_metallic_roughness: g.output("gbuffer.metallic_roughness"),
-                specular_samples: &b.specular_samples,
-            }
-            .entries(),
-        );
-        self.ctx
-            .device
-            .create_bind_group(&wgpu::BindGroupDescriptor {
-                label: Some("pc/trace.group0"),
-                layout: &self.pipelines.trace_layout,
-                entries: &entries,
-            })
-    }
-
-    fn restir_bind_group(&self, prepared: &Prepared) -> wgpu::BindGroup {
-        let b = &prepared.buffers;
-        let (frame, previous) = (b.frames.current(), b.frames.history());
-        let g = &self.gbuffer;
-        let mut entries = buffer_entries(0, [&b.uniforms]);
-        entries.extend(
-            RestirBuffers {
-                gbuffer_depth: g.output("gbuffer.depth"),
-                gbuffer_normal: g.output("gbuffer.normal"),
-                gbuffer_base_color: g.output("gbuffer.base_color"),
-                gbuffer_metallic_roughness: g.output("gbuffer.metallic_roughness"),
-                gbuffer_motion: g.output("gbuffer.motion"),
-                surfaces: &frame.surfaces,
-                surfaces_prev: &previous.surfaces,
-                initial: &b.initial,
-                temporal_out: &frame.temporal,
-                temporal_prev: &previous.temporal,
-                resolved: &b.resolved,
-                irradiance: &b.irradiance,
-                denoised: prepared.denoiser.output(),
-                direct_mean: &prepared.state.direct.mean,
-                output: &b.output,
-                specular_samples: &b.specular_samples,
-                specular_noisy: &b.specular_noisy,
-                specular_history: &frame.specular_history,
-                specular_history_prev: &previous.specular_history,
-                gbuffer_emissive: g.output("gbuffer.emissive"),
-                gbuffer_blend_layer: g.output("gbuffer.blend_layer"),
-            }
-            .entries(),
-        );
-        self.ctx
-            .device
-            .create_bind_group(&wgpu::BindGroupDescriptor {
-                label: Some("pc/restir.group0"),
-                layout: &self.pipelines.restir_layout,
-                entries: &entries,
-            })
     }
 }
 
@@ -776,60 +484,29 @@ impl PcTier {
             prepared.buffers.history = false;
             prepared.denoiser.reset_history();
         }
-        let prepared = self.prepared.as_ref().expect("prepared above");
-        let uniforms = self.uniforms(frame, &prepared.state.previous, prepared.buffers.history);
+        let uniforms = {
+            let prepared = self.prepared.as_ref().expect("prepared above");
+            self.uniforms(frame, &prepared.state.previous, prepared.buffers.history)
+        };
+        let Prepared {
+            state,
+            buffers,
+            denoiser,
+            ..
+        } = self.prepared.as_mut().expect("prepared above");
         ctx.queue
-            .write_buffer(&prepared.buffers.uniforms, 0, bytemuck::bytes_of(&uniforms));
-        let trace_group = self.trace_bind_group(prepared);
-        let restir_group = self.restir_bind_group(prepared);
-        let cache_group = &self.cache.buffers().bind_group;
-        let (tw, th) = prepared.buffers.trace_size;
-        let trace_groups = (tw.div_ceil(TILE), th.div_ceil(TILE));
-        let (w, h) = (self.settings.width, self.settings.height);
-        let full_groups = (w.div_ceil(TILE), h.div_ceil(TILE));
-        // The passes in order: name, pipeline, whether it traces (BVH bound, the trace
-        // module's group 0) and whether it runs per trace pixel (else per pixel).
-        let p = &self.pipelines;
-        let specular = self.config.specular.traced;
-        let mut steps = vec![("pc/trace", &p.trace, true, true)];
-        if specular {
-            steps.push(("pc/specular_trace", &p.specular_trace, true, true));
-        }
-        // Without temporal reuse the spatial reuse and the shadow pass read the initial
-        // reservoirs.
-        if self.config.restir.temporal {
-            steps.push(("pc/temporal", &p.temporal, false, true));
-        }
-        if self.config.restir.spatial {
-            steps.push(("pc/spatial", &p.spatial, false, true));
-        }
-        steps.push(("pc/shadow", &p.shadow, true, true));
-        steps.push(("pc/shade", &p.shade, false, false));
-        if specular {
-            steps.push(("pc/specular_resolve", &p.specular_resolve, false, false));
-        }
-        if specular || self.config.specular.reuse_diffuse {
-            steps.push(("pc/specular_temporal", &p.specular_temporal, false, false));
-        }
-        for (name, pipeline, traces, per_trace_pixel) in steps {
-            self.timer.compute_pass(ctx, &mut encoder, name, |pass| {
-                pass.set_pipeline(pipeline);
-                if traces {
-                    pass.set_bind_group(0, &trace_group, &[]);
-                    pass.set_bind_group(BVH_BIND_GROUP, &prepared.state.scene.bvh.bind_group, &[]);
-                    prepared.state.scene.set_texture_bind_group(pass);
-                } else {
-                    pass.set_bind_group(0, &restir_group, &[]);
-                }
-                pass.set_bind_group(CacheBuffers::BIND_GROUP, cache_group, &[]);
-                let groups = if per_trace_pixel {
-                    trace_groups
-                } else {
-                    full_groups
-                };
-                pass.dispatch_workgroups(groups.0, groups.1, 1);
-            });
-        }
+            .write_buffer(&buffers.uniforms, 0, bytemuck::bytes_of(&uniforms));
+        let inputs = RestirInputs {
+            gbuffer: &self.gbuffer,
+            scene: &state.scene,
+            cache: &self.cache.buffers().bind_group,
+            denoised: denoiser.output(),
+            direct: &state.direct.mean,
+        };
+        let size = (self.settings.width, self.settings.height);
+        let restir = RestirFrame::new(ctx, &self.pipelines, buffers, &inputs, size);
+        let timer = &mut self.timer;
+        (self.pipelines).record_reuse(ctx, timer, &mut encoder, &restir, &self.config);
         // While the cache's light converges (after a fill, a jump or a change of the lights)
         // the long history would average its darker, staler frames: it keeps the short
         // history's length until the cache has settled, then grows back a frame at a time.
@@ -837,83 +514,29 @@ impl PcTier {
         if cache_stats.converging {
             denoise.long_history = denoise.short_history;
         }
-        let prepared = self.prepared.as_mut().expect("prepared above");
-        prepared.denoiser.record(
-            ctx,
-            &mut self.timer,
-            &mut encoder,
-            &self.denoise_pipelines,
-            &denoise,
-        );
-        self.timer.submit(ctx, encoder);
+        denoiser.record(ctx, timer, &mut encoder, &self.denoise_pipelines, &denoise);
+        timer.submit(ctx, encoder);
 
         let mut encoder = ctx.create_encoder("pc/compose");
-        if prepared.state.direct.samples < self.settings.spp {
-            prepared.state.direct.record_samples(
+        if state.direct.samples < self.settings.spp {
+            (state.direct).record_samples(
                 ctx,
                 &self.direct_pipelines,
-                &prepared.state.scene,
-                &mut self.timer,
+                &state.scene,
+                timer,
                 &mut encoder,
                 1,
             );
         }
-        self.timer
-            .compute_pass(ctx, &mut encoder, "pc/compose", |pass| {
-                pass.set_pipeline(&self.pipelines.compose);
-                pass.set_bind_group(0, &restir_group, &[]);
-                pass.set_bind_group(CacheBuffers::BIND_GROUP, cache_group, &[]);
-                pass.dispatch_workgroups(full_groups.0, full_groups.1, 1);
-            });
+        (self.pipelines).record_compose(ctx, timer, &mut encoder, &restir);
 
         let prepared = self.prepared.as_mut().expect("prepared above");
         prepared.state.finish_frame(frame);
-        prepared.buffers.frames.swap();
-        prepared.buffers.history = true;
+        prepared.buffers.end_frame();
         self.frame_index = self.frame_index.wrapping_add(1);
         if let Some(progress) = input.progress {
             progress(prepared.state.direct.samples);
         }
         Ok(encoder)
-    }
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-    use gi_gpu::binding::{Access, check_declared};
-
-    #[test]
-    fn the_shaders_declare_the_named_buffers_at_their_bindings() {
-        let shaders = ShaderLibrary::new();
-        let groups = [
-            (
-                "pc/trace.wgsl",
-                TraceBuffers::FIRST_BINDING,
-                TraceBuffers::SLOTS,
-            ),
-            (
-                "pc/restir.wgsl",
-                RestirBuffers::FIRST_BINDING,
-                RestirBuffers::SLOTS,
-            ),
-            (
-                "pc/specular.wgsl",
-                RestirBuffers::FIRST_BINDING,
-                RestirBuffers::SLOTS,
-            ),
-        ];
-        for (file, first, slots) in groups {
-            let source = shaders.source(file).expect("the shader is in the library");
-            check_declared(source, 0, first, slots).unwrap_or_else(|e| panic!("{file}: {e}"));
-        }
-        // A swapped pair or a changed access is caught.
-        let source = shaders.source("pc/restir.wgsl").expect("restir");
-        let mut swapped = RestirBuffers::SLOTS.to_vec();
-        swapped.swap(5, 6);
-        assert!(check_declared(source, 0, 8, &swapped).is_err());
-        let mut written = RestirBuffers::SLOTS.to_vec();
-        written[0].1 = Access::ReadWrite;
-        assert!(check_declared(source, 0, 8, &written).is_err());
     }
 }

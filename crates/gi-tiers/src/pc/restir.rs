@@ -1,0 +1,514 @@
+//! The PC tier's ReSTIR GI and specular tracing (Ouyang et al. 2021; HSGI's specular rays and
+//! reuse of the diffuse result), as one technique: its pipelines, its buffers with their
+//! `PingPong` histories, the bind groups built from named fields, and the passes it records
+//! before and after the denoiser (`pc/trace.wgsl`, `pc/restir.wgsl`, `pc/specular.wgsl`).
+
+use gi_cache::CacheBuffers;
+use gi_gpu::binding::{buffer_entries, uniform_entry};
+use gi_gpu::bvh::{BVH_BIND_GROUP, GpuBvh};
+use gi_gpu::gbuffer::GBuffer;
+use gi_gpu::{
+    GpuContext, GpuError, GpuScene, GpuTimer, PingPong, ShaderLibrary, TEXTURE_BIND_GROUP, wgpu,
+};
+
+use super::{GpuReservoir, GpuSpecularSample, GpuSurface, PcConfig, PcUniforms};
+
+/// Pixels per side of every pass's workgroups (`@workgroup_size(8, 8)`).
+const TILE: u32 = 8;
+
+/// The compute pipelines of `pc/trace.wgsl`, `pc/restir.wgsl` and `pc/specular.wgsl` and
+/// their layouts.
+pub(super) struct RestirPipelines {
+    trace_layout: wgpu::BindGroupLayout,
+    restir_layout: wgpu::BindGroupLayout,
+    trace: wgpu::ComputePipeline,
+    shadow: wgpu::ComputePipeline,
+    temporal: wgpu::ComputePipeline,
+    spatial: wgpu::ComputePipeline,
+    shade: wgpu::ComputePipeline,
+    compose: wgpu::ComputePipeline,
+    specular_trace: wgpu::ComputePipeline,
+    specular_resolve: wgpu::ComputePipeline,
+    specular_temporal: wgpu::ComputePipeline,
+}
+
+impl RestirPipelines {
+    pub(super) fn new(ctx: &GpuContext, shaders: &ShaderLibrary) -> Result<Self, GpuError> {
+        let layout = |label: &str, entries: &[wgpu::BindGroupLayoutEntry]| {
+            ctx.device
+                .create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+                    label: Some(label),
+                    entries,
+                })
+        };
+        let mut entries = vec![uniform_entry(0)];
+        entries.extend(GpuScene::layout_entries());
+        entries.extend(TraceBindings::layout_entries());
+        let trace_layout = layout("pc/trace.layout0", &entries);
+        let mut entries = vec![uniform_entry(0)];
+        entries.extend(RestirBindings::layout_entries());
+        let restir_layout = layout("pc/restir.layout0", &entries);
+        let bvh_layout = GpuBvh::bind_group_layout(ctx);
+        let cache_layout = CacheBuffers::bind_group_layout(ctx);
+        let texture_layout = GpuScene::texture_layout(ctx);
+        let trace_module = shaders.create_module(ctx, "pc/trace.wgsl", &[gi_gpu::ALPHA_TEST])?;
+        let restir_module = shaders.create_module(ctx, "pc/restir.wgsl", &[])?;
+        let specular_module = shaders.create_module(ctx, "pc/specular.wgsl", &[])?;
+        let mut trace_groups: Vec<Option<&wgpu::BindGroupLayout>> =
+            vec![None; TEXTURE_BIND_GROUP.max(CacheBuffers::BIND_GROUP) as usize + 1];
+        trace_groups[0] = Some(&trace_layout);
+        trace_groups[BVH_BIND_GROUP as usize] = Some(&bvh_layout);
+        trace_groups[CacheBuffers::BIND_GROUP as usize] = Some(&cache_layout);
+        trace_groups[TEXTURE_BIND_GROUP as usize] = Some(&texture_layout);
+        let traced = |entry: &str| {
+            ctx.create_compute_pipeline_with_layouts(
+                &format!("pc/{entry}"),
+                &trace_module,
+                entry,
+                &trace_groups,
+            )
+        };
+        let mut restir_groups: Vec<Option<&wgpu::BindGroupLayout>> =
+            vec![None; CacheBuffers::BIND_GROUP as usize + 1];
+        restir_groups[0] = Some(&restir_layout);
+        restir_groups[CacheBuffers::BIND_GROUP as usize] = Some(&cache_layout);
+        let reused = |module: &wgpu::ShaderModule, entry: &str| {
+            ctx.create_compute_pipeline_with_layouts(
+                &format!("pc/{entry}"),
+                module,
+                entry,
+                &restir_groups,
+            )
+        };
+        Ok(Self {
+            trace: traced("trace"),
+            shadow: traced("shadow"),
+            specular_trace: traced("specular_trace"),
+            temporal: reused(&restir_module, "temporal"),
+            spatial: reused(&restir_module, "spatial"),
+            shade: reused(&restir_module, "shade"),
+            compose: reused(&restir_module, "compose"),
+            specular_resolve: reused(&specular_module, "specular_resolve"),
+            specular_temporal: reused(&specular_module, "specular_temporal"),
+            trace_layout,
+            restir_layout,
+        })
+    }
+}
+
+gi_gpu::storage_bindings! {
+    /// `pc/trace.wgsl`'s buffers in group 0, after the uniforms (0) and the scene (1..=7).
+    struct TraceBindings from 8 {
+        gbuffer_depth: read,
+        gbuffer_normal: read,
+        /// This frame's receivers, picked by `trace`.
+        surfaces: read_write,
+        initial: read_write,
+        /// The temporal reservoirs the shadow pass falls back to.
+        temporal: read,
+        resolved: read_write,
+        gbuffer_base_color: read,
+        gbuffer_metallic_roughness: read,
+        specular_samples: read_write,
+    }
+}
+
+gi_gpu::storage_bindings! {
+    /// The buffers of `pc/restir.wgsl` and `pc/specular.wgsl` in group 0, after the uniforms
+    /// (0). `*_prev`: the previous frame's side of a [`PingPong`].
+    struct RestirBindings from 8 {
+        gbuffer_depth: read,
+        gbuffer_normal: read,
+        gbuffer_base_color: read,
+        gbuffer_metallic_roughness: read,
+        gbuffer_motion: read,
+        surfaces: read,
+        surfaces_prev: read,
+        initial: read,
+        temporal_out: read_write,
+        temporal_prev: read,
+        resolved: read_write,
+        irradiance: read_write,
+        denoised: read,
+        direct_mean: read,
+        output: read_write,
+        specular_samples: read,
+        specular_noisy: read_write,
+        specular_history: read_write,
+        specular_history_prev: read,
+        gbuffer_emissive: read,
+        gbuffer_blend_layer: read,
+    }
+}
+
+/// What one frame of the PC tier writes and the next reads as its history.
+struct FrameBuffers {
+    /// Receivers, one per trace pixel.
+    surfaces: wgpu::Buffer,
+    /// Temporal reservoirs, one per trace pixel (one in all without temporal reuse: never
+    /// read then).
+    temporal: wgpu::Buffer,
+    /// Per pixel: the specular history (radiance and length in `pack_color64`, the surface's
+    /// distance and normal).
+    specular_history: wgpu::Buffer,
+}
+
+impl FrameBuffers {
+    fn release(&self, ctx: &GpuContext) {
+        for buffer in [&self.surfaces, &self.temporal, &self.specular_history] {
+            ctx.release_buffer(buffer);
+        }
+    }
+}
+
+/// The technique's resolution-dependent buffers (labels `pc.*`).
+pub(super) struct RestirBuffers {
+    pub(super) trace_size: (u32, u32),
+    pub(super) uniforms: wgpu::Buffer,
+    /// This frame's and the previous frame's, swapped at the end of a frame.
+    frames: PingPong<FrameBuffers>,
+    pub(super) initial: wgpu::Buffer,
+    /// Per trace pixel: the spatial reuse's result, then the shadow pass's (in place).
+    pub(super) resolved: wgpu::Buffer,
+    pub(super) irradiance: wgpu::Buffer,
+    pub(super) output: wgpu::Buffer,
+    /// Per trace pixel: this frame's specular ray.
+    pub(super) specular_samples: wgpu::Buffer,
+    /// Per pixel: the resolved specular radiance (`pack_color64`: rgb and a validity flag).
+    pub(super) specular_noisy: wgpu::Buffer,
+    /// Whether `frames.history()` holds the previous frame's surfaces and reservoirs.
+    pub(super) history: bool,
+}
+
+impl RestirBuffers {
+    /// Without temporal reuse the temporal reservoirs are never read: they hold one each.
+    pub(super) fn new(
+        ctx: &GpuContext,
+        size: (u32, u32),
+        trace_scale: u32,
+        temporal: bool,
+    ) -> Self {
+        let trace_size = (size.0.div_ceil(trace_scale), size.1.div_ceil(trace_scale));
+        let traced = u64::from(trace_size.0) * u64::from(trace_size.1);
+        let pixels = u64::from(size.0) * u64::from(size.1);
+        let storage = wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC;
+        let buffer = |label: &str, bytes: u64| ctx.create_buffer(label, bytes.max(16), storage);
+        let reservoirs = traced * size_of::<GpuReservoir>() as u64;
+        // A binding holds at least one element.
+        let one = size_of::<GpuReservoir>() as u64;
+        let surfaces = traced * size_of::<GpuSurface>() as u64;
+        Self {
+            trace_size,
+            uniforms: ctx.create_buffer(
+                "pc.uniforms",
+                size_of::<PcUniforms>() as u64,
+                wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
+            ),
+            frames: PingPong::from_fn(|_| FrameBuffers {
+                surfaces: buffer("pc.surfaces", surfaces),
+                temporal: buffer("pc.temporal", if temporal { reservoirs } else { one }),
+                specular_history: buffer("pc.specular_history", pixels * 16),
+            }),
+            initial: buffer("pc.initial", reservoirs),
+            resolved: buffer("pc.resolved", reservoirs),
+            irradiance: buffer("pc.irradiance", pixels * 16),
+            output: buffer("pc.output", pixels * 16),
+            specular_samples: buffer(
+                "pc.specular_samples",
+                traced * size_of::<GpuSpecularSample>() as u64,
+            ),
+            specular_noisy: buffer("pc.specular_noisy", pixels * 8),
+            history: false,
+        }
+    }
+
+    /// Ends a frame: its surfaces, reservoirs and specular history become the next frame's
+    /// history.
+    pub(super) fn end_frame(&mut self) {
+        self.frames.swap();
+        self.history = true;
+    }
+
+    pub(super) fn release(&self, ctx: &GpuContext) {
+        for frame in self.frames.both() {
+            frame.release(ctx);
+        }
+        for buffer in [
+            &self.uniforms,
+            &self.initial,
+            &self.resolved,
+            &self.irradiance,
+            &self.output,
+            &self.specular_samples,
+            &self.specular_noisy,
+        ] {
+            ctx.release_buffer(buffer);
+        }
+    }
+}
+
+/// What the frame's bind groups name from the rest of the frame: the scene and the cache,
+/// which the passes bind as they record (`'a`), and buffers that only the bind groups name
+/// (`'b`).
+pub(super) struct RestirInputs<'a, 'b> {
+    pub scene: &'a GpuScene,
+    /// The brick cache's bind group (group 2), which the hits and the sky read.
+    pub cache: &'a wgpu::BindGroup,
+    pub gbuffer: &'b GBuffer,
+    /// The denoised irradiance the compose pass reads (the denoiser's output).
+    pub denoised: &'b wgpu::Buffer,
+    /// The direct light's mean (the compose pass adds the GI to it).
+    pub direct: &'b wgpu::Buffer,
+}
+
+/// One frame's bind groups: `pc/trace.wgsl`'s group 0 and the one of `pc/restir.wgsl` and
+/// `pc/specular.wgsl`, over this frame's side of the histories.
+pub(super) struct RestirGroups {
+    trace: wgpu::BindGroup,
+    restir: wgpu::BindGroup,
+}
+
+impl RestirBuffers {
+    /// The frame's bind groups over these buffers and `inputs`.
+    pub(super) fn groups(
+        &self,
+        ctx: &GpuContext,
+        pipelines: &RestirPipelines,
+        inputs: &RestirInputs<'_, '_>,
+    ) -> RestirGroups {
+        RestirGroups {
+            trace: self.trace_group(ctx, pipelines, inputs),
+            restir: self.restir_group(ctx, pipelines, inputs),
+        }
+    }
+
+    fn trace_group(
+        &self,
+        ctx: &GpuContext,
+        pipelines: &RestirPipelines,
+        inputs: &RestirInputs<'_, '_>,
+    ) -> wgpu::BindGroup {
+        let b = self;
+        let frame = b.frames.current();
+        let g = inputs.gbuffer;
+        let mut entries = buffer_entries(0, [&b.uniforms]);
+        entries.extend(inputs.scene.bind_group_entries());
+        entries.extend(
+            TraceBindings {
+                gbuffer_depth: g.output("gbuffer.depth"),
+                gbuffer_normal: g.output("gbuffer.normal"),
+                surfaces: &frame.surfaces,
+                initial: &b.initial,
+                temporal: &frame.temporal,
+                resolved: &b.resolved,
+                gbuffer_base_color: g.output("gbuffer.base_color"),
+                gbuffer_metallic_roughness: g.output("gbuffer.metallic_roughness"),
+                specular_samples: &b.specular_samples,
+            }
+            .entries(),
+        );
+        ctx.device.create_bind_group(&wgpu::BindGroupDescriptor {
+            label: Some("pc/trace.group0"),
+            layout: &pipelines.trace_layout,
+            entries: &entries,
+        })
+    }
+
+    fn restir_group(
+        &self,
+        ctx: &GpuContext,
+        pipelines: &RestirPipelines,
+        inputs: &RestirInputs<'_, '_>,
+    ) -> wgpu::BindGroup {
+        let b = self;
+        let (frame, previous) = (b.frames.current(), b.frames.history());
+        let g = inputs.gbuffer;
+        let mut entries = buffer_entries(0, [&b.uniforms]);
+        entries.extend(
+            RestirBindings {
+                gbuffer_depth: g.output("gbuffer.depth"),
+                gbuffer_normal: g.output("gbuffer.normal"),
+                gbuffer_base_color: g.output("gbuffer.base_color"),
+                gbuffer_metallic_roughness: g.output("gbuffer.metallic_roughness"),
+                gbuffer_motion: g.output("gbuffer.motion"),
+                surfaces: &frame.surfaces,
+                surfaces_prev: &previous.surfaces,
+                initial: &b.initial,
+                temporal_out: &frame.temporal,
+                temporal_prev: &previous.temporal,
+                resolved: &b.resolved,
+                irradiance: &b.irradiance,
+                denoised: inputs.denoised,
+                direct_mean: inputs.direct,
+                output: &b.output,
+                specular_samples: &b.specular_samples,
+                specular_noisy: &b.specular_noisy,
+                specular_history: &frame.specular_history,
+                specular_history_prev: &previous.specular_history,
+                gbuffer_emissive: g.output("gbuffer.emissive"),
+                gbuffer_blend_layer: g.output("gbuffer.blend_layer"),
+            }
+            .entries(),
+        );
+        ctx.device.create_bind_group(&wgpu::BindGroupDescriptor {
+            label: Some("pc/restir.group0"),
+            layout: &pipelines.restir_layout,
+            entries: &entries,
+        })
+    }
+}
+
+impl RestirPipelines {
+    /// Records the passes before the denoiser, each under its name, in order: `pc/trace`
+    /// (a diffuse ray per trace pixel, its hit shaded from the brick cache), `pc/specular_trace`,
+    /// `pc/temporal` and `pc/spatial` (ReSTIR GI reuse), `pc/shadow` (the chosen samples'
+    /// visibility), `pc/shade` (multi-sample shading into `irradiance`), `pc/specular_resolve`
+    /// and `pc/specular_temporal`, each as `config` switches it on.
+    pub(super) fn record_reuse(
+        &self,
+        ctx: &GpuContext,
+        timer: &mut GpuTimer,
+        encoder: &mut wgpu::CommandEncoder,
+        frame: &RestirFrame,
+        config: &PcConfig,
+    ) {
+        // Each pass: name, pipeline, whether it traces (BVH bound, the trace module's group 0)
+        // and whether it runs per trace pixel (else per pixel).
+        let specular = config.specular.traced;
+        let mut steps = vec![("pc/trace", &self.trace, true, true)];
+        if specular {
+            steps.push(("pc/specular_trace", &self.specular_trace, true, true));
+        }
+        // Without temporal reuse the spatial reuse and the shadow pass read the initial
+        // reservoirs.
+        if config.restir.temporal {
+            steps.push(("pc/temporal", &self.temporal, false, true));
+        }
+        if config.restir.spatial {
+            steps.push(("pc/spatial", &self.spatial, false, true));
+        }
+        steps.push(("pc/shadow", &self.shadow, true, true));
+        steps.push(("pc/shade", &self.shade, false, false));
+        if specular {
+            steps.push(("pc/specular_resolve", &self.specular_resolve, false, false));
+        }
+        if specular || config.specular.reuse_diffuse {
+            steps.push((
+                "pc/specular_temporal",
+                &self.specular_temporal,
+                false,
+                false,
+            ));
+        }
+        for (name, pipeline, traces, per_trace_pixel) in steps {
+            timer.compute_pass(ctx, encoder, name, |pass| {
+                pass.set_pipeline(pipeline);
+                if traces {
+                    pass.set_bind_group(0, &frame.groups.trace, &[]);
+                    pass.set_bind_group(BVH_BIND_GROUP, &frame.scene.bvh.bind_group, &[]);
+                    frame.scene.set_texture_bind_group(pass);
+                } else {
+                    pass.set_bind_group(0, &frame.groups.restir, &[]);
+                }
+                pass.set_bind_group(CacheBuffers::BIND_GROUP, frame.cache, &[]);
+                let groups = if per_trace_pixel {
+                    frame.trace_workgroups
+                } else {
+                    frame.full_workgroups
+                };
+                pass.dispatch_workgroups(groups.0, groups.1, 1);
+            });
+        }
+    }
+
+    /// Records `pc/compose`: the final image, the direct light plus the denoised diffuse and the
+    /// specular GI, weighted by the G-buffer's material.
+    pub(super) fn record_compose(
+        &self,
+        ctx: &GpuContext,
+        timer: &mut GpuTimer,
+        encoder: &mut wgpu::CommandEncoder,
+        frame: &RestirFrame,
+    ) {
+        timer.compute_pass(ctx, encoder, "pc/compose", |pass| {
+            pass.set_pipeline(&self.compose);
+            pass.set_bind_group(0, &frame.groups.restir, &[]);
+            pass.set_bind_group(CacheBuffers::BIND_GROUP, frame.cache, &[]);
+            let groups = frame.full_workgroups;
+            pass.dispatch_workgroups(groups.0, groups.1, 1);
+        });
+    }
+}
+
+/// What the passes of one frame bind and dispatch over.
+pub(super) struct RestirFrame<'a> {
+    /// The scene whose BVH and textures the tracing passes bind.
+    scene: &'a GpuScene,
+    /// The brick cache's bind group.
+    cache: &'a wgpu::BindGroup,
+    groups: RestirGroups,
+    /// Workgroups over the trace pixels and over the full-resolution pixels.
+    trace_workgroups: (u32, u32),
+    full_workgroups: (u32, u32),
+}
+
+impl<'a> RestirFrame<'a> {
+    /// The frame over `buffers` of an image of `size`, reading `inputs`.
+    pub(super) fn new(
+        ctx: &GpuContext,
+        pipelines: &RestirPipelines,
+        buffers: &RestirBuffers,
+        inputs: &RestirInputs<'a, '_>,
+        size: (u32, u32),
+    ) -> Self {
+        let groups = buffers.groups(ctx, pipelines, inputs);
+        let (tw, th) = buffers.trace_size;
+        Self {
+            scene: inputs.scene,
+            cache: inputs.cache,
+            groups,
+            trace_workgroups: (tw.div_ceil(TILE), th.div_ceil(TILE)),
+            full_workgroups: (size.0.div_ceil(TILE), size.1.div_ceil(TILE)),
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use gi_gpu::binding::{Access, check_declared};
+
+    #[test]
+    fn the_shaders_declare_the_named_buffers_at_their_bindings() {
+        let shaders = ShaderLibrary::new();
+        let groups = [
+            (
+                "pc/trace.wgsl",
+                TraceBindings::FIRST_BINDING,
+                TraceBindings::SLOTS,
+            ),
+            (
+                "pc/restir.wgsl",
+                RestirBindings::FIRST_BINDING,
+                RestirBindings::SLOTS,
+            ),
+            (
+                "pc/specular.wgsl",
+                RestirBindings::FIRST_BINDING,
+                RestirBindings::SLOTS,
+            ),
+        ];
+        for (file, first, slots) in groups {
+            let source = shaders.source(file).expect("the shader is in the library");
+            check_declared(source, 0, first, slots).unwrap_or_else(|e| panic!("{file}: {e}"));
+        }
+        // A swapped pair or a changed access is caught.
+        let source = shaders.source("pc/restir.wgsl").expect("restir");
+        let mut swapped = RestirBindings::SLOTS.to_vec();
+        swapped.swap(5, 6);
+        assert!(check_declared(source, 0, 8, &swapped).is_err());
+        let mut written = RestirBindings::SLOTS.to_vec();
+        written[0].1 = Access::ReadWrite;
+        assert!(check_declared(source, 0, 8, &written).is_err());
+    }
+}
