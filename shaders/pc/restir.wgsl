@@ -36,8 +36,9 @@
 //     pi times the accumulated lobe ratio, blended to 1 from `specular_diffuse_from` to
 //     roughness 1.
 //
-// Bind group 0: binding 0 `u` (`gi::pc::common::PcUniforms`), then the buffers below. Group 2:
-// the cache (`gi::cache::data`), read by `temporal` to refresh reused samples.
+// Bind group 0: binding 0 `u` (`gi::pc::common::PcUniforms`), then the buffers of
+// `gi::pc::restir_bindings` (each described there). Group 2: the cache (`gi::cache::data`),
+// read by `temporal` to refresh reused samples.
 
 #import gi::math::{PI, INV_PI}
 #import gi::brdf::{brdf_new, specular_albedo, ggx_lobe, gbuffer_brdf, brdf_split_sum_albedos}
@@ -45,6 +46,12 @@
 #import gi::camera::camera_ray
 #import gi::packing::{unpack_unit_vector, pack_rgb9e5, unpack_rgb9e5, pack_color64, unpack_color64}
 #import gi::cache::trace::{cache_bounced_irradiance, cache_blend_layer_gi}
+#import gi::pc::restir_bindings::{
+    gbuffer_depth, gbuffer_normal, gbuffer_base_color, gbuffer_metallic_roughness,
+    gbuffer_motion, surfaces, surfaces_prev, initial, temporal_out, temporal_prev, resolved,
+    irradiance, denoised, direct_mean, output, specular_noisy, specular_history,
+    gbuffer_emissive, gbuffer_blend_layer
+}
 #import gi::pc::common::{
     PcUniforms, Surface, Reservoir, Combiner, empty_reservoir, is_sky_depth, has_surface,
     target_pdf, reconnection_jacobian, combiner_new, combiner_add, combiner_finish,
@@ -54,36 +61,6 @@
 }
 
 @group(0) @binding(0) var<uniform> u: PcUniforms;
-@group(0) @binding(8) var<storage, read> gbuffer_depth: array<f32>;
-@group(0) @binding(9) var<storage, read> gbuffer_normal: array<u32>;
-@group(0) @binding(10) var<storage, read> gbuffer_base_color: array<vec4<f32>>;
-@group(0) @binding(11) var<storage, read> gbuffer_metallic_roughness: array<vec2<f32>>;
-@group(0) @binding(12) var<storage, read> gbuffer_motion: array<vec2<f32>>;
-// Per trace pixel: this frame's receivers and the previous frame's.
-@group(0) @binding(13) var<storage, read> surfaces: array<Surface>;
-@group(0) @binding(14) var<storage, read> surfaces_prev: array<Surface>;
-@group(0) @binding(15) var<storage, read> initial: array<Reservoir>;
-// Per trace pixel: this frame's temporal reservoirs (the next frame's history) and the
-// previous frame's; the resolved reservoirs, which `spatial` writes and the shadow pass
-// (`pc/trace.wgsl`) then updates in place, and which `shade` reads.
-@group(0) @binding(16) var<storage, read_write> temporal_out: array<Reservoir>;
-@group(0) @binding(17) var<storage, read> temporal_prev: array<Reservoir>;
-@group(0) @binding(18) var<storage, read_write> resolved: array<Reservoir>;
-// Per pixel: the multi-sample shading's irradiance (rgb), the denoised one, the direct light's
-// running mean, the output image.
-@group(0) @binding(19) var<storage, read_write> irradiance: array<vec4<f32>>;
-@group(0) @binding(20) var<storage, read> denoised: array<vec4<f32>>;
-@group(0) @binding(21) var<storage, read> direct_mean: array<vec4<f32>>;
-@group(0) @binding(22) var<storage, read_write> output: array<vec4<f32>>;
-// Per pixel: the specular input of this frame (`shade` writes the reused reflection's ratio
-// of rough pixels; `pc/specular.wgsl` the traced radiance of smooth ones) and the history of
-// either (`pc/specular.wgsl`).
-@group(0) @binding(24) var<storage, read_write> specular_noisy: array<vec2<u32>>;
-@group(0) @binding(25) var<storage, read_write> specular_history: array<vec4<u32>>;
-// Per pixel: the G-buffer's emission and, in w, the material's occlusion factor.
-@group(0) @binding(27) var<storage, read> gbuffer_emissive: array<vec4<f32>>;
-// Per pixel with FLAG_BLEND_LAYER: the nearest blended surface in front (`gbuffer.blend_layer`).
-@group(0) @binding(28) var<storage, read> gbuffer_blend_layer: array<vec4<f32>>;
 
 fn trace_index(t: vec2<u32>) -> u32 {
     return t.y * u.trace_px.x + t.x;

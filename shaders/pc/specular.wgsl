@@ -18,36 +18,25 @@
 // the irradiance over pi by the ratio.
 //
 // Bind group 0: the layout of `pc/restir.wgsl`; this file uses binding 0 `u`
-// (`gi::pc::common::PcUniforms`) and the buffers below.
+// (`gi::pc::common::PcUniforms`) and the buffers it imports from `gi::pc::restir_bindings`.
 
 #import gi::brdf::{brdf_new, ggx_lobe}
 #import gi::sampling::{frame_from_normal, frame_to_local}
 #import gi::camera::camera_ray
 #import gi::packing::{pack_unit_vector, unpack_unit_vector, pack_color64, unpack_color64}
+#import gi::pc::restir_bindings::{
+    gbuffer_depth, gbuffer_normal, gbuffer_base_color, gbuffer_metallic_roughness,
+    gbuffer_motion, surfaces, specular_samples, specular_noisy, specular_history,
+    specular_history_prev
+}
 #import gi::pc::common::{
     PcUniforms, Surface, SpecularSample, has_surface, similar_surfaces, specular_kind, SAMPLE_SKY,
     FLAG_MULTI_SAMPLE, FLAG_HISTORY, SPECULAR_NONE, SPECULAR_TRACED, SPECULAR_REUSED
 }
 
-const FAR: f32 = 3.40282347e38;
-
 @group(0) @binding(0) var<uniform> u: PcUniforms;
-@group(0) @binding(8) var<storage, read> gbuffer_depth: array<f32>;
-@group(0) @binding(9) var<storage, read> gbuffer_normal: array<u32>;
-@group(0) @binding(10) var<storage, read> gbuffer_base_color: array<vec4<f32>>;
-@group(0) @binding(11) var<storage, read> gbuffer_metallic_roughness: array<vec2<f32>>;
-@group(0) @binding(12) var<storage, read> gbuffer_motion: array<vec2<f32>>;
-@group(0) @binding(13) var<storage, read> surfaces: array<Surface>;
-// Per trace pixel: this frame's specular rays.
-@group(0) @binding(23) var<storage, read> specular_samples: array<SpecularSample>;
-// Per pixel: this frame's input and its kind (`pack_color64`): the resolved radiance and
-// `SPECULAR_TRACED` where any ray contributed, or the reused lobe ratio and `SPECULAR_REUSED`
-// (`shade` in `pc/restir.wgsl`), or 0.
-@group(0) @binding(24) var<storage, read_write> specular_noisy: array<vec2<u32>>;
-// Per pixel: radiance and history length (`pack_color64`), the surface's distance from the
-// camera (f32 bits) and its packed normal; this frame's and the previous frame's.
-@group(0) @binding(25) var<storage, read_write> specular_history: array<vec4<u32>>;
-@group(0) @binding(26) var<storage, read> specular_history_prev: array<vec4<u32>>;
+
+const FAR: f32 = 3.40282347e38;
 
 // Where the specular reflection of pixel `pixel` (with G-buffer depth `depth`) comes from.
 fn kind_of(pixel: u32, depth: f32) -> u32 {

@@ -115,7 +115,8 @@ gi_gpu::storage_bindings! {
 
 gi_gpu::storage_bindings! {
     /// The buffers of `pc/restir.wgsl` and `pc/specular.wgsl` in group 0, after the uniforms
-    /// (0). `*_prev`: the previous frame's side of a [`PingPong`].
+    /// (0), which both import from `pc/restir_bindings.wgsl`. `*_prev`: the previous frame's
+    /// side of a [`PingPong`].
     struct RestirBindings from 8 {
         gbuffer_depth: read,
         gbuffer_normal: read,
@@ -488,12 +489,7 @@ mod tests {
                 TraceBindings::SLOTS,
             ),
             (
-                "pc/restir.wgsl",
-                RestirBindings::FIRST_BINDING,
-                RestirBindings::SLOTS,
-            ),
-            (
-                "pc/specular.wgsl",
+                "pc/restir_bindings.wgsl",
                 RestirBindings::FIRST_BINDING,
                 RestirBindings::SLOTS,
             ),
@@ -503,7 +499,9 @@ mod tests {
             check_declared(source, 0, first, slots).unwrap_or_else(|e| panic!("{file}: {e}"));
         }
         // A swapped pair or a changed access is caught.
-        let source = shaders.source("pc/restir.wgsl").expect("restir");
+        let source = shaders
+            .source("pc/restir_bindings.wgsl")
+            .expect("the bindings");
         let mut swapped = RestirBindings::SLOTS.to_vec();
         swapped.swap(5, 6);
         assert!(check_declared(source, 0, 8, &swapped).is_err());

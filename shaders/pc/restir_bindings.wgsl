@@ -1,0 +1,44 @@
+// The storage buffers of the bind group 0 of `pc/restir.wgsl` and `pc/specular.wgsl`, declared
+// once: those of `RestirBindings` (crates/gi-tiers/src/pc/restir.rs) in its order, from
+// binding 8. Each file imports the ones it uses and declares the uniforms at binding 0 itself
+// (`u`: naga_oil would rewrite the `u` suffix of integer literals into an imported `u`). A
+// unit test checks the names and accesses against the Rust list.
+#define_import_path gi::pc::restir_bindings
+
+#import gi::pc::common::{Surface, Reservoir, SpecularSample}
+
+@group(0) @binding(8) var<storage, read> gbuffer_depth: array<f32>;
+@group(0) @binding(9) var<storage, read> gbuffer_normal: array<u32>;
+@group(0) @binding(10) var<storage, read> gbuffer_base_color: array<vec4<f32>>;
+@group(0) @binding(11) var<storage, read> gbuffer_metallic_roughness: array<vec2<f32>>;
+@group(0) @binding(12) var<storage, read> gbuffer_motion: array<vec2<f32>>;
+// Per trace pixel: this frame's receivers and the previous frame's.
+@group(0) @binding(13) var<storage, read> surfaces: array<Surface>;
+@group(0) @binding(14) var<storage, read> surfaces_prev: array<Surface>;
+@group(0) @binding(15) var<storage, read> initial: array<Reservoir>;
+// Per trace pixel: this frame's temporal reservoirs (the next frame's history) and the
+// previous frame's; the resolved reservoirs, which `spatial` writes and the shadow pass
+// (`pc/trace.wgsl`) then updates in place, and which `shade` reads.
+@group(0) @binding(16) var<storage, read_write> temporal_out: array<Reservoir>;
+@group(0) @binding(17) var<storage, read> temporal_prev: array<Reservoir>;
+@group(0) @binding(18) var<storage, read_write> resolved: array<Reservoir>;
+// Per pixel: the multi-sample shading's irradiance (rgb), the denoised one, the direct light's
+// running mean, the output image.
+@group(0) @binding(19) var<storage, read_write> irradiance: array<vec4<f32>>;
+@group(0) @binding(20) var<storage, read> denoised: array<vec4<f32>>;
+@group(0) @binding(21) var<storage, read> direct_mean: array<vec4<f32>>;
+@group(0) @binding(22) var<storage, read_write> output: array<vec4<f32>>;
+// Per trace pixel: this frame's specular rays (`pc/trace.wgsl`, `specular_trace`).
+@group(0) @binding(23) var<storage, read> specular_samples: array<SpecularSample>;
+// Per pixel: the specular input of this frame (`shade` writes the reused reflection's ratio
+// of rough pixels; `pc/specular.wgsl` the traced radiance of smooth ones) and the history of
+// either (`pc/specular.wgsl`).
+@group(0) @binding(24) var<storage, read_write> specular_noisy: array<vec2<u32>>;
+// Per pixel: radiance and history length (`pack_color64`), the surface's distance from the
+// camera (f32 bits) and its packed normal; this frame's and the previous frame's.
+@group(0) @binding(25) var<storage, read_write> specular_history: array<vec4<u32>>;
+@group(0) @binding(26) var<storage, read> specular_history_prev: array<vec4<u32>>;
+// Per pixel: the G-buffer's emission and, in w, the material's occlusion factor.
+@group(0) @binding(27) var<storage, read> gbuffer_emissive: array<vec4<f32>>;
+// Per pixel with FLAG_BLEND_LAYER: the nearest blended surface in front (`gbuffer.blend_layer`).
+@group(0) @binding(28) var<storage, read> gbuffer_blend_layer: array<vec4<f32>>;
