@@ -148,11 +148,19 @@ fn run(args: &Args) -> Result<(), Box<dyn Error>> {
         let output = renderer.render(&request)?;
         let path = args.out.join(format!("frame-{frame:03}.png"));
         gi_image::save(&output.image, &path, exposure)?;
+        let mut passes = output.passes.clone();
+        passes.sort_by(|a, b| b.1.total_cmp(&a.1));
+        let dearest: Vec<String> = passes
+            .iter()
+            .take(3)
+            .map(|(name, ms)| format!("{name} {ms:.3}"))
+            .collect();
         println!(
-            "{}: {:.1} ms on the clock, {:.3} ms of passes",
+            "{}: {:.1} ms on the clock, {:.3} ms of passes (dearest: {})",
             path.display(),
             started.elapsed().as_secs_f64() * 1e3,
-            output.ms_total()
+            output.ms_total(),
+            dearest.join(", ")
         );
     }
     if renderer.tier() != TierKind::Reference {
