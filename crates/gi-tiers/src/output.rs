@@ -51,6 +51,8 @@ pub struct OutputTextures {
     pipeline: wgpu::ComputePipeline,
     /// A one-texel stand-in for `direct` when the tier has none.
     no_direct: wgpu::Buffer,
+    /// Views of `image` and `gi`, made once: the pass writes through them every frame.
+    views: [wgpu::TextureView; 2],
 }
 
 impl OutputTextures {
@@ -114,9 +116,12 @@ impl OutputTextures {
             "main",
             &[Some(&layout)],
         );
+        let (image, gi) = (texture("output.image"), texture("output.gi"));
+        let views = [&image, &gi].map(|t| t.create_view(&Default::default()));
         Ok(Self {
-            image: texture("output.image"),
-            gi: texture("output.gi"),
+            image,
+            gi,
+            views,
             size,
             params: ctx.create_buffer(
                 "output.params",
@@ -145,8 +150,7 @@ impl OutputTextures {
         };
         ctx.queue
             .write_buffer(&self.params, 0, bytemuck::bytes_of(&params));
-        let image_view = self.image.create_view(&Default::default());
-        let gi_view = self.gi.create_view(&Default::default());
+        let [image_view, gi_view] = &self.views;
         let mut entries = buffer_entries(
             0,
             [
@@ -157,11 +161,11 @@ impl OutputTextures {
         );
         entries.push(wgpu::BindGroupEntry {
             binding: 3,
-            resource: wgpu::BindingResource::TextureView(&image_view),
+            resource: wgpu::BindingResource::TextureView(image_view),
         });
         entries.push(wgpu::BindGroupEntry {
             binding: 4,
-            resource: wgpu::BindingResource::TextureView(&gi_view),
+            resource: wgpu::BindingResource::TextureView(gi_view),
         });
         let group = ctx.device.create_bind_group(&wgpu::BindGroupDescriptor {
             label: Some("output/textures.group0"),
