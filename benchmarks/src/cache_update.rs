@@ -20,7 +20,8 @@ use gi_cache::{
     ScreenInputs,
 };
 use gi_gpu::{
-    GBuffer, GBufferInputs, GpuContext, GpuScene, GpuTimer, PassTimings, ShaderLibrary, wgpu,
+    GBuffer, GBufferInputs, GpuContext, GpuScene, GpuTimer, PassTimings, Recorder, ShaderLibrary,
+    Technique, wgpu,
 };
 
 /// Passes a frame can record: `gbuffer/primary` and the five cache passes, with room to spare.
@@ -164,7 +165,6 @@ pub fn run(options: &CacheUpdateOptions) -> anyhow::Result<CacheUpdateReport> {
             gpu_scene.update(&ctx, &scene, &frame)?;
             scene_update_ms = started.elapsed().as_secs_f64() * 1e3;
         }
-        let mut encoder = ctx.create_encoder("bench.cache_update");
         if let Some(gbuffer) = gbuffer.as_mut() {
             let inputs = GBufferInputs {
                 frame: &frame,
@@ -176,31 +176,45 @@ pub fn run(options: &CacheUpdateOptions) -> anyhow::Result<CacheUpdateReport> {
                 // read several times their cost (every pass alike, `gbuffer/primary` too).
                 let started = Instant::now();
                 while started.elapsed().as_secs_f64() < options.settle_s {
-                    let mut settle = ctx.create_encoder("bench.cache_update.settle");
-                    gbuffer.record(&ctx, &mut settle, &mut timer, &inputs);
+                    let mut settle = Recorder::new(&ctx, &mut timer, "bench.cache_update.settle");
+                    gbuffer.record(&mut settle, &inputs);
+                    let settle = settle.into_encoder();
                     timer.finish(&ctx, settle);
                 }
             }
-            gbuffer.record(&ctx, &mut encoder, &mut timer, &inputs);
         }
+        let mut rec = Recorder::new(&ctx, &mut timer, "bench.cache_update");
+        let screen = match gbuffer.as_mut() {
+            Some(gbuffer) => {
+                let inputs = GBufferInputs {
+                    frame: &frame,
+                    scene: &gpu_scene,
+                    previous: &previous,
+                };
+                Some(ScreenInputs::new(
+                    &gbuffer.record(&mut rec, &inputs),
+                    &frame.camera,
+                ))
+            }
+            None => None,
+        };
         *scheduled.lock().expect("not poisoned") = ScheduleCounts::default();
         let started = Instant::now();
-        let update = cache.update(
-            &ctx,
-            &mut timer,
-            &mut encoder,
-            &CacheInputs {
-                scene: &scene,
-                frame: &frame,
-                gpu_scene: &gpu_scene,
-                bvh: &gpu_scene.bvh,
-                camera_position: frame.camera.position,
-                gbuffer: gbuffer
-                    .as_ref()
-                    .map(|g| ScreenInputs::from_gbuffer(g, &frame.camera)),
-            },
-        );
+        let update = cache
+            .record(
+                &mut rec,
+                &CacheInputs {
+                    scene: &scene,
+                    frame: &frame,
+                    gpu_scene: &gpu_scene,
+                    bvh: &gpu_scene.bvh,
+                    camera_position: frame.camera.position,
+                    gbuffer: screen,
+                },
+            )
+            .stats;
         let cpu_update_ms = started.elapsed().as_secs_f64() * 1e3;
+        let encoder = rec.into_encoder();
         let passes = timer.finish(&ctx, encoder);
         frames.push(FrameRecord {
             time_s: frame.time_s,

@@ -1,6 +1,6 @@
 //! [`RadianceCache`]: the cache's resources and its per-frame update.
 //!
-//! Each [`RadianceCache::update`]:
+//! Each update ([`RadianceCache`]'s [`gi_gpu::Technique::record`]):
 //! 0. keeps its triangle index while the frame's geometry revision is the same (a static
 //!    scene's frames cost no pass over its triangles);
 //! 1. re-centers the level windows on the camera; bricks of the slabs that leave are released
@@ -26,7 +26,7 @@
 use std::collections::HashSet;
 
 use gi_gpu::bvh::GpuBvh;
-use gi_gpu::{GpuContext, GpuError, GpuScene, GpuTimer, ShaderLibrary, wgpu};
+use gi_gpu::{GpuContext, GpuError, GpuScene, GpuTimer, Recorder, ShaderLibrary, Technique, wgpu};
 use gi_scene::{Scene, SceneFrame};
 use glam::{IVec3, Vec3};
 
@@ -77,6 +77,102 @@ pub struct CacheInputs<'a> {
     /// This frame's G-buffer, to correct visible bricks from (`cache/screen_inject`); `None`
     /// skips the pass.
     pub gbuffer: Option<ScreenInputs<'a>>,
+}
+
+/// What one cache update produced.
+pub struct CacheOutputs<'a> {
+    /// What the update did (and whether the cache is filling or converging).
+    pub stats: CacheUpdateStats,
+    /// The cache's buffers and the bind group that readers bind.
+    pub buffers: &'a CacheBuffers,
+}
+
+impl Technique for RadianceCache {
+    type Inputs<'i> = CacheInputs<'i>;
+    type Outputs<'o> = CacheOutputs<'o>;
+
+    /// Updates the cache for one frame (see the module docs) and records its passes. Uploads
+    /// go through the queue, so submit what `rec` holds before the next update.
+    fn record<'o>(
+        &'o mut self,
+        rec: &mut Recorder<'_>,
+        inputs: &CacheInputs<'_>,
+    ) -> CacheOutputs<'o> {
+        let (ctx, timer, encoder) = rec.parts();
+        self.frame_index = self.frame_index.wrapping_add(1);
+        let mut stats = CacheUpdateStats::default();
+        let mut clock = StepClock::start();
+        let scene = CacheScene::new(inputs.scene, inputs.frame);
+        let mut index = match self.triangle_index.take() {
+            Some(mut index) => {
+                index.update(&self.config, &scene);
+                index
+            }
+            None => TriangleIndex::new(&self.config, &scene),
+        };
+        stats.cpu.index_ms = clock.lap();
+        self.move_windows(&mut index, inputs.camera_position, &mut stats);
+        stats.cpu.windows_ms = clock.lap();
+        self.queue_moved_dynamic_nodes(&scene, &mut index, &mut stats);
+        self.requeue_dropped(inputs.camera_position, &mut stats);
+        stats.cpu.dynamic_ms = clock.lap();
+        let (jobs, new_bricks) =
+            self.fill_from_queue(&mut index, inputs.camera_position, &mut stats);
+        self.triangle_index = Some(index);
+        clock.lap();
+
+        self.buffers.upload_structure(ctx, &mut self.structure);
+        let windows = self.windows.as_ref().expect("placed by move_windows");
+        self.buffers.write_uniforms(
+            ctx,
+            &cache_uniforms(&self.config, windows, self.frame_index),
+        );
+        let plan =
+            self.voxelizer
+                .record(ctx, encoder, timer, inputs.gpu_scene, &self.buffers, &jobs);
+        stats.voxelize_parts = plan.parts.len() as u32;
+        stats.cpu.record_ms = clock.lap();
+        let mut resident = std::mem::take(&mut self.resident);
+        list_resident(&self.owner, &mut resident);
+        stats.cpu.screen_select_ms = clock.lap();
+        stats.filling = crate::lighting::is_filling(new_bricks.len(), resident.len());
+        if let Some(screen) = &inputs.gbuffer {
+            let budget = self.config.screen_inject_bricks_per_frame.min(65_535);
+            let bricks =
+                select_bricks(&self.config, &resident, &screen.camera, &new_bricks, budget);
+            stats.cpu.screen_select_ms += clock.lap();
+            stats.screen_injected = bricks.len() as u32;
+            self.screen_injector
+                .record(ctx, encoder, timer, &self.buffers, screen, &bricks);
+        }
+        stats.cpu.screen_ms = clock.lap();
+
+        // The lighting passes run here, after voxelization, on the updated cache.
+        if let Some(mut lighting) = self.lighting.take() {
+            let frame = CacheFrame {
+                config: &self.config,
+                buffers: &self.buffers,
+                inputs,
+                new_bricks: &new_bricks,
+                resident: &resident,
+                frame_index: self.frame_index,
+            };
+            lighting.record(ctx, timer, encoder, &frame);
+            stats.converging = stats.filling || lighting.converging();
+            self.lighting = Some(lighting);
+        }
+        stats.cpu.lighting_ms = clock.lap();
+        if let Some(lighting) = &self.lighting {
+            stats.cpu.schedule_ms = lighting.schedule_ms().min(stats.cpu.lighting_ms);
+            stats.cpu.lighting_ms -= stats.cpu.schedule_ms;
+        }
+        self.resident = resident;
+        stats.queued_remaining = self.queue.len() as u32;
+        CacheOutputs {
+            stats,
+            buffers: &self.buffers,
+        }
+    }
 }
 
 /// An allocated brick.
@@ -356,87 +452,6 @@ impl RadianceCache {
             bricks_per_level,
             dropped_for_pool: self.dropped_for_pool,
         }
-    }
-
-    /// Updates the cache for one frame (see the module docs) and records its passes into
-    /// `encoder`. Uploads go through the queue, so submit `encoder` before the next update.
-    pub fn update(
-        &mut self,
-        ctx: &GpuContext,
-        timer: &mut GpuTimer,
-        encoder: &mut wgpu::CommandEncoder,
-        inputs: &CacheInputs<'_>,
-    ) -> CacheUpdateStats {
-        self.frame_index = self.frame_index.wrapping_add(1);
-        let mut stats = CacheUpdateStats::default();
-        let mut clock = StepClock::start();
-        let scene = CacheScene::new(inputs.scene, inputs.frame);
-        let mut index = match self.triangle_index.take() {
-            Some(mut index) => {
-                index.update(&self.config, &scene);
-                index
-            }
-            None => TriangleIndex::new(&self.config, &scene),
-        };
-        stats.cpu.index_ms = clock.lap();
-        self.move_windows(&mut index, inputs.camera_position, &mut stats);
-        stats.cpu.windows_ms = clock.lap();
-        self.queue_moved_dynamic_nodes(&scene, &mut index, &mut stats);
-        self.requeue_dropped(inputs.camera_position, &mut stats);
-        stats.cpu.dynamic_ms = clock.lap();
-        let (jobs, new_bricks) =
-            self.fill_from_queue(&mut index, inputs.camera_position, &mut stats);
-        self.triangle_index = Some(index);
-        clock.lap();
-
-        self.buffers.upload_structure(ctx, &mut self.structure);
-        let windows = self.windows.as_ref().expect("placed by move_windows");
-        self.buffers.write_uniforms(
-            ctx,
-            &cache_uniforms(&self.config, windows, self.frame_index),
-        );
-        let plan =
-            self.voxelizer
-                .record(ctx, encoder, timer, inputs.gpu_scene, &self.buffers, &jobs);
-        stats.voxelize_parts = plan.parts.len() as u32;
-        stats.cpu.record_ms = clock.lap();
-        let mut resident = std::mem::take(&mut self.resident);
-        list_resident(&self.owner, &mut resident);
-        stats.cpu.screen_select_ms = clock.lap();
-        stats.filling = crate::lighting::is_filling(new_bricks.len(), resident.len());
-        if let Some(screen) = &inputs.gbuffer {
-            let budget = self.config.screen_inject_bricks_per_frame.min(65_535);
-            let bricks =
-                select_bricks(&self.config, &resident, &screen.camera, &new_bricks, budget);
-            stats.cpu.screen_select_ms += clock.lap();
-            stats.screen_injected = bricks.len() as u32;
-            self.screen_injector
-                .record(ctx, encoder, timer, &self.buffers, screen, &bricks);
-        }
-        stats.cpu.screen_ms = clock.lap();
-
-        // The lighting passes run here, after voxelization, on the updated cache.
-        if let Some(mut lighting) = self.lighting.take() {
-            let frame = CacheFrame {
-                config: &self.config,
-                buffers: &self.buffers,
-                inputs,
-                new_bricks: &new_bricks,
-                resident: &resident,
-                frame_index: self.frame_index,
-            };
-            lighting.record(ctx, timer, encoder, &frame);
-            stats.converging = stats.filling || lighting.converging();
-            self.lighting = Some(lighting);
-        }
-        stats.cpu.lighting_ms = clock.lap();
-        if let Some(lighting) = &self.lighting {
-            stats.cpu.schedule_ms = lighting.schedule_ms().min(stats.cpu.lighting_ms);
-            stats.cpu.lighting_ms -= stats.cpu.schedule_ms;
-        }
-        self.resident = resident;
-        stats.queued_remaining = self.queue.len() as u32;
-        stats
     }
 
     /// Places the windows on the first update (queuing every brick with geometry), else

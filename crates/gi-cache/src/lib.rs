@@ -39,8 +39,8 @@ pub mod voxelize;
 pub use alloc::{BrickAllocator, FreeError};
 pub use buffers::CacheBuffers;
 pub use cache::{
-    CacheError, CacheFrame, CacheInputs, CacheLightingHook, CacheStats, CacheUpdateStats, CpuSteps,
-    RadianceCache, ResidentBrick,
+    CacheError, CacheFrame, CacheInputs, CacheLightingHook, CacheOutputs, CacheStats,
+    CacheUpdateStats, CpuSteps, RadianceCache, ResidentBrick,
 };
 pub use clipmap::{BrickBox, ClipmapWindows, WindowShift};
 pub use config::{CacheConfig, ConfigError};

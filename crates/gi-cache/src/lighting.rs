@@ -790,7 +790,7 @@ impl CacheLighting {
     }
 
     /// Builds the lighting for `cache`'s configuration and installs it as the cache's
-    /// lighting hook, so every [`RadianceCache::update`] relights bricks after voxelizing.
+    /// lighting hook, so every cache update ([`RadianceCache`]'s `Technique::record`) relights bricks after voxelizing.
     pub fn attach(
         ctx: &GpuContext,
         shaders: &ShaderLibrary,

@@ -32,7 +32,7 @@
 
 use bytemuck::{Pod, Zeroable};
 use gi_gpu::binding::{buffer_entries, storage_entry, uniform_entry};
-use gi_gpu::{GBuffer, GpuCamera, GpuContext, GpuError, GpuTimer, ShaderLibrary, wgpu};
+use gi_gpu::{GBufferOutputs, GpuCamera, GpuContext, GpuError, GpuTimer, ShaderLibrary, wgpu};
 use gi_scene::CameraView;
 use glam::{IVec3, Vec3, Vec4};
 
@@ -66,14 +66,13 @@ pub struct ScreenInputs<'a> {
 }
 
 impl<'a> ScreenInputs<'a> {
-    /// The buffers of `gbuffer`, rendered from `camera`.
-    pub fn from_gbuffer(gbuffer: &'a GBuffer, camera: &CameraView) -> Self {
-        let find = |name| gbuffer.output(name);
+    /// The buffers of a G-buffer frame, cast from `camera`.
+    pub fn new(gbuffer: &GBufferOutputs<'a>, camera: &CameraView) -> Self {
         Self {
-            depth: find("gbuffer.depth"),
-            normal: find("gbuffer.normal"),
-            base_color: find("gbuffer.base_color"),
-            metallic_roughness: find("gbuffer.metallic_roughness"),
+            depth: gbuffer.depth,
+            normal: gbuffer.normal,
+            base_color: gbuffer.base_color,
+            metallic_roughness: gbuffer.metallic_roughness,
             camera: GpuCamera::new(camera, gbuffer.size),
             size_px: gbuffer.size,
         }

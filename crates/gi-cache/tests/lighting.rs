@@ -18,8 +18,8 @@ use gi_cache::{
     CpuCache, LightingInputs, RadianceCache, ResidentBrick, ScheduleCounts,
 };
 use gi_gpu::{
-    GpuContext, GpuScene, GpuTimer, PassTimings, ShaderLibrary, rust_field_offsets,
-    wgsl_struct_layout,
+    GpuContext, GpuScene, GpuTimer, PassTimings, Recorder, ShaderLibrary, Technique,
+    rust_field_offsets, wgsl_struct_layout,
 };
 use gi_reference::Reference;
 use gi_scene::{Light, LightKind, Node, Scene, SceneBvh, SceneFrame, Sky, WorldLight};
@@ -1305,11 +1305,9 @@ fn radiance_cache_frames(ctx: &GpuContext, name: &str, frames: u32) -> (PassTimi
     let mut timer = GpuTimer::new(ctx, "cache.lighting.test", 8);
     let mut timings = Vec::new();
     for i in 0..frames {
-        let mut encoder = ctx.create_encoder("cache.lighting.test");
-        cache.update(
-            ctx,
-            &mut timer,
-            &mut encoder,
+        let mut rec = Recorder::new(ctx, &mut timer, "cache.lighting.test");
+        cache.record(
+            &mut rec,
             &CacheInputs {
                 scene: &scene,
                 frame: &frame,
@@ -1319,6 +1317,7 @@ fn radiance_cache_frames(ctx: &GpuContext, name: &str, frames: u32) -> (PassTimi
                 gbuffer: None,
             },
         );
+        let encoder = rec.into_encoder();
         let t = timer.finish(ctx, encoder);
         if i >= frames / 2 {
             timings.push(t);

@@ -7,7 +7,9 @@ use gi_cache::{
     CacheConfig, CacheInputs, CacheUpdateStats, CpuCache, RadianceCache, ScreenInjectCounts,
     ScreenInputs,
 };
-use gi_gpu::{GBuffer, GBufferInputs, GpuContext, GpuScene, GpuTimer, ShaderLibrary};
+use gi_gpu::{
+    GBuffer, GBufferInputs, GpuContext, GpuScene, GpuTimer, Recorder, ShaderLibrary, Technique,
+};
 use gi_reference::brdf::Brdf;
 use gi_scene::{Scene, SceneFrame};
 use glam::{IVec3, Vec3};
@@ -35,16 +37,14 @@ fn update(
 ) -> (CacheUpdateStats, ScreenInjectCounts) {
     let gpu_scene = GpuScene::upload(ctx, scene, frame).unwrap();
     let mut timer = GpuTimer::new(ctx, "screen inject test", 8);
-    let mut encoder = ctx.create_encoder("screen inject test");
+    let mut rec = Recorder::new(ctx, &mut timer, "screen inject test");
     let mut gbuffer = None;
     let mut gbuffer_scene = None;
     if let Some((g_scene, g_frame)) = gbuffer_of {
         let uploaded = GpuScene::upload(ctx, g_scene, g_frame).unwrap();
         let mut g = GBuffer::new(ctx, &ShaderLibrary::new(), WIDTH, HEIGHT).unwrap();
         g.record(
-            ctx,
-            &mut encoder,
-            &mut timer,
+            &mut rec,
             &GBufferInputs {
                 frame: g_frame,
                 scene: &uploaded,
@@ -54,21 +54,22 @@ fn update(
         gbuffer = Some((g, g_frame.camera));
         gbuffer_scene = Some(uploaded);
     }
-    let stats = cache.update(
-        ctx,
-        &mut timer,
-        &mut encoder,
-        &CacheInputs {
-            scene,
-            frame,
-            gpu_scene: &gpu_scene,
-            bvh: &gpu_scene.bvh,
-            camera_position: camera,
-            gbuffer: gbuffer
-                .as_ref()
-                .map(|(g, view)| ScreenInputs::from_gbuffer(g, view)),
-        },
-    );
+    let stats = cache
+        .record(
+            &mut rec,
+            &CacheInputs {
+                scene,
+                frame,
+                gpu_scene: &gpu_scene,
+                bvh: &gpu_scene.bvh,
+                camera_position: camera,
+                gbuffer: gbuffer
+                    .as_ref()
+                    .map(|(g, view): &(GBuffer, _)| ScreenInputs::new(&g.outputs(), view)),
+            },
+        )
+        .stats;
+    let encoder = rec.into_encoder();
     let timings = timer.finish(ctx, encoder);
     if gbuffer.is_some() {
         assert!(timings.get("cache/screen_inject").is_some(), "{timings}");

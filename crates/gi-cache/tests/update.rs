@@ -1,4 +1,4 @@
-//! `RadianceCache::update` on the GPU: window moves keep staying bricks in place, the pool
+//! The cache update (`Technique::record` of `RadianceCache`) on the GPU: window moves keep staying bricks in place, the pool
 //! degrades gracefully, and moved or reshaped dynamic objects are re-voxelized locally and
 //! exactly.
 
@@ -7,7 +7,7 @@ use std::collections::HashMap;
 use gi_cache::binning::{CacheScene, bin_triangles};
 use gi_cache::layout::{NO_BRICK, SIDE_COUNT, VOXELS_PER_BRICK, VoxelSurface, join_mask};
 use gi_cache::{CacheConfig, CacheInputs, CacheUpdateStats, CpuCache, RadianceCache};
-use gi_gpu::{GpuContext, GpuScene, GpuTimer};
+use gi_gpu::{GpuContext, GpuScene, GpuTimer, Recorder, Technique};
 use gi_scene::{Animation, Channel, ChannelValues, Interpolation, MorphTarget, Scene, SceneFrame};
 use glam::{IVec3, Vec3};
 
@@ -20,20 +20,21 @@ fn update(
 ) -> CacheUpdateStats {
     let gpu_scene = GpuScene::upload(ctx, scene, frame).unwrap();
     let mut timer = GpuTimer::new(ctx, "cache test", 8);
-    let mut encoder = ctx.create_encoder("cache test");
-    let stats = cache.update(
-        ctx,
-        &mut timer,
-        &mut encoder,
-        &CacheInputs {
-            scene,
-            frame,
-            gpu_scene: &gpu_scene,
-            bvh: &gpu_scene.bvh,
-            camera_position: camera,
-            gbuffer: None,
-        },
-    );
+    let mut rec = Recorder::new(ctx, &mut timer, "cache test");
+    let stats = cache
+        .record(
+            &mut rec,
+            &CacheInputs {
+                scene,
+                frame,
+                gpu_scene: &gpu_scene,
+                bvh: &gpu_scene.bvh,
+                camera_position: camera,
+                gbuffer: None,
+            },
+        )
+        .stats;
+    let encoder = rec.into_encoder();
     let timings = timer.finish(ctx, encoder);
     eprintln!("{stats:?} {timings}");
     gpu_scene.release(ctx);

@@ -14,7 +14,7 @@ use std::time::Instant;
 use anyhow::Context;
 use clap::Args;
 use gi_cache::{CacheConfig, CacheInputs, CacheLighting, CacheTracer, DebugView, RadianceCache};
-use gi_gpu::{GpuContext, GpuScene, GpuTimer, PassTimings, ShaderLibrary};
+use gi_gpu::{GpuContext, GpuScene, GpuTimer, PassTimings, Recorder, ShaderLibrary, Technique};
 
 /// Arguments of `gi debug-cache`.
 #[derive(Args, Debug)]
@@ -102,11 +102,9 @@ pub fn run(args: &DebugCacheArgs) -> anyhow::Result<()> {
     let started = Instant::now();
     let mut last = PassTimings::default();
     for _ in 0..args.frames {
-        let mut encoder = ctx.create_encoder("debug_cache.update");
-        cache.update(
-            &ctx,
-            &mut timer,
-            &mut encoder,
+        let mut rec = Recorder::new(&ctx, &mut timer, "debug_cache.update");
+        cache.record(
+            &mut rec,
             &CacheInputs {
                 scene: &scene,
                 frame: &frame,
@@ -116,6 +114,7 @@ pub fn run(args: &DebugCacheArgs) -> anyhow::Result<()> {
                 gbuffer: None,
             },
         );
+        let encoder = rec.into_encoder();
         last = timer.finish(&ctx, encoder);
     }
     let update_s = started.elapsed().as_secs_f64();

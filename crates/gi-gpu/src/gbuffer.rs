@@ -40,7 +40,8 @@ use gi_scene::SceneFrame;
 
 use crate::binding::{buffer_entries, storage_entry, uniform_entry};
 use crate::bvh::{BVH_MISS, GpuBvh};
-use crate::{GpuCamera, GpuContext, GpuError, GpuScene, GpuTimer, ShaderLibrary};
+use crate::technique::{Recorder, Technique};
+use crate::{GpuCamera, GpuContext, GpuError, GpuScene, ShaderLibrary};
 
 /// Triangle id of a sky pixel in `gbuffer.triangle` (the BVH's miss value).
 pub const GBUFFER_MISS: u32 = BVH_MISS;
@@ -88,6 +89,31 @@ pub struct GBufferInputs<'a> {
     /// camera and node transforms are read. A frame with a different node count has no usable
     /// history: motion then comes from the camera alone, as if the geometry had not moved.
     pub previous: &'a SceneFrame,
+}
+
+/// The G-buffer's output buffers, one entry per pixel in row-major order (see the module
+/// docs for each one's format and sky value).
+#[derive(Clone, Copy, Debug)]
+pub struct GBufferOutputs<'a> {
+    /// `gbuffer.depth`.
+    pub depth: &'a wgpu::Buffer,
+    /// `gbuffer.normal`.
+    pub normal: &'a wgpu::Buffer,
+    /// `gbuffer.base_color`.
+    pub base_color: &'a wgpu::Buffer,
+    /// `gbuffer.metallic_roughness`.
+    pub metallic_roughness: &'a wgpu::Buffer,
+    /// `gbuffer.emissive`.
+    pub emissive: &'a wgpu::Buffer,
+    /// `gbuffer.triangle`.
+    pub triangle: &'a wgpu::Buffer,
+    /// `gbuffer.motion`.
+    pub motion: &'a wgpu::Buffer,
+    /// `gbuffer.blend_layer`: one entry per pixel for scenes with alpha-`BLEND` materials,
+    /// one placeholder entry otherwise.
+    pub blend_layer: &'a wgpu::Buffer,
+    /// Image size in pixels.
+    pub size: (u32, u32),
 }
 
 /// The G-buffer read back to the CPU, one entry per pixel in row-major order (see the module
@@ -236,7 +262,7 @@ impl GBuffer {
     /// Sizes the outputs that only some scenes need for `scene`: `gbuffer.blend_layer` holds
     /// one 16-byte entry per pixel when the scene has alpha-`BLEND` materials, one entry
     /// otherwise. Call it when a scene is uploaded, before making bind groups over
-    /// [`GBuffer::output`]: the buffer may be replaced.
+    /// [`GBuffer::outputs`]: the buffer may be replaced.
     pub fn prepare_layers(&mut self, ctx: &GpuContext, scene: &GpuScene) {
         let pixels = u64::from(self.size.0) * u64::from(self.size.1);
         let wanted = if scene.has_blend { pixels } else { 1 };
@@ -261,7 +287,80 @@ impl GBuffer {
         )
     }
 
-    /// Records `gbuffer/primary` into `encoder`, timed by `timer` under that name. Uploads the
+    /// Reads every output back (stalls the GPU; for tests and tools).
+    pub fn read(&self, ctx: &GpuContext) -> GBufferData {
+        let pixels = (self.size.0 * self.size.1) as usize;
+        let o = self.outputs();
+        let read = |buffer| {
+            let mut values: Vec<u32> = ctx.read_buffer(buffer);
+            values.truncate(pixels);
+            values
+        };
+        let floats =
+            |buffer| -> Vec<f32> { read(buffer).into_iter().map(f32::from_bits).collect() };
+        let vec2 = |buffer: &wgpu::Buffer| -> Vec<[f32; 2]> {
+            let mut values: Vec<[f32; 2]> = ctx.read_buffer(buffer);
+            values.truncate(pixels);
+            values
+        };
+        let vec4 = |buffer: &wgpu::Buffer| -> Vec<[f32; 4]> {
+            let mut values: Vec<[f32; 4]> = ctx.read_buffer(buffer);
+            values.truncate(pixels);
+            values
+        };
+        GBufferData {
+            depth: floats(o.depth),
+            normal: read(o.normal),
+            base_color: vec4(o.base_color),
+            metallic_roughness: vec2(o.metallic_roughness),
+            emissive: vec4(o.emissive),
+            triangle: read(o.triangle),
+            motion: vec2(o.motion),
+        }
+    }
+
+    /// The output buffers by name, for passes that bind them. They are the same buffers
+    /// every frame, except `blend_layer`, which [`GBuffer::prepare_layers`] may replace.
+    pub fn outputs(&self) -> GBufferOutputs<'_> {
+        let [
+            depth,
+            normal,
+            base_color,
+            metallic_roughness,
+            emissive,
+            triangle,
+            motion,
+        ] = &self.outputs;
+        GBufferOutputs {
+            depth,
+            normal,
+            base_color,
+            metallic_roughness,
+            emissive,
+            triangle,
+            motion,
+            blend_layer: &self.blend_layer,
+            size: self.size,
+        }
+    }
+
+    /// Stops counting and destroys every buffer.
+    pub fn release(self, ctx: &GpuContext) {
+        ctx.release_buffer(&self.uniforms);
+        ctx.release_buffer(&self.previous_from_current);
+        for buffer in &self.outputs {
+            ctx.release_buffer(buffer);
+        }
+        ctx.release_buffer(&self.blend_layer);
+        ctx.release_buffer(&self.previous_triangles);
+    }
+}
+
+impl Technique for GBuffer {
+    type Inputs<'i> = GBufferInputs<'i>;
+    type Outputs<'o> = GBufferOutputs<'o>;
+
+    /// Records `gbuffer/primary`, timed under that name. Uploads the
     /// uniforms and one 48-byte motion transform per scene node through the queue, so record
     /// one G-buffer frame per submission.
     ///
@@ -273,13 +372,12 @@ impl GBuffer {
     /// scene's triangles, and the next frame, when its `previous` is the copied frame (same
     /// time, same triangle count), takes the hit's barycentric point on the copied triangle
     /// instead, for every triangle.
-    pub fn record(
-        &mut self,
-        ctx: &GpuContext,
-        encoder: &mut wgpu::CommandEncoder,
-        timer: &mut GpuTimer,
+    fn record<'o>(
+        &'o mut self,
+        rec: &mut Recorder<'_>,
         inputs: &GBufferInputs<'_>,
-    ) {
+    ) -> GBufferOutputs<'o> {
+        let ctx = rec.ctx;
         let (width, height) = self.size;
         let (now, then) = (
             &inputs.frame.world_from_node,
@@ -346,7 +444,7 @@ impl GBuffer {
             layout: &self.frame_layout,
             entries: &entries,
         });
-        timer.compute_pass(ctx, encoder, "gbuffer/primary", |pass| {
+        rec.compute_pass("gbuffer/primary", |pass| {
             pass.set_pipeline(&self.primary);
             pass.set_bind_group(0, &frame_group, &[]);
             pass.set_bind_group(
@@ -366,10 +464,11 @@ impl GBuffer {
                     let offset = range.start as u64 * TRIANGLE_BYTES;
                     let size = range.len() as u64 * TRIANGLE_BYTES;
                     let (src, dst) = (&inputs.scene.triangles, &self.previous_triangles);
-                    encoder.copy_buffer_to_buffer(src, offset, dst, offset, size);
+                    rec.encoder()
+                        .copy_buffer_to_buffer(src, offset, dst, offset, size);
                 }
             } else {
-                encoder.copy_buffer_to_buffer(
+                rec.encoder().copy_buffer_to_buffer(
                     &inputs.scene.triangles,
                     0,
                     &self.previous_triangles,
@@ -379,75 +478,6 @@ impl GBuffer {
             }
             self.previous_triangles_of = Some((inputs.frame.time_s, triangle_count));
         }
-    }
-
-    /// Reads every output back (stalls the GPU; for tests and tools).
-    pub fn read(&self, ctx: &GpuContext) -> GBufferData {
-        let pixels = (self.size.0 * self.size.1) as usize;
-        let [
-            depth,
-            normal,
-            base_color,
-            metallic_roughness,
-            emissive,
-            triangle,
-            motion,
-        ] = &self.outputs;
-        let read = |buffer| {
-            let mut values: Vec<u32> = ctx.read_buffer(buffer);
-            values.truncate(pixels);
-            values
-        };
-        let floats =
-            |buffer| -> Vec<f32> { read(buffer).into_iter().map(f32::from_bits).collect() };
-        let vec2 = |buffer: &wgpu::Buffer| -> Vec<[f32; 2]> {
-            let mut values: Vec<[f32; 2]> = ctx.read_buffer(buffer);
-            values.truncate(pixels);
-            values
-        };
-        let vec4 = |buffer: &wgpu::Buffer| -> Vec<[f32; 4]> {
-            let mut values: Vec<[f32; 4]> = ctx.read_buffer(buffer);
-            values.truncate(pixels);
-            values
-        };
-        GBufferData {
-            depth: floats(depth),
-            normal: read(normal),
-            base_color: vec4(base_color),
-            metallic_roughness: vec2(metallic_roughness),
-            emissive: vec4(emissive),
-            triangle: read(triangle),
-            motion: vec2(motion),
-        }
-    }
-
-    /// The output buffer labeled `label` (`"gbuffer.depth"`, ...; see the module docs).
-    ///
-    /// # Panics
-    /// If no output has that label.
-    pub fn output(&self, label: &str) -> &wgpu::Buffer {
-        if label == "gbuffer.blend_layer" {
-            return &self.blend_layer;
-        }
         self.outputs()
-            .find(|(name, _)| *name == label)
-            .map(|(_, buffer)| buffer)
-            .unwrap_or_else(|| panic!("the G-buffer has no output {label:?}"))
-    }
-
-    /// The output buffers with their labels, in binding order (for passes that read them).
-    pub fn outputs(&self) -> impl Iterator<Item = (&'static str, &wgpu::Buffer)> {
-        OUTPUTS.iter().map(|(label, _)| *label).zip(&self.outputs)
-    }
-
-    /// Stops counting and destroys every buffer.
-    pub fn release(self, ctx: &GpuContext) {
-        ctx.release_buffer(&self.uniforms);
-        ctx.release_buffer(&self.previous_from_current);
-        for buffer in &self.outputs {
-            ctx.release_buffer(buffer);
-        }
-        ctx.release_buffer(&self.blend_layer);
-        ctx.release_buffer(&self.previous_triangles);
     }
 }

@@ -54,6 +54,7 @@ mod pingpong;
 mod scene;
 mod shaders;
 mod skin;
+mod technique;
 pub mod textures;
 mod timer;
 
@@ -61,7 +62,7 @@ pub use camera::GpuCamera;
 pub use context::{ADAPTER_ENV, DeviceSharing, GpuContext, GpuOptions, REQUIRE_GPU_ENV};
 pub use error::GpuError;
 pub use frame::FrameUniforms;
-pub use gbuffer::{GBuffer, GBufferData, GBufferInputs};
+pub use gbuffer::{GBuffer, GBufferData, GBufferInputs, GBufferOutputs};
 pub use layout::{StructLayout, wgsl_struct_layout};
 pub use memory::MemoryReport;
 pub use pingpong::PingPong;
@@ -72,6 +73,7 @@ pub use scene::{
 };
 pub use shaders::{SHADER_CAPABILITIES, SHADER_DIR_ENV, ShaderDefValue, ShaderLibrary};
 pub use skin::gpu_skinned_nodes;
+pub use technique::{Recorder, Technique};
 pub use textures::{
     GpuTextureRef, SceneTextures, TEXTURE_BIND_GROUP, TextureError, TextureOptions,
 };

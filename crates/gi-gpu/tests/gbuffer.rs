@@ -4,8 +4,8 @@
 
 use gi_gpu::gbuffer::{GBUFFER_MISS, GBufferCamera, GBufferUniforms};
 use gi_gpu::{
-    GBuffer, GBufferData, GBufferInputs, GpuContext, GpuScene, GpuTimer, ShaderLibrary,
-    rust_field_offsets, wgsl_struct_layout,
+    GBuffer, GBufferData, GBufferInputs, GpuContext, GpuScene, GpuTimer, Recorder, ShaderLibrary,
+    Technique, rust_field_offsets, wgsl_struct_layout,
 };
 use gi_scene::generate::{ARM_BENT_TIME_S, skinned_arm};
 use gi_scene::{CameraView, Scene, SceneBvh, SceneFrame};
@@ -49,17 +49,18 @@ fn render_with_layer(
         GBuffer::new(ctx, &ShaderLibrary::new(), WIDTH, HEIGHT).expect("gbuffer/primary compiles");
     gbuffer.prepare_layers(ctx, &gpu_scene);
     let mut timer = GpuTimer::new(ctx, "gbuffer", 4);
-    let mut encoder = ctx.create_encoder("gbuffer");
+    let mut rec = Recorder::new(ctx, &mut timer, "gbuffer");
     let inputs = GBufferInputs {
         frame,
         scene: &gpu_scene,
         previous,
     };
-    gbuffer.record(ctx, &mut encoder, &mut timer, &inputs);
+    gbuffer.record(&mut rec, &inputs);
+    let encoder = rec.into_encoder();
     let timings = timer.finish(ctx, encoder);
     assert!(timings.get("gbuffer/primary").is_some(), "{timings}");
     let data = gbuffer.read(ctx);
-    let layer = ctx.read_buffer(gbuffer.output("gbuffer.blend_layer"));
+    let layer = ctx.read_buffer(gbuffer.outputs().blend_layer);
     gbuffer.release(ctx);
     gpu_scene.release(ctx);
     (data, layer)
@@ -612,13 +613,14 @@ fn skinned_triangles_move_with_their_vertices() {
         if !std::ptr::eq(this, before) {
             gpu_scene.update(&ctx, &scene, this).expect("scene updates");
         }
-        let mut encoder = ctx.create_encoder("gbuffer");
+        let mut rec = Recorder::new(&ctx, &mut timer, "gbuffer");
         let inputs = GBufferInputs {
             frame: this,
             scene: &gpu_scene,
             previous: before,
         };
-        gbuffer.record(&ctx, &mut encoder, &mut timer, &inputs);
+        gbuffer.record(&mut rec, &inputs);
+        let encoder = rec.into_encoder();
         timer.finish(&ctx, encoder);
     }
     let data = gbuffer.read(&ctx);

@@ -2,7 +2,11 @@
 //! (the [`Tier`](crate::Tier) methods around the frame a tier records, [`real_time_tier!`])
 //! and their memory report ([`GiMemory`]).
 
-use crate::scene_state;
+use gi_cache::{CacheInputs, CacheOutputs, RadianceCache, ScreenInputs};
+use gi_gpu::{GBuffer, GBufferInputs, GBufferOutputs, Recorder, Technique};
+
+use crate::scene_state::{self, SceneState};
+use crate::tier::FrameInput;
 
 /// GPU memory of a real-time GI tier by what it scales with.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
@@ -161,3 +165,35 @@ macro_rules! real_time_tier {
 }
 
 pub(crate) use real_time_tier;
+
+/// The first two steps of every real-time frame: the G-buffer, then the brick cache's update,
+/// which corrects the bricks it sees from that G-buffer. Returns both techniques' outputs.
+pub(crate) fn record_gbuffer_and_cache<'g, 'c>(
+    rec: &mut Recorder<'_>,
+    gbuffer: &'g mut GBuffer,
+    cache: &'c mut RadianceCache,
+    input: &FrameInput,
+    state: &SceneState,
+) -> (GBufferOutputs<'g>, CacheOutputs<'c>) {
+    let (frame, scene) = (input.frame, &state.scene);
+    let gbuffer = gbuffer.record(
+        rec,
+        &GBufferInputs {
+            frame,
+            scene,
+            previous: &state.previous,
+        },
+    );
+    let cache = cache.record(
+        rec,
+        &CacheInputs {
+            scene: input.scene,
+            frame,
+            gpu_scene: scene,
+            bvh: &scene.bvh,
+            camera_position: frame.camera.position,
+            gbuffer: Some(ScreenInputs::new(&gbuffer, &frame.camera)),
+        },
+    );
+    (gbuffer, cache)
+}

@@ -10,9 +10,9 @@ use gi_cache::lighting::side_point;
 use gi_cache::packing::unpack_unit_vector;
 use gi_cache::{CacheBuffers, CacheConfig, CacheTracer, CpuCache};
 use gi_gpu::bvh::GpuRay;
-use gi_gpu::{GpuContext, GpuTimer, PassTimings, ShaderLibrary};
+use gi_gpu::{GpuContext, GpuTimer, PassTimings, Recorder, ShaderLibrary, Technique};
 use gi_scene::{Scene, Sky};
-use gi_tiers::mobile::{ProbeVolume, VolumeConfig};
+use gi_tiers::mobile::{ProbeVolume, VolumeConfig, VolumeInputs};
 use glam::{Vec3, Vec4};
 use rand::Rng as _;
 use rand_pcg::Pcg32;
@@ -169,8 +169,16 @@ fn run(
     let mut timer = GpuTimer::new(ctx, "mobile.volume.test", 2);
     let mut timings = Vec::new();
     for frame in first..first + frames {
-        let mut encoder = ctx.create_encoder("mobile.volume.test");
-        volume.update(ctx, &mut timer, &mut encoder, cache, camera, &sky(), frame);
+        let mut rec = Recorder::new(ctx, &mut timer, "mobile.volume.test");
+        let sky = sky();
+        let inputs = VolumeInputs {
+            cache,
+            camera_position: camera,
+            sky: &sky,
+            frame_index: frame,
+        };
+        volume.record(&mut rec, &inputs);
+        let encoder = rec.into_encoder();
         let t = timer.finish(ctx, encoder);
         if frame >= first + frames / 2 {
             timings.push(t);

@@ -4,9 +4,12 @@
 //! rejection and clamping.
 
 use gi_cache::packing::pack_unit_vector;
-use gi_gpu::{GpuContext, GpuTimer, ShaderLibrary, rust_field_offsets, wgpu, wgsl_struct_layout};
+use gi_gpu::{
+    GpuContext, GpuTimer, Recorder, ShaderLibrary, Technique, rust_field_offsets, wgpu,
+    wgsl_struct_layout,
+};
 use gi_tiers::pc::denoise::{
-    DenoiseConfig, DenoisePipelines, DenoiseSources, DenoiseUniforms, Denoiser,
+    DenoiseConfig, DenoiseInputs, DenoisePipelines, DenoiseSources, DenoiseUniforms, Denoiser,
 };
 use glam::Vec3;
 use rand::RngExt as _;
@@ -71,7 +74,6 @@ fn column(pixel: usize) -> u32 {
 /// A denoiser over its own source buffers, which each frame overwrites.
 struct Harness {
     ctx: GpuContext,
-    pipelines: DenoisePipelines,
     noisy: wgpu::Buffer,
     depth: wgpu::Buffer,
     normal: wgpu::Buffer,
@@ -103,7 +105,6 @@ impl Harness {
         let timer = GpuTimer::new(&ctx, "test.denoise", 16);
         Self {
             ctx,
-            pipelines,
             noisy,
             depth,
             normal,
@@ -120,14 +121,9 @@ impl Harness {
         queue.write_buffer(&self.depth, 0, bytemuck::cast_slice(&frame.depth));
         queue.write_buffer(&self.normal, 0, bytemuck::cast_slice(&frame.normal));
         queue.write_buffer(&self.motion, 0, bytemuck::cast_slice(&frame.motion));
-        let mut encoder = self.ctx.create_encoder("test.denoise");
-        self.denoiser.record(
-            &self.ctx,
-            &mut self.timer,
-            &mut encoder,
-            &self.pipelines,
-            config,
-        );
+        let mut rec = Recorder::new(&self.ctx, &mut self.timer, "test.denoise");
+        self.denoiser.record(&mut rec, &DenoiseInputs { config });
+        let encoder = rec.into_encoder();
         let timings = self.timer.finish(&self.ctx, encoder);
         let expected = 1 + u32::from(config.atrous_iterations > 0) + config.atrous_iterations;
         assert_eq!(timings.0.len() as u32, expected, "{timings:?}");

@@ -10,23 +10,25 @@ pub use config::{
     MobileConfig, PROBE_TEXELS, ScreenConfig, ScreenProbeMode, VolumeConfig, VolumeConfigError,
 };
 pub use screen::{GpuScreenProbe, ScreenUniforms};
-pub use volume::{ProbeSample, ProbeVolume, VolumeError};
+pub use volume::{ProbeSample, ProbeVolume, VolumeError, VolumeInputs, VolumeOutputs};
 
 use gi_cache::lighting::GpuSky;
-use gi_cache::{CacheLighting, RadianceCache, ScreenInputs, binning::dynamic_triangles};
-use gi_gpu::gbuffer::{GBuffer, GBufferInputs};
-use gi_gpu::{GpuCamera, GpuContext, GpuTimer, ShaderLibrary, wgpu};
+use gi_cache::{CacheLighting, RadianceCache, binning::dynamic_triangles};
+use gi_gpu::gbuffer::GBuffer;
+use gi_gpu::{GpuCamera, GpuContext, GpuTimer, Recorder, ShaderLibrary, Technique, wgpu};
 use gi_image::Image;
 use gi_scene::SceneFrame;
 use glam::Vec3;
 
 use crate::output::GpuOutput;
+use crate::realtime::record_gbuffer_and_cache;
 use crate::requirements::{FrameCost, Requirements, image_bytes};
 use crate::scene_state::{Followed, SceneState, check_frame_settings};
 use crate::tier::{FrameInput, TierError, TierKind, TierSettings};
-use crate::tracer::{Accumulation, PathPipelines};
+use crate::tracer::{Accumulation, DirectInputs, PathPipelines};
 use screen::{
-    ScreenBuffers, ScreenLayout, ScreenPipelines, ScreenSources, ScreenStep, screen_uniforms,
+    ProbeStep, ScreenLayout, ScreenPipelines, ScreenProbes, ScreenSources, ScreenStep,
+    screen_uniforms,
 };
 
 /// What the mobile tier needs of an adapter at `settings`' resolution. The screen-probe
@@ -113,7 +115,7 @@ pub struct MobileTier {
 /// What the tier uploaded for its scene.
 struct Prepared {
     state: SceneState,
-    screen: ScreenBuffers,
+    screen: ScreenProbes,
     dynamic_triangles: wgpu::Buffer,
 }
 
@@ -276,27 +278,19 @@ impl MobileTier {
         &self,
         direct: &Accumulation,
         dynamic_triangles: &wgpu::Buffer,
-    ) -> ScreenBuffers {
-        let find = |name| self.gbuffer.output(name);
+    ) -> ScreenProbes {
         let layout = ScreenLayout::new(
             self.settings.width,
             self.settings.height,
             self.config.screen.tile_px,
         );
-        ScreenBuffers::new(
+        ScreenProbes::new(
             &self.ctx,
             &self.screen_pipelines,
             layout,
             self.config.screen.mode,
             &ScreenSources {
-                depth: find("gbuffer.depth"),
-                normal: find("gbuffer.normal"),
-                base_color: find("gbuffer.base_color"),
-                metallic_roughness: find("gbuffer.metallic_roughness"),
-                triangle: find("gbuffer.triangle"),
-                motion: find("gbuffer.motion"),
-                emissive: find("gbuffer.emissive"),
-                blend_layer: find("gbuffer.blend_layer"),
+                gbuffer: self.gbuffer.outputs(),
                 dynamic_triangles,
                 direct_mean: &direct.mean,
             },
@@ -357,117 +351,89 @@ impl MobileTier {
         let frame = input.frame;
         self.prepare(input)?;
         let size = (self.settings.width, self.settings.height);
-        let ctx = &self.ctx;
-        let prepared = self.prepared.as_mut().expect("prepared above");
-        let camera = GpuCamera::new(&frame.camera, size);
-        let sky = GpuSky::new(&frame.sky);
+        let MobileTier {
+            ctx,
+            timer,
+            gbuffer,
+            cache,
+            volume,
+            prepared,
+            config,
+            settings,
+            frame_index,
+            ..
+        } = self;
+        let Prepared { state, screen, .. } = prepared.as_mut().expect("prepared above");
+        let scene = &state.scene;
+        let blend_layer = gbuffer.has_blend_layer();
+        let mut rec = Recorder::new(ctx, timer, "mobile/frame");
 
-        let mut encoder = ctx.create_encoder("mobile/frame");
-        self.gbuffer.record(
-            ctx,
-            &mut encoder,
-            &mut self.timer,
-            &GBufferInputs {
-                frame,
-                scene: &prepared.state.scene,
-                previous: &prepared.state.previous,
-            },
-        );
-        let cache_stats = self.cache.update(
-            ctx,
-            &mut self.timer,
-            &mut encoder,
-            &gi_cache::CacheInputs {
-                scene: input.scene,
-                frame,
-                gpu_scene: &prepared.state.scene,
-                bvh: &prepared.state.scene.bvh,
-                camera_position: frame.camera.position,
-                gbuffer: Some(ScreenInputs::from_gbuffer(&self.gbuffer, &frame.camera)),
-            },
-        );
-        let screen = &mut prepared.screen;
+        let (_, cache) = record_gbuffer_and_cache(&mut rec, gbuffer, cache, input, state);
         // A cache fill (a first view, a jump) lights through missing walls: history gathered
         // from it must not be kept.
-        if cache_stats.filling {
+        if cache.stats.filling {
             screen.reset_history();
         }
+        let cache_buffers = cache.buffers;
         let mut uniforms = screen_uniforms(
-            &self.config.screen,
+            &config.screen,
             screen.layout,
-            camera,
-            GpuCamera::new(&prepared.state.previous.camera, size),
-            sky,
-            self.frame_index,
-            self.settings.seed,
+            GpuCamera::new(&frame.camera, size),
+            GpuCamera::new(&state.previous.camera, size),
+            GpuSky::new(&frame.sky),
+            *frame_index,
+            settings.seed,
         );
-        if self.gbuffer.has_blend_layer() {
+        if blend_layer {
             uniforms.flags |= screen::FLAG_BLEND_LAYER;
         }
         screen.begin_frame(ctx, uniforms);
-        let cache_group = &self.cache.buffers().bind_group;
-        let groups = (self.volume.bind_group(), cache_group);
+        let cache = &cache_buffers.bind_group;
         screen.record(
-            ctx,
-            &mut self.timer,
-            &mut encoder,
-            &self.screen_pipelines,
-            groups,
-            ScreenStep::Lite,
+            &mut rec,
+            &ProbeStep {
+                step: ScreenStep::Lite,
+                volume: volume.bind_group(),
+                cache,
+            },
         );
-        self.volume.update(
-            ctx,
-            &mut self.timer,
-            &mut encoder,
-            self.cache.buffers(),
-            frame.camera.position,
-            &frame.sky,
-            self.frame_index,
+        let volume = volume.record(
+            &mut rec,
+            &VolumeInputs {
+                cache: cache_buffers,
+                camera_position: frame.camera.position,
+                sky: &frame.sky,
+                frame_index: *frame_index,
+            },
         );
-        let groups = (self.volume.bind_group(), &self.cache.buffers().bind_group);
-        screen.record(
-            ctx,
-            &mut self.timer,
-            &mut encoder,
-            &self.screen_pipelines,
-            groups,
-            ScreenStep::Probes,
-        );
-        screen.record(
-            ctx,
-            &mut self.timer,
-            &mut encoder,
-            &self.screen_pipelines,
-            groups,
-            ScreenStep::Gather,
-        );
-        self.timer.submit(ctx, encoder);
-
-        let mut encoder = ctx.create_encoder("mobile/compose");
-        if prepared.state.direct.samples < self.settings.spp {
-            prepared.state.direct.record_samples(
-                ctx,
-                &self.direct_pipelines,
-                &prepared.state.scene,
-                &mut self.timer,
-                &mut encoder,
-                1,
-            );
+        for step in [ScreenStep::Probes, ScreenStep::Gather] {
+            let inputs = ProbeStep {
+                step,
+                volume: volume.bind_group,
+                cache,
+            };
+            screen.record(&mut rec, &inputs);
         }
+        rec.submit("mobile/compose");
+
+        let samples = u32::from(state.direct.samples < settings.spp);
+        state
+            .direct
+            .record(&mut rec, &DirectInputs { scene, samples });
         screen.record(
-            ctx,
-            &mut self.timer,
-            &mut encoder,
-            &self.screen_pipelines,
-            groups,
-            ScreenStep::Compose,
+            &mut rec,
+            &ProbeStep {
+                step: ScreenStep::Compose,
+                volume: volume.bind_group,
+                cache,
+            },
         );
 
-        prepared.state.finish_frame(frame);
-        self.frame_index = self.frame_index.wrapping_add(1);
+        state.finish_frame(frame);
+        *frame_index = frame_index.wrapping_add(1);
         if let Some(progress) = input.progress {
-            progress(prepared.state.direct.samples);
+            progress(state.direct.samples);
         }
-        Ok(encoder)
+        Ok(rec.into_encoder())
     }
 }

@@ -6,7 +6,10 @@ use bytemuck::{Pod, Zeroable};
 use gi_cache::lighting::GpuSky;
 use gi_cache::{CACHE_LANES, CacheBuffers};
 use gi_gpu::binding::{buffer_entries, uniform_entry};
-use gi_gpu::{GpuCamera, GpuContext, GpuError, GpuTimer, PingPong, ShaderLibrary, wgpu};
+use gi_gpu::{
+    GBufferOutputs, GpuCamera, GpuContext, GpuError, PingPong, Recorder, ShaderLibrary, Technique,
+    wgpu,
+};
 
 use super::config::{PROBE_TEXELS, ScreenConfig, ScreenProbeMode};
 
@@ -97,6 +100,7 @@ impl ScreenLayout {
 
 /// The six pipelines, sharing one layout: group 0 the screen buffers, 1 the probe volume,
 /// 2 the cache.
+#[derive(Clone)]
 pub struct ScreenPipelines {
     layout0: wgpu::BindGroupLayout,
     lite: wgpu::ComputePipeline,
@@ -143,7 +147,7 @@ impl ScreenPipelines {
     }
 }
 
-/// The screen passes in frame order, as [`ScreenBuffers::record`] records them.
+/// The screen passes in frame order, as [`Technique::record`] records them.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum ScreenStep {
     /// `mobile/lite`: the lite G-buffer.
@@ -156,19 +160,13 @@ pub enum ScreenStep {
     Compose,
 }
 
-/// The G-buffer outputs and the direct image the screen passes read, by binding.
+/// What the screen passes read from the rest of the frame: the G-buffer, which triangles move,
+/// and the direct light.
 pub struct ScreenSources<'a> {
-    pub depth: &'a wgpu::Buffer,
-    pub normal: &'a wgpu::Buffer,
-    pub base_color: &'a wgpu::Buffer,
-    pub metallic_roughness: &'a wgpu::Buffer,
-    pub triangle: &'a wgpu::Buffer,
-    pub motion: &'a wgpu::Buffer,
-    /// `gbuffer.emissive`, for the material's occlusion factor in its w.
-    pub emissive: &'a wgpu::Buffer,
-    /// `gbuffer.blend_layer`, the blended layers in front of the pixels.
-    pub blend_layer: &'a wgpu::Buffer,
+    pub gbuffer: GBufferOutputs<'a>,
+    /// One bit per frame triangle: moved by an animation.
     pub dynamic_triangles: &'a wgpu::Buffer,
+    /// The direct light's mean, which the compose pass adds the GI to.
     pub direct_mean: &'a wgpu::Buffer,
 }
 
@@ -211,7 +209,9 @@ pub struct ScreenFrame {
 
 /// The screen buffers of one image size (labels `mobile.*`), with the bind groups of both
 /// sides of the frames' ping-pong.
-pub struct ScreenBuffers {
+pub struct ScreenProbes {
+    /// The six pipelines (shared with the tier).
+    pipelines: ScreenPipelines,
     pub layout: ScreenLayout,
     uniforms: wgpu::Buffer,
     pub lite: wgpu::Buffer,
@@ -227,7 +227,70 @@ pub struct ScreenBuffers {
     frames_rendered: u32,
 }
 
-impl ScreenBuffers {
+/// What one step of the screen probes reads.
+pub struct ProbeStep<'a> {
+    /// Which passes to record.
+    pub step: ScreenStep,
+    /// The probe volume's bind group (group 1).
+    pub volume: &'a wgpu::BindGroup,
+    /// The brick cache's bind group.
+    pub cache: &'a wgpu::BindGroup,
+}
+
+/// The screen probes: recorded in steps around the probe volume's update and the direct
+/// light (see [`ScreenStep`]).
+impl Technique for ScreenProbes {
+    type Inputs<'i> = ProbeStep<'i>;
+    /// The steps write the technique's own buffers; [`ScreenStep::Compose`] writes the final
+    /// image, `mobile.output` ([`ScreenProbes`]'s `output`).
+    type Outputs<'o> = ();
+
+    /// Records the passes of the step (see [`ScreenStep`]), each timed under its name.
+    fn record(&mut self, rec: &mut Recorder<'_>, inputs: &ProbeStep<'_>) {
+        let pipelines = &self.pipelines;
+        let (w, h) = self.layout.size;
+        let full = [w.div_ceil(TILE_GROUP), h.div_ceil(TILE_GROUP)];
+        let slots = self.layout.slots();
+        let per_slot = [slots.div_ceil(LINEAR_GROUP), 1];
+        let texels = slots * PROBE_TEXELS * PROBE_TEXELS;
+        let passes: Vec<(&str, &wgpu::ComputePipeline, [u32; 2])> = match inputs.step {
+            ScreenStep::Lite => vec![("mobile/lite", &pipelines.lite, full)],
+            ScreenStep::Probes => {
+                let mut passes = Vec::new();
+                if self.mode == ScreenProbeMode::SmartGi {
+                    passes.push(("mobile/probe_reproject", &pipelines.reproject, per_slot));
+                }
+                passes.push(("mobile/probe_place", &pipelines.place, per_slot));
+                // CACHE_LANES invocations per ray, in rows of at most 65535 workgroups.
+                let groups = (texels * CACHE_LANES).div_ceil(LINEAR_GROUP);
+                let row = groups.min(MAX_GROUPS_PER_ROW);
+                passes.push((
+                    "mobile/probe_trace",
+                    &pipelines.trace,
+                    [row, groups.div_ceil(row)],
+                ));
+                passes
+            }
+            ScreenStep::Gather => {
+                let (w, h) = self.layout.half;
+                let half = [w.div_ceil(TILE_GROUP), h.div_ceil(TILE_GROUP)];
+                vec![("mobile/gather", &pipelines.gather, half)]
+            }
+            ScreenStep::Compose => vec![("mobile/compose", &pipelines.compose, full)],
+        };
+        for (name, pipeline, groups) in passes {
+            rec.compute_pass(name, |pass| {
+                pass.set_pipeline(pipeline);
+                pass.set_bind_group(0, self.groups.current(), &[]);
+                pass.set_bind_group(1, inputs.volume, &[]);
+                pass.set_bind_group(CacheBuffers::BIND_GROUP, inputs.cache, &[]);
+                pass.dispatch_workgroups(groups[0], groups[1], 1);
+            });
+        }
+    }
+}
+
+impl ScreenProbes {
     pub fn new(
         ctx: &GpuContext,
         pipelines: &ScreenPipelines,
@@ -261,12 +324,12 @@ impl ScreenBuffers {
             let mut entries = buffer_entries(0, [&uniforms]);
             entries.extend(
                 ScreenGroup {
-                    gbuffer_depth: sources.depth,
-                    gbuffer_normal: sources.normal,
-                    gbuffer_base_color: sources.base_color,
-                    gbuffer_metallic_roughness: sources.metallic_roughness,
-                    gbuffer_triangle: sources.triangle,
-                    gbuffer_motion: sources.motion,
+                    gbuffer_depth: sources.gbuffer.depth,
+                    gbuffer_normal: sources.gbuffer.normal,
+                    gbuffer_base_color: sources.gbuffer.base_color,
+                    gbuffer_metallic_roughness: sources.gbuffer.metallic_roughness,
+                    gbuffer_triangle: sources.gbuffer.triangle,
+                    gbuffer_motion: sources.gbuffer.motion,
                     dynamic_triangles: sources.dynamic_triangles,
                     lite: &lite,
                     probes: &frame.probes,
@@ -279,8 +342,8 @@ impl ScreenBuffers {
                     probes_prev: &previous.probes,
                     probe_radiance_prev: &previous.probe_radiance,
                     tile_claims: &tile_claims,
-                    gbuffer_emissive: sources.emissive,
-                    gbuffer_blend_layer: sources.blend_layer,
+                    gbuffer_emissive: sources.gbuffer.emissive,
+                    gbuffer_blend_layer: sources.gbuffer.blend_layer,
                 }
                 .entries(),
             );
@@ -292,6 +355,7 @@ impl ScreenBuffers {
         };
         let groups = PingPong::from_fn(group);
         Self {
+            pipelines: pipelines.clone(),
             layout,
             uniforms,
             lite,
@@ -321,75 +385,6 @@ impl ScreenBuffers {
         self.frames_rendered += 1;
     }
 
-    fn group(&self) -> &wgpu::BindGroup {
-        self.groups.current()
-    }
-
-    /// Records the passes of `step` (see [`ScreenStep`]), each timed under its name.
-    pub fn record(
-        &self,
-        ctx: &GpuContext,
-        timer: &mut GpuTimer,
-        encoder: &mut wgpu::CommandEncoder,
-        pipelines: &ScreenPipelines,
-        groups: (&wgpu::BindGroup, &wgpu::BindGroup),
-        step: ScreenStep,
-    ) {
-        let (w, h) = self.layout.size;
-        let full = [w.div_ceil(TILE_GROUP), h.div_ceil(TILE_GROUP)];
-        let slots = self.layout.slots();
-        let per_slot = [slots.div_ceil(LINEAR_GROUP), 1];
-        let texels = slots * PROBE_TEXELS * PROBE_TEXELS;
-        let passes: Vec<(&str, &wgpu::ComputePipeline, [u32; 2])> = match step {
-            ScreenStep::Lite => vec![("mobile/lite", &pipelines.lite, full)],
-            ScreenStep::Probes => {
-                let mut passes = Vec::new();
-                if self.mode == ScreenProbeMode::SmartGi {
-                    passes.push(("mobile/probe_reproject", &pipelines.reproject, per_slot));
-                }
-                passes.push(("mobile/probe_place", &pipelines.place, per_slot));
-                // CACHE_LANES invocations per ray, in rows of at most 65535 workgroups.
-                let groups = (texels * CACHE_LANES).div_ceil(LINEAR_GROUP);
-                let row = groups.min(MAX_GROUPS_PER_ROW);
-                passes.push((
-                    "mobile/probe_trace",
-                    &pipelines.trace,
-                    [row, groups.div_ceil(row)],
-                ));
-                passes
-            }
-            ScreenStep::Gather => {
-                let (w, h) = self.layout.half;
-                let half = [w.div_ceil(TILE_GROUP), h.div_ceil(TILE_GROUP)];
-                vec![("mobile/gather", &pipelines.gather, half)]
-            }
-            ScreenStep::Compose => vec![("mobile/compose", &pipelines.compose, full)],
-        };
-        for (name, pipeline, workgroups) in passes {
-            self.dispatch(ctx, timer, encoder, name, pipeline, groups, workgroups);
-        }
-    }
-
-    #[allow(clippy::too_many_arguments)]
-    fn dispatch(
-        &self,
-        ctx: &GpuContext,
-        timer: &mut GpuTimer,
-        encoder: &mut wgpu::CommandEncoder,
-        name: &str,
-        pipeline: &wgpu::ComputePipeline,
-        (volume, cache): (&wgpu::BindGroup, &wgpu::BindGroup),
-        groups: [u32; 2],
-    ) {
-        timer.compute_pass(ctx, encoder, name, |pass| {
-            pass.set_pipeline(pipeline);
-            pass.set_bind_group(0, self.group(), &[]);
-            pass.set_bind_group(1, volume, &[]);
-            pass.set_bind_group(CacheBuffers::BIND_GROUP, cache, &[]);
-            pass.dispatch_workgroups(groups[0], groups[1], 1);
-        });
-    }
-
     /// Stops counting and destroys the buffers.
     pub fn release(self, ctx: &GpuContext) {
         for buffer in [
@@ -409,7 +404,7 @@ impl ScreenBuffers {
     }
 }
 
-/// The screen uniforms of a frame (history validity is set by [`ScreenBuffers::begin_frame`]).
+/// The screen uniforms of a frame (history validity is set by [`ScreenProbes::begin_frame`]).
 pub fn screen_uniforms(
     config: &ScreenConfig,
     layout: ScreenLayout,

@@ -22,7 +22,7 @@ use gi_cache::CacheBuffers;
 use gi_cache::lighting::GpuSky;
 use gi_cache::query::GpuIrradianceQuery;
 use gi_gpu::binding::{buffer_entries, storage_entry, uniform_entry};
-use gi_gpu::{GpuContext, GpuError, GpuTimer, ShaderLibrary, wgpu};
+use gi_gpu::{GpuContext, GpuError, Recorder, ShaderLibrary, Technique, wgpu};
 use glam::{IVec3, Vec3, Vec4};
 
 use super::config::{VolumeConfig, VolumeConfigError};
@@ -193,6 +193,80 @@ fn bind_group_layout(
             label: Some(label),
             entries,
         })
+}
+
+/// What one update of the probe volume reads.
+#[derive(Clone, Copy)]
+pub struct VolumeInputs<'a> {
+    /// The brick cache the probes' rays trace.
+    pub cache: &'a CacheBuffers,
+    /// Where the clipmap is centered.
+    pub camera_position: Vec3,
+    /// What rays that leave the cache see.
+    pub sky: &'a gi_scene::Sky,
+    /// Indexes every probe's random sequence.
+    pub frame_index: u32,
+}
+
+/// What one update of the probe volume produced.
+pub struct VolumeOutputs<'a> {
+    /// The volume's bind group (group 1 of the screen passes), over the updated probes.
+    pub bind_group: &'a wgpu::BindGroup,
+}
+
+impl Technique for ProbeVolume {
+    type Inputs<'i> = VolumeInputs<'i>;
+    type Outputs<'o> = VolumeOutputs<'o>;
+
+    /// Re-centers the clipmap on the camera and records the `mobile/volume` pass: probes that
+    /// entered a window are reset, active probes relocated where needed and updated with
+    /// [`VolumeConfig::rays_per_probe`] rays each through the cache; rays that leave the cache
+    /// see the sky.
+    ///
+    /// The uniforms go through the queue, so record at most one update per submission.
+    fn record<'o>(
+        &'o mut self,
+        rec: &mut Recorder<'_>,
+        inputs: &VolumeInputs<'_>,
+    ) -> VolumeOutputs<'o> {
+        let VolumeInputs {
+            cache,
+            camera_position,
+            sky,
+            frame_index,
+        } = *inputs;
+        let ctx = rec.ctx;
+        let uniforms = self.uniforms_at(camera_position);
+        ctx.queue
+            .write_buffer(&self.uniforms, 0, bytemuck::bytes_of(&uniforms));
+        let update = GpuUpdateUniforms {
+            sky: GpuSky::new(sky),
+            frame_index,
+            rays_per_probe: self.config.rays_per_probe,
+            seed: RAY_SEED,
+            slot_count: self.slot_count,
+        };
+        ctx.queue
+            .write_buffer(&self.update_uniforms, 0, bytemuck::bytes_of(&update));
+        let encoder = rec.encoder();
+        encoder.copy_buffer_to_buffer(&self.dispatch_init, 0, &self.dispatch_args, 0, 16);
+        encoder.clear_buffer(&self.active_count, 0, None);
+        rec.compute_pass("mobile/volume", |pass| {
+            pass.set_pipeline(&self.classify_probes);
+            pass.set_bind_group(0, &self.classify_group, &[]);
+            pass.set_bind_group(VOLUME_BIND_GROUP, &self.bind_group, &[]);
+            pass.set_bind_group(CacheBuffers::BIND_GROUP, &cache.bind_group, &[]);
+            pass.dispatch_workgroups(self.slot_count.div_ceil(WORKGROUP_SIZE), 1, 1);
+            // The classify pass's list and counts feed the trace pass; the arguments buffer is
+            // not bound here (it is the indirect buffer of this dispatch).
+            pass.set_pipeline(&self.trace_probes);
+            pass.set_bind_group(0, &self.trace_group, &[]);
+            pass.dispatch_workgroups_indirect(&self.dispatch_args, 0);
+        });
+        VolumeOutputs {
+            bind_group: &self.bind_group,
+        }
+    }
 }
 
 impl ProbeVolume {
@@ -386,51 +460,6 @@ impl ProbeVolume {
             max_age: self.config.max_age,
             ..Default::default()
         }
-    }
-
-    /// Re-centers the clipmap on the camera and records the `mobile/volume` pass: probes that
-    /// entered a window are reset, active probes relocated where needed and updated with
-    /// [`VolumeConfig::rays_per_probe`] rays each through `cache`; rays that leave the cache
-    /// see `sky`. `frame_index` indexes every probe's random sequence.
-    ///
-    /// The uniforms go through the queue, so record at most one update per submission.
-    #[allow(clippy::too_many_arguments)]
-    pub fn update(
-        &mut self,
-        ctx: &GpuContext,
-        timer: &mut GpuTimer,
-        encoder: &mut wgpu::CommandEncoder,
-        cache: &CacheBuffers,
-        camera_position: Vec3,
-        sky: &gi_scene::Sky,
-        frame_index: u32,
-    ) {
-        let uniforms = self.uniforms_at(camera_position);
-        ctx.queue
-            .write_buffer(&self.uniforms, 0, bytemuck::bytes_of(&uniforms));
-        let update = GpuUpdateUniforms {
-            sky: GpuSky::new(sky),
-            frame_index,
-            rays_per_probe: self.config.rays_per_probe,
-            seed: RAY_SEED,
-            slot_count: self.slot_count,
-        };
-        ctx.queue
-            .write_buffer(&self.update_uniforms, 0, bytemuck::bytes_of(&update));
-        encoder.copy_buffer_to_buffer(&self.dispatch_init, 0, &self.dispatch_args, 0, 16);
-        encoder.clear_buffer(&self.active_count, 0, None);
-        timer.compute_pass(ctx, encoder, "mobile/volume", |pass| {
-            pass.set_pipeline(&self.classify_probes);
-            pass.set_bind_group(0, &self.classify_group, &[]);
-            pass.set_bind_group(VOLUME_BIND_GROUP, &self.bind_group, &[]);
-            pass.set_bind_group(CacheBuffers::BIND_GROUP, &cache.bind_group, &[]);
-            pass.dispatch_workgroups(self.slot_count.div_ceil(WORKGROUP_SIZE), 1, 1);
-            // The classify pass's list and counts feed the trace pass; the arguments buffer is
-            // not bound here (it is the indirect buffer of this dispatch).
-            pass.set_pipeline(&self.trace_probes);
-            pass.set_bind_group(0, &self.trace_group, &[]);
-            pass.dispatch_workgroups_indirect(&self.dispatch_args, 0);
-        });
     }
 
     /// GPU bytes of the volume's buffers (labels `mobile.volume.*`).

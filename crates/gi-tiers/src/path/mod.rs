@@ -263,13 +263,8 @@ impl GpuPathTier {
                 self.timer = GpuTimer::new(&self.ctx, self.kind.name(), passes);
                 self.timer_scopes = passes;
             }
-            let timings = accumulation.add_samples(
-                &self.ctx,
-                &self.pipelines,
-                &prepared.scene,
-                &mut self.timer,
-                spp,
-            );
+            let timings =
+                accumulation.add_samples(&self.ctx, &prepared.scene, &mut self.timer, spp);
             let trace = accumulation.trace_stats(&self.ctx);
             if trace.cut_invocations == 0 {
                 return Ok((timings, trace));

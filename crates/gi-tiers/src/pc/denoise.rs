@@ -3,7 +3,7 @@
 //! clamping with the short history's 5 x 5 neighbourhood) followed by SVGF (Schied et al. 2017,
 //! "Spatiotemporal Variance-Guided Filtering", HPG).
 //!
-//! Each frame [`Denoiser::record`] records, on full-resolution storage buffers:
+//! Each frame [`Technique::record`] records, on full-resolution storage buffers:
 //!
 //! 1. `pc/denoise_temporal`, two dispatches. `temporal_short` reprojects the histories
 //!    through the motion vectors (bilinear 2 x 2 taps, each kept only if its previous depth and
@@ -56,7 +56,7 @@ use std::num::NonZeroU64;
 
 use bytemuck::{Pod, Zeroable};
 use gi_gpu::binding::{buffer_entries, storage_entry, uniform_entry};
-use gi_gpu::{GpuContext, GpuError, GpuTimer, PingPong, ShaderLibrary, wgpu};
+use gi_gpu::{GpuContext, GpuError, PingPong, Recorder, ShaderLibrary, Technique, wgpu};
 
 /// Most a-trous iterations (the last one's taps are 256 pixels apart).
 pub const MAX_ATROUS_ITERATIONS: u32 = 8;
@@ -232,6 +232,7 @@ impl DenoiseUniforms {
 
 /// The four pipelines, one per entry point, sharing two bind group layouts: group 0 the
 /// frame's inputs, the histories and the filter buffers, group 1 the dispatch's uniforms.
+#[derive(Clone)]
 pub struct DenoisePipelines {
     frame_layout: wgpu::BindGroupLayout,
     uniform_layout: wgpu::BindGroupLayout,
@@ -297,6 +298,8 @@ pub struct DenoiseSources<'a> {
 /// The denoiser of one image size: its histories and output (labels `pc.denoise.*`) and the
 /// bind groups over them and the sources it was made with.
 pub struct Denoiser {
+    /// The pipelines (shared with whoever compiled them).
+    pipelines: DenoisePipelines,
     size: (u32, u32),
     source_depth: wgpu::Buffer,
     source_normal: wgpu::Buffer,
@@ -321,6 +324,81 @@ pub struct Denoiser {
     /// Group 1 of each uniform slot.
     uniform_groups: Vec<wgpu::BindGroup>,
     has_history: bool,
+}
+
+/// What one frame of the denoiser reads besides the sources it was made with.
+pub struct DenoiseInputs<'a> {
+    /// The filter's settings this frame.
+    pub config: &'a DenoiseConfig,
+}
+
+/// What one frame of the denoiser produced.
+pub struct DenoiseOutputs<'a> {
+    /// The denoised irradiance ([`Denoiser::output`]).
+    pub irradiance: &'a wgpu::Buffer,
+}
+
+impl Technique for Denoiser {
+    type Inputs<'i> = DenoiseInputs<'i>;
+    type Outputs<'o> = DenoiseOutputs<'o>;
+
+    /// Records this frame's denoise passes (timer scopes `pc/denoise_temporal`,
+    /// `pc/denoise_variance`, `pc/denoise_atrous`), then the copies of this
+    /// frame's depth and normal that the next frame reprojects against. The uniforms are
+    /// written through the queue: record at most one frame per submission. `config` should be
+    /// valid ([`DenoiseConfig::validate`]); more a-trous iterations than
+    /// [`MAX_ATROUS_ITERATIONS`] are cut to that.
+    fn record<'o>(
+        &'o mut self,
+        rec: &mut Recorder<'_>,
+        inputs: &DenoiseInputs<'_>,
+    ) -> DenoiseOutputs<'o> {
+        let config = inputs.config;
+        let ctx = rec.ctx;
+        debug_assert_eq!(config.validate(), Ok(()));
+        let iterations = config.atrous_iterations.min(MAX_ATROUS_ITERATIONS);
+        self.write_uniforms(ctx, config);
+        self.short_history.swap();
+        self.frame_groups.swap();
+        let workgroups = [
+            self.size.0.div_ceil(TILE_GROUP),
+            self.size.1.div_ceil(TILE_GROUP),
+        ];
+        let frame_group = self.frame_groups.current();
+        let dispatch =
+            |pass: &mut wgpu::ComputePass<'_>, pipeline: &wgpu::ComputePipeline, slot: u32| {
+                pass.set_pipeline(pipeline);
+                pass.set_bind_group(0, frame_group, &[]);
+                pass.set_bind_group(1, &self.uniform_groups[slot as usize], &[]);
+                pass.dispatch_workgroups(workgroups[0], workgroups[1], 1);
+            };
+        // One scope for both dispatches: wgpu orders dispatches of a pass with barriers, and
+        // `temporal` reads the short history `temporal_short` wrote around each pixel.
+        rec.compute_pass("pc/denoise_temporal", |pass| {
+            dispatch(pass, &self.pipelines.temporal_short, 0);
+            dispatch(pass, &self.pipelines.temporal, 0);
+        });
+        // Without a-trous iterations the temporal pass wrote the output and the history.
+        if iterations > 0 {
+            rec.compute_pass("pc/denoise_variance", |pass| {
+                dispatch(pass, &self.pipelines.variance, 0);
+            });
+            for i in 0..iterations {
+                rec.compute_pass("pc/denoise_atrous", |pass| {
+                    dispatch(pass, &self.pipelines.atrous, 1 + i);
+                });
+            }
+        }
+        // After the last pass: the previous normal was a filter buffer until now.
+        let bytes = self.previous_depth.size();
+        let encoder = rec.encoder();
+        encoder.copy_buffer_to_buffer(&self.source_depth, 0, &self.previous_depth, 0, bytes);
+        encoder.copy_buffer_to_buffer(&self.source_normal, 0, &self.previous_normal, 0, bytes);
+        self.has_history = config.temporal;
+        DenoiseOutputs {
+            irradiance: &self.output,
+        }
+    }
 }
 
 impl Denoiser {
@@ -391,6 +469,7 @@ impl Denoiser {
             })
             .collect();
         Self {
+            pipelines: pipelines.clone(),
             size,
             source_depth: sources.depth.clone(),
             source_normal: sources.normal.clone(),
@@ -405,61 +484,6 @@ impl Denoiser {
             uniform_groups,
             has_history: false,
         }
-    }
-
-    /// Records this frame's denoise passes (timer scopes `pc/denoise_temporal`,
-    /// `pc/denoise_variance`, `pc/denoise_atrous`) into `encoder`, then the copies of this
-    /// frame's depth and normal that the next frame reprojects against. The uniforms are
-    /// written through the queue: record at most one frame per submission. `config` should be
-    /// valid ([`DenoiseConfig::validate`]); more a-trous iterations than
-    /// [`MAX_ATROUS_ITERATIONS`] are cut to that.
-    pub fn record(
-        &mut self,
-        ctx: &GpuContext,
-        timer: &mut GpuTimer,
-        encoder: &mut wgpu::CommandEncoder,
-        pipelines: &DenoisePipelines,
-        config: &DenoiseConfig,
-    ) {
-        debug_assert_eq!(config.validate(), Ok(()));
-        let iterations = config.atrous_iterations.min(MAX_ATROUS_ITERATIONS);
-        self.write_uniforms(ctx, config);
-        self.short_history.swap();
-        self.frame_groups.swap();
-        let workgroups = [
-            self.size.0.div_ceil(TILE_GROUP),
-            self.size.1.div_ceil(TILE_GROUP),
-        ];
-        let frame_group = self.frame_groups.current();
-        let dispatch =
-            |pass: &mut wgpu::ComputePass<'_>, pipeline: &wgpu::ComputePipeline, slot: u32| {
-                pass.set_pipeline(pipeline);
-                pass.set_bind_group(0, frame_group, &[]);
-                pass.set_bind_group(1, &self.uniform_groups[slot as usize], &[]);
-                pass.dispatch_workgroups(workgroups[0], workgroups[1], 1);
-            };
-        // One scope for both dispatches: wgpu orders dispatches of a pass with barriers, and
-        // `temporal` reads the short history `temporal_short` wrote around each pixel.
-        timer.compute_pass(ctx, encoder, "pc/denoise_temporal", |pass| {
-            dispatch(pass, &pipelines.temporal_short, 0);
-            dispatch(pass, &pipelines.temporal, 0);
-        });
-        // Without a-trous iterations the temporal pass wrote the output and the history.
-        if iterations > 0 {
-            timer.compute_pass(ctx, encoder, "pc/denoise_variance", |pass| {
-                dispatch(pass, &pipelines.variance, 0);
-            });
-            for i in 0..iterations {
-                timer.compute_pass(ctx, encoder, "pc/denoise_atrous", |pass| {
-                    dispatch(pass, &pipelines.atrous, 1 + i);
-                });
-            }
-        }
-        // After the last pass: the previous normal was a filter buffer until now.
-        let bytes = self.previous_depth.size();
-        encoder.copy_buffer_to_buffer(&self.source_depth, 0, &self.previous_depth, 0, bytes);
-        encoder.copy_buffer_to_buffer(&self.source_normal, 0, &self.previous_normal, 0, bytes);
-        self.has_history = config.temporal;
     }
 
     /// Writes slot 0 (temporal, variance) and one slot per a-trous iteration.
@@ -483,7 +507,7 @@ impl Denoiser {
 
     /// The denoised irradiance, `array<vec4<f32>>` (rgb; w holds the filter's luminance
     /// variance estimate), valid once the recorded passes ran and until the next
-    /// [`Denoiser::record`], which uses it as scratch.
+    /// [`Technique::record`], which uses it as scratch.
     pub fn output(&self) -> &wgpu::Buffer {
         &self.output
     }

@@ -27,19 +27,20 @@ pub use config::{
 
 use bytemuck::{Pod, Zeroable};
 use gi_cache::lighting::GpuSky;
-use gi_cache::{CacheLighting, RadianceCache, ScreenInputs, binning::dynamic_triangles};
-use gi_gpu::gbuffer::{GBUFFER_MISS, GBuffer, GBufferInputs};
-use gi_gpu::{GpuCamera, GpuContext, GpuError, GpuTimer, ShaderLibrary, wgpu};
+use gi_cache::{CacheLighting, RadianceCache, binning::dynamic_triangles};
+use gi_gpu::gbuffer::{GBUFFER_MISS, GBuffer};
+use gi_gpu::{GpuCamera, GpuContext, GpuError, GpuTimer, Recorder, ShaderLibrary, Technique, wgpu};
 use gi_image::Image;
 use gi_scene::SceneFrame;
 
 use crate::output::GpuOutput;
+use crate::realtime::record_gbuffer_and_cache;
 use crate::requirements::{FrameCost, Requirements, image_bytes};
 use crate::scene_state::{SceneState, check_frame_settings, read_image};
 use crate::tier::{FrameInput, TierError, TierKind, TierSettings};
-use crate::tracer::PathPipelines;
-use denoise::{DenoisePipelines, DenoiseSources, Denoiser};
-use restir::{RestirBuffers, RestirFrame, RestirInputs, RestirPipelines};
+use crate::tracer::{DirectInputs, PathPipelines};
+use denoise::{DenoiseInputs, DenoisePipelines, DenoiseSources, Denoiser};
+use restir::{Restir, RestirInputs, RestirPipelines};
 
 /// Most timed passes in one frame.
 const TIMER_SCOPES: u32 = 48;
@@ -219,7 +220,7 @@ pub struct PcTier {
 /// What the tier uploaded for its scene.
 struct Prepared {
     state: SceneState,
-    buffers: RestirBuffers,
+    restir: Restir,
     denoiser: Denoiser,
     /// Per triangle of the uploaded frame: moved by an animation (for [`PcFrameData`]).
     dynamic_triangles: Vec<bool>,
@@ -227,7 +228,7 @@ struct Prepared {
 
 impl Prepared {
     fn release(self, ctx: &GpuContext) {
-        self.buffers.release(ctx);
+        self.restir.release(ctx);
         self.denoiser.release(ctx);
         self.state.release(ctx);
     }
@@ -282,7 +283,8 @@ impl PcTier {
         let ctx = &self.ctx;
         let (width, height) = (self.settings.width, self.settings.height);
         let read = |buffer: &wgpu::Buffer| read_image(ctx, buffer, (width, height));
-        let output = read(&prepared.buffers.output);
+        let buffers = &prepared.restir.buffers;
+        let output = read(&buffers.output);
         let direct = read(&prepared.state.direct.mean);
         let gi = Image {
             width,
@@ -305,10 +307,10 @@ impl PcTier {
             .collect();
         Some(PcFrameData {
             gi,
-            noisy_irradiance: read(&prepared.buffers.irradiance),
+            noisy_irradiance: read(&buffers.irradiance),
             irradiance: read(prepared.denoiser.output()),
-            reservoirs: ctx.read_buffer(&prepared.buffers.resolved),
-            trace_size: prepared.buffers.trace_size,
+            reservoirs: ctx.read_buffer(&buffers.resolved),
+            trace_size: buffers.trace_size,
             depth: gbuffer.depth,
             motion: gbuffer.motion,
             dynamic,
@@ -319,7 +321,7 @@ impl PcTier {
         let size = (self.settings.width, self.settings.height);
         let r = &self.config.restir;
         let prepared = self.prepared.as_ref().expect("prepared before uniforms");
-        let trace_size = prepared.buffers.trace_size;
+        let trace_size = prepared.restir.buffers.trace_size;
         let mut bits = 0;
         for (on, bit) in [
             (r.temporal, flags::TEMPORAL),
@@ -400,26 +402,28 @@ impl PcTier {
             &self.settings.textures,
         )?;
         self.gbuffer.prepare_layers(&self.ctx, &state.scene);
-        let buffers = RestirBuffers::new(
+        let restir = Restir::new(
             &self.ctx,
+            &self.pipelines,
             size,
             self.config.trace_scale,
             self.config.restir.temporal,
         );
+        let gbuffer = self.gbuffer.outputs();
         let denoiser = Denoiser::new(
             &self.ctx,
             &self.denoise_pipelines,
             size,
             &DenoiseSources {
-                noisy: &buffers.irradiance,
-                depth: self.gbuffer.output("gbuffer.depth"),
-                normal: self.gbuffer.output("gbuffer.normal"),
-                motion: self.gbuffer.output("gbuffer.motion"),
+                noisy: &restir.buffers.irradiance,
+                depth: gbuffer.depth,
+                normal: gbuffer.normal,
+                motion: gbuffer.motion,
             },
         );
         self.prepared = Some(Prepared {
             state,
-            buffers,
+            restir,
             denoiser,
             dynamic_triangles: dynamic_triangles(input.scene, input.frame),
         });
@@ -435,7 +439,7 @@ impl PcTier {
         let prepared = self.prepared.as_ref()?;
         Some(GpuOutput {
             ctx: &self.ctx,
-            image: &prepared.buffers.output,
+            image: &prepared.restir.buffers.output,
             direct: Some(&prepared.state.direct.mean),
             size: (self.settings.width, self.settings.height),
         })
@@ -446,97 +450,76 @@ impl PcTier {
     fn record_frame(&mut self, input: &FrameInput) -> Result<wgpu::CommandEncoder, TierError> {
         let frame = input.frame;
         self.prepare(input)?;
-        let ctx = &self.ctx;
-        let mut encoder = ctx.create_encoder("pc/frame");
-        {
+        let mut uniforms = {
             let prepared = self.prepared.as_ref().expect("prepared above");
-            self.gbuffer.record(
-                ctx,
-                &mut encoder,
-                &mut self.timer,
-                &GBufferInputs {
-                    frame,
-                    scene: &prepared.state.scene,
-                    previous: &prepared.state.previous,
-                },
-            );
-        }
-        let cache_stats = {
-            let prepared = self.prepared.as_ref().expect("prepared above");
-            self.cache.update(
-                ctx,
-                &mut self.timer,
-                &mut encoder,
-                &gi_cache::CacheInputs {
-                    scene: input.scene,
-                    frame,
-                    gpu_scene: &prepared.state.scene,
-                    bvh: &prepared.state.scene.bvh,
-                    camera_position: frame.camera.position,
-                    gbuffer: Some(ScreenInputs::from_gbuffer(&self.gbuffer, &frame.camera)),
-                },
-            )
-        };
-        // A cache fill (a first view, a jump) lights through missing walls: reservoirs and
-        // history gathered from it must not be kept.
-        if cache_stats.filling {
-            let prepared = self.prepared.as_mut().expect("prepared above");
-            prepared.buffers.history = false;
-            prepared.denoiser.reset_history();
-        }
-        let uniforms = {
-            let prepared = self.prepared.as_ref().expect("prepared above");
-            self.uniforms(frame, &prepared.state.previous, prepared.buffers.history)
-        };
-        let Prepared {
-            state,
-            buffers,
-            denoiser,
-            ..
-        } = self.prepared.as_mut().expect("prepared above");
-        ctx.queue
-            .write_buffer(&buffers.uniforms, 0, bytemuck::bytes_of(&uniforms));
-        let inputs = RestirInputs {
-            gbuffer: &self.gbuffer,
-            scene: &state.scene,
-            cache: &self.cache.buffers().bind_group,
-            denoised: denoiser.output(),
-            direct: &state.direct.mean,
+            let history = prepared.restir.buffers.history;
+            self.uniforms(frame, &prepared.state.previous, history)
         };
         let size = (self.settings.width, self.settings.height);
-        let restir = RestirFrame::new(ctx, &self.pipelines, buffers, &inputs, size);
-        let timer = &mut self.timer;
-        (self.pipelines).record_reuse(ctx, timer, &mut encoder, &restir, &self.config);
+        let PcTier {
+            ctx,
+            timer,
+            gbuffer,
+            cache,
+            prepared,
+            config,
+            settings,
+            frame_index,
+            ..
+        } = self;
+        let Prepared {
+            state,
+            restir,
+            denoiser,
+            ..
+        } = prepared.as_mut().expect("prepared above");
+        let scene = &state.scene;
+        let mut rec = Recorder::new(ctx, timer, "pc/frame");
+
+        let (gbuffer, cache) = record_gbuffer_and_cache(&mut rec, gbuffer, cache, input, state);
+        // A cache fill (a first view, a jump) lights through missing walls: reservoirs and
+        // history gathered from it must not be kept.
+        if cache.stats.filling {
+            restir.buffers.history = false;
+            uniforms.flags &= !flags::HISTORY;
+            denoiser.reset_history();
+        }
+        ctx.queue
+            .write_buffer(&restir.buffers.uniforms, 0, bytemuck::bytes_of(&uniforms));
+        restir.record(
+            &mut rec,
+            &RestirInputs {
+                scene,
+                cache: &cache.buffers.bind_group,
+                gbuffer,
+                denoised: denoiser.output(),
+                direct: &state.direct.mean,
+                config,
+                size,
+            },
+        );
         // While the cache's light converges (after a fill, a jump or a change of the lights)
         // the long history would average its darker, staler frames: it keeps the short
         // history's length until the cache has settled, then grows back a frame at a time.
-        let mut denoise = self.config.denoise.clone();
-        if cache_stats.converging {
+        let mut denoise = config.denoise.clone();
+        if cache.stats.converging {
             denoise.long_history = denoise.short_history;
         }
-        denoiser.record(ctx, timer, &mut encoder, &self.denoise_pipelines, &denoise);
-        timer.submit(ctx, encoder);
+        denoiser.record(&mut rec, &DenoiseInputs { config: &denoise });
+        rec.submit("pc/compose");
 
-        let mut encoder = ctx.create_encoder("pc/compose");
-        if state.direct.samples < self.settings.spp {
-            (state.direct).record_samples(
-                ctx,
-                &self.direct_pipelines,
-                &state.scene,
-                timer,
-                &mut encoder,
-                1,
-            );
-        }
-        (self.pipelines).record_compose(ctx, timer, &mut encoder, &restir);
+        let samples = u32::from(state.direct.samples < settings.spp);
+        state
+            .direct
+            .record(&mut rec, &DirectInputs { scene, samples });
+        restir.compose(&mut rec);
 
-        let prepared = self.prepared.as_mut().expect("prepared above");
-        prepared.state.finish_frame(frame);
-        prepared.buffers.end_frame();
-        self.frame_index = self.frame_index.wrapping_add(1);
+        state.finish_frame(frame);
+        restir.end_frame();
+        *frame_index = frame_index.wrapping_add(1);
         if let Some(progress) = input.progress {
-            progress(prepared.state.direct.samples);
+            progress(state.direct.samples);
         }
-        Ok(encoder)
+        Ok(rec.into_encoder())
     }
 }

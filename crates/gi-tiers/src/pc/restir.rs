@@ -6,9 +6,9 @@
 use gi_cache::CacheBuffers;
 use gi_gpu::binding::{buffer_entries, uniform_entry};
 use gi_gpu::bvh::{BVH_BIND_GROUP, GpuBvh};
-use gi_gpu::gbuffer::GBuffer;
 use gi_gpu::{
-    GpuContext, GpuError, GpuScene, GpuTimer, PingPong, ShaderLibrary, TEXTURE_BIND_GROUP, wgpu,
+    GBufferOutputs, GpuContext, GpuError, GpuScene, PingPong, Recorder, ShaderLibrary,
+    TEXTURE_BIND_GROUP, Technique, wgpu,
 };
 
 use super::{GpuReservoir, GpuSpecularSample, GpuSurface, PcConfig, PcUniforms};
@@ -17,7 +17,8 @@ use super::{GpuReservoir, GpuSpecularSample, GpuSurface, PcConfig, PcUniforms};
 const TILE: u32 = 8;
 
 /// The compute pipelines of `pc/trace.wgsl`, `pc/restir.wgsl` and `pc/specular.wgsl` and
-/// their layouts.
+/// their layouts, compiled once per tier; cloning shares them.
+#[derive(Clone)]
 pub(super) struct RestirPipelines {
     trace_layout: wgpu::BindGroupLayout,
     restir_layout: wgpu::BindGroupLayout,
@@ -248,18 +249,22 @@ impl RestirBuffers {
     }
 }
 
-/// What the frame's bind groups name from the rest of the frame: the scene and the cache,
-/// which the passes bind as they record (`'a`), and buffers that only the bind groups name
-/// (`'b`).
-pub(super) struct RestirInputs<'a, 'b> {
+/// What one frame of the technique reads. The bind groups also name buffers that passes
+/// later in the frame write ([`Restir::compose`] reads them): the denoiser's output and the
+/// direct light's mean.
+pub(super) struct RestirInputs<'a> {
     pub scene: &'a GpuScene,
     /// The brick cache's bind group (group 2), which the hits and the sky read.
     pub cache: &'a wgpu::BindGroup,
-    pub gbuffer: &'b GBuffer,
+    pub gbuffer: GBufferOutputs<'a>,
     /// The denoised irradiance the compose pass reads (the denoiser's output).
-    pub denoised: &'b wgpu::Buffer,
+    pub denoised: &'a wgpu::Buffer,
     /// The direct light's mean (the compose pass adds the GI to it).
-    pub direct: &'b wgpu::Buffer,
+    pub direct: &'a wgpu::Buffer,
+    /// Which passes run.
+    pub config: &'a PcConfig,
+    /// Image size in pixels.
+    pub size: (u32, u32),
 }
 
 /// One frame's bind groups: `pc/trace.wgsl`'s group 0 and the one of `pc/restir.wgsl` and
@@ -275,7 +280,7 @@ impl RestirBuffers {
         &self,
         ctx: &GpuContext,
         pipelines: &RestirPipelines,
-        inputs: &RestirInputs<'_, '_>,
+        inputs: &RestirInputs<'_>,
     ) -> RestirGroups {
         RestirGroups {
             trace: self.trace_group(ctx, pipelines, inputs),
@@ -287,23 +292,23 @@ impl RestirBuffers {
         &self,
         ctx: &GpuContext,
         pipelines: &RestirPipelines,
-        inputs: &RestirInputs<'_, '_>,
+        inputs: &RestirInputs<'_>,
     ) -> wgpu::BindGroup {
         let b = self;
         let frame = b.frames.current();
-        let g = inputs.gbuffer;
+        let g = &inputs.gbuffer;
         let mut entries = buffer_entries(0, [&b.uniforms]);
         entries.extend(inputs.scene.bind_group_entries());
         entries.extend(
             TraceBindings {
-                gbuffer_depth: g.output("gbuffer.depth"),
-                gbuffer_normal: g.output("gbuffer.normal"),
+                gbuffer_depth: g.depth,
+                gbuffer_normal: g.normal,
                 surfaces: &frame.surfaces,
                 initial: &b.initial,
                 temporal: &frame.temporal,
                 resolved: &b.resolved,
-                gbuffer_base_color: g.output("gbuffer.base_color"),
-                gbuffer_metallic_roughness: g.output("gbuffer.metallic_roughness"),
+                gbuffer_base_color: g.base_color,
+                gbuffer_metallic_roughness: g.metallic_roughness,
                 specular_samples: &b.specular_samples,
             }
             .entries(),
@@ -319,19 +324,19 @@ impl RestirBuffers {
         &self,
         ctx: &GpuContext,
         pipelines: &RestirPipelines,
-        inputs: &RestirInputs<'_, '_>,
+        inputs: &RestirInputs<'_>,
     ) -> wgpu::BindGroup {
         let b = self;
         let (frame, previous) = (b.frames.current(), b.frames.history());
-        let g = inputs.gbuffer;
+        let g = &inputs.gbuffer;
         let mut entries = buffer_entries(0, [&b.uniforms]);
         entries.extend(
             RestirBindings {
-                gbuffer_depth: g.output("gbuffer.depth"),
-                gbuffer_normal: g.output("gbuffer.normal"),
-                gbuffer_base_color: g.output("gbuffer.base_color"),
-                gbuffer_metallic_roughness: g.output("gbuffer.metallic_roughness"),
-                gbuffer_motion: g.output("gbuffer.motion"),
+                gbuffer_depth: g.depth,
+                gbuffer_normal: g.normal,
+                gbuffer_base_color: g.base_color,
+                gbuffer_metallic_roughness: g.metallic_roughness,
+                gbuffer_motion: g.motion,
                 surfaces: &frame.surfaces,
                 surfaces_prev: &previous.surfaces,
                 initial: &b.initial,
@@ -346,8 +351,8 @@ impl RestirBuffers {
                 specular_noisy: &b.specular_noisy,
                 specular_history: &frame.specular_history,
                 specular_history_prev: &previous.specular_history,
-                gbuffer_emissive: g.output("gbuffer.emissive"),
-                gbuffer_blend_layer: g.output("gbuffer.blend_layer"),
+                gbuffer_emissive: g.emissive,
+                gbuffer_blend_layer: g.blend_layer,
             }
             .entries(),
         );
@@ -359,118 +364,132 @@ impl RestirBuffers {
     }
 }
 
-impl RestirPipelines {
-    /// Records the passes before the denoiser, each under its name, in order: `pc/trace`
-    /// (a diffuse ray per trace pixel, its hit shaded from the brick cache), `pc/specular_trace`,
-    /// `pc/temporal` and `pc/spatial` (ReSTIR GI reuse), `pc/shadow` (the chosen samples'
-    /// visibility), `pc/shade` (multi-sample shading into `irradiance`), `pc/specular_resolve`
-    /// and `pc/specular_temporal`, each as `config` switches it on.
-    pub(super) fn record_reuse(
-        &self,
+/// The technique: the pipelines, the buffers with their histories, and the bind groups of
+/// the frame it recorded last, which [`Restir::compose`] binds.
+pub(super) struct Restir {
+    pipelines: RestirPipelines,
+    pub(super) buffers: RestirBuffers,
+    recorded: Option<RecordedFrame>,
+}
+
+/// What the compose pass binds of the frame recorded last.
+struct RecordedFrame {
+    groups: RestirGroups,
+    cache: wgpu::BindGroup,
+    full_workgroups: (u32, u32),
+}
+
+impl Restir {
+    /// The technique for images of `size`, tracing one pixel in `trace_scale` per axis.
+    /// Without temporal reuse the temporal reservoirs are never read: they hold one each.
+    pub(super) fn new(
         ctx: &GpuContext,
-        timer: &mut GpuTimer,
-        encoder: &mut wgpu::CommandEncoder,
-        frame: &RestirFrame,
-        config: &PcConfig,
-    ) {
+        pipelines: &RestirPipelines,
+        size: (u32, u32),
+        trace_scale: u32,
+        temporal: bool,
+    ) -> Self {
+        Self {
+            pipelines: pipelines.clone(),
+            buffers: RestirBuffers::new(ctx, size, trace_scale, temporal),
+            recorded: None,
+        }
+    }
+
+    /// Records `pc/compose`: the final image, the direct light plus the denoised diffuse and
+    /// the specular GI, weighted by the G-buffer's material, over the bind groups of the frame
+    /// recorded last; returns `pc.output`. Nothing is recorded before the first frame.
+    pub(super) fn compose(&self, rec: &mut Recorder<'_>) -> &wgpu::Buffer {
+        if let Some(frame) = &self.recorded {
+            rec.compute_pass("pc/compose", |pass| {
+                pass.set_pipeline(&self.pipelines.compose);
+                pass.set_bind_group(0, &frame.groups.restir, &[]);
+                pass.set_bind_group(CacheBuffers::BIND_GROUP, &frame.cache, &[]);
+                let groups = frame.full_workgroups;
+                pass.dispatch_workgroups(groups.0, groups.1, 1);
+            });
+        }
+        &self.buffers.output
+    }
+
+    /// Ends a frame: its surfaces, reservoirs and specular history become the next frame's
+    /// history.
+    pub(super) fn end_frame(&mut self) {
+        self.buffers.end_frame();
+    }
+
+    pub(super) fn release(&self, ctx: &GpuContext) {
+        self.buffers.release(ctx);
+    }
+}
+
+impl Technique for Restir {
+    type Inputs<'i> = RestirInputs<'i>;
+    /// The frame's result is `pc.irradiance`, the shaded diffuse irradiance per pixel before
+    /// denoising, which the denoiser was made over ([`super::denoise::DenoiseSources`]).
+    type Outputs<'o> = ();
+
+    /// Records the passes before the denoiser, each under its name, in order: `pc/trace`
+    /// (a diffuse ray per trace pixel, its hit shaded from the brick cache),
+    /// `pc/specular_trace`, `pc/temporal` and `pc/spatial` (ReSTIR GI reuse), `pc/shadow` (the
+    /// chosen samples' visibility), `pc/shade` (multi-sample shading into `irradiance`),
+    /// `pc/specular_resolve` and `pc/specular_temporal`, each as the config switches it on.
+    fn record(&mut self, rec: &mut Recorder<'_>, inputs: &RestirInputs<'_>) {
+        let groups = self.buffers.groups(rec.ctx, &self.pipelines, inputs);
+        let (tw, th) = self.buffers.trace_size;
+        let trace_workgroups = (tw.div_ceil(TILE), th.div_ceil(TILE));
+        let size = inputs.size;
+        let full_workgroups = (size.0.div_ceil(TILE), size.1.div_ceil(TILE));
+        let config = inputs.config;
+        let p = &self.pipelines;
         // Each pass: name, pipeline, whether it traces (BVH bound, the trace module's group 0)
         // and whether it runs per trace pixel (else per pixel).
         let specular = config.specular.traced;
-        let mut steps = vec![("pc/trace", &self.trace, true, true)];
+        let mut steps = vec![("pc/trace", &p.trace, true, true)];
         if specular {
-            steps.push(("pc/specular_trace", &self.specular_trace, true, true));
+            steps.push(("pc/specular_trace", &p.specular_trace, true, true));
         }
         // Without temporal reuse the spatial reuse and the shadow pass read the initial
         // reservoirs.
         if config.restir.temporal {
-            steps.push(("pc/temporal", &self.temporal, false, true));
+            steps.push(("pc/temporal", &p.temporal, false, true));
         }
         if config.restir.spatial {
-            steps.push(("pc/spatial", &self.spatial, false, true));
+            steps.push(("pc/spatial", &p.spatial, false, true));
         }
-        steps.push(("pc/shadow", &self.shadow, true, true));
-        steps.push(("pc/shade", &self.shade, false, false));
+        steps.push(("pc/shadow", &p.shadow, true, true));
+        steps.push(("pc/shade", &p.shade, false, false));
         if specular {
-            steps.push(("pc/specular_resolve", &self.specular_resolve, false, false));
+            steps.push(("pc/specular_resolve", &p.specular_resolve, false, false));
         }
         if specular || config.specular.reuse_diffuse {
-            steps.push((
-                "pc/specular_temporal",
-                &self.specular_temporal,
-                false,
-                false,
-            ));
+            steps.push(("pc/specular_temporal", &p.specular_temporal, false, false));
         }
+        let scene = inputs.scene;
         for (name, pipeline, traces, per_trace_pixel) in steps {
-            timer.compute_pass(ctx, encoder, name, |pass| {
+            rec.compute_pass(name, |pass| {
                 pass.set_pipeline(pipeline);
                 if traces {
-                    pass.set_bind_group(0, &frame.groups.trace, &[]);
-                    pass.set_bind_group(BVH_BIND_GROUP, &frame.scene.bvh.bind_group, &[]);
-                    frame.scene.set_texture_bind_group(pass);
+                    pass.set_bind_group(0, &groups.trace, &[]);
+                    pass.set_bind_group(BVH_BIND_GROUP, &scene.bvh.bind_group, &[]);
+                    scene.set_texture_bind_group(pass);
                 } else {
-                    pass.set_bind_group(0, &frame.groups.restir, &[]);
+                    pass.set_bind_group(0, &groups.restir, &[]);
                 }
-                pass.set_bind_group(CacheBuffers::BIND_GROUP, frame.cache, &[]);
+                pass.set_bind_group(CacheBuffers::BIND_GROUP, inputs.cache, &[]);
                 let groups = if per_trace_pixel {
-                    frame.trace_workgroups
+                    trace_workgroups
                 } else {
-                    frame.full_workgroups
+                    full_workgroups
                 };
                 pass.dispatch_workgroups(groups.0, groups.1, 1);
             });
         }
-    }
-
-    /// Records `pc/compose`: the final image, the direct light plus the denoised diffuse and the
-    /// specular GI, weighted by the G-buffer's material.
-    pub(super) fn record_compose(
-        &self,
-        ctx: &GpuContext,
-        timer: &mut GpuTimer,
-        encoder: &mut wgpu::CommandEncoder,
-        frame: &RestirFrame,
-    ) {
-        timer.compute_pass(ctx, encoder, "pc/compose", |pass| {
-            pass.set_pipeline(&self.compose);
-            pass.set_bind_group(0, &frame.groups.restir, &[]);
-            pass.set_bind_group(CacheBuffers::BIND_GROUP, frame.cache, &[]);
-            let groups = frame.full_workgroups;
-            pass.dispatch_workgroups(groups.0, groups.1, 1);
-        });
-    }
-}
-
-/// What the passes of one frame bind and dispatch over.
-pub(super) struct RestirFrame<'a> {
-    /// The scene whose BVH and textures the tracing passes bind.
-    scene: &'a GpuScene,
-    /// The brick cache's bind group.
-    cache: &'a wgpu::BindGroup,
-    groups: RestirGroups,
-    /// Workgroups over the trace pixels and over the full-resolution pixels.
-    trace_workgroups: (u32, u32),
-    full_workgroups: (u32, u32),
-}
-
-impl<'a> RestirFrame<'a> {
-    /// The frame over `buffers` of an image of `size`, reading `inputs`.
-    pub(super) fn new(
-        ctx: &GpuContext,
-        pipelines: &RestirPipelines,
-        buffers: &RestirBuffers,
-        inputs: &RestirInputs<'a, '_>,
-        size: (u32, u32),
-    ) -> Self {
-        let groups = buffers.groups(ctx, pipelines, inputs);
-        let (tw, th) = buffers.trace_size;
-        Self {
-            scene: inputs.scene,
-            cache: inputs.cache,
+        self.recorded = Some(RecordedFrame {
             groups,
-            trace_workgroups: (tw.div_ceil(TILE), th.div_ceil(TILE)),
-            full_workgroups: (size.0.div_ceil(TILE), size.1.div_ceil(TILE)),
-        }
+            cache: inputs.cache.clone(),
+            full_workgroups,
+        });
     }
 }
 

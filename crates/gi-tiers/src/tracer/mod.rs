@@ -11,8 +11,8 @@ use std::num::NonZeroU64;
 use bytemuck::{Pod, Zeroable};
 use gi_gpu::binding::{buffer_entries, storage_entry};
 use gi_gpu::{
-    GpuCamera, GpuContext, GpuError, GpuScene, GpuTimer, PassTimings, ShaderDefValue,
-    ShaderLibrary, wgpu,
+    GpuCamera, GpuContext, GpuError, GpuScene, GpuTimer, PassTimings, Recorder, ShaderDefValue,
+    ShaderLibrary, Technique, wgpu,
 };
 use gi_scene::{SceneFrame, Sky};
 
@@ -113,7 +113,9 @@ struct ResolveUniforms {
     pad: [u32; 2],
 }
 
-/// The two pipelines; one per entry point, named after it.
+/// The two pipelines; one per entry point, named after it. Cloning shares the compiled
+/// pipelines.
+#[derive(Clone)]
 pub(crate) struct PathPipelines {
     /// Entry point `trace` of `path/trace.wgsl` (with `DIRECT_ONLY` for the direct tier).
     pub(crate) trace: wgpu::ComputePipeline,
@@ -212,6 +214,8 @@ pub(crate) struct TraceStats {
 /// pixel), one 256-byte uniform slot per dispatch of the largest pass so far
 /// (`<tier>.trace_uniforms`) and the bind groups over them and the scene.
 pub(crate) struct Accumulation {
+    /// The tier's trace and resolve pipelines (shared with the tier).
+    pipelines: PathPipelines,
     pub(crate) size: (u32, u32),
     /// Samples per pixel in the sums.
     pub(crate) samples: u32,
@@ -232,6 +236,36 @@ pub(crate) struct Accumulation {
     trace_stats: wgpu::Buffer,
     trace_group: wgpu::BindGroup,
     resolve_group: wgpu::BindGroup,
+}
+
+/// What one frame of the real-time tiers' direct light reads.
+pub(crate) struct DirectInputs<'a> {
+    /// The scene the accumulation traces (its BVH and textures).
+    pub(crate) scene: &'a GpuScene,
+    /// Samples per pixel to add this frame, at most as many as one pass holds; 0 records
+    /// nothing (the mean is the last frame's).
+    pub(crate) samples: u32,
+}
+
+/// The real-time tiers' direct light: an accumulation of direct-only samples while the view
+/// holds still. Each frame records one `<tier>/trace` pass and a `<tier>/resolve`. Its
+/// uniforms are written with `queue.write_buffer`: what `rec` holds must be submitted before
+/// the next frame. Nothing reads the trace's counts back here: the tiers add one direct-only
+/// sample per frame, a camera ray and a shadow ray per light, far below the budgets.
+impl Technique for Accumulation {
+    type Inputs<'i> = DirectInputs<'i>;
+    /// The frame's result is `<tier>.mean`, the mean of the samples so far, `vec4<f32>` per
+    /// pixel: the same buffer every frame of the accumulation.
+    type Outputs<'o> = ();
+
+    fn record(&mut self, rec: &mut Recorder<'_>, inputs: &DirectInputs<'_>) {
+        if inputs.samples > 0 {
+            let (ctx, timer, encoder) = rec.parts();
+            encoder.clear_buffer(&self.trace_stats, 0, None);
+            self.record_trace(ctx, inputs.scene, timer, encoder, inputs.samples);
+            self.record_resolve(ctx, timer, encoder);
+        }
+    }
 }
 
 impl Accumulation {
@@ -274,6 +308,7 @@ impl Accumulation {
             buffer_entries(0, [&resolve_uniforms, &sum, &mean]),
         );
         Self {
+            pipelines: pipelines.clone(),
             size,
             samples: 0,
             uniforms,
@@ -334,17 +369,16 @@ impl Accumulation {
     pub(crate) fn add_samples(
         &mut self,
         ctx: &GpuContext,
-        pipelines: &PathPipelines,
         scene: &GpuScene,
         timer: &mut GpuTimer,
         spp: u32,
     ) -> PassTimings {
-        let label = format!("{}/frame", pipelines.tier);
+        let label = format!("{}/frame", self.pipelines.tier);
         let mut encoder = ctx.create_encoder(&label);
         encoder.clear_buffer(&self.trace_stats, 0, None);
         let mut remaining = spp.min(u32::MAX - self.samples);
         loop {
-            remaining -= self.record_trace(ctx, pipelines, scene, timer, &mut encoder, remaining);
+            remaining -= self.record_trace(ctx, scene, timer, &mut encoder, remaining);
             if remaining == 0 {
                 break;
             }
@@ -354,29 +388,8 @@ impl Accumulation {
                 std::mem::replace(&mut encoder, ctx.create_encoder(&label)),
             );
         }
-        self.record_resolve(ctx, pipelines, timer, &mut encoder);
+        self.record_resolve(ctx, timer, &mut encoder);
         timer.finish(ctx, encoder)
-    }
-
-    /// Records one `<tier>/trace` pass and a `<tier>/resolve` into `encoder`, timed under
-    /// `timer`'s frame, adding `spp` samples per pixel or as many as one pass holds (at least
-    /// one); returns the samples added. Its uniforms are written with `queue.write_buffer`:
-    /// `encoder` must be submitted before the next call. Nothing reads the trace's counts
-    /// back here: the callers (the `mobile` and `pc` tiers' direct light) add one direct-only
-    /// sample per frame, a camera ray and a shadow ray per light, far below the budgets.
-    pub(crate) fn record_samples(
-        &mut self,
-        ctx: &GpuContext,
-        pipelines: &PathPipelines,
-        scene: &GpuScene,
-        timer: &mut GpuTimer,
-        encoder: &mut wgpu::CommandEncoder,
-        spp: u32,
-    ) -> u32 {
-        encoder.clear_buffer(&self.trace_stats, 0, None);
-        let added = self.record_trace(ctx, pipelines, scene, timer, encoder, spp);
-        self.record_resolve(ctx, pipelines, timer, encoder);
-        added
     }
 
     /// Records one `<tier>/trace` compute pass adding `spp` samples per pixel, or as many as
@@ -386,7 +399,6 @@ impl Accumulation {
     fn record_trace(
         &mut self,
         ctx: &GpuContext,
-        pipelines: &PathPipelines,
         scene: &GpuScene,
         timer: &mut GpuTimer,
         encoder: &mut wgpu::CommandEncoder,
@@ -422,14 +434,14 @@ impl Accumulation {
         }
         let dispatches = (slots.len() as u64 / UNIFORM_SLOT_BYTES) as u32;
         debug_assert!(dispatches <= MAX_DISPATCHES_PER_PASS);
-        self.reserve_slots(ctx, pipelines, scene, dispatches);
+        self.reserve_slots(ctx, scene, dispatches);
         ctx.queue.write_buffer(&self.trace_uniforms, 0, &slots);
         self.samples += spp;
         let groups_x = self.size.0.div_ceil(TRACE_TILE);
         let groups_y = plan.rows.min(self.size.1.next_multiple_of(TRACE_TILE)) / TRACE_TILE;
-        let tier = pipelines.tier;
+        let tier = self.pipelines.tier;
         timer.compute_pass(ctx, encoder, &format!("{tier}/trace"), |pass| {
-            pass.set_pipeline(&pipelines.trace);
+            pass.set_pipeline(&self.pipelines.trace);
             pass.set_bind_group(gi_gpu::bvh::BVH_BIND_GROUP, &scene.bvh.bind_group, &[]);
             scene.set_texture_bind_group(pass);
             for slot in 0..dispatches {
@@ -445,7 +457,6 @@ impl Accumulation {
     fn record_resolve(
         &self,
         ctx: &GpuContext,
-        pipelines: &PathPipelines,
         timer: &mut GpuTimer,
         encoder: &mut wgpu::CommandEncoder,
     ) {
@@ -462,9 +473,9 @@ impl Accumulation {
         timer.compute_pass(
             ctx,
             encoder,
-            &format!("{}/resolve", pipelines.tier),
+            &format!("{}/resolve", self.pipelines.tier),
             |pass| {
-                pass.set_pipeline(&pipelines.resolve);
+                pass.set_pipeline(&self.pipelines.resolve);
                 pass.set_bind_group(0, &self.resolve_group, &[]);
                 pass.dispatch_workgroups(groups.div_ceil(rows), rows, 1);
             },
@@ -473,18 +484,12 @@ impl Accumulation {
 
     /// Grows `<tier>.trace_uniforms` to hold `slots` uniform slots (the bind group over it is
     /// made again). Buffers only grow, so a steady frame rate of samples allocates nothing.
-    fn reserve_slots(
-        &mut self,
-        ctx: &GpuContext,
-        pipelines: &PathPipelines,
-        scene: &GpuScene,
-        slots: u32,
-    ) {
+    fn reserve_slots(&mut self, ctx: &GpuContext, scene: &GpuScene, slots: u32) {
         if slots <= self.uniform_slots {
             return;
         }
         let buffer = ctx.create_buffer(
-            &format!("{}.trace_uniforms", pipelines.tier),
+            &format!("{}.trace_uniforms", self.pipelines.tier),
             u64::from(slots) * UNIFORM_SLOT_BYTES,
             wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
         );
@@ -492,7 +497,7 @@ impl Accumulation {
         self.uniform_slots = slots;
         self.trace_group = trace_bind_group(
             ctx,
-            pipelines,
+            &self.pipelines,
             scene,
             &self.trace_uniforms,
             [&self.sum, &self.sum_sq, &self.trace_stats],
