@@ -33,6 +33,11 @@
 //! # Ok(()) }
 //! ```
 //!
+//! A technique of a tier (the G-buffer here, the brick cache, ReSTIR GI, a denoiser) is an
+//! object implementing [`Technique`]: it owns its pipelines, buffers and histories and records
+//! a frame's passes through a [`Recorder`] from typed inputs to typed outputs, so a tier's
+//! frame reads as the list of its techniques.
+//!
 //! Buffers and textures made through the context are counted per label in
 //! [`GpuContext::memory`] and stay alive until released ([`GpuContext::release_buffer`],
 //! [`GpuContext::release_labeled`]): a technique releases what it replaces.
