@@ -16,7 +16,7 @@
 //              into `cache_indirect` (and `cache_emitted`) by `cache/propagate_resolve`
 #define_import_path gi::cache::lighting
 
-#import gi::lights::Sky
+#import gi::sky::Sky
 #import gi::cache::data::{
     cache, cache_brick_masks, cache_voxels, VoxelRef, VoxelSurface, cache_mask_cell,
     cache_mask_test, cache_voxel_index, cache_voxel_normal, cache_voxel_age, cache_keeps_emitted

@@ -7,6 +7,7 @@
 // f32 rounding, and the cache's lighting read what a light delivers from one statement.
 #define_import_path gi::lights
 
+#import gi::sky::Sky
 #import gi::brdf::is_finite
 #import gi::sampling::uniform_triangle
 #import gi::scene::{PunctualLight, lerp_rgb, triangles, emitters, selection, emission, geometric_normal, tex_coords, material_of, alpha_covers, ALPHA_OPAQUE}
@@ -49,18 +50,6 @@ fn light_incident(light: PunctualLight, point: vec3<f32>) -> LightIncident {
         falloff *= cone * cone;
     }
     return LightIncident(wi, distance, light.intensity * falloff);
-}
-
-// The scene's sky (`gi_scene::Sky`): kind 0 constant (`zenith` is its radiance), 1 gradient.
-// 64 bytes, uniform-compatible; mirrored by `gi_cache::lighting::GpuSky`.
-struct Sky {
-    zenith: vec4<f32>,
-    horizon: vec4<f32>,
-    ground: vec4<f32>,
-    kind: u32,
-    pad_a: u32,
-    pad_b: u32,
-    pad_c: u32,
 }
 
 // `gi_scene::Sky::radiance(dir)` for a unit direction.

@@ -28,7 +28,8 @@
 #import gi::bvh::{Ray, Hit, trace_closest, trace_any, BVH_MISS}
 #import gi::camera::{Camera, camera_ray}
 #import gi::scene::{triangles, selection, lights, emission, geometric_normal, material_of, tex_coords, mapped_normal, material_brdf, normalize_or, orient_shading_normal, material_alpha, set_blend_policy, BLEND_HASHED, BLEND_PASS, BLEND_OPAQUE, ALPHA_BLEND}
-#import gi::lights::{LIGHT_DIRECTIONAL, Sky, light_incident, sky_radiance, sample_emitter, emitter_pdf}
+#import gi::sky::Sky
+#import gi::lights::{LIGHT_DIRECTIONAL, light_incident, sky_radiance, sample_emitter, emitter_pdf}
 
 const RUSSIAN_ROULETTE_START: u32 = 3u;
 const RUSSIAN_ROULETTE_MAX_SURVIVAL: f32 = 0.95;
@@ -37,7 +38,7 @@ const RUSSIAN_ROULETTE_MAX_SURVIVAL: f32 = 0.95;
 const SHADOW_MARGIN: f32 = 1e-4;
 const FAR: f32 = 3.40282347e38;
 
-// Mirror of `gi_tiers::path::PathUniforms`. The sky's fields are those of `gi::lights::Sky`,
+// Mirror of `gi_tiers::path::PathUniforms`. The sky's fields are those of `gi::sky::Sky`,
 // which `sky()` assembles from them.
 struct PathUniforms {
     camera: Camera,

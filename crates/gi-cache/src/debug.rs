@@ -1,7 +1,8 @@
 //! Debug views of the cache: what a pinhole camera sees when its rays go through the cache's
 //! hierarchical DDA instead of the scene (entry point `debug_view` of
-//! `shaders/cache/query.wgsl`). They show what the cache holds, not what the scene looks like:
-//! voxel sizes, holes, leaks through thin walls and the lighting stored per surfel side.
+//! `shaders/cache/query/debug_view.wgsl`). They show what the cache holds, not what the scene
+//! looks like: voxel sizes, holes, leaks through thin walls and the lighting stored per surfel
+//! side.
 
 use std::fmt;
 use std::str::FromStr;
@@ -63,7 +64,7 @@ impl DebugView {
         }
     }
 
-    /// The `DEBUG_*` constant of `shaders/cache/query.wgsl`.
+    /// The `DEBUG_*` constant of `shaders/cache/query/debug_view.wgsl`.
     fn shader_index(self) -> u32 {
         Self::ALL.iter().position(|&v| v == self).unwrap_or(0) as u32
     }

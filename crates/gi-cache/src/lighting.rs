@@ -108,7 +108,7 @@ pub fn side_point(center: glam::Vec3, size_m: f32, side_n: glam::Vec3) -> glam::
     p.clamp(center - size_m, center + size_m)
 }
 
-/// The scene's sky as the lighting passes read it (`gi::lights::Sky`, 64 bytes).
+/// The scene's sky as the lighting passes read it (`gi::sky::Sky`, 64 bytes).
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
 pub struct GpuSky {

@@ -1,8 +1,8 @@
 //! Batches of queries through the cache: rays traced with the hierarchical DDA of
 //! `shaders/cache/trace.wgsl` (import path `gi::cache::trace`) and irradiance at surface
-//! points, one query per invocation of `shaders/cache/query.wgsl`. Tests compare the hits with
-//! the scene's BVH; benchmarks time the rays; `gi debug-cache` renders through the same
-//! module ([`crate::debug`]).
+//! points, one query per invocation of the passes of `shaders/cache/query/` (one file each).
+//! Tests compare the hits with the scene's BVH; benchmarks time the rays; `gi debug-cache`
+//! renders through the same shaders ([`crate::debug`]).
 //!
 //! Passes that trace the cache themselves import `gi::cache::trace::{CacheHit, cache_trace,
 //! cache_hit_radiance, cache_hit_normal, cache_irradiance}` and bind the cache's
@@ -31,8 +31,8 @@ const MAX_GROUPS_PER_ROW: u32 = 65_535;
 /// `shaders/cache/trace_shared.wgsl`).
 pub const CACHE_LANES: u32 = 8;
 
-/// One ray's answer as `trace_rays` writes it (`QueryHit` in `shaders/cache/query.wgsl`, 64
-/// bytes).
+/// One ray's answer as `trace_rays` writes it (`QueryHit` in `shaders/cache/query/shared.wgsl`,
+/// 64 bytes).
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
 pub struct GpuCacheRayHit {
@@ -137,8 +137,8 @@ pub struct CacheTraceTimings {
     pub mode: TimerMode,
 }
 
-/// The pipelines of `shaders/cache/query.wgsl`, one per entry point, each with its own batch
-/// layout as bind group 0 and the cache as bind group `CACHE_BIND_GROUP`.
+/// The pipelines of `shaders/cache/query/`, one per entry point, each from its own file and
+/// with its own batch layout as bind group 0 and the cache as bind group `CACHE_BIND_GROUP`.
 pub struct CacheTracer {
     /// Entry point `trace_rays` (timer scope `cache/trace_rays`).
     pub trace_rays: wgpu::ComputePipeline,
@@ -175,11 +175,10 @@ fn batch_groups(count: usize) -> (u32, u32) {
 }
 
 impl CacheTracer {
-    /// Composes `cache/query.wgsl` and builds its three pipelines with explicit layouts:
-    /// group 0 the batch, group [`CacheBuffers::BIND_GROUP`] the cache.
+    /// Composes the files of `cache/query/` and builds their four pipelines with explicit
+    /// layouts: group 0 the batch, group [`CacheBuffers::BIND_GROUP`] the cache.
     pub fn new(ctx: &GpuContext, shaders: &ShaderLibrary) -> Result<Self, GpuError> {
         let cache_layout = CacheBuffers::bind_group_layout(ctx);
-        let module = shaders.create_module(ctx, "cache/query.wgsl", &[])?;
         let layout = |label: &str, entries: &[wgpu::BindGroupLayoutEntry]| {
             ctx.device
                 .create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
@@ -200,22 +199,24 @@ impl CacheTracer {
             &[uniform_entry(4), storage_entry(5, false)],
         );
         let pipeline = |entry_point: &str, batch_layout: &wgpu::BindGroupLayout| {
+            let module =
+                shaders.create_module(ctx, &format!("cache/query/{entry_point}.wgsl"), &[])?;
             let mut groups: Vec<Option<&wgpu::BindGroupLayout>> =
                 vec![None; CACHE_BIND_GROUP as usize + 1];
             groups[0] = Some(batch_layout);
             groups[CACHE_BIND_GROUP as usize] = Some(&cache_layout);
-            ctx.create_compute_pipeline_with_layouts(
+            Ok::<_, GpuError>(ctx.create_compute_pipeline_with_layouts(
                 &format!("cache/{entry_point}"),
                 &module,
                 entry_point,
                 &groups,
-            )
+            ))
         };
         Ok(Self {
-            trace_rays: pipeline("trace_rays", &trace_rays_layout),
-            trace_rays_shared: pipeline("trace_rays_shared", &trace_rays_layout),
-            irradiance_at: pipeline("irradiance_at", &irradiance_at_layout),
-            debug_view: pipeline("debug_view", &debug_view_layout),
+            trace_rays: pipeline("trace_rays", &trace_rays_layout)?,
+            trace_rays_shared: pipeline("trace_rays_shared", &trace_rays_layout)?,
+            irradiance_at: pipeline("irradiance_at", &irradiance_at_layout)?,
+            debug_view: pipeline("debug_view", &debug_view_layout)?,
             trace_rays_layout,
             irradiance_at_layout,
             debug_view_layout,

@@ -28,11 +28,21 @@ fn query_structs_match_their_wgsl_layout() {
     use gi_cache::debug::GpuDebugView;
     use gi_cache::query::{GpuCacheRayHit, GpuIrradianceQuery};
     use gi_gpu::{rust_field_offsets, wgsl_struct_layout};
-    let module = ShaderLibrary::new()
-        .compose("cache/query.wgsl", &[])
-        .expect("cache/query.wgsl composes");
+    // Each struct is declared by the file of the pass that uses it, or by the shared module.
+    let modules: Vec<_> = ["shared", "irradiance_at", "debug_view"]
+        .into_iter()
+        .map(|file| {
+            let path = format!("cache/query/{file}.wgsl");
+            ShaderLibrary::new()
+                .compose(&path, &[])
+                .unwrap_or_else(|e| panic!("{path}: {e}"))
+        })
+        .collect();
     let check = |name: &str, rust: Vec<(String, u32)>, size: usize| {
-        let wgsl = wgsl_struct_layout(&module, name).unwrap_or_else(|| panic!("{name}"));
+        let wgsl = modules
+            .iter()
+            .find_map(|module| wgsl_struct_layout(module, name))
+            .unwrap_or_else(|| panic!("{name}"));
         assert_eq!(wgsl.members, rust, "{name}");
         assert_eq!(wgsl.size as usize, size, "{name}");
     };

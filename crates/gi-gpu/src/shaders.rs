@@ -47,12 +47,21 @@ type ComposeKey = (u64, String, Vec<(String, ShaderDefValue)>);
 static COMPOSED: LazyLock<Mutex<HashMap<ComposeKey, naga::Module>>> =
     LazyLock::new(|| Mutex::new(HashMap::new()));
 
+/// One naga_oil composer per library (by its fingerprint), holding every import module added
+/// to it so far: an import module is parsed once per process, not again for every entry file
+/// that imports it (with one file per pass, a tier composes dozens of entry files over the
+/// same few modules).
+static COMPOSERS: LazyLock<Mutex<HashMap<u64, Composer>>> =
+    LazyLock::new(|| Mutex::new(HashMap::new()));
+
 /// All WGSL sources of the product, by path relative to `shaders/` (e.g. `"bvh/trace.wgsl"`).
 #[derive(Clone, Debug)]
 pub struct ShaderLibrary {
     sources: BTreeMap<String, Cow<'static, str>>,
     /// The hash of every `(path, source)`, computed on first use.
     fingerprint: OnceLock<u64>,
+    /// Import path (`gi::math`) to file, computed on first use.
+    import_paths: OnceLock<HashMap<String, String>>,
 }
 
 impl Default for ShaderLibrary {
@@ -88,6 +97,7 @@ impl ShaderLibrary {
         Self {
             sources,
             fingerprint: OnceLock::new(),
+            import_paths: OnceLock::new(),
         }
     }
 
@@ -108,6 +118,7 @@ impl ShaderLibrary {
         self.sources
             .insert(path.to_owned(), Cow::Owned(source.into()));
         self.fingerprint = OnceLock::new();
+        self.import_paths = OnceLock::new();
         self
     }
 
@@ -173,9 +184,11 @@ impl ShaderLibrary {
             line: 0,
             message: "no such shader file in the library".to_owned(),
         })?;
-        let mut composer = Composer::default().with_capabilities(SHADER_CAPABILITIES);
-        let modules = self.modules_by_import_path();
-        self.add_imports(&mut composer, &modules, source, &mut HashSet::new())?;
+        let mut composers = COMPOSERS.lock().unwrap_or_else(|e| e.into_inner());
+        let composer = composers
+            .entry(self.fingerprint())
+            .or_insert_with(|| Composer::default().with_capabilities(SHADER_CAPABILITIES));
+        self.add_imports(composer, source, &mut HashSet::new())?;
         composer
             .make_naga_module(NagaModuleDescriptor {
                 source,
@@ -187,7 +200,7 @@ impl ShaderLibrary {
                     .collect(),
                 additional_imports: &[],
             })
-            .map_err(|err| shader_error(&err, &composer))
+            .map_err(|err| shader_error(&err, composer))
     }
 
     /// Composes `path` and creates a shader module labeled `path` on the device. Errors wgpu
@@ -218,26 +231,25 @@ impl ShaderLibrary {
     }
 
     /// Adds the modules `source` imports to `composer`, dependencies first (naga_oil requires
-    /// that order). An import no file declares is left out, so naga_oil reports it with its
-    /// location.
+    /// that order), unless the composer has them already (with theirs). An import no file
+    /// declares is left out, so naga_oil reports it with its location.
     fn add_imports(
         &self,
         composer: &mut Composer,
-        modules: &HashMap<String, &str>,
         source: &str,
         added: &mut HashSet<String>,
     ) -> Result<(), GpuError> {
         let (_, imports, _) = naga_oil::compose::get_preprocessor_data(source);
         for import in imports {
-            let Some(path) = modules.get(&import.import) else {
+            let Some(path) = self.import_paths().get(&import.import) else {
                 continue;
             };
             // Inserting before recursing also stops import cycles.
-            if !added.insert(import.import.clone()) {
+            if !added.insert(import.import.clone()) || composer.contains_module(&import.import) {
                 continue;
             }
             let module_source = self.source(path).unwrap_or_default();
-            self.add_imports(composer, modules, module_source, added)?;
+            self.add_imports(composer, module_source, added)?;
             let added_module = composer
                 .add_composable_module(ComposableModuleDescriptor {
                     source: module_source,
@@ -251,10 +263,12 @@ impl ShaderLibrary {
         Ok(())
     }
 
-    fn modules_by_import_path(&self) -> HashMap<String, &str> {
-        self.files()
-            .filter_map(|path| Some((self.import_path(path)?, path)))
-            .collect()
+    fn import_paths(&self) -> &HashMap<String, String> {
+        self.import_paths.get_or_init(|| {
+            self.files()
+                .filter_map(|path| Some((self.import_path(path)?, path.to_owned())))
+                .collect()
+        })
     }
 }
 

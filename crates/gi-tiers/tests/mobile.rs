@@ -66,7 +66,7 @@ fn idle_cache() -> MobileConfig {
 #[test]
 fn shared_structs_match_their_wgsl_layout() {
     let module = ShaderLibrary::new()
-        .compose("mobile/screen.wgsl", &[])
+        .compose("mobile/screen/shared.wgsl", &[])
         .unwrap();
     let check = |name: &str, rust: Vec<(String, u32)>, size: usize| {
         let wgsl = wgsl_struct_layout(&module, name).unwrap_or_else(|| panic!("{name}"));

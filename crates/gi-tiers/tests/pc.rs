@@ -90,7 +90,9 @@ fn idle_cache(mut config: PcConfig) -> PcConfig {
 
 #[test]
 fn shared_structs_match_their_wgsl_layout() {
-    let module = ShaderLibrary::new().compose("pc/restir.wgsl", &[]).unwrap();
+    let module = ShaderLibrary::new()
+        .compose("pc/restir/common.wgsl", &[])
+        .unwrap();
     let check = |name: &str, rust: Vec<(String, u32)>, size: usize| {
         let wgsl = wgsl_struct_layout(&module, name).unwrap_or_else(|| panic!("{name}"));
         assert_eq!(wgsl.members, rust, "{name}");
@@ -158,10 +160,7 @@ fn shared_structs_match_their_wgsl_layout() {
         }),
         size_of::<GpuSurface>(),
     );
-    let specular = ShaderLibrary::new()
-        .compose("pc/specular.wgsl", &[])
-        .unwrap();
-    let wgsl = wgsl_struct_layout(&specular, "SpecularSample").expect("SpecularSample");
+    let wgsl = wgsl_struct_layout(&module, "SpecularSample").expect("SpecularSample");
     assert_eq!(
         wgsl.members,
         rust_field_offsets!(GpuSpecularSample {

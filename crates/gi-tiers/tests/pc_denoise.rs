@@ -170,7 +170,7 @@ fn configs() -> Vec<(String, DenoiseConfig)> {
 #[test]
 fn uniforms_match_their_wgsl_layout() {
     let module = ShaderLibrary::new()
-        .compose("pc/denoise.wgsl", &[])
+        .compose("pc/denoise/shared.wgsl", &[])
         .unwrap();
     let wgsl = wgsl_struct_layout(&module, "DenoiseUniforms").unwrap();
     let rust = rust_field_offsets!(DenoiseUniforms {

@@ -274,9 +274,10 @@ fn frame_budgets_keep_microseconds() {
 }
 
 /// What a set of shader files asks of the adapter, counted from the composed WGSL: the most
-/// storage buffers one entry point uses and the most a file declares (a pipeline layout binds
-/// at least the first and, in this product, at most the second), the bind groups the entry
-/// points use, and the largest workgroup (invocations, width).
+/// storage buffers one entry point uses and the most the files of one pipeline layout declare
+/// together (a pipeline layout binds at least the first and, in this product, at most the
+/// second), the bind groups the entry points use, and the largest workgroup (invocations,
+/// width).
 struct ShaderNeeds {
     storage_used: u32,
     storage_declared: u32,
@@ -286,7 +287,8 @@ struct ShaderNeeds {
     width: u32,
 }
 
-fn shader_needs(files: &[&str]) -> ShaderNeeds {
+/// `layouts`: the files of the passes that share one pipeline layout, one list per layout.
+fn shader_needs(layouts: &[&[&str]]) -> ShaderNeeds {
     let library = ShaderLibrary::new();
     let mut needs = ShaderNeeds {
         storage_used: 0,
@@ -298,46 +300,52 @@ fn shader_needs(files: &[&str]) -> ShaderNeeds {
     };
     let is_storage =
         |g: &naga::GlobalVariable| matches!(g.space, naga::AddressSpace::Storage { .. });
-    for file in files {
-        let module = library
-            .compose(file, &[])
-            .unwrap_or_else(|e| panic!("{file}: {e}"));
-        let info = naga::valid::Validator::new(
-            naga::valid::ValidationFlags::all(),
-            gi_gpu::SHADER_CAPABILITIES,
-        )
-        .validate(&module)
-        .unwrap_or_else(|e| panic!("{file}: {e:?}"));
-        let declared = module
-            .global_variables
-            .iter()
-            .filter(|(_, g)| is_storage(g))
-            .count();
-        needs.storage_declared = needs.storage_declared.max(declared as u32);
-        for (index, entry) in module.entry_points.iter().enumerate() {
-            let uses = info.get_entry_point(index);
-            let used: Vec<&naga::GlobalVariable> = module
-                .global_variables
-                .iter()
-                .filter(|(handle, _)| !uses[*handle].is_empty())
-                .map(|(_, g)| g)
-                .collect();
-            let storage = used.iter().filter(|g| is_storage(g)).count() as u32;
-            let groups = used
-                .iter()
-                .filter_map(|g| g.binding.as_ref().map(|b| b.group + 1))
-                .max()
-                .unwrap_or(0);
-            needs.storage_used = needs.storage_used.max(storage);
-            needs.bind_groups = needs.bind_groups.max(groups);
-            let sampled = used
-                .iter()
-                .filter(|g| matches!(module.types[g.ty].inner, naga::TypeInner::Image { .. }))
-                .count() as u32;
-            needs.sampled_textures = needs.sampled_textures.max(sampled);
-            needs.invocations = needs.invocations.max(entry.workgroup_size.iter().product());
-            needs.width = needs.width.max(entry.workgroup_size[0]);
+    for files in layouts {
+        // The storage bindings the layout's files declare, each counted once.
+        let mut declared = std::collections::BTreeSet::new();
+        for file in *files {
+            let module = library
+                .compose(file, &[])
+                .unwrap_or_else(|e| panic!("{file}: {e}"));
+            let info = naga::valid::Validator::new(
+                naga::valid::ValidationFlags::all(),
+                gi_gpu::SHADER_CAPABILITIES,
+            )
+            .validate(&module)
+            .unwrap_or_else(|e| panic!("{file}: {e:?}"));
+            declared.extend(
+                module
+                    .global_variables
+                    .iter()
+                    .filter(|(_, g)| is_storage(g))
+                    .filter_map(|(_, g)| g.binding.as_ref().map(|b| (b.group, b.binding))),
+            );
+            for (index, entry) in module.entry_points.iter().enumerate() {
+                let uses = info.get_entry_point(index);
+                let used: Vec<&naga::GlobalVariable> = module
+                    .global_variables
+                    .iter()
+                    .filter(|(handle, _)| !uses[*handle].is_empty())
+                    .map(|(_, g)| g)
+                    .collect();
+                let storage = used.iter().filter(|g| is_storage(g)).count() as u32;
+                let groups = used
+                    .iter()
+                    .filter_map(|g| g.binding.as_ref().map(|b| b.group + 1))
+                    .max()
+                    .unwrap_or(0);
+                needs.storage_used = needs.storage_used.max(storage);
+                needs.bind_groups = needs.bind_groups.max(groups);
+                let sampled = used
+                    .iter()
+                    .filter(|g| matches!(module.types[g.ty].inner, naga::TypeInner::Image { .. }))
+                    .count() as u32;
+                needs.sampled_textures = needs.sampled_textures.max(sampled);
+                needs.invocations = needs.invocations.max(entry.workgroup_size.iter().product());
+                needs.width = needs.width.max(entry.workgroup_size[0]);
+            }
         }
+        needs.storage_declared = needs.storage_declared.max(declared.len() as u32);
     }
     needs
 }
@@ -345,38 +353,72 @@ fn shader_needs(files: &[&str]) -> ShaderNeeds {
 #[test]
 fn tier_requirements_match_the_shaders() {
     // Every GPU tier skins moving skinned meshes (`gi_gpu::GpuScene::update`).
-    let path = ["path/trace.wgsl", "path/resolve.wgsl", "skin/skin.wgsl"];
-    let frame = [
-        "skin/skin.wgsl",
-        "gbuffer/primary.wgsl",
-        "path/trace.wgsl",
-        "path/resolve.wgsl",
+    let path: [&[&str]; 3] = [
+        &["path/trace.wgsl"],
+        &["path/resolve.wgsl"],
+        &["skin/skin.wgsl"],
     ];
-    let cache = [
-        "cache/voxelize.wgsl",
-        "cache/screen_inject.wgsl",
-        "cache/query.wgsl",
-        "cache/inject.wgsl",
-        "cache/propagate_list.wgsl",
-        "cache/propagate.wgsl",
-        "cache/propagate_resolve.wgsl",
+    let frame: [&[&str]; 4] = [
+        &["skin/skin.wgsl"],
+        &["gbuffer/primary.wgsl"],
+        &["path/trace.wgsl"],
+        &["path/resolve.wgsl"],
     ];
-    let mobile = ["mobile/screen.wgsl", "mobile/volume_update.wgsl"];
-    let pc = [
-        "pc/trace.wgsl",
-        "pc/restir.wgsl",
-        "pc/specular.wgsl",
-        "pc/denoise.wgsl",
+    let cache: [&[&str]; 9] = [
+        &["cache/voxelize.wgsl"],
+        &["cache/screen_inject.wgsl"],
+        &[
+            "cache/query/trace_rays.wgsl",
+            "cache/query/trace_rays_shared.wgsl",
+        ],
+        &["cache/query/irradiance_at.wgsl"],
+        &["cache/query/debug_view.wgsl"],
+        &["cache/inject.wgsl"],
+        &["cache/propagate_list.wgsl"],
+        &["cache/propagate.wgsl"],
+        &["cache/propagate_resolve.wgsl"],
     ];
-    let cases: [(TierKind, Vec<&str>); 4] = [
+    let mobile: [&[&str]; 3] = [
+        &[
+            "mobile/screen/lite_pack.wgsl",
+            "mobile/screen/reproject.wgsl",
+            "mobile/screen/place.wgsl",
+            "mobile/screen/trace.wgsl",
+            "mobile/screen/gather.wgsl",
+            "mobile/screen/compose.wgsl",
+        ],
+        &["mobile/volume/update.wgsl"],
+        &["mobile/volume/irradiance_at.wgsl"],
+    ];
+    let pc: [&[&str]; 3] = [
+        &[
+            "pc/restir/trace.wgsl",
+            "pc/restir/shadow.wgsl",
+            "pc/restir/specular_trace.wgsl",
+        ],
+        &[
+            "pc/restir/temporal.wgsl",
+            "pc/restir/spatial.wgsl",
+            "pc/restir/shade.wgsl",
+            "pc/restir/compose.wgsl",
+            "pc/restir/specular_resolve.wgsl",
+            "pc/restir/specular_temporal.wgsl",
+        ],
+        &[
+            "pc/denoise/temporal.wgsl",
+            "pc/denoise/variance.wgsl",
+            "pc/denoise/atrous.wgsl",
+        ],
+    ];
+    let cases: [(TierKind, Vec<&[&str]>); 4] = [
         (TierKind::Direct, path.to_vec()),
         (TierKind::Path, path.to_vec()),
         (TierKind::Mobile, [&frame[..], &cache, &mobile].concat()),
         (TierKind::Pc, [&frame[..], &cache, &pc].concat()),
     ];
-    for (kind, files) in cases {
+    for (kind, layouts) in cases {
         let req = requirements(kind, &SIZE_640).unwrap();
-        let needs = shader_needs(&files);
+        let needs = shader_needs(&layouts);
         assert!(
             (needs.storage_used..=needs.storage_declared).contains(&req.storage_buffers_per_stage),
             "{kind}: {} storage buffers per stage, shaders use {} and declare {}",

@@ -1,6 +1,7 @@
-//! The screen-space passes of the mobile tier (`shaders/mobile/screen.wgsl`): lite G-buffer,
-//! screen probe placement and tracing, the half-resolution gather with its temporal filter,
-//! and the upsample that composes the final image. See the shader for what each pass does.
+//! The screen-space passes of the mobile tier (`shaders/mobile/screen/`, one file per pass):
+//! lite G-buffer, screen probe placement and tracing, the half-resolution gather with its
+//! temporal filter, and the upsample that composes the final image. See the shaders for what
+//! each pass does.
 
 use bytemuck::{Pod, Zeroable};
 use gi_cache::lighting::GpuSky;
@@ -22,7 +23,7 @@ const LINEAR_GROUP: u32 = 64;
 /// Most workgroups of one dispatch row.
 const MAX_GROUPS_PER_ROW: u32 = 65_535;
 
-/// Mirror of `ScreenUniforms` in `shaders/mobile/screen.wgsl`, 256 bytes.
+/// Mirror of `ScreenUniforms` in `shaders/mobile/screen/shared.wgsl`, 256 bytes.
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
 pub struct ScreenUniforms {
@@ -98,8 +99,8 @@ impl ScreenLayout {
     }
 }
 
-/// The six pipelines, sharing one layout: group 0 the screen buffers, 1 the probe volume,
-/// 2 the cache.
+/// The six pipelines, each from its pass's file of `shaders/mobile/screen/`, sharing one
+/// layout: group 0 the screen buffers, 1 the probe volume, 2 the cache.
 #[derive(Clone)]
 pub struct ScreenPipelines {
     layout0: wgpu::BindGroupLayout,
@@ -117,7 +118,6 @@ impl ScreenPipelines {
         shaders: &ShaderLibrary,
         volume_layout: &wgpu::BindGroupLayout,
     ) -> Result<Self, GpuError> {
-        let module = shaders.create_module(ctx, "mobile/screen.wgsl", &[])?;
         let mut entries = vec![uniform_entry(0)];
         entries.extend(ScreenGroup::layout_entries());
         let layout0 = ctx
@@ -127,21 +127,22 @@ impl ScreenPipelines {
                 entries: &entries,
             });
         let cache_layout = CacheBuffers::bind_group_layout(ctx);
-        let pipeline = |entry: &str| {
-            ctx.create_compute_pipeline_with_layouts(
+        let pipeline = |entry: &str| -> Result<_, GpuError> {
+            let module = shaders.create_module(ctx, &format!("mobile/screen/{entry}.wgsl"), &[])?;
+            Ok(ctx.create_compute_pipeline_with_layouts(
                 &format!("mobile/{entry}"),
                 &module,
                 entry,
                 &[Some(&layout0), Some(volume_layout), Some(&cache_layout)],
-            )
+            ))
         };
         Ok(Self {
-            lite: pipeline("lite_pack"),
-            reproject: pipeline("reproject"),
-            place: pipeline("place"),
-            trace: pipeline("trace"),
-            gather: pipeline("gather"),
-            compose: pipeline("compose"),
+            lite: pipeline("lite_pack")?,
+            reproject: pipeline("reproject")?,
+            place: pipeline("place")?,
+            trace: pipeline("trace")?,
+            gather: pipeline("gather")?,
+            compose: pipeline("compose")?,
             layout0,
         })
     }
@@ -171,8 +172,9 @@ pub struct ScreenSources<'a> {
 }
 
 gi_gpu::storage_bindings! {
-    /// `mobile/screen.wgsl`'s buffers in group 0, after the uniforms (0). `*_prev` and
-    /// `history_in`: the previous frame's side of a [`PingPong`].
+    /// The screen passes' buffers in group 0, after the uniforms (0), which they import from
+    /// `mobile/screen/shared.wgsl`. `*_prev` and `history_in`: the previous frame's side of a
+    /// [`PingPong`].
     struct ScreenGroup from 1 {
         gbuffer_depth: read,
         gbuffer_normal: read,
@@ -440,13 +442,35 @@ pub fn screen_uniforms(
 mod tests {
     use super::*;
 
+    use gi_gpu::binding::{Access, check_declared, wgsl_storage_bindings};
+
     #[test]
     fn the_shader_declares_the_named_buffers_at_their_bindings() {
         let shaders = ShaderLibrary::new();
         let source = shaders
-            .source("mobile/screen.wgsl")
+            .source("mobile/screen/shared.wgsl")
             .expect("the shader is in the library");
-        gi_gpu::binding::check_declared(source, 0, ScreenGroup::FIRST_BINDING, ScreenGroup::SLOTS)
-            .unwrap_or_else(|e| panic!("mobile/screen.wgsl: {e}"));
+        check_declared(source, 0, ScreenGroup::FIRST_BINDING, ScreenGroup::SLOTS)
+            .unwrap_or_else(|e| panic!("mobile/screen/shared.wgsl: {e}"));
+        // The passes declare none of group 0's buffers themselves: they import them.
+        for pass in [
+            "lite_pack",
+            "reproject",
+            "place",
+            "trace",
+            "gather",
+            "compose",
+        ] {
+            let file = format!("mobile/screen/{pass}.wgsl");
+            let source = shaders.source(&file).expect("the pass is in the library");
+            assert_eq!(wgsl_storage_bindings(source, 0), [], "{file}");
+        }
+        // A swapped pair or a changed access is caught.
+        let mut swapped = ScreenGroup::SLOTS.to_vec();
+        swapped.swap(0, 1);
+        assert!(check_declared(source, 0, ScreenGroup::FIRST_BINDING, &swapped).is_err());
+        let mut written = ScreenGroup::SLOTS.to_vec();
+        written[0].1 = Access::ReadWrite;
+        assert!(check_declared(source, 0, ScreenGroup::FIRST_BINDING, &written).is_err());
     }
 }

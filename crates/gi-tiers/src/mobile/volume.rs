@@ -3,9 +3,9 @@
 //! the camera, each probe an ambient cube (six face irradiances with their sample counts) plus
 //! depth moments per face for Chebyshev visibility and a relocation offset.
 //!
-//! - Layout, sampling and the group-1 bindings: `shaders/mobile/volume.wgsl`
+//! - Layout, sampling and the group-1 bindings: `shaders/mobile/volume/shared.wgsl`
 //!   (`gi::mobile::volume`, whose `volume_irradiance(p, n)` the gather passes call).
-//! - Update, timer scope `mobile/volume`: `shaders/mobile/volume_update.wgsl`, two dispatches in
+//! - Update, timer scope `mobile/volume`: `shaders/mobile/volume/update.wgsl`, two dispatches in
 //!   one compute pass. `classify_probes` (one invocation per slot) resets probes that entered
 //!   the clipmap, keeps active only those with an occupied cache brick within one spacing (read
 //!   from the cache's group masks) and lists them; `trace_probes` (indirect, `CACHE_LANES` invocations
@@ -89,7 +89,7 @@ pub struct GpuProbeState {
     pub pad_b: u32,
 }
 
-/// Uniforms of the update passes (`UpdateUniforms` in `volume_update.wgsl`, 80 bytes).
+/// Uniforms of the update passes (`UpdateUniforms` in `mobile/volume/update.wgsl`, 80 bytes).
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
 pub struct GpuUpdateUniforms {
@@ -271,7 +271,8 @@ impl Technique for ProbeVolume {
 
 impl ProbeVolume {
     /// Validates `config`, allocates the volume (all probes uninitialized) and builds the
-    /// pipelines of `mobile/volume_update.wgsl`.
+    /// pipelines of `shaders/mobile/volume/`: `update.wgsl` (`classify_probes`,
+    /// `trace_probes`) and `irradiance_at.wgsl`.
     pub fn new(
         ctx: &GpuContext,
         shaders: &ShaderLibrary,
@@ -373,20 +374,22 @@ impl ProbeVolume {
             ],
         });
 
-        let module = shaders.create_module(ctx, "mobile/volume_update.wgsl", &[])?;
+        let update = shaders.create_module(ctx, "mobile/volume/update.wgsl", &[])?;
+        let irradiance_at = shaders.create_module(ctx, "mobile/volume/irradiance_at.wgsl", &[])?;
         let cache_layout = CacheBuffers::bind_group_layout(ctx);
-        let pipeline = |entry_point: &str, group0: &wgpu::BindGroupLayout| {
-            ctx.create_compute_pipeline_with_layouts(
-                &format!("mobile.volume.{entry_point}"),
-                &module,
-                entry_point,
-                &[Some(group0), Some(&layout), Some(&cache_layout)],
-            )
-        };
+        let pipeline =
+            |module: &wgpu::ShaderModule, entry_point: &str, group0: &wgpu::BindGroupLayout| {
+                ctx.create_compute_pipeline_with_layouts(
+                    &format!("mobile.volume.{entry_point}"),
+                    module,
+                    entry_point,
+                    &[Some(group0), Some(&layout), Some(&cache_layout)],
+                )
+            };
         Ok(Self {
-            classify_probes: pipeline("classify_probes", &classify_layout),
-            trace_probes: pipeline("trace_probes", &trace_layout),
-            irradiance_at: pipeline("irradiance_at", &irradiance_at_layout),
+            classify_probes: pipeline(&update, "classify_probes", &classify_layout),
+            trace_probes: pipeline(&update, "trace_probes", &trace_layout),
+            irradiance_at: pipeline(&irradiance_at, "irradiance_at", &irradiance_at_layout),
             config: config.clone(),
             slot_count: slots as u32,
             uniforms,
@@ -575,10 +578,15 @@ mod tests {
     #[test]
     fn volume_structs_match_their_wgsl_layout() {
         let module = ShaderLibrary::new()
-            .compose("mobile/volume_update.wgsl", &[])
+            .compose("mobile/volume/update.wgsl", &[])
+            .unwrap();
+        let queries = ShaderLibrary::new()
+            .compose("mobile/volume/irradiance_at.wgsl", &[])
             .unwrap();
         let check = |name: &str, rust: Vec<(String, u32)>, size: usize| {
-            let wgsl = wgsl_struct_layout(&module, name).unwrap_or_else(|| panic!("{name}"));
+            let wgsl = wgsl_struct_layout(&module, name)
+                .or_else(|| wgsl_struct_layout(&queries, name))
+                .unwrap_or_else(|| panic!("{name}"));
             assert_eq!(wgsl.members, rust, "{name}");
             assert_eq!(wgsl.size as usize, size, "{name}");
         };
@@ -640,7 +648,7 @@ mod tests {
         // The import module composes on its own too (gather passes import it without the
         // update's imports).
         ShaderLibrary::new()
-            .compose("mobile/volume.wgsl", &[])
+            .compose("mobile/volume/shared.wgsl", &[])
             .unwrap();
     }
 

@@ -1,4 +1,4 @@
-//! The PC tier's denoiser (`shaders/pc/denoise.wgsl`): HSGI's final processing (GDC 2023, "PC /
+//! The PC tier's denoiser (`shaders/pc/denoise/`): HSGI's final processing (GDC 2023, "PC /
 //! Console Solution": temporal supersampling with a long and a short history, variance
 //! clamping with the short history's 5 x 5 neighbourhood) followed by SVGF (Schied et al. 2017,
 //! "Spatiotemporal Variance-Guided Filtering", HPG).
@@ -180,7 +180,7 @@ impl DenoiseConfig {
     }
 }
 
-/// Mirror of `DenoiseUniforms` in `shaders/pc/denoise.wgsl`, 64 bytes.
+/// Mirror of `DenoiseUniforms` in `shaders/pc/denoise/shared.wgsl`, 64 bytes.
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
 pub struct DenoiseUniforms {
@@ -231,7 +231,9 @@ impl DenoiseUniforms {
 }
 
 /// The four pipelines, one per entry point, sharing two bind group layouts: group 0 the
-/// frame's inputs, the histories and the filter buffers, group 1 the dispatch's uniforms.
+/// frame's inputs, the histories and the filter buffers, group 1 the dispatch's uniforms. Each
+/// pass's file of `shaders/pc/denoise/` holds its entry points (`temporal.wgsl` both of
+/// `pc/denoise_temporal`).
 #[derive(Clone)]
 pub struct DenoisePipelines {
     frame_layout: wgpu::BindGroupLayout,
@@ -244,7 +246,6 @@ pub struct DenoisePipelines {
 
 impl DenoisePipelines {
     pub fn new(ctx: &GpuContext, shaders: &ShaderLibrary) -> Result<Self, GpuError> {
-        let module = shaders.create_module(ctx, "pc/denoise.wgsl", &[])?;
         // The inputs and the previous depth are read-only; the previous normal and short
         // history double as a filter buffer.
         let frame_entries: Vec<_> = (0..=10)
@@ -262,19 +263,22 @@ impl DenoisePipelines {
                     label: Some("pc/denoise.uniform_layout"),
                     entries: &[uniform_entry(0)],
                 });
-        let pipeline = |entry: &str| {
+        let module =
+            |pass: &str| shaders.create_module(ctx, &format!("pc/denoise/{pass}.wgsl"), &[]);
+        let pipeline = |module: &wgpu::ShaderModule, entry: &str| {
             ctx.create_compute_pipeline_with_layouts(
                 &format!("pc/denoise_{entry}"),
-                &module,
+                module,
                 entry,
                 &[Some(&frame_layout), Some(&uniform_layout)],
             )
         };
+        let temporal = module("temporal")?;
         Ok(Self {
-            temporal_short: pipeline("temporal_short"),
-            temporal: pipeline("temporal"),
-            variance: pipeline("variance"),
-            atrous: pipeline("atrous"),
+            temporal_short: pipeline(&temporal, "temporal_short"),
+            temporal: pipeline(&temporal, "temporal"),
+            variance: pipeline(&module("variance")?, "variance"),
+            atrous: pipeline(&module("atrous")?, "atrous"),
             frame_layout,
             uniform_layout,
         })

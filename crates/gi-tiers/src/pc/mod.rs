@@ -4,18 +4,19 @@
 //!
 //! A frame: `gbuffer/primary` (ray-cast G-buffer), the cache update (`cache/*`, as the mobile
 //! tier's), `pc/trace` (one BVH ray per trace pixel, shaded at the hit with exact direct light,
-//! one sample of the emitters included, and the cache's bounced light: `shaders/pc/trace.wgsl`;
-//! the tier's cache keeps its emitted part apart for that,
-//! [`gi_cache::CacheConfig::keep_emitted`]), `pc/specular_trace` (one GGX VNDF ray per trace
-//! pixel on surfaces smoother than [`SpecularConfig::max_roughness`]),
-//! `pc/temporal` (only with temporal reuse, off by default: [`RestirConfig::temporal`]),
-//! `pc/spatial`, `pc/shadow` (the reservoir passes), `pc/shade` (multi-sample shading to full resolution:
-//! `shaders/pc/restir.wgsl`), `pc/denoise_*` (temporal supersampling and SVGF:
+//! one sample of the emitters included, and the cache's bounced light; the tier's cache keeps
+//! its emitted part apart for that, [`gi_cache::CacheConfig::keep_emitted`]),
+//! `pc/specular_trace` (one GGX VNDF ray per trace pixel on surfaces smoother than
+//! [`SpecularConfig::max_roughness`]), `pc/temporal` (only with temporal reuse, off by default:
+//! [`RestirConfig::temporal`]), `pc/spatial`, `pc/shadow` (the reservoir passes), `pc/shade`
+//! (multi-sample shading to full resolution), `pc/denoise_*` (temporal supersampling and SVGF:
 //! [`denoise`]), `pc/specular_resolve` and `pc/specular_temporal` (the specular rays to a
 //! per-pixel reflected radiance, and the rough surfaces' lobe ratio from `pc/shade` over
-//! time: `shaders/pc/specular.wgsl`), `direct/trace` + `direct/resolve` (direct light, accumulated while the view
-//! holds still, as the mobile tier does) and `pc/compose`. The GI's cost is the `cache/*` and
-//! `pc/*` passes.
+//! time), `direct/trace` + `direct/resolve` (direct light, accumulated while the view holds
+//! still, as the mobile tier does) and `pc/compose`. The GI's cost is the `cache/*` and `pc/*`
+//! passes. Pass `pc/<pass>` is the file `shaders/pc/restir/<pass>.wgsl` (the hit shading of
+//! `pc/trace` and `pc/specular_trace` is `hit.wgsl` there), pass `pc/denoise_<pass>` the file
+//! `shaders/pc/denoise/<pass>.wgsl`.
 
 mod config;
 pub mod denoise;
@@ -45,7 +46,7 @@ use restir::{Restir, RestirInputs, RestirPipelines};
 /// Most timed passes in one frame.
 const TIMER_SCOPES: u32 = 48;
 
-/// Mirror of `PcUniforms` in `shaders/pc/common.wgsl`, 304 bytes.
+/// Mirror of `PcUniforms` in `shaders/pc/restir/common.wgsl`, 304 bytes.
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
 pub struct PcUniforms {
@@ -85,7 +86,7 @@ pub struct PcUniforms {
     pub specular_diffuse_from: f32,
 }
 
-/// Mirror of `Reservoir` in `shaders/pc/common.wgsl`, 48 bytes.
+/// Mirror of `Reservoir` in `shaders/pc/restir/common.wgsl`, 48 bytes.
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
 pub struct GpuReservoir {
@@ -108,7 +109,7 @@ pub struct GpuReservoir {
     pub albedo: u32,
 }
 
-/// Mirror of `SpecularSample` in `shaders/pc/common.wgsl`, 32 bytes: one trace pixel's
+/// Mirror of `SpecularSample` in `shaders/pc/restir/common.wgsl`, 32 bytes: one trace pixel's
 /// specular ray.
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
@@ -122,7 +123,7 @@ pub struct GpuSpecularSample {
     pub flags: u32,
 }
 
-/// Mirror of `Surface` in `shaders/pc/common.wgsl`, 32 bytes.
+/// Mirror of `Surface` in `shaders/pc/restir/common.wgsl`, 32 bytes.
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
 pub struct GpuSurface {
@@ -136,7 +137,7 @@ pub struct GpuSurface {
     pub pad_b: u32,
 }
 
-/// Shader flag bits (`FLAG_*` in `shaders/pc/common.wgsl`).
+/// Shader flag bits (`FLAG_*` in `shaders/pc/restir/common.wgsl`).
 mod flags {
     pub const TEMPORAL: u32 = 1;
     pub const SPATIAL: u32 = 2;

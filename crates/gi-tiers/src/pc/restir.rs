@@ -1,7 +1,7 @@
 //! The PC tier's ReSTIR GI and specular tracing (Ouyang et al. 2021; HSGI's specular rays and
 //! reuse of the diffuse result), as one technique: its pipelines, its buffers with their
 //! `PingPong` histories, the bind groups built from named fields, and the passes it records
-//! before and after the denoiser (`pc/trace.wgsl`, `pc/restir.wgsl`, `pc/specular.wgsl`).
+//! before and after the denoiser (`shaders/pc/restir/`, one file per pass).
 
 use gi_cache::CacheBuffers;
 use gi_gpu::binding::{buffer_entries, uniform_entry};
@@ -16,8 +16,8 @@ use super::{GpuReservoir, GpuSpecularSample, GpuSurface, PcConfig, PcUniforms};
 /// Pixels per side of every pass's workgroups (`@workgroup_size(8, 8)`).
 const TILE: u32 = 8;
 
-/// The compute pipelines of `pc/trace.wgsl`, `pc/restir.wgsl` and `pc/specular.wgsl` and
-/// their layouts, compiled once per tier; cloning shares them.
+/// The compute pipelines of `shaders/pc/restir/`, each from its pass's file, and their
+/// layouts, compiled once per tier; cloning shares them.
 #[derive(Clone)]
 pub(super) struct RestirPipelines {
     trace_layout: wgpu::BindGroupLayout,
@@ -52,45 +52,50 @@ impl RestirPipelines {
         let bvh_layout = GpuBvh::bind_group_layout(ctx);
         let cache_layout = CacheBuffers::bind_group_layout(ctx);
         let texture_layout = GpuScene::texture_layout(ctx);
-        let trace_module = shaders.create_module(ctx, "pc/trace.wgsl", &[gi_gpu::ALPHA_TEST])?;
-        let restir_module = shaders.create_module(ctx, "pc/restir.wgsl", &[])?;
-        let specular_module = shaders.create_module(ctx, "pc/specular.wgsl", &[])?;
         let mut trace_groups: Vec<Option<&wgpu::BindGroupLayout>> =
             vec![None; TEXTURE_BIND_GROUP.max(CacheBuffers::BIND_GROUP) as usize + 1];
         trace_groups[0] = Some(&trace_layout);
         trace_groups[BVH_BIND_GROUP as usize] = Some(&bvh_layout);
         trace_groups[CacheBuffers::BIND_GROUP as usize] = Some(&cache_layout);
         trace_groups[TEXTURE_BIND_GROUP as usize] = Some(&texture_layout);
-        let traced = |entry: &str| {
-            ctx.create_compute_pipeline_with_layouts(
+        // The passes that trace BVH rays, from `pc/restir/{entry}.wgsl`, with the alpha test.
+        let traced = |entry: &str| -> Result<_, GpuError> {
+            let module = shaders.create_module(
+                ctx,
+                &format!("pc/restir/{entry}.wgsl"),
+                &[gi_gpu::ALPHA_TEST],
+            )?;
+            Ok(ctx.create_compute_pipeline_with_layouts(
                 &format!("pc/{entry}"),
-                &trace_module,
+                &module,
                 entry,
                 &trace_groups,
-            )
+            ))
         };
         let mut restir_groups: Vec<Option<&wgpu::BindGroupLayout>> =
             vec![None; CacheBuffers::BIND_GROUP as usize + 1];
         restir_groups[0] = Some(&restir_layout);
         restir_groups[CacheBuffers::BIND_GROUP as usize] = Some(&cache_layout);
-        let reused = |module: &wgpu::ShaderModule, entry: &str| {
-            ctx.create_compute_pipeline_with_layouts(
+        // The passes after the rays, from `pc/restir/{entry}.wgsl`.
+        let reused = |entry: &str| -> Result<_, GpuError> {
+            let module = shaders.create_module(ctx, &format!("pc/restir/{entry}.wgsl"), &[])?;
+            Ok(ctx.create_compute_pipeline_with_layouts(
                 &format!("pc/{entry}"),
-                module,
+                &module,
                 entry,
                 &restir_groups,
-            )
+            ))
         };
         Ok(Self {
-            trace: traced("trace"),
-            shadow: traced("shadow"),
-            specular_trace: traced("specular_trace"),
-            temporal: reused(&restir_module, "temporal"),
-            spatial: reused(&restir_module, "spatial"),
-            shade: reused(&restir_module, "shade"),
-            compose: reused(&restir_module, "compose"),
-            specular_resolve: reused(&specular_module, "specular_resolve"),
-            specular_temporal: reused(&specular_module, "specular_temporal"),
+            trace: traced("trace")?,
+            shadow: traced("shadow")?,
+            specular_trace: traced("specular_trace")?,
+            temporal: reused("temporal")?,
+            spatial: reused("spatial")?,
+            shade: reused("shade")?,
+            compose: reused("compose")?,
+            specular_resolve: reused("specular_resolve")?,
+            specular_temporal: reused("specular_temporal")?,
             trace_layout,
             restir_layout,
         })
@@ -98,7 +103,9 @@ impl RestirPipelines {
 }
 
 gi_gpu::storage_bindings! {
-    /// `pc/trace.wgsl`'s buffers in group 0, after the uniforms (0) and the scene (1..=7).
+    /// The buffers in group 0 of the passes that trace rays (`trace`, `shadow`,
+    /// `specular_trace`), after the uniforms (0) and the scene (1..=7), which they import from
+    /// `pc/restir/rays.wgsl`.
     struct TraceBindings from 8 {
         gbuffer_depth: read,
         gbuffer_normal: read,
@@ -115,9 +122,10 @@ gi_gpu::storage_bindings! {
 }
 
 gi_gpu::storage_bindings! {
-    /// The buffers of `pc/restir.wgsl` and `pc/specular.wgsl` in group 0, after the uniforms
-    /// (0), which both import from `pc/restir_bindings.wgsl`. `*_prev`: the previous frame's
-    /// side of a [`PingPong`].
+    /// The buffers in group 0 of the passes after the rays (`temporal`, `spatial`, `shade`,
+    /// `compose`, `specular_resolve`, `specular_temporal`), after the uniforms (0), which they
+    /// import from `pc/restir/bindings.wgsl`. `*_prev`: the previous frame's side of a
+    /// [`PingPong`].
     struct RestirBindings from 8 {
         gbuffer_depth: read,
         gbuffer_normal: read,
@@ -267,8 +275,8 @@ pub(super) struct RestirInputs<'a> {
     pub size: (u32, u32),
 }
 
-/// One frame's bind groups: `pc/trace.wgsl`'s group 0 and the one of `pc/restir.wgsl` and
-/// `pc/specular.wgsl`, over this frame's side of the histories.
+/// One frame's bind groups: group 0 of the passes that trace rays ([`TraceBindings`]) and the
+/// one of the passes after them ([`RestirBindings`]), over this frame's side of the histories.
 pub(super) struct RestirGroups {
     trace: wgpu::BindGroup,
     restir: wgpu::BindGroup,
@@ -496,19 +504,32 @@ impl Technique for Restir {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use gi_gpu::binding::{Access, check_declared};
+    use gi_gpu::binding::{Access, check_declared, wgsl_storage_bindings};
+
+    /// The passes of `shaders/pc/restir/`, each in its own file.
+    const PASSES: [&str; 9] = [
+        "trace",
+        "shadow",
+        "specular_trace",
+        "temporal",
+        "spatial",
+        "shade",
+        "compose",
+        "specular_resolve",
+        "specular_temporal",
+    ];
 
     #[test]
     fn the_shaders_declare_the_named_buffers_at_their_bindings() {
         let shaders = ShaderLibrary::new();
         let groups = [
             (
-                "pc/trace.wgsl",
+                "pc/restir/rays.wgsl",
                 TraceBindings::FIRST_BINDING,
                 TraceBindings::SLOTS,
             ),
             (
-                "pc/restir_bindings.wgsl",
+                "pc/restir/bindings.wgsl",
                 RestirBindings::FIRST_BINDING,
                 RestirBindings::SLOTS,
             ),
@@ -517,9 +538,16 @@ mod tests {
             let source = shaders.source(file).expect("the shader is in the library");
             check_declared(source, 0, first, slots).unwrap_or_else(|e| panic!("{file}: {e}"));
         }
+        // The passes declare none of group 0's buffers themselves: they import them from the
+        // two files checked above.
+        for pass in PASSES {
+            let file = format!("pc/restir/{pass}.wgsl");
+            let source = shaders.source(&file).expect("the pass is in the library");
+            assert_eq!(wgsl_storage_bindings(source, 0), [], "{file}");
+        }
         // A swapped pair or a changed access is caught.
         let source = shaders
-            .source("pc/restir_bindings.wgsl")
+            .source("pc/restir/bindings.wgsl")
             .expect("the bindings");
         let mut swapped = RestirBindings::SLOTS.to_vec();
         swapped.swap(5, 6);

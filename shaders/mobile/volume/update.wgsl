@@ -1,4 +1,4 @@
-// The probe volume's update, timer scope `mobile/volume` (HSGI, GDC 2023, "Probe Volume /
+// Pass `mobile/volume`, the probe volume's update (HSGI, GDC 2023, "Probe Volume /
 // Update": "collect probes close to the surface with the voxel hierarchy structure; each frame
 // rand 1 face to update, trace 1 ray; Monte Carlo integration" with the cosine pdf, so a face's
 // irradiance is pi times the mean radiance of its rays), plus DDGI's relocation (Majercik et
@@ -15,7 +15,6 @@
 //     it when flagged, then all trace `rays_per_probe` rays together (`gi::cache::trace_shared`),
 //     each updating one random face of its ambient cube and the depth moments of the ray
 //     direction's bin.
-// `irradiance_at` evaluates `volume_irradiance` for a batch of queries (tests and tools).
 //
 // Bind group 0 (this file's; bindings 1-7 are `gi::scene`'s, which `gi::lights` declares):
 //   binding 0: `update` uniform UpdateUniforms
@@ -23,13 +22,12 @@
 //   binding 9: `dispatch_args` array<atomic<u32>>: x, y, z workgroups of `trace_probes`
 //              (classify only: the same buffer is the indirect argument of the second dispatch)
 //   binding 10: `active_count` array<atomic<u32>>: entries of `active_list`
-//   binding 11: `queries` array<IrradianceQuery> (irradiance_at only)
-//   binding 12: `results` array<vec4<f32>> (irradiance_at only)
 // Group 1 is the volume (`gi::mobile::volume`), group 2 the cache (`gi::cache::data`).
 
 #import gi::math::PI
 #import gi::sampling::{Sampler, sampler_new, sampler_next_f32, sampler_next_2d, cosine_hemisphere, frame_from_normal, frame_to_world}
-#import gi::lights::{Sky, sky_radiance}
+#import gi::sky::Sky
+#import gi::lights::sky_radiance
 #import gi::cache::data::{
     cache, cache_group_masks, cache_group_index, cache_mask_bit, cache_mask_test,
     cache_in_window, cache_voxel_at, cache_level_of_point, cache_voxel_of_point, CACHE_SIDE_BACK,
@@ -39,12 +37,11 @@
 #import gi::cache::trace_shared::{cache_trace_shared, CACHE_LANES}
 #import gi::mobile::volume::{
     volume, volume_probes, volume_faces, volume_moments, ProbeState, volume_slot_coord,
-    volume_probe_position, volume_major_face, volume_moment_count, volume_irradiance,
+    volume_probe_position, volume_major_face, volume_moment_count,
     VOLUME_FACES, VOLUME_FAR_SPACINGS, VOLUME_MOMENT_COUNT_BITS, VOLUME_MOMENT_MAX_COUNT,
-    PROBE_INITIALIZED, PROBE_ACTIVE, PROBE_RELOCATE, PROBE_BURIED
+    WORKGROUP_SIZE, PROBE_INITIALIZED, PROBE_ACTIVE, PROBE_RELOCATE, PROBE_BURIED
 }
 
-const WORKGROUP_SIZE: u32 = 64u;
 // Active probes per workgroup of `trace_probes` (CACHE_LANES invocations each).
 const PROBES_PER_GROUP: u32 = WORKGROUP_SIZE / CACHE_LANES;
 
@@ -87,20 +84,10 @@ struct UpdateUniforms {
     slot_count: u32,
 }
 
-// Mirror of `gi_cache::query::GpuIrradianceQuery` (32 bytes).
-struct IrradianceQuery {
-    position: vec3<f32>,
-    pad_a: f32,
-    normal: vec3<f32>,
-    pad_b: f32,
-}
-
 @group(0) @binding(0) var<uniform> update: UpdateUniforms;
 @group(0) @binding(8) var<storage, read_write> active_list: array<u32>;
 @group(0) @binding(9) var<storage, read_write> dispatch_args: array<atomic<u32>>;
 @group(0) @binding(10) var<storage, read_write> active_count: array<atomic<u32>>;
-@group(0) @binding(11) var<storage, read_write> queries: array<IrradianceQuery>;
-@group(0) @binding(12) var<storage, read_write> results: array<vec4<f32>>;
 
 // ---------------------------------------------------------------------------------------------
 // Occupancy around a probe, from the cache's hierarchy.
@@ -410,18 +397,4 @@ fn volume_add_sample(slot: u32, state: ptr<function, ProbeState>, face: u32, dir
     volume_moments[bin_index] = mix(volume_moments[bin_index], vec2(depth, depth * depth), 1.0 / f32(count));
     let shift = bin * VOLUME_MOMENT_COUNT_BITS;
     (*state).moment_counts = ((*state).moment_counts & ~(VOLUME_MOMENT_MAX_COUNT << shift)) | (count << shift);
-}
-
-// ---------------------------------------------------------------------------------------------
-// irradiance_at
-// ---------------------------------------------------------------------------------------------
-
-@compute @workgroup_size(WORKGROUP_SIZE)
-fn irradiance_at(@builtin(global_invocation_id) id: vec3<u32>) {
-    let i = id.x;
-    if i >= arrayLength(&queries) {
-        return;
-    }
-    let q = queries[i];
-    results[i] = volume_irradiance(q.position, q.normal);
 }

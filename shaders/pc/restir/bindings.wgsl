@@ -1,11 +1,13 @@
-// The storage buffers of the bind group 0 of `pc/restir.wgsl` and `pc/specular.wgsl`, declared
-// once: those of `RestirBindings` (crates/gi-tiers/src/pc/restir.rs) in its order, from
-// binding 8. Each file imports the ones it uses and declares the uniforms at binding 0 itself
-// (`u`: naga_oil would rewrite the `u` suffix of integer literals into an imported `u`). A
-// unit test checks the names and accesses against the Rust list.
-#define_import_path gi::pc::restir_bindings
+// What the PC tier's passes after the rays (`temporal`, `spatial`, `shade`, `compose`,
+// `specular_resolve`, `specular_temporal`) share: the storage buffers of their bind group 0,
+// declared once, and the helpers that several of them call. The buffers are those of
+// `RestirBindings` (crates/gi-tiers/src/pc/restir.rs) in its order, from binding 8, after the
+// uniforms (binding 0, `gi::pc::restir::common::uniforms`). Each pass imports the ones it uses.
+// A unit test checks the names and accesses against the Rust list.
+#define_import_path gi::pc::restir::bindings
 
-#import gi::pc::common::{Surface, Reservoir, SpecularSample}
+#import gi::camera::camera_ray
+#import gi::pc::restir::common::{uniforms, Surface, Reservoir, SpecularSample, specular_kind}
 
 @group(0) @binding(8) var<storage, read> gbuffer_depth: array<f32>;
 @group(0) @binding(9) var<storage, read> gbuffer_normal: array<u32>;
@@ -18,7 +20,7 @@
 @group(0) @binding(15) var<storage, read> initial: array<Reservoir>;
 // Per trace pixel: this frame's temporal reservoirs (the next frame's history) and the
 // previous frame's; the resolved reservoirs, which `spatial` writes and the shadow pass
-// (`pc/trace.wgsl`) then updates in place, and which `shade` reads.
+// (`shadow`) then updates in place, and which `shade` reads.
 @group(0) @binding(16) var<storage, read_write> temporal_out: array<Reservoir>;
 @group(0) @binding(17) var<storage, read> temporal_prev: array<Reservoir>;
 @group(0) @binding(18) var<storage, read_write> resolved: array<Reservoir>;
@@ -28,11 +30,11 @@
 @group(0) @binding(20) var<storage, read> denoised: array<vec4<f32>>;
 @group(0) @binding(21) var<storage, read> direct_mean: array<vec4<f32>>;
 @group(0) @binding(22) var<storage, read_write> output: array<vec4<f32>>;
-// Per trace pixel: this frame's specular rays (`pc/trace.wgsl`, `specular_trace`).
+// Per trace pixel: this frame's specular rays (`specular_trace`).
 @group(0) @binding(23) var<storage, read> specular_samples: array<SpecularSample>;
 // Per pixel: the specular input of this frame (`shade` writes the reused reflection's ratio
-// of rough pixels; `pc/specular.wgsl` the traced radiance of smooth ones) and the history of
-// either (`pc/specular.wgsl`).
+// of rough pixels; `specular_resolve` the traced radiance of smooth ones) and the history of
+// either (`specular_temporal`).
 @group(0) @binding(24) var<storage, read_write> specular_noisy: array<vec2<u32>>;
 // Per pixel: radiance and history length (`pack_color64`), the surface's distance from the
 // camera (f32 bits) and its packed normal; this frame's and the previous frame's.
@@ -42,3 +44,19 @@
 @group(0) @binding(27) var<storage, read> gbuffer_emissive: array<vec4<f32>>;
 // Per pixel with FLAG_BLEND_LAYER: the nearest blended surface in front (`gbuffer.blend_layer`).
 @group(0) @binding(28) var<storage, read> gbuffer_blend_layer: array<vec4<f32>>;
+
+// Row-major index of trace pixel `t`.
+fn trace_index(t: vec2<u32>) -> u32 {
+    return t.y * uniforms.trace_px.x + t.x;
+}
+
+// Where the specular reflection of pixel `pixel` (with G-buffer depth `depth`) comes from.
+fn kind_of(pixel: u32, depth: f32) -> u32 {
+    return specular_kind(uniforms.flags, uniforms.specular_max_roughness, depth, gbuffer_metallic_roughness[pixel].y);
+}
+
+// The point pixel `p` shows at G-buffer depth `depth` (distance along its camera ray).
+fn world_position(p: vec2<u32>, depth: f32) -> vec3<f32> {
+    let uv = (vec2<f32>(p) + 0.5) / vec2<f32>(uniforms.size_px);
+    return uniforms.camera.position + camera_ray(uniforms.camera, uv) * depth;
+}

@@ -20,6 +20,10 @@
 //     VOLUME_FAR_SPACINGS spacings), whose counts are packed in ProbeState::moment_counts: a
 //     variance shadow map of one texel per face (HSGI's "Visibility VSM").
 //
+// The update (`update.wgsl`) and the batch queries (`irradiance_at.wgsl`) are the passes of
+// `shaders/mobile/volume/`; the screen gather (`shaders/mobile/screen/gather.wgsl`) samples
+// the volume through `volume_irradiance`.
+//
 // Bind group 1 (`gi_tiers::mobile::ProbeVolume::bind_group_layout`), compute stages:
 //   binding 0: `volume` uniform VolumeUniforms
 //   binding 1: `volume_probes` array<ProbeState>
@@ -28,6 +32,8 @@
 // The storage buffers are read_write so the update passes and the gather passes share one
 // layout; gather passes only read them.
 
+// Invocations per workgroup of the volume's passes (`gi_tiers::mobile::volume::WORKGROUP_SIZE`).
+const WORKGROUP_SIZE: u32 = 64u;
 const VOLUME_MAX_LEVELS: u32 = 4u;
 const VOLUME_FACES: u32 = 6u;
 

@@ -1,4 +1,4 @@
-// What the PC tier's passes share (`pc/trace.wgsl`, `pc/restir.wgsl`): the uniforms, the
+// What every pass of the PC tier's ReSTIR GI (`shaders/pc/restir/`) shares: the uniforms, the
 // per-trace-pixel surface and the ReSTIR GI reservoir, and the reservoir arithmetic (Ouyang et
 // al. 2021, "ReSTIR GI: Path Resampling for Real-Time Path Tracing"; Bitterli et al. 2020 for
 // the streaming reservoir and its unbiased contribution weight W).
@@ -7,11 +7,11 @@
 // direction), the radiance leaving `y` towards `x`, its weight W and its sample count M. The
 // estimate of the receiver's irradiance is `L(y) cos(n_x, y - x) W`; the target function is
 // `p(y) = luminance(L(y)) cos(n_x, y - x)`, the irradiance integrand without colour.
-#define_import_path gi::pc::common
+#define_import_path gi::pc::restir::common
 
 #import gi::camera::Camera
 #import gi::math::luminance
-#import gi::lights::Sky
+#import gi::sky::Sky
 #import gi::packing::{unpack_unit_vector, unpack_rgb9e5}
 
 // Bits of `PcUniforms::flags`.
@@ -25,7 +25,7 @@ const FLAG_HISTORY: u32 = 32u;
 // Trace specular rays below `specular_max_roughness`.
 const FLAG_SPECULAR: u32 = 64u;
 // Rougher surfaces (all surfaces without `FLAG_SPECULAR`) reflect the diffuse irradiance
-// reshaped by their lobe: HSGI's reuse of the diffuse result (`pc/restir.wgsl`, `shade`).
+// reshaped by their lobe: HSGI's reuse of the diffuse result (`pc/restir/shade.wgsl`).
 const FLAG_REUSE_SPECULAR: u32 = 128u;
 // The material's occlusion map darkens the gathered diffuse light (`PcConfig::material_occlusion`).
 const FLAG_MATERIAL_OCCLUSION: u32 = 256u;
@@ -34,9 +34,9 @@ const FLAG_BLEND_LAYER: u32 = 512u;
 
 // What a pixel's specular reflection comes from (`specular_kind`).
 const SPECULAR_NONE: u32 = 0u;
-// A traced GGX VNDF ray (`pc/trace.wgsl`, `pc/specular.wgsl`).
+// A traced GGX VNDF ray (`pc/restir/specular_trace.wgsl`, `pc/restir/specular_resolve.wgsl`).
 const SPECULAR_TRACED: u32 = 1u;
-// The diffuse samples weighted by the lobe (`pc/restir.wgsl`, `shade`).
+// The diffuse samples weighted by the lobe (`pc/restir/shade.wgsl`).
 const SPECULAR_REUSED: u32 = 2u;
 
 // Bits of `Reservoir::flags`.
@@ -46,6 +46,8 @@ const SAMPLE_OCCLUDED: u32 = 2u;
 
 // Bits of +infinity, the G-buffer depth of sky pixels.
 const INFINITY_BITS: u32 = 0x7f800000u;
+// The largest float: the length of an unbounded ray, the bound of a finite weight.
+const FAR: f32 = 3.40282347e38;
 
 // Mirror of `gi_tiers::pc::PcUniforms`.
 struct PcUniforms {
@@ -87,6 +89,10 @@ struct PcUniforms {
     // reached at roughness 1 (1: no blend).
     specular_diffuse_from: f32,
 }
+
+// Binding 0 of bind group 0 in every pass. Named `uniforms`, not `u`: an entry file imports
+// it, and naga_oil would rewrite the `u` suffix of integer literals into an imported `u`.
+@group(0) @binding(0) var<uniform> uniforms: PcUniforms;
 
 // One trace pixel's receiver: the G-buffer surface of the full-resolution pixel it picked
 // this frame. `depth` 0: no surface (every pixel of its block shows the sky).

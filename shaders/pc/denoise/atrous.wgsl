@@ -1,0 +1,99 @@
+// Pass `pc/denoise_atrous` of the PC tier's denoiser (`gi::pc::denoise`), once per iteration:
+//
+//   atrous          one a-trous iteration (5 x 5 B3-spline taps `step_px` apart) with SVGF's
+//                   normal, depth and luminance edge-stopping weights; the variance is
+//                   filtered with the squared weights. With `feedback` the first iteration
+//                   also writes the color of the next frame's long history.
+//
+// Bind group 0: the frame's inputs, the histories and the filter buffers; group 1: this
+// dispatch's uniforms (`gi::pc::denoise`).
+
+#import gi::packing::unpack_unit_vector
+#import gi::math::luminance
+#import gi::pc::denoise::{
+    depth, normal, uniforms, load_history, store_history, load_filter, store_filter, is_sky,
+    pixel_index, depth_at, depth_derivative, normal_weight, FIRST_ATROUS_WRITE
+}
+
+// Keeps the luminance weight defined where the variance is 0 (a noise-free input).
+const LUMINANCE_EPSILON: f32 = 1e-10;
+// B3-spline taps of the a-trous kernel, by distance 0, 1, 2.
+const ATROUS_KERNEL: array<f32, 3> = array<f32, 3>(0.375, 0.25, 0.0625);
+// Taps of the 3 x 3 Gaussian that prefilters the center variance, by distance 0, 1.
+const GAUSSIAN_3X3: array<f32, 2> = array<f32, 2>(0.5, 0.25);
+
+// The center variance prefiltered with a 3 x 3 Gaussian over the non-sky pixels (SVGF: it
+// steadies the luminance weight against a noisy variance estimate); `input` is the filter
+// write to read.
+fn prefiltered_variance(input: u32, pixel: vec2<i32>) -> f32 {
+    var sum = 0.0;
+    var weight_sum = 0.0;
+    for (var dy = -1; dy <= 1; dy++) {
+        for (var dx = -1; dx <= 1; dx++) {
+            let q = pixel + vec2(dx, dy);
+            if is_sky(depth_at(q)) {
+                continue;
+            }
+            let w = GAUSSIAN_3X3[abs(dx)] * GAUSSIAN_3X3[abs(dy)];
+            sum += w * load_filter(input, pixel_index(q)).w;
+            weight_sum += w;
+        }
+    }
+    return sum / weight_sum;
+}
+
+@compute @workgroup_size(8, 8)
+fn atrous(@builtin(global_invocation_id) id: vec3<u32>) {
+    if any(id.xy >= uniforms.size_px) {
+        return;
+    }
+    let pixel = vec2<i32>(id.xy);
+    let index = pixel_index(pixel);
+    // Iteration i has step 2^i.
+    let place = FIRST_ATROUS_WRITE + firstTrailingBit(uniforms.step_px);
+    let input = place - 1u;
+    let center = load_filter(input, index);
+    let z = depth[index];
+    var result = center;
+    if !is_sky(z) {
+        let n = unpack_unit_vector(normal[index]);
+        let l = luminance(center.rgb);
+        let phi_luminance = uniforms.luminance_sigma * sqrt(prefiltered_variance(input, pixel)) + LUMINANCE_EPSILON;
+        let phi_depth = uniforms.depth_sigma * depth_derivative(pixel, z) * f32(uniforms.step_px);
+        let step = i32(uniforms.step_px);
+        // The center tap: every edge-stopping weight is 1.
+        let center_weight = ATROUS_KERNEL[0] * ATROUS_KERNEL[0];
+        var color_sum = center_weight * center.rgb;
+        var variance_sum = center_weight * center_weight * center.w;
+        var weight_sum = center_weight;
+        for (var dy = -2; dy <= 2; dy++) {
+            for (var dx = -2; dx <= 2; dx++) {
+                if dx == 0 && dy == 0 {
+                    continue;
+                }
+                let q = pixel + vec2(dx, dy) * step;
+                let q_depth = depth_at(q);
+                if is_sky(q_depth) {
+                    continue;
+                }
+                let qi = pixel_index(q);
+                let sample = load_filter(input, qi);
+                let w_depth = abs(q_depth - z) / (phi_depth * length(vec2<f32>(vec2(dx, dy))));
+                let w_luminance = abs(luminance(sample.rgb) - l) / phi_luminance;
+                let w = ATROUS_KERNEL[abs(dx)] * ATROUS_KERNEL[abs(dy)]
+                    * normal_weight(n, unpack_unit_vector(normal[qi]), uniforms.normal_power)
+                    * exp(-w_depth - w_luminance);
+                color_sum += w * sample.rgb;
+                variance_sum += w * w * sample.w;
+                weight_sum += w;
+            }
+        }
+        result = vec4(color_sum / weight_sum, variance_sum / (weight_sum * weight_sum));
+    }
+    store_filter(place, index, result);
+    if place == FIRST_ATROUS_WRITE && uniforms.feedback != 0u {
+        // SVGF feeds the first iteration back as the long history's color; `temporal` wrote
+        // the age.
+        store_history(index, result.rgb, load_history(index).w);
+    }
+}

@@ -1,0 +1,199 @@
+// The PC tier's denoiser: HSGI's final processing (GDC 2023, "PC / Console Solution":
+// temporal supersampling with a long and a short history, variance clamping with the short
+// history's 5 x 5 neighbourhood) followed by SVGF's variance estimate and edge-avoiding
+// a-trous wavelet filter (Schied et al. 2017, "Spatiotemporal Variance-Guided Filtering:
+// Real-Time Reconstruction for Path-Traced Global Illumination", HPG). One pass per file of
+// `shaders/pc/denoise/`, in frame order: `temporal.wgsl` (two dispatches, `temporal_short`
+// then `temporal`), `variance.wgsl`, `atrous.wgsl` (once per iteration); this module holds
+// what they share.
+//
+// Pixels are one storage-buffer entry each, row-major. Sky pixels (depth +inf) pass their
+// input through every pass, keep no history and never mix into their neighbours.
+//
+// Memory, 44 bytes per pixel (`gi_tiers::pc::denoise` explains the choice): the histories are
+// packed (short color RGB9E5; long color and age `pack_color64`; moments f16), and the filter
+// passes ping-pong between `output` (f32) and a `pack_color64` pair of buffers that are dead by
+// then: the previous short history (reprojected by `temporal_short`) and the previous normals
+// (read only by `temporal_short`, copied anew after the last pass). Which one a pass writes
+// follows from the parity of its place in the chain (`writes_full`), so that the last pass
+// writes `output`.
+//
+// Bind group 0: the frame's inputs, the histories and the filter buffers
+// (`gi_tiers::pc::denoise::Denoiser`); group 1: this dispatch's uniforms.
+#define_import_path gi::pc::denoise
+
+#import gi::packing::{pack_half2, unpack_half2, pack_color64, unpack_color64}
+#import gi::math::{image_contains, image_index}
+
+const INFINITY_BITS: u32 = 0x7f800000u;
+// Least depth derivative of the depth weights, relative to the depth: a surface facing the
+// camera has no derivative, and its depths still differ by rounding.
+const DEPTH_DERIVATIVE_FLOOR: f32 = 1e-4;
+// Places of the filter chain's writes (`writes_full`): `temporal` is write 0, `variance`
+// write 1, a-trous iteration i write 2 + i.
+const TEMPORAL_WRITE: u32 = 0u;
+const VARIANCE_WRITE: u32 = 1u;
+const FIRST_ATROUS_WRITE: u32 = 2u;
+
+// Mirror of `gi_tiers::pc::denoise::DenoiseUniforms`, 64 bytes.
+struct DenoiseUniforms {
+    size_px: vec2<u32>,
+    // Pixels between a-trous taps (2^iteration).
+    step_px: u32,
+    // A-trous iterations this frame: with the pass's place, where it reads and writes.
+    atrous_iterations: u32,
+    // 0: no usable history (first frame, reset, temporal accumulation off).
+    history_valid: u32,
+    long_history: u32,
+    short_history: u32,
+    variance_min_age: u32,
+    clamp_sigma: f32,
+    reprojection_depth_tolerance: f32,
+    reprojection_normal_cos: f32,
+    normal_power: f32,
+    depth_sigma: f32,
+    luminance_sigma: f32,
+    // 1: the first a-trous iteration's color becomes the long history (SVGF's feedback).
+    feedback: u32,
+    pad: u32,
+}
+
+// Group 0.
+@group(0) @binding(0) var<storage, read> noisy: array<vec4<f32>>;
+@group(0) @binding(1) var<storage, read> depth: array<f32>;
+@group(0) @binding(2) var<storage, read> normal: array<u32>;
+@group(0) @binding(3) var<storage, read> motion: array<vec2<f32>>;
+@group(0) @binding(4) var<storage, read> previous_depth: array<f32>;
+// Octahedral normals of the previous frame until `temporal_short` has run; then the second
+// word of the packed filter buffer (`store_filter`).
+@group(0) @binding(5) var<storage, read_write> previous_normal: array<u32>;
+// The previous frame's short history (RGB9E5) until `temporal_short` has run; then the first
+// word of the packed filter buffer.
+@group(0) @binding(6) var<storage, read_write> short_in: array<u32>;
+// This frame's short history, RGB9E5.
+@group(0) @binding(7) var<storage, read_write> short_out: array<u32>;
+// The long history, `pack_color64` (rgb, age); age = frames accumulated including the current
+// one (0 for sky). Read through the taps only by `temporal_short`.
+@group(0) @binding(8) var<storage, read_write> history: array<vec2<u32>>;
+// f16 (mean luminance, luminance variance) of the long history.
+@group(0) @binding(9) var<storage, read_write> moments: array<u32>;
+// `array<vec4<f32>>` for the caller (rgb irradiance, w its variance), kept as raw bits here:
+// the reprojected long history between `temporal_short` and `temporal` (`Reprojected`), then
+// the full-precision filter buffer, and the result after the last pass.
+@group(0) @binding(10) var<storage, read_write> output: array<vec4<u32>>;
+
+// Group 1.
+// Named `uniforms`, not `u`: the passes import it, and naga_oil would rewrite the `u` suffix
+// of integer literals into an imported `u`.
+@group(1) @binding(0) var<uniform> uniforms: DenoiseUniforms;
+
+// ---------------------------------------------------------------------------------------------
+// Packed histories and filter buffers
+// ---------------------------------------------------------------------------------------------
+
+// Long history of pixel `index`: rgb and age.
+fn load_history(index: u32) -> vec4<f32> {
+    return unpack_color64(history[index]);
+}
+
+fn store_history(index: u32, color: vec3<f32>, age: f32) {
+    history[index] = pack_color64(color, age);
+}
+
+// Mean luminance and mean squared luminance of pixel `index`'s long history (stored as mean
+// and variance: the variance keeps its precision in f16, the squared mean would not).
+fn load_moments(index: u32) -> vec2<f32> {
+    let m = unpack_half2(moments[index]);
+    return vec2(m.x, m.y + m.x * m.x);
+}
+
+// Stores mean and mean squared luminance, returns the variance.
+fn store_moments(index: u32, m: vec2<f32>) -> f32 {
+    let variance = max(m.y - m.x * m.x, 0.0);
+    moments[index] = pack_half2(vec2(m.x, variance));
+    return variance;
+}
+
+// Index of this frame's last filter write: the last a-trous iteration, or `temporal` without.
+fn last_write() -> u32 {
+    return select(FIRST_ATROUS_WRITE + uniforms.atrous_iterations - 1u, TEMPORAL_WRITE, uniforms.atrous_iterations == 0u);
+}
+
+// Whether filter write `place` goes to `output` (full precision), else to the packed pair.
+// They alternate so that each pass reads the other one, and the last write is `output`.
+fn writes_full(place: u32) -> bool {
+    return ((last_write() - place) & 1u) == 0u;
+}
+
+// Filter data (rgb, luminance variance) of pixel `index` as written by filter write `place`.
+fn load_filter(place: u32, index: u32) -> vec4<f32> {
+    if writes_full(place) {
+        return bitcast<vec4<f32>>(output[index]);
+    }
+    return unpack_color64(vec2(short_in[index], previous_normal[index]));
+}
+
+fn store_filter(place: u32, index: u32, value: vec4<f32>) {
+    if writes_full(place) {
+        output[index] = bitcast<vec4<u32>>(value);
+    } else {
+        let packed = pack_color64(value.rgb, value.w);
+        short_in[index] = packed.x;
+        previous_normal[index] = packed.y;
+    }
+}
+
+fn is_sky(z: f32) -> bool {
+    return bitcast<u32>(z) == INFINITY_BITS;
+}
+
+fn pixel_index(pixel: vec2<i32>) -> u32 {
+    return image_index(pixel, uniforms.size_px);
+}
+
+fn inside(pixel: vec2<i32>) -> bool {
+    return image_contains(pixel, uniforms.size_px);
+}
+
+// Depth of a pixel, +inf outside the image (so it counts as sky).
+fn depth_at(pixel: vec2<i32>) -> f32 {
+    if !inside(pixel) {
+        return bitcast<f32>(INFINITY_BITS);
+    }
+    return depth[pixel_index(pixel)];
+}
+
+// How much the depth changes per pixel at `pixel` (depth `z`): per axis the smaller of the two
+// one-sided differences (the side on the same surface), the larger axis of the two; never
+// below DEPTH_DERIVATIVE_FLOOR z. It plays the part of SVGF's screen-space depth gradient
+// `fwidth(z)`, which a compute pass over a ray-cast G-buffer does not have.
+fn depth_derivative(pixel: vec2<i32>, z: f32) -> f32 {
+    var derivative = 0.0;
+    for (var axis = 0; axis < 2; axis++) {
+        var offset = vec2(0);
+        offset[axis] = 1;
+        let after = depth_at(pixel + offset);
+        let before = depth_at(pixel - offset);
+        var smaller = 3.0e38;
+        if !is_sky(after) {
+            smaller = abs(after - z);
+        }
+        if !is_sky(before) {
+            smaller = min(smaller, abs(before - z));
+        }
+        if smaller < 3.0e38 {
+            derivative = max(derivative, smaller);
+        }
+    }
+    // The absolute floor keeps a zero depth from dividing by zero.
+    return max(derivative, DEPTH_DERIVATIVE_FLOOR * z + 1e-30);
+}
+
+// SVGF's normal edge-stopping weight max(0, n . m)^power.
+fn normal_weight(n: vec3<f32>, m: vec3<f32>, power: f32) -> f32 {
+    let cos_angle = dot(n, m);
+    if cos_angle <= 0.0 {
+        return 0.0;
+    }
+    return pow(cos_angle, power);
+}

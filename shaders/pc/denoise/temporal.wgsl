@@ -1,0 +1,202 @@
+// Pass `pc/denoise_temporal` of the PC tier's denoiser (`gi::pc::denoise`), two dispatches:
+//
+//   temporal_short  reproject the histories once (bilinear 2 x 2 taps through the motion
+//                   vector, each tap kept only if its previous depth and normal agree with
+//                   this pixel's): blend this frame's noisy irradiance into the short history
+//                   with alpha = max(1 / (age + 1), 1 / short_history), and leave the
+//                   reprojected long history (color, luminance moments, age) in `output`;
+//   temporal        clamp the reprojected long color into mean +- clamp_sigma sigma of this
+//                   frame's short history over the 5 x 5 neighbourhood and blend with
+//                   alpha = max(1 / (age + 1), 1 / long_history); store the long history
+//                   (with `feedback`, as SVGF does, the first a-trous iteration replaces its
+//                   color).
+//
+// Bind group 0: the frame's inputs, the histories and the filter buffers; group 1: this
+// dispatch's uniforms (`gi::pc::denoise`).
+
+#import gi::packing::{unpack_unit_vector, pack_rgb9e5, unpack_rgb9e5, pack_half2, unpack_half2, pack_color64, unpack_color64}
+#import gi::math::luminance
+#import gi::pc::denoise::{
+    noisy, depth, normal, motion, previous_depth, previous_normal, short_in, short_out, output,
+    uniforms, load_history, store_history, load_moments, store_moments, store_filter, is_sky,
+    pixel_index, inside, depth_at, depth_derivative, TEMPORAL_WRITE
+}
+
+// Most error of an RGB9E5 channel relative to the largest channel (half a mantissa step).
+const RGB9E5_ERROR: f32 = 1.0 / 512.0;
+// Least total bilinear weight of the kept reprojection taps for the history to be used (SVGF's
+// reference implementation's threshold).
+const MIN_REPROJECTION_WEIGHT: f32 = 0.01;
+
+// The long history reprojected by `temporal_short` for `temporal`, in `output`.
+struct Reprojected {
+    // Whether enough taps were kept (else the history is dropped).
+    valid: bool,
+    color: vec3<f32>,
+    // Frames accumulated including this one.
+    age: f32,
+    // Mean luminance and mean squared luminance.
+    moments: vec2<f32>,
+}
+
+fn store_reprojected(index: u32, r: Reprojected) {
+    let variance = max(r.moments.y - r.moments.x * r.moments.x, 0.0);
+    let color = pack_color64(r.color, r.age);
+    output[index] = vec4(color, pack_half2(vec2(r.moments.x, variance)), u32(r.valid));
+}
+
+fn load_reprojected(index: u32) -> Reprojected {
+    let packed = output[index];
+    let color = unpack_color64(packed.xy);
+    let m = unpack_half2(packed.z);
+    return Reprojected(packed.w != 0u, color.rgb, color.w, vec2(m.x, m.y + m.x * m.x));
+}
+
+// The bilinear taps of the previous frame that a pixel reprojects to; a tap whose previous
+// depth or normal disagrees with the pixel's has weight 0.
+struct Reprojection {
+    pixels: vec4<u32>,
+    weights: vec4<f32>,
+}
+
+// The taps around the previous position of `pixel` (index `index`, depth `z`, normal `n`).
+// Depths are compared without the camera's motion (the denoiser has no camera), with a
+// tolerance relative to the depth plus the depth change across the one-pixel tap footprint.
+fn reproject(pixel: vec2<i32>, index: u32, z: f32, n: vec3<f32>) -> Reprojection {
+    var taps = Reprojection(vec4(0u), vec4(0.0));
+    if uniforms.history_valid == 0u {
+        return taps;
+    }
+    // Tap space: previous pixel centers sit at integer coordinates.
+    let previous = vec2<f32>(pixel) + motion[index];
+    let base = floor(previous);
+    let f = previous - base;
+    let tolerance = uniforms.reprojection_depth_tolerance * z + 2.0 * depth_derivative(pixel, z);
+    for (var corner = 0u; corner < 4u; corner++) {
+        let c = vec2(corner & 1u, corner >> 1u);
+        let tap = vec2<i32>(base) + vec2<i32>(c);
+        let w2 = select(1.0 - f, f, c == vec2(1u));
+        let bilinear = w2.x * w2.y;
+        if bilinear <= 0.0 || !inside(tap) {
+            continue;
+        }
+        let t = pixel_index(tap);
+        let tap_depth = previous_depth[t];
+        if is_sky(tap_depth) || abs(tap_depth - z) > tolerance {
+            continue;
+        }
+        if dot(unpack_unit_vector(previous_normal[t]), n) < uniforms.reprojection_normal_cos {
+            continue;
+        }
+        taps.pixels[corner] = t;
+        taps.weights[corner] = bilinear;
+    }
+    return taps;
+}
+
+fn total_weight(taps: Reprojection) -> f32 {
+    return dot(taps.weights, vec4(1.0));
+}
+
+@compute @workgroup_size(8, 8)
+fn temporal_short(@builtin(global_invocation_id) id: vec3<u32>) {
+    if any(id.xy >= uniforms.size_px) {
+        return;
+    }
+    let pixel = vec2<i32>(id.xy);
+    let index = pixel_index(pixel);
+    let x = noisy[index].rgb;
+    let z = depth[index];
+    var long = Reprojected(false, vec3(0.0), 0.0, vec2(0.0));
+    if is_sky(z) {
+        short_out[index] = pack_rgb9e5(x);
+        store_reprojected(index, long);
+        return;
+    }
+    let taps = reproject(pixel, index, z, unpack_unit_vector(normal[index]));
+    let total = total_weight(taps);
+    var short_color = x;
+    var previous_age = 0.0;
+    if total >= MIN_REPROJECTION_WEIGHT {
+        var previous_short = vec3(0.0);
+        var previous_long = vec4(0.0);
+        var previous_moments = vec2(0.0);
+        for (var k = 0u; k < 4u; k++) {
+            let t = taps.pixels[k];
+            let w = taps.weights[k];
+            previous_short += w * unpack_rgb9e5(short_in[t]);
+            previous_long += w * load_history(t);
+            previous_moments += w * load_moments(t);
+        }
+        previous_age = previous_long.w / total;
+        let alpha = max(1.0 / (previous_age + 1.0), 1.0 / f32(uniforms.short_history));
+        short_color = mix(previous_short / total, x, alpha);
+        long.valid = true;
+        long.color = previous_long.rgb / total;
+        long.moments = previous_moments / total;
+    }
+    short_out[index] = pack_rgb9e5(short_color);
+    long.age = min(previous_age + 1.0, f32(uniforms.long_history));
+    store_reprojected(index, long);
+}
+
+// Per-channel statistics of a neighbourhood.
+struct ColorBox {
+    mean: vec3<f32>,
+    sigma: vec3<f32>,
+}
+
+// Mean and standard deviation, per channel, of this frame's short history over the 5 x 5
+// neighbourhood of `pixel` (sky left out).
+fn short_neighbourhood(pixel: vec2<i32>) -> ColorBox {
+    var sum = vec3(0.0);
+    var sum_sq = vec3(0.0);
+    var count = 0.0;
+    for (var dy = -2; dy <= 2; dy++) {
+        for (var dx = -2; dx <= 2; dx++) {
+            let q = pixel + vec2(dx, dy);
+            if is_sky(depth_at(q)) {
+                continue;
+            }
+            let s = unpack_rgb9e5(short_out[pixel_index(q)]);
+            sum += s;
+            sum_sq += s * s;
+            count += 1.0;
+        }
+    }
+    let mean = sum / count;
+    let sigma = sqrt(max(sum_sq / count - mean * mean, vec3(0.0)));
+    return ColorBox(mean, sigma);
+}
+
+@compute @workgroup_size(8, 8)
+fn temporal(@builtin(global_invocation_id) id: vec3<u32>) {
+    if any(id.xy >= uniforms.size_px) {
+        return;
+    }
+    let pixel = vec2<i32>(id.xy);
+    let index = pixel_index(pixel);
+    let x = noisy[index].rgb;
+    let z = depth[index];
+    let l = luminance(x);
+    // Only this pixel reads its reprojection, so its filter data may replace it.
+    let previous = load_reprojected(index);
+    var color = x;
+    var m = vec2(l, l * l);
+    if !is_sky(z) && previous.valid {
+        let box = short_neighbourhood(pixel);
+        // Widened by the short history's RGB9E5 rounding, so that a noise-free history is not
+        // pulled off by it.
+        let rounding = RGB9E5_ERROR * max(max(box.mean.r, box.mean.g), box.mean.b);
+        let half_width = uniforms.clamp_sigma * box.sigma + rounding;
+        let clamped = clamp(previous.color, box.mean - half_width, box.mean + half_width);
+        // `temporal_short` stored the age including this frame: alpha = 1 / (previous + 1).
+        let alpha = max(1.0 / previous.age, 1.0 / f32(uniforms.long_history));
+        color = mix(clamped, x, alpha);
+        m = mix(previous.moments, m, alpha);
+    }
+    let variance = store_moments(index, m);
+    // The first a-trous iteration, if any, replaces the color.
+    store_history(index, color, previous.age);
+    store_filter(TEMPORAL_WRITE, index, vec4(color, variance));
+}

@@ -1,0 +1,36 @@
+// What the PC tier's passes that trace BVH rays (`trace`, `shadow`, `specular_trace`) share:
+// the storage buffers of their bind group 0, declared once, and where a ray leaves a surface.
+// The buffers are those of `TraceBindings` (crates/gi-tiers/src/pc/restir.rs) in its order,
+// from binding 8, after the uniforms (binding 0, `gi::pc::restir::common::uniforms`) and the
+// scene (bindings 1-7, `gi::scene`). Each pass imports the ones it uses. A unit test checks the
+// names and accesses against the Rust list.
+#define_import_path gi::pc::restir::rays
+
+#import gi::pc::restir::common::{Surface, Reservoir, SpecularSample}
+
+// Shadow rays stop short of their target by this share of the distance.
+const SHADOW_MARGIN: f32 = 1e-3;
+
+@group(0) @binding(8) var<storage, read> gbuffer_depth: array<f32>;
+@group(0) @binding(9) var<storage, read> gbuffer_normal: array<u32>;
+// Per trace pixel: this frame's receiver (written by `trace`).
+@group(0) @binding(10) var<storage, read_write> surfaces: array<Surface>;
+// Per trace pixel: the initial reservoir (written by `trace`).
+@group(0) @binding(11) var<storage, read_write> initial: array<Reservoir>;
+// Per trace pixel: the temporal reuse's result (read by `shadow`).
+@group(0) @binding(12) var<storage, read> temporal: array<Reservoir>;
+// Per trace pixel: the reservoir the shading reads. With spatial reuse, `pc/spatial` wrote
+// its result here and `shadow` updates it in place (each invocation reads and writes only its
+// own element); without, `shadow` writes it.
+@group(0) @binding(13) var<storage, read_write> resolved: array<Reservoir>;
+@group(0) @binding(14) var<storage, read> gbuffer_base_color: array<vec4<f32>>;
+@group(0) @binding(15) var<storage, read> gbuffer_metallic_roughness: array<vec2<f32>>;
+// Per trace pixel: the specular ray (written by `specular_trace`).
+@group(0) @binding(16) var<storage, read_write> specular_samples: array<SpecularSample>;
+
+// `p` pushed off its surface along `n` by a margin relative to its magnitude (the reference's
+// `offset_origin`).
+fn offset_origin(p: vec3<f32>, n: vec3<f32>) -> vec3<f32> {
+    let a = abs(p);
+    return p + n * (1e-4 * (1.0 + max(max(a.x, a.y), a.z)));
+}

@@ -1,0 +1,91 @@
+// Pass `pc/specular_temporal`, the second half of the PC tier's specular reflections after
+// HSGI (GDC 2023, "PC / Console Solution", "Specular Reflection"), per pixel: the resolved
+// radiance averaged with the history found by the surface's motion vector (depth and normal
+// checked), over up to `specular_history` frames, the history first clamped to the resolved
+// neighbourhood's mean plus or minus `specular_clamp_sigma` standard deviations. Rough pixels
+// go through it too: their input is the lobe ratio of the reused diffuse samples (`shade`), and
+// neither the clamp's neighbourhood nor the history mixes the two kinds (a ratio's history
+// stores its distance negated). `compose` multiplies the radiance by the split-sum specular
+// albedo, and the irradiance over pi by the ratio.
+//
+// Bind group 0: binding 0 `uniforms` (`gi::pc::restir::common`), then the buffers of
+// `gi::pc::restir::bindings`.
+
+#import gi::packing::{pack_unit_vector, unpack_unit_vector, pack_color64, unpack_color64}
+#import gi::pc::restir::bindings::{
+    gbuffer_depth, gbuffer_normal, gbuffer_motion, specular_noisy, specular_history,
+    specular_history_prev, kind_of, world_position
+}
+#import gi::pc::restir::common::{uniforms, FLAG_HISTORY, SPECULAR_NONE, SPECULAR_REUSED}
+
+@compute @workgroup_size(8, 8)
+fn specular_temporal(@builtin(global_invocation_id) id: vec3<u32>) {
+    if any(id.xy >= uniforms.size_px) {
+        return;
+    }
+    let pixel = id.y * uniforms.size_px.x + id.x;
+    let depth = gbuffer_depth[pixel];
+    let kind = kind_of(pixel, depth);
+    if kind == SPECULAR_NONE {
+        specular_history[pixel] = vec4(0u);
+        return;
+    }
+    let x = world_position(id.xy, depth);
+    let n = unpack_unit_vector(gbuffer_normal[pixel]);
+    let current = unpack_color64(specular_noisy[pixel]);
+
+    // The resolved neighbourhood's mean and standard deviation.
+    var m1 = vec3(0.0);
+    var m2 = vec3(0.0);
+    var count = 0.0;
+    let p = vec2<i32>(id.xy);
+    for (var dy = -1; dy <= 1; dy++) {
+        for (var dx = -1; dx <= 1; dx++) {
+            let q = p + vec2(dx, dy);
+            if any(q < vec2(0)) || any(q >= vec2<i32>(uniforms.size_px)) {
+                continue;
+            }
+            // The input's value is its kind (0: none).
+            let v = unpack_color64(specular_noisy[u32(q.y) * uniforms.size_px.x + u32(q.x)]);
+            if v.w == f32(kind) {
+                m1 += v.xyz;
+                m2 += v.xyz * v.xyz;
+                count += 1.0;
+            }
+        }
+    }
+
+    // The previous frame's history of this surface.
+    var history = vec3(0.0);
+    var length = 0.0;
+    let before = vec2<f32>(id.xy) + 0.5 + gbuffer_motion[pixel];
+    let q = vec2<i32>(floor(before));
+    if (uniforms.flags & FLAG_HISTORY) != 0u && all(q >= vec2(0)) && all(q < vec2<i32>(uniforms.size_px)) {
+        let h = specular_history_prev[u32(q.y) * uniforms.size_px.x + u32(q.x)];
+        let stored = unpack_color64(h.xy);
+        let expected = distance(x, uniforms.previous_camera.position);
+        // A reused ratio's history stores its distance negated: never mixed with radiance.
+        let signed = select(expected, -expected, kind == SPECULAR_REUSED);
+        let same_depth = abs(bitcast<f32>(h.z) - signed) <= 0.05 * expected;
+        let same_normal = dot(unpack_unit_vector(h.w), n) > 0.9;
+        if stored.w > 0.0 && same_depth && same_normal {
+            history = stored.xyz;
+            length = stored.w;
+            if count > 0.0 {
+                let mean = m1 / count;
+                let sigma = sqrt(max(m2 / count - mean * mean, vec3(0.0)));
+                let k = uniforms.specular_clamp_sigma;
+                history = clamp(history, mean - k * sigma, mean + k * sigma);
+            }
+        }
+    }
+    var radiance = history;
+    if current.w > 0.0 {
+        length = min(length + 1.0, uniforms.specular_history);
+        radiance = mix(history, current.xyz, 1.0 / length);
+    }
+    let packed = pack_color64(radiance, length);
+    let d = distance(x, uniforms.camera.position);
+    let signed = select(d, -d, kind == SPECULAR_REUSED);
+    specular_history[pixel] = vec4(packed, bitcast<u32>(signed), pack_unit_vector(n));
+}
