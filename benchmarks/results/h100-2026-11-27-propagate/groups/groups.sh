@@ -2,8 +2,9 @@
 # cache's propagation at 16 sides x 4 lanes (control), 32 x 2 and 64 x 1 (shader folders).
 # The shader folders .gpu/sh-p32 and .gpu/sh-p64 are copies of shaders/ with RAY_LANES 2 and 1 and
 # GROUP_SIDES 32 and 64 in cache/propagate.wgsl and cache/propagate_list.wgsl (first entry read
-# within the list); gi-bench-a and -b are builds with GROUP_X, GROUP_Y of pc/denoise.wgsl and
-# GROUP of gi_tiers::pc::denoise set to 32 x 2 and 16 x 4.
+# within the list); gi-bench-a and -b are builds with GROUP_X, GROUP_Y of pc/denoise.wgsl (since
+# split into the files of pc/denoise/) and GROUP of gi_tiers::pc::denoise set to 32 x 2 and
+# 16 x 4.
 . .gpu/setup.sh 2>/dev/null
 for b in a b; do xz -dc .gpu/gi-bench-$b.xz > /tmp/bin/gi-bench-$b; chmod +x /tmp/bin/gi-bench-$b; done
 R=/tmp/res; mkdir -p $R; S=.gpu/scenes
