@@ -207,7 +207,6 @@ pub fn run(options: &CacheUpdateOptions) -> anyhow::Result<CacheUpdateReport> {
                     scene: &scene,
                     frame: &frame,
                     gpu_scene: &gpu_scene,
-                    bvh: &gpu_scene.bvh,
                     camera_position: frame.camera.position,
                     gbuffer: screen,
                 },

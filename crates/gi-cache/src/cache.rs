@@ -25,7 +25,6 @@
 
 use std::collections::HashSet;
 
-use gi_gpu::bvh::GpuBvh;
 use gi_gpu::{GpuContext, GpuError, GpuScene, GpuTimer, Recorder, ShaderLibrary, Technique, wgpu};
 use gi_scene::{Scene, SceneFrame};
 use glam::{IVec3, Vec3};
@@ -68,10 +67,9 @@ pub struct CacheInputs<'a> {
     pub scene: &'a Scene,
     /// `scene` evaluated at this frame's time.
     pub frame: &'a SceneFrame,
-    /// `frame` on the GPU (triangles and materials are read by `cache/voxelize`).
+    /// `frame` on the GPU: its triangles and materials are read by `cache/voxelize`, its BVH
+    /// traced by the lighting passes.
     pub gpu_scene: &'a GpuScene,
-    /// The frame's BVH (traced by the lighting passes).
-    pub bvh: &'a GpuBvh,
     /// Where the level windows are centered.
     pub camera_position: Vec3,
     /// This frame's G-buffer, to correct visible bricks from (`cache/screen_inject`); `None`

@@ -539,7 +539,7 @@ impl<'a> LightingInputs<'a> {
             sky: &frame.inputs.frame.sky,
             lights: &frame.inputs.frame.lights,
             scene: frame.inputs.gpu_scene,
-            bvh: frame.inputs.bvh,
+            bvh: &frame.inputs.gpu_scene.bvh,
             cache_bind_group: &frame.buffers.bind_group,
             new_bricks: frame.new_bricks,
             resident: frame.resident,

@@ -1312,7 +1312,6 @@ fn radiance_cache_frames(ctx: &GpuContext, name: &str, frames: u32) -> (PassTimi
                 scene: &scene,
                 frame: &frame,
                 gpu_scene: &gpu_scene,
-                bvh: &gpu_scene.bvh,
                 camera_position: frame.camera.position,
                 gbuffer: None,
             },

@@ -28,7 +28,6 @@ fn update(
                 scene,
                 frame,
                 gpu_scene: &gpu_scene,
-                bvh: &gpu_scene.bvh,
                 camera_position: camera,
                 gbuffer: None,
             },

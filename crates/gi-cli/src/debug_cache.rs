@@ -109,7 +109,6 @@ pub fn run(args: &DebugCacheArgs) -> anyhow::Result<()> {
                 scene: &scene,
                 frame: &frame,
                 gpu_scene: &gpu_scene,
-                bvh: &gpu_scene.bvh,
                 camera_position: frame.camera.position,
                 gbuffer: None,
             },

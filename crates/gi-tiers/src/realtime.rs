@@ -190,7 +190,6 @@ pub(crate) fn record_gbuffer_and_cache<'g, 'c>(
             scene: input.scene,
             frame,
             gpu_scene: scene,
-            bvh: &scene.bvh,
             camera_position: frame.camera.position,
             gbuffer: Some(ScreenInputs::new(&gbuffer, &frame.camera)),
         },
