@@ -10,32 +10,50 @@
 //! medians ([`TierKind::is_gi_pass`]).
 
 use anyhow::Context;
+use gi_tiers::pc::denoise::AtrousKernel;
 use gi_tiers::pc::{PC_OPTIONAL_STAGES, PC_STAGES, TraceMode};
 use gi_tiers::{CameraMode, PcConfig, PcTier, Renderer, TierKind, TierSettings};
 
 use crate::realtime::{MIB, Measured, Schedule};
 
-/// A pipeline variant: `default`, the name of a stage to switch off ([`PC_STAGES`]), or
-/// `with-` and the name of one to switch on ([`PC_OPTIONAL_STAGES`]).
+/// A pipeline variant: `default`, the name of a stage to switch off ([`PC_STAGES`]),
+/// `with-` and the name of one to switch on ([`PC_OPTIONAL_STAGES`]), or `atrous-K-N`: the
+/// default with the denoiser's a-trous kernel `K` (`5x5` or `3x3`) and `N` iterations.
 pub fn parse_variant(value: &str) -> Result<String, String> {
     let switched_on = value
         .strip_prefix("with-")
         .is_some_and(|stage| PC_OPTIONAL_STAGES.contains(&stage));
     if value == "default" || PC_STAGES.contains(&value) || switched_on {
-        Ok(value.to_string())
-    } else {
-        Err(format!(
-            "unknown variant `{value}` (expected default, one of {} or with-{})",
-            PC_STAGES.join(", "),
-            PC_OPTIONAL_STAGES.join(", with-")
-        ))
+        return Ok(value.to_string());
     }
+    if value.starts_with("atrous-") {
+        return variant_config(value).map(|_| value.to_string());
+    }
+    Err(format!(
+        "unknown variant `{value}` (expected default, one of {}, with-{} or atrous-K-N \
+         with K one of {} and N iterations)",
+        PC_STAGES.join(", "),
+        PC_OPTIONAL_STAGES.join(", with-"),
+        AtrousKernel::NAMES.join(", ")
+    ))
 }
 
 /// The configuration of a variant [`parse_variant`] accepted.
 fn variant_config(variant: &str) -> Result<PcConfig, String> {
     if variant == "default" {
         return Ok(PcConfig::default());
+    }
+    if let Some(atrous) = variant.strip_prefix("atrous-") {
+        let (kernel, iterations) = atrous
+            .split_once('-')
+            .ok_or_else(|| format!("variant `{variant}`: expected atrous-K-N"))?;
+        let mut config = PcConfig::default();
+        config.denoise.atrous_kernel = kernel.parse()?;
+        config.denoise.atrous_iterations = iterations
+            .parse()
+            .map_err(|_| format!("variant `{variant}`: `{iterations}` is not a count"))?;
+        config.validate()?;
+        return Ok(config);
     }
     match variant.strip_prefix("with-") {
         Some(stage) => PcConfig::with(stage),
@@ -45,7 +63,7 @@ fn variant_config(variant: &str) -> Result<PcConfig, String> {
 
 /// A variant's column label.
 fn variant_label(variant: &str) -> String {
-    if variant == "default" {
+    if variant == "default" || variant.starts_with("atrous-") {
         return variant.to_string();
     }
     match variant.strip_prefix("with-") {

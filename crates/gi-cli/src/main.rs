@@ -26,6 +26,7 @@ use std::{
 
 use clap::{Args, Parser, Subcommand};
 use gi_tiers::pc::TraceMode;
+use gi_tiers::pc::denoise::AtrousKernel;
 use gi_tiers::{MobileConfig, PcConfig, TierKind};
 use tiers::{CameraChoice, RenderRequest, ScreenProbes};
 
@@ -131,6 +132,15 @@ pub struct ViewArgs {
     /// Only the PC tier reads it.
     #[arg(long, value_name = "MODE", value_parser = parse_trace_mode)]
     pc_trace_mode: Option<TraceMode>,
+    /// The PC denoiser's a-trous kernel: 3x3 (the linear B-spline, the default) or 5x5
+    /// (SVGF's B3-spline: 25 taps instead of 9, twice the reach per iteration). Only the PC
+    /// tier reads it.
+    #[arg(long, value_name = "KERNEL", value_parser = parse_atrous_kernel)]
+    pc_atrous_kernel: Option<AtrousKernel>,
+    /// The PC denoiser's a-trous iterations (default 5, at most 8; 0: no spatial filter).
+    /// Only the PC tier reads it.
+    #[arg(long, value_name = "N")]
+    pc_atrous_iterations: Option<u32>,
     /// Bricks the brick cache's pool holds (default 12288, about 2.8 KB each). A scene whose
     /// geometry needs more (the cache warns) loses its farthest bricks from the GI. Only the
     /// mobile and PC tiers read it.
@@ -193,7 +203,8 @@ impl ViewArgs {
 
 impl ViewArgs {
     /// The PC tier's configuration from `--pc-without` or `--pc-with`, `--pc-trace-scale`,
-    /// `--pc-specular-roughness`, `--pc-specular-diffuse-from` and `--pc-trace-mode`.
+    /// `--pc-specular-roughness`, `--pc-specular-diffuse-from`, `--pc-trace-mode`,
+    /// `--pc-atrous-kernel` and `--pc-atrous-iterations`.
     fn pc_config(&self) -> anyhow::Result<PcConfig> {
         let mut config = match (&self.pc_without, &self.pc_with) {
             (Some(stage), _) => PcConfig::without(stage).map_err(anyhow::Error::msg)?,
@@ -211,6 +222,12 @@ impl ViewArgs {
         }
         if let Some(mode) = self.pc_trace_mode {
             config.trace_mode = mode;
+        }
+        if let Some(kernel) = self.pc_atrous_kernel {
+            config.denoise.atrous_kernel = kernel;
+        }
+        if let Some(iterations) = self.pc_atrous_iterations {
+            config.denoise.atrous_iterations = iterations;
         }
         if let Some(bricks) = self.cache_pool_bricks {
             config.cache.pool_bricks = bricks;
@@ -231,6 +248,10 @@ impl ViewArgs {
 }
 
 fn parse_trace_mode(s: &str) -> Result<TraceMode, String> {
+    s.parse()
+}
+
+fn parse_atrous_kernel(s: &str) -> Result<AtrousKernel, String> {
     s.parse()
 }
 

@@ -9,7 +9,8 @@ use gi_gpu::{
     wgsl_struct_layout,
 };
 use gi_tiers::pc::denoise::{
-    DenoiseConfig, DenoiseInputs, DenoisePipelines, DenoiseSources, DenoiseUniforms, Denoiser,
+    AtrousKernel, DenoiseConfig, DenoiseInputs, DenoisePipelines, DenoiseSources, DenoiseUniforms,
+    Denoiser,
 };
 use glam::Vec3;
 use rand::RngExt as _;
@@ -157,6 +158,16 @@ fn configs() -> Vec<(String, DenoiseConfig)> {
             ));
         }
     }
+    for atrous_iterations in [1, 4] {
+        configs.push((
+            format!("5 x 5 kernel, atrous {atrous_iterations}"),
+            DenoiseConfig {
+                atrous_kernel: AtrousKernel::B3,
+                atrous_iterations,
+                ..DenoiseConfig::default()
+            },
+        ));
+    }
     configs.push((
         "SVGF's feedback".to_owned(),
         DenoiseConfig {
@@ -301,6 +312,17 @@ fn noise_falls_and_the_mean_stays() {
             },
             0.15,
         ),
+        // Four 5 x 5 iterations reach as far as the default's five 3 x 3 ones.
+        (
+            "spatial only, 5 x 5 kernel",
+            DenoiseConfig {
+                temporal: false,
+                atrous_kernel: AtrousKernel::B3,
+                atrous_iterations: 4,
+                ..DenoiseConfig::default()
+            },
+            0.15,
+        ),
     ];
     for (name, config, bound) in cases {
         let mut rng = Pcg32::new(17, 0x0a02_bdbf_7bb3_c0a7);
@@ -371,12 +393,27 @@ fn atrous_does_not_bleed_across_normal_or_depth_edges() {
         feedback: true,
         ..DenoiseConfig::default()
     };
+    let b3 = DenoiseConfig {
+        atrous_kernel: AtrousKernel::B3,
+        atrous_iterations: 4,
+        ..DenoiseConfig::default()
+    };
+    let b3_feedback = DenoiseConfig {
+        feedback: true,
+        ..b3.clone()
+    };
     let runs = cases
         .iter()
         .map(|case| (case, &feedback))
-        .chain(cases.iter().take(2).map(|case| (case, &default)));
+        .chain(cases.iter().skip(2).map(|case| (case, &b3_feedback)))
+        .chain(cases.iter().take(2).map(|case| (case, &default)))
+        .chain(cases.iter().take(2).map(|case| (case, &b3)));
     for (&(name, right_depth, right_normal, holds), config) in runs {
-        let name = format!("{name}, feedback {}", config.feedback);
+        let name = format!(
+            "{name}, feedback {}, kernel {}",
+            config.feedback,
+            config.atrous_kernel.name()
+        );
         let mut rng = Pcg32::new(5, 0x0a02_bdbf_7bb3_c0a7);
         harness.denoiser.reset_history();
         let mut output = Vec::new();
@@ -404,14 +441,17 @@ fn atrous_does_not_bleed_across_normal_or_depth_edges() {
             }
         }
         eprintln!("{name}: worst column mean deviation {worst:.4} (column {worst_column})");
+        // An edge holds within 2%; the control must bleed at least twice that, so that the
+        // measure would see a leak.
+        let bound = 0.02;
         if holds {
             assert!(
-                worst < 0.02,
+                worst < bound,
                 "{name}: column {worst_column} is off by {worst}"
             );
         } else {
             assert!(
-                worst > 0.05,
+                worst > 2.0 * bound,
                 "{name}: the control shows no bleeding ({worst})"
             );
         }

@@ -4,6 +4,9 @@
 //                   normal, depth and luminance edge-stopping weights; the variance is
 //                   filtered with the squared weights. With `feedback` the first iteration
 //                   also writes the color of the next frame's long history.
+//   atrous_3x3      the same with 3 x 3 taps of the linear B-spline (1/4, 1/2, 1/4): 9 taps
+//                   instead of 25, each iteration reaching half as far
+//                   (`DenoiseConfig::atrous_kernel`).
 //
 // Bind group 0: the frame's inputs, the histories and the filter buffers; group 1: this
 // dispatch's uniforms (`gi::pc::denoise`).
@@ -17,8 +20,18 @@
 
 // Keeps the luminance weight defined where the variance is 0 (a noise-free input).
 const LUMINANCE_EPSILON: f32 = 1e-10;
-// B3-spline taps of the a-trous kernel, by distance 0, 1, 2.
-const ATROUS_KERNEL: array<f32, 3> = array<f32, 3>(0.375, 0.25, 0.0625);
+// B3-spline taps of the 5 x 5 a-trous kernel, by distance 0, 1, 2.
+const B3_KERNEL: array<f32, 3> = array<f32, 3>(0.375, 0.25, 0.0625);
+// Linear B-spline taps of the 3 x 3 kernel, by distance 0, 1.
+const LINEAR_KERNEL: array<f32, 2> = array<f32, 2>(0.5, 0.25);
+
+// The 1-D kernel's tap at distance `d` (0..=radius) for a kernel of radius 2 (B3) or 1.
+fn kernel_tap(radius: i32, d: i32) -> f32 {
+    if radius == 2 {
+        return B3_KERNEL[d];
+    }
+    return LINEAR_KERNEL[d];
+}
 // Taps of the 3 x 3 Gaussian that prefilters the center variance, by distance 0, 1.
 const GAUSSIAN_3X3: array<f32, 2> = array<f32, 2>(0.5, 0.25);
 
@@ -44,10 +57,20 @@ fn prefiltered_variance(input: u32, pixel: vec2<i32>) -> f32 {
 
 @compute @workgroup_size(8, 8)
 fn atrous(@builtin(global_invocation_id) id: vec3<u32>) {
-    if any(id.xy >= uniforms.size_px) {
+    filter_pixel(id.xy, 2);
+}
+
+@compute @workgroup_size(8, 8)
+fn atrous_3x3(@builtin(global_invocation_id) id: vec3<u32>) {
+    filter_pixel(id.xy, 1);
+}
+
+// One a-trous iteration at pixel `id` with taps out to `radius` (2: 5 x 5, 1: 3 x 3) steps.
+fn filter_pixel(id: vec2<u32>, radius: i32) {
+    if any(id >= uniforms.size_px) {
         return;
     }
-    let pixel = vec2<i32>(id.xy);
+    let pixel = vec2<i32>(id);
     let index = pixel_index(pixel);
     // Iteration i has step 2^i.
     let place = FIRST_ATROUS_WRITE + firstTrailingBit(uniforms.step_px);
@@ -62,12 +85,12 @@ fn atrous(@builtin(global_invocation_id) id: vec3<u32>) {
         let phi_depth = uniforms.depth_sigma * depth_derivative(pixel, z) * f32(uniforms.step_px);
         let step = i32(uniforms.step_px);
         // The center tap: every edge-stopping weight is 1.
-        let center_weight = ATROUS_KERNEL[0] * ATROUS_KERNEL[0];
+        let center_weight = kernel_tap(radius, 0) * kernel_tap(radius, 0);
         var color_sum = center_weight * center.rgb;
         var variance_sum = center_weight * center_weight * center.w;
         var weight_sum = center_weight;
-        for (var dy = -2; dy <= 2; dy++) {
-            for (var dx = -2; dx <= 2; dx++) {
+        for (var dy = -radius; dy <= radius; dy++) {
+            for (var dx = -radius; dx <= radius; dx++) {
                 if dx == 0 && dy == 0 {
                     continue;
                 }
@@ -80,7 +103,7 @@ fn atrous(@builtin(global_invocation_id) id: vec3<u32>) {
                 let sample = load_filter(input, qi);
                 let w_depth = abs(q_depth - z) / (phi_depth * length(vec2<f32>(vec2(dx, dy))));
                 let w_luminance = abs(luminance(sample.rgb) - l) / phi_luminance;
-                let w = ATROUS_KERNEL[abs(dx)] * ATROUS_KERNEL[abs(dy)]
+                let w = kernel_tap(radius, abs(dx)) * kernel_tap(radius, abs(dy))
                     * normal_weight(n, unpack_unit_vector(normal[qi]), uniforms.normal_power)
                     * exp(-w_depth - w_luminance);
                 color_sum += w * sample.rgb;

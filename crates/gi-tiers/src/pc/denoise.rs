@@ -19,7 +19,8 @@
 //!    history is [`VARIANCE_MIN_AGE`] frames old, else from a 7 x 7 bilateral (depth, normal)
 //!    estimate of the moments.
 //! 3. `pc/denoise_atrous` x [`DenoiseConfig::atrous_iterations`]: SVGF's a-trous wavelet
-//!    filter, 5 x 5 B3-spline taps `2^i` pixels apart with normal, depth and luminance
+//!    filter, 5 x 5 B3-spline taps (or 3 x 3 linear ones, [`DenoiseConfig::atrous_kernel`])
+//!    `2^i` pixels apart with normal, depth and luminance
 //!    edge-stopping weights; the variance is filtered with the squared weights. With
 //!    [`DenoiseConfig::feedback`] (SVGF's choice, off by default) the first iteration's
 //!    output is the color history of the next frame.
@@ -70,7 +71,45 @@ const TILE_GROUP: u32 = 8;
 /// WebGPU allows, so it suits every device.
 const UNIFORM_SLOT_BYTES: u64 = 256;
 
-/// The denoiser's settings. The defaults are HSGI's history lengths and SVGF's weights.
+/// The a-trous filter's kernel per iteration (`shaders/pc/denoise/atrous.wgsl`).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum AtrousKernel {
+    /// SVGF's 5 x 5 taps of the B3-spline (1/16, 1/4, 3/8, 1/4, 1/16).
+    B3,
+    /// 3 x 3 taps of the linear B-spline (1/4, 1/2, 1/4).
+    Linear,
+}
+
+impl AtrousKernel {
+    /// The names [`AtrousKernel::from_str`](std::str::FromStr) takes.
+    pub const NAMES: [&str; 2] = ["5x5", "3x3"];
+
+    /// `5x5` or `3x3`.
+    pub fn name(self) -> &'static str {
+        match self {
+            Self::B3 => "5x5",
+            Self::Linear => "3x3",
+        }
+    }
+}
+
+impl std::str::FromStr for AtrousKernel {
+    type Err = String;
+
+    fn from_str(s: &str) -> Result<Self, String> {
+        match s {
+            "5x5" => Ok(Self::B3),
+            "3x3" => Ok(Self::Linear),
+            other => Err(format!(
+                "unknown a-trous kernel '{other}' (expected {})",
+                Self::NAMES.join(" or ")
+            )),
+        }
+    }
+}
+
+/// The denoiser's settings. The defaults are HSGI's history lengths and SVGF's weights, with
+/// a 3 x 3 a-trous kernel ([`DenoiseConfig::atrous_kernel`]).
 #[derive(Clone, Debug, PartialEq)]
 pub struct DenoiseConfig {
     /// Temporal accumulation (reprojection, depth and normal rejection, variance clamping).
@@ -78,8 +117,19 @@ pub struct DenoiseConfig {
     pub temporal: bool,
     /// SVGF a-trous iterations (taps 1, 2, 4, ... pixels apart), 0 = no spatial filter, at most
     /// [`MAX_ATROUS_ITERATIONS`]. More iterations blur wider (the footprint is about
-    /// `4 * 2^iterations` pixels) at about the same cost each.
+    /// `4 * 2^iterations` pixels with the 5 x 5 kernel, `2 * 2^iterations` with the 3 x 3)
+    /// at about the same cost each.
     pub atrous_iterations: u32,
+    /// The a-trous kernel: SVGF's 5 x 5 B3-spline, or a 3 x 3 linear B-spline (9 taps
+    /// instead of 25, half the reach per iteration). The default is the 3 x 3 kernel with 5
+    /// iterations, which reaches as far as SVGF's four 5 x 5 ones (31 against 30 pixels) for
+    /// 45 taps a pixel instead of 100. Measured on the H100 at 1920 x 1080 (2026-11-27,
+    /// `benchmarks/results/h100-2026-11-27-atrous-kernel/`): `pc/denoise_atrous` 0.55-0.76
+    /// ms against 0.85-1.18 ms on the bundled scenes and GasStation, rmse_srgb8 equal or lower
+    /// on every one (thin-wall 17.99 against 18.11, atrium 5.20 against 5.21; four 3 x 3
+    /// iterations were cheaper still, 0.37-0.60 ms, and blurred less: atrium 5.23, thin-wall
+    /// 18.17).
+    pub atrous_kernel: AtrousKernel,
     /// Most frames the long history averages (HSGI: 50): higher is smoother in static views
     /// and slower to follow changes the clamp does not catch. Above 256 it acts as 256 (the
     /// stored age's precision).
@@ -118,7 +168,8 @@ impl Default for DenoiseConfig {
     fn default() -> Self {
         Self {
             temporal: true,
-            atrous_iterations: 4,
+            atrous_iterations: 5,
+            atrous_kernel: AtrousKernel::Linear,
             long_history: 50,
             short_history: 10,
             clamp_sigma: 1.5,
@@ -230,7 +281,7 @@ impl DenoiseUniforms {
     }
 }
 
-/// The four pipelines, one per entry point, sharing two bind group layouts: group 0 the
+/// The five pipelines, one per entry point, sharing two bind group layouts: group 0 the
 /// frame's inputs, the histories and the filter buffers, group 1 the dispatch's uniforms. Each
 /// pass's file of `shaders/pc/denoise/` holds its entry points (`temporal.wgsl` both of
 /// `pc/denoise_temporal`).
@@ -242,6 +293,7 @@ pub struct DenoisePipelines {
     temporal: wgpu::ComputePipeline,
     variance: wgpu::ComputePipeline,
     atrous: wgpu::ComputePipeline,
+    atrous_3x3: wgpu::ComputePipeline,
 }
 
 impl DenoisePipelines {
@@ -274,11 +326,13 @@ impl DenoisePipelines {
             )
         };
         let temporal = module("temporal")?;
+        let atrous = module("atrous")?;
         Ok(Self {
             temporal_short: pipeline(&temporal, "temporal_short"),
             temporal: pipeline(&temporal, "temporal"),
             variance: pipeline(&module("variance")?, "variance"),
-            atrous: pipeline(&module("atrous")?, "atrous"),
+            atrous: pipeline(&atrous, "atrous"),
+            atrous_3x3: pipeline(&atrous, "atrous_3x3"),
             frame_layout,
             uniform_layout,
         })
@@ -387,9 +441,13 @@ impl Technique for Denoiser {
             rec.compute_pass("pc/denoise_variance", |pass| {
                 dispatch(pass, &self.pipelines.variance, 0);
             });
+            let atrous = match config.atrous_kernel {
+                AtrousKernel::B3 => &self.pipelines.atrous,
+                AtrousKernel::Linear => &self.pipelines.atrous_3x3,
+            };
             for i in 0..iterations {
                 rec.compute_pass("pc/denoise_atrous", |pass| {
-                    dispatch(pass, &self.pipelines.atrous, 1 + i);
+                    dispatch(pass, atrous, 1 + i);
                 });
             }
         }
