@@ -1,10 +1,11 @@
 //! The render service end to end, as a client uses it: the service is started in this process
 //! from the `gi_server` library on a free loopback port, a scene built in code is exported
 //! with gi-scene, packed into one `.glb` and uploaded, a render job compared against the
-//! reference is submitted and polled until it is done, and its image, linear image, reference
-//! and error map are downloaded. The reported error must be the one computed here from the
-//! downloaded image and reference. Jobs are cancelled with `DELETE` (the API keeps finished
-//! jobs: deleting one is refused), which is checked on a finished job and on a running one.
+//! reference is submitted and polled until it is done, and its image, linear image, reference,
+//! error map and FLIP map are downloaded. The reported errors (rmse_srgb8 and FLIP) must be the
+//! ones computed here from the downloaded image and reference. Jobs are cancelled with
+//! `DELETE` (the API keeps finished jobs: deleting one is refused), which is checked on a
+//! finished job and on a running one.
 //!
 //! The client is a few lines of HTTP/1.1 over a TCP socket (`Connection: close`), as the
 //! server's own tests use: no HTTP client crate in the workspace. The test needs no GPU: the
@@ -330,17 +331,29 @@ fn a_client_uploads_a_scene_renders_compares_downloads_and_cancels() {
     assert_eq!(size, SIZE);
     let (size, reference) = download_png(addr, link("reference_png"));
     assert_eq!(size, SIZE);
-    let (size, _) = download_png(addr, link("error_png"));
-    assert_eq!(size, SIZE);
+    for map in ["error_png", "flip_png"] {
+        let (size, _) = download_png(addr, link(map));
+        assert_eq!(size, SIZE, "{map}");
+    }
     // The reported error is the error between what was downloaded: the same 8-bit codes.
     let computed = rmse_of_codes(&rendered, &reference);
     assert!(
         (computed - reported).abs() <= 1e-9 * computed.max(1.0),
         "reported rmse_srgb8 {reported}, computed from the downloads {computed}"
     );
+    // FLIP too: NVIDIA's FLIP of the downloaded 8-bit images.
+    let reported_flip = comparison["flip"].as_f64().expect("flip");
+    let decode = |codes: &[u8]| gi_image::tonemap::from_srgb8(SIZE.0, SIZE.1, codes).unwrap();
+    let computed_flip = gi_image::flip_ldr(&decode(&rendered), &decode(&reference), 1.0)
+        .unwrap()
+        .mean;
+    assert!(
+        (computed_flip - reported_flip).abs() <= 1e-9,
+        "reported flip {reported_flip}, computed from the downloads {computed_flip}"
+    );
     println!(
-        "{tier} on {}: rmse_srgb8 {reported:.3} (computed {computed:.3}), rmse_linear \
-         {reported_linear:.4}",
+        "{tier} on {}: rmse_srgb8 {reported:.3} (computed {computed:.3}), flip {reported_flip:.4} \
+         (computed {computed_flip:.4}), rmse_linear {reported_linear:.4}",
         result["device"]
     );
     // Four samples per pixel against sixteen: noisy, yet the same picture.

@@ -217,7 +217,13 @@ fn check_results(results: &Value) {
         let cell = cell(results, tier);
         assert_eq!(cell["repeats"], 2, "{cell}");
         assert!(cell["error"].is_null(), "{cell}");
-        for metric in ["rmse_srgb8", "rmse_linear", "ms_per_frame", "memory_bytes"] {
+        for metric in [
+            "rmse_srgb8",
+            "flip",
+            "rmse_linear",
+            "ms_per_frame",
+            "memory_bytes",
+        ] {
             let stat = &cell[metric];
             finite(&stat["mean"], metric);
             finite(&stat["sd"], metric);
@@ -229,6 +235,8 @@ fn check_results(results: &Value) {
         }
         let rmse = finite(&cell["rmse_srgb8"]["mean"], "rmse");
         assert!((0.0..255.0).contains(&rmse), "{tier} rmse {rmse}");
+        let flip = finite(&cell["flip"]["mean"], "flip");
+        assert!((0.0..1.0).contains(&flip), "{tier} flip {flip}");
         assert!(!cell["passes_ms"].as_array().unwrap().is_empty(), "{cell}");
         finite(&cell["gain_vs_direct"]["mean"], "gain");
     }
@@ -246,7 +254,7 @@ fn check_results(results: &Value) {
 
 fn check_markdown(markdown: &str) {
     for needle in [
-        "| scene | tier | rmse_srgb8 | gain_vs_direct | ms/frame | GI ms | memory MB |",
+        "| scene | tier | rmse_srgb8 | flip | gain_vs_direct | ms/frame | GI ms | memory MB |",
         "| cornell-box | mobile |",
         "## Per-pass cost",
         "### pc",
@@ -266,11 +274,11 @@ fn check_pictures(out: &Path) {
         let (w, h) = png_size(&out.join(format!("passes_{tier}.png")));
         assert!(w >= 640 && h >= 560, "passes_{tier}.png is {w}x{h}");
     }
-    // Five rows of three 320x240 thumbnails with their labels.
+    // Five rows of four 320x240 thumbnails (image, reference, error, FLIP) with their labels.
     let sheet = image::open(out.join("contact_cornell-box.png"))
         .expect("contact sheet decodes")
         .to_rgb8();
-    assert_eq!(sheet.width(), 3 * 320 + 4 * 10);
+    assert_eq!(sheet.width(), 4 * 320 + 5 * 10);
     assert!(sheet.height() >= 5 * 240, "{}", sheet.height());
     // The reference column of the first row holds the image, not the white background.
     let non_white = (0..240)
@@ -284,11 +292,20 @@ fn check_pictures(out: &Path) {
             png_size(&images.join(format!("cornell-box_{tier}.png"))),
             (40, 30)
         );
-        assert_eq!(
-            png_size(&images.join(format!("cornell-box_{tier}_error.png"))),
-            (40, 30)
-        );
+        for map in ["error", "flip"] {
+            assert_eq!(
+                png_size(&images.join(format!("cornell-box_{tier}_{map}.png"))),
+                (40, 30)
+            );
+        }
     }
+    // The FLIP column of the first row holds the map: magma is dark where the error is low,
+    // never the white background.
+    let flip_column = (0..240)
+        .flat_map(|y| (0..320).map(move |x| (3 * 330 + 10 + x, 64 + y)))
+        .filter(|&(x, y)| sheet.get_pixel(x, y).0 != [255, 255, 255])
+        .count();
+    assert_eq!(flip_column, 320 * 240, "the FLIP map fills its column");
     assert_eq!(
         png_size(&out.join("images/cornell-box_reference.png")),
         (40, 30)

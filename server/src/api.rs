@@ -41,6 +41,7 @@ pub const ROUTES: &[(&str, &[&str])] = &[
     ("/v1/jobs/{id}/image.exr", &["GET"]),
     ("/v1/jobs/{id}/reference.png", &["GET"]),
     ("/v1/jobs/{id}/error.png", &["GET"]),
+    ("/v1/jobs/{id}/flip.png", &["GET"]),
     ("/v1/scenes", &["GET", "POST"]),
 ];
 
@@ -71,6 +72,9 @@ fn method_router(path: &str, service: &Service) -> MethodRouter<AppState> {
         }
         "/v1/jobs/{id}/error.png" => {
             get(|s: State<AppState>, p: Path<String>| job_file(s, p, "error.png"))
+        }
+        "/v1/jobs/{id}/flip.png" => {
+            get(|s: State<AppState>, p: Path<String>| job_file(s, p, "flip.png"))
         }
         "/v1/scenes" => get(list_scenes)
             .post(upload_scene)
@@ -250,10 +254,10 @@ async fn job_file(
             ),
         ));
     }
-    if matches!(file, "reference.png" | "error.png") && !record.spec.compare {
+    if let Some(why) = record.missing_image(file) {
         return Err(ApiError::not_found(
             "image_not_found",
-            format!("job {id} did not compare against the reference, so it has no {file}"),
+            format!("job {id} {why}, so it has no {file}"),
         ));
     }
     let path = service.store.job_dir(id).join(file);

@@ -297,6 +297,11 @@ pub struct JobResult {
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct Comparison {
     pub rmse_srgb8: f64,
+    /// Mean FLIP (LDR, `gi_image::flip_ldr`) against the reference, in 0..1: how visible the
+    /// difference is. Null for jobs compared before FLIP was measured (they have no
+    /// `flip.png` either).
+    #[serde(default)]
+    pub flip: Option<f64>,
     pub rmse_linear: f64,
     pub rel_mse: f64,
     /// `rmse_srgb8 / direct_rmse_srgb8`; null when the direct-only image matches the reference.
@@ -334,9 +339,31 @@ pub struct JobRecord {
 }
 
 /// The image files of a finished job, as served under `/v1/jobs/{id}/`.
-pub const IMAGE_FILES: [&str; 4] = ["image.png", "image.exr", "reference.png", "error.png"];
+pub const IMAGE_FILES: [&str; 5] = [
+    "image.png",
+    "image.exr",
+    "reference.png",
+    "error.png",
+    "flip.png",
+];
 
 impl JobRecord {
+    /// Why this finished job has no `file` (one of [`IMAGE_FILES`]), or `None` when it has it:
+    /// the comparison's images exist only for jobs that compared, and the FLIP map only for
+    /// those compared since FLIP is measured.
+    pub fn missing_image(&self, file: &str) -> Option<&'static str> {
+        let compared = self.result.as_ref().and_then(|r| r.comparison.as_ref());
+        match file {
+            "reference.png" | "error.png" | "flip.png" if !self.spec.compare => {
+                Some("did not compare against the reference")
+            }
+            "flip.png" if compared.is_some_and(|c| c.flip.is_none()) => {
+                Some("was compared before FLIP was measured")
+            }
+            _ => None,
+        }
+    }
+
     /// The job as the API shows it: the record, its URL, its progress while running and the
     /// URLs of its images once done.
     pub fn view(&self, progress: Option<&Progress>) -> serde_json::Value {
@@ -344,9 +371,7 @@ impl JobRecord {
         let images: serde_json::Map<String, serde_json::Value> = if self.state == JobState::Done {
             IMAGE_FILES
                 .iter()
-                .filter(|file| {
-                    self.spec.compare || !matches!(**file, "reference.png" | "error.png")
-                })
+                .filter(|file| self.missing_image(file).is_none())
                 .map(|file| {
                     let key = file.replace('.', "_");
                     (key, format!("{url}/{file}").into())
@@ -419,6 +444,99 @@ mod tests {
         assert!(
             serde_json::from_str::<JobRequest>(r#"{"scene": "x", "lighting": {"sunn": {}}}"#)
                 .is_err()
+        );
+    }
+
+    #[test]
+    fn jobs_compared_before_flip_read_and_list_no_flip_map() {
+        let comparison = |flip: Option<f64>| Comparison {
+            rmse_srgb8: 4.0,
+            flip,
+            rmse_linear: 0.01,
+            rel_mse: 0.02,
+            gain_vs_direct: Some(0.1),
+            direct_rmse_srgb8: 40.0,
+            reference_spp: 16,
+            reference_seed: 7,
+            reference_seconds: 1.0,
+            reference_cached: false,
+            reference_engine: "cpu".to_string(),
+        };
+        // A comparison stored before FLIP was measured has no `flip` key.
+        let mut stored = serde_json::to_value(comparison(Some(0.05))).unwrap();
+        stored.as_object_mut().unwrap().remove("flip");
+        let old: Comparison = serde_json::from_value(stored).unwrap();
+        assert_eq!(old, comparison(None));
+
+        let config = Config::with_data_dir("unused");
+        let request: JobRequest =
+            serde_json::from_str(r#"{"scene": "cornell-box", "compare": true}"#).unwrap();
+        let result = JobResult {
+            tier: "reference".to_string(),
+            device: "cpu".to_string(),
+            width: 320,
+            height: 240,
+            frames: 1,
+            warmup: 0,
+            ms_per_frame: 1.0,
+            passes: BTreeMap::new(),
+            gi_ms: None,
+            memory_bytes: 1,
+            samples_per_second: None,
+            rays_per_second: None,
+            render_seconds: 1.0,
+            comparison: Some(comparison(Some(0.05))),
+        };
+        let mut record = JobRecord {
+            id: 3,
+            spec: request.normalize(&config).unwrap(),
+            state: JobState::Done,
+            submitted_at: now_rfc3339(),
+            started_at: None,
+            finished_at: None,
+            attempts: 1,
+            failure: None,
+            result: Some(result),
+        };
+        let listed = |record: &JobRecord| -> Vec<String> {
+            let view = record.view(None);
+            let mut keys: Vec<String> = view["images"]
+                .as_object()
+                .unwrap()
+                .keys()
+                .cloned()
+                .collect();
+            keys.sort();
+            keys
+        };
+        assert_eq!(
+            listed(&record),
+            [
+                "error_png",
+                "flip_png",
+                "image_exr",
+                "image_png",
+                "reference_png"
+            ]
+        );
+        assert_eq!(record.missing_image("flip.png"), None);
+        record.result.as_mut().unwrap().comparison = Some(comparison(None));
+        assert!(!listed(&record).contains(&"flip_png".to_string()));
+        assert!(
+            record
+                .missing_image("flip.png")
+                .unwrap()
+                .contains("before FLIP")
+        );
+        assert_eq!(record.missing_image("error.png"), None);
+        record.spec.compare = false;
+        record.result.as_mut().unwrap().comparison = None;
+        assert_eq!(listed(&record), ["image_exr", "image_png"]);
+        assert!(
+            record
+                .missing_image("flip.png")
+                .unwrap()
+                .contains("did not compare")
         );
     }
 

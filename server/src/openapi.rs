@@ -32,7 +32,7 @@ fn image_route(file: &str, media_type: &str, what: &str) -> Value {
             "parameters": [id_parameter()],
             "responses": {
                 "200": { "description": what, "content": { media_type: { "schema": { "type": "string", "format": "binary" } } } },
-                "404": error_response("No such job, the job is not done, or it did not compare (reference and error map)")
+                "404": error_response("No such job, the job is not done, or it did not compare (reference, error and FLIP maps)")
             }
         }
     })
@@ -152,6 +152,7 @@ pub fn document(config: &Config) -> Value {
             "/v1/jobs/{id}/image.exr": image_route("image.exr", "image/x-exr", "image (linear HDR OpenEXR)"),
             "/v1/jobs/{id}/reference.png": image_route("reference.png", "image/png", "reference image"),
             "/v1/jobs/{id}/error.png": image_route("error.png", "image/png", "per-pixel error heat map against the reference"),
+            "/v1/jobs/{id}/flip.png": image_route("flip.png", "image/png", "per-pixel FLIP error map against the reference (NVIDIA's magma colour map)"),
             "/v1/scenes": {
                 "get": {
                     "summary": "The scenes jobs may name",
@@ -249,7 +250,9 @@ pub fn document(config: &Config) -> Value {
                 "Comparison": {
                     "type": "object",
                     "properties": {
-                        "rmse_srgb8": { "type": "number" }, "rmse_linear": { "type": "number" }, "rel_mse": { "type": "number" },
+                        "rmse_srgb8": { "type": "number" },
+                        "flip": { "type": ["number", "null"], "minimum": 0, "maximum": 1, "description": "Mean FLIP (LDR, NVIDIA's, 67 pixels per degree) of the 8-bit sRGB image against the reference's: how visible the difference is, lower is better; null for jobs compared before it was measured" },
+                        "rmse_linear": { "type": "number" }, "rel_mse": { "type": "number" },
                         "gain_vs_direct": { "type": ["number", "null"] }, "direct_rmse_srgb8": { "type": "number" },
                         "reference_spp": { "type": "integer" }, "reference_seed": { "type": "integer" },
                         "reference_seconds": { "type": "number" }, "reference_cached": { "type": "boolean" },

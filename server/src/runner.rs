@@ -10,7 +10,7 @@ use std::{
     time::Instant,
 };
 
-use gi_image::Image;
+use gi_image::{Flip, Image};
 use gi_reference::cache::{REFERENCE_SEED, ReferenceCache, ReferenceKey, ReferenceRequest};
 use gi_scene::{CameraKey, CameraPath, CameraView, Scene};
 use gi_tiers::{CameraMode, CpuTier, Renderer, TierChoice, TierKind, TierSettings, select::RunsOn};
@@ -296,9 +296,10 @@ impl References {
     }
 }
 
-/// The reference image of a comparison and its metrics.
+/// The reference image of a comparison, the FLIP error map against it and the metrics.
 pub struct Compared {
     pub reference: Image,
+    pub flip: Flip,
     pub comparison: Comparison,
 }
 
@@ -370,8 +371,10 @@ pub fn compare(
         gi_image::rmse_srgb8(&output.image, &reference.image, exposure).map_err(metric)?;
     let direct_rmse_srgb8 =
         gi_image::rmse_srgb8(direct, &reference.image, exposure).map_err(metric)?;
+    let flip = gi_image::flip_ldr(&output.image, &reference.image, exposure).map_err(metric)?;
     let comparison = Comparison {
         rmse_srgb8,
+        flip: Some(flip.mean),
         rmse_linear: gi_image::rmse_linear(&output.image, &reference.image).map_err(metric)?,
         rel_mse: gi_image::rel_mse(&output.image, &reference.image).map_err(metric)?,
         gain_vs_direct: gi_image::gain_vs_direct(rmse_srgb8, direct_rmse_srgb8),
@@ -384,18 +387,20 @@ pub fn compare(
     };
     Ok(Some(Compared {
         reference: reference.image,
+        flip,
         comparison,
     }))
 }
 
 /// Writes a finished job's images into its folder, each atomically: `image.png` (with the
-/// scene's exposure), `image.exr` (linear), and for comparisons `reference.png` and
-/// `error.png` (the per-pixel error heat map).
+/// scene's exposure), `image.exr` (linear), and for comparisons (the reference and the FLIP
+/// of the image against it) `reference.png`, `error.png` (the per-pixel error heat map) and
+/// `flip.png` (the FLIP error map).
 pub fn write_images(
     dir: &Path,
     exposure: f32,
     image: &Image,
-    reference: Option<&Image>,
+    compared: Option<(&Image, &Flip)>,
 ) -> io::Result<()> {
     std::fs::create_dir_all(dir)?;
     let encode = |e: gi_image::ImageError| io::Error::other(e.to_string());
@@ -405,7 +410,7 @@ pub fn write_images(
     store::write_atomic_with(&dir.join("image.exr"), |tmp| {
         gi_image::write_exr(image, tmp).map_err(encode)
     })?;
-    if let Some(reference) = reference {
+    if let Some((reference, flip)) = compared {
         store::write_atomic_with(&dir.join("reference.png"), |tmp| {
             gi_image::write_png(reference, tmp, exposure).map_err(encode)
         })?;
@@ -413,6 +418,10 @@ pub fn write_images(
             gi_image::write_error_heatmap(image, reference, exposure, tmp)
                 .map(|_| ())
                 .map_err(encode)
+        })?;
+        let flip_map = gi_image::flip_error_map(flip).map_err(encode)?;
+        store::write_atomic_with(&dir.join("flip.png"), |tmp| {
+            gi_image::write_heatmap_png(&flip_map, tmp).map_err(encode)
         })?;
     }
     Ok(())

@@ -699,7 +699,8 @@ impl Service {
                 }
                 let mut output = comparing.output;
                 output.result.comparison = Some(compared.comparison);
-                self.finish(id, &comparing.job, output, Some(compared.reference))
+                let compared = (compared.reference, compared.flip);
+                self.finish(id, &comparing.job, output, Some(compared))
                     .await
             }
         }
@@ -723,13 +724,14 @@ impl Service {
         id: u64,
         job: &PreparedJob,
         output: TierOutput,
-        reference: Option<gi_image::Image>,
+        compared: Option<(gi_image::Image, gi_image::Flip)>,
     ) {
         let dir = self.store.job_dir(id);
         let exposure = job.scene.exposure;
         let TierOutput { image, result } = output;
         let written = tokio::task::spawn_blocking(move || {
-            runner::write_images(&dir, exposure, &image, reference.as_ref())
+            let compared = compared.as_ref().map(|(reference, flip)| (reference, flip));
+            runner::write_images(&dir, exposure, &image, compared)
         })
         .await
         .map_err(std::io::Error::other)

@@ -32,7 +32,7 @@ fn assert_images(addr: std::net::SocketAddr, job: &Value, compared: bool) {
     let exr = get(addr, &format!("/v1/jobs/{id}/image.exr"));
     assert_eq!(exr.status, 200);
     assert_eq!(&exr.body[..4], &[0x76, 0x2f, 0x31, 0x01], "OpenEXR magic");
-    for file in ["reference.png", "error.png"] {
+    for file in ["reference.png", "error.png", "flip.png"] {
         let response = get(addr, &format!("/v1/jobs/{id}/{file}"));
         if compared {
             assert_eq!(response.status, 200, "{file}");
@@ -107,6 +107,8 @@ fn every_tier_renders_compares_and_serves_its_images() {
         let rmse = comparison["rmse_srgb8"].as_f64().unwrap();
         assert!(rmse.is_finite() && rmse >= 0.0, "{comparison}");
         assert!(comparison["rmse_linear"].as_f64().unwrap().is_finite());
+        let flip = comparison["flip"].as_f64().unwrap();
+        assert!((0.0..1.0).contains(&flip), "{comparison}");
         if *tier == "direct" {
             // The direct-only image measured against itself.
             assert_eq!(

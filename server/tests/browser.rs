@@ -283,25 +283,29 @@ fn the_web_page_submits_a_job_and_shows_its_images_and_metrics() {
         session.script("return document.getElementById('job-error').textContent")
     );
 
-    // All three images loaded, at the job's size.
+    // All four images loaded, at the job's size.
     let sizes = session.wait_for(
-        "const ids = ['img-tier', 'img-reference', 'img-error']; \
+        "const ids = ['img-tier', 'img-reference', 'img-error', 'img-flip']; \
          const imgs = ids.map(id => document.getElementById(id)); \
          return imgs.every(i => i.complete && i.naturalWidth > 0) ? imgs.map(i => [i.naturalWidth, i.naturalHeight]) : null",
         Duration::from_secs(20),
     );
-    assert_eq!(sizes, json!([[48, 36], [48, 36], [48, 36]]));
+    assert_eq!(sizes, json!([[48, 36], [48, 36], [48, 36], [48, 36]]));
 
     // The metrics show and agree with the API.
     let job = get(server.addr, "/v1/jobs/1").json();
     let comparison = &job["result"]["comparison"];
     let shown = session.script(
         "const m = k => document.querySelector(`[data-metric=${k}]`).textContent; \
-         return {rmse: m('rmse_srgb8'), gain: m('gain_vs_direct'), tier: m('tier'), reference: m('reference_spp')}",
+         return {rmse: m('rmse_srgb8'), flip: m('flip'), gain: m('gain_vs_direct'), tier: m('tier'), reference: m('reference_spp')}",
     );
     assert_eq!(
         shown["rmse"],
         format!("{:.2}", comparison["rmse_srgb8"].as_f64().unwrap())
+    );
+    assert_eq!(
+        shown["flip"],
+        format!("{:.4}", comparison["flip"].as_f64().unwrap())
     );
     assert_eq!(
         shown["gain"],

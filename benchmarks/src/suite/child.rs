@@ -9,7 +9,7 @@
 use std::{path::Path, time::Instant};
 
 use anyhow::{Context, Result};
-use gi_image::Image;
+use gi_image::{Flip, Image};
 use gi_reference::cache::ReferenceRequest;
 use gi_scene::Scene;
 use gi_tiers::{CameraMode, CpuTier, Renderer, TierChoice, TierKind, TierSettings};
@@ -133,14 +133,15 @@ fn measure_scene(scene_name: &str, options: &Options) -> Result<()> {
             };
             let result = measure_cell(&scene, tier, repeat, options, &reference, direct);
             let (run, error) = match result {
-                Ok((mut run, image)) => {
+                Ok((mut run, image, flip)) => {
                     if tier == TierKind::Direct {
                         direct_rmse.push(Some(run.rmse_srgb8));
                         run.gain_vs_direct =
                             gi_image::gain_vs_direct(run.rmse_srgb8, run.rmse_srgb8);
                     }
                     if repeat == 0 {
-                        save_images(&scene, scene_name, tier, &image, &reference, &images)?;
+                        let stem = format!("{}_{}", file_stem(scene_name), tier.name());
+                        save_images(&scene, &stem, &image, &reference, &flip, &images)?;
                     }
                     (Some(run), None)
                 }
@@ -193,7 +194,8 @@ fn rmse_srgb8(image: &Image, reference: &Image, scene: &Scene) -> Result<f64> {
     Ok(gi_image::rmse_srgb8(image, reference, scene.exposure)?)
 }
 
-/// One repeat of `tier`: its measurement and the last frame's image.
+/// One repeat of `tier`: its measurement, the last frame's image and its FLIP against the
+/// reference.
 fn measure_cell(
     scene: &Scene,
     tier: TierKind,
@@ -201,14 +203,16 @@ fn measure_cell(
     options: &Options,
     reference: &Image,
     direct_rmse: Option<f64>,
-) -> Result<(CellRun, Image)> {
+) -> Result<(CellRun, Image, Flip)> {
     let (mut run, image) = measure(scene, tier, repeat, options)?;
     anyhow::ensure!(image.is_finite(), "the image has non-finite pixels");
     run.rmse_srgb8 = rmse_srgb8(&image, reference, scene)?;
+    let flip = gi_image::flip_ldr(&image, reference, scene.exposure)?;
+    run.flip = flip.mean;
     run.rmse_linear = gi_image::rmse_linear(&image, reference)?;
     run.gain_vs_direct =
         direct_rmse.and_then(|direct| gi_image::gain_vs_direct(run.rmse_srgb8, direct));
-    Ok((run, image))
+    Ok((run, image, flip))
 }
 
 /// Renders the warm-up and the measured frames of one repeat of `tier`. The errors are left
@@ -284,6 +288,7 @@ fn measure(
         .collect();
     let run = CellRun {
         rmse_srgb8: 0.0,
+        flip: 0.0,
         rmse_linear: 0.0,
         gain_vs_direct: None,
         ms_per_frame: median(&totals),
@@ -322,22 +327,26 @@ fn pass_medians(frames: &[Vec<(String, f64)>]) -> Vec<(String, f64)> {
     gi_gpu::PassTimings::median(&summed).0
 }
 
-/// The tier's image and error map of repeat 0, as `gi compare` writes them.
+/// The tier's image, error heat map and FLIP map of repeat 0 as `<stem>.png`,
+/// `<stem>_error.png` and `<stem>_flip.png`, as `gi compare` writes them.
 fn save_images(
     scene: &Scene,
-    scene_name: &str,
-    tier: TierKind,
+    stem: &str,
     image: &Image,
     reference: &Image,
+    flip: &Flip,
     dir: &Path,
 ) -> Result<()> {
-    let stem = format!("{}_{}", file_stem(scene_name), tier.name());
     gi_image::save(image, dir.join(format!("{stem}.png")), scene.exposure)?;
     gi_image::write_error_heatmap(
         image,
         reference,
         scene.exposure,
         dir.join(format!("{stem}_error.png")),
+    )?;
+    gi_image::write_heatmap_png(
+        &gi_image::flip_error_map(flip)?,
+        dir.join(format!("{stem}_flip.png")),
     )?;
     Ok(())
 }

@@ -11,12 +11,12 @@ use super::{
 /// Bytes per MB in the tables (10^6, the unit of the memory bars).
 const MB: f64 = 1e6;
 
-/// The scene x tier table: rmse_srgb8, gain_vs_direct, ms per frame, GI ms and memory, each
-/// as mean ± sample standard deviation over the repeats.
+/// The scene x tier table: rmse_srgb8, mean FLIP, gain_vs_direct, ms per frame, GI ms and
+/// memory, each as mean ± sample standard deviation over the repeats.
 pub fn scene_tier_table(results: &Results) -> String {
     let mut out = String::from(
-        "| scene | tier | rmse_srgb8 | gain_vs_direct | ms/frame | GI ms | memory MB |\n\
-         |---|---|---:|---:|---:|---:|---:|\n",
+        "| scene | tier | rmse_srgb8 | flip | gain_vs_direct | ms/frame | GI ms | memory MB |\n\
+         |---|---|---:|---:|---:|---:|---:|---:|\n",
     );
     for cell in &results.cells {
         let stat = |s: &Option<Stat>, decimals: usize| {
@@ -32,10 +32,11 @@ pub fn scene_tier_table(results: &Results) -> String {
         };
         let _ = writeln!(
             out,
-            "| {} | {} | {} | {} | {ms} | {} | {memory} |",
+            "| {} | {} | {} | {} | {} | {ms} | {} | {memory} |",
             cell.scene,
             tier_label(cell),
             stat(&cell.rmse_srgb8, 2),
+            stat(&cell.flip, 4),
             stat(&cell.gain_vs_direct, 3),
             stat(&cell.gi_ms, 3),
         );
@@ -109,7 +110,9 @@ pub fn document(results: &Results) -> String {
          standard deviation over {} repeats (a fresh renderer each, seed = repeat + 1) of the \
          last frame's error and of the median over the measured frames of the time. Errors \
          are against a path-traced reference of {} spp at the last frame's time (rendered by \
-         `--reference-engine {}`: the table of references says on what); gain_vs_direct = \
+         `--reference-engine {}`: the table of references says on what); rmse_srgb8 is in \
+         8-bit sRGB levels (0..255), flip is NVIDIA's mean FLIP (LDR, 67 pixels per degree: \
+         how visible the difference is, 0..1) on the same 8-bit images; gain_vs_direct = \
          rmse_srgb8 / the direct-only rmse_srgb8 of the same repeat (lower is better). GI ms \
          is the sum of the tier's GI passes (`cache/*` with `mobile/*` or `pc/*`); tiers that \
          compute the whole image as one transport have none. Memory: bytes the tier owns \

@@ -8,8 +8,9 @@
 //! = repeat index + 1) through the scene's default camera: the tier's still warm-up
 //! ([`gi_tiers::TierKind::default_warmup`] or `--warmup`), then `--frames` measured frames
 //! (`--cpu-frames` for tiers that run on the CPU: they keep no history, and each of their
-//! frames is a full CPU path trace). Per repeat: the last frame's `rmse_srgb8`, `rmse_linear`
-//! and `gain_vs_direct` against the reference of the same camera and scene time
+//! frames is a full CPU path trace). Per repeat: the last frame's `rmse_srgb8`, `flip` (mean
+//! FLIP, LDR: [`gi_image::flip_ldr`]), `rmse_linear` and `gain_vs_direct` against the
+//! reference of the same camera and scene time
 //! (`--reference-spp`, [`gi_reference::cache::REFERENCE_SEED`], cached in `--cache-dir`,
 //! rendered by `--reference-engine`: the GPU path tier on a hardware GPU, else the CPU), the
 //! median over the measured frames of the frame time, of the GI passes' sum and of each pass,
@@ -256,7 +257,7 @@ pub fn run(args: &SuiteArgs) -> Result<()> {
     for file in &written {
         out!("  {file}\n");
     }
-    out!("  images/ (each tier's image and error map, each scene's reference)\n");
+    out!("  images/ (each tier's image, error heat map and FLIP map, each scene's reference)\n");
 
     let flagged = results.regressions.as_ref().map_or(0, |c| c.flagged.len());
     match (results.failures.len(), flagged) {

@@ -288,34 +288,34 @@ pub fn passes(results: &Results, tier: &str, path: &Path) -> Result<bool> {
     Ok(true)
 }
 
-/// `contact_<scene>.png`: for each tier a row `tier image | reference | error map`, scaled to
-/// [`THUMBNAIL_WIDTH`], labelled; from the PNGs in `images`. `false` when the scene has no
-/// reference image.
+/// `contact_<scene>.png`: for each tier a row `tier image | reference | error heat map | FLIP
+/// map`, scaled to [`THUMBNAIL_WIDTH`], labelled; from the PNGs in `images`. `false` when the
+/// scene has no reference image.
 pub fn contact_sheet(results: &Results, scene: &str, images: &Path, path: &Path) -> Result<bool> {
     let stem = file_stem(scene);
     let Some(reference) = thumbnail(&images.join(format!("{stem}_reference.png")))? else {
         return Ok(false);
     };
-    let rows: Vec<(&Cell, RgbImage, RgbImage)> = results
+    let rows: Vec<(&Cell, RgbImage, RgbImage, RgbImage)> = results
         .cells
         .iter()
         .filter(|c| c.scene == scene)
         .filter_map(|cell| {
-            let image = thumbnail(&images.join(format!("{stem}_{}.png", cell.tier))).ok()??;
-            let error =
-                thumbnail(&images.join(format!("{stem}_{}_error.png", cell.tier))).ok()??;
-            Some((cell, image, error))
+            let image = |suffix: &str| {
+                thumbnail(&images.join(format!("{stem}_{}{suffix}.png", cell.tier))).ok()?
+            };
+            Some((cell, image("")?, image("_error")?, image("_flip")?))
         })
         .collect();
     let (margin, label) = (10u32, 24u32);
     let (tw, th) = reference.dimensions();
-    let width = 3 * tw + 4 * margin;
+    let width = 4 * tw + 5 * margin;
     let row_height = label + th + margin;
     let height = 40 + row_height * rows.len().max(1) as u32;
     let mut canvas = RgbImage::from_pixel(width, height, image::Rgb([255, 255, 255]));
-    for (row, (_, image, error)) in rows.iter().enumerate() {
+    for (row, (_, image, error, flip)) in rows.iter().enumerate() {
         let y = 40 + row as u32 * row_height + label;
-        for (column, picture) in [image, &reference, error].into_iter().enumerate() {
+        for (column, picture) in [image, &reference, error, flip].into_iter().enumerate() {
             let x = margin + column as u32 * (tw + margin);
             image::imageops::replace(&mut canvas, picture, i64::from(x), i64::from(y));
         }
@@ -328,6 +328,7 @@ pub fn contact_sheet(results: &Results, scene: &str, images: &Path, path: &Path)
             "tier".to_owned(),
             format!("reference ({reference_spp} spp)"),
             "error (|sRGB difference|)".to_owned(),
+            "FLIP (LDR, magma)".to_owned(),
         ];
         for (column, text) in header.iter().enumerate() {
             let x = (margin + column as u32 * (tw + margin)) as i32;
@@ -338,18 +339,22 @@ pub fn contact_sheet(results: &Results, scene: &str, images: &Path, path: &Path)
             ))
             .map_err(plot_error)?;
         }
-        for (row, (cell, _, _)) in rows.iter().enumerate() {
+        for (row, (cell, ..)) in rows.iter().enumerate() {
             let y = (40 + row as u32 * row_height + 4) as i32;
             let rmse = cell
                 .rmse_srgb8
                 .as_ref()
                 .map_or("-".to_owned(), |s| format!("{:.2}", s.mean));
+            let flip = cell
+                .flip
+                .as_ref()
+                .map_or("-".to_owned(), |s| format!("{:.4}", s.mean));
             let ms = cell
                 .ms_per_frame
                 .as_ref()
                 .map_or("-".to_owned(), |s| format!("{:.2}", s.mean));
             let text = format!(
-                "{scene} / {}: rmse_srgb8 {rmse}, {ms} ms per frame",
+                "{scene} / {}: rmse_srgb8 {rmse}, flip {flip}, {ms} ms per frame",
                 cell.tier
             );
             root.draw(&Text::new(text, (margin as i32, y), font.clone()))

@@ -146,6 +146,8 @@ pub struct ReferenceInfo {
 #[derive(Clone, Debug, Serialize, Deserialize)]
 pub struct CellRun {
     pub rmse_srgb8: f64,
+    /// Mean FLIP (LDR) against the reference, in 0..1 (`gi_image::flip_ldr`).
+    pub flip: f64,
     pub rmse_linear: f64,
     /// Against the direct-only render of the same repeat; null when that error is 0.
     pub gain_vs_direct: Option<f64>,
@@ -214,6 +216,9 @@ pub struct Cell {
     /// Repeats that finished (each a fresh renderer, seed = repeat index + 1).
     pub repeats: u32,
     pub rmse_srgb8: Option<Stat>,
+    /// Mean FLIP (LDR); null in results from before it was measured.
+    #[serde(default)]
+    pub flip: Option<Stat>,
     pub rmse_linear: Option<Stat>,
     pub gain_vs_direct: Option<Stat>,
     pub ms_per_frame: Option<Stat>,
@@ -261,6 +266,7 @@ impl Cell {
             tier: tier.to_owned(),
             repeats: runs.len() as u32,
             rmse_srgb8: stat(&|r| Some(r.rmse_srgb8)),
+            flip: stat(&|r| Some(r.flip)),
             rmse_linear: stat(&|r| Some(r.rmse_linear)),
             gain_vs_direct: stat(&|r| r.gain_vs_direct),
             ms_per_frame: stat(&|r| Some(r.ms_per_frame)),
@@ -308,6 +314,7 @@ mod tests {
     fn run(rmse: f64, ms: f64, gain: Option<f64>) -> CellRun {
         CellRun {
             rmse_srgb8: rmse,
+            flip: rmse / 255.0,
             rmse_linear: rmse / 100.0,
             gain_vs_direct: gain,
             ms_per_frame: ms,
@@ -336,6 +343,10 @@ mod tests {
         let cell = Cell::from_runs("s", "t", &runs, None);
         assert_eq!(cell.repeats, 2);
         assert_eq!(cell.rmse_srgb8.as_ref().unwrap().mean, 11.0);
+        assert_eq!(
+            cell.flip.as_ref().unwrap().values,
+            vec![10.0 / 255.0, 12.0 / 255.0]
+        );
         assert_eq!(cell.ms_per_frame.as_ref().unwrap().values, vec![2.0, 4.0]);
         assert!(cell.gain_vs_direct.is_none());
         assert!(cell.gi_ms.is_none());

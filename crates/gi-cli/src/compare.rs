@@ -75,6 +75,8 @@ struct ReferenceReport {
 struct TierReport {
     tier: &'static str,
     rmse_srgb8: f64,
+    /// Mean FLIP (LDR) against the reference, in 0..1 (`gi_image::flip_ldr`).
+    flip: f64,
     rmse_linear: f64,
     rel_mse: f64,
     gain_vs_direct: Option<f64>,
@@ -224,9 +226,16 @@ pub fn run(args: &CompareArgs) -> Result<()> {
             scene.exposure,
             out_dir.join(format!("{name}_error.png")),
         )?;
+        let flip = gi_image::write_flip_map(
+            &render.image,
+            &reference,
+            scene.exposure,
+            out_dir.join(format!("{name}_flip.png")),
+        )?;
         reports.push(TierReport {
             tier: tier.name(),
             rmse_srgb8,
+            flip: flip.mean,
             rmse_linear: gi_image::rmse_linear(&render.image, &reference)?,
             rel_mse: gi_image::rel_mse(&render.image, &reference)?,
             gain_vs_direct: gi_image::gain_vs_direct(rmse_srgb8, direct_rmse),
@@ -307,9 +316,10 @@ fn print_table(report: &CompareReport) -> std::io::Result<()> {
         }
     );
     outln!(
-        "{:<10} {:>10} {:>11} {:>14} {:>11} {:>10}",
+        "{:<10} {:>10} {:>7} {:>11} {:>14} {:>11} {:>10}",
         "tier",
         "rmse_srgb8",
+        "flip",
         "rmse_linear",
         "gain_vs_direct",
         "ms/frame",
@@ -320,9 +330,10 @@ fn print_table(report: &CompareReport) -> std::io::Result<()> {
             .gain_vs_direct
             .map_or("-".to_string(), |g| format!("{g:.3}"));
         outln!(
-            "{:<10} {:>10.2} {:>11.4} {:>14} {:>11.1} {:>10.2}",
+            "{:<10} {:>10.2} {:>7.4} {:>11.4} {:>14} {:>11.1} {:>10.2}",
             tier.tier,
             tier.rmse_srgb8,
+            tier.flip,
             tier.rmse_linear,
             gain,
             tier.ms_per_frame,

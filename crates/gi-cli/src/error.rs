@@ -35,6 +35,7 @@ pub fn run(args: &ErrorArgs) -> anyhow::Result<()> {
     let image = load(&args.image)?;
     let measured = gi_image::compare(&image, &reference, args.exposure)?;
     outln!("rmse_srgb8     {:.3}", measured.rmse_srgb8);
+    outln!("flip           {:.4}", measured.flip);
     outln!("rmse_linear    {:.5}", measured.rmse_linear);
     outln!("rel_mse        {:.5}", measured.rel_mse);
     match gi_image::luminance_bias(&image, &reference)? {

@@ -146,7 +146,12 @@ fn compare_writes_table_json_and_reuses_cached_reference() {
     let first = gi(&args, dir.path());
     assert!(first.status.success(), "{}", stderr(&first));
     let table = String::from_utf8_lossy(&first.stdout);
-    assert!(table.contains("rmse_srgb8") && table.contains("gain_vs_direct"));
+    assert!(
+        table.contains("rmse_srgb8")
+            && table.contains(" flip ")
+            && table.contains("gain_vs_direct"),
+        "{table}"
+    );
     let json: serde_json::Value =
         serde_json::from_slice(&std::fs::read(dir.path().join("cmp/compare.json")).unwrap())
             .unwrap();
@@ -164,17 +169,30 @@ fn compare_writes_table_json_and_reuses_cached_reference() {
     // The direct tier is its own baseline.
     assert!((direct["gain_vs_direct"].as_f64().unwrap() - 1.0).abs() < 1e-12);
     for tier in tiers {
-        for field in ["rmse_srgb8", "rmse_linear", "ms_per_frame", "memory_bytes"] {
+        for field in [
+            "rmse_srgb8",
+            "flip",
+            "rmse_linear",
+            "ms_per_frame",
+            "memory_bytes",
+        ] {
             assert!(tier[field].is_number(), "{field} missing in {tier}");
         }
+        let flip = tier["flip"].as_f64().unwrap();
+        assert!(0.0 < flip && flip < 1.0, "flip {flip} in {tier}");
         assert!(tier["passes"].is_object());
     }
+    // FLIP, like rmse_srgb8, finds direct lighting further from the reference than a path
+    // tracer.
+    assert!(tiers[1]["flip"].as_f64().unwrap() < direct["flip"].as_f64().unwrap());
     for file in [
         "reference_16spp.exr",
         "reference_16spp.png",
         "reference.png",
         "direct.png",
         "reference_error.png",
+        "reference_flip.png",
+        "direct_flip.png",
     ] {
         assert!(dir.path().join("cmp").join(file).is_file(), "{file}");
     }
@@ -636,7 +654,7 @@ fn compare_with_the_mobile_tier_reports_its_gi_time_and_memory() {
     assert_eq!(mobile["tier"], "mobile");
     assert_eq!(mobile["warmup"], 4);
     assert_eq!(mobile["mobile"]["screen_probes"], "hsgi");
-    for field in ["rmse_srgb8", "gain_vs_direct", "ms_per_frame"] {
+    for field in ["rmse_srgb8", "flip", "gain_vs_direct", "ms_per_frame"] {
         assert!(mobile[field].is_number(), "{field} missing in {mobile}");
     }
     assert_mobile_report(
@@ -644,7 +662,12 @@ fn compare_with_the_mobile_tier_reports_its_gi_time_and_memory() {
         &mobile["passes"],
         mobile["ms_per_frame"].as_f64().unwrap(),
     );
-    for file in ["mobile.png", "mobile.exr", "mobile_error.png"] {
+    for file in [
+        "mobile.png",
+        "mobile.exr",
+        "mobile_error.png",
+        "mobile_flip.png",
+    ] {
         assert!(dir.path().join("cmp").join(file).is_file(), "{file}");
     }
 }
@@ -820,6 +843,9 @@ fn error_splits_two_seeds_into_noise_and_bias_and_rejects_bad_input() {
         (value("rmse_srgb8") - 45f64.sqrt()).abs() < 1e-3,
         "{stdout}"
     );
+    // Noise of 3 codes around a bias of 6 on a flat image: visible, far from the worst.
+    let flip = value("flip");
+    assert!(0.0 < flip && flip < 0.5, "{stdout}");
     assert!((value("noise_srgb8") - 3.0).abs() < 1e-3, "{stdout}");
     assert!((value("bias_srgb8") - 6.0).abs() < 1e-3, "{stdout}");
     assert!(value("luminance_bias") > 0.0, "{stdout}");

@@ -8,12 +8,20 @@
 //! - shown: `srgb_oetf(clamp(exposure * L, 0, 1))` quantised to 8 bits with
 //!   round-to-nearest ([`to_srgb8`] and the [`tonemap`] module);
 //! - measured against a path-traced reference: [`rmse_srgb8`] (in 0..255
-//!   display levels), [`rmse_linear`], [`rel_mse`] and [`gain_vs_direct`];
-//! - inspected: [`error_heatmap`] shows where the sRGB8 error lies.
+//!   display levels), [`flip_ldr`] (mean FLIP, LDR: how visible the difference
+//!   is to a person flipping between the two, in 0..1), [`rmse_linear`],
+//!   [`rel_mse`] and [`gain_vs_direct`];
+//! - inspected: [`error_heatmap`] shows where the sRGB8 error lies, and
+//!   [`flip_error_map`] where the visible difference lies.
 //!
-//! The 8-bit encoding used by PNG output, the sRGB8 metric and the heat map is
-//! one and the same, so a number in a benchmark table always describes the
-//! pixels a person sees in the written PNG.
+//! The 8-bit encoding used by PNG output, the sRGB8 metric, FLIP and the heat
+//! maps is one and the same, so a number in a benchmark table always describes
+//! the pixels a person sees in the written PNG.
+//!
+//! FLIP is NVIDIA's (Andersson et al. 2020, "FLIP: A Difference Evaluator for
+//! Alternating Images", HPG), computed by their C++ implementation in its LDR
+//! mode at their default viewing condition of 67 pixels per degree
+//! ([`FLIP_PIXELS_PER_DEGREE`]); see [`flip_ldr`].
 //!
 //! ```
 //! use gi_image::{Image, gain_vs_direct, rmse_srgb8};
@@ -33,6 +41,7 @@
 #![warn(missing_docs)]
 
 mod error;
+mod flip;
 mod heatmap;
 mod image;
 mod io;
@@ -40,6 +49,7 @@ mod metrics;
 pub mod tonemap;
 
 pub use crate::error::ImageError;
+pub use crate::flip::{FLIP_PIXELS_PER_DEGREE, Flip, flip_error_map, flip_ldr, write_flip_map};
 pub use crate::heatmap::{
     HEATMAP_FULL_SCALE, HeatmapInfo, error_heatmap, error_heatmap_with_scale, heatmap_ramp,
     pixel_errors_srgb8, write_error_heatmap, write_heatmap_png,

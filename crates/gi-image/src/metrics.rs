@@ -77,23 +77,26 @@ pub fn gain_vs_direct(tier_rmse: f64, direct_rmse: f64) -> Option<f64> {
     (valid(tier_rmse) && valid(direct_rmse) && direct_rmse > 0.0).then(|| tier_rmse / direct_rmse)
 }
 
-/// The three standard measurements of an image against its reference.
+/// The standard measurements of an image against its reference.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Comparison {
     /// [`rmse_srgb8`] at the comparison's exposure.
     pub rmse_srgb8: f64,
+    /// Mean FLIP (LDR) at the comparison's exposure ([`crate::flip_ldr`]).
+    pub flip: f64,
     /// [`rmse_linear`].
     pub rmse_linear: f64,
     /// [`rel_mse`] with the reference as denominator.
     pub rel_mse: f64,
 }
 
-/// Computes [`rmse_srgb8`], [`rmse_linear`] and [`rel_mse`] of `image` against
-/// `reference` in one call. Fails as the linear metrics do on non-finite
-/// input.
+/// Computes [`rmse_srgb8`], mean FLIP ([`crate::flip_ldr`]), [`rmse_linear`] and
+/// [`rel_mse`] of `image` against `reference` in one call. Fails as the linear
+/// metrics do on non-finite input.
 pub fn compare(image: &Image, reference: &Image, exposure: f32) -> Result<Comparison, ImageError> {
     Ok(Comparison {
         rmse_srgb8: rmse_srgb8(image, reference, exposure)?,
+        flip: crate::flip_ldr(image, reference, exposure)?.mean,
         rmse_linear: rmse_linear(image, reference)?,
         rel_mse: rel_mse(image, reference)?,
     })
@@ -421,11 +424,16 @@ mod tests {
     }
 
     #[test]
-    fn compare_bundles_the_three_metrics() {
+    fn compare_bundles_the_metrics() {
         let image = constant(2, 2, Vec3::splat(0.5));
         let reference = constant(2, 2, Vec3::splat(0.25));
         let c = compare(&image, &reference, 1.0).unwrap();
         assert_eq!(c.rmse_srgb8, 51.0);
+        assert_eq!(
+            c.flip,
+            crate::flip_ldr(&image, &reference, 1.0).unwrap().mean
+        );
+        assert!(c.flip > 0.0);
         assert_eq!(c.rmse_linear, 0.25);
         assert!((c.rel_mse - 0.0625 / 0.0725).abs() < 1e-12);
     }

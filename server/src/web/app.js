@@ -80,7 +80,7 @@ async function submit(event) {
 function showJob(id) {
   currentJob = id;
   clearTimeout(pollTimer);
-  for (const img of ["img-tier", "img-reference", "img-error"]) $(img).removeAttribute("src");
+  for (const img of ["img-tier", "img-reference", "img-error", "img-flip"]) $(img).removeAttribute("src");
   $("metrics").tBodies[0].replaceChildren();
   $("passes").tBodies[0].replaceChildren();
   $("job").hidden = false;
@@ -122,8 +122,10 @@ function render(job) {
   $("img-tier").src = job.images.image_png;
   $("img-reference").closest("figure").hidden = !job.images.reference_png;
   $("img-error").closest("figure").hidden = !job.images.error_png;
+  $("img-flip").closest("figure").hidden = !job.images.flip_png;
   if (job.images.reference_png) $("img-reference").src = job.images.reference_png;
   if (job.images.error_png) $("img-error").src = job.images.error_png;
+  if (job.images.flip_png) $("img-flip").src = job.images.flip_png;
 
   const result = job.result;
   const metrics = $("metrics");
@@ -132,6 +134,7 @@ function render(job) {
   const c = result.comparison;
   if (c) {
     row(metrics, "rmse_srgb8", fixed(c.rmse_srgb8, 2), "rmse_srgb8");
+    row(metrics, "flip", fixed(c.flip, 4), "flip");
     row(metrics, "rmse_linear", fixed(c.rmse_linear, 4), "rmse_linear");
     row(metrics, "gain_vs_direct", fixed(c.gain_vs_direct, 3), "gain_vs_direct");
     row(metrics, "reference", `${c.reference_spp} spp${c.reference_cached ? " (cached)" : ""}, ${fixed(c.reference_seconds, 2)} s on ${c.reference_engine}`, "reference_spp");
@@ -170,7 +173,7 @@ function jobRow(job) {
   const c = job.result && job.result.comparison;
   const tier = job.result && job.result.tier !== r.tier ? `${r.tier} → ${job.result.tier}` : r.tier;
   const cells = [job.id, r.scene, tier, `${r.width}×${r.height}`, job.state,
-    c ? fixed(c.rmse_srgb8, 2) : "", c ? fixed(c.gain_vs_direct, 3) : "",
+    c ? fixed(c.rmse_srgb8, 2) : "", c ? fixed(c.flip, 4) : "", c ? fixed(c.gain_vs_direct, 3) : "",
     new Date(job.submitted_at).toLocaleString()];
   for (const text of cells) {
     const td = document.createElement("td");
