@@ -197,9 +197,10 @@ pub fn requirements(settings: &TierSettings, config: &PcConfig) -> Requirements 
 /// The PC tier's measured cost per frame on an H100, for [`crate::select`].
 pub const H100_COST: FrameCost = FrameCost {
     kind: TierKind::Pc,
-    points: &[(2.0736, 4.73)],
-    source: "benchmarks/RESULTS-history.md, benchmark suite, `gi-bench pc --scenes dynamic --size \
-             1920x1080 --frames 64`: GI 3.709 + gbuffer/primary 0.334 + direct 0.688 ms",
+    points: &[(2.0736, 4.42)],
+    source: "benchmarks/results/h100-2026-11-27-atrous-kernel/bundled/pc-1.md, `gi-bench pc \
+             --scenes dynamic --size 1920x1080 --frames 64`, variant atrous-3x3-5 (the default \
+             since): GI 3.255 + gbuffer/primary 0.346 + direct 0.814 ms",
 };
 
 /// The PC tier. See the module docs.
