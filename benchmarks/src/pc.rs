@@ -11,14 +11,15 @@
 
 use anyhow::Context;
 use gi_tiers::pc::denoise::AtrousKernel;
-use gi_tiers::pc::{PC_OPTIONAL_STAGES, PC_STAGES, TraceMode};
+use gi_tiers::pc::{HitLights, PC_OPTIONAL_STAGES, PC_STAGES, TraceMode};
 use gi_tiers::{CameraMode, PcConfig, PcTier, Renderer, TierKind, TierSettings};
 
 use crate::realtime::{MIB, Measured, Schedule};
 
 /// A pipeline variant: `default`, the name of a stage to switch off ([`PC_STAGES`]),
 /// `with-` and the name of one to switch on ([`PC_OPTIONAL_STAGES`]), or `atrous-K-N`: the
-/// default with the denoiser's a-trous kernel `K` (`5x5` or `3x3`) and `N` iterations.
+/// default with the denoiser's a-trous kernel `K` (`5x5` or `3x3`) and `N` iterations, or
+/// `hit-lights-cache` (the hits' punctual lights from the brick cache, [`HitLights::Cache`]).
 pub fn parse_variant(value: &str) -> Result<String, String> {
     let switched_on = value
         .strip_prefix("with-")
@@ -26,12 +27,15 @@ pub fn parse_variant(value: &str) -> Result<String, String> {
     if value == "default" || PC_STAGES.contains(&value) || switched_on {
         return Ok(value.to_string());
     }
+    if value == "hit-lights-cache" {
+        return Ok(value.to_string());
+    }
     if value.starts_with("atrous-") {
         return variant_config(value).map(|_| value.to_string());
     }
     Err(format!(
-        "unknown variant `{value}` (expected default, one of {}, with-{} or atrous-K-N \
-         with K one of {} and N iterations)",
+        "unknown variant `{value}` (expected default, one of {}, with-{}, hit-lights-cache or \
+         atrous-K-N with K one of {} and N iterations)",
         PC_STAGES.join(", "),
         PC_OPTIONAL_STAGES.join(", with-"),
         AtrousKernel::NAMES.join(", ")
@@ -42,6 +46,12 @@ pub fn parse_variant(value: &str) -> Result<String, String> {
 fn variant_config(variant: &str) -> Result<PcConfig, String> {
     if variant == "default" {
         return Ok(PcConfig::default());
+    }
+    if variant == "hit-lights-cache" {
+        return Ok(PcConfig {
+            hit_lights: HitLights::Cache,
+            ..PcConfig::default()
+        });
     }
     if let Some(atrous) = variant.strip_prefix("atrous-") {
         let (kernel, iterations) = atrous
@@ -63,7 +73,7 @@ fn variant_config(variant: &str) -> Result<PcConfig, String> {
 
 /// A variant's column label.
 fn variant_label(variant: &str) -> String {
-    if variant == "default" || variant.starts_with("atrous-") {
+    if variant == "default" || variant.starts_with("atrous-") || variant == "hit-lights-cache" {
         return variant.to_string();
     }
     match variant.strip_prefix("with-") {

@@ -349,6 +349,14 @@ fn cache_bounced_irradiance(p: vec3<f32>, n: vec3<f32>) -> vec4<f32> {
     return cache_irradiance_of(p, n, CACHE_PART_BOUNCED);
 }
 
+// `cache_irradiance` without what emissive triangles give directly: the punctual lights' direct
+// irradiance as the cache's voxels received it (shadow rays per voxel, so shadows as sharp as a
+// voxel) and the bounced light. What a hit that samples the emitters itself but leaves the
+// punctual lights to the cache adds (the PC tier's `HitLights::Cache`).
+fn cache_lit_irradiance(p: vec3<f32>, n: vec3<f32>) -> vec4<f32> {
+    return cache_irradiance_of(p, n, CACHE_PART_LIT);
+}
+
 // `cache_irradiance` without the punctual lights' direct irradiance (`cache_direct`): the light
 // of the sky, of the emissive triangles and of every bounce. What a surface lit by the punctual
 // lights elsewhere (the direct-light pass of the real-time tiers) adds as its GI.
@@ -375,6 +383,9 @@ fn cache_blend_layer_gi(layer: vec4<f32>, origin: vec3<f32>, dir: vec3<f32>, beh
 const CACHE_PART_ALL: u32 = 0u;
 const CACHE_PART_BOUNCED: u32 = 1u;
 const CACHE_PART_INDIRECT: u32 = 2u;
+// The bounced light and the punctual lights' direct light: all of it but what the emissive
+// triangles give directly.
+const CACHE_PART_LIT: u32 = 3u;
 
 // Irradiance of side `side` of `v`: all of it, without the punctual lights' direct part, or only
 // its bounced part (`CACHE_PART_*`). The emitted part was
@@ -386,13 +397,16 @@ fn cache_side_irradiance_of(v: VoxelRef, side: u32, part: u32) -> vec3<f32> {
     if part == CACHE_PART_INDIRECT {
         return indirect;
     }
-    if part == CACHE_PART_BOUNCED {
+    var lit = indirect;
+    if part == CACHE_PART_BOUNCED || part == CACHE_PART_LIT {
         if cache_keeps_emitted() {
-            return max(indirect - unpack_rgb9e5(cache_emitted[slot]), vec3(0.0));
+            lit = max(indirect - unpack_rgb9e5(cache_emitted[slot]), vec3(0.0));
         }
-        return indirect;
+        if part == CACHE_PART_BOUNCED {
+            return lit;
+        }
     }
-    return indirect + unpack_rgb9e5(cache_direct[slot]);
+    return lit + unpack_rgb9e5(cache_direct[slot]);
 }
 
 // `cache_irradiance` or `cache_bounced_irradiance`. A point near the edge of its level's window

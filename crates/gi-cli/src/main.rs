@@ -25,8 +25,8 @@ use std::{
 };
 
 use clap::{Args, Parser, Subcommand};
-use gi_tiers::pc::TraceMode;
 use gi_tiers::pc::denoise::AtrousKernel;
+use gi_tiers::pc::{HitLights, TraceMode};
 use gi_tiers::{MobileConfig, PcConfig, TierKind};
 use tiers::{CameraChoice, RenderRequest, ScreenProbes};
 
@@ -141,6 +141,12 @@ pub struct ViewArgs {
     /// Only the PC tier reads it.
     #[arg(long, value_name = "N")]
     pc_atrous_iterations: Option<u32>,
+    /// Where the PC tier's diffuse rays' hits get the sun's and the other punctual lights'
+    /// direct light: rays (a shadow ray per light at each hit, the default) or cache (the brick
+    /// cache's direct light: no rays, shadows as sharp as its voxels). Only the PC tier reads
+    /// it.
+    #[arg(long, value_name = "FROM", value_parser = parse_hit_lights)]
+    pc_hit_lights: Option<HitLights>,
     /// Bricks the brick cache's pool holds (default 12288, about 2.8 KB each). A scene whose
     /// geometry needs more (the cache warns) loses its farthest bricks from the GI. Only the
     /// mobile and PC tiers read it.
@@ -204,7 +210,7 @@ impl ViewArgs {
 impl ViewArgs {
     /// The PC tier's configuration from `--pc-without` or `--pc-with`, `--pc-trace-scale`,
     /// `--pc-specular-roughness`, `--pc-specular-diffuse-from`, `--pc-trace-mode`,
-    /// `--pc-atrous-kernel` and `--pc-atrous-iterations`.
+    /// `--pc-atrous-kernel`, `--pc-atrous-iterations` and `--pc-hit-lights`.
     fn pc_config(&self) -> anyhow::Result<PcConfig> {
         let mut config = match (&self.pc_without, &self.pc_with) {
             (Some(stage), _) => PcConfig::without(stage).map_err(anyhow::Error::msg)?,
@@ -229,6 +235,9 @@ impl ViewArgs {
         if let Some(iterations) = self.pc_atrous_iterations {
             config.denoise.atrous_iterations = iterations;
         }
+        if let Some(hit_lights) = self.pc_hit_lights {
+            config.hit_lights = hit_lights;
+        }
         if let Some(bricks) = self.cache_pool_bricks {
             config.cache.pool_bricks = bricks;
         }
@@ -252,6 +261,10 @@ fn parse_trace_mode(s: &str) -> Result<TraceMode, String> {
 }
 
 fn parse_atrous_kernel(s: &str) -> Result<AtrousKernel, String> {
+    s.parse()
+}
+
+fn parse_hit_lights(s: &str) -> Result<HitLights, String> {
     s.parse()
 }
 

@@ -12,8 +12,8 @@ use gi_image::Image;
 use gi_reference::{Mode, Reference, RenderSettings, brdf::specular_albedo};
 use gi_scene::{CameraView, Scene, SceneFrame, Sky, Texture, TextureEncoding, TextureRef};
 use gi_tiers::pc::{
-    GpuReservoir, GpuSpecularSample, GpuSurface, PC_OPTIONAL_STAGES, PC_STAGES, PcConfig,
-    PcFrameData, PcUniforms, TraceMode,
+    GpuReservoir, GpuSpecularSample, GpuSurface, HitLights, PC_OPTIONAL_STAGES, PC_STAGES,
+    PcConfig, PcFrameData, PcUniforms, TraceMode,
 };
 use gi_tiers::{FrameInput, PcTier, Tier, TierError};
 use glam::{Vec3, Vec4};
@@ -458,7 +458,45 @@ fn an_emitters_light_bounced_off_a_wall_is_counted_once() {
     };
     drop(ctx);
     let (scene, _) = wall_beside_an_emitter("pc-bounce-wall");
-    check_the_bounce_off_the_wall(&scene);
+    check_the_bounce_off_the_wall(&scene, idle_cache(PcConfig::without("restir").unwrap()));
+}
+
+/// The wall of [`wall_beside_an_emitter`] lit by a sun instead, evenly (nothing shades it), its
+/// bounce the only light of the black ground: the hits' sun light from a shadow ray each,
+/// or from the brick cache's voxels (`HitLights::Cache`), whose even irradiance they hold
+/// exactly once lit, so both are unbiased. The cache's lighting runs at its default pace: its
+/// voxels must be lit before the measured frames.
+#[test]
+fn a_sunlit_walls_bounce_is_the_same_with_the_hits_lit_from_the_cache() {
+    let Some(ctx) = GpuContext::new_or_skip("a_sunlit_walls_bounce") else {
+        return;
+    };
+    drop(ctx);
+    let mut scene = unlit_ground("pc-sunlit-wall", 4.0);
+    scene.add_diffuse_quad(Vec3::new(1.0, 1.0, 0.0), Vec3::Z * 1.5, Vec3::Y, 0.8);
+    scene.lights.push(gi_scene::Light {
+        name: "sun".into(),
+        kind: gi_scene::LightKind::Directional,
+        color: Vec3::ONE,
+        intensity: 3.0,
+        range: None,
+    });
+    // -z turned to +x: the light travels along +x, level with the ground, so that it lights
+    // the wall square on and not the ground, whose irradiance (the reference's) is then the
+    // wall's bounce alone, as in the tier's GI.
+    scene.nodes.push(gi_scene::Node {
+        light: Some(scene.lights.len() - 1),
+        rotation: glam::Quat::from_rotation_y(-std::f32::consts::FRAC_PI_2),
+        ..gi_scene::Node::default()
+    });
+    for hit_lights in [HitLights::ShadowRays, HitLights::Cache] {
+        println!("hit lights {}", hit_lights.name());
+        let config = PcConfig {
+            hit_lights,
+            ..PcConfig::without("restir").unwrap()
+        };
+        check_the_bounce_off_the_wall(&scene, config);
+    }
 }
 
 /// A black ground and sky, a white wall at x = 1 facing -x, and an emitter at x = 0.2 facing
@@ -497,14 +535,14 @@ fn a_normal_mapped_wall_bounces_the_light_its_shading_normal_receives() {
     primitive.tangents = vec![Vec4::new(0.0, 0.0, 1.0, 1.0); 4];
     let material = primitive.material;
     scene.materials[material].normal_texture = Some(TextureRef::new(scene.textures.len() - 1));
-    check_the_bounce_off_the_wall(&scene);
+    check_the_bounce_off_the_wall(&scene, idle_cache(PcConfig::without("restir").unwrap()));
 }
 
 /// The PC tier's irradiance on the ground behind the emitter's plane of
-/// [`wall_beside_an_emitter`] (the wall's bounce only) against the reference's: without reuse
-/// each pixel's estimate is unbiased, so the mean ratio over frames is 1 within four standard
-/// errors of the frames and the reference.
-fn check_the_bounce_off_the_wall(scene: &Scene) {
+/// [`wall_beside_an_emitter`] (the wall's bounce only) against the reference's: with `config`
+/// without reuse each pixel's estimate is unbiased, so the mean ratio over frames is 1 within
+/// four standard errors of the frames and the reference.
+fn check_the_bounce_off_the_wall(scene: &Scene, config: PcConfig) {
     let camera = CameraView::look_at(Vec3::new(-2.0, 2.0, 1.5), Vec3::new(-0.6, 0.0, 0.0), 0.9);
     let (width, rows) = (64u32, 48u32);
     let frame = scene.evaluate(0.0, Some(camera));
@@ -545,7 +583,6 @@ fn check_the_bounce_off_the_wall(scene: &Scene) {
         / count;
     // Without reuse the shaded irradiance is each pixel's own one-sample estimate, unbiased: the
     // hits' shading is what is measured (every stage shades its hits the same way).
-    let config = idle_cache(PcConfig::without("restir").unwrap());
     let (mean, spread, n) =
         still_frame_statistic(config, (width, rows), (scene, &frame), 40, |data| {
             let pixels = &data.noisy_irradiance.pixels;

@@ -31,6 +31,9 @@ const FLAG_REUSE_SPECULAR: u32 = 128u;
 const FLAG_MATERIAL_OCCLUSION: u32 = 256u;
 // `gbuffer.blend_layer` holds a blended layer per pixel (the scene has alpha-`BLEND` materials).
 const FLAG_BLEND_LAYER: u32 = 512u;
+// The diffuse rays' hits take the punctual lights' direct light from the brick cache instead of
+// tracing shadow rays (`PcConfig::hit_lights`).
+const FLAG_HIT_LIGHTS_CACHE: u32 = 1024u;
 
 // What a pixel's specular reflection comes from (`specular_kind`).
 const SPECULAR_NONE: u32 = 0u;

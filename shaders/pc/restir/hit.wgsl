@@ -2,7 +2,10 @@
 // emission, exact direct light from every punctual light (one shadow ray each) and from the
 // emissive triangles (one point drawn on them by their power, one shadow ray), and the brick
 // cache's irradiance at the hit less those two (HSGI, GDC 2023: "indirect lighting always
-// from the cache system"), reflected by its diffuse and split-sum specular albedo.
+// from the cache system"), reflected by its diffuse and split-sum specular albedo. With
+// `FLAG_HIT_LIGHTS_CACHE` the diffuse rays' hits take the punctual lights' direct light from
+// the cache too (`cache_lit_irradiance`: no shadow rays, shadows as sharp as a voxel);
+// the specular rays' hits, which a mirror shows sharply, always trace their shadow rays.
 #define_import_path gi::pc::restir::hit
 
 #import gi::math::INV_PI
@@ -11,7 +14,7 @@
 #import gi::bvh::{Ray, trace_any}
 #import gi::scene::{triangles, lights, emission, geometric_normal, material_of, tex_coords, cone_footprint, material_brdf, mapped_normal, normalize_or, orient_shading_normal}
 #import gi::lights::{LIGHT_DIRECTIONAL, EmitterSample, light_incident, sample_emitter}
-#import gi::cache::trace::cache_bounced_irradiance
+#import gi::pc::restir::hit_cache::hit_cache_irradiance
 #import gi::pc::restir::common::{uniforms, FAR}
 #import gi::pc::restir::rays::{SHADOW_MARGIN, offset_origin}
 
@@ -56,7 +59,8 @@ struct HitShading {
     albedo: vec3<f32>,
 }
 
-fn shade_hit(dir: vec3<f32>, t: f32, triangle: u32, b: vec2<f32>, sampler: ptr<function, Sampler>) -> HitShading {
+// `lights_from_cache`: leave the punctual lights to the cache (no shadow rays).
+fn shade_hit(dir: vec3<f32>, t: f32, triangle: u32, b: vec2<f32>, sampler: ptr<function, Sampler>, lights_from_cache: bool) -> HitShading {
     let tri = triangles[triangle];
     let b0 = 1.0 - b.x - b.y;
     let p = tri.pa.xyz + (tri.pb.xyz - tri.pa.xyz) * b.x + (tri.pc.xyz - tri.pa.xyz) * b.y;
@@ -87,7 +91,8 @@ fn shade_hit(dir: vec3<f32>, t: f32, triangle: u32, b: vec2<f32>, sampler: ptr<f
     }
     let origin = offset_origin(p, ng);
     var irradiance = vec3(0.0);
-    for (var i = 0u; i < uniforms.light_count; i++) {
+    let light_count = select(uniforms.light_count, 0u, lights_from_cache);
+    for (var i = 0u; i < light_count; i++) {
         let light = lights[i];
         let incident = light_incident(light, p);
         let cos_l = dot(incident.wi, ns);
@@ -110,6 +115,6 @@ fn shade_hit(dir: vec3<f32>, t: f32, triangle: u32, b: vec2<f32>, sampler: ptr<f
     }
     radiance += albedo * INV_PI * irradiance;
     let fixed_radiance = radiance;
-    radiance += albedo * INV_PI * cache_bounced_irradiance(p, ng).xyz;
+    radiance += albedo * INV_PI * hit_cache_irradiance(p, ng, lights_from_cache);
     return HitShading(radiance, p, ng, fixed_radiance, albedo);
 }

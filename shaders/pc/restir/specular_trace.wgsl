@@ -55,7 +55,7 @@ fn specular_trace(@builtin(global_invocation_id) id: vec3<u32>) {
         sample.radiance = sky_radiance(uniforms.sky, dir);
         sample.flags = SAMPLE_SKY;
     } else {
-        let shaded = shade_hit(dir, hit.t, hit.triangle, hit.barycentrics, &sampler);
+        let shaded = shade_hit(dir, hit.t, hit.triangle, hit.barycentrics, &sampler, false);
         sample.position = shaded.position;
         sample.radiance = shaded.radiance;
     }

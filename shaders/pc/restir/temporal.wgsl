@@ -14,7 +14,7 @@
 #import gi::math::INV_PI
 #import gi::sampling::{sampler_new, sampler_next_f32}
 #import gi::packing::{unpack_unit_vector, pack_rgb9e5, unpack_rgb9e5}
-#import gi::cache::trace::cache_bounced_irradiance
+#import gi::pc::restir::hit_cache::{hit_cache_irradiance, hit_lights_from_cache}
 #import gi::pc::restir::bindings::{gbuffer_motion, surfaces, surfaces_prev, initial, temporal_out, temporal_prev, trace_index}
 #import gi::pc::restir::common::{
     uniforms, Surface, Reservoir, empty_reservoir, has_surface, target_pdf, reconnection_jacobian,
@@ -61,7 +61,7 @@ fn refreshed(r: Reservoir) -> Reservoir {
     }
     var out = r;
     let albedo = unpack4x8unorm(r.albedo).xyz;
-    let indirect = cache_bounced_irradiance(r.position, unpack_unit_vector(r.normal)).xyz;
+    let indirect = hit_cache_irradiance(r.position, unpack_unit_vector(r.normal), hit_lights_from_cache());
     out.radiance = pack_rgb9e5(unpack_rgb9e5(r.fixed_radiance) + albedo * INV_PI * indirect);
     return out;
 }

@@ -25,6 +25,7 @@
 #import gi::pc::restir::common::{uniforms, Surface, empty_reservoir, is_sky_depth, has_surface, SAMPLE_SKY, FAR}
 #import gi::pc::restir::rays::{gbuffer_depth, gbuffer_normal, surfaces, initial, offset_origin}
 #import gi::pc::restir::hit::{shade_hit, visible_emitter_sample}
+#import gi::pc::restir::hit_cache::hit_lights_from_cache
 
 // The receiver of trace pixel `t`: the first pixel of its block, starting at a per-frame
 // jittered one, that shows a surface.
@@ -128,7 +129,7 @@ fn trace(@builtin(global_invocation_id) id: vec3<u32>) {
             r.radiance = pack_rgb9e5(sky_radiance(uniforms.sky, dir));
             r.flags = SAMPLE_SKY;
         } else {
-            let shaded = shade_hit(dir, hit.t, hit.triangle, hit.barycentrics, &sampler);
+            let shaded = shade_hit(dir, hit.t, hit.triangle, hit.barycentrics, &sampler, hit_lights_from_cache());
             r.position = shaded.position;
             r.radiance = pack_rgb9e5(shaded.radiance);
             r.normal = pack_unit_vector(shaded.normal);

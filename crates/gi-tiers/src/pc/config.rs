@@ -28,6 +28,55 @@ pub struct PcConfig {
     /// rose from 1.58 to 3.09 rmse_srgb8 on an H100); on for maps baked from detail the
     /// geometry lacks.
     pub material_occlusion: bool,
+    /// Where the diffuse rays' hits get the punctual lights' (the sun's, point and spot
+    /// lights') direct light: see [`HitLights`].
+    pub hit_lights: HitLights,
+}
+
+/// Where the hits of the PC tier's diffuse rays get the punctual lights' direct light. The
+/// emitters are sampled at the hit either way, and the specular rays' hits, which mirrors show
+/// sharply, always trace their shadow rays.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum HitLights {
+    /// A shadow ray per light at every hit: exact shadows in the bounced light.
+    #[default]
+    ShadowRays,
+    /// The brick cache's direct light at the hit (each voxel side lit with its own shadow ray
+    /// by the cache): no rays at the hit, shadows as sharp as the cache's voxels (Lumen's
+    /// surface-cache lighting of hits). Cheaper and less accurate: on the H100 at 1920 x 1080
+    /// (2026-11-27, `benchmarks/results/h100-2026-11-27-hit-lights/`) `pc/trace` 1.17 against
+    /// 1.60 ms on Sponza (PC GI 3.88-3.91 against 4.31-4.33), 0.45 against 0.62 on atrium;
+    /// rmse_srgb8 Sponza 6.63 against 6.36, GasStation 6.72 against 6.46, atrium 6.25 against
+    /// 5.20, open-world 2.23 against 2.09, dynamic 5.49 against 5.53.
+    Cache,
+}
+
+impl HitLights {
+    /// The names [`HitLights::from_str`](std::str::FromStr) takes.
+    pub const NAMES: [&str; 2] = ["rays", "cache"];
+
+    /// `rays` or `cache`.
+    pub fn name(self) -> &'static str {
+        match self {
+            Self::ShadowRays => "rays",
+            Self::Cache => "cache",
+        }
+    }
+}
+
+impl std::str::FromStr for HitLights {
+    type Err = String;
+
+    fn from_str(s: &str) -> Result<Self, String> {
+        match s {
+            "rays" => Ok(Self::ShadowRays),
+            "cache" => Ok(Self::Cache),
+            other => Err(format!(
+                "unknown hit lighting '{other}' (expected {})",
+                Self::NAMES.join(" or ")
+            )),
+        }
+    }
 }
 
 impl Default for PcConfig {
@@ -45,6 +94,7 @@ impl Default for PcConfig {
             denoise: DenoiseConfig::default(),
             specular: SpecularConfig::default(),
             material_occlusion: false,
+            hit_lights: HitLights::ShadowRays,
         }
     }
 }

@@ -23,7 +23,7 @@ pub mod denoise;
 mod restir;
 
 pub use config::{
-    PC_OPTIONAL_STAGES, PC_STAGES, PcConfig, RestirConfig, SpecularConfig, TraceMode,
+    HitLights, PC_OPTIONAL_STAGES, PC_STAGES, PcConfig, RestirConfig, SpecularConfig, TraceMode,
 };
 
 use bytemuck::{Pod, Zeroable};
@@ -149,6 +149,7 @@ mod flags {
     pub const REUSE_SPECULAR: u32 = 128;
     pub const MATERIAL_OCCLUSION: u32 = 256;
     pub const BLEND_LAYER: u32 = 512;
+    pub const HIT_LIGHTS_CACHE: u32 = 1024;
 }
 
 /// GPU memory of the PC tier by what it scales with.
@@ -336,6 +337,10 @@ impl PcTier {
             (self.config.specular.reuse_diffuse, flags::REUSE_SPECULAR),
             (self.config.material_occlusion, flags::MATERIAL_OCCLUSION),
             (self.gbuffer.has_blend_layer(), flags::BLEND_LAYER),
+            (
+                self.config.hit_lights == HitLights::Cache,
+                flags::HIT_LIGHTS_CACHE,
+            ),
         ] {
             if on {
                 bits |= bit;
