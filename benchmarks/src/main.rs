@@ -306,9 +306,16 @@ enum Command {
         /// Static scene whose first punctual light turns for the settle measurement.
         #[arg(long, default_value = "atrium")]
         settle_scene: String,
+        /// What happens to the settle scene's first punctual light: turn (by
+        /// --light-turn-deg), off (switched off) or on (off through the warm-up, then on).
+        #[arg(long, default_value = "turn")]
+        change: tier_stability::LightChange,
         /// How far the light turns about the world vertical, degrees.
         #[arg(long, default_value_t = 30.0)]
         light_turn_deg: f32,
+        /// Skip the flicker cases: only the settle case and its cost.
+        #[arg(long)]
+        no_flicker: bool,
         /// Frames rendered after the light turns.
         #[arg(long, default_value_t = 160)]
         settle_frames: u32,
@@ -539,7 +546,9 @@ fn main() -> anyhow::Result<()> {
             still_scene,
             path_scene,
             settle_scene,
+            change,
             light_turn_deg,
+            no_flicker,
             settle_frames,
             converged_frames,
             settle_k,
@@ -566,7 +575,9 @@ fn main() -> anyhow::Result<()> {
                 still_scene,
                 path_scene,
                 settle_scene,
+                change,
                 light_turn_deg,
+                flicker: !no_flicker,
                 settle_frames,
                 converged_frames,
                 settle_k,

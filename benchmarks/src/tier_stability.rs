@@ -13,8 +13,9 @@
 //!   motion vectors.
 //!
 //! Settle: the settle scene (static, with a punctual light) warms up, then its first punctual
-//! light turns by `light_turn_deg` about the world vertical (a directional or spot light's
-//! direction; a point light's position about the vertical axis through the origin) and
+//! light changes ([`LightChange`]: it turns by `light_turn_deg` about the world vertical (a
+//! directional or spot light's direction; a point light's position about the vertical axis
+//! through the origin), is switched off, or, off through the warm-up, is switched on) and
 //! `settle_frames` still frames follow. The converged value is the mean of the last
 //! `converged_frames`, the noise their mean frame-to-frame change, the threshold `k` times the
 //! noise, and the settle time the frames from the change until every later frame (before the
@@ -25,7 +26,11 @@
 //! Noise correlated over many frames holds single frames further from the converged value than
 //! the frame-to-frame noise, so the settle time can end up measuring that noise rather than the
 //! change; the error floor (the 90th percentile of the later frames' errors) and the frames
-//! until the error first reaches it measure the change alone.
+//! until the error first reaches it measure the change alone. Two figures follow a game's
+//! view of lag: the share of the change still left after 4 and after 8 frames (error over the
+//! light change: for a light switched off, the share of its bounced light still shown), and the
+//! share of the resolvable part (the light change down to the error floor) resolved within 8
+//! frames.
 //!
 //! Cost of the change, in a run of its own on a fresh renderer of the settle scene (the
 //! settle case reads every frame back, and the idle GPU between frames lets its clock fall, by
@@ -65,7 +70,11 @@ pub struct StabilityOptions {
     pub path_scene: String,
     /// Static scene with a punctual light for the settle measurement.
     pub settle_scene: String,
+    /// What happens to the settle scene's first punctual light.
+    pub change: LightChange,
     pub light_turn_deg: f32,
+    /// Run the flicker cases (off: the settle and cost cases only).
+    pub flicker: bool,
     /// Frames rendered after the light turns.
     pub settle_frames: u32,
     /// The last frames, whose mean is the converged value.
@@ -75,6 +84,45 @@ pub struct StabilityOptions {
     /// Seconds of still frames for the GPU's clock to settle before the settle case's light
     /// turns ([`crate::settle::settle`]); 0 times at once.
     pub clock_settle_s: f64,
+}
+
+/// What the settle case does to the settle scene's first punctual light after the warm-up.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum LightChange {
+    /// It turns by `light_turn_deg` about the world vertical.
+    Turn,
+    /// It is switched off.
+    Off,
+    /// Off through the warm-up, it is switched on.
+    On,
+}
+
+impl LightChange {
+    pub const NAMES: [&str; 3] = ["turn", "off", "on"];
+
+    pub fn name(self) -> &'static str {
+        match self {
+            Self::Turn => "turn",
+            Self::Off => "off",
+            Self::On => "on",
+        }
+    }
+}
+
+impl std::str::FromStr for LightChange {
+    type Err = String;
+
+    fn from_str(s: &str) -> Result<Self, String> {
+        match s {
+            "turn" => Ok(Self::Turn),
+            "off" => Ok(Self::Off),
+            "on" => Ok(Self::On),
+            other => Err(format!(
+                "unknown light change '{other}' (expected {})",
+                Self::NAMES.join(", ")
+            )),
+        }
+    }
 }
 
 /// Still frames before the light turns whose GI time is the baseline (the warm-up's last, as
@@ -131,6 +179,23 @@ pub struct Settle {
     pub floor: Option<f64>,
     /// Frames until the error first reaches the floor.
     pub floor_frames: Option<usize>,
+}
+
+impl Settle {
+    /// The share of the light change still left `frames` frames after it: that frame's error
+    /// over the light change.
+    pub fn left_after(&self, frames: usize) -> Option<f64> {
+        let error = self.errors.get(frames.checked_sub(1)?)?;
+        (self.light_change > 0.0).then(|| error / self.light_change)
+    }
+
+    /// The share of the resolvable part of the change (the light change down to the error
+    /// floor) resolved `frames` frames after it.
+    pub fn resolved_within(&self, frames: usize) -> Option<f64> {
+        let error = self.errors.get(frames.checked_sub(1)?)?;
+        let resolvable = self.light_change - self.floor?;
+        (resolvable > 0.0).then(|| (self.light_change - error) / resolvable)
+    }
 }
 
 /// The tier a run measures, and for the mobile tier its screen probes.
@@ -218,23 +283,27 @@ pub fn run(options: &StabilityOptions) -> anyhow::Result<StabilityReport> {
     for &variant in &options.variants {
         let renderer =
             |scene: &gi_scene::Scene, camera| variant.renderer(scene, options.size, camera);
-        let flicker = vec![
-            FlickerCase {
-                case: "still",
-                scene: still.name.clone(),
-                change: flicker(&mut renderer(&still, CameraMode::Default)?, options, false)?,
-            },
-            FlickerCase {
-                case: "animated",
-                scene: still.name.clone(),
-                change: flicker(&mut renderer(&still, CameraMode::Default)?, options, true)?,
-            },
-            FlickerCase {
-                case: "camera path",
-                scene: path.name.clone(),
-                change: flicker(&mut renderer(&path, CameraMode::Path)?, options, true)?,
-            },
-        ];
+        let flicker = if !options.flicker {
+            Vec::new()
+        } else {
+            vec![
+                FlickerCase {
+                    case: "still",
+                    scene: still.name.clone(),
+                    change: flicker(&mut renderer(&still, CameraMode::Default)?, options, false)?,
+                },
+                FlickerCase {
+                    case: "animated",
+                    scene: still.name.clone(),
+                    change: flicker(&mut renderer(&still, CameraMode::Default)?, options, true)?,
+                },
+                FlickerCase {
+                    case: "camera path",
+                    scene: path.name.clone(),
+                    change: flicker(&mut renderer(&path, CameraMode::Path)?, options, true)?,
+                },
+            ]
+        };
         let settle = settle(&mut renderer(&settle_scene, CameraMode::Default)?, options)?;
         let cost = change_cost(&mut renderer(&settle_scene, CameraMode::Default)?, options)?;
         runs.push(StabilityRun {
@@ -316,6 +385,38 @@ fn first_light_node(scene: &gi_scene::Scene) -> anyhow::Result<usize> {
     Ok(node)
 }
 
+/// Readies the settle scene for `change` before its warm-up: a light to switch on is off until
+/// then. Returns the light's intensity in the scene as loaded.
+fn prepare_change(scene: &mut gi_scene::Scene, change: LightChange) -> anyhow::Result<f32> {
+    let light = scene.nodes[first_light_node(scene)?]
+        .light
+        .expect("found above");
+    let intensity = scene.lights[light].intensity;
+    if change == LightChange::On {
+        scene.lights[light].intensity = 0.0;
+    }
+    Ok(intensity)
+}
+
+/// Makes `change` to the scene's first punctual light, whose intensity as loaded is
+/// `intensity`.
+fn apply_change(
+    scene: &mut gi_scene::Scene,
+    change: LightChange,
+    options: &StabilityOptions,
+    intensity: f32,
+) -> anyhow::Result<()> {
+    let light = scene.nodes[first_light_node(scene)?]
+        .light
+        .expect("found above");
+    match change {
+        LightChange::Turn => turn_first_light(scene, options.light_turn_deg)?,
+        LightChange::Off => scene.lights[light].intensity = 0.0,
+        LightChange::On => scene.lights[light].intensity = intensity,
+    }
+    Ok(())
+}
+
 /// Turns the scene's first punctual light about the world vertical by `degrees`.
 fn turn_first_light(scene: &mut gi_scene::Scene, degrees: f32) -> anyhow::Result<()> {
     let node = first_light_node(scene)?;
@@ -335,6 +436,7 @@ fn change_cost(renderer: &mut Renderer, options: &StabilityOptions) -> anyhow::R
     // The warm-up's last frames (up to COST_WINDOW) are the baseline, timed after the clock
     // settled; the clock's frames come on top of the warm-up.
     let kind = renderer.tier();
+    let intensity = prepare_change(renderer.scene_mut(), options.change)?;
     let warmup = options.warmup.max(1);
     let timed = warmup.min(COST_WINDOW as u32);
     if warmup > timed {
@@ -345,7 +447,7 @@ fn change_cost(renderer: &mut Renderer, options: &StabilityOptions) -> anyhow::R
     for _ in 0..timed {
         before_ms.push(gi_ms(kind, &renderer.warm_up_frame()?));
     }
-    turn_first_light(renderer.scene_mut(), options.light_turn_deg)?;
+    apply_change(renderer.scene_mut(), options.change, options, intensity)?;
     let mut after_ms = Vec::with_capacity(options.settle_frames as usize);
     for _ in 0..options.settle_frames {
         after_ms.push(gi_ms(kind, &renderer.warm_up_frame()?));
@@ -381,9 +483,10 @@ fn relight_frames(after_ms: &[f64], limit: f64) -> Option<usize> {
 
 fn settle(renderer: &mut Renderer, options: &StabilityOptions) -> anyhow::Result<Settle> {
     let name = renderer.scene().name.clone();
+    let intensity = prepare_change(renderer.scene_mut(), options.change)?;
     renderer.warm_up(options.warmup.max(1), None)?;
     let before = luminance_image(&frame_data(renderer)?.gi);
-    turn_first_light(renderer.scene_mut(), options.light_turn_deg)?;
+    apply_change(renderer.scene_mut(), options.change, options, intensity)?;
     let mut frames = Vec::new();
     let mut last = None;
     for _ in 0..options.settle_frames {
@@ -438,19 +541,25 @@ impl StabilityReport {
         let o = &self.options;
         let mut out = format!(
             "{}x{}, {} still warm-up frames, flicker over {} frames; settle: light \
-             turned {} deg, {} frames, converged = mean of the last {}, threshold = {} x their \
+             {}, {} frames, converged = mean of the last {}, threshold = {} x their \
              frame-to-frame noise\n\n",
             o.size.0,
             o.size.1,
             o.warmup,
             o.frames,
-            o.light_turn_deg,
+            match o.change {
+                LightChange::Turn => format!("turned {} deg", o.light_turn_deg),
+                LightChange::Off => "switched off".to_owned(),
+                LightChange::On => "switched on".to_owned(),
+            },
             o.settle_frames,
             o.converged_frames,
             o.settle_k,
         );
-        out += "| tier | case | scene | static pixels | flicker (mean abs dL) | \
-                mean L | relative |\n|---|---|---|---:|---:|---:|---:|\n";
+        if o.flicker {
+            out += "| tier | case | scene | static pixels | flicker (mean abs dL) | \
+                    mean L | relative |\n|---|---|---|---:|---:|---:|---:|\n";
+        }
         for run in &self.runs {
             for case in &run.flicker {
                 let c = &case.change;
@@ -467,15 +576,18 @@ impl StabilityReport {
                 );
             }
         }
-        out += "\n| tier | scene | light change | noise | threshold | converged drift | \
-                settle frames | error floor | frames to the floor |\n\
-                |---|---|---:|---:|---:|---:|---:|---:|---:|\n";
+        out += "\n| tier | scene | change | light change | noise | threshold | converged drift | \
+                settle frames | error floor | frames to the floor | left after 4 | left after 8 | \
+                resolved within 8 |\n\
+                |---|---|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|\n";
         for run in &self.runs {
             let s = &run.settle;
+            let share = |v: Option<f64>| v.map_or("-".to_owned(), |v| format!("{:.0}%", v * 100.0));
             out += &format!(
-                "| {} | {} | {:.5} | {:.5} | {:.5} | {:.5} | {} | {} | {} |\n",
+                "| {} | {} | {} | {:.5} | {:.5} | {:.5} | {:.5} | {} | {} | {} | {} | {} | {} |\n",
                 run.variant.name(),
                 s.scene,
+                o.change.name(),
                 s.light_change,
                 s.noise,
                 s.threshold,
@@ -484,6 +596,9 @@ impl StabilityReport {
                     .map_or("not settled".to_owned(), |n| n.to_string()),
                 s.floor.map_or("-".to_owned(), |f| format!("{f:.5}")),
                 s.floor_frames.map_or("-".to_owned(), |n| n.to_string()),
+                share(s.left_after(4)),
+                share(s.left_after(8)),
+                share(s.resolved_within(8)),
             );
             if s.light_change <= s.threshold {
                 out += &format!(
@@ -540,6 +655,7 @@ impl StabilityReport {
             "frames": o.frames,
             "depth_tolerance": DEPTH_TOLERANCE,
             "settle_options": {
+                "change": o.change.name(),
                 "light_turn_deg": o.light_turn_deg,
                 "settle_frames": o.settle_frames,
                 "converged_frames": o.converged_frames,
@@ -567,6 +683,9 @@ impl StabilityReport {
                     "settle_frames": run.settle.settle_frames,
                     "floor": run.settle.floor,
                     "floor_frames": run.settle.floor_frames,
+                    "left_after_4": run.settle.left_after(4),
+                    "left_after_8": run.settle.left_after(8),
+                    "resolved_within_8": run.settle.resolved_within(8),
                     "errors": run.settle.errors,
                     "cost_ms": {
                         "clock_settle": {
@@ -604,7 +723,35 @@ fn clock_note(clock: &Settled) -> String {
 
 #[cfg(test)]
 mod tests {
-    use super::relight_frames;
+    use super::{Settle, relight_frames};
+
+    #[test]
+    fn the_shares_left_and_resolved_follow_the_errors() {
+        let settle = Settle {
+            scene: "s".into(),
+            converged_luminance: 1.0,
+            light_change: 0.5,
+            noise: 0.01,
+            threshold: 0.02,
+            converged_drift: 0.0,
+            errors: vec![0.4, 0.3, 0.2, 0.1, 0.08, 0.07, 0.06, 0.05, 0.05],
+            settle_frames: Some(5),
+            floor: Some(0.05),
+            floor_frames: Some(8),
+        };
+        // Frame 4 after the change: 0.1 of a 0.5 change is left.
+        assert!((settle.left_after(4).unwrap() - 0.2).abs() < 1e-12);
+        // Frame 8: 0.05 left of the 0.45 that could be resolved: all of it resolved.
+        assert!((settle.resolved_within(8).unwrap() - 1.0).abs() < 1e-12);
+        assert!((settle.resolved_within(2).unwrap() - 0.2 / 0.45).abs() < 1e-12);
+        assert_eq!(settle.left_after(0), None);
+        assert_eq!(settle.left_after(10), None);
+        let unsettled = Settle {
+            floor: None,
+            ..settle
+        };
+        assert_eq!(unsettled.resolved_within(8), None);
+    }
 
     #[test]
     fn the_relighting_ends_with_the_first_run_above_the_limit() {
