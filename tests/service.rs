@@ -287,10 +287,11 @@ fn a_client_uploads_a_scene_renders_compares_downloads_and_cancels() {
         .unwrap_or_else(|| panic!("{scene_id} not listed: {listed}"));
     assert_eq!(entry["source"], "uploaded");
 
-    // A job through the scene's own camera, compared against the reference.
+    // A job through the scene's own camera, compared against the reference as every job is
+    // unless it says `"compare": false`.
     let job = json!({
         "scene": scene_id, "tier": "auto", "width": SIZE.0, "height": SIZE.1, "spp": 4,
-        "warmup": 2, "seed": 5, "compare": true, "reference_spp": 16,
+        "warmup": 2, "seed": 5, "reference_spp": 16,
     });
     let body = job.to_string();
     let submitted = request(

@@ -1,15 +1,16 @@
 //! The HTTP API: the route table, the router built from it and the handlers.
 
-use std::sync::Arc;
+use std::{sync::Arc, time::Instant};
 
 use axum::{
     Json, Router,
     body::{Body, Bytes},
     extract::{
-        DefaultBodyLimit, Path, Query, State,
+        DefaultBodyLimit, Path, Query, Request, State,
         rejection::{BytesRejection, JsonRejection, QueryRejection},
     },
     http::{HeaderMap, HeaderValue, Method, StatusCode, Uri, header},
+    middleware::{self, Next},
     response::{IntoResponse, Response},
     routing::{MethodRouter, get},
 };
@@ -17,8 +18,10 @@ use serde::Deserialize;
 use serde_json::json;
 
 use crate::{
+    access::{self, Access},
     error::ApiError,
-    job::{IMAGE_FILES, JobRequest, JobState},
+    job::{IMAGE_FILES, JobRequest, JobState, StateFilter},
+    metrics::DiskUsage,
     openapi,
     service::{Service, job_not_found},
     web,
@@ -83,8 +86,9 @@ fn method_router(path: &str, service: &Service) -> MethodRouter<AppState> {
     }
 }
 
-/// The router over [`ROUTES`], with JSON answers for unknown paths and methods.
-pub fn router(service: Arc<Service>) -> Router {
+/// The router over [`ROUTES`], with JSON answers for unknown paths and methods, every
+/// request checked by `access` and counted in the metrics.
+pub fn router(service: Arc<Service>, access: Arc<Access>) -> Router {
     let mut router = Router::new();
     for (path, _) in ROUTES {
         router = router.route(path, method_router(path, &service));
@@ -92,7 +96,38 @@ pub fn router(service: Arc<Service>) -> Router {
     router
         .fallback(no_route)
         .method_not_allowed_fallback(method_not_allowed)
-        .with_state(service)
+        .with_state(service.clone())
+        .layer(middleware::from_fn_with_state(access, access::check))
+        // Outermost, so refused requests (421, 401) are counted too.
+        .layer(middleware::from_fn_with_state(service, count_request))
+}
+
+/// Counts a request in the metrics by its route template (`unmatched` for unknown paths),
+/// method and status, with the time until its answer's head.
+async fn count_request(State(service): State<AppState>, request: Request, next: Next) -> Response {
+    let route = ROUTES
+        .iter()
+        .find(|(pattern, _)| path_matches(pattern, request.uri().path()))
+        .map_or("unmatched", |(pattern, _)| pattern);
+    let method = match *request.method() {
+        Method::GET => "GET",
+        Method::HEAD => "HEAD",
+        Method::POST => "POST",
+        Method::PUT => "PUT",
+        Method::DELETE => "DELETE",
+        Method::PATCH => "PATCH",
+        Method::OPTIONS => "OPTIONS",
+        _ => "other",
+    };
+    let started = Instant::now();
+    let response = next.run(request).await;
+    service.metrics.add_request(
+        route,
+        method,
+        response.status().as_u16(),
+        started.elapsed().as_secs_f64(),
+    );
+    response
 }
 
 async fn no_route(method: Method, uri: Uri) -> ApiError {
@@ -129,29 +164,38 @@ fn path_matches(pattern: &str, path: &str) -> bool {
             .all(|(p, s)| p == s || (p.starts_with('{') && p.ends_with('}') && !s.is_empty()))
 }
 
-async fn healthz(State(service): State<AppState>) -> Json<serde_json::Value> {
-    let counts = service.counts();
-    Json(json!({
-        "status": if service.is_shutting_down() { "shutting_down" } else { "ok" },
-        "version": env!("CARGO_PKG_VERSION"),
-        "gpu": service.gpu,
-        "queue_depth": counts[JobState::Queued.index()],
-        "running": counts[JobState::Running.index()],
-    }))
+/// 503 when the data folder cannot take writes, 200 otherwise (see
+/// `Service::health_blocking`).
+async fn healthz(State(service): State<AppState>) -> Result<Response, ApiError> {
+    let probed = service.clone();
+    let (status, body) = tokio::task::spawn_blocking(move || probed.health_blocking())
+        .await
+        .map_err(|e| ApiError::internal(e.to_string()))?;
+    Ok((status, Json(body)).into_response())
 }
 
-async fn metrics(State(service): State<AppState>) -> Response {
-    let body = service
+async fn metrics(State(service): State<AppState>) -> Result<Response, ApiError> {
+    let measured = service.clone();
+    let disk = tokio::task::spawn_blocking(move || DiskUsage {
+        used_bytes: measured
+            .metrics
+            .data_dir_used_bytes(&measured.config.data_dir),
+        free_bytes: measured.store.free_bytes(),
+    })
+    .await
+    .map_err(|e| ApiError::internal(e.to_string()))?;
+    let mut body = service
         .metrics
-        .render(service.counts(), service.gpu.is_some());
-    (
+        .render(service.counts(), service.gpu.is_some(), disk);
+    body.push_str(&service.record_metrics());
+    Ok((
         [(
             header::CONTENT_TYPE,
             HeaderValue::from_static("text/plain; version=0.0.4; charset=utf-8"),
         )],
         body,
     )
-        .into_response()
+        .into_response())
 }
 
 async fn openapi_json(State(service): State<AppState>) -> Json<serde_json::Value> {
@@ -184,8 +228,8 @@ struct ListQuery {
     limit: Option<usize>,
     /// Only jobs with a smaller id (the previous page's `next` sets it).
     before: Option<u64>,
-    /// Only jobs in this state.
-    state: Option<JobState>,
+    /// Only jobs in this state (or `unreadable`: those whose record cannot be read).
+    state: Option<StateFilter>,
 }
 
 async fn list_jobs(
@@ -244,7 +288,7 @@ async fn job_file(
 ) -> Result<Response, ApiError> {
     debug_assert!(IMAGE_FILES.contains(&file));
     let id = parse_id(&id)?;
-    let record = service.record(id).ok_or_else(|| job_not_found(id))?;
+    let record = service.readable_record(id)?;
     if record.state != JobState::Done {
         return Err(ApiError::not_found(
             "image_not_ready",
@@ -316,11 +360,7 @@ async fn upload_scene(
     let service_for_upload = service.clone();
     let name = query.name.unwrap_or_default();
     let (scene, created) = tokio::task::spawn_blocking(move || {
-        service_for_upload.catalog.upload(
-            &bytes,
-            &name,
-            service_for_upload.config.max_upload_texels,
-        )
+        service_for_upload.upload_scene_blocking(&bytes, &name)
     })
     .await
     .map_err(|e| {

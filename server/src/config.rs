@@ -11,8 +11,8 @@ use gi_reference::engine::EngineChoice;
 #[derive(Clone, Debug, Parser)]
 #[command(name = "gi-server", version, about, long_about = None)]
 pub struct Config {
-    /// Address to listen on. The default serves this machine only; put a proxy with
-    /// authentication in front before binding a public address (the service has none).
+    /// Address to listen on. The default serves this machine only; any other address needs
+    /// `--api-token` (or `--insecure-no-auth`), and a public one TLS from a proxy in front.
     #[arg(long, env = "GI_SERVER_BIND", default_value = "127.0.0.1:8080")]
     pub bind: SocketAddr,
 
@@ -69,10 +69,18 @@ pub struct Config {
     #[arg(long, env = "GI_SERVER_MAX_UPLOAD_BYTES", default_value_t = 64 << 20)]
     pub max_upload_bytes: usize,
 
-    /// Most texels in all the PNG textures of an uploaded scene, checked from their headers
-    /// before anything is decoded: each texel takes about 36 bytes while the scene loads.
+    /// Most texels in all the images of an uploaded scene (PNG, JPEG or DDS, wherever they
+    /// are stored), read from their headers before any is decoded: each texel takes about 36
+    /// bytes while the scene loads. An image whose header does not read is refused too.
     #[arg(long, env = "GI_SERVER_MAX_UPLOAD_TEXELS", default_value_t = 1 << 24)]
     pub max_upload_texels: u64,
+
+    /// Bytes kept free on the data folder's disk: below it `/healthz` answers 503 and new
+    /// jobs and uploads are refused with 507, before a write fails halfway. A job stores a
+    /// few megabytes of images (a 4K EXR about 130 MB); higher leaves more room for the jobs
+    /// already running and the rest of the machine, lower uses more of the disk.
+    #[arg(long, env = "GI_SERVER_MIN_FREE_BYTES", default_value_t = 64 << 20)]
+    pub min_free_bytes: u64,
 
     /// Most jobs waiting to run; a submission beyond it is answered 429 with Retry-After.
     #[arg(long, env = "GI_SERVER_MAX_QUEUE", default_value_t = 64)]
@@ -103,6 +111,51 @@ pub struct Config {
     /// render on the CPU.
     #[arg(long, env = "GI_SERVER_NO_GPU")]
     pub no_gpu: bool,
+
+    /// Bearer token every API route requires (`Authorization: Bearer <token>`); the web
+    /// page's files and `/healthz` stay open. Prefer the environment variable or
+    /// `--api-token-file`: a flag is visible to every user of the machine.
+    #[arg(
+        long,
+        env = "GI_SERVER_API_TOKEN",
+        hide_env_values = true,
+        conflicts_with = "api_token_file"
+    )]
+    pub api_token: Option<ApiToken>,
+
+    /// File holding the bearer token (surrounding whitespace ignored), read at start.
+    #[arg(long, env = "GI_SERVER_API_TOKEN_FILE")]
+    pub api_token_file: Option<PathBuf>,
+
+    /// Serve a non-loopback `--bind` address without a token. Anyone who can reach the
+    /// address can then queue renders and read every job.
+    #[arg(long, env = "GI_SERVER_INSECURE_NO_AUTH")]
+    pub insecure_no_auth: bool,
+
+    /// Host names (`name` for any port, or `name:port`) requests may carry in their `Host`
+    /// header besides the address they reached (and `localhost` on loopback); `*` allows any.
+    /// Others are answered 421, which defeats DNS rebinding. Repeat or separate with commas.
+    #[arg(long, env = "GI_SERVER_ALLOWED_HOSTS", value_delimiter = ',')]
+    pub allowed_hosts: Vec<String>,
+
+    /// Most connections open at once. A connection past it takes the place of the open one
+    /// idle the longest (no request running), or is answered 503 and closed when every one
+    /// is busy. Keep it below the open-file limit (`ulimit -n`).
+    #[arg(long, env = "GI_SERVER_MAX_CONNECTIONS", default_value_t = 512)]
+    pub max_connections: usize,
+
+    /// Seconds a client has to send a whole request head (request line and headers), from
+    /// the moment the connection opens or its previous answer was sent; then it is closed.
+    /// Longer tolerates slower links, shorter frees stalled connections sooner.
+    #[arg(long, env = "GI_SERVER_HEADER_READ_TIMEOUT_S", default_value_t = 10.0)]
+    pub header_read_timeout_s: f64,
+
+    /// Seconds a connection may stay silent while no request of it runs (kept alive between
+    /// requests, or partway through a request head) and the longest pause in a request body;
+    /// then it is closed. At most `--header-read-timeout-s`, which also bounds the wait for
+    /// the next request. Longer saves clients reconnecting, shorter holds fewer idle sockets.
+    #[arg(long, env = "GI_SERVER_IDLE_TIMEOUT_S", default_value_t = 5.0)]
+    pub idle_timeout_s: f64,
 }
 
 impl Config {
@@ -125,6 +178,7 @@ impl Config {
             ("--max-jobs", self.max_jobs),
             ("--reference-pool", self.reference_pool),
             ("--max-attempts", self.max_attempts as usize),
+            ("--max-connections", self.max_connections),
         ];
         for (name, value) in positive {
             if value == 0 {
@@ -149,7 +203,92 @@ impl Config {
         if self.no_gpu && self.reference_engine == EngineChoice::Gpu {
             return Err("--reference-engine gpu needs a GPU, and --no-gpu forbids one".to_string());
         }
+        for (name, seconds) in [
+            ("--header-read-timeout-s", self.header_read_timeout_s),
+            ("--idle-timeout-s", self.idle_timeout_s),
+        ] {
+            if !(seconds > 0.0 && seconds <= MAX_TIMEOUT_S) {
+                return Err(format!(
+                    "{name} must be above 0 and at most {MAX_TIMEOUT_S}"
+                ));
+            }
+        }
+        if self.idle_timeout_s > self.header_read_timeout_s {
+            return Err(
+                "--idle-timeout-s must not exceed --header-read-timeout-s (which also \
+                 bounds the wait for the next request)"
+                    .to_string(),
+            );
+        }
+        let has_token = self.api_token.is_some() || self.api_token_file.is_some();
+        if !self.bind.ip().is_loopback() && !has_token && !self.insecure_no_auth {
+            return Err(format!(
+                "--bind {} is reachable from other machines and no API token is set: set \
+                 GI_SERVER_API_TOKEN (or --api-token-file), or pass --insecure-no-auth to \
+                 serve it without authentication",
+                self.bind
+            ));
+        }
         Ok(())
+    }
+
+    /// The bearer token API routes require: `--api-token`, or the contents of
+    /// `--api-token-file` (read now), or none.
+    pub fn resolve_api_token(&self) -> Result<Option<ApiToken>, String> {
+        if let Some(token) = &self.api_token {
+            return Ok(Some(token.clone()));
+        }
+        let Some(path) = &self.api_token_file else {
+            return Ok(None);
+        };
+        let text = std::fs::read_to_string(path)
+            .map_err(|e| format!("--api-token-file {}: {e}", path.display()))?;
+        text.parse()
+            .map(Some)
+            .map_err(|e| format!("--api-token-file {}: {e}", path.display()))
+    }
+}
+
+/// Longest accepted connection timeout: a day (anything longer is a mistake).
+const MAX_TIMEOUT_S: f64 = 86_400.0;
+
+/// A bearer token: never printed, compared in constant time.
+#[derive(Clone)]
+pub struct ApiToken(String);
+
+impl ApiToken {
+    /// True when `presented` is the token. Both sides are hashed first, so the time taken
+    /// depends on neither the token's length nor where the first difference is.
+    pub fn matches(&self, presented: &str) -> bool {
+        use sha2::{Digest, Sha256};
+        let (expected, presented) = (Sha256::digest(&self.0), Sha256::digest(presented));
+        expected
+            .iter()
+            .zip(presented.iter())
+            .fold(0u8, |difference, (a, b)| difference | (a ^ b))
+            == 0
+    }
+}
+
+impl std::str::FromStr for ApiToken {
+    type Err = String;
+
+    fn from_str(text: &str) -> Result<Self, String> {
+        let token = text.trim();
+        if token.is_empty() {
+            return Err("the API token is empty".to_string());
+        }
+        // What an `Authorization` header can carry after `Bearer `.
+        if !token.bytes().all(|b| b.is_ascii_graphic()) {
+            return Err("the API token must be printable ASCII without spaces".to_string());
+        }
+        Ok(Self(token.to_string()))
+    }
+}
+
+impl std::fmt::Debug for ApiToken {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str("ApiToken(<redacted>)")
     }
 }
 
@@ -177,5 +316,30 @@ mod tests {
             err.contains("vulkan") && err.contains("auto, gpu or cpu"),
             "{err}"
         );
+    }
+
+    #[test]
+    fn tokens_match_exactly_and_other_addresses_need_one() {
+        let token: ApiToken = " s3cret-token\n".parse().unwrap();
+        assert!(token.matches("s3cret-token"));
+        for wrong in ["", "s3cret-toke", "s3cret-token2", "S3cret-token"] {
+            assert!(!token.matches(wrong), "{wrong:?}");
+        }
+        assert!(!format!("{token:?}").contains("s3cret"));
+        assert!("two words".parse::<ApiToken>().is_err());
+        assert!("  ".parse::<ApiToken>().is_err());
+
+        let public = ["gi-server", "--bind", "0.0.0.0:8080"];
+        let refused = Config::parse_from(public).validate().unwrap_err();
+        assert!(
+            refused.contains("GI_SERVER_API_TOKEN") && refused.contains("--insecure-no-auth"),
+            "{refused}"
+        );
+        let with_token = Config::parse_from([&public[..], &["--api-token", "t"]].concat());
+        assert_eq!(with_token.validate(), Ok(()));
+        let insecure = Config::parse_from([&public[..], &["--insecure-no-auth"]].concat());
+        assert_eq!(insecure.validate(), Ok(()));
+        let loopback = Config::parse_from(["gi-server", "--bind", "[::1]:8080"]);
+        assert_eq!(loopback.validate(), Ok(()));
     }
 }

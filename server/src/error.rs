@@ -41,6 +41,46 @@ impl ApiError {
     pub fn internal(message: impl Into<String>) -> Self {
         Self::new(StatusCode::INTERNAL_SERVER_ERROR, "internal", message)
     }
+
+    /// A failure to store `what` in the data folder: 507 `insufficient_storage` when its disk
+    /// (or the service's quota) is full, else 500 `internal`. Nothing was accepted or changed.
+    pub fn storage(what: &str, error: &std::io::Error) -> Self {
+        if is_disk_full(error) {
+            Self::new(
+                StatusCode::INSUFFICIENT_STORAGE,
+                "insufficient_storage",
+                format!(
+                    "storing {what} failed: the data folder's disk is full ({error}); nothing \
+                     was changed, retry once space is freed"
+                ),
+            )
+        } else {
+            Self::internal(format!(
+                "storing {what} failed: {error}; nothing was changed"
+            ))
+        }
+    }
+
+    /// 507: the data folder has less free space than the service keeps free.
+    pub fn low_on_disk(free_bytes: u64, min_free_bytes: u64) -> Self {
+        Self::new(
+            StatusCode::INSUFFICIENT_STORAGE,
+            "insufficient_storage",
+            format!(
+                "the data folder's disk has {free_bytes} bytes free, less than the \
+                 {min_free_bytes} this service keeps free (--min-free-bytes); retry once space \
+                 is freed"
+            ),
+        )
+    }
+}
+
+/// True for the errors of a full disk or an exhausted quota (ENOSPC, EDQUOT).
+pub fn is_disk_full(error: &std::io::Error) -> bool {
+    matches!(
+        error.kind(),
+        std::io::ErrorKind::StorageFull | std::io::ErrorKind::QuotaExceeded
+    )
 }
 
 impl std::fmt::Display for ApiError {

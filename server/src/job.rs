@@ -35,9 +35,10 @@ pub struct JobRequest {
     pub seed: Option<u64>,
     #[serde(default)]
     pub camera: Option<CameraSpec>,
-    /// Measure the image against the path-traced reference.
+    /// Measure the image against the path-traced reference (default true: the service's
+    /// purpose; `false` skips the reference and its render time).
     #[serde(default)]
-    pub compare: bool,
+    pub compare: Option<bool>,
     /// Samples per pixel of the reference (default: the service's).
     pub reference_spp: Option<u32>,
     /// Sun, sky, exposure and default camera applied to the scene before rendering, in the
@@ -120,14 +121,16 @@ impl JobRequest {
                 ),
             ));
         }
-        let reference_spp = if self.compare {
+        let compare = self.compare.unwrap_or(true);
+        let reference_spp = if compare {
             let spp = self.reference_spp.unwrap_or(config.reference_spp);
             within("reference_spp", spp, 1, config.max_spp)?;
             Some(spp)
         } else if self.reference_spp.is_some() {
             return Err(ApiError::invalid(
                 "invalid_request",
-                "reference_spp is only used with \"compare\": true",
+                "reference_spp is only used when the job compares (\"compare\": false turns \
+                 the comparison off)",
             ));
         } else {
             None
@@ -153,7 +156,7 @@ impl JobRequest {
             spp,
             seed: self.seed.unwrap_or(DEFAULT_SEED),
             camera,
-            compare: self.compare,
+            compare,
             reference_spp,
             lighting: self.lighting,
         })
@@ -244,6 +247,43 @@ impl JobState {
         )
     }
 }
+
+/// What `GET /v1/jobs?state=` selects: the jobs in one state, or those whose record cannot
+/// be read.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum StateFilter {
+    Queued,
+    Running,
+    Done,
+    Failed,
+    Cancelled,
+    Unreadable,
+}
+
+impl StateFilter {
+    pub fn name(self) -> &'static str {
+        match self.job_state() {
+            Some(state) => state.name(),
+            None => UNREADABLE,
+        }
+    }
+
+    /// The job state it selects; `None` for unreadable records.
+    pub fn job_state(self) -> Option<JobState> {
+        match self {
+            StateFilter::Queued => Some(JobState::Queued),
+            StateFilter::Running => Some(JobState::Running),
+            StateFilter::Done => Some(JobState::Done),
+            StateFilter::Failed => Some(JobState::Failed),
+            StateFilter::Cancelled => Some(JobState::Cancelled),
+            StateFilter::Unreadable => None,
+        }
+    }
+}
+
+/// The state the API shows for a job whose record cannot be read.
+pub const UNREADABLE: &str = "unreadable";
 
 /// How far a running job is.
 #[derive(Clone, Debug, PartialEq, Serialize)]
@@ -397,6 +437,32 @@ impl JobRecord {
     }
 }
 
+/// A job whose record could not be read at startup, as the API shows it: every field of a
+/// job, with state `unreadable`, the reason as its error, and nothing else known.
+pub fn unreadable_view(id: u64, error: &str) -> serde_json::Value {
+    let url = format!("/v1/jobs/{id}");
+    serde_json::json!({
+        "id": id.to_string(),
+        "url": url,
+        "state": UNREADABLE,
+        "progress": null,
+        "request": null,
+        "submitted_at": null,
+        "started_at": null,
+        "finished_at": null,
+        "attempts": null,
+        "error": JobFailure {
+            code: "unreadable_record".to_string(),
+            message: format!(
+                "{error}; the job's folder is left as it is: repair or remove it, then restart \
+                 the service"
+            ),
+        },
+        "result": null,
+        "images": {},
+    })
+}
+
 /// The current time as RFC 3339 in UTC with milliseconds (`2026-11-22T12:00:00.123Z`).
 pub fn now_rfc3339() -> String {
     humantime::format_rfc3339_millis(std::time::SystemTime::now()).to_string()
@@ -414,7 +480,21 @@ mod tests {
         assert_eq!((spec.width, spec.height, spec.frames), (320, 240, 1));
         assert_eq!(spec.tier, "auto");
         assert_eq!(spec.camera, CameraSpec::Named("default".to_string()));
-        assert_eq!(spec.reference_spp, None);
+        // Every job is measured against the reference unless it opts out.
+        assert!(spec.compare);
+        assert_eq!(spec.reference_spp, Some(config.reference_spp));
+        let plain: JobRequest =
+            serde_json::from_str(r#"{"scene": "x", "compare": false}"#).unwrap();
+        let plain = plain.normalize(&config).unwrap();
+        assert!(!plain.compare);
+        assert_eq!(plain.reference_spp, None);
+        let contradictory: JobRequest =
+            serde_json::from_str(r#"{"scene": "x", "compare": false, "reference_spp": 8}"#)
+                .unwrap();
+        assert_eq!(
+            contradictory.normalize(&config).unwrap_err().code,
+            "invalid_request"
+        );
 
         let too_many: JobRequest =
             serde_json::from_str(r#"{"scene": "x", "frames": 200, "warmup": 100}"#).unwrap();

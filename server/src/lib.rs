@@ -13,12 +13,15 @@
 //! Jobs and results live in the data folder; a restart (or a crash) finds queued jobs queued
 //! and runs interrupted ones again. GPU tiers run one job at a time on a GPU worker, CPU
 //! renders (the reference tier, and the references of comparisons) on a bounded pool, and
-//! references are cached in the folder `gi compare` uses.
+//! references are cached in the folder `gi compare` uses. Connections are capped and timed
+//! out, requests must name the service in `Host`, and API routes can require a bearer token.
 
 #![recursion_limit = "512"]
 
+mod access;
 mod api;
 pub mod config;
+mod connections;
 mod error;
 pub mod job;
 mod metrics;
@@ -43,6 +46,7 @@ pub struct Server {
     listener: TcpListener,
     service: Arc<Service>,
     workers: Vec<JoinHandle<()>>,
+    access: Arc<access::Access>,
 }
 
 impl Server {
@@ -50,6 +54,16 @@ impl Server {
     /// starts the workers. Requests are served once [`Server::run`] is called.
     pub async fn start(config: Config) -> anyhow::Result<Self> {
         config.validate().map_err(anyhow::Error::msg)?;
+        let token = config.resolve_api_token().map_err(anyhow::Error::msg)?;
+        let access = access::Access::new(&config, token).map_err(anyhow::Error::msg)?;
+        if access.has_token() {
+            tracing::info!("API routes need the bearer token");
+        } else if !config.bind.ip().is_loopback() {
+            tracing::warn!(
+                "serving {} without authentication (--insecure-no-auth)",
+                config.bind
+            );
+        }
         let store = store::Store::open(&config.data_dir)
             .with_context(|| format!("opening the data folder {}", config.data_dir.display()))?;
         let gpu = if config.no_gpu {
@@ -95,6 +109,7 @@ impl Server {
             listener,
             service,
             workers,
+            access: Arc::new(access),
         })
     }
 
@@ -106,8 +121,11 @@ impl Server {
     }
 
     /// Serves requests until `shutdown` completes, then stops gracefully: no new connections,
-    /// open requests answered, running jobs stopped at their next frame (they run again after
-    /// the restart), all within the configured grace period.
+    /// open requests answered, running jobs stopped at their next frame or pass, side by side
+    /// within the configured grace period. Jobs still running then are queued again on disk
+    /// (they run again after the restart) and it returns, leaving behind whatever render
+    /// cannot be interrupted (a BVH build, a CPU render's pass): the binary exits without
+    /// waiting for it.
     pub async fn run(
         self,
         shutdown: impl Future<Output = ()> + Send + 'static,
@@ -115,21 +133,27 @@ impl Server {
         let service = self.service.clone();
         let grace = Duration::from_secs(service.config.shutdown_grace_s);
         let stopping = service.clone();
-        let app = api::router(service.clone());
-        let serve = axum::serve(self.listener, app).with_graceful_shutdown(async move {
-            shutdown.await;
-            tracing::info!("shutting down");
-            stopping.shut_down();
-        });
-        serve.await.context("serving HTTP")?;
+        let app = api::router(service.clone(), self.access);
+        let limits = connections::Limits::from_config(&service.config);
+        let mut connections =
+            connections::serve(self.listener, app, limits, service.clone(), async move {
+                shutdown.await;
+                tracing::info!("shutting down");
+                stopping.shut_down();
+            })
+            .await;
         service.shut_down();
-        let workers = futures_join_all(self.workers);
-        if tokio::time::timeout(grace, workers).await.is_err() {
+        let deadline = tokio::time::Instant::now() + grace;
+        let drained = async { while connections.join_next().await.is_some() {} };
+        let stopped = async { tokio::join!(drained, futures_join_all(self.workers)) };
+        if tokio::time::timeout_at(deadline, stopped).await.is_err() {
             tracing::warn!(
-                "jobs still running after {} s; they run again after the restart",
+                "requests or jobs still running after {} s; the jobs run again after the restart",
                 grace.as_secs()
             );
         }
+        // Closes the connections still open.
+        drop(connections);
         tokio::task::spawn_blocking(move || service.requeue_running_blocking()).await?;
         Ok(())
     }

@@ -32,7 +32,8 @@ fn image_route(file: &str, media_type: &str, what: &str) -> Value {
             "parameters": [id_parameter()],
             "responses": {
                 "200": { "description": what, "content": { media_type: { "schema": { "type": "string", "format": "binary" } } } },
-                "404": error_response("No such job, the job is not done, or it did not compare (reference, error and FLIP maps)")
+                "404": error_response("No such job, the job is not done, or it did not compare (reference, error and FLIP maps)"),
+                "409": error_response("The job's record could not be read (job_unreadable)")
             }
         }
     })
@@ -53,7 +54,7 @@ pub fn document(config: &Config) -> Value {
     let tiers: Vec<&str> = std::iter::once("auto")
         .chain(gi_tiers::TierKind::ALL.iter().map(|t| t.name()))
         .collect();
-    json!({
+    let mut document = json!({
         "openapi": "3.1.0",
         "info": {
             "title": "gi render service",
@@ -66,9 +67,12 @@ pub fn document(config: &Config) -> Value {
             "/style.css": static_route("The web page's style sheet", "web_style", "text/css"),
             "/healthz": {
                 "get": {
-                    "summary": "Liveness, the GPU found at startup and the queue depth",
+                    "summary": "Liveness, the data folder's storage, the GPU found at startup and the queue depth",
                     "operationId": "healthz",
-                    "responses": { "200": json_response("The service is up", json!({ "$ref": "#/components/schemas/Health" })) }
+                    "responses": {
+                        "200": json_response("The service is up (status ok, or degraded when job records could not be read)", json!({ "$ref": "#/components/schemas/Health" })),
+                        "503": json_response("The data folder cannot be written or has less free space than --min-free-bytes (status unavailable)", json!({ "$ref": "#/components/schemas/Health" }))
+                    }
                 }
             },
             "/metrics": static_route("Prometheus metrics: queue depth, jobs by state, GPU busy time, render seconds", "metrics", "text/plain"),
@@ -102,7 +106,9 @@ pub fn document(config: &Config) -> Value {
                             "headers": { "Retry-After": { "schema": { "type": "integer" } } },
                             "content": { "application/json": { "schema": { "$ref": "#/components/schemas/Error" } } }
                         },
-                        "503": error_response("The service is shutting down")
+                        "500": error_response("The job could not be stored (an I/O error other than a full disk); nothing was queued"),
+                        "503": error_response("The service is shutting down"),
+                        "507": error_response("The data folder's disk is full, or below --min-free-bytes (insufficient_storage); nothing was queued")
                     }
                 },
                 "get": {
@@ -111,7 +117,7 @@ pub fn document(config: &Config) -> Value {
                     "parameters": [
                         { "name": "limit", "in": "query", "schema": { "type": "integer", "minimum": 1, "maximum": 100, "default": 20 } },
                         { "name": "before", "in": "query", "description": "Only jobs with a smaller id (from the previous page's next)", "schema": { "type": "string", "pattern": "^[0-9]+$" } },
-                        { "name": "state", "in": "query", "schema": { "$ref": "#/components/schemas/JobState" } }
+                        { "name": "state", "in": "query", "description": "Only jobs in this state (unreadable: those whose record could not be read)", "schema": { "$ref": "#/components/schemas/JobState" } }
                     ],
                     "responses": {
                         "200": json_response("A page of jobs", json!({
@@ -144,7 +150,9 @@ pub fn document(config: &Config) -> Value {
                     "responses": {
                         "200": json_response("The cancelled job", json!({ "$ref": "#/components/schemas/Job" })),
                         "404": error_response("No such job"),
-                        "409": error_response("The job already finished")
+                        "409": error_response("The job already finished (job_finished), or its record could not be read (job_unreadable)"),
+                        "500": error_response("The cancellation could not be stored; the job is unchanged"),
+                        "507": error_response("The data folder's disk is full; the job is unchanged")
                     }
                 }
             },
@@ -176,7 +184,9 @@ pub fn document(config: &Config) -> Value {
                         "200": json_response("The same file was uploaded before", json!({ "type": "object", "properties": { "scene": { "$ref": "#/components/schemas/UploadedScene" } } })),
                         "413": error_response("Larger than the upload limit"),
                         "415": error_response("Not model/gltf-binary"),
-                        "422": error_response("Not a valid, self-contained glTF 2.0 binary with triangles")
+                        "422": error_response("Not a valid, self-contained glTF 2.0 binary with triangles, or its images (every one, from its header) exceed the texel budget or have no readable PNG, JPEG or DDS header"),
+                        "500": error_response("The scene could not be stored"),
+                        "507": error_response("The data folder's disk is full, or below --min-free-bytes")
                     }
                 }
             }
@@ -189,7 +199,7 @@ pub fn document(config: &Config) -> Value {
                     "properties": { "error": { "type": "object", "required": ["code", "message"], "properties": {
                         "code": { "type": "string" }, "message": { "type": "string" } } } }
                 },
-                "JobState": { "type": "string", "enum": ["queued", "running", "done", "failed", "cancelled"] },
+                "JobState": { "type": "string", "enum": ["queued", "running", "done", "failed", "cancelled", "unreadable"], "description": "unreadable: the job's record could not be read at startup; its folder is left for a person, its error says why, and nothing else about it is known" },
                 "Camera": {
                     "oneOf": [
                         { "type": "string", "description": "\"default\", \"path\" (the scene's camera path) or a camera node's name" },
@@ -213,8 +223,8 @@ pub fn document(config: &Config) -> Value {
                         "spp": { "type": "integer", "minimum": 1, "maximum": config.max_spp, "default": crate::job::DEFAULT_SPP },
                         "seed": { "type": "integer", "minimum": 0, "default": crate::job::DEFAULT_SEED },
                         "camera": { "$ref": "#/components/schemas/Camera" },
-                        "compare": { "type": "boolean", "default": false, "description": "Measure against the path-traced reference" },
-                        "reference_spp": { "type": "integer", "minimum": 1, "maximum": config.max_spp, "default": config.reference_spp },
+                        "compare": { "type": "boolean", "default": true, "description": "Measure against the path-traced reference (false: no reference, no comparison images)" },
+                        "reference_spp": { "type": "integer", "minimum": 1, "maximum": config.max_spp, "default": config.reference_spp, "description": "Only when the job compares" },
                         "lighting": { "$ref": "#/components/schemas/Lighting" }
                     }
                 },
@@ -279,15 +289,16 @@ pub fn document(config: &Config) -> Value {
                 "Job": {
                     "type": "object",
                     "required": ["id", "url", "state", "request", "submitted_at"],
+                    "description": "A job whose record could not be read has state unreadable, its reason as error, and null request, times and attempts",
                     "properties": {
                         "id": { "type": "string" }, "url": { "type": "string" },
                         "state": { "$ref": "#/components/schemas/JobState" },
                         "progress": { "oneOf": [{ "$ref": "#/components/schemas/Progress" }, { "type": "null" }] },
-                        "request": { "$ref": "#/components/schemas/JobRequest" },
-                        "submitted_at": { "type": "string", "format": "date-time" },
+                        "request": { "oneOf": [{ "$ref": "#/components/schemas/JobRequest" }, { "type": "null" }] },
+                        "submitted_at": { "type": ["string", "null"], "format": "date-time" },
                         "started_at": { "type": ["string", "null"], "format": "date-time" },
                         "finished_at": { "type": ["string", "null"], "format": "date-time" },
-                        "attempts": { "type": "integer" },
+                        "attempts": { "type": ["integer", "null"] },
                         "error": { "oneOf": [{ "type": "object", "properties": { "code": { "type": "string" }, "message": { "type": "string" } } }, { "type": "null" }] },
                         "result": { "oneOf": [{ "$ref": "#/components/schemas/Result" }, { "type": "null" }] },
                         "images": { "type": "object", "additionalProperties": { "type": "string" }, "description": "URLs of the images once done" }
@@ -314,14 +325,59 @@ pub fn document(config: &Config) -> Value {
                 "Health": {
                     "type": "object",
                     "properties": {
-                        "status": { "type": "string", "enum": ["ok", "shutting_down"] },
+                        "status": { "type": "string", "enum": ["ok", "degraded", "unavailable", "shutting_down"] },
                         "version": { "type": "string" },
                         "gpu": { "oneOf": [{ "type": "object" }, { "type": "null" }] },
                         "queue_depth": { "type": "integer" },
-                        "running": { "type": "integer" }
+                        "running": { "type": "integer" },
+                        "unreadable_jobs": { "type": "integer", "description": "Job records that could not be read at startup" },
+                        "storage": { "type": "object", "properties": {
+                            "writable": { "type": "boolean" },
+                            "free_bytes": { "type": ["integer", "null"] },
+                            "min_free_bytes": { "type": "integer" } } },
+                        "problems": { "type": "array", "items": { "type": "string" }, "description": "Why the status is not ok" }
                     }
                 }
             }
         }
-    })
+    });
+    describe_access(&mut document, config);
+    document
+}
+
+/// Adds what any operation may answer before its handler runs: 421 for a `Host` naming
+/// another service, and when this configuration has a token, 401 and the bearer scheme on
+/// every route but the open ones.
+fn describe_access(document: &mut Value, config: &Config) {
+    let has_token = config.api_token.is_some() || config.api_token_file.is_some();
+    document["components"]["securitySchemes"] = json!({
+        "bearer": {
+            "type": "http",
+            "scheme": "bearer",
+            "description": "With --api-token: every route but the web page's files and /healthz"
+        }
+    });
+    let Some(paths) = document["paths"].as_object_mut() else {
+        return;
+    };
+    for (path, item) in paths {
+        let open = crate::access::OPEN_ROUTES.contains(&path.as_str());
+        for operation in item
+            .as_object_mut()
+            .into_iter()
+            .flat_map(|o| o.values_mut())
+        {
+            operation["responses"]["421"] = error_response(
+                "The Host header names neither the address this service was reached at nor a host of --allowed-hosts",
+            );
+            if has_token && !open {
+                operation["responses"]["401"] = json!({
+                    "description": "No bearer token, or the wrong one",
+                    "headers": { "WWW-Authenticate": { "schema": { "type": "string" } } },
+                    "content": { "application/json": { "schema": { "$ref": "#/components/schemas/Error" } } }
+                });
+                operation["security"] = json!([{ "bearer": [] }]);
+            }
+        }
+    }
 }

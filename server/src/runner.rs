@@ -18,7 +18,7 @@ use gi_tiers::{CameraMode, CpuTier, Renderer, TierChoice, TierKind, TierSettings
 use crate::{
     error::ApiError,
     job::{CameraSpec, Comparison, JobResult, JobSpec, Progress},
-    store,
+    store::Writer,
 };
 
 /// Where a job's tier renders and how it is asked for.
@@ -397,6 +397,7 @@ pub fn compare(
 /// of the image against it) `reference.png`, `error.png` (the per-pixel error heat map) and
 /// `flip.png` (the FLIP error map).
 pub fn write_images(
+    writer: &Writer,
     dir: &Path,
     exposure: f32,
     image: &Image,
@@ -404,23 +405,23 @@ pub fn write_images(
 ) -> io::Result<()> {
     std::fs::create_dir_all(dir)?;
     let encode = |e: gi_image::ImageError| io::Error::other(e.to_string());
-    store::write_atomic_with(&dir.join("image.png"), |tmp| {
+    writer.write_with(&dir.join("image.png"), |tmp| {
         gi_image::write_png(image, tmp, exposure).map_err(encode)
     })?;
-    store::write_atomic_with(&dir.join("image.exr"), |tmp| {
+    writer.write_with(&dir.join("image.exr"), |tmp| {
         gi_image::write_exr(image, tmp).map_err(encode)
     })?;
     if let Some((reference, flip)) = compared {
-        store::write_atomic_with(&dir.join("reference.png"), |tmp| {
+        writer.write_with(&dir.join("reference.png"), |tmp| {
             gi_image::write_png(reference, tmp, exposure).map_err(encode)
         })?;
-        store::write_atomic_with(&dir.join("error.png"), |tmp| {
+        writer.write_with(&dir.join("error.png"), |tmp| {
             gi_image::write_error_heatmap(image, reference, exposure, tmp)
                 .map(|_| ())
                 .map_err(encode)
         })?;
         let flip_map = gi_image::flip_error_map(flip).map_err(encode)?;
-        store::write_atomic_with(&dir.join("flip.png"), |tmp| {
+        writer.write_with(&dir.join("flip.png"), |tmp| {
             gi_image::write_heatmap_png(&flip_map, tmp).map_err(encode)
         })?;
     }

@@ -1,6 +1,12 @@
 //! The scenes jobs may name: the bundled scenes, the `<name>.gltf`/`.glb` files of the
 //! configured scene folders, and uploaded `.glb` files. A name is only ever looked up in these
 //! places, never used as a path, so no request can reach a file outside them.
+//!
+//! An upload is a self-contained GLB (no external URI: it could name any file of this
+//! machine), imported before it is accepted with a texel budget
+//! ([`gi_scene::ImportOptions::max_texels`]): every image of the file, whatever its encoding
+//! and wherever it is stored, is counted from its header before any is decoded, so a small,
+//! highly compressed image cannot claim gigabytes of memory.
 
 use std::{
     collections::BTreeMap,
@@ -9,11 +15,11 @@ use std::{
     sync::RwLock,
 };
 
-use gi_scene::Scene;
+use gi_scene::{ImportOptions, Scene};
 use serde::{Deserialize, Serialize};
 use sha2::{Digest, Sha256};
 
-use crate::{error::ApiError, job::now_rfc3339, store};
+use crate::{error::ApiError, job::now_rfc3339, store::Writer};
 
 /// Prefix of uploaded scenes' ids; no bundled or folder scene name may start with it.
 pub const UPLOAD_PREFIX: &str = "upload-";
@@ -80,6 +86,7 @@ pub struct SceneCatalog {
     dirs: Vec<PathBuf>,
     uploads_dir: PathBuf,
     uploads: RwLock<BTreeMap<String, UploadedScene>>,
+    writer: Writer,
 }
 
 /// True for names made only of ASCII letters, digits, `-` and `_` (at most 64, starting with
@@ -95,8 +102,8 @@ pub fn is_valid_name(name: &str) -> bool {
 
 impl SceneCatalog {
     /// The catalog over `dirs` (folders that do not exist are skipped with a warning) and the
-    /// uploads stored in `uploads_dir`.
-    pub fn open(dirs: &[PathBuf], uploads_dir: PathBuf) -> Self {
+    /// uploads stored in `uploads_dir`, which `writer` writes.
+    pub fn open(dirs: &[PathBuf], uploads_dir: PathBuf, writer: Writer) -> Self {
         let dirs = dirs
             .iter()
             .filter_map(|dir| match dir.canonicalize() {
@@ -128,6 +135,7 @@ impl SceneCatalog {
             dirs,
             uploads_dir,
             uploads: RwLock::new(uploads),
+            writer,
         }
     }
 
@@ -244,16 +252,16 @@ impl SceneCatalog {
         self.uploads.read().unwrap_or_else(|e| e.into_inner())
     }
 
-    /// Validates an uploaded `.glb` and stores it. Blocking (it imports the whole scene).
-    /// Returns the scene and whether it is new (false: the same file was uploaded before).
+    /// Validates an uploaded `.glb` and stores it. Blocking (it imports the whole scene, with
+    /// at most `max_texels` texels in its images). Returns the scene and whether it is new
+    /// (false: the same file was uploaded before).
     pub fn upload(
         &self,
         bytes: &[u8],
         name: &str,
         max_texels: u64,
     ) -> Result<(UploadedScene, bool), ApiError> {
-        check_glb(bytes, max_texels)
-            .map_err(|message| ApiError::invalid("invalid_scene", message))?;
+        check_glb(bytes).map_err(|message| ApiError::invalid("invalid_scene", message))?;
         let digest = Sha256::digest(bytes);
         let sha256: String = digest.iter().map(|b| format!("{b:02x}")).collect();
         let id = format!("{UPLOAD_PREFIX}{}", &sha256[..16]);
@@ -262,8 +270,12 @@ impl SceneCatalog {
         }
         // The importer resolves relative URIs against this path; check_glb already refused any
         // external URI, so nothing is read from it.
-        let (scene, warnings) = gi_scene::import_gltf_slice(bytes, Path::new("upload.glb"))
-            .map_err(|e| ApiError::invalid("invalid_scene", e.to_string()))?;
+        let options = ImportOptions {
+            max_texels: Some(max_texels),
+        };
+        let (scene, warnings) =
+            gi_scene::import_gltf_slice_with(bytes, Path::new("upload.glb"), &options)
+                .map_err(|e| ApiError::invalid("invalid_scene", e.to_string()))?;
         let triangles = scene.evaluate(0.0, None).triangles.len();
         if triangles == 0 {
             return Err(ApiError::invalid(
@@ -289,14 +301,18 @@ impl SceneCatalog {
                 .chain(gi_scene::no_emitter_warning(&scene))
                 .collect(),
         };
-        let io_error = |e: std::io::Error| ApiError::internal(format!("storing the scene: {e}"));
+        let io_error = |e: std::io::Error| ApiError::storage("the scene", &e);
         fs::create_dir_all(&self.uploads_dir).map_err(io_error)?;
         // The file goes in before the description that lists it.
-        store::write_atomic(&self.uploads_dir.join(format!("{id}.glb")), bytes)
-            .map_err(io_error)?;
+        let glb = self.uploads_dir.join(format!("{id}.glb"));
+        self.writer.write(&glb, bytes).map_err(io_error)?;
         let json = serde_json::to_vec_pretty(&uploaded).expect("the scene serializes");
-        store::write_atomic(&self.uploads_dir.join(format!("{id}.json")), &json)
-            .map_err(io_error)?;
+        if let Err(error) = (self.writer).write(&self.uploads_dir.join(format!("{id}.json")), &json)
+        {
+            // Unlisted, the file would only take space.
+            let _ = fs::remove_file(&glb);
+            return Err(io_error(error));
+        }
         self.uploads
             .write()
             .unwrap_or_else(|e| e.into_inner())
@@ -306,10 +322,9 @@ impl SceneCatalog {
 }
 
 /// Checks the GLB container before anything parses it: header, lengths, a JSON first chunk,
-/// only embedded data (an external URI could name any file of this machine), and at most
-/// `max_texels` texels in its PNG images (a small, highly compressed PNG can claim a size that
-/// takes gigabytes to decode).
-fn check_glb(bytes: &[u8], max_texels: u64) -> Result<(), String> {
+/// and only embedded data (an external URI could name any file of this machine). The images'
+/// sizes are the importer's to check ([`ImportOptions::max_texels`]).
+fn check_glb(bytes: &[u8]) -> Result<(), String> {
     let u32_at = |offset: usize| {
         bytes
             .get(offset..offset + 4)
@@ -350,82 +365,7 @@ fn check_glb(bytes: &[u8], max_texels: u64) -> Result<(), String> {
             }
         }
     }
-    // The binary chunk, if any, follows the JSON chunk.
-    let bin_start = 20 + json_len;
-    let bin = match (u32_at(bin_start), u32_at(bin_start + 4)) {
-        (Some(len), Some(0x004E_4942)) => bytes.get(bin_start + 8..bin_start + 8 + len as usize),
-        _ => None,
-    };
-    let mut texels = 0u64;
-    let images = json.get("images").and_then(|v| v.as_array());
-    for (index, image) in images.into_iter().flatten().enumerate() {
-        let Some((width, height)) = png_size(&image_head(&json, image, bin)) else {
-            continue; // not a PNG: the importer decodes only PNG and refuses the rest
-        };
-        texels += u64::from(width) * u64::from(height);
-        if texels > max_texels {
-            return Err(format!(
-                "images[{index}] ({width} x {height}) brings the scene's textures to {texels} \
-                 texels, more than the {max_texels} this service accepts"
-            ));
-        }
-    }
     Ok(())
-}
-
-/// The first bytes of an image's data (enough for its header): from its buffer view in the
-/// binary chunk, or its base64 data URI. Empty when neither is readable.
-fn image_head(json: &serde_json::Value, image: &serde_json::Value, bin: Option<&[u8]>) -> Vec<u8> {
-    const HEAD: usize = 33;
-    if let Some(view) = image.get("bufferView").and_then(|v| v.as_u64()) {
-        let view = &json["bufferViews"][view as usize];
-        let offset = view["byteOffset"].as_u64().unwrap_or(0) as usize;
-        let length = view["byteLength"].as_u64().unwrap_or(0) as usize;
-        return bin
-            .and_then(|bin| bin.get(offset..offset.saturating_add(length.min(HEAD))))
-            .map(<[u8]>::to_vec)
-            .unwrap_or_default();
-    }
-    let uri = image.get("uri").and_then(|u| u.as_str()).unwrap_or("");
-    match uri.split_once(";base64,") {
-        Some((_, payload)) => decode_base64_prefix(payload, HEAD),
-        None => Vec::new(),
-    }
-}
-
-/// Decodes up to `max` bytes from the start of base64 `text` (stopping at anything else).
-fn decode_base64_prefix(text: &str, max: usize) -> Vec<u8> {
-    let value = |c: u8| match c {
-        b'A'..=b'Z' => Some(c - b'A'),
-        b'a'..=b'z' => Some(c - b'a' + 26),
-        b'0'..=b'9' => Some(c - b'0' + 52),
-        b'+' | b'-' => Some(62),
-        b'/' | b'_' => Some(63),
-        _ => None,
-    };
-    let mut out = Vec::new();
-    let (mut bits, mut count) = (0u32, 0u32);
-    for digit in text.bytes().map_while(value) {
-        bits = bits << 6 | u32::from(digit);
-        count += 6;
-        if count >= 8 {
-            count -= 8;
-            out.push((bits >> count) as u8);
-            if out.len() == max {
-                break;
-            }
-        }
-    }
-    out
-}
-
-/// Width and height from a PNG's header, or `None` if `head` does not start a PNG.
-fn png_size(head: &[u8]) -> Option<(u32, u32)> {
-    if head.len() < 24 || &head[..8] != b"\x89PNG\r\n\x1a\n" || &head[12..16] != b"IHDR" {
-        return None;
-    }
-    let be = |o: usize| u32::from_be_bytes([head[o], head[o + 1], head[o + 2], head[o + 3]]);
-    Some((be(16), be(20)))
 }
 
 #[cfg(test)]
@@ -468,70 +408,14 @@ mod tests {
 
     #[test]
     fn glb_containers_are_checked_before_import() {
-        const TEXELS: u64 = 1 << 20;
-        assert!(check_glb(&glb(r#"{"asset": {"version": "2.0"}}"#), TEXELS).is_ok());
-        assert!(check_glb(b"not a glb at all, certainly", TEXELS).is_err());
+        assert!(check_glb(&glb(r#"{"asset": {"version": "2.0"}}"#)).is_ok());
+        assert!(check_glb(b"not a glb at all, certainly").is_err());
         let mut truncated = glb(r#"{"asset": {"version": "2.0"}}"#);
         truncated.pop();
-        assert!(
-            check_glb(&truncated, TEXELS)
-                .unwrap_err()
-                .contains("header says")
-        );
+        assert!(check_glb(&truncated).unwrap_err().contains("header says"));
         let external = glb(
             r#"{"asset": {"version": "2.0"}, "buffers": [{"uri": "../../x.bin", "byteLength": 4}]}"#,
         );
-        assert!(
-            check_glb(&external, TEXELS)
-                .unwrap_err()
-                .contains("external file")
-        );
-    }
-
-    /// The 33 first bytes of a PNG of `width` x `height` (signature and IHDR chunk).
-    fn png_head(width: u32, height: u32) -> Vec<u8> {
-        let mut head = b"\x89PNG\r\n\x1a\n\0\0\0\x0dIHDR".to_vec();
-        head.extend(width.to_be_bytes());
-        head.extend(height.to_be_bytes());
-        head.extend([8, 6, 0, 0, 0, 0, 0, 0, 0]);
-        head
-    }
-
-    fn encode_base64(bytes: &[u8]) -> String {
-        const ALPHABET: &[u8] = b"ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz0123456789+/";
-        let mut out = String::new();
-        for chunk in bytes.chunks(3) {
-            let n = chunk
-                .iter()
-                .enumerate()
-                .fold(0u32, |n, (i, &b)| n | u32::from(b) << (16 - 8 * i));
-            for i in 0..=chunk.len() {
-                out.push(ALPHABET[(n >> (18 - 6 * i) & 63) as usize] as char);
-            }
-        }
-        out
-    }
-
-    #[test]
-    fn huge_textures_are_refused_before_they_are_decoded() {
-        assert_eq!(
-            decode_base64_prefix(&encode_base64(b"hello!"), 64),
-            b"hello!"
-        );
-        assert_eq!(png_size(&png_head(640, 480)), Some((640, 480)));
-
-        let with_image = |width: u32, height: u32| {
-            let uri = format!(
-                "data:image/png;base64,{}",
-                encode_base64(&png_head(width, height))
-            );
-            glb(&format!(
-                r#"{{"asset": {{"version": "2.0"}}, "images": [{{"uri": "{uri}"}}]}}"#
-            ))
-        };
-        assert!(check_glb(&with_image(1024, 1024), 1 << 20).is_ok());
-        let error = check_glb(&with_image(1025, 1024), 1 << 20).unwrap_err();
-        assert!(error.contains("1025 x 1024"), "{error}");
-        assert!(check_glb(&with_image(100_000, 100_000), 1 << 24).is_err());
+        assert!(check_glb(&external).unwrap_err().contains("external file"));
     }
 }

@@ -4,8 +4,19 @@
 //! A job is `queued` until a worker takes it; GPU tiers wait in one queue served by a single
 //! GPU worker (jobs run one at a time), CPU renders in another served by a bounded pool. A job
 //! that compares renders its tier first, then goes to the front of the CPU queue for the
-//! reference, so the GPU worker never waits on a path tracer. Every state change is written to
-//! the data folder before it is acknowledged.
+//! reference, so the GPU worker never waits on a path tracer.
+//!
+//! Every change of a job's record goes through one function ([`Service::transition_blocking`]):
+//! the new record is written to the data folder first and only then shown, so the API never
+//! reports a state a restart would not find, and a final state (done, failed, cancelled) is
+//! never left. A write that fails (a full disk) changes nothing: a request is answered 507 or
+//! 500, a worker's final change is retried until it is stored.
+
+mod health;
+mod records;
+#[cfg(test)]
+mod tests;
+mod workers;
 
 use std::{
     collections::{BTreeMap, HashMap, VecDeque},
@@ -13,7 +24,7 @@ use std::{
         Arc, Mutex, MutexGuard,
         atomic::{AtomicBool, Ordering},
     },
-    time::Instant,
+    time::Duration,
 };
 
 use gi_reference::cache::ReferenceCache;
@@ -28,12 +39,16 @@ use tokio::sync::Notify;
 use crate::{
     config::Config,
     error::ApiError,
-    job::{JobFailure, JobRecord, JobRequest, JobSpec, JobState, Progress, now_rfc3339},
+    job::{
+        JobFailure, JobRecord, JobRequest, JobSpec, JobState, Progress, StateFilter, now_rfc3339,
+        unreadable_view,
+    },
     metrics::Metrics,
     runner::{self, PreparedJob, References, TierOutput, TierPlan},
-    scenes::{SceneCatalog, SceneSource},
-    store::Store,
+    scenes::{SceneCatalog, SceneSource, UploadedScene},
+    store::{LoadedJobs, Store},
 };
+use workers::requeue_stopped;
 
 /// The GPU the service found at startup.
 #[derive(Clone, Debug, serde::Serialize)]
@@ -79,7 +94,13 @@ struct Entry {
 #[derive(Default)]
 struct Inner {
     jobs: BTreeMap<u64, Entry>,
+    /// Job folders whose record could not be read at startup, and why: listed as
+    /// `unreadable` jobs, never run and never overwritten.
+    unreadable: BTreeMap<u64, String>,
     next_id: u64,
+    /// Submissions whose first record is being written: they count against the queue and
+    /// job limits like the jobs they may become.
+    storing: usize,
     gpu_queue: VecDeque<u64>,
     cpu_queue: VecDeque<CpuWork>,
     /// Jobs per state, indexed by [`JobState::index`].
@@ -87,15 +108,30 @@ struct Inner {
 }
 
 impl Inner {
-    fn set_state(&mut self, id: u64, state: JobState) {
-        if let Some(entry) = self.jobs.get_mut(&id) {
-            self.counts[entry.record.state.index()] -= 1;
-            self.counts[state.index()] += 1;
-            entry.record.state = state;
-            if state != JobState::Running {
-                entry.progress = None;
-            }
+    /// Adds a stored job.
+    fn insert(&mut self, record: JobRecord) {
+        self.counts[record.state.index()] += 1;
+        self.jobs.insert(
+            record.id,
+            Entry {
+                record,
+                progress: None,
+                cancel: Arc::new(AtomicBool::new(false)),
+            },
+        );
+    }
+
+    /// Replaces a job's record with `record`, just stored.
+    fn commit(&mut self, record: JobRecord) {
+        let Some(entry) = self.jobs.get_mut(&record.id) else {
+            return;
+        };
+        self.counts[entry.record.state.index()] -= 1;
+        self.counts[record.state.index()] += 1;
+        if record.state != JobState::Running {
+            entry.progress = None;
         }
+        entry.record = record;
     }
 }
 
@@ -106,6 +142,11 @@ const SCENE_CACHE_ENTRIES: usize = 8;
 /// Stripes of the write lock: writes of one job are serialized (so the last write is the
 /// newest state), writes of different jobs mostly run in parallel.
 const WRITE_STRIPES: usize = 16;
+
+/// How long a worker waits before it tries again to store a change the data folder refused
+/// (a full disk): often enough to go on soon after space is freed, rarely enough not to flood
+/// the log.
+const STORE_RETRY: Duration = Duration::from_secs(1);
 
 /// The service state shared by the HTTP handlers and the workers.
 pub struct Service {
@@ -140,11 +181,16 @@ impl Service {
         gpu: Option<GpuInfo>,
         reference_engine: Arc<dyn ReferenceEngine>,
     ) -> std::io::Result<(Arc<Self>, Vec<u64>)> {
-        let (records, problems, next_id) = store.load_jobs()?;
-        for problem in problems {
-            tracing::warn!("unreadable job left in place: {problem}");
-        }
-        let catalog = SceneCatalog::open(&config.scene_dirs, store.scenes_dir());
+        let LoadedJobs {
+            records,
+            unreadable,
+            next_id,
+        } = store.load_jobs()?;
+        let catalog = SceneCatalog::open(
+            &config.scene_dirs,
+            store.scenes_dir(),
+            store.writer().clone(),
+        );
         let cache_dir = config
             .cache_dir
             .clone()
@@ -153,34 +199,22 @@ impl Service {
             next_id,
             ..Inner::default()
         };
-        let mut changed = Vec::new();
-        for mut record in records {
-            if record.state == JobState::Running {
-                if record.attempts >= config.max_attempts {
-                    record.state = JobState::Failed;
-                    record.finished_at = Some(now_rfc3339());
-                    record.failure = Some(JobFailure {
-                        code: "interrupted".to_string(),
-                        message: format!(
-                            "the service stopped while the job ran, {} times",
-                            record.attempts
-                        ),
-                    });
-                } else {
-                    tracing::info!(job = record.id, "interrupted while running; queued again");
-                    record.state = JobState::Queued;
-                }
-                changed.push(record.id);
-            }
-            inner.counts[record.state.index()] += 1;
-            inner.jobs.insert(
-                record.id,
-                Entry {
-                    record,
-                    progress: None,
-                    cancel: Arc::new(AtomicBool::new(false)),
-                },
+        for broken in unreadable {
+            // Not dropped: listed as an unreadable job and reported by /healthz until a person
+            // repairs or removes its folder.
+            tracing::error!(
+                job = broken.id,
+                "{}; the job is shown as unreadable and left as it is",
+                broken.error
             );
+            inner.unreadable.insert(broken.id, broken.error);
+        }
+        let interrupted: Vec<u64> = (records.iter())
+            .filter(|r| r.state == JobState::Running)
+            .map(|r| r.id)
+            .collect();
+        for record in records {
+            inner.insert(record);
         }
         let service = Arc::new(Self {
             references: References::new(
@@ -198,8 +232,31 @@ impl Service {
             write_stripes: (0..WRITE_STRIPES).map(|_| Mutex::new(())).collect(),
             scenes: Mutex::new(HashMap::new()),
         });
-        for id in &changed {
-            service.persist_blocking(*id)?;
+        let max_attempts = service.config.max_attempts;
+        for id in interrupted {
+            // A folder that cannot take the change stops the start: running the job again
+            // without recording the attempt could let a job that crashes the service do it
+            // forever.
+            service.transition_blocking(id, |record| {
+                if record.state != JobState::Running {
+                    return false;
+                }
+                if record.attempts >= max_attempts {
+                    record.state = JobState::Failed;
+                    record.finished_at = Some(now_rfc3339());
+                    record.failure = Some(JobFailure {
+                        code: "interrupted".to_string(),
+                        message: format!(
+                            "the service stopped while the job ran, {} times",
+                            record.attempts
+                        ),
+                    });
+                } else {
+                    tracing::info!(job = record.id, "interrupted while running; queued again");
+                    record.state = JobState::Queued;
+                }
+                true
+            })?;
         }
         // Queue the waiting jobs in submission order.
         let queued: Vec<(u64, JobSpec)> = lock(&service.inner)
@@ -311,6 +368,8 @@ impl Service {
         let scene = with_lighting(self.load_scene(source).await?, &spec)?;
         runner::check_camera(&scene, &spec.camera)?;
 
+        self.check_free_space()?;
+
         let id = {
             let mut inner = lock(&self.inner);
             if self.is_shutting_down() {
@@ -320,7 +379,7 @@ impl Service {
                     "the service is shutting down; submit again once it is back",
                 ));
             }
-            let queued = inner.counts[JobState::Queued.index()];
+            let queued = inner.counts[JobState::Queued.index()] + inner.storing;
             if queued >= self.config.max_queue {
                 self.metrics.rejected_queue_full.inc();
                 let mut error = ApiError::new(
@@ -331,7 +390,7 @@ impl Service {
                 error.retry_after_s = Some(self.retry_after_s(queued));
                 return Err(error);
             }
-            if inner.jobs.len() >= self.config.max_jobs {
+            if inner.jobs.len() + inner.unreadable.len() + inner.storing >= self.config.max_jobs {
                 self.metrics.rejected_job_limit.inc();
                 let mut error = ApiError::new(
                     axum::http::StatusCode::TOO_MANY_REQUESTS,
@@ -346,40 +405,26 @@ impl Service {
             }
             let id = inner.next_id;
             inner.next_id += 1;
-            inner.counts[JobState::Queued.index()] += 1;
-            let record = JobRecord {
-                id,
-                spec,
-                state: JobState::Queued,
-                submitted_at: now_rfc3339(),
-                started_at: None,
-                finished_at: None,
-                attempts: 0,
-                failure: None,
-                result: None,
-            };
-            inner.jobs.insert(
-                id,
-                Entry {
-                    record,
-                    progress: None,
-                    cancel: Arc::new(AtomicBool::new(false)),
-                },
-            );
+            inner.storing += 1;
             id
         };
-        if let Err(error) = self.persist(id).await {
-            // Not stored, so not accepted: forget it.
-            let mut inner = lock(&self.inner);
-            if let Some(entry) = inner.jobs.remove(&id) {
-                inner.counts[entry.record.state.index()] -= 1;
-            }
-            return Err(ApiError::internal(format!("storing the job: {error}")));
-        }
-        self.metrics.submitted.inc();
-        self.enqueue(id, lane);
-        self.record(id)
-            .ok_or_else(|| ApiError::internal("the job vanished"))
+        let record = JobRecord {
+            id,
+            spec,
+            state: JobState::Queued,
+            submitted_at: now_rfc3339(),
+            started_at: None,
+            finished_at: None,
+            attempts: 0,
+            failure: None,
+            result: None,
+        };
+        // On the blocking pool, which finishes it even if the client goes away meanwhile.
+        let service = self.clone();
+        tokio::task::spawn_blocking(move || service.store_new_job(record, lane))
+            .await
+            .map_err(|e| ApiError::internal(e.to_string()))?
+            .map_err(|e| ApiError::storage("the job", &e))
     }
 
     /// Seconds a client turned away by a full queue should wait: about the time the queue
@@ -405,37 +450,72 @@ impl Service {
         lock(&self.inner).jobs.get(&id).map(|e| e.record.clone())
     }
 
+    /// A copy of job `id`'s record, or the error to answer: the job does not exist, or its
+    /// record could not be read.
+    pub fn readable_record(&self, id: u64) -> Result<JobRecord, ApiError> {
+        let inner = lock(&self.inner);
+        if let Some(entry) = inner.jobs.get(&id) {
+            return Ok(entry.record.clone());
+        }
+        Err(match inner.unreadable.get(&id) {
+            Some(error) => job_unreadable(id, error),
+            None => job_not_found(id),
+        })
+    }
+
     /// Job `id` as the API shows it.
     pub fn view(&self, id: u64) -> Option<serde_json::Value> {
         let inner = lock(&self.inner);
-        let entry = inner.jobs.get(&id)?;
-        Some(entry.record.view(entry.progress.as_ref()))
+        match inner.jobs.get(&id) {
+            Some(entry) => Some(entry.record.view(entry.progress.as_ref())),
+            None => (inner.unreadable.get(&id)).map(|error| unreadable_view(id, error)),
+        }
     }
 
-    /// Up to `limit` jobs, newest first, with ids below `before`, in `state` if given; and
-    /// how many match in all.
+    /// Up to `limit` jobs, newest first, with ids below `before`, in `state` if given (jobs
+    /// whose record cannot be read included); and how many match in all.
     pub fn list(
         &self,
         limit: usize,
         before: Option<u64>,
-        state: Option<JobState>,
+        state: Option<StateFilter>,
     ) -> (Vec<serde_json::Value>, usize) {
         let inner = lock(&self.inner);
-        let matches = |e: &&Entry| state.is_none_or(|s| e.record.state == s);
-        let total = match state {
-            Some(state) => inner.counts[state.index()],
-            None => inner.jobs.len(),
+        let job_state = state.map(StateFilter::job_state);
+        let wants_unreadable = matches!(state, None | Some(StateFilter::Unreadable));
+        let total = match job_state {
+            None => inner.jobs.len() + inner.unreadable.len(),
+            Some(Some(state)) => inner.counts[state.index()],
+            Some(None) => inner.unreadable.len(),
         };
-        let jobs = inner
-            .jobs
-            .range(..before.unwrap_or(u64::MAX))
-            .rev()
-            .map(|(_, e)| e)
-            .filter(matches)
-            .take(limit)
-            .map(|e| e.record.view(e.progress.as_ref()))
-            .collect();
-        (jobs, total)
+        let range = ..before.unwrap_or(u64::MAX);
+        let mut jobs = (inner.jobs.range(range).rev())
+            .filter(|(_, e)| job_state.is_none_or(|s| s == Some(e.record.state)))
+            .peekable();
+        let mut unreadable = (inner.unreadable.range(range).rev())
+            .filter(|_| wants_unreadable)
+            .peekable();
+        let mut page = Vec::new();
+        while page.len() < limit {
+            // Newest (largest id) first, from whichever map holds it.
+            let job_next = match (jobs.peek(), unreadable.peek()) {
+                (Some((a, _)), Some((b, _))) => a > b,
+                (Some(_), None) => true,
+                (None, Some(_)) => false,
+                (None, None) => break,
+            };
+            if job_next && let Some((_, e)) = jobs.next() {
+                page.push(e.record.view(e.progress.as_ref()));
+            } else if let Some((id, error)) = unreadable.next() {
+                page.push(unreadable_view(*id, error));
+            }
+        }
+        (page, total)
+    }
+
+    /// Job folders whose record could not be read at startup.
+    pub fn unreadable_count(&self) -> usize {
+        lock(&self.inner).unreadable.len()
     }
 
     /// Jobs per state, and the queue depth.
@@ -444,55 +524,52 @@ impl Service {
     }
 
     /// Cancels job `id`: a queued job never runs, a running one stops at its next frame or
-    /// pass and its result is dropped. Finished jobs cannot be cancelled.
+    /// pass and its result is dropped. Finished jobs cannot be cancelled; nor can a job whose
+    /// record cannot be read.
     pub async fn cancel(self: &Arc<Self>, id: u64) -> Result<JobRecord, ApiError> {
-        {
-            let mut inner = lock(&self.inner);
-            let Some(entry) = inner.jobs.get_mut(&id) else {
-                return Err(job_not_found(id));
-            };
-            let state = entry.record.state;
-            if state.is_final() {
-                return Err(ApiError::new(
+        self.readable_record(id)?;
+        let service = self.clone();
+        // On the blocking pool, which finishes it even if the client goes away meanwhile.
+        let cancelled = tokio::task::spawn_blocking(move || {
+            let cancelled = service.transition_blocking(id, |record| {
+                if record.state.is_final() {
+                    return false;
+                }
+                record.finished_at = Some(now_rfc3339());
+                record.state = JobState::Cancelled;
+                true
+            });
+            if let (Ok(Some(_)), Some(entry)) = (&cancelled, lock(&service.inner).jobs.get(&id)) {
+                entry.cancel.store(true, Ordering::SeqCst);
+            }
+            cancelled
+        })
+        .await
+        .map_err(|e| ApiError::internal(e.to_string()))?
+        .map_err(|e| ApiError::storage(&format!("job {id}'s cancellation"), &e))?;
+        match cancelled {
+            Some(record) => Ok(record),
+            None => {
+                let record = self.readable_record(id)?;
+                Err(ApiError::new(
                     axum::http::StatusCode::CONFLICT,
                     "job_finished",
-                    format!("job {id} is already {}", state.name()),
-                ));
+                    format!("job {id} is already {}", record.state.name()),
+                ))
             }
-            entry.cancel.store(true, Ordering::SeqCst);
-            entry.record.finished_at = Some(now_rfc3339());
-            inner.set_state(id, JobState::Cancelled);
         }
-        self.persist(id)
-            .await
-            .map_err(|e| ApiError::internal(format!("storing the job: {e}")))?;
-        self.record(id).ok_or_else(|| job_not_found(id))
     }
 
-    /// Writes job `id`'s current record to the data folder (blocking).
-    fn persist_blocking(&self, id: u64) -> std::io::Result<()> {
-        let _write = lock(&self.write_stripes[id as usize % WRITE_STRIPES]);
-        // The record is read under the write lock, so whichever write comes last stores the
-        // newest state.
-        let Some(record) = self.record(id) else {
-            return Ok(());
-        };
-        self.store.write_job(&record)
-    }
-
-    async fn persist(self: &Arc<Self>, id: u64) -> std::io::Result<()> {
-        let service = self.clone();
-        tokio::task::spawn_blocking(move || service.persist_blocking(id))
-            .await
-            .map_err(std::io::Error::other)?
-    }
-
-    /// Persists, logging a failure: for the workers' state changes, which have no client to
-    /// answer (the job runs again after a restart if its final state was not stored).
-    async fn persist_or_log(self: &Arc<Self>, id: u64) {
-        if let Err(error) = self.persist(id).await {
-            tracing::error!(job = id, "storing the job failed: {error}");
-        }
+    /// Uploads a scene ([`SceneCatalog::upload`]) within the service's texel budget, unless
+    /// the data folder's disk is below its free-space floor. Blocking.
+    pub fn upload_scene_blocking(
+        &self,
+        bytes: &[u8],
+        name: &str,
+    ) -> Result<(UploadedScene, bool), ApiError> {
+        self.check_free_space()?;
+        self.catalog
+            .upload(bytes, name, self.config.max_upload_texels)
     }
 
     pub fn is_shutting_down(&self) -> bool {
@@ -509,300 +586,33 @@ impl Service {
     /// their comparison, or still running past the grace period) go back to the queue on disk
     /// without counting the start, so the next start runs them again.
     pub fn requeue_running_blocking(&self) {
-        let running: Vec<u64> = {
-            let mut inner = lock(&self.inner);
-            let ids: Vec<u64> = inner
-                .jobs
-                .values()
-                .filter(|e| e.record.state == JobState::Running)
-                .map(|e| e.record.id)
-                .collect();
-            for id in &ids {
-                if let Some(entry) = inner.jobs.get_mut(id) {
-                    entry.record.attempts = entry.record.attempts.saturating_sub(1);
-                    entry.record.started_at = None;
-                }
-                inner.set_state(*id, JobState::Queued);
-            }
-            ids
-        };
+        let running: Vec<u64> = (lock(&self.inner).jobs.values())
+            .filter(|e| e.record.state == JobState::Running)
+            .map(|e| e.record.id)
+            .collect();
         for id in running {
-            if let Err(error) = self.persist_blocking(id) {
+            if let Err(error) = self.transition_blocking(id, requeue_stopped) {
+                // The record says running: the next start counts this start and runs it again.
                 tracing::error!(job = id, "storing the job failed: {error}");
             }
         }
-    }
-
-    /// The GPU worker: one job at a time.
-    pub async fn gpu_worker(self: Arc<Self>) {
-        while let Some(id) = self.next_work(|inner| inner.gpu_queue.pop_front()).await {
-            self.run_tier(id, Lane::Gpu).await;
-        }
-    }
-
-    /// One worker of the CPU pool.
-    pub async fn cpu_worker(self: Arc<Self>) {
-        while let Some(work) = self.next_work(|inner| inner.cpu_queue.pop_front()).await {
-            match work {
-                CpuWork::Render(id) => self.run_tier(id, Lane::Cpu).await,
-                CpuWork::Compare(comparing) => self.run_compare(*comparing).await,
-            }
-        }
-    }
-
-    /// Waits for work taken by `take`; `None` once the service shuts down.
-    async fn next_work<T>(&self, take: impl Fn(&mut Inner) -> Option<T>) -> Option<T> {
-        loop {
-            // Registered before the queue is looked at, so a push in between still wakes us.
-            let notified = self.work_ready.notified();
-            if self.is_shutting_down() {
-                return None;
-            }
-            if let Some(work) = take(&mut lock(&self.inner)) {
-                return Some(work);
-            }
-            notified.await;
-        }
-    }
-
-    /// Marks job `id` running if it is still queued; its spec and cancel flag.
-    fn start(&self, id: u64) -> Option<(JobSpec, Arc<AtomicBool>)> {
-        let mut inner = lock(&self.inner);
-        let entry = inner.jobs.get_mut(&id)?;
-        if entry.record.state != JobState::Queued {
-            return None;
-        }
-        entry.record.attempts += 1;
-        entry.record.started_at = Some(now_rfc3339());
-        entry.progress = Some(Progress {
-            stage: "starting",
-            done: 0,
-            total: 1,
-            fraction: 0.0,
-        });
-        let started = (entry.record.spec.clone(), entry.cancel.clone());
-        inner.set_state(id, JobState::Running);
-        Some(started)
-    }
-
-    fn set_progress(&self, id: u64, progress: Progress) {
-        let mut inner = lock(&self.inner);
-        if let Some(entry) = inner.jobs.get_mut(&id)
-            && entry.record.state == JobState::Running
-        {
-            entry.progress = Some(progress);
-        }
-    }
-
-    /// Renders job `id`'s tier, then finishes it or hands it to the CPU pool to compare.
-    async fn run_tier(self: &Arc<Self>, id: u64, lane: Lane) {
-        let Some((spec, cancel)) = self.start(id) else {
-            return; // cancelled while queued
-        };
-        self.persist_or_log(id).await;
-        let prepared = match self.prepare(&spec).await {
-            Ok(prepared) => Arc::new(prepared),
-            Err(error) => return self.fail(id, error.code, error.message).await,
-        };
-        let service = self.clone();
-        let job = prepared.clone();
-        let share = if spec.compare { 0.5 } else { 1.0 };
-        let started = Instant::now();
-        let rendered = tokio::task::spawn_blocking(move || {
-            let stop = || cancel.load(Ordering::SeqCst) || service.is_shutting_down();
-            runner::render_tier(&job, &|p| service.set_progress(id, p), &stop, share)
-        })
-        .await;
-        let seconds = started.elapsed().as_secs_f64();
-        if lane == Lane::Gpu {
-            self.metrics.add_gpu_busy(seconds);
-        }
-        match rendered {
-            Err(panic) => {
-                self.fail(
-                    id,
-                    "internal",
-                    format!("the render failed unexpectedly: {panic}"),
-                )
-                .await
-            }
-            Ok(Err(message)) => self.fail(id, "render_failed", message).await,
-            Ok(Ok(None)) => self.stopped(id).await,
-            Ok(Ok(Some(output))) => {
-                self.metrics.add_render(&output.result.tier, seconds);
-                match spec.reference_spp {
-                    Some(reference_spp) => {
-                        // Ahead of new renders: this job already holds its tier's image.
-                        lock(&self.inner)
-                            .cpu_queue
-                            .push_front(CpuWork::Compare(Box::new(Comparing {
-                                id,
-                                job: prepared,
-                                output,
-                                reference_spp,
-                            })));
-                        self.work_ready.notify_waiters();
-                    }
-                    None => self.finish(id, &prepared, output, None).await,
-                }
-            }
-        }
-    }
-
-    async fn run_compare(self: &Arc<Self>, comparing: Comparing) {
-        let id = comparing.id;
-        let Some(cancel) = lock(&self.inner)
-            .jobs
-            .get(&id)
-            .filter(|e| e.record.state == JobState::Running)
-            .map(|e| e.cancel.clone())
-        else {
-            return; // cancelled while it waited
-        };
-        let service = self.clone();
-        let comparing = Arc::new(comparing);
-        let work = comparing.clone();
-        let compared = tokio::task::spawn_blocking(move || {
-            let stop = || cancel.load(Ordering::SeqCst) || service.is_shutting_down();
-            runner::compare(
-                &work.job,
-                &work.output,
-                work.reference_spp,
-                &service.references,
-                &|p| service.set_progress(id, p),
-                &stop,
-                0.5,
-            )
-        })
-        .await;
-        let Ok(comparing) = Arc::try_unwrap(comparing) else {
-            return self
-                .fail(id, "internal", "the comparison is still referenced")
-                .await;
-        };
-        match compared {
-            Err(panic) => {
-                self.fail(
-                    id,
-                    "internal",
-                    format!("the comparison failed unexpectedly: {panic}"),
-                )
-                .await
-            }
-            Ok(Err(message)) => self.fail(id, "compare_failed", message).await,
-            Ok(Ok(None)) => self.stopped(id).await,
-            Ok(Ok(Some(compared))) => {
-                if compared.comparison.reference_cached {
-                    self.metrics.reference_cache_hits.inc();
-                } else {
-                    self.metrics.reference_cache_misses.inc();
-                }
-                let mut output = comparing.output;
-                output.result.comparison = Some(compared.comparison);
-                let compared = (compared.reference, compared.flip);
-                self.finish(id, &comparing.job, output, Some(compared))
-                    .await
-            }
-        }
-    }
-
-    async fn prepare(self: &Arc<Self>, spec: &JobSpec) -> Result<PreparedJob, ApiError> {
-        let (plan, _) = self.plan(spec)?;
-        let source = self.catalog.resolve(&spec.scene)?;
-        let scene = with_lighting(self.load_scene(source).await?, spec)?;
-        let gpu_name = self.gpu.as_ref().map(|g| g.name.clone());
-        let spec = spec.clone();
-        tokio::task::spawn_blocking(move || runner::prepare(scene, &spec, plan, gpu_name))
-            .await
-            .map_err(|e| ApiError::internal(e.to_string()))?
-    }
-
-    /// Stores the images and result of a job that is still running (a cancelled job's are
-    /// dropped).
-    async fn finish(
-        self: &Arc<Self>,
-        id: u64,
-        job: &PreparedJob,
-        output: TierOutput,
-        compared: Option<(gi_image::Image, gi_image::Flip)>,
-    ) {
-        let dir = self.store.job_dir(id);
-        let exposure = job.scene.exposure;
-        let TierOutput { image, result } = output;
-        let written = tokio::task::spawn_blocking(move || {
-            let compared = compared.as_ref().map(|(reference, flip)| (reference, flip));
-            runner::write_images(&dir, exposure, &image, compared)
-        })
-        .await
-        .map_err(std::io::Error::other)
-        .and_then(|r| r);
-        if let Err(error) = written {
-            return self
-                .fail(id, "internal", format!("storing the images: {error}"))
-                .await;
-        }
-        {
-            let mut inner = lock(&self.inner);
-            let Some(entry) = inner.jobs.get_mut(&id) else {
-                return;
-            };
-            if entry.record.state != JobState::Running {
-                return;
-            }
-            entry.record.result = Some(result);
-            entry.record.finished_at = Some(now_rfc3339());
-            inner.set_state(id, JobState::Done);
-        }
-        self.persist_or_log(id).await;
-    }
-
-    async fn fail(self: &Arc<Self>, id: u64, code: &str, message: impl Into<String>) {
-        let message = message.into();
-        tracing::warn!(job = id, code, "job failed: {message}");
-        {
-            let mut inner = lock(&self.inner);
-            let Some(entry) = inner.jobs.get_mut(&id) else {
-                return;
-            };
-            if entry.record.state != JobState::Running {
-                return;
-            }
-            entry.record.failure = Some(JobFailure {
-                code: code.to_string(),
-                message,
-            });
-            entry.record.finished_at = Some(now_rfc3339());
-            inner.set_state(id, JobState::Failed);
-        }
-        self.persist_or_log(id).await;
-    }
-
-    /// A render stopped before its end: by a cancellation (already recorded) or by the
-    /// shutdown, which puts the job back in the queue for the next start.
-    async fn stopped(self: &Arc<Self>, id: u64) {
-        {
-            let mut inner = lock(&self.inner);
-            let Some(entry) = inner.jobs.get_mut(&id) else {
-                return;
-            };
-            if entry.record.state != JobState::Running {
-                return;
-            }
-            // This start did not count: the job never got to finish through no fault of its own.
-            entry.record.attempts = entry.record.attempts.saturating_sub(1);
-            entry.record.started_at = None;
-            inner.set_state(id, JobState::Queued);
-        }
-        tracing::info!(
-            job = id,
-            "stopped by the shutdown; it runs again after the restart"
-        );
-        self.persist_or_log(id).await;
     }
 }
 
 pub fn job_not_found(id: impl std::fmt::Display) -> ApiError {
     ApiError::not_found("job_not_found", format!("no job {id}"))
+}
+
+/// 409 for a job whose record could not be read at startup (`error` says why).
+fn job_unreadable(id: u64, error: &str) -> ApiError {
+    ApiError::new(
+        axum::http::StatusCode::CONFLICT,
+        "job_unreadable",
+        format!(
+            "job {id}'s record could not be read ({error}); repair or remove its folder, then \
+             restart the service"
+        ),
+    )
 }
 
 /// `scene` with the job's lighting applied (a copy; the cached scene stays as loaded).

@@ -1,7 +1,8 @@
 //! The data folder: one folder per job (`jobs/<id>/job.json` and its images) and the uploaded
 //! scenes (`scenes/`). Every file is written to a temporary name, flushed to disk and renamed
-//! into place, so a crash at any moment leaves either the old file or the new one, never half
-//! of one.
+//! into place (and the rename flushed with its folder), so a crash at any moment leaves either
+//! the old file or the new one, never half of one; a write that fails (a full disk) leaves the
+//! old file and no temporary one.
 
 use std::{
     fs, io,
@@ -19,10 +20,31 @@ const TMP_SUFFIX: &str = ".tmp";
 #[derive(Debug)]
 pub struct Store {
     root: PathBuf,
+    writer: Writer,
     /// Held (locked) while the store is open: two services writing one folder would overwrite
     /// each other's jobs. The operating system releases it when the process ends, however it
     /// ends.
     _lock: fs::File,
+}
+
+/// A job folder whose record could not be read at startup: left in place for a person to
+/// repair or remove, and shown by the API as an `unreadable` job.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct UnreadableRecord {
+    pub id: u64,
+    /// Why, starting with the record's path inside the data folder.
+    pub error: String,
+}
+
+/// What [`Store::load_jobs`] found.
+#[derive(Debug, Default)]
+pub struct LoadedJobs {
+    /// The readable records, in id order.
+    pub records: Vec<JobRecord>,
+    /// The job folders without a readable record, in id order.
+    pub unreadable: Vec<UnreadableRecord>,
+    /// The first id no folder uses, readable or not.
+    pub next_id: u64,
 }
 
 impl Store {
@@ -45,8 +67,14 @@ impl Store {
         })?;
         Ok(Self {
             root: root.to_path_buf(),
+            writer: Writer::default(),
             _lock: lock,
         })
+    }
+
+    /// What writes this store's files (shared with the scene catalog and the image writer).
+    pub fn writer(&self) -> &Writer {
+        &self.writer
     }
 
     /// Folder of uploaded scenes.
@@ -59,80 +87,185 @@ impl Store {
         self.root.join("jobs").join(id.to_string())
     }
 
-    /// Writes a job's record atomically.
+    /// Writes a job's record atomically: on an error the previous record (if any) is still
+    /// the one on disk.
     pub fn write_job(&self, record: &JobRecord) -> io::Result<()> {
         let dir = self.job_dir(record.id);
         fs::create_dir_all(&dir)?;
         let json = serde_json::to_vec_pretty(record).map_err(io::Error::other)?;
-        write_atomic(&dir.join("job.json"), &json)
+        self.writer.write(&dir.join("job.json"), &json)
     }
 
-    /// Every job record in the folder, in id order; a message for each folder that held no
-    /// readable record (those are left alone for a person to look at); and the first id that
-    /// no folder uses, readable or not.
-    pub fn load_jobs(&self) -> io::Result<(Vec<JobRecord>, Vec<String>, u64)> {
-        let mut records = Vec::new();
-        let mut problems = Vec::new();
-        let mut next_id = 1;
+    /// Removes what a job whose first record could not be written left behind (its folder,
+    /// if it is empty).
+    pub fn remove_unstored_job(&self, id: u64) {
+        let _ = fs::remove_dir(self.job_dir(id));
+    }
+
+    /// Bytes free for this service on the data folder's file system (`None` where the
+    /// platform does not say).
+    pub fn free_bytes(&self) -> Option<u64> {
+        free_bytes(&self.root)
+    }
+
+    /// Checks that a file can be created and written in the data folder (and removes it).
+    pub fn check_writable(&self) -> io::Result<()> {
+        let probe = self.root.join(format!("healthz{TMP_SUFFIX}"));
+        self.writer.check(&probe)?;
+        let written = fs::File::create(&probe).and_then(|mut file| file.write_all(b"ok"));
+        let _ = fs::remove_file(&probe);
+        written
+    }
+
+    /// Every job folder's record: the readable ones, those that cannot be read (left alone
+    /// for a person to look at), and the first id no folder uses. A folder left empty by a
+    /// submission whose record was never stored (its client was answered an error) is
+    /// removed; its id stays used.
+    pub fn load_jobs(&self) -> io::Result<LoadedJobs> {
+        let mut loaded = LoadedJobs {
+            next_id: 1,
+            ..LoadedJobs::default()
+        };
         for entry in fs::read_dir(self.root.join("jobs"))? {
             let entry = entry?;
             let dir = entry.path();
             if !dir.is_dir() {
                 continue;
             }
-            if let Some(id) = entry
-                .file_name()
-                .to_str()
-                .and_then(|name| name.parse::<u64>().ok())
-            {
-                next_id = next_id.max(id + 1);
-            }
+            let Some(id) = (entry.file_name().to_str()).and_then(|name| name.parse::<u64>().ok())
+            else {
+                tracing::warn!("{}: not a job folder; skipped", dir.display());
+                continue;
+            };
+            loaded.next_id = loaded.next_id.max(id + 1);
             remove_temporaries(&dir);
-            let path = dir.join("job.json");
-            let parsed = fs::read(&path)
-                .map_err(|e| e.to_string())
-                .and_then(|bytes| {
-                    serde_json::from_slice::<JobRecord>(&bytes).map_err(|e| e.to_string())
-                });
-            match parsed {
-                Ok(record) if dir.file_name() == Some(record.id.to_string().as_ref()) => {
-                    records.push(record)
+            let relative = format!("jobs/{id}/job.json");
+            let unreadable = |error: String| UnreadableRecord {
+                id,
+                error: format!("{relative}: {error}"),
+            };
+            let bytes = match fs::read(dir.join("job.json")) {
+                Ok(bytes) => bytes,
+                Err(error) if error.kind() == io::ErrorKind::NotFound => {
+                    if fs::remove_dir(&dir).is_ok() {
+                        tracing::info!("jobs/{id}: an empty folder of a job never stored; removed");
+                    } else {
+                        loaded.unreadable.push(unreadable(
+                            "missing, while the folder holds other files".into(),
+                        ));
+                    }
+                    continue;
                 }
-                Ok(record) => problems.push(format!(
-                    "{}: holds job {}, not the folder's own",
-                    path.display(),
+                Err(error) => {
+                    loaded.unreadable.push(unreadable(error.to_string()));
+                    continue;
+                }
+            };
+            match serde_json::from_slice::<JobRecord>(&bytes) {
+                Ok(record) if record.id == id => loaded.records.push(record),
+                Ok(record) => loaded.unreadable.push(unreadable(format!(
+                    "holds job {}, not the folder's own",
                     record.id
-                )),
-                Err(error) => problems.push(format!("{}: {error}", path.display())),
+                ))),
+                Err(error) => loaded
+                    .unreadable
+                    .push(unreadable(format!("not a job record: {error}"))),
             }
         }
         remove_temporaries(&self.scenes_dir());
-        records.sort_by_key(|r| r.id);
-        Ok((records, problems, next_id))
+        loaded.records.sort_by_key(|r| r.id);
+        loaded.unreadable.sort_by_key(|r| r.id);
+        Ok(loaded)
     }
 }
 
-/// Writes `bytes` to `path` through a temporary file in the same folder: written, flushed to
-/// the disk, then renamed over `path`.
-pub fn write_atomic(path: &Path, bytes: &[u8]) -> io::Result<()> {
-    write_atomic_with(path, |tmp| {
-        let mut file = fs::File::create(tmp)?;
-        file.write_all(bytes)?;
-        file.sync_data()
-    })
+/// Writes files atomically ([`write_atomic_with`]). Tests can make its writes fail as a full
+/// disk does; every clone shares that fault.
+#[derive(Clone, Default)]
+pub struct Writer {
+    #[cfg(test)]
+    fault: std::sync::Arc<std::sync::Mutex<Option<Fault>>>,
 }
 
-/// Like [`write_atomic`], with `write` producing the temporary file (e.g. an image encoder).
-pub fn write_atomic_with(
-    path: &Path,
-    write: impl FnOnce(&Path) -> io::Result<()>,
-) -> io::Result<()> {
+/// Which writes fail, and how: given a file's path, the error its write fails with.
+#[cfg(test)]
+type Fault = Box<dyn FnMut(&Path) -> Option<io::ErrorKind> + Send>;
+
+impl std::fmt::Debug for Writer {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str("Writer")
+    }
+}
+
+impl Writer {
+    /// Writes `bytes` to `path` atomically.
+    pub fn write(&self, path: &Path, bytes: &[u8]) -> io::Result<()> {
+        self.write_with(path, |tmp| fs::File::create(tmp)?.write_all(bytes))
+    }
+
+    /// Like [`Writer::write`], with `write` producing the temporary file (e.g. an image
+    /// encoder); it need not flush it.
+    pub fn write_with(
+        &self,
+        path: &Path,
+        write: impl FnOnce(&Path) -> io::Result<()>,
+    ) -> io::Result<()> {
+        write_atomic_with(path, |tmp| {
+            write(tmp)?;
+            // After the temporary file exists, as a disk filling up mid-write would fail.
+            self.check(path)
+        })
+    }
+
+    /// The injected failure of a write to `path`, if any.
+    fn check(&self, _path: &Path) -> io::Result<()> {
+        #[cfg(test)]
+        if let Some(fault) = self
+            .fault
+            .lock()
+            .unwrap_or_else(|e| e.into_inner())
+            .as_mut()
+            && let Some(kind) = fault(_path)
+        {
+            return Err(io::Error::new(kind, format!("injected failure ({kind})")));
+        }
+        Ok(())
+    }
+
+    /// Makes every write fail with `kind` from now on (`None`: succeed again).
+    #[cfg(test)]
+    pub fn fail_with(&self, kind: Option<io::ErrorKind>) {
+        self.fail_when(move |_| kind);
+    }
+
+    /// Makes the writes for which `fault` answers an error fail with it.
+    #[cfg(test)]
+    pub fn fail_when(&self, fault: impl FnMut(&Path) -> Option<io::ErrorKind> + Send + 'static) {
+        *self.fault.lock().unwrap_or_else(|e| e.into_inner()) = Some(Box::new(fault));
+    }
+}
+
+/// Writes a file through a temporary one in the same folder: `write` produces it, it is
+/// flushed to the disk, renamed over `path`, and the folder is flushed so the rename lasts.
+/// On an error the temporary file is removed and `path` is as it was.
+fn write_atomic_with(path: &Path, write: impl FnOnce(&Path) -> io::Result<()>) -> io::Result<()> {
     let tmp = temporary_path(path);
-    let result = write(&tmp).and_then(|()| fs::rename(&tmp, path));
+    let result = write(&tmp)
+        .and_then(|()| fs::File::open(&tmp)?.sync_all())
+        .and_then(|()| fs::rename(&tmp, path));
     if result.is_err() {
         let _ = fs::remove_file(&tmp);
+        return result;
     }
-    result
+    // The new file is in place: a folder that cannot be flushed only makes the rename less
+    // certain to survive a power cut, so it is not reported as a failed write.
+    #[cfg(unix)]
+    if let Some(dir) = path.parent()
+        && let Err(error) = fs::File::open(dir).and_then(|dir| dir.sync_all())
+    {
+        tracing::warn!("flushing {}: {error}", dir.display());
+    }
+    Ok(())
 }
 
 /// A temporary name beside `path`, unique within this process.
@@ -153,6 +286,18 @@ fn remove_temporaries(dir: &Path) {
             let _ = fs::remove_file(entry.path());
         }
     }
+}
+
+#[cfg(unix)]
+fn free_bytes(path: &Path) -> Option<u64> {
+    rustix::fs::statvfs(path)
+        .ok()
+        .map(|stat| stat.f_bavail.saturating_mul(stat.f_frsize))
+}
+
+#[cfg(not(unix))]
+fn free_bytes(_path: &Path) -> Option<u64> {
+    None
 }
 
 #[cfg(test)]
@@ -194,18 +339,41 @@ mod tests {
         for id in [10, 2, 7] {
             store.write_job(&record(id)).unwrap();
         }
-        // A crash while writing leaves a temporary file; one of a torn record is reported.
+        // A crash while writing leaves a temporary file; a torn record, garbage, a record
+        // of another job and a missing one beside images are unreadable.
         fs::write(store.job_dir(7).join("job.json.3.tmp"), b"{").unwrap();
-        fs::create_dir_all(store.job_dir(11)).unwrap();
-        fs::write(store.job_dir(11).join("job.json"), b"{\"id\": ").unwrap();
+        for (id, bytes) in [
+            (11, &b"{\"id\": "[..]),
+            (12, &b"\x00\xff garbage"[..]),
+            (13, &serde_json::to_vec(&record(2)).unwrap()[..]),
+        ] {
+            fs::create_dir_all(store.job_dir(id)).unwrap();
+            fs::write(store.job_dir(id).join("job.json"), bytes).unwrap();
+        }
+        fs::create_dir_all(store.job_dir(14)).unwrap();
+        fs::write(store.job_dir(14).join("image.png"), b"png").unwrap();
+        // An empty folder is what a submission whose record was never written leaves.
+        fs::create_dir_all(store.job_dir(15)).unwrap();
 
-        let (records, problems, next_id) = store.load_jobs().unwrap();
-        assert_eq!(records.iter().map(|r| r.id).collect::<Vec<_>>(), [2, 7, 10]);
-        // The torn record's folder keeps its id: new jobs never write into it.
-        assert_eq!(next_id, 12);
-        assert_eq!(records[0], record(2));
-        assert_eq!(problems.len(), 1, "{problems:?}");
-        assert!(problems[0].contains("11"), "{problems:?}");
+        let loaded = store.load_jobs().unwrap();
+        let ids = |records: &[JobRecord]| records.iter().map(|r| r.id).collect::<Vec<_>>();
+        assert_eq!(ids(&loaded.records), [2, 7, 10]);
+        assert_eq!(loaded.records[0], record(2));
+        // Unreadable folders keep their ids: new jobs never write into them.
+        assert_eq!(loaded.next_id, 16);
+        let unreadable: Vec<u64> = loaded.unreadable.iter().map(|r| r.id).collect();
+        assert_eq!(unreadable, [11, 12, 13, 14], "{:?}", loaded.unreadable);
+        for (record, why) in loaded.unreadable.iter().zip([
+            "EOF while parsing",
+            "not a job record",
+            "holds job 2",
+            "missing",
+        ]) {
+            let expected = format!("jobs/{}/job.json: ", record.id);
+            assert!(record.error.starts_with(&expected), "{record:?}");
+            assert!(record.error.contains(why), "{record:?}");
+        }
+        assert!(!store.job_dir(15).exists());
         assert!(!store.job_dir(7).join("job.json.3.tmp").exists());
 
         // One process at a time.
@@ -213,5 +381,30 @@ mod tests {
         assert!(error.to_string().contains("another gi-server"), "{error}");
         drop(store);
         assert!(Store::open(dir.path()).is_ok());
+    }
+
+    #[test]
+    fn a_failed_write_keeps_the_previous_record_and_no_temporary_file() {
+        let dir = tempfile::tempdir().unwrap();
+        let store = Store::open(dir.path()).unwrap();
+        store.write_job(&record(1)).unwrap();
+        let mut running = record(1);
+        running.state = JobState::Running;
+        store.writer().fail_with(Some(io::ErrorKind::StorageFull));
+        let error = store.write_job(&running).unwrap_err();
+        assert_eq!(error.kind(), io::ErrorKind::StorageFull);
+        assert!(store.check_writable().is_err());
+        let files: Vec<_> = fs::read_dir(store.job_dir(1))
+            .unwrap()
+            .map(|e| e.unwrap().file_name())
+            .collect();
+        assert_eq!(files, ["job.json"]);
+        assert_eq!(store.load_jobs().unwrap().records, [record(1)]);
+
+        store.writer().fail_with(None);
+        store.write_job(&running).unwrap();
+        assert_eq!(store.load_jobs().unwrap().records, [running]);
+        assert!(store.check_writable().is_ok());
+        assert!(store.free_bytes().is_some_and(|free| free > 0));
     }
 }

@@ -333,7 +333,7 @@ fn bad_input_gets_the_right_4xx_and_changes_nothing() {
             post_json(
                 addr,
                 "/v1/jobs",
-                &json!({"scene": "cornell-box", "reference_spp": 4}),
+                &json!({"scene": "cornell-box", "compare": false, "reference_spp": 4}),
             ),
         ),
         (
@@ -510,13 +510,33 @@ fn bad_input_gets_the_right_4xx_and_changes_nothing() {
     assert_eq!(response.error_code(), "job_finished");
 }
 
-/// A GLB whose one image, in its binary chunk, is a PNG claiming 60000 x 60000 texels (only its
-/// header: the service must refuse it from that alone).
+/// A GLB whose one image, in its binary chunk, is a PNG of one texel whose header claims
+/// 60000 x 60000 (the service must refuse it from that alone).
 fn glb_with_huge_texture() -> Vec<u8> {
-    let mut png = b"\x89PNG\r\n\x1a\n\0\0\0\x0dIHDR".to_vec();
-    png.extend(60_000u32.to_be_bytes());
-    png.extend(60_000u32.to_be_bytes());
-    png.extend([8, 6, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0]);
+    let texel = image::RgbaImage::from_pixel(1, 1, image::Rgba([1, 2, 3, 255]));
+    let mut png = Vec::new();
+    texel
+        .write_to(&mut std::io::Cursor::new(&mut png), image::ImageFormat::Png)
+        .unwrap();
+    // IHDR's width and height follow the signature, the chunk's length and its type; its
+    // CRC-32 (over type and data) follows its 13 data bytes.
+    png[16..20].copy_from_slice(&60_000u32.to_be_bytes());
+    png[20..24].copy_from_slice(&60_000u32.to_be_bytes());
+    let mut crc = !0u32;
+    for &byte in &png[12..29] {
+        crc ^= u32::from(byte);
+        for _ in 0..8 {
+            crc = if crc & 1 == 1 {
+                (crc >> 1) ^ 0xedb8_8320
+            } else {
+                crc >> 1
+            };
+        }
+    }
+    png[29..33].copy_from_slice(&(!crc).to_be_bytes());
+    while !png.len().is_multiple_of(4) {
+        png.push(0);
+    }
     let mut json = format!(
         r#"{{"asset":{{"version":"2.0"}},"buffers":[{{"byteLength":{n}}}],"bufferViews":[{{"buffer":0,"byteLength":{n}}}],"images":[{{"bufferView":0,"mimeType":"image/png"}}]}}"#,
         n = png.len()
@@ -632,7 +652,7 @@ fn cameras_jobs_pages_cancellation_and_metrics() {
     for camera in &cameras {
         let id = submit(
             addr,
-            &json!({"scene": "dynamic", "tier": "direct", "width": 24, "height": 16, "spp": 1, "frames": 30, "camera": camera}),
+            &json!({"scene": "dynamic", "tier": "direct", "width": 24, "height": 16, "spp": 1, "frames": 30, "camera": camera, "compare": false}),
         );
         let job = wait_final(addr, &id, JOB_TIMEOUT);
         assert_eq!(job["state"], "done", "{job}");

@@ -1,6 +1,7 @@
 //! The web page in headless Chromium, driven over WebDriver (plain HTTP + JSON to
 //! `chromedriver`): submit a job from the form, wait for it, check that the tier image, the
-//! reference and the error map load and the metrics show, and save a screenshot.
+//! reference and the error map load and the metrics show, and save a screenshot; and with an
+//! API token, the page asks for it and sends it with every call, images included.
 //!
 //! Without `chromium` and `chromedriver` the test prints a loud `SKIPPED` line and passes,
 //! unless `GI_REQUIRE_BROWSER=1` (as CI sets), which makes their absence a failure.
@@ -203,8 +204,9 @@ fn decode_base64(text: &str) -> Vec<u8> {
         .collect()
 }
 
-#[test]
-fn the_web_page_submits_a_job_and_shows_its_images_and_metrics() {
+/// Runs `test` in a fresh headless Chromium session, or prints `SKIPPED` (for the test
+/// `name`) without chromium and chromedriver unless they are required.
+fn with_browser(name: &str, test: impl FnOnce(&Session)) {
     let browser = find_program(&["chromium", "chromium-browser", "google-chrome"]);
     let driver = find_program(&["chromedriver"]);
     let (Some(browser), Some(driver)) = (browser, driver) else {
@@ -212,14 +214,11 @@ fn the_web_page_submits_a_job_and_shows_its_images_and_metrics() {
             panic!("{REQUIRE_BROWSER_ENV}=1 but chromium or chromedriver is not installed");
         }
         eprintln!(
-            "SKIPPED the_web_page_submits_a_job_and_shows_its_images_and_metrics: chromium and \
-             chromedriver are not installed (apt-get install chromium chromium-driver); set \
-             {REQUIRE_BROWSER_ENV}=1 to make this a failure"
+            "SKIPPED {name}: chromium and chromedriver are not installed (apt-get install \
+             chromium chromium-driver); set {REQUIRE_BROWSER_ENV}=1 to make this a failure"
         );
         return;
     };
-
-    let server = TestServer::start(|c| c.no_gpu = true);
     let profile = tempfile::tempdir().unwrap();
     let driver = Driver::start(&driver);
     let args = [
@@ -253,7 +252,19 @@ fn the_web_page_submits_a_job_and_shows_its_images_and_metrics() {
             .expect("session id")
             .to_string(),
     };
+    test(&session);
+}
 
+#[test]
+fn the_web_page_submits_a_job_and_shows_its_images_and_metrics() {
+    with_browser(
+        "the_web_page_submits_a_job_and_shows_its_images_and_metrics",
+        submits_a_job_and_shows_its_images_and_metrics,
+    );
+}
+
+fn submits_a_job_and_shows_its_images_and_metrics(session: &Session) {
+    let server = TestServer::start(|c| c.no_gpu = true);
     session.call(
         "POST",
         "/url",
@@ -333,6 +344,58 @@ fn the_web_page_submits_a_job_and_shows_its_images_and_metrics() {
     let path = PathBuf::from(env!("CARGO_TARGET_TMPDIR")).join("gi-server-web-page.png");
     std::fs::write(&path, &screenshot).unwrap();
     eprintln!("screenshot of the web page: {}", path.display());
+}
+
+#[test]
+fn the_web_page_asks_for_the_api_token_and_sends_it() {
+    with_browser(
+        "the_web_page_asks_for_the_api_token_and_sends_it",
+        asks_for_the_api_token_and_sends_it,
+    );
+}
+
+fn asks_for_the_api_token_and_sends_it(session: &Session) {
+    const TOKEN: &str = "web-page-token";
+    let server = TestServer::start(|c| {
+        c.no_gpu = true;
+        c.api_token = Some(TOKEN.parse().unwrap());
+    });
+    session.call(
+        "POST",
+        "/url",
+        Some(json!({"url": format!("http://{}/", server.addr)})),
+    );
+    // Refused without the token, the page asks for it.
+    session.wait_for(
+        "return !document.getElementById('token-form').hidden",
+        Duration::from_secs(20),
+    );
+    session.type_into("#token", TOKEN);
+    session.click("#token-form button");
+    session.wait_for(
+        "return document.querySelector('#tier option[value=reference]') !== null && \
+         document.getElementById('token-form').hidden",
+        Duration::from_secs(20),
+    );
+    session.click("#scene option[value=cornell-box]");
+    session.click("#tier option[value=reference]");
+    session.type_into("#width", "24");
+    session.type_into("#height", "18");
+    session.type_into("#spp", "1");
+    session.type_into("#reference_spp", "4");
+    session.click("#submit");
+    let state = session.wait_for(
+        "const s = document.getElementById('job').dataset.state; return (s === 'done' || s === 'failed' || s === 'cancelled') ? s : null",
+        Duration::from_secs(60),
+    );
+    assert_eq!(state, "done");
+    // The images came through the API with the token too.
+    let sizes = session.wait_for(
+        "const imgs = ['img-tier', 'img-reference'].map(id => document.getElementById(id)); \
+         return imgs.every(i => i.complete && i.naturalWidth > 0) ? imgs.map(i => [i.naturalWidth, i.naturalHeight]) : null",
+        Duration::from_secs(20),
+    );
+    assert_eq!(sizes, json!([[24, 18], [24, 18]]));
 }
 
 #[test]

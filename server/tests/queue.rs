@@ -34,7 +34,7 @@ fn concurrent_submissions_are_all_accounted_for_and_a_full_queue_answers_429() {
     });
 
     let job = Arc::new(
-        json!({"scene": "cornell-box", "tier": "reference", "width": 8, "height": 6, "spp": 1}),
+        json!({"scene": "cornell-box", "tier": "reference", "width": 8, "height": 6, "spp": 1, "compare": false}),
     );
     let clients: Vec<_> = (0..CLIENTS)
         .map(|_| {

@@ -1,88 +1,44 @@
 //! The real `gi-server` binary killed with SIGKILL mid-job and started again over the same data
 //! folder: finished results are still served byte for byte, queued jobs are still queued, the
-//! interrupted job runs again, and nothing is lost. Then SIGTERM stops it gracefully.
+//! interrupted job runs again, and nothing is lost. Then SIGTERM stops it gracefully, within
+//! its grace period even while a render that cannot be interrupted still runs.
 
 mod common;
 
 use std::{
-    io::{BufRead, BufReader},
+    ffi::OsString,
     net::SocketAddr,
     path::Path,
-    process::{Child, Command, Stdio},
+    process::Command,
     time::{Duration, Instant},
 };
 
 use common::*;
 use serde_json::json;
 
-/// The server process, killed if the test ends without stopping it.
-struct ServerProcess(Child);
-
-impl Drop for ServerProcess {
-    fn drop(&mut self) {
-        let _ = self.0.kill();
-        let _ = self.0.wait();
-    }
-}
-
-impl std::ops::Deref for ServerProcess {
-    type Target = Child;
-    fn deref(&self) -> &Child {
-        &self.0
-    }
-}
-
-impl std::ops::DerefMut for ServerProcess {
-    fn deref_mut(&mut self) -> &mut Child {
-        &mut self.0
-    }
-}
-
-/// Starts the binary on a free port over `dir`; the process and its address (read from the
-/// line it prints once listening).
-fn start(dir: &Path) -> (ServerProcess, SocketAddr) {
-    let mut child = Command::new(env!("CARGO_BIN_EXE_gi-server"))
-        .args(["--bind", "127.0.0.1:0", "--no-gpu", "--reference-pool", "1"])
-        .arg("--data-dir")
-        .arg(dir.join("data"))
-        .arg("--cache-dir")
-        .arg(dir.join("cache"))
-        .env("RUST_LOG", "warn")
-        .stdout(Stdio::piped())
-        .stderr(Stdio::inherit())
-        .spawn()
-        .expect("gi-server starts");
-    let stdout = child.stdout.take().unwrap();
-    let child = ServerProcess(child);
-    let mut line = String::new();
-    BufReader::new(stdout).read_line(&mut line).unwrap();
-    let addr = line
-        .trim()
-        .strip_prefix("gi-server listening on http://")
-        .unwrap_or_else(|| panic!("unexpected first line {line:?}"))
-        .parse()
-        .unwrap();
-    (child, addr)
-}
-
-fn wait_exit(child: &mut ServerProcess, timeout: Duration) -> std::process::ExitStatus {
-    let started = Instant::now();
-    loop {
-        if let Some(status) = child.try_wait().unwrap() {
-            return status;
-        }
-        assert!(started.elapsed() < timeout, "gi-server did not exit");
-        std::thread::sleep(Duration::from_millis(20));
-    }
+/// Starts the binary on a free port over `dir` with `extra` flags; the process and its
+/// address.
+fn start(dir: &Path, extra: &[&str]) -> (ServerProcess, SocketAddr) {
+    let mut args: Vec<OsString> = ["--bind", "127.0.0.1:0", "--no-gpu", "--reference-pool", "1"]
+        .iter()
+        .chain(extra)
+        .map(OsString::from)
+        .collect();
+    args.extend([
+        "--data-dir".into(),
+        dir.join("data").into(),
+        "--cache-dir".into(),
+        dir.join("cache").into(),
+    ]);
+    spawn_server(args)
 }
 
 #[test]
 fn a_killed_server_loses_no_job_and_a_terminated_one_stops_cleanly() {
     let dir = tempfile::tempdir().unwrap();
-    let (mut server, addr) = start(dir.path());
+    let (mut server, addr) = start(dir.path(), &[]);
 
-    let small =
-        json!({"scene": "cornell-box", "tier": "reference", "width": 16, "height": 12, "spp": 1});
+    let small = json!({"scene": "cornell-box", "tier": "reference", "width": 16, "height": 12, "spp": 1, "compare": false});
     let finished = submit(addr, &small);
     assert_eq!(
         wait_final(addr, &finished, Duration::from_secs(60))["state"],
@@ -111,7 +67,7 @@ fn a_killed_server_loses_no_job_and_a_terminated_one_stops_cleanly() {
     server.kill().unwrap(); // SIGKILL: no chance to save anything
     server.wait().unwrap();
 
-    let (mut server, addr) = start(dir.path());
+    let (mut server, addr) = start(dir.path(), &[]);
     // A second service cannot take the same data folder.
     let second = Command::new(env!("CARGO_BIN_EXE_gi-server"))
         .args(["--bind", "127.0.0.1:0", "--no-gpu", "--data-dir"])
@@ -162,7 +118,7 @@ fn a_killed_server_loses_no_job_and_a_terminated_one_stops_cleanly() {
     let exit = wait_exit(&mut server, Duration::from_secs(20));
     assert!(exit.success(), "{exit:?}");
 
-    let (mut server, addr) = start(dir.path());
+    let (mut server, addr) = start(dir.path(), &[]);
     let job = get(addr, &format!("/v1/jobs/{long}")).json();
     assert!(
         matches!(job["state"].as_str(), Some("queued" | "running")),
@@ -171,4 +127,52 @@ fn a_killed_server_loses_no_job_and_a_terminated_one_stops_cleanly() {
     assert_eq!(delete(addr, &format!("/v1/jobs/{long}")).status, 200);
     server.kill().unwrap();
     server.wait().unwrap();
+}
+
+#[test]
+fn a_terminated_server_exits_within_its_grace_while_a_render_cannot_stop() {
+    let dir = tempfile::tempdir().unwrap();
+    let grace_s = 1;
+    let (mut server, addr) = start(
+        dir.path(),
+        &[
+            "--shutdown-grace-s",
+            &grace_s.to_string(),
+            "--max-spp",
+            "1048576",
+        ],
+    );
+    // The reference tier renders all of a frame's samples in one call that checks for no
+    // stop: hours at this many samples.
+    let long = submit(
+        addr,
+        &json!({"scene": "cornell-box", "tier": "reference", "width": 64, "height": 48,
+                "spp": 1 << 20}),
+    );
+    wait_for(addr, &long, Duration::from_secs(60), |job| {
+        job["progress"]["stage"] == "frames"
+    });
+    let signalled = Instant::now();
+    let status = Command::new("kill")
+        .args(["-TERM", &server.id().to_string()])
+        .status()
+        .unwrap();
+    assert!(status.success());
+    let exit = wait_exit(&mut server, Duration::from_secs(30));
+    let took = signalled.elapsed();
+    assert!(exit.success(), "{exit:?}");
+    assert!(
+        took < Duration::from_secs(grace_s + 3),
+        "exited {took:?} after SIGTERM with a grace of {grace_s} s"
+    );
+
+    // The job was queued again on disk before the exit, its interrupted start not counted.
+    let (_server, addr) = start(dir.path(), &["--max-spp", "1048576"]);
+    let job = get(addr, &format!("/v1/jobs/{long}")).json();
+    assert!(
+        matches!(job["state"].as_str(), Some("queued" | "running")),
+        "{job}"
+    );
+    assert!(job["attempts"].as_u64().unwrap_or(0) <= 1, "{job}");
+    assert_eq!(delete(addr, &format!("/v1/jobs/{long}")).status, 200);
 }

@@ -25,6 +25,7 @@ mod skins;
 mod tangents;
 mod textures;
 
+use std::cell::Cell;
 use std::collections::HashSet;
 use std::path::Path;
 
@@ -44,6 +45,24 @@ impl std::fmt::Display for ImportWarning {
     }
 }
 
+/// How an import reads a file. The default reads any file the importer supports, whatever the
+/// size of its images.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct ImportOptions {
+    /// Most texels the import may decode, over all of the file's images; `None`: no limit.
+    ///
+    /// With a limit, the size of every image of the file (used by a material or not, in a
+    /// buffer view of any buffer, a data URI or a file beside a `.gltf`) is read from its
+    /// header before anything is decoded, and the import fails with
+    /// [`SceneError::Invalid`] naming the image when the sizes add up to more, or when an
+    /// image is not a PNG, JPEG or DDS whose header reads. Textures combined from
+    /// `AMD_split_roughnessMetallic` maps count too. A small, highly compressed image can
+    /// claim a size that takes gigabytes to decode: whoever imports untrusted files bounds
+    /// their memory with this (an RGBA8 texel is 4 bytes once decoded, more while decoding),
+    /// at the cost of refusing files whose images are all legitimately large.
+    pub max_texels: Option<u64>,
+}
+
 /// Imports a `.gltf` or `.glb` file; relative URIs resolve against the file's folder.
 pub fn import_gltf(path: &Path) -> std::result::Result<(Scene, Vec<ImportWarning>), SceneError> {
     let bytes = std::fs::read(path).map_err(|source| SceneError::Io {
@@ -58,8 +77,17 @@ pub fn import_gltf_slice(
     bytes: &[u8],
     base: &Path,
 ) -> std::result::Result<(Scene, Vec<ImportWarning>), SceneError> {
+    import_gltf_slice_with(bytes, base, &ImportOptions::default())
+}
+
+/// Imports glTF or GLB bytes as [`import_gltf_slice`] does, with `options`.
+pub fn import_gltf_slice_with(
+    bytes: &[u8],
+    base: &Path,
+    options: &ImportOptions,
+) -> std::result::Result<(Scene, Vec<ImportWarning>), SceneError> {
     let mut warnings = Warnings::default();
-    match import(bytes, base, &mut warnings) {
+    match import(bytes, base, options, &mut warnings) {
         Ok(scene) => Ok((scene, warnings.finish())),
         Err(Failure::Malformed(message)) => Err(SceneError::Gltf {
             path: base.to_path_buf(),
@@ -147,14 +175,44 @@ impl Warnings {
     }
 }
 
-/// The parsed document, its loaded buffers and the folder its relative URIs start from.
+/// The parsed document, its loaded buffers, the folder its relative URIs start from and the
+/// texels it may still decode.
 struct Source<'a> {
     root: &'a json::Root,
     buffers: Buffers<'a>,
     dir: &'a Path,
+    texel_budget: Option<TexelBudget>,
 }
 
-fn import(bytes: &[u8], base: &Path, warnings: &mut Warnings) -> Result<Scene> {
+/// The texels an import with [`ImportOptions::max_texels`] has counted so far.
+struct TexelBudget {
+    max: u64,
+    used: Cell<u64>,
+}
+
+impl TexelBudget {
+    /// Counts `width` x `height` texels more, or refuses the file, naming what brought them
+    /// (`what`), when the count passes the limit.
+    fn charge(&self, width: u32, height: u32, what: impl FnOnce() -> String) -> Result<()> {
+        let used = (self.used.get()).saturating_add(u64::from(width) * u64::from(height));
+        if used > self.max {
+            return Err(unusable(format!(
+                "{} brings the file's textures to {used} texels, more than the {} allowed",
+                what(),
+                self.max
+            )));
+        }
+        self.used.set(used);
+        Ok(())
+    }
+}
+
+fn import(
+    bytes: &[u8],
+    base: &Path,
+    options: &ImportOptions,
+    warnings: &mut Warnings,
+) -> Result<Scene> {
     let gltf::Gltf { document, blob } = parse(bytes)?;
     let root = document.as_json();
     extensions::warn_ignored(root, warnings);
@@ -164,7 +222,13 @@ fn import(bytes: &[u8], base: &Path, warnings: &mut Warnings) -> Result<Scene> {
         root,
         buffers: Buffers::load(root, blob, dir)?,
         dir,
+        texel_budget: options.max_texels.map(|max| TexelBudget {
+            max,
+            used: Cell::new(0),
+        }),
     };
+    // Every image is counted before the first one is decoded.
+    images::charge_all(&source)?;
 
     let scene_json = match root.scene {
         Some(index) => Some(

@@ -26,7 +26,9 @@ pub use emitters::{EmitterDistribution, luminance};
 pub use error::SceneError;
 pub use export::write_gltf;
 pub use frame::{CameraView, Evaluation, SceneFrame, TriangleAttributes, WorldLight};
-pub use import::{ImportWarning, import_gltf, import_gltf_slice};
+pub use import::{
+    ImportOptions, ImportWarning, import_gltf, import_gltf_slice, import_gltf_slice_with,
+};
 pub use lighting::{
     CameraChoice, LIGHTING_SUN_NAME, Lighting, SkyPreset, SkySetting, Sun, lighting_path_for,
     no_emitter_warning,

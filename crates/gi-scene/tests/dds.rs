@@ -2,48 +2,10 @@
 //! here block by block, whose decoded texels are known from the formats' definitions, imported
 //! through glTF files written beside them.
 
-use std::alloc::{GlobalAlloc, Layout, System};
-use std::cell::Cell;
+mod peak_alloc;
 
 use gi_scene::{ImportWarning, Scene, Texture, TextureEncoding, import_gltf, linear_to_srgb};
 use serde_json::{Value, json};
-
-/// Records the largest single allocation each thread asks for, so a test can show that a
-/// hostile header does not make the importer allocate what it claims.
-struct PeakAllocation;
-
-thread_local! {
-    static PEAK_BYTES: Cell<usize> = const { Cell::new(0) };
-}
-
-fn record(bytes: usize) {
-    let _ = PEAK_BYTES.try_with(|peak| peak.set(peak.get().max(bytes)));
-}
-
-// SAFETY: every call is forwarded unchanged to the system allocator.
-unsafe impl GlobalAlloc for PeakAllocation {
-    unsafe fn alloc(&self, layout: Layout) -> *mut u8 {
-        record(layout.size());
-        unsafe { System.alloc(layout) }
-    }
-
-    unsafe fn alloc_zeroed(&self, layout: Layout) -> *mut u8 {
-        record(layout.size());
-        unsafe { System.alloc_zeroed(layout) }
-    }
-
-    unsafe fn realloc(&self, ptr: *mut u8, layout: Layout, new_size: usize) -> *mut u8 {
-        record(new_size);
-        unsafe { System.realloc(ptr, layout, new_size) }
-    }
-
-    unsafe fn dealloc(&self, ptr: *mut u8, layout: Layout) {
-        unsafe { System.dealloc(ptr, layout) }
-    }
-}
-
-#[global_allocator]
-static ALLOCATOR: PeakAllocation = PeakAllocation;
 
 // DXGI format codes.
 const BC3_UNORM_SRGB: u32 = 78;
@@ -538,12 +500,12 @@ fn hostile_dimensions_are_refused_without_allocating_them() {
         ],
         "images": [{ "uri": "huge.dds" }, { "uri": "claims.dds" }]
     });
-    PEAK_BYTES.with(|peak| peak.set(0));
+    peak_alloc::reset();
     let (scene, warnings) = import_files(
         extra,
         &[("huge.dds", &huge), ("claims.dds", &claims_256_mib)],
     );
-    let peak = PEAK_BYTES.with(Cell::get);
+    let peak = peak_alloc::peak_bytes();
     assert!(
         has_warning(&warnings, "larger than 8192 x 8192 texels (65535 x 65535)"),
         "{warnings:?}"

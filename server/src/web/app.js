@@ -8,8 +8,18 @@ let currentJob = null;
 let pollTimer = null;
 let oldestShown = null;
 
-async function api(path, options) {
-  const response = await fetch(path, options);
+// A service started with --api-token answers 401 until the page sends the token: the page asks
+// for it once and keeps it for this tab only (sessionStorage), sent as a bearer header.
+const TOKEN_KEY = "gi-server.api-token";
+
+function withToken(headers) {
+  const token = sessionStorage.getItem(TOKEN_KEY);
+  return token ? { ...headers, Authorization: `Bearer ${token}` } : { ...headers };
+}
+
+async function api(path, options = {}) {
+  const response = await fetch(path, { ...options, headers: withToken(options.headers) });
+  if (response.status === 401) $("token-form").hidden = false;
   const body = await response.json().catch(() => null);
   if (!response.ok) {
     const message = body && body.error ? `${body.error.message} (${body.error.code})` : `HTTP ${response.status}`;
@@ -110,7 +120,8 @@ function render(job) {
   $("job-state").textContent = job.state;
   $("job-state").className = `state ${job.state}`;
   const r = job.request;
-  $("job-summary").textContent = `${r.scene} · tier ${r.tier} · ${r.width}×${r.height} · ${r.spp} spp · ${r.frames} frame(s)` +
+  // A job whose record cannot be read has no request; its error says why.
+  $("job-summary").textContent = !r ? "" : `${r.scene} · tier ${r.tier} · ${r.width}×${r.height} · ${r.spp} spp · ${r.frames} frame(s)` +
     (r.compare ? ` · reference ${r.reference_spp} spp` : "");
   const progress = job.state === "done" ? 1 : job.progress ? job.progress.fraction : 0;
   $("job-progress").value = progress;
@@ -119,13 +130,13 @@ function render(job) {
   $("job-error").textContent = job.error ? `${job.error.message} (${job.error.code})` : "";
   if (job.state !== "done") return;
 
-  $("img-tier").src = job.images.image_png;
+  showImage($("img-tier"), job.images.image_png);
   $("img-reference").closest("figure").hidden = !job.images.reference_png;
   $("img-error").closest("figure").hidden = !job.images.error_png;
   $("img-flip").closest("figure").hidden = !job.images.flip_png;
-  if (job.images.reference_png) $("img-reference").src = job.images.reference_png;
-  if (job.images.error_png) $("img-error").src = job.images.error_png;
-  if (job.images.flip_png) $("img-flip").src = job.images.flip_png;
+  if (job.images.reference_png) showImage($("img-reference"), job.images.reference_png);
+  if (job.images.error_png) showImage($("img-error"), job.images.error_png);
+  if (job.images.flip_png) showImage($("img-flip"), job.images.flip_png);
 
   const result = job.result;
   const metrics = $("metrics");
@@ -149,6 +160,18 @@ function render(job) {
   for (const [name, ms] of Object.entries(result.passes)) row(passes, name, `${fixed(ms, 3)} ms`);
 }
 
+// An <img> cannot send the token: with one, the image is fetched and shown from a blob.
+async function showImage(img, url) {
+  if (!sessionStorage.getItem(TOKEN_KEY)) {
+    img.src = url;
+    return;
+  }
+  const response = await fetch(url, { headers: withToken() });
+  if (!response.ok) return;
+  if (img.src.startsWith("blob:")) URL.revokeObjectURL(img.src);
+  img.src = URL.createObjectURL(await response.blob());
+}
+
 async function poll() {
   const id = currentJob;
   try {
@@ -169,12 +192,13 @@ async function poll() {
 function jobRow(job) {
   const tr = document.createElement("tr");
   tr.dataset.id = job.id;
-  const r = job.request;
+  // A job whose record cannot be read shows only its id and state.
+  const r = job.request || { scene: "", tier: "", width: "", height: "" };
   const c = job.result && job.result.comparison;
   const tier = job.result && job.result.tier !== r.tier ? `${r.tier} → ${job.result.tier}` : r.tier;
-  const cells = [job.id, r.scene, tier, `${r.width}×${r.height}`, job.state,
+  const cells = [job.id, r.scene, tier, job.request ? `${r.width}×${r.height}` : "", job.state,
     c ? fixed(c.rmse_srgb8, 2) : "", c ? fixed(c.flip, 4) : "", c ? fixed(c.gain_vs_direct, 3) : "",
-    new Date(job.submitted_at).toLocaleString()];
+    job.submitted_at ? new Date(job.submitted_at).toLocaleString() : ""];
   for (const text of cells) {
     const td = document.createElement("td");
     td.textContent = text;
@@ -198,6 +222,11 @@ async function refreshJobs(older) {
   }
 }
 
+$("token-form").addEventListener("submit", (event) => {
+  event.preventDefault();
+  sessionStorage.setItem(TOKEN_KEY, $("token").value.trim());
+  location.reload();
+});
 $("job-form").addEventListener("submit", submit);
 $("cancel").addEventListener("click", async () => {
   try { render(await api(`/v1/jobs/${currentJob}`, { method: "DELETE" })); } catch (error) { $("job-error").textContent = error.message; }

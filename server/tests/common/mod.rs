@@ -1,13 +1,15 @@
 //! What the service's tests share: a small HTTP/1.1 client over a plain TCP socket (it sends
-//! any bytes, malformed ones included), a server started in-process on a free loopback port,
-//! and polling helpers.
+//! any bytes, malformed ones included), a server started in-process on a free loopback port
+//! or as the `gi-server` binary, and polling helpers.
 
 #![allow(dead_code)] // each test binary uses its own part
 
 use std::{
-    io::{Read, Write},
+    ffi::OsStr,
+    io::{BufRead, BufReader, Read, Write},
     net::{SocketAddr, TcpStream},
     path::PathBuf,
+    process::{Child, Command, ExitStatus, Stdio},
     time::{Duration, Instant},
 };
 
@@ -57,7 +59,8 @@ impl Response {
     }
 }
 
-/// Sends one request (`Connection: close`) and reads the whole response.
+/// Sends one request (`Connection: close`, and `Host: <addr>` unless `headers` has a Host)
+/// and reads the whole response.
 pub fn request(
     addr: SocketAddr,
     method: &str,
@@ -69,10 +72,17 @@ pub fn request(
     stream
         .set_read_timeout(Some(Duration::from_secs(60)))
         .unwrap();
-    let mut head = format!(
-        "{method} {path} HTTP/1.1\r\nHost: {addr}\r\nConnection: close\r\nContent-Length: {}\r\n",
+    let mut head = format!("{method} {path} HTTP/1.1\r\n");
+    if !headers
+        .iter()
+        .any(|(name, _)| name.eq_ignore_ascii_case("host"))
+    {
+        head.push_str(&format!("Host: {addr}\r\n"));
+    }
+    head.push_str(&format!(
+        "Connection: close\r\nContent-Length: {}\r\n",
         body.len()
-    );
+    ));
     for (name, value) in headers {
         head.push_str(&format!("{name}: {value}\r\n"));
     }
@@ -85,7 +95,7 @@ pub fn request(
 
 /// Reads one response: up to its Content-Length, its last chunk, or the end of the stream
 /// (peers such as chromedriver keep the connection open despite `Connection: close`).
-fn read_response(stream: &mut TcpStream) -> Response {
+pub fn read_response(stream: &mut TcpStream) -> Response {
     let mut raw = Vec::new();
     let mut buffer = [0u8; 16 << 10];
     loop {
@@ -331,4 +341,70 @@ pub fn sample_glb(name: &str) -> Vec<u8> {
         .join("glTF-Binary")
         .join(format!("{name}.glb"));
     std::fs::read(&path).unwrap_or_else(|e| panic!("{}: {e}", path.display()))
+}
+
+/// The `gi-server` binary, killed if the test ends without stopping it.
+pub struct ServerProcess(pub Child);
+
+impl Drop for ServerProcess {
+    fn drop(&mut self) {
+        let _ = self.0.kill();
+        let _ = self.0.wait();
+    }
+}
+
+impl std::ops::Deref for ServerProcess {
+    type Target = Child;
+    fn deref(&self) -> &Child {
+        &self.0
+    }
+}
+
+impl std::ops::DerefMut for ServerProcess {
+    fn deref_mut(&mut self) -> &mut Child {
+        &mut self.0
+    }
+}
+
+/// Starts the `gi-server` binary with `args`; the process and the address it prints once
+/// listening.
+pub fn spawn_server(
+    args: impl IntoIterator<Item = impl AsRef<OsStr>>,
+) -> (ServerProcess, SocketAddr) {
+    let mut child = Command::new(env!("CARGO_BIN_EXE_gi-server"))
+        .args(args)
+        .env("RUST_LOG", "warn")
+        .stdout(Stdio::piped())
+        .stderr(Stdio::inherit())
+        .spawn()
+        .expect("gi-server starts");
+    let stdout = child.stdout.take().unwrap();
+    let child = ServerProcess(child);
+    let mut line = String::new();
+    BufReader::new(stdout).read_line(&mut line).unwrap();
+    let addr = line
+        .trim()
+        .strip_prefix("gi-server listening on http://")
+        .unwrap_or_else(|| panic!("unexpected first line {line:?}"))
+        .parse()
+        .unwrap();
+    (child, addr)
+}
+
+/// Waits for the process to exit; fails after `timeout`.
+pub fn wait_exit(child: &mut ServerProcess, timeout: Duration) -> ExitStatus {
+    let started = Instant::now();
+    loop {
+        if let Some(status) = child.try_wait().unwrap() {
+            return status;
+        }
+        assert!(started.elapsed() < timeout, "gi-server did not exit");
+        std::thread::sleep(Duration::from_millis(20));
+    }
+}
+
+/// The value of the sample `series` (name and labels exactly as exposed) in a `/metrics` text.
+pub fn metric(text: &str, series: &str) -> Option<f64> {
+    text.lines()
+        .find_map(|line| line.strip_prefix(series)?.strip_prefix(' ')?.parse().ok())
 }

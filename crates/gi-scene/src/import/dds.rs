@@ -46,14 +46,26 @@ pub(super) fn is_dds(bytes: &[u8]) -> bool {
     bytes.starts_with(b"DDS ")
 }
 
-/// Decodes the first surface of DDS file `bytes`. `Err` says why it cannot be used (not DDS,
-/// truncated, an unsupported format, too large), to follow the image's label in a warning.
-pub(super) fn decode(bytes: &[u8]) -> Result<DdsImage, String> {
+/// Width and height of DDS file `bytes`'s first surface, from its header alone. `Err` says
+/// why the header cannot be read, as [`decode`]'s does.
+pub(super) fn size(bytes: &[u8]) -> Result<(u32, u32), String> {
+    read_header(bytes).map(|(header, _)| (header.width, header.height))
+}
+
+/// The header of DDS file `bytes` and what follows it.
+fn read_header(bytes: &[u8]) -> Result<(Header, &[u8]), String> {
     if !is_dds(bytes) {
         return Err("is not a DDS file (it does not start with \"DDS \")".into());
     }
     let mut rest = &bytes[4..];
     let header = Header::read(&mut rest).map_err(|e| format!("has an unreadable header ({e})"))?;
+    Ok((header, rest))
+}
+
+/// Decodes the first surface of DDS file `bytes`. `Err` says why it cannot be used (not DDS,
+/// truncated, an unsupported format, too large), to follow the image's label in a warning.
+pub(super) fn decode(bytes: &[u8]) -> Result<DdsImage, String> {
+    let (header, mut rest) = read_header(bytes)?;
     let header10 = if header.spf.fourcc == Some(FourCC(FourCC::DX10)) {
         Some(
             Header10::read(&mut rest)

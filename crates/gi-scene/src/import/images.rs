@@ -1,5 +1,6 @@
 //! Decoding glTF images for material textures: PNG and JPEG through `image`, DDS through
-//! [`super::dds`].
+//! [`super::dds`]. With a texel budget, every image's size is read from its header and counted
+//! before any image is decoded ([`charge_all`]).
 //!
 //! An image is decoded once, whatever uses it; [`Decoded::texels`] then gives the 8-bit RGBA a
 //! texture role needs. For PNG, JPEG and most DDS formats that is the stored values as they are;
@@ -11,7 +12,7 @@ use std::io::Cursor;
 use image::{ImageFormat, ImageReader, Limits};
 
 use super::buffers::fetch_uri;
-use super::{Result, Source, dds, malformed};
+use super::{Result, Source, dds, malformed, unusable};
 use crate::{TextureEncoding, linear_to_srgb};
 
 /// Largest width and height of an image the importer decodes; larger images are refused
@@ -110,6 +111,144 @@ fn with_normal_z(texel: [u8; 4]) -> [u8; 4] {
     ]
 }
 
+/// The encodings the importer decodes.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum Encoding {
+    Png,
+    Jpeg,
+    Dds,
+}
+
+impl Encoding {
+    /// The `image` crate's format of PNG and JPEG; `None` for DDS, which [`dds`] reads.
+    fn image_format(self) -> Option<ImageFormat> {
+        match self {
+            Encoding::Png => Some(ImageFormat::Png),
+            Encoding::Jpeg => Some(ImageFormat::Jpeg),
+            Encoding::Dds => None,
+        }
+    }
+}
+
+impl std::fmt::Display for Encoding {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(match self {
+            Encoding::Png => "PNG",
+            Encoding::Jpeg => "JPEG",
+            Encoding::Dds => "DDS",
+        })
+    }
+}
+
+/// An image's bytes as the file stores them, not decoded.
+struct Encoded<'a> {
+    /// The name of the textures made of the image.
+    name: String,
+    /// `images[i] ("name")`, to start messages with.
+    label: String,
+    bytes: Cow<'a, [u8]>,
+    mime: Option<&'a str>,
+}
+
+impl<'a> Encoded<'a> {
+    /// Image `index`'s bytes: from a buffer view (of any buffer), a data URI or a file. `Err`
+    /// holds why they cannot be read; a broken document (no such image) is an import error.
+    fn read(source: &'a Source, index: usize) -> Result<std::result::Result<Self, String>> {
+        let image = source
+            .root
+            .images
+            .get(index)
+            .ok_or_else(|| malformed(format!("images[{index}] does not exist")))?;
+        let name = match (&image.name, &image.uri) {
+            (Some(name), _) => name.clone(),
+            (None, Some(uri)) if !uri.starts_with("data:") => uri.clone(),
+            _ => format!("image {index}"),
+        };
+        let label = format!("images[{index}] (\"{name}\")");
+        let bytes: Cow<[u8]> = match (&image.buffer_view, &image.uri) {
+            (Some(view), _) => match source.buffers.view(view.value()) {
+                Ok(bytes) => Cow::Borrowed(bytes),
+                Err(_) => return Ok(Err(format!("{label}: its buffer view is unreadable"))),
+            },
+            (None, Some(uri)) => match fetch_uri(uri, source.dir) {
+                Ok(bytes) => Cow::Owned(bytes),
+                Err(e) => return Ok(Err(format!("{label} cannot be read: {e}"))),
+            },
+            (None, None) => return Ok(Err(format!("{label} has neither uri nor bufferView"))),
+        };
+        Ok(Ok(Self {
+            name,
+            label,
+            bytes,
+            mime: image.mime_type.as_ref().map(|m| m.0.as_str()),
+        }))
+    }
+
+    /// The encoding the image is read as: its MIME type's, else the one its first bytes show.
+    fn encoding(&self) -> std::result::Result<Encoding, String> {
+        let label = &self.label;
+        match self.mime {
+            Some(DDS_MIME) => Ok(Encoding::Dds),
+            Some("image/png") => Ok(Encoding::Png),
+            Some("image/jpeg") => Ok(Encoding::Jpeg),
+            Some(other) => Err(format!(
+                "{label} has mime type {other}; only image/png, image/jpeg and {DDS_MIME} are read"
+            )),
+            None if dds::is_dds(&self.bytes) => Ok(Encoding::Dds),
+            None => match image::guess_format(&self.bytes) {
+                Ok(ImageFormat::Png) => Ok(Encoding::Png),
+                Ok(ImageFormat::Jpeg) => Ok(Encoding::Jpeg),
+                _ => Err(format!("{label} is neither PNG, JPEG nor DDS")),
+            },
+        }
+    }
+
+    /// A reader of the image as `format`.
+    fn reader(&self, format: ImageFormat) -> ImageReader<Cursor<&[u8]>> {
+        let mut reader = ImageReader::new(Cursor::new(&self.bytes[..]));
+        reader.set_format(format);
+        reader
+    }
+
+    /// Width and height from the image's header, without decoding its texels.
+    fn size(&self, encoding: Encoding) -> std::result::Result<(u32, u32), String> {
+        let label = &self.label;
+        match encoding.image_format() {
+            None => dds::size(&self.bytes).map_err(|why| format!("{label} {why}")),
+            Some(format) => self
+                .reader(format)
+                .into_dimensions()
+                .map_err(|e| format!("{label} has no readable {encoding} header ({e})")),
+        }
+    }
+}
+
+/// With a texel budget ([`super::ImportOptions::max_texels`]), counts every image of the file
+/// from its header, before any is decoded: an image that cannot be read, is not PNG, JPEG or
+/// DDS, or brings the count past the budget fails the import. Without one, does nothing.
+pub(super) fn charge_all(source: &Source) -> Result<()> {
+    let Some(budget) = &source.texel_budget else {
+        return Ok(());
+    };
+    for index in 0..source.root.images.len() {
+        let header = Encoded::read(source, index)?.and_then(|image| {
+            let encoding = image.encoding()?;
+            let (width, height) = image.size(encoding)?;
+            Ok((image.label, encoding, width, height))
+        });
+        let (label, encoding, width, height) = header.map_err(|why| {
+            unusable(format!(
+                "{why}; with a texel budget, every image must be a PNG, JPEG or DDS file whose \
+                 header gives its size"
+            ))
+        })?;
+        budget.charge(width, height, || {
+            format!("{label} ({width} x {height} texels, {encoding})")
+        })?;
+    }
+    Ok(())
+}
+
 /// Decodes image `index` (PNG, JPEG or DDS, from a buffer view, a data URI or a file) to RGBA.
 /// `Err` holds a description of why the image cannot be used (missing file, unsupported type,
 /// undecodable, truncated or too large data), for the warning of each slot that uses it; a
@@ -118,33 +257,19 @@ pub(super) fn decode(
     source: &Source,
     index: usize,
 ) -> Result<std::result::Result<Decoded, String>> {
-    let image = source
-        .root
-        .images
-        .get(index)
-        .ok_or_else(|| malformed(format!("images[{index}] does not exist")))?;
-    let name = match (&image.name, &image.uri) {
-        (Some(name), _) => name.clone(),
-        (None, Some(uri)) if !uri.starts_with("data:") => uri.clone(),
-        _ => format!("image {index}"),
+    let image = match Encoded::read(source, index)? {
+        Ok(image) => image,
+        Err(why) => return Ok(Err(why)),
     };
-    let label = format!("images[{index}] (\"{name}\")");
-    let bytes: Cow<[u8]> = match (&image.buffer_view, &image.uri) {
-        (Some(view), _) => match source.buffers.view(view.value()) {
-            Ok(bytes) => Cow::Borrowed(bytes),
-            Err(_) => return Ok(Err(format!("{label}: its buffer view is unreadable"))),
-        },
-        (None, Some(uri)) => match fetch_uri(uri, source.dir) {
-            Ok(bytes) => Cow::Owned(bytes),
-            Err(e) => return Ok(Err(format!("{label} cannot be read: {e}"))),
-        },
-        (None, None) => return Ok(Err(format!("{label} has neither uri nor bufferView"))),
+    let label = &image.label;
+    let encoding = match image.encoding() {
+        Ok(encoding) => encoding,
+        Err(why) => return Ok(Err(why)),
     };
-    let mime = image.mime_type.as_ref().map(|m| m.0.as_str());
-    if mime == Some(DDS_MIME) || (mime.is_none() && dds::is_dds(&bytes)) {
-        return Ok(match dds::decode(&bytes) {
+    let Some(format) = encoding.image_format() else {
+        return Ok(match dds::decode(&image.bytes) {
             Ok(dds) => Ok(Decoded {
-                name,
+                name: image.name,
                 width: dds.width,
                 height: dds.height,
                 pixels: dds.pixels,
@@ -152,25 +277,9 @@ pub(super) fn decode(
             }),
             Err(why) => Err(format!("{label} {why}")),
         });
-    }
+    };
 
-    let mut reader = ImageReader::new(Cursor::new(&bytes[..]));
-    match mime {
-        Some("image/png") => reader.set_format(ImageFormat::Png),
-        Some("image/jpeg") => reader.set_format(ImageFormat::Jpeg),
-        Some(other) => {
-            return Ok(Err(format!(
-                "{label} has mime type {other}; only image/png, image/jpeg and {DDS_MIME} are read"
-            )));
-        }
-        None => match reader.with_guessed_format() {
-            Ok(guessed) => reader = guessed,
-            Err(e) => return Ok(Err(format!("{label} cannot be read: {e}"))),
-        },
-    }
-    if !matches!(reader.format(), Some(ImageFormat::Png | ImageFormat::Jpeg)) {
-        return Ok(Err(format!("{label} is neither PNG, JPEG nor DDS")));
-    }
+    let mut reader = image.reader(format);
     let mut limits = Limits::default();
     limits.max_image_width = Some(MAX_IMAGE_SIZE);
     limits.max_image_height = Some(MAX_IMAGE_SIZE);
@@ -190,7 +299,7 @@ pub(super) fn decode(
     }
     let texels = decoded.into_rgba8().pixels().map(|p| p.0).collect();
     Ok(Ok(Decoded {
-        name,
+        name: image.name,
         width,
         height,
         pixels: Pixels::Rgba8(texels),

@@ -113,7 +113,14 @@ impl Textures {
                         .and_then(|i| self.images.get(&i))
                         .and_then(|d| d.as_ref().ok())
                 };
-                let texture = combine_split_maps(decoded(roughness_image), decoded(metallic_image));
+                let (roughness, metallic) = (decoded(roughness_image), decoded(metallic_image));
+                if let Some(budget) = &source.texel_budget {
+                    let (width, height) = combined_size(roughness, metallic);
+                    budget.charge(width, height, || {
+                        format!("{label}: the metallic-roughness texture combined from AMD_split_roughnessMetallic's maps ({width} x {height} texels)")
+                    })?;
+                }
+                let texture = combine_split_maps(roughness, metallic);
                 scene.textures.push(texture);
                 self.combined.insert(key, scene.textures.len() - 1);
                 scene.textures.len() - 1
@@ -268,15 +275,19 @@ fn dds_source(
         })
 }
 
+/// The size of the texture combined from `roughness` and `metallic`: the larger width and the
+/// larger height.
+fn combined_size(roughness: Option<&Decoded>, metallic: Option<&Decoded>) -> (u32, u32) {
+    let size = |d: Option<&Decoded>| d.map_or((0, 0), |d| (d.width, d.height));
+    let (r, m) = (size(roughness), size(metallic));
+    (r.0.max(m.0), r.1.max(m.1))
+}
+
 /// A metallic-roughness texture of `roughness`'s red channel in green and `metallic`'s red in
 /// blue (1 where a map is absent), at the larger of the two sizes; see
 /// [`Textures::split_metallic_roughness`].
 fn combine_split_maps(roughness: Option<&Decoded>, metallic: Option<&Decoded>) -> Texture {
-    let size = |d: Option<&Decoded>| d.map_or((0, 0), |d| (d.width, d.height));
-    let (width, height) = {
-        let (r, m) = (size(roughness), size(metallic));
-        (r.0.max(m.0), r.1.max(m.1))
-    };
+    let (width, height) = combined_size(roughness, metallic);
     let maps = [roughness, metallic].map(|d| d.map(|d| (d, d.texels(Role::Data))));
     let channel = |map: &Option<(&Decoded, Vec<[u8; 4]>)>, x: u32, y: u32| match map {
         Some((d, texels)) => {

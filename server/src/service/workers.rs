@@ -1,0 +1,323 @@
+//! The workers: the GPU worker and the CPU pool take jobs from their queues, render them,
+//! compare them with the reference and store their end.
+
+use std::{
+    sync::{
+        Arc,
+        atomic::{AtomicBool, Ordering},
+    },
+    time::Instant,
+};
+
+use super::{Comparing, CpuWork, Inner, Lane, STORE_RETRY, Service, lock, with_lighting};
+use crate::{
+    error::{ApiError, is_disk_full},
+    job::{IMAGE_FILES, JobFailure, JobRecord, JobSpec, JobState, Progress, now_rfc3339},
+    runner::{self, PreparedJob, TierOutput},
+};
+
+impl Service {
+    /// The GPU worker: one job at a time.
+    pub async fn gpu_worker(self: Arc<Self>) {
+        while let Some(id) = self.next_work(|inner| inner.gpu_queue.pop_front()).await {
+            self.run_tier(id, Lane::Gpu).await;
+        }
+    }
+
+    /// One worker of the CPU pool.
+    pub async fn cpu_worker(self: Arc<Self>) {
+        while let Some(work) = self.next_work(|inner| inner.cpu_queue.pop_front()).await {
+            match work {
+                CpuWork::Render(id) => self.run_tier(id, Lane::Cpu).await,
+                CpuWork::Compare(comparing) => self.run_compare(*comparing).await,
+            }
+        }
+    }
+
+    /// Waits for work taken by `take`; `None` once the service shuts down.
+    async fn next_work<T>(&self, take: impl Fn(&mut Inner) -> Option<T>) -> Option<T> {
+        loop {
+            // Registered before the queue is looked at, so a push in between still wakes us.
+            let notified = self.work_ready.notified();
+            if self.is_shutting_down() {
+                return None;
+            }
+            if let Some(work) = take(&mut lock(&self.inner)) {
+                return Some(work);
+            }
+            notified.await;
+        }
+    }
+
+    /// Marks job `id` running if it is still queued; its spec and cancel flag. `Err` when the
+    /// change could not be stored: the job is still queued.
+    async fn start(
+        self: &Arc<Self>,
+        id: u64,
+    ) -> std::io::Result<Option<(JobSpec, Arc<AtomicBool>)>> {
+        let started = self
+            .transition(id, |record| {
+                if record.state != JobState::Queued {
+                    return false;
+                }
+                record.attempts += 1;
+                record.started_at = Some(now_rfc3339());
+                record.state = JobState::Running;
+                true
+            })
+            .await?;
+        let Some(record) = started else {
+            return Ok(None);
+        };
+        self.set_progress(
+            id,
+            Progress {
+                stage: "starting",
+                done: 0,
+                total: 1,
+                fraction: 0.0,
+            },
+        );
+        let cancel = lock(&self.inner).jobs.get(&id).map(|e| e.cancel.clone());
+        Ok(cancel.map(|cancel| (record.spec, cancel)))
+    }
+
+    fn set_progress(&self, id: u64, progress: Progress) {
+        let mut inner = lock(&self.inner);
+        if let Some(entry) = inner.jobs.get_mut(&id)
+            && entry.record.state == JobState::Running
+        {
+            entry.progress = Some(progress);
+        }
+    }
+
+    /// Renders job `id`'s tier, then finishes it or hands it to the CPU pool to compare.
+    async fn run_tier(self: &Arc<Self>, id: u64, lane: Lane) {
+        let (spec, cancel) = match self.start(id).await {
+            Ok(Some(started)) => started,
+            Ok(None) => return, // cancelled while queued
+            Err(error) => {
+                // Still queued, on disk as in memory: it goes back to the front of its queue
+                // and this worker waits before it takes work again.
+                tracing::error!(job = id, "storing the job's start failed: {error}");
+                tokio::time::sleep(STORE_RETRY).await;
+                let mut inner = lock(&self.inner);
+                match lane {
+                    Lane::Gpu => inner.gpu_queue.push_front(id),
+                    Lane::Cpu => inner.cpu_queue.push_front(CpuWork::Render(id)),
+                }
+                drop(inner);
+                self.work_ready.notify_waiters();
+                return;
+            }
+        };
+        let prepared = match self.prepare(&spec).await {
+            Ok(prepared) => Arc::new(prepared),
+            Err(error) => return self.fail(id, error.code, error.message).await,
+        };
+        let service = self.clone();
+        let job = prepared.clone();
+        let share = if spec.compare { 0.5 } else { 1.0 };
+        let started = Instant::now();
+        let rendered = tokio::task::spawn_blocking(move || {
+            let stop = || cancel.load(Ordering::SeqCst) || service.is_shutting_down();
+            runner::render_tier(&job, &|p| service.set_progress(id, p), &stop, share)
+        })
+        .await;
+        let seconds = started.elapsed().as_secs_f64();
+        if lane == Lane::Gpu {
+            self.metrics.add_gpu_busy(seconds);
+        }
+        match rendered {
+            Err(panic) => {
+                self.fail(
+                    id,
+                    "internal",
+                    format!("the render failed unexpectedly: {panic}"),
+                )
+                .await
+            }
+            Ok(Err(message)) => self.fail(id, "render_failed", message).await,
+            Ok(Ok(None)) => self.stopped(id).await,
+            Ok(Ok(Some(output))) => {
+                self.metrics.add_render(&output.result.tier, seconds);
+                match spec.reference_spp {
+                    Some(reference_spp) => {
+                        // Ahead of new renders: this job already holds its tier's image.
+                        lock(&self.inner)
+                            .cpu_queue
+                            .push_front(CpuWork::Compare(Box::new(Comparing {
+                                id,
+                                job: prepared,
+                                output,
+                                reference_spp,
+                            })));
+                        self.work_ready.notify_waiters();
+                    }
+                    None => self.finish(id, &prepared, output, None).await,
+                }
+            }
+        }
+    }
+
+    async fn run_compare(self: &Arc<Self>, comparing: Comparing) {
+        let id = comparing.id;
+        let Some(cancel) = lock(&self.inner)
+            .jobs
+            .get(&id)
+            .filter(|e| e.record.state == JobState::Running)
+            .map(|e| e.cancel.clone())
+        else {
+            return; // cancelled while it waited
+        };
+        let service = self.clone();
+        let comparing = Arc::new(comparing);
+        let work = comparing.clone();
+        let compared = tokio::task::spawn_blocking(move || {
+            let stop = || cancel.load(Ordering::SeqCst) || service.is_shutting_down();
+            runner::compare(
+                &work.job,
+                &work.output,
+                work.reference_spp,
+                &service.references,
+                &|p| service.set_progress(id, p),
+                &stop,
+                0.5,
+            )
+        })
+        .await;
+        let Ok(comparing) = Arc::try_unwrap(comparing) else {
+            return self
+                .fail(id, "internal", "the comparison is still referenced")
+                .await;
+        };
+        match compared {
+            Err(panic) => {
+                self.fail(
+                    id,
+                    "internal",
+                    format!("the comparison failed unexpectedly: {panic}"),
+                )
+                .await
+            }
+            Ok(Err(message)) => self.fail(id, "compare_failed", message).await,
+            Ok(Ok(None)) => self.stopped(id).await,
+            Ok(Ok(Some(compared))) => {
+                if compared.comparison.reference_cached {
+                    self.metrics.reference_cache_hits.inc();
+                } else {
+                    self.metrics.reference_cache_misses.inc();
+                }
+                let mut output = comparing.output;
+                output.result.comparison = Some(compared.comparison);
+                let compared = (compared.reference, compared.flip);
+                self.finish(id, &comparing.job, output, Some(compared))
+                    .await
+            }
+        }
+    }
+
+    async fn prepare(self: &Arc<Self>, spec: &JobSpec) -> Result<PreparedJob, ApiError> {
+        let (plan, _) = self.plan(spec)?;
+        let source = self.catalog.resolve(&spec.scene)?;
+        let scene = with_lighting(self.load_scene(source).await?, spec)?;
+        let gpu_name = self.gpu.as_ref().map(|g| g.name.clone());
+        let spec = spec.clone();
+        tokio::task::spawn_blocking(move || runner::prepare(scene, &spec, plan, gpu_name))
+            .await
+            .map_err(|e| ApiError::internal(e.to_string()))?
+    }
+
+    /// Stores the images and result of a job that is still running (a cancelled job's are
+    /// dropped). Images that cannot be stored fail the job.
+    async fn finish(
+        self: &Arc<Self>,
+        id: u64,
+        job: &PreparedJob,
+        output: TierOutput,
+        compared: Option<(gi_image::Image, gi_image::Flip)>,
+    ) {
+        let dir = self.store.job_dir(id);
+        let writer = self.store.writer().clone();
+        let exposure = job.scene.exposure;
+        let TierOutput { image, result } = output;
+        let written = tokio::task::spawn_blocking(move || {
+            let compared = compared.as_ref().map(|(reference, flip)| (reference, flip));
+            let written = runner::write_images(&writer, &dir, exposure, &image, compared);
+            if written.is_err() {
+                // What did get written serves no one and takes the space a retry needs.
+                for file in IMAGE_FILES {
+                    let _ = std::fs::remove_file(dir.join(file));
+                }
+            }
+            written
+        })
+        .await
+        .map_err(std::io::Error::other)
+        .and_then(|r| r);
+        if let Err(error) = written {
+            let code = if is_disk_full(&error) {
+                "insufficient_storage"
+            } else {
+                "internal"
+            };
+            return self
+                .fail(id, code, format!("storing the images failed: {error}"))
+                .await;
+        }
+        self.transition_until_stored(id, move |record| {
+            if record.state != JobState::Running {
+                return false;
+            }
+            record.result = Some(result.clone());
+            record.finished_at = Some(now_rfc3339());
+            record.state = JobState::Done;
+            true
+        })
+        .await;
+    }
+
+    async fn fail(self: &Arc<Self>, id: u64, code: &str, message: impl Into<String>) {
+        let failure = JobFailure {
+            code: code.to_string(),
+            message: message.into(),
+        };
+        tracing::warn!(job = id, code, "job failed: {}", failure.message);
+        self.transition_until_stored(id, move |record| {
+            if record.state != JobState::Running {
+                return false;
+            }
+            record.failure = Some(failure.clone());
+            record.finished_at = Some(now_rfc3339());
+            record.state = JobState::Failed;
+            true
+        })
+        .await;
+    }
+
+    /// A render stopped before its end: by a cancellation (already recorded) or by the
+    /// shutdown, which puts the job back in the queue for the next start.
+    async fn stopped(self: &Arc<Self>, id: u64) {
+        match self.transition(id, requeue_stopped).await {
+            Ok(Some(_)) => tracing::info!(
+                job = id,
+                "stopped by the shutdown; it runs again after the restart"
+            ),
+            Ok(None) => {}
+            // The record says running: the next start counts this start and runs it again.
+            Err(error) => tracing::error!(job = id, "storing the job failed: {error}"),
+        }
+    }
+}
+
+/// The change of a running job stopped by the shutdown: back to the queue, the start not
+/// counted (the job never got to finish through no fault of its own).
+pub(super) fn requeue_stopped(record: &mut JobRecord) -> bool {
+    if record.state != JobState::Running {
+        return false;
+    }
+    record.attempts = record.attempts.saturating_sub(1);
+    record.started_at = None;
+    record.state = JobState::Queued;
+    true
+}
