@@ -140,7 +140,7 @@ fn suite_measures_every_tier_and_flags_regressions() {
         .iter_mut()
         .find(|c| c["tier"] == "direct")
         .unwrap();
-    for (metric, factor) in [("rmse_srgb8", 0.1), ("ms_per_frame", 1e-6)] {
+    for (metric, factor) in [("rmse_srgb8", 0.1), ("flip", 0.1), ("ms_per_frame", 1e-6)] {
         let mean = direct[metric]["mean"].as_f64().unwrap();
         direct[metric]["mean"] = (mean * factor).into();
         direct[metric]["sd"] = 0.0.into();
@@ -167,6 +167,14 @@ fn suite_measures_every_tier_and_flags_regressions() {
             .unwrap()
             .iter()
             .any(|f| f["tier"] == "direct" && f["metric"] == "rmse_srgb8"),
+        "{flagged}"
+    );
+    assert!(
+        flagged
+            .as_array()
+            .unwrap()
+            .iter()
+            .any(|f| f["tier"] == "direct" && f["metric"] == "flip"),
         "{flagged}"
     );
     assert!(

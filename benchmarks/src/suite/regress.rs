@@ -2,8 +2,9 @@
 //!
 //! A metric of a (scene, tier) regressed when it got worse by more than the run-to-run spread
 //! both runs measured: with mean m and sample standard deviation s over each run's repeats,
-//! `m_new - m_old > 3 * sqrt(s_old^2 + s_new^2)` for `rmse_srgb8` and `ms_per_frame` (3 standard
-//! deviations of the difference of two means; lower is better for both), and any increase of
+//! `m_new - m_old > 3 * sqrt(s_old^2 + s_new^2)` for `rmse_srgb8`, `flip` and `ms_per_frame` (3
+//! standard deviations of the difference of two means; lower is better for all), and any
+//! increase of
 //! `memory_bytes` (deterministic: a tier's allocations do not vary between runs). A metric
 //! without a spread on either side (a run with one repeat) is not compared: without one, noise
 //! cannot be told from a change.
@@ -17,7 +18,7 @@ pub const SIGMAS: f64 = 3.0;
 
 /// The rule, as results.md and results.json state it.
 pub const RULE: &str = "a metric regressed when new_mean - old_mean > 3 * sqrt(sd_old^2 + \
-    sd_new^2) (sample standard deviations over each run's repeats) for rmse_srgb8 and \
+    sd_new^2) (sample standard deviations over each run's repeats) for rmse_srgb8, flip and \
     ms_per_frame, and on any increase of memory_bytes (deterministic); metrics without a \
     spread on either side (one repeat) are not compared";
 
@@ -43,7 +44,7 @@ pub struct Comparison {
 pub struct Regression {
     pub scene: String,
     pub tier: String,
-    /// `rmse_srgb8`, `ms_per_frame` or `memory_bytes`.
+    /// `rmse_srgb8`, `flip`, `ms_per_frame` or `memory_bytes`.
     pub metric: String,
     pub old_mean: f64,
     pub old_sd: Option<f64>,
@@ -127,8 +128,9 @@ pub fn compare(baseline_path: &str, old: &Results, new: &Results) -> Comparison 
             ));
             continue;
         };
-        let metrics: [Metric; 3] = [
+        let metrics: [Metric; 4] = [
             ("rmse_srgb8", |c| c.rmse_srgb8.as_ref(), false),
+            ("flip", |c| c.flip.as_ref(), false),
             ("ms_per_frame", |c| c.ms_per_frame.as_ref(), false),
             ("memory_bytes", |c| c.memory_bytes.as_ref(), true),
         ];
