@@ -316,6 +316,10 @@ enum Command {
         /// Skip the flicker cases: only the settle case and its cost.
         #[arg(long)]
         no_flicker: bool,
+        /// The PC denoiser's short-history clamp (`DenoiseConfig::short_clamp_sigma`; 0: off,
+        /// the default). Only the PC tier reads it.
+        #[arg(long)]
+        pc_short_clamp_sigma: Option<f32>,
         /// Frames rendered after the light turns.
         #[arg(long, default_value_t = 160)]
         settle_frames: u32,
@@ -549,6 +553,7 @@ fn main() -> anyhow::Result<()> {
             change,
             light_turn_deg,
             no_flicker,
+            pc_short_clamp_sigma,
             settle_frames,
             converged_frames,
             settle_k,
@@ -578,6 +583,14 @@ fn main() -> anyhow::Result<()> {
                 change,
                 light_turn_deg,
                 flicker: !no_flicker,
+                pc_config: {
+                    let mut config = gi_tiers::PcConfig::default();
+                    if let Some(sigma) = pc_short_clamp_sigma {
+                        config.denoise.short_clamp_sigma = sigma;
+                    }
+                    config.validate().map_err(anyhow::Error::msg)?;
+                    config
+                },
                 settle_frames,
                 converged_frames,
                 settle_k,

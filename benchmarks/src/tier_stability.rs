@@ -75,6 +75,8 @@ pub struct StabilityOptions {
     pub light_turn_deg: f32,
     /// Run the flicker cases (off: the settle and cost cases only).
     pub flicker: bool,
+    /// The PC tier's configuration (its runs only).
+    pub pc_config: PcConfig,
     /// Frames rendered after the light turns.
     pub settle_frames: u32,
     /// The last frames, whose mean is the converged value.
@@ -233,12 +235,13 @@ impl Variant {
     fn renderer(
         self,
         scene: &gi_scene::Scene,
-        size: (u32, u32),
+        options: &StabilityOptions,
         camera: CameraMode,
     ) -> anyhow::Result<Renderer> {
+        let size = options.size;
         match self {
             Variant::Mobile(mode) => mobile_renderer(scene.clone(), size, mode, camera),
-            Variant::Pc => pc_renderer(scene.clone(), size, PcConfig::default(), camera),
+            Variant::Pc => pc_renderer(scene.clone(), size, options.pc_config.clone(), camera),
         }
     }
 }
@@ -281,8 +284,7 @@ pub fn run(options: &StabilityOptions) -> anyhow::Result<StabilityReport> {
     anyhow::ensure!(!options.variants.is_empty(), "nothing to measure");
     let mut runs = Vec::new();
     for &variant in &options.variants {
-        let renderer =
-            |scene: &gi_scene::Scene, camera| variant.renderer(scene, options.size, camera);
+        let renderer = |scene: &gi_scene::Scene, camera| variant.renderer(scene, options, camera);
         let flicker = if !options.flicker {
             Vec::new()
         } else {

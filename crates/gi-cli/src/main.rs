@@ -147,6 +147,12 @@ pub struct ViewArgs {
     /// it.
     #[arg(long, value_name = "FROM", value_parser = parse_hit_lights)]
     pc_hit_lights: Option<HitLights>,
+    /// Half-width, in standard deviations of the noisy input's 3 x 3 neighbourhood, of the box
+    /// the PC denoiser clamps its short history into before each blend (0: off, the default):
+    /// the history then follows a lighting change within a frame or two. Only the PC tier
+    /// reads it.
+    #[arg(long, value_name = "SIGMA")]
+    pc_short_clamp_sigma: Option<f32>,
     /// Bricks the brick cache's pool holds (default 12288, about 2.8 KB each). A scene whose
     /// geometry needs more (the cache warns) loses its farthest bricks from the GI. Only the
     /// mobile and PC tiers read it.
@@ -210,7 +216,8 @@ impl ViewArgs {
 impl ViewArgs {
     /// The PC tier's configuration from `--pc-without` or `--pc-with`, `--pc-trace-scale`,
     /// `--pc-specular-roughness`, `--pc-specular-diffuse-from`, `--pc-trace-mode`,
-    /// `--pc-atrous-kernel`, `--pc-atrous-iterations` and `--pc-hit-lights`.
+    /// `--pc-atrous-kernel`, `--pc-atrous-iterations`, `--pc-hit-lights` and
+    /// `--pc-short-clamp-sigma`.
     fn pc_config(&self) -> anyhow::Result<PcConfig> {
         let mut config = match (&self.pc_without, &self.pc_with) {
             (Some(stage), _) => PcConfig::without(stage).map_err(anyhow::Error::msg)?,
@@ -237,6 +244,9 @@ impl ViewArgs {
         }
         if let Some(hit_lights) = self.pc_hit_lights {
             config.hit_lights = hit_lights;
+        }
+        if let Some(sigma) = self.pc_short_clamp_sigma {
+            config.denoise.short_clamp_sigma = sigma;
         }
         if let Some(bricks) = self.cache_pool_bricks {
             config.cache.pool_bricks = bricks;

@@ -169,6 +169,13 @@ fn configs() -> Vec<(String, DenoiseConfig)> {
         ));
     }
     configs.push((
+        "short history clamp".to_owned(),
+        DenoiseConfig {
+            short_clamp_sigma: 2.0,
+            ..DenoiseConfig::default()
+        },
+    ));
+    configs.push((
         "SVGF's feedback".to_owned(),
         DenoiseConfig {
             feedback: true,
@@ -199,7 +206,7 @@ fn uniforms_match_their_wgsl_layout() {
         depth_sigma,
         luminance_sigma,
         feedback,
-        pad,
+        short_clamp_sigma,
     });
     assert_eq!(wgsl.members, rust);
     assert_eq!(wgsl.size as usize, size_of::<DenoiseUniforms>());
@@ -562,6 +569,70 @@ fn a_lighting_change_is_followed_as_fast_as_the_short_history() {
             "frame {k}: {left} of the old value left"
         );
     }
+}
+
+/// A light switched off under noise (multiplicative, +-50% uniform): the image mean falls from
+/// 1 to 0.1. Without the short history's clamp the history follows at its blend rate (after 4
+/// frames about 0.9^4 = 66% of the change is left); with it, the reprojected short history
+/// lands in the noisy neighbourhood's box at once, so within 4 frames at most a tenth of the
+/// change is left. Then, held still for 60 frames, the clamped history must still smooth: the
+/// output's noise stays within twice the unclamped one's. (The mean then still lies a few
+/// percent above the new value in both: the long history, clamped into the short one's box,
+/// leaves it from its edge at `1 / long_history` a frame.)
+#[test]
+fn the_short_history_clamp_follows_a_light_switched_off() {
+    let Some(ctx) = GpuContext::new_or_skip("the_short_history_clamp_follows_a_light_switched_off")
+    else {
+        return;
+    };
+    let mut harness = Harness::new(ctx);
+    let (before, after) = (1.0f32, 0.1f32);
+    let mut left_after_4 = Vec::new();
+    let mut sigma_still = Vec::new();
+    for short_clamp_sigma in [0.0, 2.0] {
+        let config = DenoiseConfig {
+            short_clamp_sigma,
+            ..DenoiseConfig::default()
+        };
+        let mut rng = Pcg32::new(41, 0x0a02_bdbf_7bb3_c0a7);
+        harness.denoiser.reset_history();
+        let noisy = |rng: &mut Pcg32, value: f32| {
+            let mut frame = Frame::flat([value; 3], 2.0, Vec3::Z);
+            frame.add_noise(rng, 0.5);
+            frame
+        };
+        for _ in 0..60 {
+            harness.run(&noisy(&mut rng, before), &config);
+        }
+        let mut output = Vec::new();
+        for _ in 0..4 {
+            output = harness.run(&noisy(&mut rng, after), &config);
+        }
+        let (mean, _) = stats(&output, 1, |_| true);
+        left_after_4.push((mean - f64::from(after)) / f64::from(before - after));
+        for _ in 0..60 {
+            output = harness.run(&noisy(&mut rng, after), &config);
+        }
+        let (mean, sigma) = stats(&output, 1, |_| true);
+        sigma_still.push(sigma);
+        eprintln!(
+            "short_clamp_sigma {short_clamp_sigma}: {:.3} of the change left after 4 frames; \
+             still: mean {mean:.4}, sigma {sigma:.5}",
+            left_after_4.last().unwrap()
+        );
+    }
+    assert!(
+        left_after_4[0] > 0.5,
+        "without the clamp: {}",
+        left_after_4[0]
+    );
+    assert!(left_after_4[1] < 0.1, "with the clamp: {}", left_after_4[1]);
+    assert!(
+        sigma_still[1] < 2.0 * sigma_still[0],
+        "the clamp's noise {} against {}",
+        sigma_still[1],
+        sigma_still[0]
+    );
 }
 
 #[test]

@@ -55,7 +55,9 @@ struct DenoiseUniforms {
     luminance_sigma: f32,
     // 1: the first a-trous iteration's color becomes the long history (SVGF's feedback).
     feedback: u32,
-    pad: u32,
+    // Half-width of the short history's clamp box in sigmas of the noisy 3 x 3 neighbourhood
+    // (0: off).
+    short_clamp_sigma: f32,
 }
 
 // Group 0.

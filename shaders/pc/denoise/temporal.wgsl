@@ -2,7 +2,9 @@
 //
 //   temporal_short  reproject the histories once (bilinear 2 x 2 taps through the motion
 //                   vector, each tap kept only if its previous depth and normal agree with
-//                   this pixel's): blend this frame's noisy irradiance into the short history
+//                   this pixel's): with `short_clamp_sigma`, clamp the short history into
+//                   mean +- short_clamp_sigma sigma of the noisy input's 3 x 3 neighbourhood;
+//                   blend this frame's noisy irradiance into the short history
 //                   with alpha = max(1 / (age + 1), 1 / short_history), and leave the
 //                   reprojected long history (color, luminance moments, age) in `output`;
 //   temporal        clamp the reprojected long color into mean +- clamp_sigma sigma of this
@@ -130,7 +132,13 @@ fn temporal_short(@builtin(global_invocation_id) id: vec3<u32>) {
         }
         previous_age = previous_long.w / total;
         let alpha = max(1.0 / (previous_age + 1.0), 1.0 / f32(uniforms.short_history));
-        short_color = mix(previous_short / total, x, alpha);
+        var reprojected_short = previous_short / total;
+        if uniforms.short_clamp_sigma > 0.0 {
+            let box = noisy_neighbourhood(pixel);
+            let half_width = uniforms.short_clamp_sigma * box.sigma;
+            reprojected_short = clamp(reprojected_short, box.mean - half_width, box.mean + half_width);
+        }
+        short_color = mix(reprojected_short, x, alpha);
         long.valid = true;
         long.color = previous_long.rgb / total;
         long.moments = previous_moments / total;
@@ -144,6 +152,29 @@ fn temporal_short(@builtin(global_invocation_id) id: vec3<u32>) {
 struct ColorBox {
     mean: vec3<f32>,
     sigma: vec3<f32>,
+}
+
+// Mean and standard deviation, per channel, of this frame's noisy input over the 3 x 3
+// neighbourhood of `pixel` (sky left out; the pixel itself is not sky).
+fn noisy_neighbourhood(pixel: vec2<i32>) -> ColorBox {
+    var sum = vec3(0.0);
+    var sum_sq = vec3(0.0);
+    var count = 0.0;
+    for (var dy = -1; dy <= 1; dy++) {
+        for (var dx = -1; dx <= 1; dx++) {
+            let q = pixel + vec2(dx, dy);
+            if is_sky(depth_at(q)) {
+                continue;
+            }
+            let s = noisy[pixel_index(q)].rgb;
+            sum += s;
+            sum_sq += s * s;
+            count += 1.0;
+        }
+    }
+    let mean = sum / count;
+    let sigma = sqrt(max(sum_sq / count - mean * mean, vec3(0.0)));
+    return ColorBox(mean, sigma);
 }
 
 // Mean and standard deviation, per channel, of this frame's short history over the 5 x 5

@@ -140,6 +140,16 @@ pub struct DenoiseConfig {
     /// Half-width of the clamp box in standard deviations of the short history's 5 x 5
     /// neighbourhood: lower rejects stale history sooner and lets less of its smoothing through.
     pub clamp_sigma: f32,
+    /// Half-width, in standard deviations of this frame's noisy input over the 3 x 3
+    /// neighbourhood, of the box the reprojected short history is clamped into before the
+    /// blend (0: no clamp). The short history otherwise follows a lighting change at its
+    /// blend rate only (`1 / short_history` a frame: two thirds of a switched-off light's
+    /// bounce still shows after 4 frames), and the long history follows the short one. Off by
+    /// default: on the H100 at 1080p (2026-11-27, `benchmarks/results/h100-2026-11-27-short-clamp/`)
+    /// 2 left 46% of a switched-off sun's bounce after 4 frames on atrium instead of 77%, but
+    /// raised every scene's error (thin-wall rmse_srgb8 24.82 against 17.99, Sponza 7.65
+    /// against 6.36) and the still-camera flicker (1.24% against 0.95%).
+    pub short_clamp_sigma: f32,
     /// Relative depth difference a reprojected tap may have (plus the depth's change across a
     /// pixel): higher keeps history on sloped surfaces and in motion, and ghosts more at edges.
     pub reprojection_depth_tolerance: f32,
@@ -173,6 +183,7 @@ impl Default for DenoiseConfig {
             long_history: 50,
             short_history: 10,
             clamp_sigma: 1.5,
+            short_clamp_sigma: 0.0,
             reprojection_depth_tolerance: 0.05,
             reprojection_normal_cos: 0.9,
             normal_power: 128.0,
@@ -215,6 +226,12 @@ impl DenoiseConfig {
                 return Err(format!("{name} = {value}: must be finite and positive"));
             }
         }
+        if !(self.short_clamp_sigma.is_finite() && self.short_clamp_sigma >= 0.0) {
+            return Err(format!(
+                "short_clamp_sigma = {}: must be finite and non-negative",
+                self.short_clamp_sigma
+            ));
+        }
         if !(self.normal_power.is_finite() && self.normal_power >= 0.0) {
             return Err(format!(
                 "normal_power = {}: must be finite and non-negative",
@@ -255,7 +272,8 @@ pub struct DenoiseUniforms {
     /// 1: the first a-trous iteration's color becomes the long history
     /// ([`DenoiseConfig::feedback`]).
     pub feedback: u32,
-    pub pad: u32,
+    /// [`DenoiseConfig::short_clamp_sigma`]; 0: off.
+    pub short_clamp_sigma: f32,
 }
 
 impl DenoiseUniforms {
@@ -276,7 +294,7 @@ impl DenoiseUniforms {
             depth_sigma: config.depth_sigma,
             luminance_sigma: config.luminance_sigma,
             feedback: u32::from(config.feedback),
-            pad: 0,
+            short_clamp_sigma: config.short_clamp_sigma,
         }
     }
 }
