@@ -90,6 +90,62 @@ pub fn unpack_rgb9e5(packed: u32) -> Vec3 {
     ) * scale
 }
 
+/// `gi::packing::half_bits`: the f16 bits of `x` (rounded to nearest, ties to even; beyond
+/// the largest f16 clamped to it).
+pub fn half_bits(x: f32) -> u32 {
+    const F16_MAX: f32 = 65504.0;
+    let sign = (x.to_bits() >> 16) & 0x8000;
+    let a = x.abs().min(F16_MAX);
+    if a < 6.103_515_6e-5 {
+        return sign | (a * 16_777_216.0).round_ties_even() as u32;
+    }
+    let rebiased = a.to_bits() - (112 << 23);
+    sign | ((rebiased + 0xfff + ((rebiased >> 13) & 1)) >> 13)
+}
+
+/// `gi::packing::half_value`: the f32 value of f16 bits.
+pub fn half_value(h: u32) -> f32 {
+    let sign = (h & 0x8000) << 16;
+    let exponent = (h >> 10) & 0x1f;
+    let mantissa = h & 0x3ff;
+    if exponent == 0 {
+        return f32::from_bits(sign | (mantissa as f32 * 5.960_464_5e-8).to_bits());
+    }
+    f32::from_bits(sign | ((exponent + 112) << 23) | (mantissa << 13))
+}
+
+/// `gi::packing::pack_color64`: non-negative rgb (16-bit mantissas sharing a 5-bit exponent,
+/// channels clamped to 65535) and a non-negative value (an f16 cut to 6 mantissa bits).
+pub fn pack_color64(rgb: Vec3, value: f32) -> [u32; 2] {
+    let c = rgb.clamp(Vec3::ZERO, Vec3::splat(65535.0));
+    let largest = c.max_element();
+    let power_of_two = |e: i32| f32::from_bits(((e + 127) as u32) << 23);
+    let mut exponent = ((largest.to_bits() >> 23) as i32 - 127).max(-16) + 16;
+    if (largest * power_of_two(31 - exponent)).round_ties_even() >= 65536.0 {
+        exponent += 1;
+    }
+    let m = (c * power_of_two(31 - exponent))
+        .to_array()
+        .map(|e| e.round_ties_even() as u32);
+    let short_half = (half_bits(value.max(0.0)) + 8) >> 4;
+    [
+        m[0] | (m[1] << 16),
+        m[2] | ((exponent as u32) << 16) | (short_half << 21),
+    ]
+}
+
+/// `gi::packing::unpack_color64`: rgb and the value.
+pub fn unpack_color64(packed: [u32; 2]) -> Vec4 {
+    let m = Vec3::new(
+        (packed[0] & 0xffff) as f32,
+        (packed[0] >> 16) as f32,
+        (packed[1] & 0xffff) as f32,
+    );
+    let exponent = ((packed[1] >> 16) & 0x1f) as i32;
+    let scale = f32::from_bits(((exponent - 31 + 127) as u32) << 23);
+    (m * scale).extend(half_value((packed[1] >> 21) << 4))
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -104,5 +160,28 @@ mod tests {
         assert_eq!(pack_rgb9e5(Vec3::ZERO) & 0x7ff_ffff, 0);
         let c = Vec4::new(0.725, 0.71, 0.68, 1.0);
         assert!((unpack4x8unorm(pack4x8unorm(c)) - c).abs().max_element() <= 0.5 / 255.0);
+        for (rgb, value) in [
+            (Vec3::new(17.0, 12.0, 4.0), 3.0),
+            (Vec3::new(1e-3, 2.5e-4, 0.0), 0.0),
+            (Vec3::new(6e4, 1.0, 1e-6), 200.0),
+        ] {
+            let back = unpack_color64(pack_color64(rgb, value));
+            let largest = rgb.max_element();
+            assert!(
+                (back.truncate() - rgb).abs().max_element() <= largest * 2f32.powi(-16),
+                "{rgb} {back}"
+            );
+            assert!(
+                (back.w - value).abs() <= value * 2f32.powi(-7),
+                "{value} {back}"
+            );
+        }
+        for x in [0.0f32, 1.0, 0.1, 3.0e-6, 65504.0, 1e6] {
+            let h = half_value(half_bits(x));
+            assert!(
+                (h - x.min(65504.0)).abs() <= x * 2f32.powi(-11) + 6e-8,
+                "{x} {h}"
+            );
+        }
     }
 }

@@ -181,3 +181,19 @@ pub(crate) fn read_image(ctx: &GpuContext, buffer: &wgpu::Buffer, size: (u32, u3
         pixels: texels.iter().map(|t| Vec3::from_slice(t)).collect(),
     }
 }
+
+/// An image of `size` read back from a buffer of `pack_color64` pixels (stalls the GPU).
+pub(crate) fn read_packed_image(
+    ctx: &GpuContext,
+    buffer: &wgpu::Buffer,
+    size: (u32, u32),
+) -> Image {
+    let texels: Vec<[u32; 2]> = ctx.read_buffer(buffer);
+    Image {
+        width: size.0,
+        height: size.1,
+        pixels: (texels.iter())
+            .map(|&t| gi_cache::packing::unpack_color64(t).truncate())
+            .collect(),
+    }
+}

@@ -61,7 +61,8 @@ struct DenoiseUniforms {
 }
 
 // Group 0.
-@group(0) @binding(0) var<storage, read> noisy: array<vec4<f32>>;
+// Noisy demodulated irradiance, `pack_color64` (rgb; the value unused): read through `noisy_at`.
+@group(0) @binding(0) var<storage, read> noisy: array<vec2<u32>>;
 @group(0) @binding(1) var<storage, read> depth: array<f32>;
 @group(0) @binding(2) var<storage, read> normal: array<u32>;
 @group(0) @binding(3) var<storage, read> motion: array<vec2<f32>>;
@@ -92,6 +93,11 @@ struct DenoiseUniforms {
 // ---------------------------------------------------------------------------------------------
 // Packed histories and filter buffers
 // ---------------------------------------------------------------------------------------------
+
+// This frame's noisy irradiance at pixel `index`.
+fn noisy_at(index: u32) -> vec3<f32> {
+    return unpack_color64(noisy[index]).rgb;
+}
 
 // Long history of pixel `index`: rgb and age.
 fn load_history(index: u32) -> vec4<f32> {

@@ -19,7 +19,7 @@
 #import gi::packing::{unpack_unit_vector, pack_rgb9e5, unpack_rgb9e5, pack_half2, unpack_half2, pack_color64, unpack_color64}
 #import gi::math::luminance
 #import gi::pc::denoise::{
-    noisy, depth, normal, motion, previous_depth, previous_normal, short_in, short_out, output,
+    noisy_at, depth, normal, motion, previous_depth, previous_normal, short_in, short_out, output,
     uniforms, load_history, store_history, load_moments, store_moments, store_filter, is_sky,
     pixel_index, inside, depth_at, depth_derivative, TEMPORAL_WRITE
 }
@@ -107,7 +107,7 @@ fn temporal_short(@builtin(global_invocation_id) id: vec3<u32>) {
     }
     let pixel = vec2<i32>(id.xy);
     let index = pixel_index(pixel);
-    let x = noisy[index].rgb;
+    let x = noisy_at(index);
     let z = depth[index];
     var long = Reprojected(false, vec3(0.0), 0.0, vec2(0.0));
     if is_sky(z) {
@@ -166,7 +166,7 @@ fn noisy_neighbourhood(pixel: vec2<i32>) -> ColorBox {
             if is_sky(depth_at(q)) {
                 continue;
             }
-            let s = noisy[pixel_index(q)].rgb;
+            let s = noisy_at(pixel_index(q));
             sum += s;
             sum_sq += s * s;
             count += 1.0;
@@ -207,7 +207,7 @@ fn temporal(@builtin(global_invocation_id) id: vec3<u32>) {
     }
     let pixel = vec2<i32>(id.xy);
     let index = pixel_index(pixel);
-    let x = noisy[index].rgb;
+    let x = noisy_at(index);
     let z = depth[index];
     let l = luminance(x);
     // Only this pixel reads its reprojection, so its filter data may replace it.

@@ -6,8 +6,10 @@
 // A unit test checks the names and accesses against the Rust list.
 #define_import_path gi::pc::restir::bindings
 
-#import gi::camera::camera_ray
-#import gi::pc::restir::common::{uniforms, Surface, Reservoir, SpecularSample, specular_kind}
+#import gi::pc::restir::common::{
+    uniforms, Surface, StoredSurface, Reservoir, SpecularSample, specular_kind, pixel_point,
+    surface_seen_by
+}
 
 @group(0) @binding(8) var<storage, read> gbuffer_depth: array<f32>;
 @group(0) @binding(9) var<storage, read> gbuffer_normal: array<u32>;
@@ -15,8 +17,8 @@
 @group(0) @binding(11) var<storage, read> gbuffer_metallic_roughness: array<vec2<f32>>;
 @group(0) @binding(12) var<storage, read> gbuffer_motion: array<vec2<f32>>;
 // Per trace pixel: this frame's receivers and the previous frame's.
-@group(0) @binding(13) var<storage, read> surfaces: array<Surface>;
-@group(0) @binding(14) var<storage, read> surfaces_prev: array<Surface>;
+@group(0) @binding(13) var<storage, read> surfaces: array<StoredSurface>;
+@group(0) @binding(14) var<storage, read> surfaces_prev: array<StoredSurface>;
 @group(0) @binding(15) var<storage, read> initial: array<Reservoir>;
 // Per trace pixel: this frame's temporal reservoirs (the next frame's history) and the
 // previous frame's; the resolved reservoirs, which `spatial` writes and the shadow pass
@@ -24,9 +26,9 @@
 @group(0) @binding(16) var<storage, read_write> temporal_out: array<Reservoir>;
 @group(0) @binding(17) var<storage, read> temporal_prev: array<Reservoir>;
 @group(0) @binding(18) var<storage, read_write> resolved: array<Reservoir>;
-// Per pixel: the multi-sample shading's irradiance (rgb), the denoised one, the direct light's
-// running mean, the output image.
-@group(0) @binding(19) var<storage, read_write> irradiance: array<vec4<f32>>;
+// Per pixel: the multi-sample shading's irradiance (rgb, `pack_color64`), the denoised one,
+// the direct light's running mean, the output image.
+@group(0) @binding(19) var<storage, read_write> irradiance: array<vec2<u32>>;
 @group(0) @binding(20) var<storage, read> denoised: array<vec4<f32>>;
 @group(0) @binding(21) var<storage, read> direct_mean: array<vec4<f32>>;
 @group(0) @binding(22) var<storage, read_write> output: array<vec4<f32>>;
@@ -36,14 +38,18 @@
 // of rough pixels; `specular_resolve` the traced radiance of smooth ones) and the history of
 // either (`specular_temporal`).
 @group(0) @binding(24) var<storage, read_write> specular_noisy: array<vec2<u32>>;
-// Per pixel: radiance and history length (`pack_color64`), the surface's distance from the
-// camera (f32 bits) and its packed normal; this frame's and the previous frame's.
-@group(0) @binding(25) var<storage, read_write> specular_history: array<vec4<u32>>;
-@group(0) @binding(26) var<storage, read> specular_history_prev: array<vec4<u32>>;
+// Per pixel: radiance or ratio and history length (`pack_specular_history`); this frame's and
+// the previous frame's.
+@group(0) @binding(25) var<storage, read_write> specular_history: array<vec2<u32>>;
+@group(0) @binding(26) var<storage, read> specular_history_prev: array<vec2<u32>>;
 // Per pixel: the G-buffer's emission and, in w, the material's occlusion factor.
 @group(0) @binding(27) var<storage, read> gbuffer_emissive: array<vec4<f32>>;
 // Per pixel with FLAG_BLEND_LAYER: the nearest blended surface in front (`gbuffer.blend_layer`).
 @group(0) @binding(28) var<storage, read> gbuffer_blend_layer: array<vec4<f32>>;
+// Per pixel: the previous frame's G-buffer depth and normal (the denoiser's copies), which the
+// specular history's surface is checked against.
+@group(0) @binding(29) var<storage, read> previous_depth: array<f32>;
+@group(0) @binding(30) var<storage, read> previous_normal: array<u32>;
 
 // Row-major index of trace pixel `t`.
 fn trace_index(t: vec2<u32>) -> u32 {
@@ -57,6 +63,15 @@ fn kind_of(pixel: u32, depth: f32) -> u32 {
 
 // The point pixel `p` shows at G-buffer depth `depth` (distance along its camera ray).
 fn world_position(p: vec2<u32>, depth: f32) -> vec3<f32> {
-    let uv = (vec2<f32>(p) + 0.5) / vec2<f32>(uniforms.size_px);
-    return uniforms.camera.position + camera_ray(uniforms.camera, uv) * depth;
+    return pixel_point(uniforms.camera, p, depth);
+}
+
+// This frame's receiver of trace pixel `index`.
+fn load_surface(index: u32) -> Surface {
+    return surface_seen_by(surfaces[index], uniforms.camera);
+}
+
+// The previous frame's receiver of trace pixel `index`.
+fn load_surface_prev(index: u32) -> Surface {
+    return surface_seen_by(surfaces_prev[index], uniforms.previous_camera);
 }

@@ -9,10 +9,10 @@
 // `p(y) = luminance(L(y)) cos(n_x, y - x)`, the irradiance integrand without colour.
 #define_import_path gi::pc::restir::common
 
-#import gi::camera::Camera
+#import gi::camera::{Camera, camera_ray}
 #import gi::math::luminance
 #import gi::sky::Sky
-#import gi::packing::{unpack_unit_vector, unpack_rgb9e5}
+#import gi::packing::{unpack_unit_vector, unpack_rgb9e5, pack_color64, unpack_color64}
 
 // Bits of `PcUniforms::flags`.
 const FLAG_TEMPORAL: u32 = 1u;
@@ -106,8 +106,38 @@ struct Surface {
     pixel: u32,
     // Its G-buffer depth (distance along its camera ray).
     depth: f32,
-    pad_a: u32,
-    pad_b: u32,
+}
+
+// Mirror of `gi_tiers::pc::GpuSurface`, 12 bytes: a `Surface` as the surface buffers keep it,
+// without its position, which `surface_seen_by` computes again from the pixel and the depth
+// with the camera of the frame that picked it, as `trace` computed it (`pixel_point`).
+struct StoredSurface {
+    // The pixel's column and row (x | y << 16; sides are at most 16384): no division to find
+    // them again.
+    pixel_xy: u32,
+    depth: f32,
+    normal: u32,
+}
+
+// The point pixel `p` shows at depth `depth` (distance along its ray) through `camera`.
+fn pixel_point(camera: Camera, p: vec2<u32>, depth: f32) -> vec3<f32> {
+    let uv = (vec2<f32>(p) + 0.5) / vec2<f32>(uniforms.size_px);
+    return camera.position + camera_ray(camera, uv) * depth;
+}
+
+fn stored_surface(s: Surface) -> StoredSurface {
+    let width = uniforms.size_px.x;
+    return StoredSurface((s.pixel % width) | ((s.pixel / width) << 16u), s.depth, s.normal);
+}
+
+// The receiver `s` keeps, picked in a frame rendered through `camera`.
+fn surface_seen_by(s: StoredSurface, camera: Camera) -> Surface {
+    let p = vec2(s.pixel_xy & 0xffffu, s.pixel_xy >> 16u);
+    let pixel = p.y * uniforms.size_px.x + p.x;
+    if s.depth <= 0.0 {
+        return Surface(vec3(0.0), s.normal, pixel, s.depth);
+    }
+    return Surface(pixel_point(camera, p, s.depth), s.normal, pixel, s.depth);
 }
 
 // Mirror of `gi_tiers::pc::GpuReservoir`, 48 bytes.
@@ -145,6 +175,29 @@ struct SpecularSample {
     // Radiance arriving along the ray.
     radiance: vec3<f32>,
     flags: u32,
+}
+
+// A pixel's specular history (`pc/restir/specular_temporal.wgsl`): the averaged radiance of
+// traced rays or ratio of reused diffuse samples, the frames it averages (0: none) and which
+// of the two it is.
+struct SpecularHistory {
+    value: vec3<f32>,
+    length: f32,
+    reused: bool,
+}
+
+// A reused ratio's length is stored divided by this, below 1, where a traced radiance's
+// length (at most 256 frames) is at least 1: the kind costs no bits of its own.
+const REUSED_LENGTH_SCALE: f32 = 512.0;
+
+fn pack_specular_history(value: vec3<f32>, length: f32, reused: bool) -> vec2<u32> {
+    return pack_color64(value, select(length, length / REUSED_LENGTH_SCALE, reused));
+}
+
+fn unpack_specular_history(packed: vec2<u32>) -> SpecularHistory {
+    let h = unpack_color64(packed);
+    let reused = h.w < 1.0;
+    return SpecularHistory(h.xyz, select(h.w, h.w * REUSED_LENGTH_SCALE, reused), reused);
 }
 
 fn empty_reservoir() -> Reservoir {

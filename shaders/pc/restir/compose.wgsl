@@ -12,7 +12,7 @@
 #import gi::math::INV_PI
 #import gi::brdf::{gbuffer_brdf, brdf_split_sum_albedos}
 #import gi::camera::camera_ray
-#import gi::packing::{unpack_unit_vector, unpack_color64}
+#import gi::packing::unpack_unit_vector
 #import gi::cache::trace::cache_blend_layer_gi
 #import gi::pc::restir::bindings::{
     gbuffer_depth, gbuffer_normal, gbuffer_base_color, gbuffer_metallic_roughness, denoised,
@@ -20,7 +20,7 @@
 }
 #import gi::pc::restir::common::{
     uniforms, is_sky_depth, specular_kind, FLAG_MATERIAL_OCCLUSION, FLAG_BLEND_LAYER,
-    SPECULAR_NONE, SPECULAR_TRACED
+    SPECULAR_NONE, SPECULAR_TRACED, unpack_specular_history
 }
 
 @compute @workgroup_size(8, 8)
@@ -51,14 +51,14 @@ fn compose(@builtin(global_invocation_id) id: vec3<u32>) {
     let max_roughness = uniforms.specular_max_roughness;
     let kind = specular_kind(uniforms.flags, max_roughness, depth, mr.y);
     if kind != SPECULAR_NONE {
-        let h = unpack_color64(specular_history[pixel].xy);
-        if h.w > 0.0 && kind == SPECULAR_TRACED {
+        let h = unpack_specular_history(specular_history[pixel]);
+        if h.length > 0.0 && kind == SPECULAR_TRACED {
             let t = 1.0 - smoothstep(0.75 * max_roughness, max_roughness, mr.y);
-            reflected = mix(reflected, h.xyz, t);
-        } else if h.w > 0.0 {
+            reflected = mix(reflected, h.value, t);
+        } else if h.length > 0.0 {
             let start = uniforms.specular_diffuse_from;
             let t = select(0.0, clamp((mr.y - start) / (1.0 - start), 0.0, 1.0), start < 1.0);
-            reflected *= mix(h.xyz, vec3(1.0), t);
+            reflected *= mix(h.value, vec3(1.0), t);
         }
     }
     // The material's occlusion map darkens the gathered diffuse light only.

@@ -6,7 +6,9 @@
 // names and accesses against the Rust list.
 #define_import_path gi::pc::restir::rays
 
-#import gi::pc::restir::common::{Surface, Reservoir, SpecularSample}
+#import gi::pc::restir::common::{
+    uniforms, Surface, StoredSurface, Reservoir, SpecularSample, stored_surface, surface_seen_by
+}
 
 // Shadow rays stop short of their target by this share of the distance.
 const SHADOW_MARGIN: f32 = 1e-3;
@@ -14,7 +16,7 @@ const SHADOW_MARGIN: f32 = 1e-3;
 @group(0) @binding(8) var<storage, read> gbuffer_depth: array<f32>;
 @group(0) @binding(9) var<storage, read> gbuffer_normal: array<u32>;
 // Per trace pixel: this frame's receiver (written by `trace`).
-@group(0) @binding(10) var<storage, read_write> surfaces: array<Surface>;
+@group(0) @binding(10) var<storage, read_write> surfaces: array<StoredSurface>;
 // Per trace pixel: the initial reservoir (written by `trace`).
 @group(0) @binding(11) var<storage, read_write> initial: array<Reservoir>;
 // Per trace pixel: the temporal reuse's result (read by `shadow`).
@@ -27,6 +29,15 @@ const SHADOW_MARGIN: f32 = 1e-3;
 @group(0) @binding(15) var<storage, read> gbuffer_metallic_roughness: array<vec2<f32>>;
 // Per trace pixel: the specular ray (written by `specular_trace`).
 @group(0) @binding(16) var<storage, read_write> specular_samples: array<SpecularSample>;
+
+// This frame's receiver of trace pixel `index`.
+fn load_surface(index: u32) -> Surface {
+    return surface_seen_by(surfaces[index], uniforms.camera);
+}
+
+fn store_surface(index: u32, s: Surface) {
+    surfaces[index] = stored_surface(s);
+}
 
 // `p` pushed off its surface along `n` by a margin relative to its magnitude (the reference's
 // `offset_origin`).

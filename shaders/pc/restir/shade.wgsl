@@ -25,7 +25,7 @@
 #import gi::camera::camera_ray
 #import gi::packing::{unpack_unit_vector, pack_color64}
 #import gi::pc::restir::bindings::{
-    gbuffer_depth, gbuffer_normal, gbuffer_metallic_roughness, surfaces, resolved, irradiance,
+    gbuffer_depth, gbuffer_normal, gbuffer_metallic_roughness, load_surface, resolved, irradiance,
     specular_noisy, trace_index
 }
 #import gi::pc::restir::common::{
@@ -89,7 +89,7 @@ fn shade(@builtin(global_invocation_id) id: vec3<u32>) {
     let pixel = id.y * uniforms.size_px.x + id.x;
     let depth = gbuffer_depth[pixel];
     if is_sky_depth(depth) {
-        irradiance[pixel] = vec4(0.0);
+        irradiance[pixel] = vec2(0u);
         specular_noisy[pixel] = vec2(0u);
         return;
     }
@@ -97,7 +97,7 @@ fn shade(@builtin(global_invocation_id) id: vec3<u32>) {
     let uv = (vec2<f32>(id.xy) + 0.5) / vec2<f32>(uniforms.size_px);
     let ray = camera_ray(uniforms.camera, uv);
     let x = uniforms.camera.position + ray * depth;
-    let me = Surface(x, gbuffer_normal[pixel], pixel, depth, 0u, 0u);
+    let me = Surface(x, gbuffer_normal[pixel], pixel, depth);
     let n = unpack_unit_vector(me.normal);
     let t = vec2<i32>(id.xy / uniforms.trace_scale);
     let center_index = trace_index(vec2<u32>(t));
@@ -131,7 +131,7 @@ fn shade(@builtin(global_invocation_id) id: vec3<u32>) {
                 continue;
             }
             let qi = trace_index(vec2<u32>(q));
-            let sq = surfaces[qi];
+            let sq = load_surface(qi);
             if !similar_surfaces(me, sq, uniforms.normal_cos, uniforms.plane_tolerance) {
                 continue;
             }
@@ -159,7 +159,7 @@ fn shade(@builtin(global_invocation_id) id: vec3<u32>) {
     if count == 0.0 {
         // No trace pixel nearby lies on this surface (a thin or small feature): the own one's
         // sample, whatever surface it was drawn for.
-        let s = surfaces[center_index];
+        let s = load_surface(center_index);
         if has_surface(s) {
             sum = reservoir_irradiance(center, s.position, x, n, uniforms.jacobian_max);
             if reused {
@@ -169,7 +169,7 @@ fn shade(@builtin(global_invocation_id) id: vec3<u32>) {
         }
         count = 1.0;
     }
-    irradiance[pixel] = vec4(sum / count, 1.0);
+    irradiance[pixel] = pack_color64(sum / count, 0.0);
     // The reused reflection's ratio, per channel: the lobe-weighted light over the light
     // (1 where no light arrived, or where the shading normal faces away from the view, as at
     // a smooth-shaded silhouette: nothing to reshape, no lobe to reshape it by).

@@ -10,7 +10,7 @@
 #import gi::bvh::{Ray, trace_closest, BVH_MISS}
 #import gi::packing::{pack_unit_vector, unpack_unit_vector}
 #import gi::pc::restir::common::{uniforms, has_surface, SAMPLE_SKY, SAMPLE_OCCLUDED, FLAG_SPATIAL, FLAG_SHADOW, FLAG_TEMPORAL, FAR}
-#import gi::pc::restir::rays::{surfaces, initial, temporal, resolved, SHADOW_MARGIN, offset_origin}
+#import gi::pc::restir::rays::{load_surface, initial, temporal, resolved, SHADOW_MARGIN, offset_origin}
 
 @compute @workgroup_size(8, 8)
 fn shadow(@builtin(global_invocation_id) id: vec3<u32>) {
@@ -26,7 +26,7 @@ fn shadow(@builtin(global_invocation_id) id: vec3<u32>) {
     if (uniforms.flags & FLAG_SPATIAL) != 0u {
         r = resolved[index];
     }
-    let s = surfaces[index];
+    let s = load_surface(index);
     if (uniforms.flags & FLAG_SHADOW) == 0u || !has_surface(s) || r.w <= 0.0 {
         resolved[index] = r;
         return;

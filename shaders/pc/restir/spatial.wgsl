@@ -10,7 +10,7 @@
 
 #import gi::sampling::{sampler_new, sampler_next_f32, sampler_next_2d, concentric_disk}
 #import gi::packing::unpack_unit_vector
-#import gi::pc::restir::bindings::{surfaces, initial, temporal_out, resolved, trace_index}
+#import gi::pc::restir::bindings::{load_surface, initial, temporal_out, resolved, trace_index}
 #import gi::pc::restir::common::{
     uniforms, Reservoir, empty_reservoir, has_surface, target_pdf, reconnection_jacobian,
     combiner_new, combiner_add, combiner_finish, similar_surfaces, FLAG_TEMPORAL
@@ -30,7 +30,7 @@ fn spatial(@builtin(global_invocation_id) id: vec3<u32>) {
         return;
     }
     let index = trace_index(id.xy);
-    let s = surfaces[index];
+    let s = load_surface(index);
     if !has_surface(s) {
         resolved[index] = empty_reservoir();
         return;
@@ -48,7 +48,7 @@ fn spatial(@builtin(global_invocation_id) id: vec3<u32>) {
             continue;
         }
         let qi = trace_index(vec2<u32>(q));
-        let sq = surfaces[qi];
+        let sq = load_surface(qi);
         if !similar_surfaces(s, sq, uniforms.normal_cos, uniforms.plane_tolerance) {
             continue;
         }

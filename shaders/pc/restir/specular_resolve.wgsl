@@ -14,7 +14,7 @@
 #import gi::sampling::{frame_from_normal, frame_to_local}
 #import gi::packing::{unpack_unit_vector, pack_color64}
 #import gi::pc::restir::bindings::{
-    gbuffer_depth, gbuffer_normal, gbuffer_base_color, gbuffer_metallic_roughness, surfaces,
+    gbuffer_depth, gbuffer_normal, gbuffer_base_color, gbuffer_metallic_roughness, load_surface,
     specular_samples, specular_noisy, kind_of, world_position
 }
 #import gi::pc::restir::common::{
@@ -33,7 +33,7 @@ fn specular_resolve(@builtin(global_invocation_id) id: vec3<u32>) {
         return;
     }
     let x = world_position(id.xy, depth);
-    let me = Surface(x, gbuffer_normal[pixel], pixel, depth, 0u, 0u);
+    let me = Surface(x, gbuffer_normal[pixel], pixel, depth);
     let frame = frame_from_normal(unpack_unit_vector(me.normal));
     let wo = frame_to_local(frame, normalize(uniforms.camera.position - x));
     if wo.z <= 0.0 {
@@ -62,7 +62,7 @@ fn specular_resolve(@builtin(global_invocation_id) id: vec3<u32>) {
             }
             let qi = u32(q.y) * uniforms.trace_px.x + u32(q.x);
             let sample = specular_samples[qi];
-            if !(sample.pdf > 0.0) || !similar_surfaces(me, surfaces[qi], uniforms.normal_cos, uniforms.plane_tolerance) {
+            if !(sample.pdf > 0.0) || !similar_surfaces(me, load_surface(qi), uniforms.normal_cos, uniforms.plane_tolerance) {
                 continue;
             }
             var wi_world = sample.position;

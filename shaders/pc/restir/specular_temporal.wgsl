@@ -5,18 +5,23 @@
 // neighbourhood's mean plus or minus `specular_clamp_sigma` standard deviations. Rough pixels
 // go through it too: their input is the lobe ratio of the reused diffuse samples (`shade`), and
 // neither the clamp's neighbourhood nor the history mixes the two kinds (a ratio's history
-// stores its distance negated). `compose` multiplies the radiance by the split-sum specular
-// albedo, and the irradiance over pi by the ratio.
+// stores its length scaled, `pack_specular_history`). The history's surface is checked against
+// the previous frame's G-buffer depth and normal (the denoiser's copies), so an entry is 8
+// bytes. `compose` multiplies the radiance by the split-sum specular albedo, and the
+// irradiance over pi by the ratio.
 //
 // Bind group 0: binding 0 `uniforms` (`gi::pc::restir::common`), then the buffers of
 // `gi::pc::restir::bindings`.
 
-#import gi::packing::{pack_unit_vector, unpack_unit_vector, pack_color64, unpack_color64}
+#import gi::packing::{unpack_unit_vector, unpack_color64}
 #import gi::pc::restir::bindings::{
     gbuffer_depth, gbuffer_normal, gbuffer_motion, specular_noisy, specular_history,
-    specular_history_prev, kind_of, world_position
+    specular_history_prev, previous_depth, previous_normal, kind_of, world_position
 }
-#import gi::pc::restir::common::{uniforms, FLAG_HISTORY, SPECULAR_NONE, SPECULAR_REUSED}
+#import gi::pc::restir::common::{
+    uniforms, FLAG_HISTORY, SPECULAR_NONE, SPECULAR_REUSED, pack_specular_history,
+    unpack_specular_history
+}
 
 @compute @workgroup_size(8, 8)
 fn specular_temporal(@builtin(global_invocation_id) id: vec3<u32>) {
@@ -27,7 +32,7 @@ fn specular_temporal(@builtin(global_invocation_id) id: vec3<u32>) {
     let depth = gbuffer_depth[pixel];
     let kind = kind_of(pixel, depth);
     if kind == SPECULAR_NONE {
-        specular_history[pixel] = vec4(0u);
+        specular_history[pixel] = vec2(0u);
         return;
     }
     let x = world_position(id.xy, depth);
@@ -61,16 +66,17 @@ fn specular_temporal(@builtin(global_invocation_id) id: vec3<u32>) {
     let before = vec2<f32>(id.xy) + 0.5 + gbuffer_motion[pixel];
     let q = vec2<i32>(floor(before));
     if (uniforms.flags & FLAG_HISTORY) != 0u && all(q >= vec2(0)) && all(q < vec2<i32>(uniforms.size_px)) {
-        let h = specular_history_prev[u32(q.y) * uniforms.size_px.x + u32(q.x)];
-        let stored = unpack_color64(h.xy);
+        let qi = u32(q.y) * uniforms.size_px.x + u32(q.x);
+        let stored = unpack_specular_history(specular_history_prev[qi]);
         let expected = distance(x, uniforms.previous_camera.position);
-        // A reused ratio's history stores its distance negated: never mixed with radiance.
-        let signed = select(expected, -expected, kind == SPECULAR_REUSED);
-        let same_depth = abs(bitcast<f32>(h.z) - signed) <= 0.05 * expected;
-        let same_normal = dot(unpack_unit_vector(h.w), n) > 0.9;
-        if stored.w > 0.0 && same_depth && same_normal {
-            history = stored.xyz;
-            length = stored.w;
+        // Sky's depth is infinite: never the same.
+        let same_depth = abs(previous_depth[qi] - expected) <= 0.05 * expected;
+        let same_normal = dot(unpack_unit_vector(previous_normal[qi]), n) > 0.9;
+        // A reused ratio's history is never mixed with radiance, nor the other way round.
+        let same_kind = stored.reused == (kind == SPECULAR_REUSED);
+        if stored.length > 0.0 && same_kind && same_depth && same_normal {
+            history = stored.value;
+            length = stored.length;
             if count > 0.0 {
                 let mean = m1 / count;
                 let sigma = sqrt(max(m2 / count - mean * mean, vec3(0.0)));
@@ -84,8 +90,5 @@ fn specular_temporal(@builtin(global_invocation_id) id: vec3<u32>) {
         length = min(length + 1.0, uniforms.specular_history);
         radiance = mix(history, current.xyz, 1.0 / length);
     }
-    let packed = pack_color64(radiance, length);
-    let d = distance(x, uniforms.camera.position);
-    let signed = select(d, -d, kind == SPECULAR_REUSED);
-    specular_history[pixel] = vec4(packed, bitcast<u32>(signed), pack_unit_vector(n));
+    specular_history[pixel] = pack_specular_history(radiance, length, kind == SPECULAR_REUSED);
 }

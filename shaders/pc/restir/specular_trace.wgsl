@@ -15,7 +15,7 @@
 #import gi::lights::sky_radiance
 #import gi::packing::unpack_unit_vector
 #import gi::pc::restir::common::{uniforms, SpecularSample, has_surface, SAMPLE_SKY, FAR}
-#import gi::pc::restir::rays::{surfaces, gbuffer_base_color, gbuffer_metallic_roughness, specular_samples, offset_origin}
+#import gi::pc::restir::rays::{load_surface, gbuffer_base_color, gbuffer_metallic_roughness, specular_samples, offset_origin}
 #import gi::pc::restir::hit::shade_hit
 
 @compute @workgroup_size(8, 8)
@@ -25,7 +25,7 @@ fn specular_trace(@builtin(global_invocation_id) id: vec3<u32>) {
     }
     let index = id.y * uniforms.trace_px.x + id.x;
     var sample = SpecularSample(vec3(0.0), 0.0, vec3(0.0), 0u);
-    let s = surfaces[index];
+    let s = load_surface(index);
     let mr = gbuffer_metallic_roughness[s.pixel];
     if !has_surface(s) || !(mr.y < uniforms.specular_max_roughness) {
         specular_samples[index] = sample;

@@ -15,7 +15,7 @@
 #import gi::sampling::{sampler_new, sampler_next_f32}
 #import gi::packing::{unpack_unit_vector, pack_rgb9e5, unpack_rgb9e5}
 #import gi::pc::restir::hit_cache::{hit_cache_irradiance, hit_lights_from_cache}
-#import gi::pc::restir::bindings::{gbuffer_motion, surfaces, surfaces_prev, initial, temporal_out, temporal_prev, trace_index}
+#import gi::pc::restir::bindings::{gbuffer_motion, load_surface, load_surface_prev, initial, temporal_out, temporal_prev, trace_index}
 #import gi::pc::restir::common::{
     uniforms, Surface, Reservoir, empty_reservoir, has_surface, target_pdf, reconnection_jacobian,
     combiner_new, combiner_add, combiner_finish, similar_surfaces, SAMPLE_SKY, FLAG_TEMPORAL,
@@ -39,7 +39,7 @@ fn previous_trace_pixel(s: Surface) -> i32 {
                 continue;
             }
             let i = trace_index(vec2<u32>(q));
-            if !similar_surfaces(s, surfaces_prev[i], uniforms.normal_cos, uniforms.plane_tolerance) {
+            if !similar_surfaces(s, load_surface_prev(i), uniforms.normal_cos, uniforms.plane_tolerance) {
                 continue;
             }
             let d = length(vec2<f32>(q) + 0.5 - t);
@@ -77,7 +77,7 @@ fn temporal(@builtin(global_invocation_id) id: vec3<u32>, @builtin(local_invocat
     var weight = -1.0;
     if inside {
         index = trace_index(id.xy);
-        let s = surfaces[index];
+        let s = load_surface(index);
         first = initial[index];
         if has_surface(s) {
             let n = unpack_unit_vector(s.normal);
@@ -89,7 +89,7 @@ fn temporal(@builtin(global_invocation_id) id: vec3<u32>, @builtin(local_invocat
                 let prev = previous_trace_pixel(s);
                 if prev >= 0 {
                     let rp = refreshed(temporal_prev[prev]);
-                    let source = surfaces_prev[prev].position;
+                    let source = load_surface_prev(u32(prev)).position;
                     let j = reconnection_jacobian(rp, source, s.position, uniforms.jacobian_max);
                     combiner_add(&c, rp, min(rp.m, uniforms.m_clamp), target_pdf(rp, s.position, n), j, sampler_next_f32(&sampler));
                 }

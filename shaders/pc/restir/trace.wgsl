@@ -17,13 +17,12 @@
 #import gi::math::{INV_PI, luminance}
 #import gi::sampling::{sampler_new, sampler_next_f32, sampler_next_2d, cosine_hemisphere, frame_from_normal, frame_to_world}
 #import gi::bvh::{Ray, trace_closest, BVH_MISS}
-#import gi::camera::camera_ray
 #import gi::lights::{sky_radiance, emitter_pdf}
 #import gi::packing::{pack_unit_vector, unpack_unit_vector, pack_rgb9e5, unpack_rgb9e5}
 #import gi::cache::data::cache
 #import gi::cache::trace::{CacheHit, cache_miss, cache_trace_from, cache_hit_radiance, cache_hit_normal}
-#import gi::pc::restir::common::{uniforms, Surface, empty_reservoir, is_sky_depth, has_surface, SAMPLE_SKY, FAR}
-#import gi::pc::restir::rays::{gbuffer_depth, gbuffer_normal, surfaces, initial, offset_origin}
+#import gi::pc::restir::common::{uniforms, Surface, empty_reservoir, is_sky_depth, has_surface, pixel_point, SAMPLE_SKY, FAR}
+#import gi::pc::restir::rays::{gbuffer_depth, gbuffer_normal, store_surface, initial, offset_origin}
 #import gi::pc::restir::hit::{shade_hit, visible_emitter_sample}
 #import gi::pc::restir::hit_cache::hit_lights_from_cache
 
@@ -45,11 +44,9 @@ fn pick_receiver(t: vec2<u32>, index: u32) -> Surface {
         if is_sky_depth(depth) {
             continue;
         }
-        let uv = (vec2<f32>(p) + 0.5) / vec2<f32>(uniforms.size_px);
-        let x = uniforms.camera.position + camera_ray(uniforms.camera, uv) * depth;
-        return Surface(x, gbuffer_normal[pixel], pixel, depth, 0u, 0u);
+        return Surface(pixel_point(uniforms.camera, p, depth), gbuffer_normal[pixel], pixel, depth);
     }
-    return Surface(vec3(0.0), 0u, 0u, 0.0, 0u, 0u);
+    return Surface(vec3(0.0), 0u, 0u, 0.0);
 }
 
 // Most cache voxels of the receiver's own surface a far-field trace steps over.
@@ -93,7 +90,7 @@ fn trace(@builtin(global_invocation_id) id: vec3<u32>) {
     }
     let index = id.y * uniforms.trace_px.x + id.x;
     let s = pick_receiver(id.xy, index);
-    surfaces[index] = s;
+    store_surface(index, s);
     if !has_surface(s) {
         initial[index] = empty_reservoir();
         return;

@@ -360,7 +360,8 @@ impl DenoisePipelines {
 /// The G-buffer and the noisy image the denoiser reads, one entry per pixel, row-major.
 /// `depth` and `normal` need `COPY_SRC`: the denoiser keeps a copy of each for the next frame.
 pub struct DenoiseSources<'a> {
-    /// `array<vec4<f32>>`: noisy demodulated diffuse irradiance (rgb), non-negative.
+    /// `array<vec2<u32>>`: noisy demodulated diffuse irradiance (rgb), non-negative, in
+    /// `gi::packing::pack_color64` (`gi_cache::packing::pack_color64`; the value unused).
     pub noisy: &'a wgpu::Buffer,
     /// `array<f32>`: distance along the unit camera ray, `+inf` for sky (`gbuffer.depth`).
     pub depth: &'a wgpu::Buffer,
@@ -590,6 +591,18 @@ impl Denoiser {
     /// [`Technique::record`], which uses it as scratch.
     pub fn output(&self) -> &wgpu::Buffer {
         &self.output
+    }
+
+    /// The previous frame's G-buffer depth (`array<f32>`), as the sources' `depth`: valid
+    /// from the end of one recorded frame until the next frame's denoise passes.
+    pub fn previous_depth(&self) -> &wgpu::Buffer {
+        &self.previous_depth
+    }
+
+    /// The previous frame's G-buffer normal (`array<u32>`), valid as
+    /// [`Denoiser::previous_depth`] (the denoise passes use it as a filter buffer).
+    pub fn previous_normal(&self) -> &wgpu::Buffer {
+        &self.previous_normal
     }
 
     /// The image size in pixels.

@@ -37,7 +37,7 @@ use gi_scene::SceneFrame;
 use crate::output::GpuOutput;
 use crate::realtime::record_gbuffer_and_cache;
 use crate::requirements::{FrameCost, Requirements, image_bytes};
-use crate::scene_state::{SceneState, check_frame_settings, read_image};
+use crate::scene_state::{SceneState, check_frame_settings, read_image, read_packed_image};
 use crate::tier::{FrameInput, TierError, TierKind, TierSettings};
 use crate::tracer::{DirectInputs, PathPipelines};
 use denoise::{DenoiseInputs, DenoisePipelines, DenoiseSources, Denoiser};
@@ -123,18 +123,18 @@ pub struct GpuSpecularSample {
     pub flags: u32,
 }
 
-/// Mirror of `Surface` in `shaders/pc/restir/common.wgsl`, 32 bytes.
+/// Mirror of `StoredSurface` in `shaders/pc/restir/common.wgsl`, 12 bytes: one trace pixel's
+/// receiver. Its position is not kept: the shaders compute it from the pixel and the depth
+/// with the camera of the frame.
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
 pub struct GpuSurface {
-    pub position: [f32; 3],
-    /// Packed normal.
-    pub normal: u32,
-    pub pixel: u32,
+    /// The full-resolution pixel's column and row, `x | y << 16`.
+    pub pixel_xy: u32,
     /// G-buffer depth; 0 when the trace pixel has no surface.
     pub depth: f32,
-    pub pad_a: u32,
-    pub pad_b: u32,
+    /// Packed normal.
+    pub normal: u32,
 }
 
 /// Shader flag bits (`FLAG_*` in `shaders/pc/restir/common.wgsl`).
@@ -176,9 +176,10 @@ pub struct PcFrameData {
     pub dynamic: Vec<bool>,
 }
 
-/// What the PC tier with `config` needs of an adapter at `settings`' resolution. The trace
-/// passes' layouts: the scene's 7 storage buffers and 10 of their own, the BVH's 4 and the
-/// brick cache's 7; the cache passes as for mobile. The largest binding is an image buffer or
+/// What the PC tier with `config` needs of an adapter at `settings`' resolution. The passes
+/// after the rays bind the most storage buffers: 23 of their own and the brick cache's 7 (the
+/// trace passes: the scene's 7, 10 of their own, the BVH's 4 and the cache's 7); the cache
+/// passes as for mobile. The largest binding is an image buffer or
 /// the reservoirs, surfaces or specular samples of every trace pixel.
 pub fn requirements(settings: &TierSettings, config: &PcConfig) -> Requirements {
     let scale = config.trace_scale.max(1);
@@ -192,7 +193,7 @@ pub fn requirements(settings: &TierSettings, config: &PcConfig) -> Requirements 
     .into_iter()
     .max()
     .unwrap_or(0) as u64;
-    Requirements::compute(28, image_bytes(settings).max(traced * per_trace_pixel))
+    Requirements::compute(30, image_bytes(settings).max(traced * per_trace_pixel))
 }
 
 /// The PC tier's measured cost per frame on an H100, for [`crate::select`].
@@ -310,7 +311,7 @@ impl PcTier {
             .collect();
         Some(PcFrameData {
             gi,
-            noisy_irradiance: read(&buffers.irradiance),
+            noisy_irradiance: read_packed_image(ctx, &buffers.irradiance, (width, height)),
             irradiance: read(prepared.denoiser.output()),
             reservoirs: ctx.read_buffer(&buffers.resolved),
             trace_size: buffers.trace_size,
@@ -501,6 +502,8 @@ impl PcTier {
                 gbuffer,
                 denoised: denoiser.output(),
                 direct: &state.direct.mean,
+                previous_depth: denoiser.previous_depth(),
+                previous_normal: denoiser.previous_normal(),
                 config,
                 size,
             },

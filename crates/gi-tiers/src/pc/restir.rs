@@ -148,6 +148,8 @@ gi_gpu::storage_bindings! {
         specular_history_prev: read,
         gbuffer_emissive: read,
         gbuffer_blend_layer: read,
+        previous_depth: read,
+        previous_normal: read,
     }
 }
 
@@ -158,8 +160,7 @@ struct FrameBuffers {
     /// Temporal reservoirs, one per trace pixel (one in all without temporal reuse: never
     /// read then).
     temporal: wgpu::Buffer,
-    /// Per pixel: the specular history (radiance and length in `pack_color64`, the surface's
-    /// distance and normal).
+    /// Per pixel: the specular history (radiance or ratio and length, `pack_color64`).
     specular_history: wgpu::Buffer,
 }
 
@@ -217,11 +218,11 @@ impl RestirBuffers {
             frames: PingPong::from_fn(|_| FrameBuffers {
                 surfaces: buffer("pc.surfaces", surfaces),
                 temporal: buffer("pc.temporal", if temporal { reservoirs } else { one }),
-                specular_history: buffer("pc.specular_history", pixels * 16),
+                specular_history: buffer("pc.specular_history", pixels * 8),
             }),
             initial: buffer("pc.initial", reservoirs),
             resolved: buffer("pc.resolved", reservoirs),
-            irradiance: buffer("pc.irradiance", pixels * 16),
+            irradiance: buffer("pc.irradiance", pixels * 8),
             output: buffer("pc.output", pixels * 16),
             specular_samples: buffer(
                 "pc.specular_samples",
@@ -269,6 +270,10 @@ pub(super) struct RestirInputs<'a> {
     pub denoised: &'a wgpu::Buffer,
     /// The direct light's mean (the compose pass adds the GI to it).
     pub direct: &'a wgpu::Buffer,
+    /// The previous frame's G-buffer depth and normal (the denoiser's copies, valid until the
+    /// denoiser records this frame), which the specular history is checked against.
+    pub previous_depth: &'a wgpu::Buffer,
+    pub previous_normal: &'a wgpu::Buffer,
     /// Which passes run.
     pub config: &'a PcConfig,
     /// Image size in pixels.
@@ -361,6 +366,8 @@ impl RestirBuffers {
                 specular_history_prev: &previous.specular_history,
                 gbuffer_emissive: g.emissive,
                 gbuffer_blend_layer: g.blend_layer,
+                previous_depth: inputs.previous_depth,
+                previous_normal: inputs.previous_normal,
             }
             .entries(),
         );

@@ -1,0 +1,18 @@
+# The PC tier's screen buffers made smaller: the specular history's 8 bytes a pixel (its
+# surface checked against the denoiser's copies of the previous G-buffer depth and normal)
+# and 12-byte trace-pixel surfaces (position recomputed from pixel and depth), against the
+# build before (gi-old, gi-bench-old). Cost and memory: `gi-bench pc`, the two builds
+# alternated twice; error: `gi compare --tiers pc` at 1920x1080 against the 256-spp GPU
+# reference (one reference per scene, shared through the cache folder), both builds.
+. .gpu/setup.sh 2>/dev/null
+for b in gi gi-bench; do xz -dc .gpu/$b-old.xz > /tmp/bin/$b-old && chmod +x /tmp/bin/$b-old; done
+R=/tmp/res; mkdir -p $R; S=.gpu/scenes
+SC=$S/Sponza/Sponza.gltf,$S/GasStation/GasStation.gltf,$S/ToyCar/ToyCar.gltf,cornell-box,atrium,glossy,thin-wall,open-world,dynamic
+for r in 1 2; do
+  for v in old new; do
+    B=gi-bench; [ $v = old ] && B=gi-bench-old
+    timeout 140 $B pc --scenes $SC --frames 64 --settle-s 1 --json $R/pc-$v-$r.json > $R/pc-$v-$r.md 2>&1
+    echo "== $v round $r"; grep -E '^\| [A-Za-z-]+ \|' $R/pc-$v-$r.md | tr -s ' '
+  done
+done 2>&1 | tee $R/cost.txt
+cd $R && tar cJf $OUT/cost.tar.xz .
