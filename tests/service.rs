@@ -3,9 +3,8 @@
 //! with gi-scene, packed into one `.glb` and uploaded, a render job compared against the
 //! reference is submitted and polled until it is done, and its image, linear image, reference,
 //! error map and FLIP map are downloaded. The reported errors (rmse_srgb8 and FLIP) must be the
-//! ones computed here from the downloaded image and reference. Jobs are cancelled with
-//! `DELETE` (the API keeps finished jobs: deleting one is refused), which is checked on a
-//! finished job and on a running one.
+//! ones computed here from the downloaded image and reference. `DELETE` cancels a running job
+//! and deletes a finished one with its images, both checked.
 //!
 //! The client is a few lines of HTTP/1.1 over a TCP socket (`Connection: close`), as the
 //! server's own tests use: no HTTP client crate in the workspace. The test needs no GPU: the
@@ -369,14 +368,6 @@ fn a_client_uploads_a_scene_renders_compares_downloads_and_cancels() {
     assert_eq!(linear.size(), SIZE);
     assert_eq!(gi_image::to_srgb8(&linear, common::EXPOSURE), rendered);
 
-    // Finished jobs are kept: DELETE, which cancels, refuses them and changes nothing.
-    let refused = request(addr, "DELETE", &url, None).expect_status(409, "delete a finished job");
-    assert_eq!(refused.json()["error"]["code"], "job_finished");
-    assert_eq!(
-        get(addr, &url).expect_status(200, &url).json()["state"],
-        "done"
-    );
-
     // A long comparison (its reference takes seconds) is cancelled while queued or running, and
     // stays so.
     let long = json!({
@@ -404,5 +395,16 @@ fn a_client_uploads_a_scene_renders_compares_downloads_and_cancels() {
         .expect_status(200, "the job list")
         .json();
     assert_eq!(jobs["total"], 2, "{jobs}");
+
+    // A finished job is deleted with its images; the list no longer has it.
+    let deleted = request(addr, "DELETE", &url, None).expect_status(200, "delete a finished job");
+    assert_eq!(deleted.json()["deleted"], true);
+    assert_eq!(deleted.json()["state"], "done");
+    get(addr, &url).expect_status(404, "a deleted job");
+    get(addr, link("image_png")).expect_status(404, "a deleted job's image");
+    let jobs = get(addr, "/v1/jobs")
+        .expect_status(200, "the job list")
+        .json();
+    assert_eq!(jobs["total"], 1, "{jobs}");
     service.stop();
 }

@@ -12,7 +12,7 @@ use axum::{
     http::{HeaderMap, HeaderValue, Method, StatusCode, Uri, header},
     middleware::{self, Next},
     response::{IntoResponse, Response},
-    routing::{MethodRouter, get},
+    routing::{MethodRouter, delete, get},
 };
 use serde::Deserialize;
 use serde_json::json;
@@ -46,6 +46,7 @@ pub const ROUTES: &[(&str, &[&str])] = &[
     ("/v1/jobs/{id}/error.png", &["GET"]),
     ("/v1/jobs/{id}/flip.png", &["GET"]),
     ("/v1/scenes", &["GET", "POST"]),
+    ("/v1/scenes/{id}", &["DELETE"]),
 ];
 
 /// Largest job request body: a job is a few hundred bytes of JSON.
@@ -63,7 +64,7 @@ fn method_router(path: &str, service: &Service) -> MethodRouter<AppState> {
         "/v1/jobs" => get(list_jobs)
             .post(submit_job)
             .layer(DefaultBodyLimit::max(MAX_JOB_BODY_BYTES)),
-        "/v1/jobs/{id}" => get(get_job).delete(cancel_job),
+        "/v1/jobs/{id}" => get(get_job).delete(delete_job),
         "/v1/jobs/{id}/image.png" => {
             get(|s: State<AppState>, p: Path<String>| job_file(s, p, "image.png"))
         }
@@ -82,6 +83,7 @@ fn method_router(path: &str, service: &Service) -> MethodRouter<AppState> {
         "/v1/scenes" => get(list_scenes)
             .post(upload_scene)
             .layer(DefaultBodyLimit::max(service.config.max_upload_bytes)),
+        "/v1/scenes/{id}" => delete(delete_scene),
         other => unreachable!("route {other} is in ROUTES but has no handler"),
     }
 }
@@ -272,13 +274,22 @@ async fn get_job(
     service.view(id).map(Json).ok_or_else(|| job_not_found(id))
 }
 
-async fn cancel_job(
+async fn delete_job(
     State(service): State<AppState>,
     Path(id): Path<String>,
 ) -> Result<Json<serde_json::Value>, ApiError> {
     let id = parse_id(&id)?;
-    service.cancel(id).await?;
-    service.view(id).map(Json).ok_or_else(|| job_not_found(id))
+    service.delete(id).await.map(Json)
+}
+
+async fn delete_scene(
+    State(service): State<AppState>,
+    Path(id): Path<String>,
+) -> Result<Json<serde_json::Value>, ApiError> {
+    let scene = tokio::task::spawn_blocking(move || service.delete_scene_blocking(&id))
+        .await
+        .map_err(|e| ApiError::internal(e.to_string()))??;
+    Ok(Json(json!({ "scene": scene, "deleted": true })))
 }
 
 async fn job_file(

@@ -87,9 +87,33 @@ pub struct Config {
     pub max_queue: usize,
 
     /// Most jobs kept (finished ones included); a submission beyond it is answered 429 until
-    /// jobs are deleted from the data folder. Bounds the disk the service can fill.
+    /// finished jobs are deleted (`DELETE /v1/jobs/{id}`).
     #[arg(long, env = "GI_SERVER_MAX_JOBS", default_value_t = 100_000)]
     pub max_jobs: usize,
+
+    /// Most bytes the data folder may hold (job records and images, uploaded scenes, cached
+    /// references): at or past it new jobs and uploads are answered 507 until finished jobs
+    /// or uploaded scenes are deleted. The folder's size is measured at most about a second
+    /// before, and jobs already accepted still store their images, so it can be passed by
+    /// what the running jobs write. 0: no quota (`--min-free-bytes` still applies).
+    #[arg(long, env = "GI_SERVER_MAX_STORED_BYTES", default_value_t = 0)]
+    pub max_stored_bytes: u64,
+
+    /// Most pixel samples one job may cost, estimated at submission: width x height x
+    /// (spp x frames, warm-up included, for the path, reference and direct tiers; one per
+    /// pixel and frame for the real-time tiers and auto), plus width x height x reference_spp
+    /// for the comparison's reference. A job over it is refused (422 `job_too_costly`) with
+    /// its estimate. The default, 2^36 (6.9e10), is a 3840x2160 frame at 8192 samples: about
+    /// 3 minutes of the path tier on one H100, hours of the CPU reference.
+    #[arg(long, env = "GI_SERVER_MAX_JOB_SAMPLES", default_value_t = 1 << 36)]
+    pub max_job_samples: u64,
+
+    /// Seconds a job may run, from its start to its end (its render and its comparison): one
+    /// still running then stops at its next frame or pass and fails (`time_limit`). Scene
+    /// preparation and the BVH build are not interrupted; the limit applies once they end.
+    /// 0: no limit.
+    #[arg(long, env = "GI_SERVER_JOB_TIME_LIMIT_S", default_value_t = 3600)]
+    pub job_time_limit_s: u64,
 
     /// CPU renders (the reference tier, and references and direct-only images of comparisons)
     /// running at once. Each already uses every core, so more only helps small renders
@@ -184,6 +208,9 @@ impl Config {
             if value == 0 {
                 return Err(format!("{name} must be at least 1"));
             }
+        }
+        if self.max_job_samples == 0 {
+            return Err("--max-job-samples must be at least 1".to_string());
         }
         if self.max_width > gi_reference::MAX_SIDE || self.max_height > gi_reference::MAX_SIDE {
             return Err(format!(

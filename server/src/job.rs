@@ -146,7 +146,7 @@ impl JobRequest {
                 .validate()
                 .map_err(|e| ApiError::invalid("invalid_request", format!("lighting: {e}")))?;
         }
-        Ok(JobSpec {
+        let spec = JobSpec {
             scene: self.scene,
             tier: self.tier.unwrap_or_else(|| "auto".to_string()),
             width,
@@ -159,7 +159,50 @@ impl JobRequest {
             compare,
             reference_spp,
             lighting: self.lighting,
-        })
+        };
+        Ok(spec)
+    }
+}
+
+impl JobSpec {
+    /// The job's cost in pixel samples, as `--max-job-samples` bounds it: width x height x
+    /// spp per frame (warm-up included) when its tier traces `spp` samples per pixel (path,
+    /// reference, direct: `traces_spp`), one per pixel and frame for the real-time tiers,
+    /// plus width x height x reference_spp for the comparison's reference.
+    pub fn estimated_samples(&self, traces_spp: bool) -> u64 {
+        let pixels = u64::from(self.width) * u64::from(self.height);
+        let frames = u64::from(self.frames) + u64::from(self.warmup.unwrap_or(0));
+        let per_pixel_frame = if traces_spp { u64::from(self.spp) } else { 1 };
+        let reference = self.reference_spp.map_or(0, u64::from);
+        pixels.saturating_mul(
+            frames
+                .saturating_mul(per_pixel_frame)
+                .saturating_add(reference),
+        )
+    }
+
+    /// Refuses the job (422 `job_too_costly`, with its estimate) when
+    /// [`JobSpec::estimated_samples`] is over `max_samples`.
+    pub fn check_cost(&self, traces_spp: bool, max_samples: u64) -> Result<(), ApiError> {
+        let samples = self.estimated_samples(traces_spp);
+        if samples <= max_samples {
+            return Ok(());
+        }
+        Err(ApiError::invalid(
+            "job_too_costly",
+            format!(
+                "the job would cost about {:.3e} pixel samples (its render{}), more than the \
+                 {:.3e} this service runs per job (--max-job-samples); lower the size, spp, \
+                 frames or reference_spp",
+                samples as f64,
+                if self.compare {
+                    " and its reference"
+                } else {
+                    ""
+                },
+                max_samples as f64
+            ),
+        ))
     }
 }
 
@@ -471,6 +514,24 @@ pub fn now_rfc3339() -> String {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn the_cost_counts_spp_only_where_the_tier_traces_it_and_the_reference_always() {
+        let config = Config::with_data_dir("unused");
+        let request: JobRequest = serde_json::from_str(
+            r#"{"scene": "cornell-box", "width": 10, "height": 10, "spp": 8, "frames": 3,
+                "warmup": 2, "reference_spp": 100}"#,
+        )
+        .unwrap();
+        let spec = request.normalize(&config).unwrap();
+        // 100 pixels x (5 frames x 8 spp + 100 reference samples).
+        assert_eq!(spec.estimated_samples(true), 100 * (5 * 8 + 100));
+        // A real-time tier: one sample per pixel and frame.
+        assert_eq!(spec.estimated_samples(false), 100 * (5 + 100));
+        assert!(spec.check_cost(true, 14_000).is_ok());
+        let refused = spec.check_cost(true, 13_999).unwrap_err();
+        assert_eq!(refused.code, "job_too_costly");
+    }
 
     #[test]
     fn defaults_fill_in_and_limits_hold() {

@@ -100,7 +100,7 @@ pub fn document(config: &Config) -> Value {
                         "400": error_response("Malformed JSON"),
                         "413": error_response("The body is too large"),
                         "415": error_response("Not JSON"),
-                        "422": error_response("Unknown scene, tier or camera, a limit exceeded, or a GPU tier without a GPU"),
+                        "422": error_response("Unknown scene, tier or camera, a limit exceeded (the estimated cost over --max-job-samples: job_too_costly), or a GPU tier without a GPU"),
                         "429": {
                             "description": "The queue is full (code queue_full) or the job limit is reached (job_limit); retry after Retry-After seconds",
                             "headers": { "Retry-After": { "schema": { "type": "integer" } } },
@@ -108,7 +108,7 @@ pub fn document(config: &Config) -> Value {
                         },
                         "500": error_response("The job could not be stored (an I/O error other than a full disk); nothing was queued"),
                         "503": error_response("The service is shutting down"),
-                        "507": error_response("The data folder's disk is full, or below --min-free-bytes (insufficient_storage); nothing was queued")
+                        "507": error_response("The data folder's disk is full, or below --min-free-bytes (insufficient_storage), or holds --max-stored-bytes (quota_exceeded); nothing was queued")
                     }
                 },
                 "get": {
@@ -144,14 +144,13 @@ pub fn document(config: &Config) -> Value {
                     }
                 },
                 "delete": {
-                    "summary": "Cancel a queued or running job",
-                    "operationId": "cancel_job",
+                    "summary": "Cancel a queued or running job; delete a finished one (done, failed, cancelled) with its images, or an unreadable one's folder",
+                    "operationId": "delete_job",
                     "parameters": [id_parameter()],
                     "responses": {
-                        "200": json_response("The cancelled job", json!({ "$ref": "#/components/schemas/Job" })),
+                        "200": json_response("The cancelled job, or the deleted one's last view with deleted: true (its id is never used again)", json!({ "$ref": "#/components/schemas/Job" })),
                         "404": error_response("No such job"),
-                        "409": error_response("The job already finished (job_finished), or its record could not be read (job_unreadable)"),
-                        "500": error_response("The cancellation could not be stored; the job is unchanged"),
+                        "500": error_response("The change could not be stored; the job is unchanged"),
                         "507": error_response("The data folder's disk is full; the job is unchanged")
                     }
                 }
@@ -186,7 +185,20 @@ pub fn document(config: &Config) -> Value {
                         "415": error_response("Not model/gltf-binary"),
                         "422": error_response("Not a valid, self-contained glTF 2.0 binary with triangles, or its images (every one, from its header) exceed the texel budget or have no readable PNG, JPEG or DDS header"),
                         "500": error_response("The scene could not be stored"),
-                        "507": error_response("The data folder's disk is full, or below --min-free-bytes")
+                        "507": error_response("The data folder's disk is full, or below --min-free-bytes, or holds --max-stored-bytes (quota_exceeded)")
+                    }
+                }
+            },
+            "/v1/scenes/{id}": {
+                "delete": {
+                    "summary": "Delete an uploaded scene",
+                    "operationId": "delete_scene",
+                    "parameters": [{ "name": "id", "in": "path", "required": true, "schema": { "type": "string" }, "description": "The uploaded scene's id (upload-...)" }],
+                    "responses": {
+                        "200": json_response("Deleted", json!({ "type": "object", "properties": { "scene": { "$ref": "#/components/schemas/UploadedScene" }, "deleted": { "type": "boolean" } } })),
+                        "404": error_response("No such uploaded scene (scene_not_found)"),
+                        "409": error_response("A queued or running job uses it (scene_in_use), or it is a bundled or folder scene (scene_not_deletable)"),
+                        "500": error_response("The scene could not be deleted")
                     }
                 }
             }

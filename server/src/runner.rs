@@ -13,7 +13,10 @@ use std::{
 use gi_image::{Flip, Image};
 use gi_reference::cache::{REFERENCE_SEED, ReferenceCache, ReferenceKey, ReferenceRequest};
 use gi_scene::{CameraKey, CameraPath, CameraView, Scene};
-use gi_tiers::{CameraMode, CpuTier, Renderer, TierChoice, TierKind, TierSettings, select::RunsOn};
+use gi_tiers::{
+    CameraMode, CancelCheck, CpuTier, Renderer, TierChoice, TierError, TierKind, TierSettings,
+    select::RunsOn,
+};
 
 use crate::{
     error::ApiError,
@@ -156,19 +159,21 @@ pub struct TierOutput {
 }
 
 /// Renders the job's tier: the still warm-up, then the frames, checking `stop` between frames
-/// (`Ok(None)` when it stopped). `progress` hears of every frame, and of every pass of a CPU
-/// render's samples.
+/// and between the passes of a CPU frame (`Ok(None)` when it stopped). `progress` hears of
+/// every frame, and of every pass of a CPU render's samples.
 pub fn render_tier(
     job: &PreparedJob,
     progress: &(dyn Fn(Progress) + Sync),
-    stop: &dyn Fn() -> bool,
+    stop: CancelCheck,
     share: f64,
 ) -> Result<Option<TierOutput>, String> {
     let started = Instant::now();
     let scene = Scene::clone(&job.scene);
     let mut renderer = match job.plan {
         TierPlan::Cpu(kind) => {
-            let tier = CpuTier::new(kind, job.settings).map_err(|e| e.to_string())?;
+            let tier = CpuTier::new(kind, job.settings)
+                .map_err(|e| e.to_string())?
+                .with_cancel(stop.clone());
             Renderer::with_tier(scene, Box::new(tier), job.camera)
         }
         TierPlan::Gpu(choice) => {
@@ -223,8 +228,11 @@ pub fn render_tier(
         renderer.render_frame(Some(&frame_progress))
     } else {
         renderer.render_frames(job.frames, Some(&frame_progress))
-    }
-    .map_err(|e| e.to_string())?;
+    };
+    let frame = match frame {
+        Err(TierError::Cancelled) => return Ok(None),
+        other => other.map_err(|e| e.to_string())?,
+    };
     report("frames", job.frames, job.frames, steps);
 
     let passes = frame

@@ -321,6 +321,42 @@ impl SceneCatalog {
     }
 }
 
+impl SceneCatalog {
+    /// Deletes uploaded scene `id` (its description first, so a crash leaves at most an
+    /// unlisted file). Bundled and folder scenes are refused (409 `scene_not_deletable`).
+    pub fn delete(&self, id: &str) -> Result<UploadedScene, ApiError> {
+        if !id.starts_with(UPLOAD_PREFIX) {
+            let known = self.resolve(id)?;
+            return Err(ApiError::new(
+                axum::http::StatusCode::CONFLICT,
+                "scene_not_deletable",
+                format!(
+                    "scene {id} is {}; only uploaded scenes can be deleted",
+                    match known {
+                        SceneSource::Bundled(_) => "bundled with the service",
+                        SceneSource::File { .. } => "in a scene folder of the service",
+                    }
+                ),
+            ));
+        }
+        let mut uploads = self.uploads.write().unwrap_or_else(|e| e.into_inner());
+        let Some(scene) = uploads.get(id).cloned() else {
+            return Err(scene_not_found(id));
+        };
+        let io_error = |e: std::io::Error| ApiError::storage(&format!("scene {id}'s deletion"), &e);
+        fs::remove_file(self.uploads_dir.join(format!("{id}.json"))).map_err(io_error)?;
+        uploads.remove(id);
+        if let Err(error) = fs::remove_file(self.uploads_dir.join(format!("{id}.glb"))) {
+            tracing::warn!("scenes/{id}.glb: {error}; the file is left unlisted");
+        }
+        Ok(scene)
+    }
+}
+
+pub fn scene_not_found(id: &str) -> ApiError {
+    ApiError::not_found("scene_not_found", format!("no uploaded scene {id}"))
+}
+
 /// Checks the GLB container before anything parses it: header, lengths, a JSON first chunk,
 /// and only embedded data (an external URI could name any file of this machine). The images'
 /// sizes are the importer's to check ([`ImportOptions::max_texels`]).

@@ -89,6 +89,9 @@ struct Entry {
     progress: Option<Progress>,
     /// Set by a cancellation; a running render checks it between frames and passes.
     cancel: Arc<AtomicBool>,
+    /// When a running job reaches `--job-time-limit-s` (none without a limit, or before it
+    /// starts).
+    deadline: Option<std::time::Instant>,
 }
 
 #[derive(Default)]
@@ -117,8 +120,16 @@ impl Inner {
                 record,
                 progress: None,
                 cancel: Arc::new(AtomicBool::new(false)),
+                deadline: None,
             },
         );
+    }
+
+    /// Drops a deleted job.
+    fn remove(&mut self, id: u64) {
+        if let Some(entry) = self.jobs.remove(&id) {
+            self.counts[entry.record.state.index()] -= 1;
+        }
     }
 
     /// Replaces a job's record with `record`, just stored.
@@ -363,12 +374,22 @@ impl Service {
     /// Validates a job request and queues it; answers the new job's record.
     pub async fn submit(self: &Arc<Self>, request: JobRequest) -> Result<JobRecord, ApiError> {
         let spec = request.normalize(&self.config)?;
-        let (_, lane) = self.plan(&spec)?;
+        let (plan, lane) = self.plan(&spec)?;
+        // A GPU `auto` picks a real-time tier (or falls back as the library does).
+        let traces_spp = matches!(
+            plan,
+            TierPlan::Cpu(_) | TierPlan::Gpu(TierChoice::Tier(TierKind::Path | TierKind::Direct))
+        );
+        spec.check_cost(traces_spp, self.config.max_job_samples)?;
         let source = self.catalog.resolve(&spec.scene)?;
         let scene = with_lighting(self.load_scene(source).await?, &spec)?;
         runner::check_camera(&scene, &spec.camera)?;
 
         self.check_free_space()?;
+        let service = self.clone();
+        tokio::task::spawn_blocking(move || service.check_quota())
+            .await
+            .map_err(|e| ApiError::internal(e.to_string()))??;
 
         let id = {
             let mut inner = lock(&self.inner);
@@ -560,6 +581,61 @@ impl Service {
         }
     }
 
+    /// `DELETE /v1/jobs/{id}`: cancels a queued or running job ([`Service::cancel`]);
+    /// deletes a finished one (done, failed or cancelled) with its images, or the folder of
+    /// one whose record could not be read. Answers the job's view, with `deleted` true when it
+    /// was deleted.
+    pub async fn delete(self: &Arc<Self>, id: u64) -> Result<serde_json::Value, ApiError> {
+        let unreadable = lock(&self.inner).unreadable.contains_key(&id);
+        if !unreadable && !self.readable_record(id)?.state.is_final() {
+            self.cancel(id).await?;
+            return self.view(id).ok_or_else(|| job_not_found(id));
+        }
+        let service = self.clone();
+        tokio::task::spawn_blocking(move || service.delete_blocking(id))
+            .await
+            .map_err(|e| ApiError::internal(e.to_string()))?
+    }
+
+    fn delete_blocking(&self, id: u64) -> Result<serde_json::Value, ApiError> {
+        // Under the job's write lock: no change of it is being stored meanwhile.
+        let _write = lock(&self.write_stripes[id as usize % WRITE_STRIPES]);
+        let mut view = self.view(id).ok_or_else(|| job_not_found(id))?;
+        let next_id = lock(&self.inner).next_id;
+        self.store
+            .delete_job(id, next_id)
+            .map_err(|e| ApiError::storage(&format!("job {id}'s deletion"), &e))?;
+        let mut inner = lock(&self.inner);
+        inner.remove(id);
+        inner.unreadable.remove(&id);
+        drop(inner);
+        view["deleted"] = serde_json::Value::Bool(true);
+        Ok(view)
+    }
+
+    /// `DELETE /v1/scenes/{id}`: deletes an uploaded scene, unless a queued or running job
+    /// names it (409 `scene_in_use`). Bundled and folder scenes are not the service's to
+    /// delete. Blocking.
+    pub fn delete_scene_blocking(&self, id: &str) -> Result<UploadedScene, ApiError> {
+        let users: Vec<u64> = (lock(&self.inner).jobs.values())
+            .filter(|e| !e.record.state.is_final() && e.record.spec.scene == id)
+            .map(|e| e.record.id)
+            .collect();
+        if !users.is_empty() {
+            return Err(ApiError::new(
+                axum::http::StatusCode::CONFLICT,
+                "scene_in_use",
+                format!(
+                    "jobs {users:?} are queued or running with scene {id}; delete it once they \
+                     end (or cancel them)"
+                ),
+            ));
+        }
+        let deleted = self.catalog.delete(id)?;
+        lock(&self.scenes).remove(id);
+        Ok(deleted)
+    }
+
     /// Uploads a scene ([`SceneCatalog::upload`]) within the service's texel budget, unless
     /// the data folder's disk is below its free-space floor. Blocking.
     pub fn upload_scene_blocking(
@@ -568,6 +644,7 @@ impl Service {
         name: &str,
     ) -> Result<(UploadedScene, bool), ApiError> {
         self.check_free_space()?;
+        self.check_quota()?;
         self.catalog
             .upload(bytes, name, self.config.max_upload_texels)
     }

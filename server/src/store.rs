@@ -16,6 +16,12 @@ use crate::job::JobRecord;
 /// Suffix of files being written; any left over from a crash are removed at startup.
 const TMP_SUFFIX: &str = ".tmp";
 
+/// File in `jobs/` holding the first id no job used, deleted ones included.
+const NEXT_ID_FILE: &str = "next-id";
+
+/// Prefix of a job folder being deleted (`jobs/deleting-<id>`).
+const DELETING_PREFIX: &str = "deleting-";
+
 /// The service's data folder.
 #[derive(Debug)]
 pub struct Store {
@@ -96,6 +102,22 @@ impl Store {
         self.writer.write(&dir.join("job.json"), &json)
     }
 
+    /// Deletes job `id`'s folder (record and images), keeping `next_id` as the first id a
+    /// later start may use, so the id is never given to another job. The folder is first
+    /// renamed out of the jobs' names, one atomic step: a crash then leaves a folder the next
+    /// start removes, never a job with half its files.
+    pub fn delete_job(&self, id: u64, next_id: u64) -> io::Result<()> {
+        let jobs = self.root.join("jobs");
+        self.writer
+            .write(&jobs.join(NEXT_ID_FILE), next_id.to_string().as_bytes())?;
+        let doomed = jobs.join(format!("{DELETING_PREFIX}{id}"));
+        fs::rename(self.job_dir(id), &doomed)?;
+        if let Err(error) = fs::remove_dir_all(&doomed) {
+            tracing::warn!("{}: {error}; removed at the next start", doomed.display());
+        }
+        Ok(())
+    }
+
     /// Removes what a job whose first record could not be written left behind (its folder,
     /// if it is empty).
     pub fn remove_unstored_job(&self, id: u64) {
@@ -126,10 +148,23 @@ impl Store {
             next_id: 1,
             ..LoadedJobs::default()
         };
-        for entry in fs::read_dir(self.root.join("jobs"))? {
+        let jobs = self.root.join("jobs");
+        // The first id no deleted job used (deleted jobs leave no folder to count).
+        if let Some(next) = fs::read_to_string(jobs.join(NEXT_ID_FILE))
+            .ok()
+            .and_then(|text| text.trim().parse::<u64>().ok())
+        {
+            loaded.next_id = loaded.next_id.max(next);
+        }
+        for entry in fs::read_dir(&jobs)? {
             let entry = entry?;
             let dir = entry.path();
             if !dir.is_dir() {
+                continue;
+            }
+            if (entry.file_name().to_str()).is_some_and(|name| name.starts_with(DELETING_PREFIX)) {
+                // A deletion a crash interrupted: finish it.
+                let _ = fs::remove_dir_all(&dir);
                 continue;
             }
             let Some(id) = (entry.file_name().to_str()).and_then(|name| name.parse::<u64>().ok())

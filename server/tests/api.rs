@@ -502,12 +502,17 @@ fn bad_input_gets_the_right_4xx_and_changes_nothing() {
     );
     assert_eq!(get(addr, "/healthz").json()["status"], "ok");
 
-    // A finished job cannot be cancelled.
-    let id = submit(addr, &small_job("reference", false));
-    wait_final(addr, &id, JOB_TIMEOUT);
-    let response = delete(addr, &format!("/v1/jobs/{id}"));
-    assert_eq!(response.status, 409);
-    assert_eq!(response.error_code(), "job_finished");
+    // A job over the cost budget is refused with its estimate.
+    let costly = post_json(
+        addr,
+        "/v1/jobs",
+        &json!({"scene": "cornell-box", "tier": "reference", "width": 512, "height": 512,
+                "spp": 4096, "frames": 256, "compare": false}),
+    );
+    assert_eq!(costly.status, 422, "{}", costly.text());
+    assert_eq!(costly.error_code(), "job_too_costly");
+    // 512 x 512 pixels x 4096 spp x 256 frames.
+    assert!(costly.text().contains("2.749e11"), "{}", costly.text());
 }
 
 /// A GLB whose one image, in its binary chunk, is a PNG of one texel whose header claims

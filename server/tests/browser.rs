@@ -344,6 +344,19 @@ fn submits_a_job_and_shows_its_images_and_metrics(session: &Session) {
     let path = PathBuf::from(env!("CARGO_TARGET_TMPDIR")).join("gi-server-web-page.png");
     std::fs::write(&path, &screenshot).unwrap();
     eprintln!("screenshot of the web page: {}", path.display());
+
+    // The finished job offers Delete (not Cancel), which removes it from the service and the
+    // list.
+    let buttons = session.script(
+        "return [document.getElementById('cancel').hidden, document.getElementById('delete').hidden]",
+    );
+    assert_eq!(buttons, json!([true, false]));
+    session.click("#delete");
+    session.wait_for(
+        "return document.querySelector('#jobs tbody tr[data-id=\"1\"]') === null && document.getElementById('job').hidden ? true : null",
+        Duration::from_secs(10),
+    );
+    assert_eq!(get(server.addr, "/v1/jobs/1").status, 404);
 }
 
 #[test]

@@ -1,7 +1,8 @@
 //! Job records corrupted on disk while the service is stopped (one torn, one garbage; one of a
 //! finished job, one of a queued job): after the restart neither job vanishes. Both are listed
 //! and served as `unreadable` with the parse error, counted by `/healthz` (200, `degraded`)
-//! and `/metrics`, never run and never overwritten, and new jobs take other ids.
+//! and `/metrics`, never run and never overwritten, and new jobs take other ids. `DELETE`
+//! removes such a job's folder, and the service is healthy again.
 
 mod common;
 
@@ -68,10 +69,7 @@ fn corrupt_records_are_listed_as_unreadable_jobs_after_a_restart() {
             message.contains(&format!("jobs/{id}/job.json")) && message.contains(why),
             "{message}"
         );
-        // Neither cancelled nor served as a finished job.
-        let cancel = delete(addr, &format!("/v1/jobs/{id}"));
-        assert_eq!(cancel.status, 409, "{}", cancel.text());
-        assert_eq!(cancel.error_code(), "job_unreadable");
+        // Not served as a finished job.
         let image = get(addr, &format!("/v1/jobs/{id}/image.png"));
         assert_eq!(image.error_code(), "job_unreadable");
     }
@@ -119,4 +117,20 @@ fn corrupt_records_are_listed_as_unreadable_jobs_after_a_restart() {
         std::fs::read(record(&finished)).unwrap(),
         b"\x00\x01 not json"
     );
+
+    // Deleting them removes their folders; the service says it is healthy again.
+    for id in [&queued, &finished] {
+        let deleted = delete(addr, &format!("/v1/jobs/{id}"));
+        assert_eq!(deleted.status, 200, "{}", deleted.text());
+        let deleted = deleted.json();
+        assert_eq!(
+            (&deleted["state"], &deleted["deleted"]),
+            (&json!("unreadable"), &json!(true)),
+            "{deleted}"
+        );
+        assert_eq!(get(addr, &format!("/v1/jobs/{id}")).status, 404);
+        assert!(!data.join("jobs").join(id).exists());
+    }
+    let health: Value = get(addr, "/healthz").json();
+    assert_eq!(health["status"], "ok", "{health}");
 }

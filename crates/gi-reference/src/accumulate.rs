@@ -83,18 +83,33 @@ impl Reference {
         settings: &RenderSettings,
         progress: &(dyn Fn(u32) + Sync),
     ) -> Result<RenderOutput, RenderError> {
+        let output = self.render_until(settings, progress, &|| false)?;
+        Ok(output.expect("a render that is never cancelled ends"))
+    }
+
+    /// [`Reference::render`], stopping between passes (each about
+    /// `TARGET_PATHS_PER_PASS` paths) once `cancelled` answers true: then `None`.
+    pub fn render_until(
+        &self,
+        settings: &RenderSettings,
+        progress: &(dyn Fn(u32) + Sync),
+        cancelled: &dyn Fn() -> bool,
+    ) -> Result<Option<RenderOutput>, RenderError> {
         let mut accumulator = self.accumulator(settings)?;
         let pass = (TARGET_PATHS_PER_PASS / settings.pixel_count()).clamp(1, 1 << 16) as u32;
         while accumulator.samples_per_pixel() < settings.spp {
+            if cancelled() {
+                return Ok(None);
+            }
             accumulator.add_samples(pass.min(settings.spp - accumulator.samples_per_pixel()));
             progress(accumulator.samples_per_pixel());
         }
         let stats = accumulator.stats();
         tracing::debug!(?stats, "reference render finished");
-        Ok(RenderOutput {
+        Ok(Some(RenderOutput {
             image: accumulator.image(),
             stats,
-        })
+        }))
     }
 }
 

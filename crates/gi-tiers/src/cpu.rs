@@ -1,7 +1,7 @@
 //! The CPU tiers: the reference path tracer and the direct-only baseline, both on
 //! gi-reference.
 
-use std::time::Instant;
+use std::{sync::Arc, time::Instant};
 
 use gi_reference::{Mode, Reference, RenderSettings, Strategy};
 use gi_scene::{CameraView, SceneFrame};
@@ -14,7 +14,11 @@ pub struct CpuTier {
     kind: TierKind,
     settings: TierSettings,
     prepared: Option<Prepared>,
+    cancelled: Option<CancelCheck>,
 }
+
+/// What a long CPU frame asks between its passes: stop now?
+pub type CancelCheck = Arc<dyn Fn() -> bool + Send + Sync>;
 
 struct Prepared {
     /// The frame it was made for, without its geometry.
@@ -37,7 +41,16 @@ impl CpuTier {
             kind,
             settings,
             prepared: None,
+            cancelled: None,
         })
+    }
+
+    /// The tier, stopping a frame between its passes (about 65k paths each) once `cancelled`
+    /// answers true: the frame then fails with [`TierError::Cancelled`]. For a service whose
+    /// jobs can be cancelled or timed out while one long frame renders.
+    pub fn with_cancel(mut self, cancelled: CancelCheck) -> Self {
+        self.cancelled = Some(cancelled);
+        self
     }
 }
 
@@ -89,7 +102,13 @@ impl Tier for CpuTier {
         }
         let reference = &self.prepared.as_ref().expect("prepared above").reference;
         let settings = render_settings(self.kind, &self.settings);
-        let output = reference.render(&settings, input.progress.unwrap_or(&|_| {}))?;
+        let progress = input.progress.unwrap_or(&|_| {});
+        let output = match &self.cancelled {
+            Some(cancelled) => reference
+                .render_until(&settings, progress, cancelled.as_ref())?
+                .ok_or(TierError::Cancelled)?,
+            None => reference.render(&settings, progress)?,
+        };
         passes.push((
             format!("{}/trace", self.kind.name()),
             output.stats.seconds * 1e3,
@@ -107,5 +126,51 @@ impl Tier for CpuTier {
             .as_ref()
             .map_or(0, |p| p.reference.memory_bytes())
             + accumulation
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use std::sync::atomic::{AtomicU32, Ordering};
+
+    use super::*;
+    use crate::{CameraMode, Renderer, TextureOptions};
+
+    /// A frame whose cancel check answers true after `passes` passes stops there, with
+    /// [`TierError::Cancelled`]; one never cancelled renders every sample.
+    #[test]
+    fn a_cancelled_frame_stops_between_its_passes() {
+        let settings = TierSettings {
+            width: 256,
+            height: 256,
+            // 65,536 paths a pass at 256 x 256: one sample per pixel each.
+            spp: 64,
+            seed: 1,
+            textures: TextureOptions::DEFAULT,
+        };
+        let checks = Arc::new(AtomicU32::new(0));
+        let counted = checks.clone();
+        let tier = CpuTier::new(TierKind::Direct, settings)
+            .unwrap()
+            .with_cancel(Arc::new(move || {
+                counted.fetch_add(1, Ordering::SeqCst) >= 3
+            }));
+        let scene = gi_scene::load("cornell-box").unwrap();
+        let mut renderer = Renderer::with_tier(scene.clone(), Box::new(tier), CameraMode::Default);
+        let done = std::sync::Mutex::new(0);
+        let progress = |spp: u32| *done.lock().unwrap() = spp;
+        assert!(matches!(
+            renderer.render_frame(Some(&progress)),
+            Err(TierError::Cancelled)
+        ));
+        assert_eq!(checks.load(Ordering::SeqCst), 4);
+        assert_eq!(*done.lock().unwrap(), 3, "three passes of one sample each");
+
+        let tier = CpuTier::new(TierKind::Direct, settings)
+            .unwrap()
+            .with_cancel(Arc::new(|| false));
+        let mut renderer = Renderer::with_tier(scene, Box::new(tier), CameraMode::Default);
+        let frame = renderer.render_frame(None).unwrap();
+        assert_eq!(frame.stats.unwrap().samples, 64 * 256 * 256);
     }
 }

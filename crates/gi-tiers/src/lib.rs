@@ -58,7 +58,7 @@ pub mod select;
 mod tier;
 pub mod tracer;
 
-pub use cpu::CpuTier;
+pub use cpu::{CancelCheck, CpuTier};
 pub use gi_gpu::TextureOptions;
 pub use mobile::{MobileConfig, MobileTier};
 pub use output::{GpuOutput, OUTPUT_FORMAT, OutputTextures};

@@ -338,6 +338,9 @@ pub enum TierError {
     /// camera that is no perspective camera.
     #[error("{0}")]
     InvalidRequest(String),
+    /// The frame stopped before its end because its caller asked ([`crate::CpuTier::with_cancel`]).
+    #[error("the frame was cancelled")]
+    Cancelled,
 }
 
 /// A frame-time budget, kept in whole microseconds so it stays `Copy + Eq` inside

@@ -19,6 +19,28 @@ impl Service {
         }
     }
 
+    /// Refuses new work (507 `quota_exceeded`) once the data folder holds `--max-stored-bytes`
+    /// (its size measured at most about a second before). Blocking: it may walk the folder.
+    pub fn check_quota(&self) -> Result<(), ApiError> {
+        let quota = self.config.max_stored_bytes;
+        if quota == 0 {
+            return Ok(());
+        }
+        let used = self.metrics.data_dir_used_bytes(&self.config.data_dir);
+        if used < quota {
+            return Ok(());
+        }
+        Err(ApiError::new(
+            StatusCode::INSUFFICIENT_STORAGE,
+            "quota_exceeded",
+            format!(
+                "the data folder holds {used} bytes, the {quota} this service may store \
+                 (--max-stored-bytes); delete finished jobs (DELETE /v1/jobs/{{id}}) or \
+                 uploaded scenes (DELETE /v1/scenes/{{id}}), then retry"
+            ),
+        ))
+    }
+
     /// `GET /healthz`: its status code and body. Blocking (it writes a probe file).
     ///
     /// 503 when the data folder cannot be written or has less free space than

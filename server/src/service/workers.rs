@@ -6,8 +6,10 @@ use std::{
         Arc,
         atomic::{AtomicBool, Ordering},
     },
-    time::Instant,
+    time::{Duration, Instant},
 };
+
+use gi_tiers::CancelCheck;
 
 use super::{Comparing, CpuWork, Inner, Lane, STORE_RETRY, Service, lock, with_lighting};
 use crate::{
@@ -49,12 +51,9 @@ impl Service {
         }
     }
 
-    /// Marks job `id` running if it is still queued; its spec and cancel flag. `Err` when the
-    /// change could not be stored: the job is still queued.
-    async fn start(
-        self: &Arc<Self>,
-        id: u64,
-    ) -> std::io::Result<Option<(JobSpec, Arc<AtomicBool>)>> {
+    /// Marks job `id` running if it is still queued, and sets its deadline; its spec, cancel
+    /// flag and deadline. `Err` when the change could not be stored: the job is still queued.
+    async fn start(self: &Arc<Self>, id: u64) -> std::io::Result<Option<Started>> {
         let started = self
             .transition(id, |record| {
                 if record.state != JobState::Queued {
@@ -78,8 +77,18 @@ impl Service {
                 fraction: 0.0,
             },
         );
-        let cancel = lock(&self.inner).jobs.get(&id).map(|e| e.cancel.clone());
-        Ok(cancel.map(|cancel| (record.spec, cancel)))
+        let limit = self.config.job_time_limit_s;
+        let deadline = (limit > 0).then(|| Instant::now() + Duration::from_secs(limit));
+        let mut inner = lock(&self.inner);
+        let Some(entry) = inner.jobs.get_mut(&id) else {
+            return Ok(None);
+        };
+        entry.deadline = deadline;
+        Ok(Some(Started {
+            spec: record.spec,
+            cancel: entry.cancel.clone(),
+            deadline,
+        }))
     }
 
     fn set_progress(&self, id: u64, progress: Progress) {
@@ -93,7 +102,11 @@ impl Service {
 
     /// Renders job `id`'s tier, then finishes it or hands it to the CPU pool to compare.
     async fn run_tier(self: &Arc<Self>, id: u64, lane: Lane) {
-        let (spec, cancel) = match self.start(id).await {
+        let Started {
+            spec,
+            cancel,
+            deadline,
+        } = match self.start(id).await {
             Ok(Some(started)) => started,
             Ok(None) => return, // cancelled while queued
             Err(error) => {
@@ -119,9 +132,12 @@ impl Service {
         let job = prepared.clone();
         let share = if spec.compare { 0.5 } else { 1.0 };
         let started = Instant::now();
+        let stopping = service.clone();
+        let stop: CancelCheck = Arc::new(move || {
+            cancel.load(Ordering::SeqCst) || stopping.is_shutting_down() || past(deadline)
+        });
         let rendered = tokio::task::spawn_blocking(move || {
-            let stop = || cancel.load(Ordering::SeqCst) || service.is_shutting_down();
-            runner::render_tier(&job, &|p| service.set_progress(id, p), &stop, share)
+            runner::render_tier(&job, &|p| service.set_progress(id, p), stop, share)
         })
         .await;
         let seconds = started.elapsed().as_secs_f64();
@@ -138,7 +154,7 @@ impl Service {
                 .await
             }
             Ok(Err(message)) => self.fail(id, "render_failed", message).await,
-            Ok(Ok(None)) => self.stopped(id).await,
+            Ok(Ok(None)) => self.stopped(id, deadline).await,
             Ok(Ok(Some(output))) => {
                 self.metrics.add_render(&output.result.tier, seconds);
                 match spec.reference_spp {
@@ -162,11 +178,11 @@ impl Service {
 
     async fn run_compare(self: &Arc<Self>, comparing: Comparing) {
         let id = comparing.id;
-        let Some(cancel) = lock(&self.inner)
+        let Some((cancel, deadline)) = lock(&self.inner)
             .jobs
             .get(&id)
             .filter(|e| e.record.state == JobState::Running)
-            .map(|e| e.cancel.clone())
+            .map(|e| (e.cancel.clone(), e.deadline))
         else {
             return; // cancelled while it waited
         };
@@ -174,7 +190,8 @@ impl Service {
         let comparing = Arc::new(comparing);
         let work = comparing.clone();
         let compared = tokio::task::spawn_blocking(move || {
-            let stop = || cancel.load(Ordering::SeqCst) || service.is_shutting_down();
+            let stop =
+                || cancel.load(Ordering::SeqCst) || service.is_shutting_down() || past(deadline);
             runner::compare(
                 &work.job,
                 &work.output,
@@ -201,7 +218,7 @@ impl Service {
                 .await
             }
             Ok(Err(message)) => self.fail(id, "compare_failed", message).await,
-            Ok(Ok(None)) => self.stopped(id).await,
+            Ok(Ok(None)) => self.stopped(id, deadline).await,
             Ok(Ok(Some(compared))) => {
                 if compared.comparison.reference_cached {
                     self.metrics.reference_cache_hits.inc();
@@ -295,9 +312,23 @@ impl Service {
         .await;
     }
 
-    /// A render stopped before its end: by a cancellation (already recorded) or by the
-    /// shutdown, which puts the job back in the queue for the next start.
-    async fn stopped(self: &Arc<Self>, id: u64) {
+    /// A render stopped before its end: by a cancellation (already recorded), by the
+    /// shutdown, which puts the job back in the queue for the next start, or by its deadline,
+    /// which fails it.
+    async fn stopped(self: &Arc<Self>, id: u64, deadline: Option<Instant>) {
+        if !self.is_shutting_down() && past(deadline) {
+            let limit = self.config.job_time_limit_s;
+            return self
+                .fail(
+                    id,
+                    "time_limit",
+                    format!(
+                        "the job ran longer than the {limit} s this service allows a job \
+                         (--job-time-limit-s)"
+                    ),
+                )
+                .await;
+        }
         match self.transition(id, requeue_stopped).await {
             Ok(Some(_)) => tracing::info!(
                 job = id,
@@ -308,6 +339,18 @@ impl Service {
             Err(error) => tracing::error!(job = id, "storing the job failed: {error}"),
         }
     }
+}
+
+/// What a worker needs of a job it started.
+struct Started {
+    spec: JobSpec,
+    cancel: Arc<AtomicBool>,
+    deadline: Option<Instant>,
+}
+
+/// Whether `deadline` has passed.
+fn past(deadline: Option<Instant>) -> bool {
+    deadline.is_some_and(|d| Instant::now() >= d)
 }
 
 /// The change of a running job stopped by the shutdown: back to the queue, the start not

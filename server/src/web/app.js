@@ -127,6 +127,7 @@ function render(job) {
   $("job-progress").value = progress;
   $("job-stage").textContent = job.progress ? `${job.progress.stage} ${job.progress.done}/${job.progress.total}` : "";
   $("cancel").hidden = job.state !== "queued" && job.state !== "running";
+  $("delete").hidden = !$("cancel").hidden;
   $("job-error").textContent = job.error ? `${job.error.message} (${job.error.code})` : "";
   if (job.state !== "done") return;
 
@@ -230,6 +231,15 @@ $("token-form").addEventListener("submit", (event) => {
 $("job-form").addEventListener("submit", submit);
 $("cancel").addEventListener("click", async () => {
   try { render(await api(`/v1/jobs/${currentJob}`, { method: "DELETE" })); } catch (error) { $("job-error").textContent = error.message; }
+});
+$("delete").addEventListener("click", async () => {
+  try {
+    await api(`/v1/jobs/${currentJob}`, { method: "DELETE" });
+    currentJob = null;
+    clearTimeout(pollTimer);
+    $("job").hidden = true;
+    refreshJobs();
+  } catch (error) { $("job-error").textContent = error.message; }
 });
 $("older").addEventListener("click", () => refreshJobs(true));
 loadChoices().catch((error) => { $("form-error").textContent = error.message; });
