@@ -306,13 +306,21 @@ enum Command {
         /// Static scene whose first punctual light turns for the settle measurement.
         #[arg(long, default_value = "atrium")]
         settle_scene: String,
-        /// What happens to the settle scene's first punctual light: turn (by
-        /// --light-turn-deg), off (switched off) or on (off through the warm-up, then on).
+        /// What changes in the settle scene: its first punctual light turns (by
+        /// --light-turn-deg), is switched off, or on (off through the warm-up, then on), or
+        /// --move-node moves away (`move`; figures over the pixels it leaves).
         #[arg(long, default_value = "turn")]
-        change: tier_stability::LightChange,
+        change: tier_stability::SettleChange,
         /// How far the light turns about the world vertical, degrees.
         #[arg(long, default_value_t = 30.0)]
         light_turn_deg: f32,
+        /// The node `--change move` moves (by name, e.g. "Tall block" in cornell-box).
+        #[arg(long)]
+        move_node: Option<String>,
+        /// How far it moves, X,Y,Z metres in its parent's space (default: its width along x
+        /// plus 10%, along x).
+        #[arg(long, value_parser = parse_vec3)]
+        move_by: Option<glam::Vec3>,
         /// Skip the flicker cases: only the settle case and its cost.
         #[arg(long)]
         no_flicker: bool,
@@ -552,6 +560,8 @@ fn main() -> anyhow::Result<()> {
             settle_scene,
             change,
             light_turn_deg,
+            move_node,
+            move_by,
             no_flicker,
             pc_short_clamp_sigma,
             settle_frames,
@@ -582,6 +592,8 @@ fn main() -> anyhow::Result<()> {
                 settle_scene,
                 change,
                 light_turn_deg,
+                move_node,
+                move_by,
                 flicker: !no_flicker,
                 pc_config: {
                     let mut config = gi_tiers::PcConfig::default();
@@ -617,6 +629,21 @@ pub(crate) fn parse_size(size: &str) -> Result<(u32, u32), String> {
         .and_then(|(w, h)| Some((w.trim().parse().ok()?, h.trim().parse().ok()?)))
         .filter(|&(w, h): &(u32, u32)| w > 0 && h > 0)
         .ok_or_else(|| "expected WIDTHxHEIGHT with both sides at least 1, e.g. 320x180".to_owned())
+}
+
+/// `X,Y,Z`, three finite numbers.
+fn parse_vec3(value: &str) -> Result<glam::Vec3, String> {
+    let parts: Vec<f32> = value
+        .split(',')
+        .map(|p| p.trim().parse::<f32>())
+        .collect::<Result<_, _>>()
+        .map_err(|e| format!("expected X,Y,Z: {e}"))?;
+    match parts[..] {
+        [x, y, z] if x.is_finite() && y.is_finite() && z.is_finite() => {
+            Ok(glam::Vec3::new(x, y, z))
+        }
+        _ => Err("expected three finite numbers X,Y,Z, e.g. 0.5,0,0".to_owned()),
+    }
 }
 
 fn write_json(path: Option<PathBuf>, value: &serde_json::Value) -> anyhow::Result<()> {

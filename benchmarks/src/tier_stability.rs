@@ -13,10 +13,13 @@
 //!   motion vectors.
 //!
 //! Settle: the settle scene (static, with a punctual light) warms up, then its first punctual
-//! light changes ([`LightChange`]: it turns by `light_turn_deg` about the world vertical (a
+//! light changes ([`SettleChange`]: it turns by `light_turn_deg` about the world vertical (a
 //! directional or spot light's direction; a point light's position about the vertical axis
-//! through the origin), is switched off, or, off through the warm-up, is switched on) and
-//! `settle_frames` still frames follow. The converged value is the mean of the last
+//! through the origin), is switched off, or, off through the warm-up, is switched on), or one
+//! of its nodes moves away (`move`: `move_node`, made movable before the renderer, by
+//! `move_by`), and `settle_frames` still frames follow. For a move every figure is taken over
+//! the pixels the node covered before it and no longer covers after it (where it leaves a
+//! trail), not over the whole image: the share left after 4 frames is the trail's. The converged value is the mean of the last
 //! `converged_frames`, the noise their mean frame-to-frame change, the threshold `k` times the
 //! noise, and the settle time the frames from the change until every later frame (before the
 //! converged window) is within the threshold of the converged value. Errors and noise are mean
@@ -44,7 +47,7 @@
 use anyhow::{Context, bail};
 use gi_scene::LightKind;
 use gi_tiers::{CameraMode, PcConfig, PcTier, Renderer, mobile::ScreenProbeMode};
-use glam::Quat;
+use glam::{Quat, Vec3};
 
 use crate::mobile::{mobile, mobile_renderer};
 use crate::pc::pc_renderer;
@@ -70,9 +73,13 @@ pub struct StabilityOptions {
     pub path_scene: String,
     /// Static scene with a punctual light for the settle measurement.
     pub settle_scene: String,
-    /// What happens to the settle scene's first punctual light.
-    pub change: LightChange,
+    /// What happens to the settle scene: its first punctual light changes, or a node moves.
+    pub change: SettleChange,
     pub light_turn_deg: f32,
+    /// The node that moves away with [`SettleChange::Move`] (by name).
+    pub move_node: Option<String>,
+    /// How far it moves, metres in its parent's space; `None`: its width along x plus 10%.
+    pub move_by: Option<Vec3>,
     /// Run the flicker cases (off: the settle and cost cases only).
     pub flicker: bool,
     /// The PC tier's configuration (its runs only).
@@ -88,30 +95,34 @@ pub struct StabilityOptions {
     pub clock_settle_s: f64,
 }
 
-/// What the settle case does to the settle scene's first punctual light after the warm-up.
+/// What the settle case changes after the warm-up: the settle scene's first punctual light,
+/// or where one of its nodes is.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum LightChange {
-    /// It turns by `light_turn_deg` about the world vertical.
+pub enum SettleChange {
+    /// The light turns by `light_turn_deg` about the world vertical.
     Turn,
-    /// It is switched off.
+    /// The light is switched off.
     Off,
-    /// Off through the warm-up, it is switched on.
+    /// Off through the warm-up, the light is switched on.
     On,
+    /// `move_node` moves by `move_by`.
+    Move,
 }
 
-impl LightChange {
-    pub const NAMES: [&str; 3] = ["turn", "off", "on"];
+impl SettleChange {
+    pub const NAMES: [&str; 4] = ["turn", "off", "on", "move"];
 
     pub fn name(self) -> &'static str {
         match self {
             Self::Turn => "turn",
             Self::Off => "off",
             Self::On => "on",
+            Self::Move => "move",
         }
     }
 }
 
-impl std::str::FromStr for LightChange {
+impl std::str::FromStr for SettleChange {
     type Err = String;
 
     fn from_str(s: &str) -> Result<Self, String> {
@@ -119,6 +130,7 @@ impl std::str::FromStr for LightChange {
             "turn" => Ok(Self::Turn),
             "off" => Ok(Self::Off),
             "on" => Ok(Self::On),
+            "move" => Ok(Self::Move),
             other => Err(format!(
                 "unknown light change '{other}' (expected {})",
                 Self::NAMES.join(", ")
@@ -273,14 +285,19 @@ pub fn run(options: &StabilityOptions) -> anyhow::Result<StabilityReport> {
         "{} has no camera path (try atrium or cornell-box)",
         options.path_scene
     );
-    let settle_scene = load(&options.settle_scene)?;
+    let mut settle_scene = load(&options.settle_scene)?;
     // Checked before anything renders, so a scene that cannot settle costs no frames.
     anyhow::ensure!(
         !settle_scene.is_animated(),
         "the settle scene must be static; {} is animated (try atrium or thin-wall)",
         settle_scene.name
     );
-    first_light_node(&settle_scene)?;
+    if options.change == SettleChange::Move {
+        let node = moved_node(&settle_scene, options)?;
+        settle_scene.nodes[node].movable = true;
+    } else {
+        first_light_node(&settle_scene)?;
+    }
     anyhow::ensure!(!options.variants.is_empty(), "nothing to measure");
     let mut runs = Vec::new();
     for &variant in &options.variants {
@@ -387,34 +404,96 @@ fn first_light_node(scene: &gi_scene::Scene) -> anyhow::Result<usize> {
     Ok(node)
 }
 
+/// The node a move moves: `move_node` by name.
+fn moved_node(scene: &gi_scene::Scene, options: &StabilityOptions) -> anyhow::Result<usize> {
+    let Some(name) = &options.move_node else {
+        bail!(
+            "--change move needs --move-node (a node of {} with a mesh)",
+            scene.name
+        );
+    };
+    scene
+        .nodes
+        .iter()
+        .position(|n| &n.name == name)
+        .with_context(|| {
+            let names: Vec<&str> = scene.nodes.iter().map(|n| n.name.as_str()).collect();
+            format!(
+                "{} has no node '{name}' (its nodes: {})",
+                scene.name,
+                names.join(", ")
+            )
+        })
+}
+
+/// Where `move_node` goes: its translation plus `move_by`, by default its width along x
+/// (from the frame's triangles under it) plus 10%.
+fn moved_translation(
+    renderer: &mut Renderer,
+    options: &StabilityOptions,
+) -> anyhow::Result<(usize, Vec3)> {
+    let node = moved_node(renderer.scene(), options)?;
+    let by = match options.move_by {
+        Some(by) => by,
+        None => {
+            let frame = renderer.scene().evaluate(0.0, None);
+            let (min, max) = (frame.triangles.iter().zip(&frame.attributes))
+                .filter(|(_, a)| a.node as usize == node)
+                .flat_map(|(t, _)| [t.v0, t.v1, t.v2])
+                .fold((f32::INFINITY, f32::NEG_INFINITY), |(lo, hi), v| {
+                    (lo.min(v.x), hi.max(v.x))
+                });
+            anyhow::ensure!(
+                min <= max,
+                "node {} has no triangles of its own",
+                options.move_node.as_deref().unwrap_or("")
+            );
+            Vec3::new(1.1 * (max - min), 0.0, 0.0)
+        }
+    };
+    Ok((node, renderer.scene().nodes[node].translation + by))
+}
+
 /// Readies the settle scene for `change` before its warm-up: a light to switch on is off until
-/// then. Returns the light's intensity in the scene as loaded.
-fn prepare_change(scene: &mut gi_scene::Scene, change: LightChange) -> anyhow::Result<f32> {
+/// then. Returns the light's intensity in the scene as loaded (0 for a move).
+fn prepare_change(scene: &mut gi_scene::Scene, change: SettleChange) -> anyhow::Result<f32> {
+    if change == SettleChange::Move {
+        return Ok(0.0);
+    }
     let light = scene.nodes[first_light_node(scene)?]
         .light
         .expect("found above");
     let intensity = scene.lights[light].intensity;
-    if change == LightChange::On {
+    if change == SettleChange::On {
         scene.lights[light].intensity = 0.0;
     }
     Ok(intensity)
 }
 
-/// Makes `change` to the scene's first punctual light, whose intensity as loaded is
-/// `intensity`.
+/// Makes `change`: to the scene's first punctual light, whose intensity as loaded is
+/// `intensity`, or moves `move_node`.
 fn apply_change(
-    scene: &mut gi_scene::Scene,
-    change: LightChange,
+    renderer: &mut Renderer,
+    change: SettleChange,
     options: &StabilityOptions,
     intensity: f32,
 ) -> anyhow::Result<()> {
+    if change == SettleChange::Move {
+        let (node, translation) = moved_translation(renderer, options)?;
+        let n = &renderer.scene().nodes[node];
+        let (rotation, scale) = (n.rotation, n.scale);
+        renderer.set_node_transform(node, translation, rotation, scale)?;
+        return Ok(());
+    }
+    let scene = renderer.scene_mut();
     let light = scene.nodes[first_light_node(scene)?]
         .light
         .expect("found above");
     match change {
-        LightChange::Turn => turn_first_light(scene, options.light_turn_deg)?,
-        LightChange::Off => scene.lights[light].intensity = 0.0,
-        LightChange::On => scene.lights[light].intensity = intensity,
+        SettleChange::Turn => turn_first_light(scene, options.light_turn_deg)?,
+        SettleChange::Off => scene.lights[light].intensity = 0.0,
+        SettleChange::On => scene.lights[light].intensity = intensity,
+        SettleChange::Move => unreachable!("handled above"),
     }
     Ok(())
 }
@@ -449,7 +528,7 @@ fn change_cost(renderer: &mut Renderer, options: &StabilityOptions) -> anyhow::R
     for _ in 0..timed {
         before_ms.push(gi_ms(kind, &renderer.warm_up_frame()?));
     }
-    apply_change(renderer.scene_mut(), options.change, options, intensity)?;
+    apply_change(renderer, options.change, options, intensity)?;
     let mut after_ms = Vec::with_capacity(options.settle_frames as usize);
     for _ in 0..options.settle_frames {
         after_ms.push(gi_ms(kind, &renderer.warm_up_frame()?));
@@ -487,8 +566,9 @@ fn settle(renderer: &mut Renderer, options: &StabilityOptions) -> anyhow::Result
     let name = renderer.scene().name.clone();
     let intensity = prepare_change(renderer.scene_mut(), options.change)?;
     renderer.warm_up(options.warmup.max(1), None)?;
-    let before = luminance_image(&frame_data(renderer)?.gi);
-    apply_change(renderer.scene_mut(), options.change, options, intensity)?;
+    let before_data = frame_data(renderer)?;
+    let before = luminance_image(&before_data.gi);
+    apply_change(renderer, options.change, options, intensity)?;
     let mut frames = Vec::new();
     let mut last = None;
     for _ in 0..options.settle_frames {
@@ -498,12 +578,21 @@ fn settle(renderer: &mut Renderer, options: &StabilityOptions) -> anyhow::Result
         last = Some(data);
     }
     let last = last.expect("at least two frames");
-    let mask: Vec<bool> = last
-        .depth
-        .iter()
-        .zip(&last.dynamic)
-        .map(|(depth, dynamic)| depth.is_finite() && !dynamic)
+    // Static pixels; for a move the static ones the node covered before it (its trail).
+    let moved = options.change == SettleChange::Move;
+    let mask: Vec<bool> = (last.depth.iter().zip(&last.dynamic))
+        .zip(&before_data.dynamic)
+        .map(|((depth, dynamic), before)| depth.is_finite() && !dynamic && (!moved || *before))
         .collect();
+    anyhow::ensure!(
+        mask.iter().any(|&m| m),
+        "no pixel to measure: {}",
+        if moved {
+            "the moved node covered no pixel it left (move it within the view)"
+        } else {
+            "no static surface in view"
+        }
+    );
     let window = frames.len() - options.converged_frames as usize;
     let converged = mean_image(&frames[window..]);
     let noise = frame_to_frame_noise(&frames[window..], &mask);
@@ -550,9 +639,13 @@ impl StabilityReport {
             o.warmup,
             o.frames,
             match o.change {
-                LightChange::Turn => format!("turned {} deg", o.light_turn_deg),
-                LightChange::Off => "switched off".to_owned(),
-                LightChange::On => "switched on".to_owned(),
+                SettleChange::Turn => format!("turned {} deg", o.light_turn_deg),
+                SettleChange::Off => "switched off".to_owned(),
+                SettleChange::On => "switched on".to_owned(),
+                SettleChange::Move => format!(
+                    "unchanged, node '{}' moved away (figures over the pixels it left)",
+                    o.move_node.as_deref().unwrap_or("")
+                ),
             },
             o.settle_frames,
             o.converged_frames,
@@ -659,6 +752,8 @@ impl StabilityReport {
             "settle_options": {
                 "change": o.change.name(),
                 "light_turn_deg": o.light_turn_deg,
+                "move_node": o.move_node,
+                "move_by": o.move_by.map(|v| v.to_array()),
                 "settle_frames": o.settle_frames,
                 "converged_frames": o.converged_frames,
                 "k": o.settle_k,

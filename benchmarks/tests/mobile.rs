@@ -325,3 +325,74 @@ fn pc_stability_benchmark_reports_flicker_and_settle() {
     assert_eq!(settle["errors"].as_array().unwrap().len(), 2);
     assert!(settle["light_change"].as_f64().unwrap() > 0.0, "{settle}");
 }
+
+/// `--change move`: cornell-box's tall block slides away after the warm-up, and the settle
+/// figures are taken over the pixels it leaves (its trail), where the GI changed most.
+#[test]
+fn a_moved_node_is_measured_over_the_pixels_it_leaves() {
+    if GpuContext::new_or_skip("a_moved_node_is_measured_over_the_pixels_it_leaves").is_none() {
+        return;
+    }
+    let (stdout, report) = gi_bench_json(
+        &[
+            "stability",
+            "--size",
+            "32x24",
+            "--warmup",
+            "2",
+            "--no-flicker",
+            "--settle-scene",
+            "cornell-box",
+            "--change",
+            "move",
+            "--move-node",
+            "Tall block",
+            "--settle-frames",
+            "8",
+            "--converged-frames",
+            "2",
+            "--clock-settle-s",
+            "0",
+        ],
+        "gi-bench-move.json",
+    );
+    assert!(stdout.contains("node 'Tall block' moved away"), "{stdout}");
+    assert_eq!(report["settle_options"]["change"], "move");
+    assert_eq!(report["settle_options"]["move_node"], "Tall block");
+    let settle = &report["runs"][0]["settle"];
+    // The block's own GI gave way to the floor's and the back wall's behind it.
+    assert!(settle["light_change"].as_f64().unwrap() > 0.0, "{settle}");
+    assert_eq!(settle["errors"].as_array().unwrap().len(), 6, "{settle}");
+
+    // A move needs a node that exists.
+    let output = Command::new(env!("CARGO_BIN_EXE_gi-bench"))
+        .args([
+            "stability",
+            "--settle-scene",
+            "cornell-box",
+            "--change",
+            "move",
+        ])
+        .output()
+        .expect("gi-bench starts");
+    assert!(!output.status.success());
+    let err = String::from_utf8_lossy(&output.stderr);
+    assert!(err.contains("--change move needs --move-node"), "{err}");
+    let output = Command::new(env!("CARGO_BIN_EXE_gi-bench"))
+        .args([
+            "stability",
+            "--settle-scene",
+            "cornell-box",
+            "--change",
+            "move",
+            "--move-node",
+            "Piano",
+        ])
+        .output()
+        .expect("gi-bench starts");
+    let err = String::from_utf8_lossy(&output.stderr);
+    assert!(
+        err.contains("cornell-box has no node 'Piano'") && err.contains("Tall block"),
+        "{err}"
+    );
+}
