@@ -133,18 +133,14 @@ fn shared_structs_match_their_wgsl_layout() {
         size_of::<PcUniforms>(),
     );
     check(
-        "Reservoir",
+        "StoredReservoir",
         rust_field_offsets!(GpuReservoir {
             position,
             w,
             radiance,
-            m,
-            normal,
-            flags,
-            occluder_distance,
-            occluder_direction,
-            fixed_radiance,
-            albedo,
+            normal_flags,
+            m_extra,
+            extra,
         }),
         size_of::<GpuReservoir>(),
     );
@@ -645,7 +641,7 @@ fn every_bundled_scene_renders_finite_and_accounts_its_memory() {
             assert!(data.dynamic.iter().all(|d| !d), "{name}: dynamic pixels");
         }
         // Without spatial reuse the shaded reservoirs are the temporal ones: M is clamped.
-        let most = data.reservoirs.iter().map(|r| r.m).fold(0.0, f32::max);
+        let most = data.reservoirs.iter().map(|r| r.m()).fold(0.0, f32::max);
         assert!(most <= config.restir.m_clamp + 1.0, "{name}: M {most}");
         // The parts are summed from the buffers' labels: every byte the tier owns is in one
         // of them (a buffer under a label none names would leave a gap).

@@ -7,8 +7,8 @@
 #define_import_path gi::pc::restir::bindings
 
 #import gi::pc::restir::common::{
-    uniforms, Surface, StoredSurface, Reservoir, SpecularSample, specular_kind, pixel_point,
-    surface_seen_by
+    uniforms, Surface, StoredSurface, StoredReservoir, SpecularSample, specular_kind,
+    pixel_point, surface_seen_by
 }
 
 @group(0) @binding(8) var<storage, read> gbuffer_depth: array<f32>;
@@ -19,13 +19,13 @@
 // Per trace pixel: this frame's receivers and the previous frame's.
 @group(0) @binding(13) var<storage, read> surfaces: array<StoredSurface>;
 @group(0) @binding(14) var<storage, read> surfaces_prev: array<StoredSurface>;
-@group(0) @binding(15) var<storage, read> initial: array<Reservoir>;
+@group(0) @binding(15) var<storage, read> initial: array<StoredReservoir>;
 // Per trace pixel: this frame's temporal reservoirs (the next frame's history) and the
 // previous frame's; the resolved reservoirs, which `spatial` writes and the shadow pass
 // (`shadow`) then updates in place, and which `shade` reads.
-@group(0) @binding(16) var<storage, read_write> temporal_out: array<Reservoir>;
-@group(0) @binding(17) var<storage, read> temporal_prev: array<Reservoir>;
-@group(0) @binding(18) var<storage, read_write> resolved: array<Reservoir>;
+@group(0) @binding(16) var<storage, read_write> temporal_out: array<StoredReservoir>;
+@group(0) @binding(17) var<storage, read> temporal_prev: array<StoredReservoir>;
+@group(0) @binding(18) var<storage, read_write> resolved: array<StoredReservoir>;
 // Per pixel: the multi-sample shading's irradiance (rgb, `pack_color64`), the denoised one,
 // the direct light's running mean, the output image.
 @group(0) @binding(19) var<storage, read_write> irradiance: array<vec2<u32>>;

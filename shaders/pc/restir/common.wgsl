@@ -12,7 +12,10 @@
 #import gi::camera::{Camera, camera_ray}
 #import gi::math::luminance
 #import gi::sky::Sky
-#import gi::packing::{unpack_unit_vector, unpack_rgb9e5, pack_color64, unpack_color64}
+#import gi::packing::{
+    unpack_unit_vector, unpack_rgb9e5, pack_color64, unpack_color64, half_bits, half_value,
+    pack_half2, unpack_half2
+}
 
 // Bits of `PcUniforms::flags`.
 const FLAG_TEMPORAL: u32 = 1u;
@@ -140,7 +143,7 @@ fn surface_seen_by(s: StoredSurface, camera: Camera) -> Surface {
     return Surface(pixel_point(camera, p, s.depth), s.normal, pixel, s.depth);
 }
 
-// Mirror of `gi_tiers::pc::GpuReservoir`, 48 bytes.
+// A reservoir as the passes work on it; the buffers keep it as a `StoredReservoir`.
 struct Reservoir {
     // The sample point `y`, or for a sky sample its unit direction.
     position: vec3<f32>,
@@ -164,6 +167,78 @@ struct Reservoir {
     // plus split-sum specular towards the receiver) that reflects the cache's bounced light.
     fixed_radiance: u32,
     albedo: u32,
+}
+
+// Mirror of `gi_tiers::pc::GpuReservoir`, 32 bytes: a `Reservoir` as the buffers keep it.
+// The initial and temporal reservoirs keep what a later frame needs to refresh a surface
+// sample (`fixed_radiance`, `albedo`); the resolved ones, which no later frame reads, keep the
+// shadow pass's occluder instead (`store_resolved`).
+struct StoredReservoir {
+    position: vec3<f32>,
+    w: f32,
+    radiance: u32,
+    // The packed normal's two 16-bit snorm components cut to their upper 15 bits (bits 0-14,
+    // 15-29), and the flags (bits 30-31).
+    normal_flags: u32,
+    // M as an f16 (bits 0-15; integers exact to 2048), and the albedo as unorm 5:6:5 or the
+    // occluder's distance as an f16 (bits 16-31).
+    m_extra: u32,
+    // `fixed_radiance`, or the occluder's direction.
+    extra: u32,
+}
+
+fn pack_normal_flags(normal: u32, flags: u32) -> u32 {
+    return ((normal & 0xffffu) >> 1u) | ((normal >> 17u) << 15u) | (flags << 30u);
+}
+
+fn unpack_normal(packed: u32) -> u32 {
+    return ((packed & 0x7fffu) << 1u) | (((packed >> 15u) & 0x7fffu) << 17u);
+}
+
+// Unorm8 rgb (`pack4x8unorm`, alpha 0) to 5:6:5 and back (0 stays 0, and so does an albedo
+// below 8/255 in every channel: a sample that dark is not refreshed).
+fn albedo_to_565(albedo: u32) -> u32 {
+    return ((albedo & 0xffu) >> 3u) | (((albedo >> 10u) & 0x3fu) << 5u) | (((albedo >> 19u) & 0x1fu) << 11u);
+}
+
+fn albedo_from_565(packed: u32) -> u32 {
+    let r = packed & 0x1fu;
+    let g = (packed >> 5u) & 0x3fu;
+    let b = (packed >> 11u) & 0x1fu;
+    return ((r << 3u) | (r >> 2u)) | (((g << 2u) | (g >> 4u)) << 8u) | (((b << 3u) | (b >> 2u)) << 16u);
+}
+
+// The initial and temporal reservoirs' form: no occluder (none is set before `shadow`).
+fn store_reservoir(r: Reservoir) -> StoredReservoir {
+    let m = half_bits(r.m);
+    return StoredReservoir(
+        r.position, r.w, r.radiance, pack_normal_flags(r.normal, r.flags),
+        m | (albedo_to_565(r.albedo) << 16u), r.fixed_radiance
+    );
+}
+
+fn load_reservoir(s: StoredReservoir) -> Reservoir {
+    let m = half_value(s.m_extra & 0xffffu);
+    return Reservoir(
+        s.position, s.w, s.radiance, m, unpack_normal(s.normal_flags), s.normal_flags >> 30u,
+        0.0, 0u, s.extra, albedo_from_565(s.m_extra >> 16u)
+    );
+}
+
+// The resolved reservoirs' form: the occluder, not what a refresh needs.
+fn store_resolved(r: Reservoir) -> StoredReservoir {
+    return StoredReservoir(
+        r.position, r.w, r.radiance, pack_normal_flags(r.normal, r.flags),
+        pack_half2(vec2(r.m, r.occluder_distance)), r.occluder_direction
+    );
+}
+
+fn load_resolved(s: StoredReservoir) -> Reservoir {
+    let m = unpack_half2(s.m_extra);
+    return Reservoir(
+        s.position, s.w, s.radiance, m.x, unpack_normal(s.normal_flags), s.normal_flags >> 30u,
+        m.y, s.extra, 0u, 0u
+    );
 }
 
 // Mirror of `gi_tiers::pc::GpuSpecularSample`, 32 bytes: one trace pixel's specular ray.

@@ -7,7 +7,8 @@
 #define_import_path gi::pc::restir::rays
 
 #import gi::pc::restir::common::{
-    uniforms, Surface, StoredSurface, Reservoir, SpecularSample, stored_surface, surface_seen_by
+    uniforms, Surface, StoredSurface, StoredReservoir, SpecularSample, stored_surface,
+    surface_seen_by
 }
 
 // Shadow rays stop short of their target by this share of the distance.
@@ -18,13 +19,13 @@ const SHADOW_MARGIN: f32 = 1e-3;
 // Per trace pixel: this frame's receiver (written by `trace`).
 @group(0) @binding(10) var<storage, read_write> surfaces: array<StoredSurface>;
 // Per trace pixel: the initial reservoir (written by `trace`).
-@group(0) @binding(11) var<storage, read_write> initial: array<Reservoir>;
+@group(0) @binding(11) var<storage, read_write> initial: array<StoredReservoir>;
 // Per trace pixel: the temporal reuse's result (read by `shadow`).
-@group(0) @binding(12) var<storage, read> temporal: array<Reservoir>;
+@group(0) @binding(12) var<storage, read> temporal: array<StoredReservoir>;
 // Per trace pixel: the reservoir the shading reads. With spatial reuse, `pc/spatial` wrote
 // its result here and `shadow` updates it in place (each invocation reads and writes only its
 // own element); without, `shadow` writes it.
-@group(0) @binding(13) var<storage, read_write> resolved: array<Reservoir>;
+@group(0) @binding(13) var<storage, read_write> resolved: array<StoredReservoir>;
 @group(0) @binding(14) var<storage, read> gbuffer_base_color: array<vec4<f32>>;
 @group(0) @binding(15) var<storage, read> gbuffer_metallic_roughness: array<vec2<f32>>;
 // Per trace pixel: the specular ray (written by `specular_trace`).

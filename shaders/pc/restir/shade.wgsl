@@ -31,7 +31,7 @@
 #import gi::pc::restir::common::{
     uniforms, Surface, Reservoir, is_sky_depth, has_surface, reservoir_irradiance,
     similar_surfaces, sample_direction, specular_kind, SAMPLE_OCCLUDED, FLAG_SHADOW,
-    FLAG_MULTI_SAMPLE, SPECULAR_NONE, SPECULAR_REUSED
+    FLAG_MULTI_SAMPLE, SPECULAR_NONE, SPECULAR_REUSED, load_resolved
 }
 
 // HSGI's shadow condition for reusing neighbour reservoir `nb` at a pixel whose own trace
@@ -101,7 +101,7 @@ fn shade(@builtin(global_invocation_id) id: vec3<u32>) {
     let n = unpack_unit_vector(me.normal);
     let t = vec2<i32>(id.xy / uniforms.trace_scale);
     let center_index = trace_index(vec2<u32>(t));
-    let center = resolved[center_index];
+    let center = load_resolved(resolved[center_index]);
     var radius = 0;
     if (uniforms.flags & FLAG_MULTI_SAMPLE) != 0u {
         radius = i32(uniforms.shade_radius);
@@ -135,7 +135,7 @@ fn shade(@builtin(global_invocation_id) id: vec3<u32>) {
             if !similar_surfaces(me, sq, uniforms.normal_cos, uniforms.plane_tolerance) {
                 continue;
             }
-            let rq = resolved[qi];
+            let rq = load_resolved(resolved[qi]);
             if qi != center_index {
                 if shadow_test && !shadow_compatible(center, rq, x) {
                     continue;

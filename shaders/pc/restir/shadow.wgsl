@@ -9,7 +9,10 @@
 
 #import gi::bvh::{Ray, trace_closest, BVH_MISS}
 #import gi::packing::{pack_unit_vector, unpack_unit_vector}
-#import gi::pc::restir::common::{uniforms, has_surface, SAMPLE_SKY, SAMPLE_OCCLUDED, FLAG_SPATIAL, FLAG_SHADOW, FLAG_TEMPORAL, FAR}
+#import gi::pc::restir::common::{
+    uniforms, has_surface, load_reservoir, load_resolved, store_resolved, SAMPLE_SKY,
+    SAMPLE_OCCLUDED, FLAG_SPATIAL, FLAG_SHADOW, FLAG_TEMPORAL, FAR
+}
 #import gi::pc::restir::rays::{load_surface, initial, temporal, resolved, SHADOW_MARGIN, offset_origin}
 
 @compute @workgroup_size(8, 8)
@@ -18,17 +21,17 @@ fn shadow(@builtin(global_invocation_id) id: vec3<u32>) {
         return;
     }
     let index = id.y * uniforms.trace_px.x + id.x;
-    var r = temporal[index];
+    var r = load_reservoir(temporal[index]);
     if (uniforms.flags & FLAG_TEMPORAL) == 0u {
-        r = initial[index];
+        r = load_reservoir(initial[index]);
     }
     let fallback = r;
     if (uniforms.flags & FLAG_SPATIAL) != 0u {
-        r = resolved[index];
+        r = load_resolved(resolved[index]);
     }
     let s = load_surface(index);
     if (uniforms.flags & FLAG_SHADOW) == 0u || !has_surface(s) || r.w <= 0.0 {
-        resolved[index] = r;
+        resolved[index] = store_resolved(r);
         return;
     }
     let n = unpack_unit_vector(s.normal);
@@ -45,12 +48,12 @@ fn shadow(@builtin(global_invocation_id) id: vec3<u32>) {
     }
     let hit = trace_closest(Ray(origin, 0.0, dir, t_max));
     if hit.triangle == BVH_MISS {
-        resolved[index] = r;
+        resolved[index] = store_resolved(r);
         return;
     }
     var back = fallback;
     back.flags |= SAMPLE_OCCLUDED;
     back.occluder_distance = hit.t;
     back.occluder_direction = pack_unit_vector(dir);
-    resolved[index] = back;
+    resolved[index] = store_resolved(back);
 }

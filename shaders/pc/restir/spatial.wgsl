@@ -13,15 +13,16 @@
 #import gi::pc::restir::bindings::{load_surface, initial, temporal_out, resolved, trace_index}
 #import gi::pc::restir::common::{
     uniforms, Reservoir, empty_reservoir, has_surface, target_pdf, reconnection_jacobian,
-    combiner_new, combiner_add, combiner_finish, similar_surfaces, FLAG_TEMPORAL
+    combiner_new, combiner_add, combiner_finish, similar_surfaces, load_reservoir, store_resolved,
+    FLAG_TEMPORAL
 }
 
 // The reservoir the spatial reuse starts from at trace pixel `i`.
 fn reuse_source(i: u32) -> Reservoir {
     if (uniforms.flags & FLAG_TEMPORAL) != 0u {
-        return temporal_out[i];
+        return load_reservoir(temporal_out[i]);
     }
-    return initial[i];
+    return load_reservoir(initial[i]);
 }
 
 @compute @workgroup_size(8, 8)
@@ -32,7 +33,7 @@ fn spatial(@builtin(global_invocation_id) id: vec3<u32>) {
     let index = trace_index(id.xy);
     let s = load_surface(index);
     if !has_surface(s) {
-        resolved[index] = empty_reservoir();
+        resolved[index] = store_resolved(empty_reservoir());
         return;
     }
     let n = unpack_unit_vector(s.normal);
@@ -56,5 +57,5 @@ fn spatial(@builtin(global_invocation_id) id: vec3<u32>) {
         let j = reconnection_jacobian(rq, sq.position, s.position, uniforms.jacobian_max);
         combiner_add(&c, rq, rq.m, target_pdf(rq, s.position, n), j, u_select);
     }
-    resolved[index] = combiner_finish(c);
+    resolved[index] = store_resolved(combiner_finish(c));
 }

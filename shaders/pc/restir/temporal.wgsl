@@ -19,7 +19,7 @@
 #import gi::pc::restir::common::{
     uniforms, Surface, Reservoir, empty_reservoir, has_surface, target_pdf, reconnection_jacobian,
     combiner_new, combiner_add, combiner_finish, similar_surfaces, SAMPLE_SKY, FLAG_TEMPORAL,
-    FLAG_BOILING, FLAG_HISTORY
+    FLAG_BOILING, FLAG_HISTORY, load_reservoir, store_reservoir
 }
 
 // Trace pixel of the previous frame that held receiver `s`, or -1: the G-buffer's motion
@@ -78,7 +78,7 @@ fn temporal(@builtin(global_invocation_id) id: vec3<u32>, @builtin(local_invocat
     if inside {
         index = trace_index(id.xy);
         let s = load_surface(index);
-        first = initial[index];
+        first = load_reservoir(initial[index]);
         if has_surface(s) {
             let n = unpack_unit_vector(s.normal);
             var sampler = sampler_new(uniforms.seed ^ vec2(0x9e3779b9u, 0u), index, uniforms.frame_index);
@@ -88,7 +88,7 @@ fn temporal(@builtin(global_invocation_id) id: vec3<u32>, @builtin(local_invocat
             if (uniforms.flags & history) == history {
                 let prev = previous_trace_pixel(s);
                 if prev >= 0 {
-                    let rp = refreshed(temporal_prev[prev]);
+                    let rp = refreshed(load_reservoir(temporal_prev[prev]));
                     let source = load_surface_prev(u32(prev)).position;
                     let j = reconnection_jacobian(rp, source, s.position, uniforms.jacobian_max);
                     combiner_add(&c, rp, min(rp.m, uniforms.m_clamp), target_pdf(rp, s.position, n), j, sampler_next_f32(&sampler));
@@ -117,6 +117,6 @@ fn temporal(@builtin(global_invocation_id) id: vec3<u32>, @builtin(local_invocat
         }
     }
     if inside {
-        temporal_out[index] = r;
+        temporal_out[index] = store_reservoir(r);
     }
 }

@@ -21,7 +21,10 @@
 #import gi::packing::{pack_unit_vector, unpack_unit_vector, pack_rgb9e5, unpack_rgb9e5}
 #import gi::cache::data::cache
 #import gi::cache::trace::{CacheHit, cache_miss, cache_trace_from, cache_hit_radiance, cache_hit_normal}
-#import gi::pc::restir::common::{uniforms, Surface, empty_reservoir, is_sky_depth, has_surface, pixel_point, SAMPLE_SKY, FAR}
+#import gi::pc::restir::common::{
+    uniforms, Surface, empty_reservoir, is_sky_depth, has_surface, pixel_point, store_reservoir,
+    SAMPLE_SKY, FAR
+}
 #import gi::pc::restir::rays::{gbuffer_depth, gbuffer_normal, store_surface, initial, offset_origin}
 #import gi::pc::restir::hit::{shade_hit, visible_emitter_sample}
 #import gi::pc::restir::hit_cache::hit_lights_from_cache
@@ -92,7 +95,7 @@ fn trace(@builtin(global_invocation_id) id: vec3<u32>) {
     let s = pick_receiver(id.xy, index);
     store_surface(index, s);
     if !has_surface(s) {
-        initial[index] = empty_reservoir();
+        initial[index] = store_reservoir(empty_reservoir());
         return;
     }
     let n = unpack_unit_vector(s.normal);
@@ -175,5 +178,5 @@ fn trace(@builtin(global_invocation_id) id: vec3<u32>) {
         chosen = empty_reservoir();
         chosen.m = 1.0;
     }
-    initial[index] = chosen;
+    initial[index] = store_reservoir(chosen);
 }

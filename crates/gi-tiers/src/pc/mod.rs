@@ -86,7 +86,11 @@ pub struct PcUniforms {
     pub specular_diffuse_from: f32,
 }
 
-/// Mirror of `Reservoir` in `shaders/pc/restir/common.wgsl`, 48 bytes.
+/// Mirror of `StoredReservoir` in `shaders/pc/restir/common.wgsl`, 32 bytes: a ReSTIR GI
+/// reservoir as the buffers keep it. The initial and temporal reservoirs keep in `m_extra`'s
+/// high half and in `extra` what a later frame needs to refresh a surface sample (albedo as
+/// unorm 5:6:5, the RGB9E5 emission plus punctual lights' and emitters' direct light); the
+/// resolved ones the shadow pass's occluder (f16 distance, packed direction).
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
 pub struct GpuReservoir {
@@ -96,17 +100,25 @@ pub struct GpuReservoir {
     pub w: f32,
     /// RGB9E5 radiance leaving the sample towards the receiver.
     pub radiance: u32,
-    pub m: f32,
-    pub normal: u32,
-    /// Bit 0: sky sample; bit 1: occluded (fell back to the temporal reservoir).
-    pub flags: u32,
-    pub occluder_distance: f32,
-    pub occluder_direction: u32,
-    /// RGB9E5 emission plus the punctual lights' and emitters' direct light of a surface sample.
-    pub fixed_radiance: u32,
-    /// Unorm8 albedo of a surface sample, diffuse plus split-sum specular towards the receiver:
-    /// what reflects the cache's bounced light.
-    pub albedo: u32,
+    /// The sample's packed normal cut to 15 bits a component (bits 0-29) and the flags (bits
+    /// 30-31: sky sample; occluded, fell back to the temporal reservoir).
+    pub normal_flags: u32,
+    /// M as an f16 (bits 0-15), and the albedo or the occluder's distance (bits 16-31).
+    pub m_extra: u32,
+    /// The fixed radiance, or the occluder's direction.
+    pub extra: u32,
+}
+
+impl GpuReservoir {
+    /// Samples behind the reservoir, M.
+    pub fn m(&self) -> f32 {
+        gi_cache::packing::half_value(self.m_extra & 0xffff)
+    }
+
+    /// Bit 0: sky sample; bit 1: occluded.
+    pub fn flags(&self) -> u32 {
+        self.normal_flags >> 30
+    }
 }
 
 /// Mirror of `SpecularSample` in `shaders/pc/restir/common.wgsl`, 32 bytes: one trace pixel's
