@@ -343,6 +343,11 @@ enum Command {
         /// once.
         #[arg(long, default_value_t = 2.0, value_parser = parse_settle)]
         clock_settle_s: f64,
+        /// Also write each run's contact strip of the settle case into this folder
+        /// (`<scene>-<change>-<tier>.png`: the GI term before the change, 1, 2, 4 and 8
+        /// frames after it, and converged).
+        #[arg(long)]
+        strip_dir: Option<PathBuf>,
         /// Also write the results as JSON to this file.
         #[arg(long)]
         json: Option<PathBuf>,
@@ -568,8 +573,13 @@ fn main() -> anyhow::Result<()> {
             converged_frames,
             settle_k,
             clock_settle_s,
+            strip_dir,
             json,
         } => {
+            if let Some(dir) = &strip_dir {
+                std::fs::create_dir_all(dir)
+                    .map_err(|e| anyhow::anyhow!("creating {}: {e}", dir.display()))?;
+            }
             let (kind, variants) = match (tier.as_str(), screen_probes) {
                 ("pc", None) => (gi_tiers::TierKind::Pc, vec![tier_stability::Variant::Pc]),
                 ("pc", Some(_)) => anyhow::bail!("--screen-probes applies to the mobile tier only"),
@@ -607,6 +617,7 @@ fn main() -> anyhow::Result<()> {
                 converged_frames,
                 settle_k,
                 clock_settle_s,
+                strip_dir,
             })?;
             out!("{}", report.table());
             write_json(json, &report.json())

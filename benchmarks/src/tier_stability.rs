@@ -93,7 +93,13 @@ pub struct StabilityOptions {
     /// Seconds of still frames for the GPU's clock to settle before the settle case's light
     /// turns ([`crate::settle::settle`]); 0 times at once.
     pub clock_settle_s: f64,
+    /// Folder for each run's contact strip of the settle case (`<scene>-<change>-<tier>.png`):
+    /// the GI term before the change, 1, 2, 4 and 8 frames after it, and converged.
+    pub strip_dir: Option<std::path::PathBuf>,
 }
+
+/// Frames after the change that the contact strip shows.
+const STRIP_FRAMES: [usize; 4] = [1, 2, 4, 8];
 
 /// What the settle case changes after the warm-up: the settle scene's first punctual light,
 /// or where one of its nodes is.
@@ -323,7 +329,19 @@ pub fn run(options: &StabilityOptions) -> anyhow::Result<StabilityReport> {
                 },
             ]
         };
-        let settle = settle(&mut renderer(&settle_scene, CameraMode::Default)?, options)?;
+        let strip = (options.strip_dir.as_ref()).map(|dir| {
+            dir.join(format!(
+                "{}-{}-{}.png",
+                crate::suite::file_stem(&settle_scene.name),
+                options.change.name(),
+                variant.name().replace(' ', "-")
+            ))
+        });
+        let settle = settle(
+            &mut renderer(&settle_scene, CameraMode::Default)?,
+            options,
+            strip.as_deref(),
+        )?;
         let cost = change_cost(&mut renderer(&settle_scene, CameraMode::Default)?, options)?;
         runs.push(StabilityRun {
             variant,
@@ -562,8 +580,13 @@ fn relight_frames(after_ms: &[f64], limit: f64) -> Option<usize> {
         .map(|back| first + back)
 }
 
-fn settle(renderer: &mut Renderer, options: &StabilityOptions) -> anyhow::Result<Settle> {
+fn settle(
+    renderer: &mut Renderer,
+    options: &StabilityOptions,
+    strip: Option<&std::path::Path>,
+) -> anyhow::Result<Settle> {
     let name = renderer.scene().name.clone();
+    let exposure = renderer.scene().exposure;
     let intensity = prepare_change(renderer.scene_mut(), options.change)?;
     renderer.warm_up(options.warmup.max(1), None)?;
     let before_data = frame_data(renderer)?;
@@ -571,11 +594,50 @@ fn settle(renderer: &mut Renderer, options: &StabilityOptions) -> anyhow::Result
     apply_change(renderer, options.change, options, intensity)?;
     let mut frames = Vec::new();
     let mut last = None;
-    for _ in 0..options.settle_frames {
+    let mut shown = vec![("before".to_owned(), before_data.gi.clone())];
+    let mut converged_colors = Vec::new();
+    let window_start = options
+        .settle_frames
+        .saturating_sub(options.converged_frames) as usize;
+    for index in 0..options.settle_frames as usize {
         renderer.warm_up(1, None)?;
         let data = frame_data(renderer)?;
         frames.push(luminance_image(&data.gi));
+        if strip.is_some() {
+            if STRIP_FRAMES.contains(&(index + 1)) {
+                shown.push((format!("{} after", index + 1), data.gi.clone()));
+            }
+            if index >= window_start {
+                converged_colors.push(data.gi.clone());
+            }
+        }
         last = Some(data);
+    }
+    if let Some(path) = strip {
+        let count = converged_colors.len().max(1) as f32;
+        let mut mean = vec![Vec3::ZERO; before_data.gi.len()];
+        for frame in &converged_colors {
+            for (m, c) in mean.iter_mut().zip(frame) {
+                *m += *c / count;
+            }
+        }
+        shown.push(("converged".to_owned(), mean));
+        let (width, height) = (before_data.width, before_data.height);
+        let images = shown
+            .into_iter()
+            .map(|(label, pixels)| {
+                let image = gi_image::Image::from_pixels(width, height, pixels)?;
+                let bytes = gi_image::to_srgb8(&image, exposure);
+                let rgb = image::RgbImage::from_raw(width, height, bytes)
+                    .context("a tonemapped frame of the wrong size")?;
+                Ok((label, rgb))
+            })
+            .collect::<anyhow::Result<Vec<_>>>()?;
+        let title = format!(
+            "{name}: the GI term around the change ({}), at the scene's exposure",
+            options.change.name()
+        );
+        crate::suite::plots::strip(path, &title, images)?;
     }
     let last = last.expect("at least two frames");
     // Static pixels; for a move the static ones the node covered before it (its trail).

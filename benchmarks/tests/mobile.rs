@@ -333,6 +333,7 @@ fn a_moved_node_is_measured_over_the_pixels_it_leaves() {
     if GpuContext::new_or_skip("a_moved_node_is_measured_over_the_pixels_it_leaves").is_none() {
         return;
     }
+    let strip_dir = std::path::PathBuf::from(env!("CARGO_TARGET_TMPDIR")).join("stability-strips");
     let (stdout, report) = gi_bench_json(
         &[
             "stability",
@@ -353,10 +354,18 @@ fn a_moved_node_is_measured_over_the_pixels_it_leaves() {
             "2",
             "--clock-settle-s",
             "0",
+            "--strip-dir",
+            strip_dir.to_str().unwrap(),
         ],
         "gi-bench-move.json",
     );
     assert!(stdout.contains("node 'Tall block' moved away"), "{stdout}");
+    // The contact strip: before, 1, 2, 4 and 8 frames after and converged, each 320 pixels
+    // wide with 10 between, under two lines of text.
+    let strip = image::open(strip_dir.join("cornell-box-move-mobile-hsgi.png"))
+        .expect("the strip")
+        .to_rgb8();
+    assert_eq!(strip.dimensions(), (6 * 330 + 10, 50 + 240 + 10));
     assert_eq!(report["settle_options"]["change"], "move");
     assert_eq!(report["settle_options"]["move_node"], "Tall block");
     let settle = &report["runs"][0]["settle"];

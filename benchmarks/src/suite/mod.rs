@@ -35,7 +35,7 @@
 
 mod child;
 mod markdown;
-mod plots;
+pub(crate) mod plots;
 pub mod regress;
 mod results;
 

@@ -365,6 +365,46 @@ pub fn contact_sheet(results: &Results, scene: &str, images: &Path, path: &Path)
     Ok(true)
 }
 
+/// A strip: `frames` side by side, each scaled to [`THUMBNAIL_WIDTH`] and labelled above,
+/// under a `title` line; written to `path` as PNG.
+pub fn strip(path: &Path, title: &str, frames: Vec<(String, RgbImage)>) -> Result<()> {
+    register_font()?;
+    let frames: Vec<(String, RgbImage)> = frames
+        .into_iter()
+        .map(|(label, image)| (label, scaled_thumbnail(image)))
+        .collect();
+    let (tw, th) = frames
+        .first()
+        .map_or((1, 1), |(_, image)| image.dimensions());
+    let (margin, top) = (10u32, 50u32);
+    let width = frames.len().max(1) as u32 * (tw + margin) + margin;
+    let height = top + th + margin;
+    let mut canvas = RgbImage::from_pixel(width, height, image::Rgb([255, 255, 255]));
+    for (column, (_, image)) in frames.iter().enumerate() {
+        let x = margin + column as u32 * (tw + margin);
+        image::imageops::replace(&mut canvas, image, i64::from(x), i64::from(top));
+    }
+    let mut buffer = canvas.into_raw();
+    write_png(path, (width, height), &mut buffer, |root| {
+        root.draw(&Text::new(
+            title.to_owned(),
+            (margin as i32, 6),
+            ("sans-serif", 15).into_font(),
+        ))
+        .map_err(plot_error)?;
+        for (column, (label, _)) in frames.iter().enumerate() {
+            let x = (margin + column as u32 * (tw + margin)) as i32;
+            root.draw(&Text::new(
+                label.clone(),
+                (x, 28),
+                ("sans-serif", 15).into_font(),
+            ))
+            .map_err(plot_error)?;
+        }
+        Ok(())
+    })
+}
+
 /// The PNG at `path` scaled to [`THUMBNAIL_WIDTH`] (nearest neighbour when enlarging, so tiny
 /// test images stay sharp), or `None` when it does not exist.
 fn thumbnail(path: &Path) -> Result<Option<RgbImage>> {
@@ -374,6 +414,11 @@ fn thumbnail(path: &Path) -> Result<Option<RgbImage>> {
     let image = image::open(path)
         .map_err(|e| anyhow!("reading {}: {e}", path.display()))?
         .to_rgb8();
+    Ok(Some(scaled_thumbnail(image)))
+}
+
+/// `image` scaled to [`THUMBNAIL_WIDTH`] (nearest neighbour when enlarging).
+fn scaled_thumbnail(image: RgbImage) -> RgbImage {
     let (w, h) = image.dimensions();
     let height = ((u64::from(h) * u64::from(THUMBNAIL_WIDTH)) / u64::from(w)).max(1) as u32;
     let filter = if w < THUMBNAIL_WIDTH {
@@ -381,10 +426,5 @@ fn thumbnail(path: &Path) -> Result<Option<RgbImage>> {
     } else {
         FilterType::Triangle
     };
-    Ok(Some(image::imageops::resize(
-        &image,
-        THUMBNAIL_WIDTH,
-        height,
-        filter,
-    )))
+    image::imageops::resize(&image, THUMBNAIL_WIDTH, height, filter)
 }
