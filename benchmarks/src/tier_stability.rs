@@ -596,9 +596,8 @@ fn settle(
     let mut last = None;
     let mut shown = vec![("before".to_owned(), before_data.gi.clone())];
     let mut converged_colors = Vec::new();
-    let window_start = options
-        .settle_frames
-        .saturating_sub(options.converged_frames) as usize;
+    // The converged window: the last `converged_frames` (fewer than `settle_frames`, checked).
+    let window = (options.settle_frames - options.converged_frames) as usize;
     for index in 0..options.settle_frames as usize {
         renderer.warm_up(1, None)?;
         let data = frame_data(renderer)?;
@@ -607,7 +606,7 @@ fn settle(
             if STRIP_FRAMES.contains(&(index + 1)) {
                 shown.push((format!("{} after", index + 1), data.gi.clone()));
             }
-            if index >= window_start {
+            if index >= window {
                 converged_colors.push(data.gi.clone());
             }
         }
@@ -655,7 +654,6 @@ fn settle(
             "no static surface in view"
         }
     );
-    let window = frames.len() - options.converged_frames as usize;
     let converged = mean_image(&frames[window..]);
     let noise = frame_to_frame_noise(&frames[window..], &mask);
     let threshold = options.settle_k * noise;

@@ -374,32 +374,24 @@ fn a_moved_node_is_measured_over_the_pixels_it_leaves() {
     assert_eq!(settle["errors"].as_array().unwrap().len(), 6, "{settle}");
 
     // A move needs a node that exists.
-    let output = Command::new(env!("CARGO_BIN_EXE_gi-bench"))
-        .args([
-            "stability",
-            "--settle-scene",
-            "cornell-box",
-            "--change",
-            "move",
-        ])
-        .output()
-        .expect("gi-bench starts");
-    assert!(!output.status.success());
-    let err = String::from_utf8_lossy(&output.stderr);
+    let refused = |node: &[&str]| {
+        let output = Command::new(env!("CARGO_BIN_EXE_gi-bench"))
+            .args([
+                "stability",
+                "--settle-scene",
+                "cornell-box",
+                "--change",
+                "move",
+            ])
+            .args(node)
+            .output()
+            .expect("gi-bench starts");
+        assert!(!output.status.success(), "{node:?} succeeded");
+        String::from_utf8_lossy(&output.stderr).into_owned()
+    };
+    let err = refused(&[]);
     assert!(err.contains("--change move needs --move-node"), "{err}");
-    let output = Command::new(env!("CARGO_BIN_EXE_gi-bench"))
-        .args([
-            "stability",
-            "--settle-scene",
-            "cornell-box",
-            "--change",
-            "move",
-            "--move-node",
-            "Piano",
-        ])
-        .output()
-        .expect("gi-bench starts");
-    let err = String::from_utf8_lossy(&output.stderr);
+    let err = refused(&["--move-node", "Piano"]);
     assert!(
         err.contains("cornell-box has no node 'Piano'") && err.contains("Tall block"),
         "{err}"

@@ -91,27 +91,14 @@ pub fn unpack_rgb9e5(packed: u32) -> Vec3 {
 }
 
 /// `gi::packing::half_bits`: the f16 bits of `x` (rounded to nearest, ties to even; beyond
-/// the largest f16 clamped to it).
+/// the largest f16 clamped to it, as the shader clamps).
 pub fn half_bits(x: f32) -> u32 {
-    const F16_MAX: f32 = 65504.0;
-    let sign = (x.to_bits() >> 16) & 0x8000;
-    let a = x.abs().min(F16_MAX);
-    if a < 6.103_515_6e-5 {
-        return sign | (a * 16_777_216.0).round_ties_even() as u32;
-    }
-    let rebiased = a.to_bits() - (112 << 23);
-    sign | ((rebiased + 0xfff + ((rebiased >> 13) & 1)) >> 13)
+    u32::from(half::f16::from_f32(x.clamp(-65504.0, 65504.0)).to_bits())
 }
 
-/// `gi::packing::half_value`: the f32 value of f16 bits.
+/// `gi::packing::half_value`: the f32 value of f16 bits (the low 16 of `h`).
 pub fn half_value(h: u32) -> f32 {
-    let sign = (h & 0x8000) << 16;
-    let exponent = (h >> 10) & 0x1f;
-    let mantissa = h & 0x3ff;
-    if exponent == 0 {
-        return f32::from_bits(sign | (mantissa as f32 * 5.960_464_5e-8).to_bits());
-    }
-    f32::from_bits(sign | ((exponent + 112) << 23) | (mantissa << 13))
+    half::f16::from_bits(h as u16).to_f32()
 }
 
 /// `gi::packing::pack_color64`: non-negative rgb (16-bit mantissas sharing a 5-bit exponent,

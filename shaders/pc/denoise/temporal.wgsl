@@ -134,7 +134,7 @@ fn temporal_short(@builtin(global_invocation_id) id: vec3<u32>) {
         let alpha = max(1.0 / (previous_age + 1.0), 1.0 / f32(uniforms.short_history));
         var reprojected_short = previous_short / total;
         if uniforms.short_clamp_sigma > 0.0 {
-            let box = noisy_neighbourhood(pixel);
+            let box = neighbourhood(pixel, 1, true);
             let half_width = uniforms.short_clamp_sigma * box.sigma;
             reprojected_short = clamp(reprojected_short, box.mean - half_width, box.mean + half_width);
         }
@@ -154,42 +154,25 @@ struct ColorBox {
     sigma: vec3<f32>,
 }
 
-// Mean and standard deviation, per channel, of this frame's noisy input over the 3 x 3
-// neighbourhood of `pixel` (sky left out; the pixel itself is not sky).
-fn noisy_neighbourhood(pixel: vec2<i32>) -> ColorBox {
+// Mean and standard deviation, per channel, over the (2 radius + 1)^2 neighbourhood of `pixel`
+// (sky left out; the pixel itself is not sky) of this frame's noisy input (`noisy`) or of its
+// short history.
+fn neighbourhood(pixel: vec2<i32>, radius: i32, noisy: bool) -> ColorBox {
     var sum = vec3(0.0);
     var sum_sq = vec3(0.0);
     var count = 0.0;
-    for (var dy = -1; dy <= 1; dy++) {
-        for (var dx = -1; dx <= 1; dx++) {
+    for (var dy = -radius; dy <= radius; dy++) {
+        for (var dx = -radius; dx <= radius; dx++) {
             let q = pixel + vec2(dx, dy);
             if is_sky(depth_at(q)) {
                 continue;
             }
-            let s = noisy_at(pixel_index(q));
-            sum += s;
-            sum_sq += s * s;
-            count += 1.0;
-        }
-    }
-    let mean = sum / count;
-    let sigma = sqrt(max(sum_sq / count - mean * mean, vec3(0.0)));
-    return ColorBox(mean, sigma);
-}
-
-// Mean and standard deviation, per channel, of this frame's short history over the 5 x 5
-// neighbourhood of `pixel` (sky left out).
-fn short_neighbourhood(pixel: vec2<i32>) -> ColorBox {
-    var sum = vec3(0.0);
-    var sum_sq = vec3(0.0);
-    var count = 0.0;
-    for (var dy = -2; dy <= 2; dy++) {
-        for (var dx = -2; dx <= 2; dx++) {
-            let q = pixel + vec2(dx, dy);
-            if is_sky(depth_at(q)) {
-                continue;
+            var s: vec3<f32>;
+            if noisy {
+                s = noisy_at(pixel_index(q));
+            } else {
+                s = unpack_rgb9e5(short_out[pixel_index(q)]);
             }
-            let s = unpack_rgb9e5(short_out[pixel_index(q)]);
             sum += s;
             sum_sq += s * s;
             count += 1.0;
@@ -215,7 +198,7 @@ fn temporal(@builtin(global_invocation_id) id: vec3<u32>) {
     var color = x;
     var m = vec2(l, l * l);
     if !is_sky(z) && previous.valid {
-        let box = short_neighbourhood(pixel);
+        let box = neighbourhood(pixel, 2, false);
         // Widened by the short history's RGB9E5 rounding, so that a noise-free history is not
         // pulled off by it.
         let rounding = RGB9E5_ERROR * max(max(box.mean.r, box.mean.g), box.mean.b);
