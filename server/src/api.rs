@@ -19,15 +19,15 @@ use serde_json::json;
 
 use crate::{
     access::{self, Access},
+    backend::Backend,
     error::ApiError,
     job::{IMAGE_FILES, JobRequest, JobState, StateFilter},
-    metrics::DiskUsage,
     openapi,
-    service::{Service, job_not_found},
+    service::job_not_found,
     web,
 };
 
-type AppState = Arc<Service>;
+type AppState = Arc<dyn Backend>;
 
 /// Every route the router serves: path and methods. The router is built from this table and
 /// `/openapi.json` must describe exactly these (a test holds them together).
@@ -53,7 +53,7 @@ pub const ROUTES: &[(&str, &[&str])] = &[
 const MAX_JOB_BODY_BYTES: usize = 64 << 10;
 
 /// The handlers of `path`.
-fn method_router(path: &str, service: &Service) -> MethodRouter<AppState> {
+fn method_router(path: &str, service: &dyn Backend) -> MethodRouter<AppState> {
     match path {
         "/" => get(web::index),
         "/app.js" => get(web::script),
@@ -82,7 +82,7 @@ fn method_router(path: &str, service: &Service) -> MethodRouter<AppState> {
         }
         "/v1/scenes" => get(list_scenes)
             .post(upload_scene)
-            .layer(DefaultBodyLimit::max(service.config.max_upload_bytes)),
+            .layer(DefaultBodyLimit::max(service.config().max_upload_bytes)),
         "/v1/scenes/{id}" => delete(delete_scene),
         other => unreachable!("route {other} is in ROUTES but has no handler"),
     }
@@ -90,10 +90,10 @@ fn method_router(path: &str, service: &Service) -> MethodRouter<AppState> {
 
 /// The router over [`ROUTES`], with JSON answers for unknown paths and methods, every
 /// request checked by `access` and counted in the metrics.
-pub fn router(service: Arc<Service>, access: Arc<Access>) -> Router {
+pub fn router(service: AppState, access: Arc<Access>) -> Router {
     let mut router = Router::new();
     for (path, _) in ROUTES {
-        router = router.route(path, method_router(path, &service));
+        router = router.route(path, method_router(path, service.as_ref()));
     }
     router
         .fallback(no_route)
@@ -123,7 +123,7 @@ async fn count_request(State(service): State<AppState>, request: Request, next: 
     };
     let started = Instant::now();
     let response = next.run(request).await;
-    service.metrics.add_request(
+    service.metrics().add_request(
         route,
         method,
         response.status().as_u16(),
@@ -168,28 +168,13 @@ fn path_matches(pattern: &str, path: &str) -> bool {
 
 /// 503 when the data folder cannot take writes, 200 otherwise (see
 /// `Service::health_blocking`).
-async fn healthz(State(service): State<AppState>) -> Result<Response, ApiError> {
-    let probed = service.clone();
-    let (status, body) = tokio::task::spawn_blocking(move || probed.health_blocking())
-        .await
-        .map_err(|e| ApiError::internal(e.to_string()))?;
-    Ok((status, Json(body)).into_response())
+async fn healthz(State(service): State<AppState>) -> Response {
+    let (status, body) = service.health().await;
+    (status, Json(body)).into_response()
 }
 
 async fn metrics(State(service): State<AppState>) -> Result<Response, ApiError> {
-    let measured = service.clone();
-    let disk = tokio::task::spawn_blocking(move || DiskUsage {
-        used_bytes: measured
-            .metrics
-            .data_dir_used_bytes(&measured.config.data_dir),
-        free_bytes: measured.store.free_bytes(),
-    })
-    .await
-    .map_err(|e| ApiError::internal(e.to_string()))?;
-    let mut body = service
-        .metrics
-        .render(service.counts(), service.gpu.is_some(), disk);
-    body.push_str(&service.record_metrics());
+    let body = service.metrics_text().await?;
     Ok((
         [(
             header::CONTENT_TYPE,
@@ -201,7 +186,7 @@ async fn metrics(State(service): State<AppState>) -> Result<Response, ApiError> 
 }
 
 async fn openapi_json(State(service): State<AppState>) -> Json<serde_json::Value> {
-    Json(openapi::document(&service.config))
+    Json(openapi::document(service.config()))
 }
 
 async fn submit_job(
@@ -247,7 +232,7 @@ async fn list_jobs(
             format!("limit {limit} is out of range (1..=100)"),
         ));
     }
-    let (jobs, total) = service.list(limit, query.before, query.state);
+    let (jobs, total) = service.list(limit, query.before, query.state).await?;
     let next = (jobs.len() == limit)
         .then(|| jobs.last())
         .flatten()
@@ -271,7 +256,7 @@ async fn get_job(
     Path(id): Path<String>,
 ) -> Result<Json<serde_json::Value>, ApiError> {
     let id = parse_id(&id)?;
-    service.view(id).map(Json).ok_or_else(|| job_not_found(id))
+    service.view(id).await.map(Json)
 }
 
 async fn delete_job(
@@ -286,9 +271,7 @@ async fn delete_scene(
     State(service): State<AppState>,
     Path(id): Path<String>,
 ) -> Result<Json<serde_json::Value>, ApiError> {
-    let scene = tokio::task::spawn_blocking(move || service.delete_scene_blocking(&id))
-        .await
-        .map_err(|e| ApiError::internal(e.to_string()))??;
+    let scene = service.delete_scene(id).await?;
     Ok(Json(json!({ "scene": scene, "deleted": true })))
 }
 
@@ -299,7 +282,7 @@ async fn job_file(
 ) -> Result<Response, ApiError> {
     debug_assert!(IMAGE_FILES.contains(&file));
     let id = parse_id(&id)?;
-    let record = service.readable_record(id)?;
+    let record = service.clone().record(id).await?;
     if record.state != JobState::Done {
         return Err(ApiError::not_found(
             "image_not_ready",
@@ -315,11 +298,7 @@ async fn job_file(
             format!("job {id} {why}, so it has no {file}"),
         ));
     }
-    let path = service.store.job_dir(id).join(file);
-    let bytes = tokio::task::spawn_blocking(move || std::fs::read(path))
-        .await
-        .map_err(|e| ApiError::internal(e.to_string()))?
-        .map_err(|e| ApiError::internal(format!("reading {file} of job {id}: {e}")))?;
+    let bytes = service.image(id, file).await?;
     let content_type = if file.ends_with(".exr") {
         "image/x-exr"
     } else {
@@ -336,8 +315,8 @@ async fn job_file(
         .into_response())
 }
 
-async fn list_scenes(State(service): State<AppState>) -> Json<serde_json::Value> {
-    Json(json!({ "scenes": service.catalog.list() }))
+async fn list_scenes(State(service): State<AppState>) -> Result<Json<serde_json::Value>, ApiError> {
+    Ok(Json(json!({ "scenes": service.scenes().await? })))
 }
 
 /// Query of `POST /v1/scenes`.
@@ -368,20 +347,10 @@ async fn upload_scene(
         ));
     }
     let bytes = body?;
-    let service_for_upload = service.clone();
     let name = query.name.unwrap_or_default();
-    let (scene, created) = tokio::task::spawn_blocking(move || {
-        service_for_upload.upload_scene_blocking(&bytes, &name)
-    })
-    .await
-    .map_err(|e| {
-        ApiError::invalid(
-            "invalid_scene",
-            format!("the scene could not be imported: {e}"),
-        )
-    })??;
+    let (scene, created) = service.clone().upload_scene(bytes, name).await?;
     if created {
-        service.metrics.uploads.inc();
+        service.metrics().uploads.inc();
     }
     let status = if created {
         StatusCode::CREATED

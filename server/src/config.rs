@@ -16,6 +16,24 @@ pub struct Config {
     #[arg(long, env = "GI_SERVER_BIND", default_value = "127.0.0.1:8080")]
     pub bind: SocketAddr,
 
+    /// Scale-out mode: the PostgreSQL database holding the job queue
+    /// (`postgres://user:password@host:5432/database`). With it (and `--store-url`) this
+    /// process serves the API only and `gi-worker` processes render; without it everything
+    /// runs in this process over `--data-dir`.
+    #[arg(long, env = "GI_SERVER_DATABASE_URL", requires = "store_url")]
+    pub database_url: Option<String>,
+
+    /// Scale-out mode: the object store holding results and uploaded scenes, shared with the
+    /// workers: a folder every machine mounts (`file:///srv/gi-store` or a plain path) or,
+    /// built with the `s3` feature, `s3://bucket/prefix`.
+    #[arg(long, env = "GI_SERVER_STORE_URL", requires = "database_url")]
+    pub store_url: Option<String>,
+
+    /// Scale-out mode: seconds a worker holds a job without a heartbeat before the job goes
+    /// back to the queue (its worker is taken for dead). Workers beat every third of it.
+    #[arg(long, env = "GI_SERVER_LEASE_S", default_value_t = 30)]
+    pub lease_s: u64,
+
     /// Folder holding jobs, their images and uploaded scenes. Everything the service
     /// accepted lives here, so a restart (or a crash) loses nothing.
     #[arg(long, env = "GI_SERVER_DATA_DIR", default_value = "gi-server-data")]
@@ -208,6 +226,9 @@ impl Config {
             if value == 0 {
                 return Err(format!("{name} must be at least 1"));
             }
+        }
+        if self.lease_s < 3 {
+            return Err("--lease-s must be at least 3".to_string());
         }
         if self.max_job_samples == 0 {
             return Err("--max-job-samples must be at least 1".to_string());

@@ -41,9 +41,9 @@ use tokio::{
 };
 
 use crate::{
+    backend::Backend,
     config::Config,
     metrics::{Dropped, Metrics},
-    service::Service,
 };
 
 /// What a request knows of its connection (a request extension).
@@ -151,7 +151,7 @@ pub async fn serve(
     listener: TcpListener,
     app: Router,
     limits: Limits,
-    service: Arc<Service>,
+    service: Arc<dyn Backend>,
     shutdown: impl Future<Output = ()>,
 ) -> JoinSet<()> {
     let registry = Arc::new(Registry {
@@ -179,7 +179,7 @@ pub async fn serve(
             },
         };
         while connections.try_join_next().is_some() {}
-        let metrics = &service.metrics;
+        let metrics = service.metrics();
         let Some((id, open)) = registry.admit(limits.max_connections, metrics) else {
             metrics.add_dropped(Dropped::Refused);
             refuse(stream, &refusals);
@@ -242,13 +242,13 @@ fn refuse(mut stream: TcpStream, refusals: &Arc<Semaphore>) {
 struct Registered {
     id: u64,
     registry: Arc<Registry>,
-    service: Arc<Service>,
+    service: Arc<dyn Backend>,
 }
 
 impl Drop for Registered {
     fn drop(&mut self) {
         self.registry.remove(self.id);
-        self.service.metrics.connections_open.dec();
+        self.service.metrics().connections_open.dec();
     }
 }
 
@@ -282,7 +282,7 @@ async fn serve_connection(
     mut stopping: watch::Receiver<bool>,
 ) {
     let clock = registered.registry.clock;
-    let metrics = &registered.service.metrics;
+    let metrics = &registered.service.metrics();
     let local_addr = stream.local_addr().ok();
     let _ = stream.set_nodelay(true);
     let app = TowerToHyperService::new(app);
@@ -430,11 +430,11 @@ struct PausedBodyTimeout {
     body: Incoming,
     timeout: Duration,
     deadline: Pin<Box<Sleep>>,
-    service: Arc<Service>,
+    service: Arc<dyn Backend>,
 }
 
 impl PausedBodyTimeout {
-    fn new(body: Incoming, timeout: Duration, service: Arc<Service>) -> Self {
+    fn new(body: Incoming, timeout: Duration, service: Arc<dyn Backend>) -> Self {
         Self {
             body,
             timeout,
@@ -462,7 +462,7 @@ impl http_body::Body for PausedBodyTimeout {
                 if self.deadline.as_mut().poll(cx).is_pending() {
                     return Poll::Pending;
                 }
-                self.service.metrics.add_dropped(Dropped::IdleTimeout);
+                self.service.metrics().add_dropped(Dropped::IdleTimeout);
                 let message = format!(
                     "the request body paused for more than {} s (--idle-timeout-s)",
                     self.timeout.as_secs_f64()

@@ -61,6 +61,56 @@ impl ApiError {
         }
     }
 
+    /// 429 `queue_full`: `queued` jobs wait, the most the service queues; retry after
+    /// `retry_after_s`.
+    pub fn queue_full(queued: usize, retry_after_s: u64) -> Self {
+        let mut error = Self::new(
+            StatusCode::TOO_MANY_REQUESTS,
+            "queue_full",
+            format!("{queued} jobs are waiting, the most this service queues; retry later"),
+        );
+        error.retry_after_s = Some(retry_after_s);
+        error
+    }
+
+    /// 429 `job_limit`: the service keeps `max_jobs` jobs, finished ones included.
+    pub fn job_limit(max_jobs: usize) -> Self {
+        let mut error = Self::new(
+            StatusCode::TOO_MANY_REQUESTS,
+            "job_limit",
+            format!("the service keeps at most {max_jobs} jobs and has them all"),
+        );
+        error.retry_after_s = Some(60);
+        error
+    }
+
+    /// 507 `quota_exceeded`: `place` (the data folder, the object store) holds `used` bytes,
+    /// at or past the `quota` of `--max-stored-bytes`.
+    pub fn quota_exceeded(place: &str, used: u64, quota: u64) -> Self {
+        Self::new(
+            StatusCode::INSUFFICIENT_STORAGE,
+            "quota_exceeded",
+            format!(
+                "{place} holds {used} bytes, the {quota} this service may store \
+                 (--max-stored-bytes); delete finished jobs (DELETE /v1/jobs/{{id}}) or \
+                 uploaded scenes (DELETE /v1/scenes/{{id}}), then retry"
+            ),
+        )
+    }
+
+    /// 422 `unknown_tier`.
+    pub fn unknown_tier(tier: &str) -> Self {
+        Self::invalid(
+            "unknown_tier",
+            format!(
+                "unknown tier {tier:?} (available: auto, {})",
+                gi_tiers::TierKind::ALL
+                    .map(gi_tiers::TierKind::name)
+                    .join(", ")
+            ),
+        )
+    }
+
     /// 507: the data folder has less free space than the service keeps free.
     pub fn low_on_disk(free_bytes: u64, min_free_bytes: u64) -> Self {
         Self::new(

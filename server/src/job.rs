@@ -45,7 +45,13 @@ pub struct JobRequest {
     /// lighting file format (see `gi_scene::Lighting`).
     #[serde(default)]
     pub lighting: Option<gi_scene::Lighting>,
+    /// Jobs with a higher priority run first (default 0, from -100 to 100); jobs of equal
+    /// priority run in the order they were submitted.
+    pub priority: Option<i32>,
 }
+
+/// Bounds of a job's priority.
+pub const PRIORITY_RANGE: std::ops::RangeInclusive<i32> = -100..=100;
 
 /// Which camera a job looks through.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
@@ -93,6 +99,9 @@ pub struct JobSpec {
     /// The request's lighting; absent from jobs stored before the field existed.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub lighting: Option<gi_scene::Lighting>,
+    /// See [`JobRequest::priority`]; 0 for jobs stored before the field existed.
+    #[serde(default)]
+    pub priority: i32,
 }
 
 impl JobRequest {
@@ -146,6 +155,17 @@ impl JobRequest {
                 .validate()
                 .map_err(|e| ApiError::invalid("invalid_request", format!("lighting: {e}")))?;
         }
+        let priority = self.priority.unwrap_or(0);
+        if !PRIORITY_RANGE.contains(&priority) {
+            return Err(ApiError::invalid(
+                "invalid_request",
+                format!(
+                    "priority {priority} is out of range ({}..={})",
+                    PRIORITY_RANGE.start(),
+                    PRIORITY_RANGE.end()
+                ),
+            ));
+        }
         let spec = JobSpec {
             scene: self.scene,
             tier: self.tier.unwrap_or_else(|| "auto".to_string()),
@@ -159,6 +179,7 @@ impl JobRequest {
             compare,
             reference_spp,
             lighting: self.lighting,
+            priority,
         };
         Ok(spec)
     }
@@ -431,6 +452,21 @@ pub const IMAGE_FILES: [&str; 5] = [
 ];
 
 impl JobRecord {
+    /// A job just submitted: queued, never started.
+    pub fn queued(id: u64, spec: JobSpec) -> Self {
+        Self {
+            id,
+            spec,
+            state: JobState::Queued,
+            submitted_at: now_rfc3339(),
+            started_at: None,
+            finished_at: None,
+            attempts: 0,
+            failure: None,
+            result: None,
+        }
+    }
+
     /// Why this finished job has no `file` (one of [`IMAGE_FILES`]), or `None` when it has it:
     /// the comparison's images exist only for jobs that compared, and the FLIP map only for
     /// those compared since FLIP is measured.

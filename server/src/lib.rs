@@ -20,6 +20,8 @@
 
 mod access;
 mod api;
+mod backend;
+pub mod cluster;
 pub mod config;
 mod connections;
 mod error;
@@ -44,7 +46,7 @@ use tokio::{net::TcpListener, task::JoinHandle};
 /// A started service: data folder recovered, GPU probed, socket bound, workers running.
 pub struct Server {
     listener: TcpListener,
-    service: Arc<Service>,
+    service: Arc<dyn backend::Backend>,
     workers: Vec<JoinHandle<()>>,
     access: Arc<access::Access>,
 }
@@ -63,6 +65,21 @@ impl Server {
                 "serving {} without authentication (--insecure-no-auth)",
                 config.bind
             );
+        }
+        if config.database_url.is_some() {
+            let listener = TcpListener::bind(config.bind)
+                .await
+                .with_context(|| format!("binding {}", config.bind))?;
+            let api = cluster::ClusterApi::start(config)
+                .await
+                .context("connecting to the job database and the object store")?;
+            tracing::info!("scale-out mode: jobs are queued in PostgreSQL for gi-worker processes");
+            return Ok(Self {
+                listener,
+                service: api,
+                workers: Vec::new(),
+                access: Arc::new(access),
+            });
         }
         let store = store::Store::open(&config.data_dir)
             .with_context(|| format!("opening the data folder {}", config.data_dir.display()))?;
@@ -107,7 +124,7 @@ impl Server {
         }
         Ok(Self {
             listener,
-            service,
+            service: service as Arc<dyn backend::Backend>,
             workers,
             access: Arc::new(access),
         })
@@ -131,10 +148,10 @@ impl Server {
         shutdown: impl Future<Output = ()> + Send + 'static,
     ) -> anyhow::Result<()> {
         let service = self.service.clone();
-        let grace = Duration::from_secs(service.config.shutdown_grace_s);
+        let grace = Duration::from_secs(service.config().shutdown_grace_s);
         let stopping = service.clone();
         let app = api::router(service.clone(), self.access);
-        let limits = connections::Limits::from_config(&service.config);
+        let limits = connections::Limits::from_config(service.config());
         let mut connections =
             connections::serve(self.listener, app, limits, service.clone(), async move {
                 shutdown.await;
@@ -154,7 +171,7 @@ impl Server {
         }
         // Closes the connections still open.
         drop(connections);
-        tokio::task::spawn_blocking(move || service.requeue_running_blocking()).await?;
+        service.stopped().await;
         Ok(())
     }
 }
@@ -162,6 +179,41 @@ impl Server {
 async fn futures_join_all(handles: Vec<JoinHandle<()>>) {
     for handle in handles {
         let _ = handle.await;
+    }
+}
+
+/// Logs to stderr, filtered by `RUST_LOG` (default `info`): what the binaries do first.
+pub fn init_logging() {
+    let filter = tracing_subscriber::EnvFilter::try_from_default_env()
+        .unwrap_or_else(|_| tracing_subscriber::EnvFilter::new("info"));
+    tracing_subscriber::fmt()
+        .with_env_filter(filter)
+        .with_writer(std::io::stderr)
+        .with_target(false)
+        .init();
+}
+
+/// Runs a binary's `main` on a new runtime: its error, with its causes, goes to stderr and
+/// fails the exit status. Renders still running on the runtime's blocking threads when `main`
+/// returns (a BVH build, a CPU render's pass) are not waited for: nothing can interrupt them,
+/// and their jobs are queued again.
+pub fn run_main(main: impl Future<Output = anyhow::Result<()>>) -> std::process::ExitCode {
+    let runtime = match tokio::runtime::Runtime::new() {
+        Ok(runtime) => runtime,
+        Err(error) => {
+            eprintln!("error: starting the async runtime: {error}");
+            return std::process::ExitCode::FAILURE;
+        }
+    };
+    let result = runtime.block_on(main);
+    runtime.shutdown_background();
+    match result {
+        Ok(()) => std::process::ExitCode::SUCCESS,
+        Err(error) => {
+            let causes: Vec<String> = error.chain().map(|c| c.to_string()).collect();
+            eprintln!("error: {}", causes.join(": "));
+            std::process::ExitCode::FAILURE
+        }
     }
 }
 
@@ -188,7 +240,7 @@ pub async fn shutdown_signal() {
 }
 
 /// The GPU adapter, if any (blocking: it opens a device).
-fn probe_gpu() -> Option<GpuInfo> {
+pub(crate) fn probe_gpu() -> Option<GpuInfo> {
     match gi_gpu::GpuContext::new() {
         Ok(ctx) => Some(GpuInfo {
             name: ctx.adapter_info.name.clone(),

@@ -237,7 +237,8 @@ pub fn document(config: &Config) -> Value {
                         "camera": { "$ref": "#/components/schemas/Camera" },
                         "compare": { "type": "boolean", "default": true, "description": "Measure against the path-traced reference (false: no reference, no comparison images)" },
                         "reference_spp": { "type": "integer", "minimum": 1, "maximum": config.max_spp, "default": config.reference_spp, "description": "Only when the job compares" },
-                        "lighting": { "$ref": "#/components/schemas/Lighting" }
+                        "lighting": { "$ref": "#/components/schemas/Lighting" },
+                        "priority": { "type": "integer", "minimum": crate::job::PRIORITY_RANGE.start(), "maximum": crate::job::PRIORITY_RANGE.end(), "default": 0, "description": "Higher runs first; equal priorities run in submission order" }
                     }
                 },
                 "Lighting": {

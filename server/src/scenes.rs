@@ -322,6 +322,32 @@ impl SceneCatalog {
 }
 
 impl SceneCatalog {
+    /// Stores an upload another process checked (the scale-out service's object store holds
+    /// it): the file, then its description, as [`SceneCatalog::upload`] stores them.
+    pub fn adopt(&self, scene: &UploadedScene, glb: &[u8]) -> Result<(), ApiError> {
+        if !scene.id.starts_with(UPLOAD_PREFIX) || !is_valid_name(&scene.id) {
+            return Err(ApiError::internal(format!(
+                "{:?} is not an uploaded scene's id",
+                scene.id
+            )));
+        }
+        let io_error = |e: std::io::Error| ApiError::storage("the scene", &e);
+        fs::create_dir_all(&self.uploads_dir).map_err(io_error)?;
+        let id = &scene.id;
+        self.writer
+            .write(&self.uploads_dir.join(format!("{id}.glb")), glb)
+            .map_err(io_error)?;
+        let json = serde_json::to_vec_pretty(scene).expect("the scene serializes");
+        (self.writer)
+            .write(&self.uploads_dir.join(format!("{id}.json")), &json)
+            .map_err(io_error)?;
+        self.uploads
+            .write()
+            .unwrap_or_else(|e| e.into_inner())
+            .insert(id.clone(), scene.clone());
+        Ok(())
+    }
+
     /// Deletes uploaded scene `id` (its description first, so a crash leaves at most an
     /// unlisted file). Bundled and folder scenes are refused (409 `scene_not_deletable`).
     pub fn delete(&self, id: &str) -> Result<UploadedScene, ApiError> {

@@ -12,6 +12,7 @@
 //! never left. A write that fails (a full disk) changes nothing: a request is answered 507 or
 //! 500, a worker's final change is retried until it is stored.
 
+mod backend;
 mod health;
 mod records;
 #[cfg(test)]
@@ -48,7 +49,7 @@ use crate::{
     scenes::{SceneCatalog, SceneSource, UploadedScene},
     store::{LoadedJobs, Store},
 };
-use workers::requeue_stopped;
+pub(crate) use workers::requeue_stopped;
 
 /// The GPU the service found at startup.
 #[derive(Clone, Debug, serde::Serialize)]
@@ -294,50 +295,7 @@ impl Service {
     /// choice goes to the GPU worker as [`TierChoice::Auto`] (which falls back as the library
     /// does), the CPU reference to the CPU pool.
     pub fn plan(&self, spec: &JobSpec) -> Result<(TierPlan, Lane), ApiError> {
-        let tier = spec.tier.as_str();
-        let hardware = self.gpu.as_ref().is_some_and(|g| g.hardware);
-        if tier == "auto" {
-            let settings = TierSettings {
-                width: spec.width,
-                height: spec.height,
-                spp: spec.spp,
-                seed: spec.seed,
-                textures: gi_tiers::TextureOptions::DEFAULT,
-            };
-            let plan = select::plan(self.gpu.as_ref().map(|g| &g.adapter), &settings, None);
-            let chosen = plan.chosen();
-            return Ok(match chosen.runs_on {
-                RunsOn::Gpu => (TierPlan::Gpu(TierChoice::Auto), Lane::Gpu),
-                RunsOn::Cpu => (TierPlan::Cpu(chosen.kind), Lane::Cpu),
-            });
-        }
-        let kind: TierKind = tier.parse().map_err(|_| {
-            ApiError::invalid(
-                "unknown_tier",
-                format!(
-                    "unknown tier {tier:?} (available: auto, {})",
-                    TierKind::ALL.map(TierKind::name).join(", ")
-                ),
-            )
-        })?;
-        match kind {
-            TierKind::Reference => Ok((TierPlan::Cpu(kind), Lane::Cpu)),
-            TierKind::Direct if hardware => Ok((TierPlan::Gpu(TierChoice::Tier(kind)), Lane::Gpu)),
-            TierKind::Direct => Ok((TierPlan::Cpu(kind), Lane::Cpu)),
-            _ if self.gpu.is_none() => Err(ApiError::invalid(
-                "gpu_unavailable",
-                format!(
-                    "the {kind} tier needs a GPU and this service has no GPU adapter{}; the \
-                     auto, reference and direct tiers run on the CPU",
-                    if self.config.no_gpu {
-                        " (started with --no-gpu)"
-                    } else {
-                        ""
-                    }
-                ),
-            )),
-            _ => Ok((TierPlan::Gpu(TierChoice::Tier(kind)), Lane::Gpu)),
-        }
+        plan_for(spec, self.gpu.as_ref(), self.config.no_gpu)
     }
 
     /// Loads a scene (blocking), from the in-memory cache when it was loaded before.
@@ -403,43 +361,18 @@ impl Service {
             let queued = inner.counts[JobState::Queued.index()] + inner.storing;
             if queued >= self.config.max_queue {
                 self.metrics.rejected_queue_full.inc();
-                let mut error = ApiError::new(
-                    axum::http::StatusCode::TOO_MANY_REQUESTS,
-                    "queue_full",
-                    format!("{queued} jobs are waiting, the most this service queues; retry later"),
-                );
-                error.retry_after_s = Some(self.retry_after_s(queued));
-                return Err(error);
+                return Err(ApiError::queue_full(queued, self.retry_after_s(queued)));
             }
             if inner.jobs.len() + inner.unreadable.len() + inner.storing >= self.config.max_jobs {
                 self.metrics.rejected_job_limit.inc();
-                let mut error = ApiError::new(
-                    axum::http::StatusCode::TOO_MANY_REQUESTS,
-                    "job_limit",
-                    format!(
-                        "the service keeps at most {} jobs and has them all",
-                        self.config.max_jobs
-                    ),
-                );
-                error.retry_after_s = Some(60);
-                return Err(error);
+                return Err(ApiError::job_limit(self.config.max_jobs));
             }
             let id = inner.next_id;
             inner.next_id += 1;
             inner.storing += 1;
             id
         };
-        let record = JobRecord {
-            id,
-            spec,
-            state: JobState::Queued,
-            submitted_at: now_rfc3339(),
-            started_at: None,
-            finished_at: None,
-            attempts: 0,
-            failure: None,
-            result: None,
-        };
+        let record = JobRecord::queued(id, spec);
         // On the blocking pool, which finishes it even if the client goes away meanwhile.
         let service = self.clone();
         tokio::task::spawn_blocking(move || service.store_new_job(record, lane))
@@ -455,12 +388,30 @@ impl Service {
         (average * queued as f64 / 10.0).clamp(1.0, 60.0).ceil() as u64
     }
 
+    /// Queues job `id` behind the queued jobs of its priority or a higher one.
     fn enqueue(&self, id: u64, lane: Lane) {
         {
             let mut inner = lock(&self.inner);
+            let priority_of =
+                |inner: &Inner, id: u64| inner.jobs.get(&id).map_or(0, |e| e.record.spec.priority);
+            let priority = priority_of(&inner, id);
             match lane {
-                Lane::Gpu => inner.gpu_queue.push_back(id),
-                Lane::Cpu => inner.cpu_queue.push_back(CpuWork::Render(id)),
+                Lane::Gpu => {
+                    let at = (inner.gpu_queue.iter())
+                        .rposition(|&queued| priority_of(&inner, queued) >= priority)
+                        .map_or(0, |last| last + 1);
+                    inner.gpu_queue.insert(at, id);
+                }
+                Lane::Cpu => {
+                    // Comparisons waiting for the pool go first whatever their priority.
+                    let at = (inner.cpu_queue.iter())
+                        .rposition(|work| match work {
+                            CpuWork::Render(queued) => priority_of(&inner, *queued) >= priority,
+                            CpuWork::Compare(_) => true,
+                        })
+                        .map_or(0, |last| last + 1);
+                    inner.cpu_queue.insert(at, CpuWork::Render(id));
+                }
             }
         }
         self.work_ready.notify_waiters();
@@ -681,7 +632,7 @@ pub fn job_not_found(id: impl std::fmt::Display) -> ApiError {
 }
 
 /// 409 for a job whose record could not be read at startup (`error` says why).
-fn job_unreadable(id: u64, error: &str) -> ApiError {
+pub(crate) fn job_unreadable(id: u64, error: &str) -> ApiError {
     ApiError::new(
         axum::http::StatusCode::CONFLICT,
         "job_unreadable",
@@ -692,8 +643,52 @@ fn job_unreadable(id: u64, error: &str) -> ApiError {
     )
 }
 
+/// How a job's tier is rendered on a machine with `gpu` (see [`Service::plan`]).
+pub(crate) fn plan_for(
+    spec: &JobSpec,
+    gpu: Option<&GpuInfo>,
+    no_gpu: bool,
+) -> Result<(TierPlan, Lane), ApiError> {
+    let tier = spec.tier.as_str();
+    let hardware = gpu.is_some_and(|g| g.hardware);
+    if tier == "auto" {
+        let settings = TierSettings {
+            width: spec.width,
+            height: spec.height,
+            spp: spec.spp,
+            seed: spec.seed,
+            textures: gi_tiers::TextureOptions::DEFAULT,
+        };
+        let plan = select::plan(gpu.map(|g| &g.adapter), &settings, None);
+        let chosen = plan.chosen();
+        return Ok(match chosen.runs_on {
+            RunsOn::Gpu => (TierPlan::Gpu(TierChoice::Auto), Lane::Gpu),
+            RunsOn::Cpu => (TierPlan::Cpu(chosen.kind), Lane::Cpu),
+        });
+    }
+    let kind: TierKind = tier.parse().map_err(|_| ApiError::unknown_tier(tier))?;
+    match kind {
+        TierKind::Reference => Ok((TierPlan::Cpu(kind), Lane::Cpu)),
+        TierKind::Direct if hardware => Ok((TierPlan::Gpu(TierChoice::Tier(kind)), Lane::Gpu)),
+        TierKind::Direct => Ok((TierPlan::Cpu(kind), Lane::Cpu)),
+        _ if gpu.is_none() => Err(ApiError::invalid(
+            "gpu_unavailable",
+            format!(
+                "the {kind} tier needs a GPU and this service has no GPU adapter{}; the \
+                 auto, reference and direct tiers run on the CPU",
+                if no_gpu {
+                    " (started with --no-gpu)"
+                } else {
+                    ""
+                }
+            ),
+        )),
+        _ => Ok((TierPlan::Gpu(TierChoice::Tier(kind)), Lane::Gpu)),
+    }
+}
+
 /// `scene` with the job's lighting applied (a copy; the cached scene stays as loaded).
-fn with_lighting(scene: Arc<Scene>, spec: &JobSpec) -> Result<Arc<Scene>, ApiError> {
+pub(crate) fn with_lighting(scene: Arc<Scene>, spec: &JobSpec) -> Result<Arc<Scene>, ApiError> {
     let Some(lighting) = &spec.lighting else {
         return Ok(scene);
     };

@@ -356,6 +356,7 @@ mod tests {
                 compare: false,
                 reference_spp: None,
                 lighting: None,
+                priority: 0,
             },
             state: JobState::Queued,
             submitted_at: "2026-01-01T00:00:00.000Z".to_string(),

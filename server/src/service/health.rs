@@ -30,15 +30,7 @@ impl Service {
         if used < quota {
             return Ok(());
         }
-        Err(ApiError::new(
-            StatusCode::INSUFFICIENT_STORAGE,
-            "quota_exceeded",
-            format!(
-                "the data folder holds {used} bytes, the {quota} this service may store \
-                 (--max-stored-bytes); delete finished jobs (DELETE /v1/jobs/{{id}}) or \
-                 uploaded scenes (DELETE /v1/scenes/{{id}}), then retry"
-            ),
-        ))
+        Err(ApiError::quota_exceeded("the data folder", used, quota))
     }
 
     /// `GET /healthz`: its status code and body. Blocking (it writes a probe file).

@@ -235,3 +235,31 @@ async fn a_disk_below_the_free_space_floor_refuses_new_work_and_fails_the_health
         "{health}"
     );
 }
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn higher_priorities_are_queued_first_and_equal_ones_in_submission_order() {
+    let dir = tempfile::tempdir().unwrap();
+    let service = open(dir.path());
+    let with_priority = |priority: i32| {
+        let mut request = small_job();
+        request.priority = Some(priority);
+        request
+    };
+    let mut ids = Vec::new();
+    for priority in [0, 5, -3, 5, 0, 100] {
+        ids.push(service.submit(with_priority(priority)).await.unwrap().id);
+    }
+    let queued: Vec<u64> = super::lock(&service.inner)
+        .cpu_queue
+        .iter()
+        .map(|work| match work {
+            super::CpuWork::Render(id) => *id,
+            super::CpuWork::Compare(_) => panic!("no comparison was queued"),
+        })
+        .collect();
+    // 100, then the two 5s in order, the two 0s in order, then -3.
+    assert_eq!(queued, [ids[5], ids[1], ids[3], ids[0], ids[4], ids[2]]);
+    let error = service.submit(with_priority(101)).await.unwrap_err();
+    assert_eq!(error.code, "invalid_request");
+    assert!(error.message.contains("priority 101"), "{}", error.message);
+}

@@ -355,7 +355,7 @@ fn past(deadline: Option<Instant>) -> bool {
 
 /// The change of a running job stopped by the shutdown: back to the queue, the start not
 /// counted (the job never got to finish through no fault of its own).
-pub(super) fn requeue_stopped(record: &mut JobRecord) -> bool {
+pub(crate) fn requeue_stopped(record: &mut JobRecord) -> bool {
     if record.state != JobState::Running {
         return false;
     }

@@ -1,0 +1,436 @@
+//! The scale-out service with its real parts: `gi-server` binaries serving the API over a
+//! PostgreSQL database and an object store (a local folder), and `gi-worker` binaries taking
+//! the jobs. Each test gets a database of its own.
+//!
+//! They need a PostgreSQL server: `GI_TEST_DATABASE_URL` names a role that may create
+//! databases (`.ci/run` starts one and sets it). Without it they pass with a note, unless
+//! `GI_REQUIRE_POSTGRES=1` makes a missing server a failure (as in CI).
+
+mod common;
+
+use std::{
+    collections::HashSet,
+    ffi::OsString,
+    net::SocketAddr,
+    path::PathBuf,
+    process::{Command, Stdio},
+    sync::atomic::{AtomicUsize, Ordering},
+    time::{Duration, Instant},
+};
+
+use common::*;
+use serde_json::{Value, json};
+
+/// A database of its own, an object store folder and the processes of one test.
+struct Cluster {
+    dir: tempfile::TempDir,
+    admin_url: String,
+    database: String,
+    url: String,
+}
+
+/// Seconds a worker holds a job without a heartbeat, short so failover is quick to test.
+const LEASE_S: &str = "3";
+
+fn runtime() -> tokio::runtime::Runtime {
+    tokio::runtime::Builder::new_current_thread()
+        .enable_all()
+        .build()
+        .unwrap()
+}
+
+/// Runs `sql` on the database at `url`.
+fn execute(url: &str, sql: &str) {
+    runtime().block_on(async {
+        let (client, connection) = tokio_postgres::connect(url, tokio_postgres::NoTls)
+            .await
+            .unwrap_or_else(|e| panic!("connecting to {url}: {e}"));
+        tokio::spawn(connection);
+        client
+            .batch_execute(sql)
+            .await
+            .unwrap_or_else(|e| panic!("{sql}: {e}"));
+    });
+}
+
+/// `url` with its database replaced by `database`.
+fn with_database(url: &str, database: &str) -> String {
+    let (base, _) = url
+        .rsplit_once('/')
+        .expect("a database URL ends with /database");
+    format!("{base}/{database}")
+}
+
+impl Cluster {
+    /// A fresh database, or `None` (the test passes with a note) where no PostgreSQL is
+    /// configured and none is required.
+    fn new() -> Option<Self> {
+        let Ok(admin_url) = std::env::var("GI_TEST_DATABASE_URL") else {
+            assert!(
+                std::env::var("GI_REQUIRE_POSTGRES").as_deref() != Ok("1"),
+                "GI_REQUIRE_POSTGRES=1 but GI_TEST_DATABASE_URL is not set"
+            );
+            eprintln!("note: GI_TEST_DATABASE_URL is not set; the scale-out test is skipped");
+            return None;
+        };
+        static NEXT: AtomicUsize = AtomicUsize::new(0);
+        let database = format!(
+            "gi_test_{}_{}",
+            std::process::id(),
+            NEXT.fetch_add(1, Ordering::SeqCst)
+        );
+        execute(&admin_url, &format!("CREATE DATABASE {database}"));
+        let url = with_database(&admin_url, &database);
+        Some(Self {
+            dir: tempfile::tempdir().unwrap(),
+            admin_url,
+            database,
+            url,
+        })
+    }
+
+    fn store(&self) -> PathBuf {
+        self.dir.path().join("store")
+    }
+
+    /// An API server on a free port with `extra` flags.
+    fn api(&self, name: &str, extra: &[&str]) -> (ServerProcess, SocketAddr) {
+        let mut args: Vec<OsString> = ["--bind", "127.0.0.1:0", "--lease-s", LEASE_S]
+            .iter()
+            .chain(extra)
+            .map(OsString::from)
+            .collect();
+        args.extend([
+            "--database-url".into(),
+            self.url.clone().into(),
+            "--store-url".into(),
+            self.store().into(),
+            "--data-dir".into(),
+            self.dir.path().join(name).into(),
+        ]);
+        spawn_server(args)
+    }
+
+    /// A worker without a GPU (CPU tiers only) called `name`.
+    fn worker(&self, name: &str) -> ServerProcess {
+        let child = Command::new(env!("CARGO_BIN_EXE_gi-worker"))
+            .args([
+                "--name",
+                name,
+                "--no-gpu",
+                "--lease-s",
+                LEASE_S,
+                "--poll-ms",
+                "100",
+            ])
+            .arg("--database-url")
+            .arg(&self.url)
+            .arg("--store-url")
+            .arg(self.store())
+            .arg("--work-dir")
+            .arg(self.dir.path().join(name))
+            .arg("--cache-dir")
+            .arg(self.dir.path().join("cache"))
+            .env("RUST_LOG", "warn")
+            .stdout(Stdio::null())
+            .stderr(Stdio::inherit())
+            .spawn()
+            .expect("gi-worker starts");
+        ServerProcess(child)
+    }
+}
+
+impl Drop for Cluster {
+    fn drop(&mut self) {
+        execute(
+            &self.admin_url,
+            &format!("DROP DATABASE IF EXISTS {} WITH (FORCE)", self.database),
+        );
+    }
+}
+
+/// A CPU job of a few seconds (a reference render with enough samples to be caught running).
+fn slow_job() -> Value {
+    json!({"scene": "cornell-box", "tier": "reference", "width": 64, "height": 48,
+           "spp": 4096, "compare": false})
+}
+
+fn small_job() -> Value {
+    json!({"scene": "cornell-box", "tier": "reference", "width": 16, "height": 12, "spp": 1,
+           "compare": false})
+}
+
+#[test]
+fn a_killed_worker_s_job_is_finished_by_another_and_a_killed_api_server_loses_nothing() {
+    let Some(cluster) = Cluster::new() else {
+        return;
+    };
+    let (mut api, addr) = cluster.api("api-1", &[]);
+    let health = get(addr, "/healthz").json();
+    assert_eq!(health["mode"], "scale-out", "{health}");
+    // No worker yet: the service works but says jobs would wait.
+    assert_eq!(health["status"], "degraded", "{health}");
+
+    let mut first = cluster.worker("first");
+    let slow = submit(addr, &slow_job());
+    let running = wait_for(addr, &slow, Duration::from_secs(60), |job| {
+        job["state"] == "running" && job["progress"].is_object()
+    });
+    assert_eq!(running["worker"], "first", "{running}");
+    assert_eq!(running["attempts"], 1);
+
+    // The first worker dies mid-render; a second one takes the job once the lease runs out.
+    first.kill().unwrap();
+    first.wait().unwrap();
+    let second = cluster.worker("second");
+    let done = wait_final(addr, &slow, Duration::from_secs(180));
+    assert_eq!(done["state"], "done", "{done}");
+    assert_eq!(done["attempts"], 2, "{done}");
+    let image = get(addr, &format!("/v1/jobs/{slow}/image.png"));
+    assert_eq!(image.status, 200);
+    assert_eq!(png_size(&image.body), (64, 48));
+
+    // The API server dies with jobs queued behind it; another one over the same database
+    // shows every job as it was, and the worker runs them.
+    drop(second);
+    let queued: Vec<String> = (0..5).map(|_| submit(addr, &small_job())).collect();
+    api.kill().unwrap();
+    api.wait().unwrap();
+    let (_api, addr) = cluster.api("api-2", &[]);
+    for id in &queued {
+        assert_eq!(
+            get(addr, &format!("/v1/jobs/{id}")).json()["state"],
+            "queued"
+        );
+    }
+    let listed = get(addr, "/v1/jobs?limit=100").json();
+    assert_eq!(listed["total"], 6, "{listed}");
+    // The finished job's image is served by the new API server byte for byte.
+    assert_eq!(
+        get(addr, &format!("/v1/jobs/{slow}/image.png")).body,
+        image.body
+    );
+    let _worker = cluster.worker("third");
+    for id in &queued {
+        let job = wait_final(addr, id, Duration::from_secs(120));
+        assert_eq!(job["state"], "done", "{job}");
+        assert_eq!(job["attempts"], 1, "{job}");
+    }
+    let health = get(addr, "/healthz").json();
+    assert_eq!(health["status"], "ok", "{health}");
+    assert_eq!(health["workers"][0]["name"], "third", "{health}");
+}
+
+#[test]
+fn priorities_lanes_cancellation_and_deletion_reach_the_workers() {
+    let Some(cluster) = Cluster::new() else {
+        return;
+    };
+    let (_api, addr) = cluster.api("api", &[]);
+    // Queued before any worker runs: a low-priority job, a job only a GPU worker may take, and
+    // a high-priority one.
+    let low = submit(
+        addr,
+        &json!({"scene": "cornell-box", "tier": "reference", "width": 16,
+                                   "height": 12, "spp": 1, "compare": false, "priority": -5}),
+    );
+    let gpu = submit(
+        addr,
+        &json!({"scene": "cornell-box", "tier": "pc", "width": 16,
+                                   "height": 12, "compare": false}),
+    );
+    let high = submit(
+        addr,
+        &json!({"scene": "cornell-box", "tier": "reference", "width": 16,
+                                    "height": 12, "spp": 1, "compare": false, "priority": 7}),
+    );
+    let refused = post_json(
+        addr,
+        "/v1/jobs",
+        &json!({"scene": "cornell-box", "priority": 101}),
+    );
+    assert_eq!(refused.status, 422, "{}", refused.text());
+
+    let mut worker = cluster.worker("cpu");
+    let low_done = wait_final(addr, &low, Duration::from_secs(60));
+    let high_done = wait_final(addr, &high, Duration::from_secs(60));
+    assert_eq!(low_done["state"], "done");
+    assert_eq!(high_done["state"], "done");
+    let started = |job: &Value| job["started_at"].as_str().unwrap().to_string();
+    assert!(
+        started(&high_done) < started(&low_done),
+        "the higher priority runs first: {high_done} {low_done}"
+    );
+    // The GPU tier waits for a worker with a GPU.
+    assert_eq!(
+        get(addr, &format!("/v1/jobs/{gpu}")).json()["state"],
+        "queued"
+    );
+
+    // Cancelling a running job reaches its worker, which goes on to the next job at once
+    // instead of finishing a render of a minute or more.
+    let long = submit(
+        addr,
+        &json!({"scene": "cornell-box", "tier": "reference", "width": 128,
+                                    "height": 96, "spp": 4096, "compare": false}),
+    );
+    wait_for(addr, &long, Duration::from_secs(60), |job| {
+        job["state"] == "running"
+    });
+    let next = submit(addr, &small_job());
+    let cancelled = delete(addr, &format!("/v1/jobs/{long}"));
+    assert_eq!(cancelled.status, 200, "{}", cancelled.text());
+    assert_eq!(cancelled.json()["state"], "cancelled");
+    let cancelled_at = Instant::now();
+    let next_done = wait_final(addr, &next, Duration::from_secs(60));
+    assert_eq!(next_done["state"], "done", "{next_done}");
+    assert!(
+        cancelled_at.elapsed() < Duration::from_secs(20),
+        "the worker stopped the cancelled render: {:?}",
+        cancelled_at.elapsed()
+    );
+    assert_eq!(
+        get(addr, &format!("/v1/jobs/{long}")).json()["state"],
+        "cancelled"
+    );
+    assert_eq!(get(addr, &format!("/v1/jobs/{long}/image.png")).status, 404);
+
+    // SIGTERM: the worker stops its render, puts the job back in the queue (the start not
+    // counted) and leaves the worker list; another worker runs it.
+    let interrupted = submit(addr, &slow_job());
+    let running = wait_for(addr, &interrupted, Duration::from_secs(60), |job| {
+        job["state"] == "running" && job["progress"].is_object()
+    });
+    assert_eq!(running["attempts"], 1);
+    let status = Command::new("kill")
+        .args(["-TERM", &worker.id().to_string()])
+        .status()
+        .unwrap();
+    assert!(status.success());
+    let stopped_at = Instant::now();
+    let exit = wait_exit(&mut worker, Duration::from_secs(30));
+    assert!(exit.success(), "{exit:?}");
+    assert!(
+        stopped_at.elapsed() < Duration::from_secs(10),
+        "{:?}",
+        stopped_at.elapsed()
+    );
+    let requeued = get(addr, &format!("/v1/jobs/{interrupted}")).json();
+    assert_eq!(requeued["state"], "queued", "{requeued}");
+    assert_eq!(requeued["attempts"], 0, "{requeued}");
+    assert_eq!(get(addr, "/healthz").json()["workers"], json!([]));
+    let _worker = cluster.worker("cpu-2");
+    let finished = wait_final(addr, &interrupted, Duration::from_secs(120));
+    assert_eq!(finished["state"], "done", "{finished}");
+    assert_eq!(finished["attempts"], 1, "{finished}");
+
+    // Deleting a finished job removes its row and its images from the store.
+    let images = cluster.store().join("jobs").join(&high);
+    assert!(images.join("image.png").is_file());
+    let deleted = delete(addr, &format!("/v1/jobs/{high}"));
+    assert_eq!(deleted.status, 200, "{}", deleted.text());
+    assert_eq!(deleted.json()["deleted"], true);
+    assert!(!images.join("image.png").exists());
+    assert_eq!(get(addr, &format!("/v1/jobs/{high}")).status, 404);
+}
+
+#[test]
+fn concurrent_submissions_to_two_api_servers_are_all_accounted_for() {
+    let Some(cluster) = Cluster::new() else {
+        return;
+    };
+    // No worker: every accepted job stays queued, and the queue holds at most 150.
+    let (_a, first) = cluster.api("api-a", &["--max-queue", "150"]);
+    let (_b, second) = cluster.api("api-b", &["--max-queue", "150"]);
+    let answers: Vec<(u16, Value)> = std::thread::scope(|scope| {
+        let threads: Vec<_> = (0..200)
+            .map(|i| {
+                let addr = if i % 2 == 0 { first } else { second };
+                scope.spawn(move || {
+                    let response = post_json(addr, "/v1/jobs", &small_job());
+                    (response.status, response.json())
+                })
+            })
+            .collect();
+        threads.into_iter().map(|t| t.join().unwrap()).collect()
+    });
+    let mut accepted = HashSet::new();
+    let mut full = 0;
+    for (status, body) in &answers {
+        match status {
+            202 => assert!(accepted.insert(body["id"].as_str().unwrap().to_string())),
+            429 => {
+                assert_eq!(body["error"]["code"], "queue_full", "{body}");
+                full += 1;
+            }
+            other => panic!("unexpected answer {other}: {body}"),
+        }
+    }
+    assert_eq!(accepted.len() + full, 200);
+    // The limit holds across the two API servers.
+    assert_eq!(accepted.len(), 150);
+    // Every accepted job is listed by both servers, none twice, nothing else.
+    for addr in [first, second] {
+        let mut listed = HashSet::new();
+        let mut next = Some("/v1/jobs?limit=100".to_string());
+        while let Some(page) = next {
+            let body = get(addr, &page).json();
+            for job in body["jobs"].as_array().unwrap() {
+                assert_eq!(job["state"], "queued");
+                assert!(listed.insert(job["id"].as_str().unwrap().to_string()));
+            }
+            next = body["next"].as_str().map(str::to_string);
+        }
+        assert_eq!(listed, accepted);
+    }
+}
+
+#[test]
+fn an_uploaded_scene_renders_on_a_worker_and_is_deleted_from_the_store() {
+    let Some(cluster) = Cluster::new() else {
+        return;
+    };
+    let (_api, addr) = cluster.api("api", &[]);
+    let uploaded = upload_glb(addr, &sample_glb("Box"));
+    assert_eq!(uploaded.status, 201, "{}", uploaded.text());
+    let scene = uploaded.json()["scene"]["id"].as_str().unwrap().to_string();
+    assert!(
+        cluster
+            .store()
+            .join("scenes")
+            .join(format!("{scene}.glb"))
+            .is_file()
+    );
+    let listed = get(addr, "/v1/scenes").json();
+    assert!(
+        listed["scenes"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .any(|s| s["name"] == scene.as_str() && s["source"] == "uploaded"),
+        "{listed}"
+    );
+    let job = submit(
+        addr,
+        &json!({"scene": scene, "tier": "reference", "width": 16,
+                                   "height": 12, "spp": 1, "compare": false}),
+    );
+    let in_use = delete(addr, &format!("/v1/scenes/{scene}"));
+    assert_eq!(in_use.status, 409, "{}", in_use.text());
+    // The worker fetches the scene from the store.
+    let _worker = cluster.worker("worker");
+    let done = wait_final(addr, &job, Duration::from_secs(60));
+    assert_eq!(done["state"], "done", "{done}");
+    let deleted = delete(addr, &format!("/v1/scenes/{scene}"));
+    assert_eq!(deleted.status, 200, "{}", deleted.text());
+    assert!(
+        !cluster
+            .store()
+            .join("scenes")
+            .join(format!("{scene}.glb"))
+            .exists()
+    );
+    assert_eq!(delete(addr, &format!("/v1/scenes/{scene}")).status, 404);
+    let gone = post_json(addr, "/v1/jobs", &json!({"scene": scene, "compare": false}));
+    assert_eq!(gone.status, 422, "{}", gone.text());
+}
