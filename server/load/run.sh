@@ -7,6 +7,11 @@
 #
 #   server/load/run.sh            # defaults: 10s, 16 connections, 2 threads
 #   DURATION=30s CONNECTIONS=64 server/load/run.sh
+#
+# MODE=scale-out runs the API server over PostgreSQL (GI_SERVER_DATABASE_URL, a fresh database
+# is best: the run leaves its jobs there) and an object store folder, with one CPU gi-worker
+# rendering the submitted jobs:
+#   MODE=scale-out GI_SERVER_DATABASE_URL=postgres://gi:gi@127.0.0.1/gi_load server/load/run.sh
 set -euo pipefail
 cd "$(dirname "$0")/../.."
 
@@ -15,15 +20,29 @@ CONNECTIONS="${CONNECTIONS:-16}"
 THREADS="${THREADS:-2}"
 
 command -v wrk >/dev/null || { echo "wrk is not installed (apt-get install wrk)" >&2; exit 1; }
+MODE="${MODE:-embedded}"
 cargo build --release --locked -p gi-server
 binary="${CARGO_TARGET_DIR:-target}/release/gi-server"
 
 work="$(mktemp -d)"
+scale_out=()
+worker=""
+if [ "$MODE" = scale-out ]; then
+    [ -n "${GI_SERVER_DATABASE_URL:-}" ] || { echo "MODE=scale-out needs GI_SERVER_DATABASE_URL" >&2; exit 1; }
+    scale_out=(--database-url "$GI_SERVER_DATABASE_URL" --store-url "$work/store")
+    "${CARGO_TARGET_DIR:-target}/release/gi-worker" --database-url "$GI_SERVER_DATABASE_URL" \
+        --store-url "$work/store" --work-dir "$work/worker" --cache-dir "$work/cache" --no-gpu \
+        --poll-ms 50 >"$work/worker.log" 2>&1 &
+    worker=$!
+elif [ "$MODE" != embedded ]; then
+    echo "MODE is embedded or scale-out" >&2
+    exit 1
+fi
 # Room for every submission of the run: this measures the service, not its 429 answers.
 "$binary" --bind 127.0.0.1:0 --data-dir "$work/data" --cache-dir "$work/cache" --no-gpu \
-    --max-queue 1000000 --max-jobs 100000000 >"$work/stdout" 2>"$work/stderr" &
+    --max-queue 1000000 --max-jobs 100000000 "${scale_out[@]}" >"$work/stdout" 2>"$work/stderr" &
 server=$!
-trap 'kill "$server" 2>/dev/null; wait "$server" 2>/dev/null; rm -rf "$work"' EXIT
+trap 'kill "$server" $worker 2>/dev/null; wait "$server" $worker 2>/dev/null; rm -rf "$work"' EXIT
 for _ in $(seq 100); do
     grep -q listening "$work/stdout" 2>/dev/null && break
     sleep 0.1
@@ -40,6 +59,7 @@ for _ in $(seq 100); do
     sleep 0.1
 done
 
+echo "== mode: $MODE"
 echo "== machine: $(nproc) cores, $(grep -m1 'model name' /proc/cpuinfo | cut -d: -f2 | xargs)"
 echo "== GET /v1/jobs/$id (status polling), $DURATION, $CONNECTIONS connections, $THREADS threads"
 wrk -t"$THREADS" -c"$CONNECTIONS" -d"$DURATION" --latency "$url/v1/jobs/$id"

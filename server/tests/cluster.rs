@@ -18,7 +18,7 @@ use std::{
     time::{Duration, Instant},
 };
 
-use common::*;
+use common::{browser, *};
 use serde_json::{Value, json};
 
 /// A database of its own, an object store folder and the processes of one test.
@@ -433,4 +433,60 @@ fn an_uploaded_scene_renders_on_a_worker_and_is_deleted_from_the_store() {
     assert_eq!(delete(addr, &format!("/v1/scenes/{scene}")).status, 404);
     let gone = post_json(addr, "/v1/jobs", &json!({"scene": scene, "compare": false}));
     assert_eq!(gone.status, 422, "{}", gone.text());
+}
+
+#[test]
+fn the_web_page_lists_the_workers_and_runs_a_job_on_them() {
+    let Some(cluster) = Cluster::new() else {
+        return;
+    };
+    let (_api, addr) = cluster.api("api", &[]);
+    let _worker = cluster.worker("page-worker");
+    browser::with_browser(
+        "the_web_page_lists_the_workers_and_runs_a_job_on_them",
+        |session| {
+            session.call(
+                "POST",
+                "/url",
+                Some(json!({"url": format!("http://{addr}/")})),
+            );
+            session.wait_for(
+                "return document.querySelector('#workers tbody tr[data-name=\"page-worker\"]') !== null",
+                Duration::from_secs(20),
+            );
+            let header = session.script("return document.getElementById('health').textContent");
+            assert!(
+                header
+                    .as_str()
+                    .unwrap()
+                    .contains("1 worker(s), 0 with a GPU"),
+                "{header}"
+            );
+            session.wait_for(
+                "return document.querySelector('#tier option[value=reference]') !== null",
+                Duration::from_secs(20),
+            );
+            session.click("#scene option[value=cornell-box]");
+            session.click("#tier option[value=reference]");
+            session.type_into("#width", "24");
+            session.type_into("#height", "18");
+            session.type_into("#spp", "1");
+            session.type_into("#reference_spp", "4");
+            session.type_into("#priority", "-2");
+            session.click("#submit");
+            let state = session.wait_for(
+                "const s = document.getElementById('job').dataset.state; return (s === 'done' || s === 'failed') ? s : null",
+                Duration::from_secs(60),
+            );
+            assert_eq!(state, "done");
+            let sizes = session.wait_for(
+                "const imgs = ['img-tier', 'img-flip'].map(id => document.getElementById(id)); \
+                 return imgs.every(i => i.complete && i.naturalWidth > 0) ? imgs.map(i => i.naturalWidth) : null",
+                Duration::from_secs(20),
+            );
+            assert_eq!(sizes, json!([24, 24]));
+        },
+    );
+    let job = get(addr, "/v1/jobs/1").json();
+    assert_eq!(job["request"]["priority"], -2, "{job}");
 }

@@ -48,8 +48,59 @@ async function loadChoices() {
   $("width").max = request.width.maximum;
   $("height").max = request.height.maximum;
   $("spp").max = request.spp.maximum;
-  const gpu = health.gpu ? `GPU: ${health.gpu.name}${health.gpu.hardware ? "" : " (software)"}` : "no GPU: the auto, reference and direct tiers run on the CPU";
-  $("health").textContent = `version ${health.version} · ${gpu} · ${health.queue_depth} queued`;
+  showHealth(health);
+}
+
+// The service's state in the header; in the scale-out mode also its workers.
+function showHealth(health) {
+  let where;
+  if (health.mode === "scale-out") {
+    const gpus = health.workers.filter((w) => w.gpu).length;
+    where = `${health.workers.length} worker(s), ${gpus} with a GPU`;
+  } else {
+    where = health.gpu ? `GPU: ${health.gpu.name}${health.gpu.hardware ? "" : " (software)"}` : "no GPU: the auto, reference and direct tiers run on the CPU";
+  }
+  $("health").textContent = `version ${health.version} · ${where} · ${health.queue_depth} queued`;
+  $("workers-panel").hidden = !health.workers;
+  if (!health.workers) return;
+  const body = $("workers").tBodies[0];
+  body.replaceChildren();
+  for (const worker of health.workers) {
+    const tr = document.createElement("tr");
+    tr.dataset.name = worker.name;
+    for (const text of [worker.name, worker.gpu || "none (CPU tiers)", worker.job || "idle", `${fixed(worker.silent_s, 1)} s ago`]) {
+      const td = document.createElement("td");
+      td.textContent = text;
+      tr.appendChild(td);
+    }
+    body.appendChild(tr);
+  }
+}
+
+async function upload(event) {
+  event.preventDefault();
+  const file = $("upload-file").files[0];
+  if (!file) return;
+  $("upload").disabled = true;
+  $("upload-status").textContent = `uploading ${file.name}…`;
+  try {
+    const answer = await api(`/v1/scenes?name=${encodeURIComponent(file.name)}`, {
+      method: "POST",
+      headers: { "Content-Type": "model/gltf-binary" },
+      body: file,
+    });
+    const scene = answer.scene;
+    if (!$("scene").querySelector(`option[value="${scene.id}"]`)) {
+      option($("scene"), scene.id, `${scene.id} (${scene.name}, ${scene.triangles} triangles)`);
+    }
+    $("scene").value = scene.id;
+    const warnings = scene.warnings.length ? ` Warnings: ${scene.warnings.join("; ")}` : "";
+    $("upload-status").textContent = `${scene.name}: ${scene.triangles} triangles, selected as ${scene.id}.${warnings}`;
+  } catch (error) {
+    $("upload-status").textContent = error.message;
+  } finally {
+    $("upload").disabled = false;
+  }
 }
 
 function formRequest() {
@@ -63,6 +114,7 @@ function formRequest() {
     frames: number("frames"),
     warmup: number("warmup"),
     compare: $("compare").checked,
+    priority: number("priority"),
   };
   if (request.compare) request.reference_spp = number("reference_spp");
   return request;
@@ -122,7 +174,8 @@ function render(job) {
   const r = job.request;
   // A job whose record cannot be read has no request; its error says why.
   $("job-summary").textContent = !r ? "" : `${r.scene} · tier ${r.tier} · ${r.width}×${r.height} · ${r.spp} spp · ${r.frames} frame(s)` +
-    (r.compare ? ` · reference ${r.reference_spp} spp` : "");
+    (r.compare ? ` · reference ${r.reference_spp} spp` : "") + (r.priority ? ` · priority ${r.priority}` : "") +
+    (job.worker ? ` · on ${job.worker}` : "");
   const progress = job.state === "done" ? 1 : job.progress ? job.progress.fraction : 0;
   $("job-progress").value = progress;
   $("job-stage").textContent = job.progress ? `${job.progress.stage} ${job.progress.done}/${job.progress.total}` : "";
@@ -229,6 +282,7 @@ $("token-form").addEventListener("submit", (event) => {
   location.reload();
 });
 $("job-form").addEventListener("submit", submit);
+$("upload-form").addEventListener("submit", upload);
 $("cancel").addEventListener("click", async () => {
   try { render(await api(`/v1/jobs/${currentJob}`, { method: "DELETE" })); } catch (error) { $("job-error").textContent = error.message; }
 });
@@ -244,4 +298,8 @@ $("delete").addEventListener("click", async () => {
 $("older").addEventListener("click", () => refreshJobs(true));
 loadChoices().catch((error) => { $("form-error").textContent = error.message; });
 refreshJobs();
-setInterval(() => { if (!document.hidden) refreshJobs(); }, 5000);
+setInterval(() => {
+  if (document.hidden) return;
+  refreshJobs();
+  api("/healthz").then(showHealth).catch(() => {});
+}, 5000);

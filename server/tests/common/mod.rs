@@ -4,6 +4,8 @@
 
 #![allow(dead_code)] // each test binary uses its own part
 
+pub mod browser;
+
 use std::{
     ffi::OsStr,
     io::{BufRead, BufReader, Read, Write},
