@@ -218,6 +218,19 @@ fn a_killed_worker_s_job_is_finished_by_another_and_a_killed_api_server_loses_no
     }
     let health = get(addr, "/healthz").json();
     assert_eq!(health["status"], "ok", "{health}");
+    // The counts by state follow every change (submissions, starts, a lost worker's job
+    // requeued, ends).
+    let metrics = get(addr, "/metrics").text();
+    assert_eq!(
+        metric(&metrics, "gi_jobs{state=\"done\"}"),
+        Some(6.0),
+        "{metrics}"
+    );
+    for state in ["queued", "running", "failed", "cancelled"] {
+        let series = format!("gi_jobs{{state=\"{state}\"}}");
+        assert_eq!(metric(&metrics, &series), Some(0.0), "{metrics}");
+    }
+    assert_eq!(get(addr, "/v1/jobs?state=done").json()["total"], 6);
     assert_eq!(health["workers"][0]["name"], "third", "{health}");
 }
 

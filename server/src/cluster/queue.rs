@@ -53,6 +53,37 @@ CREATE TABLE IF NOT EXISTS gi_jobs (
 CREATE INDEX IF NOT EXISTS gi_jobs_waiting ON gi_jobs (lane, priority DESC, id) WHERE state = 'queued';
 CREATE INDEX IF NOT EXISTS gi_jobs_leases ON gi_jobs (lease_until) WHERE state = 'running';
 CREATE INDEX IF NOT EXISTS gi_jobs_states ON gi_jobs (state, id);
+CREATE TABLE IF NOT EXISTS gi_job_counts (
+    state TEXT PRIMARY KEY,
+    jobs BIGINT NOT NULL
+);
+CREATE OR REPLACE FUNCTION gi_count_jobs() RETURNS trigger AS $$
+BEGIN
+    -- One statement over the rows of both states, so concurrent changes lock them in the
+    -- same order.
+    IF TG_OP = 'INSERT' THEN
+        UPDATE gi_job_counts SET jobs = jobs + 1 WHERE state = NEW.state;
+    ELSIF TG_OP = 'DELETE' THEN
+        UPDATE gi_job_counts SET jobs = jobs - 1 WHERE state = OLD.state;
+    ELSE
+        UPDATE gi_job_counts
+        SET jobs = jobs + CASE WHEN state = NEW.state THEN 1 ELSE -1 END
+        WHERE state IN (OLD.state, NEW.state);
+    END IF;
+    RETURN NULL;
+END
+$$ LANGUAGE plpgsql;
+DROP TRIGGER IF EXISTS gi_jobs_added_or_removed ON gi_jobs;
+CREATE TRIGGER gi_jobs_added_or_removed AFTER INSERT OR DELETE ON gi_jobs
+    FOR EACH ROW EXECUTE FUNCTION gi_count_jobs();
+DROP TRIGGER IF EXISTS gi_jobs_moved ON gi_jobs;
+CREATE TRIGGER gi_jobs_moved AFTER UPDATE OF state ON gi_jobs
+    FOR EACH ROW WHEN (OLD.state IS DISTINCT FROM NEW.state) EXECUTE FUNCTION gi_count_jobs();
+-- Every state's row, counted from the jobs where the table is new (the triggers keep them).
+INSERT INTO gi_job_counts (state, jobs)
+    SELECT s.state, (SELECT count(*) FROM gi_jobs j WHERE j.state = s.state)
+    FROM unnest(ARRAY['queued', 'running', 'done', 'failed', 'cancelled']) AS s(state)
+    ON CONFLICT (state) DO NOTHING;
 CREATE TABLE IF NOT EXISTS gi_workers (
     name TEXT PRIMARY KEY,
     gpu TEXT,
@@ -157,11 +188,11 @@ impl Queue {
         Ok(())
     }
 
-    /// Jobs per state, indexed by [`JobState::index`].
+    /// Jobs per state, indexed by [`JobState::index`] (kept by triggers: no table scan).
     pub async fn counts(&self) -> Result<[usize; 5], ApiError> {
         let client = self.client().await?;
         let rows = client
-            .query("SELECT state, count(*) FROM gi_jobs GROUP BY state", &[])
+            .query("SELECT state, jobs FROM gi_job_counts", &[])
             .await
             .map_err(|e| db_error("counting jobs", e))?;
         let mut counts = [0; 5];
@@ -193,7 +224,9 @@ impl Queue {
             .map_err(fail)?;
         let sizes = transaction
             .query_one(
-                "SELECT count(*) FILTER (WHERE state = 'queued'), count(*) FROM gi_jobs",
+                "SELECT coalesce(sum(jobs) FILTER (WHERE state = 'queued'), 0)::BIGINT,
+                        coalesce(sum(jobs), 0)::BIGINT
+                 FROM gi_job_counts",
                 &[],
             )
             .await
@@ -307,7 +340,8 @@ impl Queue {
             .map_err(fail)?;
         let total: i64 = client
             .query_one(
-                "SELECT count(*) FROM gi_jobs WHERE $1::TEXT IS NULL OR state = $1",
+                "SELECT coalesce(sum(jobs), 0)::BIGINT FROM gi_job_counts
+                 WHERE $1::TEXT IS NULL OR state = $1",
                 &[&state],
             )
             .await
