@@ -5,7 +5,8 @@ use std::time::{Duration, Instant};
 use glam::{UVec2, Vec2, Vec3, Vec3A};
 use leaves::{LANES, LeafTriangles};
 use obvhs::{
-    BvhBuildParams,
+    Boundable, BvhBuildParams,
+    aabb::Aabb,
     cwbvh::{CwBvh, builder::build_cwbvh_from_tris},
     ray::Ray,
     traverse,
@@ -16,6 +17,40 @@ mod leaves;
 mod wide;
 
 pub use wide::WideBvh;
+
+/// The primitives' bounds to build a BVH over with obvhs' PLOC builder, each grown by a tiny
+/// amount of its own.
+///
+/// PLOC merges two neighbours (in Morton order) when each is the other's cheapest partner. On
+/// exact ties (coincident copies of one object, or equal boxes at equal spacing in a row)
+/// every node picks the same side, one pair merges per pass and the build turns quadratic: the
+/// CPU reference's build of 50,000 boxes in a row (600k triangles) had not finished after two
+/// minutes, and 200,000 coincident copies of one box after five. Growing each box by a
+/// different amount (from a hash of its index: up to 1e-5 of its size plus about a millionth
+/// of its distance from the origin, a few ulps of its coordinates) breaks the ties. The bounds
+/// stay conservative, so every traversal stays exact; the trees are as good (the growth is far
+/// below any box's size).
+///
+/// The CPU reference's [`WideBvh`] is built on them. [`SceneBvh`] (the tests' ray-query
+/// oracle and `gi info`) and the GPU levels still build on the exact bounds: on those, a ray
+/// grazing a flat box (its origin a few 1e-5 above a floor) misses by rounding, where grown
+/// boxes find the hit, and the GPU traversal's grazing tests must become robust first.
+pub fn tie_breaking_bounds<T: Boundable>(primitives: &[T]) -> Vec<Aabb> {
+    primitives
+        .iter()
+        .enumerate()
+        .map(|(i, primitive)| {
+            let aabb = primitive.aabb();
+            let size = (aabb.max - aabb.min).max_element();
+            let distance = aabb.min.abs().max(aabb.max.abs()).max_element();
+            // A fraction in [0.5, 1) from the index (a multiplicative hash's high bits).
+            let hash = (i as u32).wrapping_mul(0x9e37_79b9) ^ ((i as u64 >> 32) as u32);
+            let fraction = 0.5 + (hash >> 8) as f32 / (1u32 << 25) as f32;
+            let grow = (size * 1e-5 + distance * 1e-6 + 1e-12) * fraction;
+            Aabb::new(aabb.min - grow, aabb.max + grow)
+        })
+        .collect()
+}
 
 /// A closest-hit result.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -246,6 +281,82 @@ impl SceneBvh {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// The twelve triangles of a unit box at `x`.
+    fn unit_box(x: f32) -> [Triangle; 12] {
+        let corner = |c: usize| {
+            Vec3A::new(
+                x + (c & 1) as f32,
+                ((c >> 1) & 1) as f32,
+                ((c >> 2) & 1) as f32,
+            )
+        };
+        let faces = [
+            [0, 1, 3, 2],
+            [4, 6, 7, 5],
+            [0, 4, 5, 1],
+            [2, 3, 7, 6],
+            [0, 2, 6, 4],
+            [1, 5, 7, 3],
+        ];
+        let mut triangles = [Triangle {
+            v0: Vec3A::ZERO,
+            v1: Vec3A::ZERO,
+            v2: Vec3A::ZERO,
+        }; 12];
+        for (f, [a, b, c, d]) in faces.into_iter().enumerate() {
+            triangles[2 * f] = Triangle {
+                v0: corner(a),
+                v1: corner(b),
+                v2: corner(c),
+            };
+            triangles[2 * f + 1] = Triangle {
+                v0: corner(a),
+                v1: corner(c),
+                v2: corner(d),
+            };
+        }
+        triangles
+    }
+
+    /// Coincident copies of one box: on their own bounds PLOC merges about one pair per pass
+    /// and builds a chain as deep as there are copies (in quadratic time); on the tie-breaking
+    /// bounds the tree is several times shallower. Equal boxes at equal spacing in a row (whose
+    /// ties slowed the build 50-fold, measured, without deepening the tree) keep a tree as
+    /// good. The bounds contain their triangles and grow by little.
+    #[test]
+    fn tie_breaking_bounds_keep_ploc_shallow_on_coincident_boxes_and_rows_as_good() {
+        let boxes = 400;
+        let coincident: Vec<Triangle> = (0..boxes).flat_map(|_| unit_box(0.0)).collect();
+        let row: Vec<Triangle> = (0..boxes).flat_map(|i| unit_box(2.0 * i as f32)).collect();
+        let params = BvhBuildParams {
+            max_prims_per_leaf: 1,
+            ..BvhBuildParams::medium_build()
+        };
+        let depth = |bounds: &[Aabb]| {
+            let bvh = obvhs::bvh2::builder::build_bvh2(bounds, params, &mut Duration::default());
+            bvh.depth(0)
+        };
+        let mut depths = Vec::new();
+        for (name, triangles) in [("coincident", &coincident), ("row", &row)] {
+            let plain: Vec<Aabb> = triangles.iter().map(|t| t.aabb()).collect();
+            let broken = tie_breaking_bounds(triangles);
+            for (aabb, triangle) in broken.iter().zip(triangles.iter()) {
+                for v in [triangle.v0, triangle.v1, triangle.v2] {
+                    assert!(aabb.min.cmple(v).all() && aabb.max.cmpge(v).all(), "{name}");
+                }
+                let grown = (aabb.max - aabb.min).max_element() - 1.0;
+                assert!(grown > 0.0 && grown < 0.05, "{name}: grown by {grown}");
+            }
+            depths.push((depth(&plain), depth(&broken)));
+        }
+        let [(coincident_tied, coincident_broken), (row_tied, row_broken)] = depths[..] else {
+            unreachable!()
+        };
+        assert!(coincident_tied > boxes * 3 / 4, "{depths:?}");
+        assert!(coincident_broken * 3 < coincident_tied, "{depths:?}");
+        assert!(row_broken <= row_tied + 2, "{depths:?}");
+    }
 
     /// A large right triangle (area 8): the weights must not scale with its area, and the hit
     /// must be the nearer of two stacked triangles.

@@ -7,7 +7,7 @@ use std::time::{Duration, Instant};
 use glam::{Vec3, Vec3A, Vec4};
 use obvhs::{
     BvhBuildParams,
-    bvh2::{Bvh2, builder::build_bvh2_from_tris},
+    bvh2::{Bvh2, builder::build_bvh2},
     ray::Ray,
     triangle::Triangle,
 };
@@ -226,7 +226,11 @@ impl WideBvh {
         let bvh2 = if triangles.is_empty() {
             Bvh2::default()
         } else {
-            build_bvh2_from_tris(triangles, params, &mut Default::default())
+            build_bvh2(
+                &super::tie_breaking_bounds(triangles),
+                params,
+                &mut Default::default(),
+            )
         };
         let mut builder = Builder::new(&bvh2, triangles);
         let root = if bvh2.nodes.is_empty() {
