@@ -343,7 +343,10 @@ fn priorities_lanes_cancellation_and_deletion_reach_the_workers() {
     let deleted = delete(addr, &format!("/v1/jobs/{high}"));
     assert_eq!(deleted.status, 200, "{}", deleted.text());
     assert_eq!(deleted.json()["deleted"], true);
-    assert!(!images.join("image.png").exists());
+    assert!(
+        !images.exists(),
+        "the job's folder is removed from the store"
+    );
     assert_eq!(get(addr, &format!("/v1/jobs/{high}")).status, 404);
 }
 
@@ -502,4 +505,62 @@ fn the_web_page_lists_the_workers_and_runs_a_job_on_them() {
     );
     let job = get(addr, "/v1/jobs/1").json();
     assert_eq!(job["request"]["priority"], -2, "{job}");
+}
+
+/// The same priorities and cancellation against the embedded default (no database): one
+/// process whose CPU pool of one renders the jobs.
+#[test]
+fn priorities_and_cancellation_hold_in_the_embedded_default_too() {
+    let dir = tempfile::tempdir().unwrap();
+    let (_server, addr) = spawn_server([
+        OsString::from("--bind"),
+        "127.0.0.1:0".into(),
+        "--no-gpu".into(),
+        "--reference-pool".into(),
+        "1".into(),
+        "--data-dir".into(),
+        dir.path().join("data").into(),
+        "--cache-dir".into(),
+        dir.path().join("cache").into(),
+    ]);
+    // A render of a minute or more holds the only CPU worker while two jobs queue behind it.
+    let long = submit(
+        addr,
+        &json!({"scene": "cornell-box", "tier": "reference", "width": 128,
+                                    "height": 96, "spp": 4096, "compare": false}),
+    );
+    wait_for(addr, &long, Duration::from_secs(60), |job| {
+        job["state"] == "running"
+    });
+    let low = submit(
+        addr,
+        &json!({"scene": "cornell-box", "tier": "reference", "width": 16,
+                                   "height": 12, "spp": 1, "compare": false, "priority": -5}),
+    );
+    let high = submit(
+        addr,
+        &json!({"scene": "cornell-box", "tier": "reference", "width": 16,
+                                    "height": 12, "spp": 1, "compare": false, "priority": 7}),
+    );
+    let cancelled = delete(addr, &format!("/v1/jobs/{long}"));
+    assert_eq!(cancelled.status, 200, "{}", cancelled.text());
+    let cancelled_at = Instant::now();
+    let low_done = wait_final(addr, &low, Duration::from_secs(60));
+    let high_done = wait_final(addr, &high, Duration::from_secs(60));
+    assert!(
+        cancelled_at.elapsed() < Duration::from_secs(20),
+        "the cancelled render stopped: {:?}",
+        cancelled_at.elapsed()
+    );
+    assert_eq!(low_done["state"], "done");
+    assert_eq!(high_done["state"], "done");
+    let started = |job: &Value| job["started_at"].as_str().unwrap().to_string();
+    assert!(
+        started(&high_done) < started(&low_done),
+        "the higher priority runs first: {high_done} {low_done}"
+    );
+    assert_eq!(
+        get(addr, &format!("/v1/jobs/{long}")).json()["state"],
+        "cancelled"
+    );
 }

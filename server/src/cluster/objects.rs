@@ -19,6 +19,8 @@ pub struct Objects {
     store: Arc<dyn ObjectStore>,
     prefix: Path,
     url: String,
+    /// The folder of a local store (which keeps folders emptied by deletions).
+    local_root: Option<std::path::PathBuf>,
 }
 
 fn store_error(what: &str, error: impl std::fmt::Display) -> ApiError {
@@ -35,6 +37,7 @@ impl Objects {
         let local = url
             .strip_prefix("file://")
             .or_else(|| (!url.contains("://")).then_some(url));
+        let local_root = local.map(std::path::PathBuf::from);
         let (store, prefix): (Arc<dyn ObjectStore>, Path) = match local {
             Some(folder) => {
                 std::fs::create_dir_all(folder)
@@ -69,6 +72,7 @@ impl Objects {
             store,
             prefix,
             url: url.to_string(),
+            local_root,
         })
     }
 
@@ -144,10 +148,13 @@ impl Objects {
             .sum())
     }
 
-    /// Deletes everything under `folder`.
+    /// Deletes everything under `folder` (and, in a local store, the folder once empty).
     pub async fn delete_folder(&self, folder: &str) -> Result<(), ApiError> {
         for key in self.list(folder).await? {
             self.delete(&key).await?;
+        }
+        if let Some(root) = &self.local_root {
+            let _ = std::fs::remove_dir(root.join(folder));
         }
         Ok(())
     }
