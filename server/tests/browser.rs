@@ -184,18 +184,7 @@ fn asks_for_the_api_token_and_sends_it(session: &Session) {
          document.getElementById('token-form').hidden",
         Duration::from_secs(20),
     );
-    session.click("#scene option[value=cornell-box]");
-    session.click("#tier option[value=reference]");
-    session.type_into("#width", "24");
-    session.type_into("#height", "18");
-    session.type_into("#spp", "1");
-    session.type_into("#reference_spp", "4");
-    session.click("#submit");
-    let state = session.wait_for(
-        "const s = document.getElementById('job').dataset.state; return (s === 'done' || s === 'failed' || s === 'cancelled') ? s : null",
-        Duration::from_secs(60),
-    );
-    assert_eq!(state, "done");
+    assert_eq!(session.render_small_job(&[]), "done");
     // The images came through the API with the token too.
     let sizes = session.wait_for(
         "const imgs = ['img-tier', 'img-reference'].map(id => document.getElementById(id)); \

@@ -155,6 +155,13 @@ fn slow_job() -> Value {
            "spp": 4096, "compare": false})
 }
 
+/// [`small_job`] with a priority.
+fn small_job_with_priority(priority: i32) -> Value {
+    let mut job = small_job();
+    job["priority"] = priority.into();
+    job
+}
+
 fn small_job() -> Value {
     json!({"scene": "cornell-box", "tier": "reference", "width": 16, "height": 12, "spp": 1,
            "compare": false})
@@ -242,21 +249,13 @@ fn priorities_lanes_cancellation_and_deletion_reach_the_workers() {
     let (_api, addr) = cluster.api("api", &[]);
     // Queued before any worker runs: a low-priority job, a job only a GPU worker may take, and
     // a high-priority one.
-    let low = submit(
-        addr,
-        &json!({"scene": "cornell-box", "tier": "reference", "width": 16,
-                                   "height": 12, "spp": 1, "compare": false, "priority": -5}),
-    );
+    let low = submit(addr, &small_job_with_priority(-5));
     let gpu = submit(
         addr,
         &json!({"scene": "cornell-box", "tier": "pc", "width": 16,
                                    "height": 12, "compare": false}),
     );
-    let high = submit(
-        addr,
-        &json!({"scene": "cornell-box", "tier": "reference", "width": 16,
-                                    "height": 12, "spp": 1, "compare": false, "priority": 7}),
-    );
+    let high = submit(addr, &small_job_with_priority(7));
     let refused = post_json(
         addr,
         "/v1/jobs",
@@ -482,19 +481,7 @@ fn the_web_page_lists_the_workers_and_runs_a_job_on_them() {
                 "return document.querySelector('#tier option[value=reference]') !== null",
                 Duration::from_secs(20),
             );
-            session.click("#scene option[value=cornell-box]");
-            session.click("#tier option[value=reference]");
-            session.type_into("#width", "24");
-            session.type_into("#height", "18");
-            session.type_into("#spp", "1");
-            session.type_into("#reference_spp", "4");
-            session.type_into("#priority", "-2");
-            session.click("#submit");
-            let state = session.wait_for(
-                "const s = document.getElementById('job').dataset.state; return (s === 'done' || s === 'failed') ? s : null",
-                Duration::from_secs(60),
-            );
-            assert_eq!(state, "done");
+            assert_eq!(session.render_small_job(&[("#priority", "-2")]), "done");
             let sizes = session.wait_for(
                 "const imgs = ['img-tier', 'img-flip'].map(id => document.getElementById(id)); \
                  return imgs.every(i => i.complete && i.naturalWidth > 0) ? imgs.map(i => i.naturalWidth) : null",
@@ -532,16 +519,8 @@ fn priorities_and_cancellation_hold_in_the_embedded_default_too() {
     wait_for(addr, &long, Duration::from_secs(60), |job| {
         job["state"] == "running"
     });
-    let low = submit(
-        addr,
-        &json!({"scene": "cornell-box", "tier": "reference", "width": 16,
-                                   "height": 12, "spp": 1, "compare": false, "priority": -5}),
-    );
-    let high = submit(
-        addr,
-        &json!({"scene": "cornell-box", "tier": "reference", "width": 16,
-                                    "height": 12, "spp": 1, "compare": false, "priority": 7}),
-    );
+    let low = submit(addr, &small_job_with_priority(-5));
+    let high = submit(addr, &small_job_with_priority(7));
     let cancelled = delete(addr, &format!("/v1/jobs/{long}"));
     assert_eq!(cancelled.status, 200, "{}", cancelled.text());
     let cancelled_at = Instant::now();

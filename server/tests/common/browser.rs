@@ -155,6 +155,29 @@ impl Session<'_> {
         );
     }
 
+    /// Submits a small reference job of cornell-box (24 x 18, 1 spp, a 4-spp reference) from
+    /// the page's form, with `extra` fields typed in as well, and answers the state it ends in.
+    pub fn render_small_job(&self, extra: &[(&str, &str)]) -> Value {
+        self.click("#scene option[value=cornell-box]");
+        self.click("#tier option[value=reference]");
+        for (field, value) in [
+            ("#width", "24"),
+            ("#height", "18"),
+            ("#spp", "1"),
+            ("#reference_spp", "4"),
+        ]
+        .iter()
+        .chain(extra)
+        {
+            self.type_into(field, value);
+        }
+        self.click("#submit");
+        self.wait_for(
+            "const s = document.getElementById('job').dataset.state; return (s === 'done' || s === 'failed' || s === 'cancelled') ? s : null",
+            Duration::from_secs(60),
+        )
+    }
+
     /// Runs `script` until it returns something other than null or false.
     pub fn wait_for(&self, script: &str, timeout: Duration) -> Value {
         let started = Instant::now();
