@@ -201,3 +201,12 @@ impl From<QueryRejection> for ApiError {
         )
     }
 }
+
+impl From<ApiError> for crate::job::JobFailure {
+    fn from(error: ApiError) -> Self {
+        Self {
+            code: error.code.to_string(),
+            message: error.message,
+        }
+    }
+}

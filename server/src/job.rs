@@ -352,7 +352,8 @@ pub const UNREADABLE: &str = "unreadable";
 /// How far a running job is.
 #[derive(Clone, Debug, PartialEq, Serialize)]
 pub struct Progress {
-    /// `warmup`, `frames`, `reference` or `direct`.
+    /// `preparing` (the scene's import, BVH builds and the tier's set-up), `warmup`,
+    /// `frames`, `reference` or `direct`.
     pub stage: &'static str,
     /// Frames (or samples per pixel, for CPU renders) done in this stage, of `total`.
     pub done: u32,

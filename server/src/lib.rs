@@ -26,6 +26,7 @@ pub mod config;
 mod connections;
 mod error;
 pub mod job;
+pub mod job_process;
 mod metrics;
 mod openapi;
 mod runner;

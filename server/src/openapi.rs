@@ -265,7 +265,7 @@ pub fn document(config: &Config) -> Value {
                 "Progress": {
                     "type": "object",
                     "properties": {
-                        "stage": { "type": "string", "enum": ["starting", "warmup", "frames", "reference", "direct"] },
+                        "stage": { "type": "string", "enum": ["preparing", "warmup", "frames", "reference", "direct"] },
                         "done": { "type": "integer" }, "total": { "type": "integer" },
                         "fraction": { "type": "number", "minimum": 0, "maximum": 1 }
                     }

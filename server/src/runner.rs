@@ -24,13 +24,43 @@ use crate::{
     store::Writer,
 };
 
-/// Where a job's tier renders and how it is asked for.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+/// Where a job's tier renders and how it is asked for. In JSON (a job process's task):
+/// `cpu:<tier>`, `gpu:<tier>` or `gpu:auto`.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
+#[serde(into = "String", try_from = "String")]
 pub enum TierPlan {
     /// A CPU tier (`reference` or `direct`), made directly so nothing probes for a GPU.
     Cpu(TierKind),
     /// Whatever [`Renderer::new`] makes of the choice, on the GPU worker.
     Gpu(TierChoice),
+}
+
+impl From<TierPlan> for String {
+    fn from(plan: TierPlan) -> String {
+        match plan {
+            TierPlan::Cpu(kind) => format!("cpu:{}", kind.name()),
+            TierPlan::Gpu(TierChoice::Tier(kind)) => format!("gpu:{}", kind.name()),
+            // A frame budget is not a plan the service makes.
+            TierPlan::Gpu(TierChoice::Auto | TierChoice::AutoWithin(_)) => "gpu:auto".into(),
+        }
+    }
+}
+
+impl TryFrom<String> for TierPlan {
+    type Error = String;
+
+    fn try_from(plan: String) -> Result<Self, String> {
+        let tier = |name: &str| {
+            name.parse::<TierKind>()
+                .map_err(|e| format!("{plan:?}: {e}"))
+        };
+        match plan.split_once(':') {
+            Some(("gpu", "auto")) => Ok(TierPlan::Gpu(TierChoice::Auto)),
+            Some(("gpu", name)) => Ok(TierPlan::Gpu(TierChoice::Tier(tier(name)?))),
+            Some(("cpu", name)) => Ok(TierPlan::Cpu(tier(name)?)),
+            _ => Err(format!("{plan:?} is not cpu:<tier> or gpu:<tier>")),
+        }
+    }
 }
 
 /// A job ready to render: its scene with the job's camera applied, and its settings.

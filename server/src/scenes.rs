@@ -25,7 +25,8 @@ use crate::{error::ApiError, job::now_rfc3339, store::Writer};
 pub const UPLOAD_PREFIX: &str = "upload-";
 
 /// Where a scene comes from.
-#[derive(Clone, Debug, PartialEq, Eq)]
+#[derive(Clone, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
 pub enum SceneSource {
     /// A bundled scene, loaded by name (from its glTF file or generated).
     Bundled(String),

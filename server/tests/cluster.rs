@@ -10,7 +10,7 @@ mod common;
 
 use std::{
     collections::HashSet,
-    ffi::OsString,
+    ffi::{OsStr, OsString},
     net::SocketAddr,
     path::PathBuf,
     process::{Command, Stdio},
@@ -113,7 +113,13 @@ impl Cluster {
 
     /// A worker without a GPU (CPU tiers only) called `name`.
     fn worker(&self, name: &str) -> ServerProcess {
+        self.worker_with(name, &[])
+    }
+
+    /// [`Cluster::worker`] with `extra` flags.
+    fn worker_with(&self, name: &str, extra: &[&OsStr]) -> ServerProcess {
         let child = Command::new(env!("CARGO_BIN_EXE_gi-worker"))
+            .args(extra)
             .args([
                 "--name",
                 name,
@@ -542,4 +548,161 @@ fn priorities_and_cancellation_hold_in_the_embedded_default_too() {
         get(addr, &format!("/v1/jobs/{long}")).json()["state"],
         "cancelled"
     );
+}
+
+/// A `.glb` of `count` copies of one unit box (12 triangles) all at one place, with a camera
+/// and no light: the worst case of the BVH builders, whose neighbours all tie (benchmarks/
+/// scale/box_instances.py writes the same file). 200,000 copies take the CPU reference over
+/// ten seconds to prepare.
+fn coincident_boxes_glb(count: usize) -> Vec<u8> {
+    let corners = (0..8u32).map(|i| [i >> 2 & 1, i >> 1 & 1, i & 1].map(|c| c as f32));
+    let positions: Vec<u8> = corners.flatten().flat_map(f32::to_le_bytes).collect();
+    let indices: [u16; 36] = [
+        0, 1, 3, 0, 3, 2, 4, 6, 7, 4, 7, 5, 0, 4, 5, 0, 5, 1, 2, 3, 7, 2, 7, 6, 0, 2, 6, 0, 6, 4,
+        1, 5, 7, 1, 7, 3,
+    ];
+    let mut binary = positions.clone();
+    binary.extend(indices.iter().flat_map(|i| i.to_le_bytes()));
+    let nodes: Vec<Value> = (0..count)
+        .map(|_| json!({"mesh": 0}))
+        .chain([json!({"camera": 0, "translation": [0.5, 0.5, 5.0]})])
+        .collect();
+    let gltf = json!({
+        "asset": {"version": "2.0"},
+        "scene": 0,
+        "scenes": [{"nodes": (0..=count).collect::<Vec<_>>()}],
+        "nodes": nodes,
+        "cameras": [{"type": "perspective", "perspective": {"yfov": 0.8, "znear": 0.1}}],
+        "meshes": [{"primitives": [{"attributes": {"POSITION": 0}, "indices": 1}]}],
+        "buffers": [{"byteLength": binary.len()}],
+        "bufferViews": [
+            {"buffer": 0, "byteOffset": 0, "byteLength": positions.len()},
+            {"buffer": 0, "byteOffset": positions.len(), "byteLength": 72},
+        ],
+        "accessors": [
+            {"bufferView": 0, "componentType": 5126, "count": 8, "type": "VEC3",
+             "min": [0, 0, 0], "max": [1, 1, 1]},
+            {"bufferView": 1, "componentType": 5123, "count": 36, "type": "SCALAR"},
+        ],
+    });
+    let mut text = serde_json::to_vec(&gltf).unwrap();
+    text.resize(text.len().next_multiple_of(4), b' ');
+    binary.resize(binary.len().next_multiple_of(4), 0);
+    let total = 12 + 8 + text.len() + 8 + binary.len();
+    let mut glb = Vec::with_capacity(total);
+    for word in [0x4654_6C67, 2, total as u32, text.len() as u32, 0x4E4F_534A] {
+        glb.extend(u32::to_le_bytes(word));
+    }
+    glb.extend(text);
+    glb.extend(u32::to_le_bytes(binary.len() as u32));
+    glb.extend(u32::to_le_bytes(0x004E_4942));
+    glb.extend(binary);
+    glb
+}
+
+/// The processes whose parent is `pid` (Linux's /proc).
+fn children_of(pid: u32) -> Vec<u32> {
+    let Ok(entries) = std::fs::read_dir("/proc") else {
+        return Vec::new();
+    };
+    entries
+        .filter_map(|entry| {
+            let child: u32 = entry.ok()?.file_name().to_str()?.parse().ok()?;
+            let stat = std::fs::read_to_string(format!("/proc/{child}/stat")).ok()?;
+            // pid (comm) state ppid ...: the command may hold spaces and parentheses.
+            let (_, rest) = stat.rsplit_once(')')?;
+            let mut fields = rest.split_whitespace();
+            let state = fields.next()?;
+            let ppid: u32 = fields.next()?.parse().ok()?;
+            (ppid == pid && state != "Z").then_some(child)
+        })
+        .collect()
+}
+
+/// Waits until `pid` has no child process; false after `timeout`.
+fn children_end(pid: u32, timeout: Duration) -> bool {
+    let started = Instant::now();
+    while started.elapsed() < timeout {
+        if children_of(pid).is_empty() {
+            return true;
+        }
+        std::thread::sleep(Duration::from_millis(50));
+    }
+    false
+}
+
+/// Jobs run in processes of their own: a cancellation ends a job still importing its scene
+/// and building its BVH (which check for nothing), and a render that dies fails its job, not
+/// the worker.
+#[test]
+fn a_cancelled_job_stops_inside_its_bvh_build_and_a_crashed_render_fails_only_its_job() {
+    let Some(cluster) = Cluster::new() else {
+        return;
+    };
+    let scenes = cluster.dir.path().join("scenes");
+    std::fs::create_dir_all(&scenes).unwrap();
+    std::fs::write(scenes.join("boxes.glb"), coincident_boxes_glb(200_000)).unwrap();
+    let scene_dir = scenes.to_str().unwrap();
+    let (_api, addr) = cluster.api("api", &["--scene-dir", scene_dir]);
+    let worker = cluster.worker_with("worker", &["--scene-dir".as_ref(), scenes.as_os_str()]);
+    let worker_pid = worker.id();
+
+    // Caught while its scene is prepared (imported, its BVH built: over ten seconds).
+    let heavy = submit(
+        addr,
+        &json!({"scene": "boxes", "tier": "reference", "width": 16, "height": 12, "spp": 1,
+                "compare": false}),
+    );
+    let preparing = wait_for(addr, &heavy, Duration::from_secs(60), |job| {
+        job["progress"]["stage"].is_string() || job["finished_at"].is_string()
+    });
+    assert_eq!(preparing["progress"]["stage"], "preparing", "{preparing}");
+    let children = children_of(worker_pid);
+    assert_eq!(
+        children.len(),
+        1,
+        "one process renders the job: {children:?}"
+    );
+    let cancelled = delete(addr, &format!("/v1/jobs/{heavy}"));
+    assert_eq!(cancelled.status, 200, "{}", cancelled.text());
+    let cancelled_at = Instant::now();
+    // The heartbeat (a third of the 3 s lease) brings the cancellation to the worker, which
+    // ends the job's process at once.
+    assert!(
+        children_end(worker_pid, Duration::from_secs(5)),
+        "the job's process still runs {:?} after the cancellation",
+        cancelled_at.elapsed()
+    );
+    let next = submit(addr, &small_job());
+    let next_done = wait_final(addr, &next, Duration::from_secs(60));
+    assert_eq!(next_done["state"], "done", "{next_done}");
+    assert_eq!(
+        get(addr, &format!("/v1/jobs/{heavy}")).json()["state"],
+        "cancelled"
+    );
+
+    // A render process that dies (here by SIGKILL, as the kernel's OOM killer would end it)
+    // fails its job; the worker lives on and takes the next one.
+    let doomed = submit(addr, &slow_job());
+    wait_for(addr, &doomed, Duration::from_secs(60), |job| {
+        job["state"] == "running" && job["progress"]["stage"] == "frames"
+    });
+    let children = children_of(worker_pid);
+    assert_eq!(children.len(), 1, "{children:?}");
+    let status = Command::new("kill")
+        .args(["-KILL", &children[0].to_string()])
+        .status()
+        .unwrap();
+    assert!(status.success());
+    let failed = wait_final(addr, &doomed, Duration::from_secs(60));
+    assert_eq!(failed["state"], "failed", "{failed}");
+    assert_eq!(failed["error"]["code"], "render_crashed", "{failed}");
+    let after = submit(addr, &small_job());
+    assert_eq!(
+        wait_final(addr, &after, Duration::from_secs(60))["state"],
+        "done"
+    );
+    let health = get(addr, "/healthz").json();
+    assert_eq!(health["workers"][0]["name"], "worker", "{health}");
+    drop(worker);
 }

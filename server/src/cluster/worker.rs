@@ -3,12 +3,18 @@
 //! number of machines, all with the same `--database-url`, `--store-url` and scene folders.
 //!
 //! A job's life on a worker: taken from the queue (highest priority first), its scene
-//! resolved (an upload fetched from the store), its tier rendered, compared with the
-//! reference when it asks to be, its images put in the store, and its end stored. A heartbeat
-//! renews the worker's hold on the job every third of the lease and brings back whether the
-//! job is still the worker's to run: a job cancelled or deleted meanwhile stops at its next
-//! frame or pass. A worker that stops (SIGTERM) puts its job back in the queue, its start not
+//! resolved (an upload fetched from the store), then rendered in a process of its own
+//! ([`crate::job_process`]): its tier rendered, compared with the reference when it asks to
+//! be, its images written; the worker puts them in the store and stores the job's end. A
+//! heartbeat renews the worker's hold on the job every third of the lease and brings back
+//! whether the job is still the worker's to run: a job cancelled or deleted meanwhile has its
+//! process ended. A worker that stops (SIGTERM) puts its job back in the queue, its start not
 //! counted; one that dies leaves it to be put back once its lease runs out.
+//!
+//! A program that calls [`run`] starts itself for every job with
+//! [`crate::job_process::JOB_PROCESS_ARG`]: its `main` hands that argument to
+//! [`crate::job_process::child_main`] (as `gi-worker`'s does), or its workers set
+//! [`WorkerConfig::in_process`].
 
 use std::{
     path::PathBuf,
@@ -31,6 +37,7 @@ use super::{
 use crate::{
     error::ApiError,
     job::{IMAGE_FILES, JobFailure, JobRecord, JobState, Progress, now_rfc3339},
+    job_process::{self, JobTask},
     runner::{self, References},
     service::{GpuInfo, plan_for, requeue_stopped, with_lighting},
     store::Writer,
@@ -92,6 +99,13 @@ pub struct WorkerConfig {
     #[arg(long, env = "GI_SERVER_JOB_TIME_LIMIT_S", default_value_t = 3600)]
     pub job_time_limit_s: u64,
 
+    /// Render jobs inside the worker instead of in a process of their own. That saves the
+    /// process's start (its GPU device, its scene's import) for every job, but a job then
+    /// stops only between its frames and passes: a cancellation, the time limit or a shutdown
+    /// waits for its scene's import and BVH builds; and a render that crashes ends the worker.
+    #[arg(long, env = "GI_WORKER_IN_PROCESS")]
+    pub in_process: bool,
+
     /// Milliseconds between looks at an empty queue.
     #[arg(long, env = "GI_WORKER_POLL_MS", default_value_t = 500)]
     pub poll_ms: u64,
@@ -138,6 +152,8 @@ struct Worker {
     scenes: Scenes,
     gpu: Option<GpuInfo>,
     references: References,
+    /// The reference cache's folder (job processes open it themselves).
+    cache_dir: PathBuf,
     current: Mutex<Option<Current>>,
     stopping: AtomicBool,
 }
@@ -178,7 +194,10 @@ pub async fn run(
     );
     let cache_dir = (config.cache_dir.clone()).unwrap_or_else(gi_reference::cache::default_dir);
     let worker = Arc::new(Worker {
-        references: References::new(ReferenceCache::new(cache_dir).with_engine(engine, choice)),
+        references: References::new(
+            ReferenceCache::new(cache_dir.clone()).with_engine(engine, choice),
+        ),
+        cache_dir,
         name,
         queue,
         objects,
@@ -346,7 +365,7 @@ impl Worker {
                 // counted.
                 requeue_stopped(&mut record);
             }
-            Err(error) => fail(&mut record, error.code, error.message),
+            Err(error) => fail(&mut record, &error.code, error.message),
         }
         let state = record.state;
         // The end is stored until it is (or the job is found no longer this worker's): a
@@ -386,9 +405,54 @@ impl Worker {
         record: &JobRecord,
         lost: Arc<AtomicBool>,
         deadline: Option<Instant>,
+    ) -> Result<Option<crate::job::JobResult>, JobFailure> {
+        let spec = &record.spec;
+        let (plan, _) = plan_for(spec, self.gpu.as_ref(), self.config.no_gpu)?;
+        let stop = {
+            let worker = self.clone();
+            move || lost.load(Ordering::SeqCst) || worker.is_stopping() || past(deadline)
+        };
+        self.set_progress(job_process::preparing());
+        if self.config.in_process {
+            return Ok(self
+                .clone()
+                .render_here(record, plan, Arc::new(stop))
+                .await?);
+        }
+        let dir = self
+            .config
+            .work_dir
+            .join("jobs")
+            .join(record.id.to_string());
+        let task = JobTask {
+            id: record.id,
+            spec: spec.clone(),
+            scene: self.scenes.resolve(&spec.scene).await?,
+            plan,
+            gpu_name: self.gpu.as_ref().map(|g| g.name.clone()),
+            reference_engine: self.config.reference_engine,
+            no_gpu: self.config.no_gpu,
+            cache_dir: self.cache_dir.clone(),
+            out_dir: dir.clone(),
+        };
+        let rendered = job_process::run(&task, |p| self.set_progress(p), stop).await;
+        let stored = match &rendered {
+            Ok(Some(_)) => self.put_images(record.id, &dir).await,
+            _ => Ok(()),
+        };
+        let _ = tokio::fs::remove_dir_all(&dir).await;
+        stored?;
+        rendered
+    }
+
+    /// Renders job `record` in this process ([`WorkerConfig::in_process`]).
+    async fn render_here(
+        self: Arc<Self>,
+        record: &JobRecord,
+        plan: runner::TierPlan,
+        stop: CancelCheck,
     ) -> Result<Option<crate::job::JobResult>, ApiError> {
         let spec = record.spec.clone();
-        let (plan, _) = plan_for(&spec, self.gpu.as_ref(), self.config.no_gpu)?;
         let scene = with_lighting(self.scenes.load(&spec.scene).await?, &spec)?;
         let gpu_name = self.gpu.as_ref().map(|g| g.name.clone());
         let prepare_spec = spec.clone();
@@ -399,9 +463,6 @@ impl Worker {
             .await
             .map_err(|e| ApiError::internal(e.to_string()))??,
         );
-        let worker = self.clone();
-        let stop: CancelCheck =
-            Arc::new(move || lost.load(Ordering::SeqCst) || worker.is_stopping() || past(deadline));
         let worker = self.clone();
         let rendering = job.clone();
         let stop_render = stop.clone();
@@ -463,24 +524,29 @@ impl Worker {
     ) -> Result<(), ApiError> {
         let dir = self.config.work_dir.join("jobs").join(id.to_string());
         let local = dir.clone();
-        let files = tokio::task::spawn_blocking(move || {
+        let written = tokio::task::spawn_blocking(move || {
             let compared = compared.as_ref().map(|(reference, flip)| (reference, flip));
-            let written =
-                runner::write_images(&Writer::default(), &local, exposure, &image, compared);
-            let files = written.map(|()| {
-                IMAGE_FILES
-                    .iter()
-                    .filter_map(|file| Some((*file, std::fs::read(local.join(file)).ok()?)))
-                    .collect::<Vec<_>>()
-            });
-            let _ = std::fs::remove_dir_all(&local);
-            files
+            runner::write_images(&Writer::default(), &local, exposure, &image, compared)
         })
         .await
         .map_err(|e| ApiError::internal(e.to_string()))?
-        .map_err(|e| ApiError::storage("the images", &e))?;
-        for (file, bytes) in files {
-            self.objects.put(&job_key(id, file), bytes).await?;
+        .map_err(|e| ApiError::storage("the images", &e));
+        let stored = match written {
+            Ok(()) => self.put_images(id, &dir).await,
+            Err(error) => Err(error),
+        };
+        let _ = tokio::fs::remove_dir_all(&dir).await;
+        stored
+    }
+
+    /// Puts the images of job `id` found in local folder `dir` in the store.
+    async fn put_images(&self, id: u64, dir: &std::path::Path) -> Result<(), ApiError> {
+        for file in IMAGE_FILES {
+            match tokio::fs::read(dir.join(file)).await {
+                Ok(bytes) => self.objects.put(&job_key(id, file), bytes).await?,
+                Err(error) if error.kind() == std::io::ErrorKind::NotFound => {}
+                Err(error) => return Err(ApiError::storage("the images", &error)),
+            }
         }
         Ok(())
     }

@@ -68,15 +68,7 @@ impl Service {
         let Some(record) = started else {
             return Ok(None);
         };
-        self.set_progress(
-            id,
-            Progress {
-                stage: "starting",
-                done: 0,
-                total: 1,
-                fraction: 0.0,
-            },
-        );
+        self.set_progress(id, crate::job_process::preparing());
         let limit = self.config.job_time_limit_s;
         let deadline = (limit > 0).then(|| Instant::now() + Duration::from_secs(limit));
         let mut inner = lock(&self.inner);
