@@ -127,11 +127,19 @@ pub struct Config {
     pub max_job_samples: u64,
 
     /// Seconds a job may run, from its start to its end (its render and its comparison): one
-    /// still running then stops at its next frame or pass and fails (`time_limit`). Scene
-    /// preparation and the BVH build are not interrupted; the limit applies once they end.
-    /// 0: no limit.
+    /// still running then stops and fails (`time_limit`): at once for a job in a process of
+    /// its own (see `--in-process`), else at its next frame or pass, once its scene's
+    /// preparation and BVH build end. 0: no limit.
     #[arg(long, env = "GI_SERVER_JOB_TIME_LIMIT_S", default_value_t = 3600)]
     pub job_time_limit_s: u64,
+
+    /// Render every job inside the server. By default a job that renders on the CPU (the
+    /// reference and direct tiers, auto without a GPU) runs with its comparison in a process
+    /// of its own: a cancellation, the time limit or a shutdown ends it at once, inside its
+    /// scene's import and BVH build too, and a crash fails only that job. Jobs on the GPU
+    /// render inside the server (its one device) either way.
+    #[arg(long, env = "GI_SERVER_IN_PROCESS")]
+    pub in_process: bool,
 
     /// CPU renders (the reference tier, and references and direct-only images of comparisons)
     /// running at once. Each already uses every core, so more only helps small renders

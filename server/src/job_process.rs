@@ -3,6 +3,10 @@
 //! scene's import and its BVH builds too, which check for nothing while they run. And a render
 //! that crashes (a GPU driver's abort, the memory running out) fails its job, not the worker.
 //!
+//! Job processes are used where the executable serves them: its `main` calls [`serve`] first
+//! (`gi-server` and `gi-worker` do). Elsewhere (a test binary, a program embedding the
+//! service that does not call it) jobs render in the calling process.
+//!
 //! The worker starts its own executable with [`JOB_PROCESS_ARG`] as the only argument, in a
 //! process group of its own (a terminal's Ctrl-C reaches the worker, which then stops the
 //! job itself). The child reads a [`JobTask`] (one line of JSON) from its stdin, writes the
@@ -15,7 +19,10 @@ use std::{
     io::{BufRead, Read, Write},
     path::PathBuf,
     process::{ExitCode, Stdio},
-    sync::Arc,
+    sync::{
+        Arc,
+        atomic::{AtomicBool, Ordering},
+    },
     time::Duration,
 };
 
@@ -36,6 +43,28 @@ use crate::{
 
 /// The argument that makes a worker's executable run one job and exit.
 pub const JOB_PROCESS_ARG: &str = "--job-process";
+
+/// Whether this executable's `main` called [`serve`].
+static SERVED: AtomicBool = AtomicBool::new(false);
+
+/// Call first in `main`. In a job process (started with [`JOB_PROCESS_ARG`]) it runs the job
+/// and answers the exit code to return from `main`; otherwise it answers `None` and marks this
+/// executable as one that runs jobs in processes of their own.
+pub fn serve() -> Option<ExitCode> {
+    if std::env::args_os()
+        .nth(1)
+        .is_some_and(|arg| arg == JOB_PROCESS_ARG)
+    {
+        return Some(child_main());
+    }
+    SERVED.store(true, Ordering::SeqCst);
+    None
+}
+
+/// Whether jobs can render in processes of their own ([`serve`] was called).
+pub(crate) fn available() -> bool {
+    SERVED.load(Ordering::SeqCst)
+}
 
 /// How often the worker asks whether a running job must stop.
 const STOP_POLL: Duration = Duration::from_millis(100);
@@ -206,7 +235,7 @@ pub(crate) async fn run(
 
 /// The child's side: reads its task from stdin, runs it, reports on stdout. Only a task that
 /// cannot be read fails the exit status; a job's failure is a report.
-pub fn child_main() -> ExitCode {
+fn child_main() -> ExitCode {
     crate::init_logging();
     let mut input = String::new();
     if let Err(error) = std::io::stdin().lock().read_line(&mut input) {

@@ -33,6 +33,10 @@ async fn run(config: Config) -> anyhow::Result<()> {
 }
 
 fn main() -> ExitCode {
+    // Started as a job's own process by the service: run that job.
+    if let Some(code) = gi_server::job_process::serve() {
+        return code;
+    }
     let config = Config::parse();
     gi_server::init_logging();
     gi_server::run_main(run(config))

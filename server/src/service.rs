@@ -168,6 +168,8 @@ pub struct Service {
     pub gpu: Option<GpuInfo>,
     pub metrics: Metrics,
     references: References,
+    /// The reference cache's folder (job processes open it themselves).
+    cache_dir: std::path::PathBuf,
     inner: Mutex<Inner>,
     work_ready: Notify,
     shutting_down: AtomicBool,
@@ -230,9 +232,10 @@ impl Service {
         }
         let service = Arc::new(Self {
             references: References::new(
-                ReferenceCache::new(cache_dir)
+                ReferenceCache::new(cache_dir.clone())
                     .with_engine(reference_engine, config.reference_engine),
             ),
+            cache_dir,
             config,
             store,
             catalog,

@@ -631,23 +631,19 @@ fn children_end(pid: u32, timeout: Duration) -> bool {
     false
 }
 
-/// Jobs run in processes of their own: a cancellation ends a job still importing its scene
-/// and building its BVH (which check for nothing), and a render that dies fails its job, not
-/// the worker.
-#[test]
-fn a_cancelled_job_stops_inside_its_bvh_build_and_a_crashed_render_fails_only_its_job() {
-    let Some(cluster) = Cluster::new() else {
-        return;
-    };
-    let scenes = cluster.dir.path().join("scenes");
+/// A folder holding `boxes.glb`, 200,000 coincident boxes ([`coincident_boxes_glb`]).
+fn boxes_scene_dir(parent: &std::path::Path) -> PathBuf {
+    let scenes = parent.join("scenes");
     std::fs::create_dir_all(&scenes).unwrap();
     std::fs::write(scenes.join("boxes.glb"), coincident_boxes_glb(200_000)).unwrap();
-    let scene_dir = scenes.to_str().unwrap();
-    let (_api, addr) = cluster.api("api", &["--scene-dir", scene_dir]);
-    let worker = cluster.worker_with("worker", &["--scene-dir".as_ref(), scenes.as_os_str()]);
-    let worker_pid = worker.id();
+    scenes
+}
 
-    // Caught while its scene is prepared (imported, its BVH built: over ten seconds).
+/// On the service at `addr`, whose process `renderer` starts the jobs' processes: a job
+/// cancelled while it builds the BVH of `boxes` has its process ended within seconds, and a
+/// job whose process is killed fails alone while the next job runs.
+fn job_processes_stop_and_fail_alone(addr: SocketAddr, renderer: u32) {
+    // Caught while its scene is prepared (imported, its BVH built: 19 s in a debug build).
     let heavy = submit(
         addr,
         &json!({"scene": "boxes", "tier": "reference", "width": 16, "height": 12, "spp": 1,
@@ -657,7 +653,7 @@ fn a_cancelled_job_stops_inside_its_bvh_build_and_a_crashed_render_fails_only_it
         job["progress"]["stage"].is_string() || job["finished_at"].is_string()
     });
     assert_eq!(preparing["progress"]["stage"], "preparing", "{preparing}");
-    let children = children_of(worker_pid);
+    let children = children_of(renderer);
     assert_eq!(
         children.len(),
         1,
@@ -666,10 +662,8 @@ fn a_cancelled_job_stops_inside_its_bvh_build_and_a_crashed_render_fails_only_it
     let cancelled = delete(addr, &format!("/v1/jobs/{heavy}"));
     assert_eq!(cancelled.status, 200, "{}", cancelled.text());
     let cancelled_at = Instant::now();
-    // The heartbeat (a third of the 3 s lease) brings the cancellation to the worker, which
-    // ends the job's process at once.
     assert!(
-        children_end(worker_pid, Duration::from_secs(5)),
+        children_end(renderer, Duration::from_secs(5)),
         "the job's process still runs {:?} after the cancellation",
         cancelled_at.elapsed()
     );
@@ -682,12 +676,12 @@ fn a_cancelled_job_stops_inside_its_bvh_build_and_a_crashed_render_fails_only_it
     );
 
     // A render process that dies (here by SIGKILL, as the kernel's OOM killer would end it)
-    // fails its job; the worker lives on and takes the next one.
+    // fails its job; the service lives on and runs the next one.
     let doomed = submit(addr, &slow_job());
     wait_for(addr, &doomed, Duration::from_secs(60), |job| {
         job["state"] == "running" && job["progress"]["stage"] == "frames"
     });
-    let children = children_of(worker_pid);
+    let children = children_of(renderer);
     assert_eq!(children.len(), 1, "{children:?}");
     let status = Command::new("kill")
         .args(["-KILL", &children[0].to_string()])
@@ -702,7 +696,41 @@ fn a_cancelled_job_stops_inside_its_bvh_build_and_a_crashed_render_fails_only_it
         wait_final(addr, &after, Duration::from_secs(60))["state"],
         "done"
     );
+}
+
+/// Jobs run in processes of their own: a cancellation ends a job still importing its scene
+/// and building its BVH (which check for nothing), and a render that dies fails its job, not
+/// the worker.
+#[test]
+fn a_cancelled_job_stops_inside_its_bvh_build_and_a_crashed_render_fails_only_its_job() {
+    let Some(cluster) = Cluster::new() else {
+        return;
+    };
+    let scenes = boxes_scene_dir(cluster.dir.path());
+    let (_api, addr) = cluster.api("api", &["--scene-dir", scenes.to_str().unwrap()]);
+    let worker = cluster.worker_with("worker", &["--scene-dir".as_ref(), scenes.as_os_str()]);
+    job_processes_stop_and_fail_alone(addr, worker.id());
     let health = get(addr, "/healthz").json();
     assert_eq!(health["workers"][0]["name"], "worker", "{health}");
-    drop(worker);
+}
+
+/// The same in the embedded default, whose CPU jobs run in processes of its own.
+#[test]
+fn the_embedded_default_s_cpu_jobs_stop_inside_their_bvh_build_and_fail_alone() {
+    let dir = tempfile::tempdir().unwrap();
+    let scenes = boxes_scene_dir(dir.path());
+    let (server, addr) = spawn_server([
+        OsString::from("--bind"),
+        "127.0.0.1:0".into(),
+        "--no-gpu".into(),
+        "--reference-pool".into(),
+        "1".into(),
+        "--scene-dir".into(),
+        scenes.into(),
+        "--data-dir".into(),
+        dir.path().join("data").into(),
+        "--cache-dir".into(),
+        dir.path().join("cache").into(),
+    ]);
+    job_processes_stop_and_fail_alone(addr, server.id());
 }

@@ -10,12 +10,9 @@ use gi_server::{
 };
 
 fn main() -> ExitCode {
-    // A job's own process (see gi_server::job_process), started by a worker.
-    if std::env::args_os()
-        .nth(1)
-        .is_some_and(|arg| arg == job_process::JOB_PROCESS_ARG)
-    {
-        return job_process::child_main();
+    // Started as a job's own process by the worker: run that job.
+    if let Some(code) = job_process::serve() {
+        return code;
     }
     let config = WorkerConfig::parse();
     gi_server::init_logging();

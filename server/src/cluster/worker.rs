@@ -11,10 +11,8 @@
 //! process ended. A worker that stops (SIGTERM) puts its job back in the queue, its start not
 //! counted; one that dies leaves it to be put back once its lease runs out.
 //!
-//! A program that calls [`run`] starts itself for every job with
-//! [`crate::job_process::JOB_PROCESS_ARG`]: its `main` hands that argument to
-//! [`crate::job_process::child_main`] (as `gi-worker`'s does), or its workers set
-//! [`WorkerConfig::in_process`].
+//! Jobs render in processes of their own where the executable serves them
+//! ([`crate::job_process::serve`], as `gi-worker` does) and `--in-process` is not set.
 
 use std::{
     path::PathBuf,

@@ -14,7 +14,10 @@ use gi_tiers::CancelCheck;
 use super::{Comparing, CpuWork, Inner, Lane, STORE_RETRY, Service, lock, with_lighting};
 use crate::{
     error::{ApiError, is_disk_full},
-    job::{IMAGE_FILES, JobFailure, JobRecord, JobSpec, JobState, Progress, now_rfc3339},
+    job::{
+        IMAGE_FILES, JobFailure, JobRecord, JobResult, JobSpec, JobState, Progress, now_rfc3339,
+    },
+    job_process::{self, JobTask},
     runner::{self, PreparedJob, TierOutput},
 };
 
@@ -68,7 +71,7 @@ impl Service {
         let Some(record) = started else {
             return Ok(None);
         };
-        self.set_progress(id, crate::job_process::preparing());
+        self.set_progress(id, job_process::preparing());
         let limit = self.config.job_time_limit_s;
         let deadline = (limit > 0).then(|| Instant::now() + Duration::from_secs(limit));
         let mut inner = lock(&self.inner);
@@ -116,6 +119,9 @@ impl Service {
                 return;
             }
         };
+        if lane == Lane::Cpu && !self.config.in_process && job_process::available() {
+            return self.run_job_process(id, &spec, cancel, deadline).await;
+        }
         let prepared = match self.prepare(&spec).await {
             Ok(prepared) => Arc::new(prepared),
             Err(error) => return self.fail(id, error.code, error.message).await,
@@ -166,6 +172,57 @@ impl Service {
                 }
             }
         }
+    }
+
+    /// Renders job `id` and its comparison in a process of its own, which writes the images
+    /// into the job's folder; stopping the job ends that process at once.
+    async fn run_job_process(
+        self: &Arc<Self>,
+        id: u64,
+        spec: &JobSpec,
+        cancel: Arc<AtomicBool>,
+        deadline: Option<Instant>,
+    ) {
+        let dir = self.store.job_dir(id);
+        let task = match self.plan(spec).and_then(|(plan, _)| {
+            Ok(JobTask {
+                id,
+                spec: spec.clone(),
+                scene: self.catalog.resolve(&spec.scene)?,
+                plan,
+                gpu_name: self.gpu.as_ref().map(|g| g.name.clone()),
+                reference_engine: self.config.reference_engine,
+                no_gpu: self.config.no_gpu,
+                cache_dir: self.cache_dir.clone(),
+                out_dir: dir.clone(),
+            })
+        }) {
+            Ok(task) => task,
+            Err(error) => return self.fail(id, error.code, error.message).await,
+        };
+        let service = self.clone();
+        let stop =
+            move || cancel.load(Ordering::SeqCst) || service.is_shutting_down() || past(deadline);
+        let rendered = job_process::run(&task, |p| self.set_progress(id, p), stop).await;
+        let Ok(Some(result)) = rendered else {
+            // What did get written serves no one.
+            for file in IMAGE_FILES {
+                let _ = std::fs::remove_file(dir.join(file));
+            }
+            return match rendered {
+                Err(failure) => self.fail(id, &failure.code, failure.message).await,
+                _ => self.stopped(id, deadline).await,
+            };
+        };
+        self.metrics.add_render(&result.tier, result.render_seconds);
+        if let Some(comparison) = &result.comparison {
+            if comparison.reference_cached {
+                self.metrics.reference_cache_hits.inc();
+            } else {
+                self.metrics.reference_cache_misses.inc();
+            }
+        }
+        self.complete(id, result).await;
     }
 
     async fn run_compare(self: &Arc<Self>, comparing: Comparing) {
@@ -274,6 +331,11 @@ impl Service {
                 .fail(id, code, format!("storing the images failed: {error}"))
                 .await;
         }
+        self.complete(id, result).await;
+    }
+
+    /// Stores the end of job `id`, done with `result`, if it is still running.
+    async fn complete(self: &Arc<Self>, id: u64, result: JobResult) {
         self.transition_until_stored(id, move |record| {
             if record.state != JobState::Running {
                 return false;
