@@ -226,8 +226,8 @@ pub(crate) async fn run(
         _ => Err(JobFailure {
             code: "render_crashed".to_string(),
             message: format!(
-                "the job's render process ended without a result ({status}); the worker goes \
-                 on with other jobs"
+                "the job's render process ended without a result ({status}); nothing else \
+                 was affected"
             ),
         }),
     }

@@ -118,6 +118,11 @@ impl Cluster {
 
     /// [`Cluster::worker`] with `extra` flags.
     fn worker_with(&self, name: &str, extra: &[&OsStr]) -> ServerProcess {
+        self.worker_at(name, &self.url, extra)
+    }
+
+    /// [`Cluster::worker_with`] reaching the database at `database_url`.
+    fn worker_at(&self, name: &str, database_url: &str, extra: &[&OsStr]) -> ServerProcess {
         let child = Command::new(env!("CARGO_BIN_EXE_gi-worker"))
             .args(extra)
             .args([
@@ -130,7 +135,7 @@ impl Cluster {
                 "100",
             ])
             .arg("--database-url")
-            .arg(&self.url)
+            .arg(database_url)
             .arg("--store-url")
             .arg(self.store())
             .arg("--work-dir")
@@ -733,4 +738,112 @@ fn the_embedded_default_s_cpu_jobs_stop_inside_their_bvh_build_and_fail_alone() 
         dir.path().join("cache").into(),
     ]);
     job_processes_stop_and_fail_alone(addr, server.id());
+}
+
+/// A TCP relay to the database that the test can cut, as a network partition would: its open
+/// connections are shut and new ones closed at once.
+struct Relay {
+    addr: SocketAddr,
+    cut: std::sync::Arc<std::sync::atomic::AtomicBool>,
+    open: std::sync::Arc<std::sync::Mutex<Vec<std::net::TcpStream>>>,
+}
+
+impl Relay {
+    fn to(target: &str) -> Self {
+        use std::net::{TcpListener, TcpStream};
+        let listener = TcpListener::bind("127.0.0.1:0").unwrap();
+        let addr = listener.local_addr().unwrap();
+        let cut = std::sync::Arc::new(std::sync::atomic::AtomicBool::new(false));
+        let open = std::sync::Arc::new(std::sync::Mutex::new(Vec::<TcpStream>::new()));
+        let target = target.to_string();
+        let (cutting, opened) = (cut.clone(), open.clone());
+        std::thread::spawn(move || {
+            for client in listener.incoming() {
+                let Ok(client) = client else { return };
+                if cutting.load(Ordering::SeqCst) {
+                    continue; // dropped: closed at once
+                }
+                let Ok(server) = TcpStream::connect(&target) else {
+                    continue;
+                };
+                let mut streams = opened.lock().unwrap();
+                for (mut from, mut to) in [
+                    (client.try_clone().unwrap(), server.try_clone().unwrap()),
+                    (server.try_clone().unwrap(), client.try_clone().unwrap()),
+                ] {
+                    std::thread::spawn(move || {
+                        let _ = std::io::copy(&mut from, &mut to);
+                        let _ = to.shutdown(std::net::Shutdown::Both);
+                    });
+                }
+                streams.extend([client, server]);
+            }
+        });
+        Self { addr, cut, open }
+    }
+
+    /// `url` (`postgres://user:password@host:port/database`) through this relay.
+    fn url(&self, url: &str) -> String {
+        let (user, rest) = url.split_once('@').expect("the database URL names a host");
+        let (_, database) = rest
+            .split_once('/')
+            .expect("the database URL names a database");
+        format!("{user}@{}/{database}", self.addr)
+    }
+
+    fn cut(&self) {
+        self.cut.store(true, Ordering::SeqCst);
+        for stream in self.open.lock().unwrap().drain(..) {
+            let _ = stream.shutdown(std::net::Shutdown::Both);
+        }
+    }
+}
+
+/// A worker cut from the database stops its job once its lease may have run out, instead of
+/// rendering on while the job goes back to the queue and another worker renders it too.
+#[test]
+fn a_worker_cut_from_the_database_stops_its_job_when_its_lease_runs_out() {
+    let Some(cluster) = Cluster::new() else {
+        return;
+    };
+    let (_api, addr) = cluster.api("api", &[]);
+    let target = cluster
+        .url
+        .split_once('@')
+        .and_then(|(_, rest)| rest.split_once('/'))
+        .map(|(host, _)| host.to_string())
+        .expect("the database URL names a host");
+    let relay = Relay::to(&target);
+    let cut_off = cluster.worker_at("cut-off", &relay.url(&cluster.url), &[]);
+    // A render of a minute or more.
+    let long = submit(
+        addr,
+        &json!({"scene": "cornell-box", "tier": "reference", "width": 128,
+                "height": 96, "spp": 4096, "compare": false}),
+    );
+    let running = wait_for(addr, &long, Duration::from_secs(60), |job| {
+        job["state"] == "running" && job["progress"]["stage"] == "frames"
+    });
+    assert_eq!(running["worker"], "cut-off", "{running}");
+    assert_eq!(children_of(cut_off.id()).len(), 1);
+    relay.cut();
+    let cut_at = Instant::now();
+    // The lease is 3 s; its last renewal was at most a third of it before the cut.
+    assert!(
+        children_end(cut_off.id(), Duration::from_secs(6)),
+        "the cut-off worker still renders {:?} after the cut",
+        cut_at.elapsed()
+    );
+    assert!(
+        cut_at.elapsed() < Duration::from_secs(4),
+        "{:?}",
+        cut_at.elapsed()
+    );
+    // The job goes back to the queue, and another worker takes it: its second start.
+    let _other = cluster.worker("other");
+    let taken = wait_for(addr, &long, Duration::from_secs(60), |job| {
+        job["worker"] == "other"
+    });
+    assert_eq!(taken["attempts"], 2, "{taken}");
+    assert_eq!(delete(addr, &format!("/v1/jobs/{long}")).status, 200);
 }

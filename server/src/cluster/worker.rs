@@ -140,6 +140,9 @@ struct Current {
     progress: Option<Progress>,
     /// Set when the job is no longer this worker's (cancelled, deleted, or taken back).
     lost: Arc<AtomicBool>,
+    /// When the lease held now was last renewed, at the latest (taken before the database
+    /// was asked): once a lease has passed since, the job may have gone back to the queue.
+    renewed: Instant,
 }
 
 struct Worker {
@@ -268,12 +271,19 @@ impl Worker {
                 ),
                 None => (None, None, None),
             };
+            let asked = Instant::now();
             match self
                 .queue
                 .heartbeat(&self.name, job, self.config.lease(), progress)
                 .await
             {
-                Ok(true) => {}
+                Ok(true) => {
+                    if let Some(current) = self.lock_current().as_mut()
+                        && Some(current.id) == job
+                    {
+                        current.renewed = asked;
+                    }
+                }
                 Ok(false) => {
                     if let Some(lost) = lost {
                         tracing::info!(
@@ -301,6 +311,7 @@ impl Worker {
         };
         let poll = Duration::from_millis(self.config.poll_ms);
         while !self.is_stopping() {
+            let asked = Instant::now();
             let claimed = self
                 .queue
                 .claim(
@@ -311,7 +322,7 @@ impl Worker {
                 )
                 .await;
             match claimed {
-                Ok(Some(Claimed { record })) => self.clone().run_job(record).await,
+                Ok(Some(Claimed { record })) => self.clone().run_job(record, asked).await,
                 Ok(None) => tokio::time::sleep(poll).await,
                 Err(error) => {
                     tracing::warn!("{}", error.message);
@@ -321,14 +332,33 @@ impl Worker {
         }
     }
 
-    /// Runs a job this worker took and stores its end.
-    async fn run_job(self: Arc<Self>, mut record: JobRecord) {
+    /// Whether the lease on the current job may have run out: no heartbeat got through for a
+    /// lease (the database is unreachable, or too slow). The job may then be queued again and
+    /// taken by another worker, so this one stops it instead of rendering it twice.
+    fn lease_lapsed(&self) -> bool {
+        let lapsed = self
+            .lock_current()
+            .as_ref()
+            .is_some_and(|current| current.renewed.elapsed() >= self.config.lease());
+        if lapsed {
+            tracing::warn!(
+                "no heartbeat got through for {} s (--lease-s): the job may have gone back to \
+                 the queue; stopping it",
+                self.config.lease_s
+            );
+        }
+        lapsed
+    }
+
+    /// Runs a job this worker took (`claimed` before it asked for it) and stores its end.
+    async fn run_job(self: Arc<Self>, mut record: JobRecord, claimed: Instant) {
         let id = record.id;
         let lost = Arc::new(AtomicBool::new(false));
         *self.lock_current() = Some(Current {
             id,
             progress: None,
             lost: lost.clone(),
+            renewed: claimed,
         });
         tracing::info!(job = id, scene = %record.spec.scene, tier = %record.spec.tier, "running");
         let deadline = (self.config.job_time_limit_s > 0)
@@ -408,7 +438,12 @@ impl Worker {
         let (plan, _) = plan_for(spec, self.gpu.as_ref(), self.config.no_gpu)?;
         let stop = {
             let worker = self.clone();
-            move || lost.load(Ordering::SeqCst) || worker.is_stopping() || past(deadline)
+            move || {
+                if !lost.load(Ordering::SeqCst) && worker.lease_lapsed() {
+                    lost.store(true, Ordering::SeqCst);
+                }
+                lost.load(Ordering::SeqCst) || worker.is_stopping() || past(deadline)
+            }
         };
         self.set_progress(job_process::preparing());
         if self.config.in_process {
