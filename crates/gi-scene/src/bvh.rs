@@ -7,7 +7,9 @@ use leaves::{LANES, LeafTriangles};
 use obvhs::{
     Boundable, BvhBuildParams,
     aabb::Aabb,
-    cwbvh::{CwBvh, builder::build_cwbvh_from_tris},
+    bvh2::reinsertion::ReinsertionOptimizer,
+    cwbvh::{CwBvh, bvh2_to_cwbvh::bvh2_to_cwbvh},
+    ploc::PlocBuilder,
     ray::Ray,
     traverse,
     triangle::Triangle,
@@ -32,9 +34,10 @@ pub use wide::WideBvh;
 /// below any box's size).
 ///
 /// The CPU reference's [`WideBvh`] is built on them. [`SceneBvh`] (the tests' ray-query
-/// oracle and `gi info`) and the GPU levels still build on the exact bounds: on those, a ray
-/// grazing a flat box (its origin a few 1e-5 above a floor) misses by rounding, where grown
-/// boxes find the hit, and the GPU traversal's grazing tests must become robust first.
+/// oracle and `gi info`) and the GPU levels take only their tree from them and store exact
+/// bounds ([`build_cwbvh`]): on exact bounds a ray grazing a flat box (its origin a few 1e-5
+/// above a floor) misses by rounding where a grown box finds the hit, and those two must
+/// answer every ray alike.
 pub fn tie_breaking_bounds<T: Boundable>(primitives: &[T]) -> Vec<Aabb> {
     primitives
         .iter()
@@ -50,6 +53,45 @@ pub fn tie_breaking_bounds<T: Boundable>(primitives: &[T]) -> Vec<Aabb> {
             Aabb::new(aabb.min - grow, aabb.max + grow)
         })
         .collect()
+}
+
+/// obvhs' compressed wide BVH over `primitives`, its tree built on [`tie_breaking_bounds`]
+/// (so exact ties cannot make the build quadratic) and its boxes the exact bounds of what they
+/// hold: the same boxes as a build on exact bounds that made the same tree. PLOC, reinsertion
+/// and the conversion as obvhs' `build_cwbvh` (`params.pre_split` is ignored, as there).
+pub fn build_cwbvh<T: Boundable>(primitives: &[T], params: BvhBuildParams) -> CwBvh {
+    build_cwbvh_over(primitives, &tie_breaking_bounds(primitives), params)
+}
+
+/// [`build_cwbvh`] with its tree built on `bounds` (one per primitive).
+fn build_cwbvh_over<T: Boundable>(
+    primitives: &[T],
+    bounds: &[Aabb],
+    params: BvhBuildParams,
+) -> CwBvh {
+    if primitives.is_empty() {
+        return CwBvh::default();
+    }
+    let mut bvh2 = PlocBuilder::with_capacity(bounds.len()).build(
+        params.ploc_search_distance,
+        bounds,
+        (0..bounds.len() as u32).collect(),
+        params.sort_precision,
+        params.search_depth_threshold,
+    );
+    ReinsertionOptimizer::default().run(&mut bvh2, params.reinsertion_batch_ratio, None);
+    for node in &mut bvh2.nodes {
+        if node.is_leaf() {
+            let first = node.first_index as usize;
+            let held = &bvh2.primitive_indices[first..first + node.prim_count as usize];
+            let exact = held.iter().fold(Aabb::empty(), |aabb, &i| {
+                aabb.union(&primitives[i as usize].aabb())
+            });
+            node.set_aabb(exact);
+        }
+    }
+    bvh2.refit_all();
+    bvh2_to_cwbvh(&bvh2, params.max_prims_per_leaf.clamp(1, 3), true, false)
 }
 
 /// A closest-hit result.
@@ -127,11 +169,7 @@ impl SceneBvh {
     /// Builds with explicit obvhs parameters.
     pub fn build_with(triangles: &[Triangle], params: BvhBuildParams) -> Self {
         let start = Instant::now();
-        let bvh = if triangles.is_empty() {
-            CwBvh::default()
-        } else {
-            build_cwbvh_from_tris(triangles, params, &mut Duration::default())
-        };
+        let bvh = build_cwbvh(triangles, params);
         let leaf_triangles = LeafTriangles::new(triangles, &bvh.primitive_indices);
         Self {
             bvh,
@@ -356,6 +394,57 @@ mod tests {
         assert!(coincident_tied > boxes * 3 / 4, "{depths:?}");
         assert!(coincident_broken * 3 < coincident_tied, "{depths:?}");
         assert!(row_broken <= row_tied + 2, "{depths:?}");
+    }
+
+    /// `build_cwbvh` (the GPU levels' and `SceneBvh`'s build) on coincident boxes: a tree
+    /// several times shallower than the same build on the tied exact bounds, holding every
+    /// triangle, with exact boxes: the root's frame starts at the boxes' exact corner, not at
+    /// a grown one.
+    #[test]
+    fn build_cwbvh_breaks_ties_and_keeps_exact_bounds() {
+        let coincident: Vec<Triangle> = (0..400).flat_map(|_| unit_box(0.0)).collect();
+        let params = BvhBuildParams::medium_build();
+        // The tree's depth, and its primitives, each checked inside its leaf's box.
+        let walk = |bvh: &CwBvh| {
+            let mut deepest = 0;
+            let mut held = Vec::new();
+            let mut pending = vec![(0usize, 0u32)];
+            while let Some((index, depth)) = pending.pop() {
+                deepest = deepest.max(depth);
+                let node = &bvh.nodes[index];
+                for slot in 0..8 {
+                    if !node.is_leaf(slot) {
+                        pending.push((node.child_node_index(slot) as usize, depth + 1));
+                    } else if !node.is_child_empty(slot) {
+                        let (first, count) = node.child_primitives(slot);
+                        let aabb = node.child_aabb(slot);
+                        for &primitive in &bvh.primitive_indices[first as usize..][..count as usize]
+                        {
+                            let bounds = coincident[primitive as usize].aabb();
+                            assert!(aabb.min.cmple(bounds.min).all(), "{primitive}");
+                            assert!(aabb.max.cmpge(bounds.max).all(), "{primitive}");
+                            held.push(primitive);
+                        }
+                    }
+                }
+            }
+            held.sort_unstable();
+            (deepest, held)
+        };
+        let depth = |bvh: &CwBvh| walk(bvh).0;
+        let exact: Vec<Aabb> = coincident.iter().map(Boundable::aabb).collect();
+        let tied = build_cwbvh_over(&coincident, &exact, params);
+        let broken = build_cwbvh(&coincident, params);
+        assert!(
+            depth(&broken) * 3 < depth(&tied),
+            "{} vs {}",
+            depth(&broken),
+            depth(&tied)
+        );
+        let all: Vec<u32> = (0..coincident.len() as u32).collect();
+        assert_eq!(walk(&broken).1, all);
+        assert_eq!(broken.nodes[0].p, Vec3::ZERO);
+        assert_eq!(tied.nodes[0].p, Vec3::ZERO);
     }
 
     /// A large right triangle (area 8): the weights must not scale with its area, and the hit

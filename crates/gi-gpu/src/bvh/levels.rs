@@ -33,12 +33,7 @@ use std::time::{Duration, Instant};
 
 use gi_scene::{Scene, SceneFrame};
 use glam::{Mat4, Vec3A};
-use obvhs::{
-    BvhBuildParams,
-    aabb::Aabb,
-    cwbvh::{CwBvh, builder::build_cwbvh, builder::build_cwbvh_from_tris},
-    triangle::Triangle,
-};
+use obvhs::{BvhBuildParams, aabb::Aabb, cwbvh::CwBvh, triangle::Triangle};
 use rayon::prelude::*;
 
 use super::layout::{
@@ -596,7 +591,8 @@ impl BottomLevels {
         if triangles.is_empty() {
             return Ok(None);
         }
-        let bvh = build_cwbvh_from_tris(triangles, params, &mut Duration::default());
+        // The tree on tie-breaking bounds, the boxes exact (as the CPU's SceneBvh).
+        let bvh = gi_scene::build_cwbvh(triangles, params);
         let mut packed = PackedBvh::new(&bvh, triangles)?;
         for tri in &mut packed.triangles {
             if alpha.get(tri.triangle as usize).copied().unwrap_or(false) {
@@ -684,7 +680,8 @@ impl BottomLevels {
                 max_prims_per_leaf: 1,
                 ..BvhBuildParams::fast_build()
             };
-            let bvh = build_cwbvh(&boxes, params, &mut Duration::default());
+            // Coincident instances tie exactly, as coincident triangles do.
+            let bvh = gi_scene::build_cwbvh(&boxes, params);
             let depth = super::layout::max_depth(&bvh);
             let nodes = bvh.nodes.iter().map(GpuCwBvhNode::from).collect();
             let instances = bvh
