@@ -215,7 +215,11 @@ impl ClusterApi {
         let record = JobRecord::queued(0, spec);
         let max_queue = self.config.max_queue as u64;
         let max_jobs = self.config.max_jobs as u64;
-        match self.queue.insert(record, lane, max_queue, max_jobs).await? {
+        let time_limit_s = Some(self.config.job_time_limit_s).filter(|&s| s > 0);
+        match (self.queue)
+            .insert(record, lane, max_queue, max_jobs, time_limit_s)
+            .await?
+        {
             Ok(record) => {
                 self.metrics.submitted.inc();
                 Ok(record)

@@ -127,17 +127,17 @@ pub struct Config {
     pub max_job_samples: u64,
 
     /// Seconds a job may run, from its start to its end (its render and its comparison): one
-    /// still running then stops and fails (`time_limit`): at once for a job in a process of
-    /// its own (see `--in-process`), else at its next frame or pass, once its scene's
-    /// preparation and BVH build end. 0: no limit.
+    /// still running then stops and fails (`time_limit`): at once, its process ended (with
+    /// `--in-process` at its next frame or pass, once its scene's preparation and BVH build
+    /// end). 0: no limit. In the scale-out mode it is stored with each job submitted here, and
+    /// the job's worker applies the lower of it and its own.
     #[arg(long, env = "GI_SERVER_JOB_TIME_LIMIT_S", default_value_t = 3600)]
     pub job_time_limit_s: u64,
 
-    /// Render every job inside the server. By default a job that renders on the CPU (the
-    /// reference and direct tiers, auto without a GPU) runs with its comparison in a process
-    /// of its own: a cancellation, the time limit or a shutdown ends it at once, inside its
-    /// scene's import and BVH build too, and a crash fails only that job. Jobs on the GPU
-    /// render inside the server (its one device) either way.
+    /// Render every job inside the server. By default every job renders in processes of
+    /// its own (a GPU job's comparison in a second one, on the CPU pool): a cancellation, the
+    /// time limit or a shutdown ends it at once, inside its scene's import and BVH build too,
+    /// and a crash fails only that job.
     #[arg(long, env = "GI_SERVER_IN_PROCESS")]
     pub in_process: bool,
 

@@ -86,6 +86,22 @@ pub(crate) struct JobTask {
     pub cache_dir: PathBuf,
     /// Where the images go (created by the child).
     pub out_dir: PathBuf,
+    /// What of the job this process does.
+    pub part: JobPart,
+}
+
+/// What of a job one process does. A GPU job of the embedded service renders in one process
+/// and compares in another, so its GPU renders the next job while the reference is traced.
+#[derive(Clone, Debug, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub(crate) enum JobPart {
+    /// The render, and the comparison when the job asks for one.
+    Whole,
+    /// Only the render (the image and its result).
+    Render,
+    /// Only the comparison of the image a [`JobPart::Render`] process wrote into the task's
+    /// folder (`image.exr`, lossless), which answered `rendered`.
+    Compare { rendered: Box<JobResult> },
 }
 
 /// A line of a job process's stdout.
@@ -289,12 +305,28 @@ fn execute(task: &JobTask, progress: &(dyn Fn(Progress) + Sync)) -> Result<JobRe
         .map_err(|e| failure("invalid_scene", format!("loading the scene failed: {e}")))?;
     let scene = with_lighting(Arc::new(scene), &task.spec).map_err(api)?;
     let job = runner::prepare(scene, &task.spec, task.plan, task.gpu_name.clone()).map_err(api)?;
-    let never: gi_tiers::CancelCheck = Arc::new(|| false);
-    let share = if task.spec.compare { 0.5 } else { 1.0 };
-    let output = runner::render_tier(&job, progress, never, share)
-        .map_err(|message| failure("render_failed", message))?
-        .ok_or_else(|| failure("internal", "the render stopped by itself".to_string()))?;
-    let compared = match task.spec.reference_spp {
+    let output = match &task.part {
+        JobPart::Compare { rendered } => {
+            let image = gi_image::read_exr(task.out_dir.join("image.exr"))
+                .map_err(|e| failure("internal", format!("reading the rendered image: {e}")))?;
+            runner::TierOutput {
+                image,
+                result: JobResult::clone(rendered),
+            }
+        }
+        JobPart::Whole | JobPart::Render => {
+            let never: gi_tiers::CancelCheck = Arc::new(|| false);
+            let share = if task.spec.compare { 0.5 } else { 1.0 };
+            runner::render_tier(&job, progress, never, share)
+                .map_err(|message| failure("render_failed", message))?
+                .ok_or_else(|| failure("internal", "the render stopped by itself".to_string()))?
+        }
+    };
+    let reference_spp = match task.part {
+        JobPart::Render => None,
+        JobPart::Whole | JobPart::Compare { .. } => task.spec.reference_spp,
+    };
+    let compared = match reference_spp {
         None => None,
         Some(reference_spp) => {
             let engine: Arc<dyn ReferenceEngine> = if task.no_gpu {

@@ -41,8 +41,8 @@ use crate::{
     config::Config,
     error::ApiError,
     job::{
-        JobFailure, JobRecord, JobRequest, JobSpec, JobState, Progress, StateFilter, now_rfc3339,
-        unreadable_view,
+        JobFailure, JobRecord, JobRequest, JobResult, JobSpec, JobState, Progress, StateFilter,
+        now_rfc3339, unreadable_view,
     },
     metrics::Metrics,
     runner::{self, PreparedJob, References, TierOutput, TierPlan},
@@ -76,6 +76,9 @@ enum CpuWork {
     Render(u64),
     /// Compare a rendered tier image with the reference.
     Compare(Box<Comparing>),
+    /// Compare, in a process of its own, the image a job process rendered into the job's
+    /// folder (with its result).
+    CompareRendered(u64, Box<JobResult>),
 }
 
 struct Comparing {
@@ -410,7 +413,7 @@ impl Service {
                     let at = (inner.cpu_queue.iter())
                         .rposition(|work| match work {
                             CpuWork::Render(queued) => priority_of(&inner, *queued) >= priority,
-                            CpuWork::Compare(_) => true,
+                            CpuWork::Compare(_) | CpuWork::CompareRendered(..) => true,
                         })
                         .map_or(0, |last| last + 1);
                     inner.cpu_queue.insert(at, CpuWork::Render(id));

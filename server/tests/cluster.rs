@@ -173,6 +173,12 @@ fn small_job_with_priority(priority: i32) -> Value {
     job
 }
 
+/// A CPU job of a minute or more.
+fn long_job() -> Value {
+    json!({"scene": "cornell-box", "tier": "reference", "width": 128, "height": 96,
+           "spp": 4096, "compare": false})
+}
+
 fn small_job() -> Value {
     json!({"scene": "cornell-box", "tier": "reference", "width": 16, "height": 12, "spp": 1,
            "compare": false})
@@ -292,11 +298,7 @@ fn priorities_lanes_cancellation_and_deletion_reach_the_workers() {
 
     // Cancelling a running job reaches its worker, which goes on to the next job at once
     // instead of finishing a render of a minute or more.
-    let long = submit(
-        addr,
-        &json!({"scene": "cornell-box", "tier": "reference", "width": 128,
-                                    "height": 96, "spp": 4096, "compare": false}),
-    );
+    let long = submit(addr, &long_job());
     wait_for(addr, &long, Duration::from_secs(60), |job| {
         job["state"] == "running"
     });
@@ -510,23 +512,9 @@ fn the_web_page_lists_the_workers_and_runs_a_job_on_them() {
 #[test]
 fn priorities_and_cancellation_hold_in_the_embedded_default_too() {
     let dir = tempfile::tempdir().unwrap();
-    let (_server, addr) = spawn_server([
-        OsString::from("--bind"),
-        "127.0.0.1:0".into(),
-        "--no-gpu".into(),
-        "--reference-pool".into(),
-        "1".into(),
-        "--data-dir".into(),
-        dir.path().join("data").into(),
-        "--cache-dir".into(),
-        dir.path().join("cache").into(),
-    ]);
+    let (_server, addr) = spawn_embedded(dir.path(), ["--no-gpu", "--reference-pool", "1"]);
     // A render of a minute or more holds the only CPU worker while two jobs queue behind it.
-    let long = submit(
-        addr,
-        &json!({"scene": "cornell-box", "tier": "reference", "width": 128,
-                                    "height": 96, "spp": 4096, "compare": false}),
-    );
+    let long = submit(addr, &long_job());
     wait_for(addr, &long, Duration::from_secs(60), |job| {
         job["state"] == "running"
     });
@@ -686,6 +674,17 @@ fn job_processes_stop_and_fail_alone(addr: SocketAddr, renderer: u32) {
     wait_for(addr, &doomed, Duration::from_secs(60), |job| {
         job["state"] == "running" && job["progress"]["stage"] == "frames"
     });
+    kill_the_job_process(addr, renderer, &doomed);
+    let after = submit(addr, &small_job());
+    assert_eq!(
+        wait_final(addr, &after, Duration::from_secs(60))["state"],
+        "done"
+    );
+}
+
+/// Kills, as the kernel's OOM killer would, the one job process of `renderer` (rendering job
+/// `id` of the service at `addr`): the job fails with `render_crashed`.
+fn kill_the_job_process(addr: SocketAddr, renderer: u32, id: &str) {
     let children = children_of(renderer);
     assert_eq!(children.len(), 1, "{children:?}");
     let status = Command::new("kill")
@@ -693,14 +692,9 @@ fn job_processes_stop_and_fail_alone(addr: SocketAddr, renderer: u32) {
         .status()
         .unwrap();
     assert!(status.success());
-    let failed = wait_final(addr, &doomed, Duration::from_secs(60));
+    let failed = wait_final(addr, id, Duration::from_secs(60));
     assert_eq!(failed["state"], "failed", "{failed}");
     assert_eq!(failed["error"]["code"], "render_crashed", "{failed}");
-    let after = submit(addr, &small_job());
-    assert_eq!(
-        wait_final(addr, &after, Duration::from_secs(60))["state"],
-        "done"
-    );
 }
 
 /// Jobs run in processes of their own: a cancellation ends a job still importing its scene
@@ -724,20 +718,51 @@ fn a_cancelled_job_stops_inside_its_bvh_build_and_a_crashed_render_fails_only_it
 fn the_embedded_default_s_cpu_jobs_stop_inside_their_bvh_build_and_fail_alone() {
     let dir = tempfile::tempdir().unwrap();
     let scenes = boxes_scene_dir(dir.path());
-    let (server, addr) = spawn_server([
-        OsString::from("--bind"),
-        "127.0.0.1:0".into(),
-        "--no-gpu".into(),
-        "--reference-pool".into(),
-        "1".into(),
-        "--scene-dir".into(),
-        scenes.into(),
-        "--data-dir".into(),
-        dir.path().join("data").into(),
-        "--cache-dir".into(),
-        dir.path().join("cache").into(),
-    ]);
+    let flags = ["--no-gpu", "--reference-pool", "1", "--scene-dir"].map(OsStr::new);
+    let (server, addr) = spawn_embedded(dir.path(), flags.into_iter().chain([scenes.as_os_str()]));
     job_processes_stop_and_fail_alone(addr, server.id());
+}
+
+/// The embedded default's GPU jobs render in one process and compare in another: the result
+/// and the comparison's images are whole, and a GPU render process that dies fails its job.
+#[test]
+fn the_embedded_default_s_gpu_jobs_render_and_compare_in_processes_of_their_own() {
+    if gi_gpu::GpuContext::new_or_skip(
+        "the_embedded_default_s_gpu_jobs_render_and_compare_in_processes_of_their_own",
+    )
+    .is_none()
+    {
+        return;
+    }
+    let dir = tempfile::tempdir().unwrap();
+    let (server, addr) = spawn_embedded(dir.path(), [] as [&str; 0]);
+    let compared = submit(
+        addr,
+        &json!({"scene": "cornell-box", "tier": "path", "width": 32, "height": 24, "spp": 4,
+                "compare": true, "reference_spp": 16}),
+    );
+    let done = wait_final(addr, &compared, Duration::from_secs(120));
+    assert_eq!(done["state"], "done", "{done}");
+    assert_eq!(done["result"]["tier"], "path", "{done}");
+    assert!(
+        done["result"]["comparison"]["flip"].as_f64().unwrap() > 0.0,
+        "{done}"
+    );
+    for file in ["image.png", "reference.png", "error.png", "flip.png"] {
+        let image = get(addr, &format!("/v1/jobs/{compared}/{file}"));
+        assert_eq!(image.status, 200, "{file}");
+        assert_eq!(png_size(&image.body), (32, 24), "{file}");
+    }
+
+    let doomed = submit(
+        addr,
+        &json!({"scene": "cornell-box", "tier": "path", "width": 64, "height": 48,
+                "spp": 4096, "compare": false}),
+    );
+    wait_for(addr, &doomed, Duration::from_secs(60), |job| {
+        job["state"] == "running" && job["progress"].is_object()
+    });
+    kill_the_job_process(addr, server.id(), &doomed);
 }
 
 /// A TCP relay to the database that the test can cut, as a network partition would: its open
@@ -816,11 +841,7 @@ fn a_worker_cut_from_the_database_stops_its_job_when_its_lease_runs_out() {
     let relay = Relay::to(&target);
     let cut_off = cluster.worker_at("cut-off", &relay.url(&cluster.url), &[]);
     // A render of a minute or more.
-    let long = submit(
-        addr,
-        &json!({"scene": "cornell-box", "tier": "reference", "width": 128,
-                "height": 96, "spp": 4096, "compare": false}),
-    );
+    let long = submit(addr, &long_job());
     let running = wait_for(addr, &long, Duration::from_secs(60), |job| {
         job["state"] == "running" && job["progress"]["stage"] == "frames"
     });
@@ -846,4 +867,21 @@ fn a_worker_cut_from_the_database_stops_its_job_when_its_lease_runs_out() {
     });
     assert_eq!(taken["attempts"], 2, "{taken}");
     assert_eq!(delete(addr, &format!("/v1/jobs/{long}")).status, 200);
+}
+
+/// The API server's `--job-time-limit-s` travels with each job: its worker, whose own limit is
+/// an hour, stops the job when the service's runs out.
+#[test]
+fn the_api_server_s_time_limit_reaches_the_worker() {
+    let Some(cluster) = Cluster::new() else {
+        return;
+    };
+    let (_api, addr) = cluster.api("api", &["--job-time-limit-s", "2"]);
+    let _worker = cluster.worker("worker");
+    let long = submit(addr, &long_job());
+    let failed = wait_final(addr, &long, Duration::from_secs(60));
+    assert_eq!(failed["state"], "failed", "{failed}");
+    assert_eq!(failed["error"]["code"], "time_limit", "{failed}");
+    let message = failed["error"]["message"].as_str().unwrap();
+    assert!(message.contains("the service's limit of 2 s"), "{message}");
 }

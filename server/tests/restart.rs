@@ -6,7 +6,6 @@
 mod common;
 
 use std::{
-    ffi::OsString,
     net::SocketAddr,
     path::Path,
     process::Command,
@@ -19,18 +18,8 @@ use serde_json::json;
 /// Starts the binary on a free port over `dir` with `extra` flags; the process and its
 /// address.
 fn start(dir: &Path, extra: &[&str]) -> (ServerProcess, SocketAddr) {
-    let mut args: Vec<OsString> = ["--bind", "127.0.0.1:0", "--no-gpu", "--reference-pool", "1"]
-        .iter()
-        .chain(extra)
-        .map(OsString::from)
-        .collect();
-    args.extend([
-        "--data-dir".into(),
-        dir.join("data").into(),
-        "--cache-dir".into(),
-        dir.join("cache").into(),
-    ]);
-    spawn_server(args)
+    let cpu_only = ["--no-gpu", "--reference-pool", "1"];
+    spawn_embedded(dir, cpu_only.iter().chain(extra))
 }
 
 #[test]

@@ -50,6 +50,8 @@ CREATE TABLE IF NOT EXISTS gi_jobs (
     worker TEXT,
     lease_until TIMESTAMPTZ
 );
+-- The API server's time limit for the job (seconds), applied by its worker with its own.
+ALTER TABLE gi_jobs ADD COLUMN IF NOT EXISTS time_limit_s BIGINT;
 CREATE INDEX IF NOT EXISTS gi_jobs_waiting ON gi_jobs (lane, priority DESC, id) WHERE state = 'queued';
 CREATE INDEX IF NOT EXISTS gi_jobs_leases ON gi_jobs (lease_until) WHERE state = 'running';
 CREATE INDEX IF NOT EXISTS gi_jobs_states ON gi_jobs (state, id);
@@ -117,6 +119,8 @@ pub struct Queue {
 /// A job a worker took.
 pub struct Claimed {
     pub record: JobRecord,
+    /// The submitting API server's `--job-time-limit-s` (none: no limit).
+    pub time_limit_s: Option<u64>,
 }
 
 /// A worker as the API lists it.
@@ -207,13 +211,15 @@ impl Queue {
 
     /// Stores a new queued job, giving `record` its id, unless `max_queued` jobs are queued
     /// or `max_jobs` kept: then [`Refused`] says which, with the count. Submissions are
-    /// serialized by a lock in the database, so the limits hold across API servers.
+    /// serialized by a lock in the database, so the limits hold across API servers. The job
+    /// may run `time_limit_s` seconds (none: no limit) on its worker.
     pub async fn insert(
         &self,
         mut record: JobRecord,
         lane: Lane,
         max_queued: u64,
         max_jobs: u64,
+        time_limit_s: Option<u64>,
     ) -> Result<Result<JobRecord, Refused>, ApiError> {
         let mut client = self.client().await?;
         let fail = |e| db_error("storing the job", e);
@@ -249,8 +255,8 @@ impl Queue {
         record.id = id as u64;
         transaction
             .execute(
-                "INSERT INTO gi_jobs (id, state, lane, priority, scene, record)
-                 VALUES ($1, $2, $3, $4, $5, $6)",
+                "INSERT INTO gi_jobs (id, state, lane, priority, scene, record, time_limit_s)
+                 VALUES ($1, $2, $3, $4, $5, $6, $7)",
                 &[
                     &id,
                     &record.state.name(),
@@ -258,6 +264,7 @@ impl Queue {
                     &record.spec.priority,
                     &record.spec.scene,
                     &to_json(&record),
+                    &time_limit_s.map(|s| s.min(i64::MAX as u64) as i64),
                 ],
             )
             .await
@@ -484,7 +491,7 @@ impl Queue {
             let transaction = client.transaction().await.map_err(fail)?;
             let Some(row) = transaction
                 .query_opt(
-                    "SELECT id, record FROM gi_jobs
+                    "SELECT id, record, time_limit_s FROM gi_jobs
                      WHERE state = 'queued' AND lane = ANY($1)
                      ORDER BY priority DESC, id LIMIT 1
                      FOR UPDATE SKIP LOCKED",
@@ -496,6 +503,9 @@ impl Queue {
                 return Ok(None);
             };
             let id = id_of(&row);
+            let time_limit_s = row
+                .get::<_, Option<i64>>("time_limit_s")
+                .map(|s| s.max(0) as u64);
             let mut record = match parse_record(id, row.get("record")) {
                 Ok(record) => record,
                 Err(error) => {
@@ -544,7 +554,10 @@ impl Queue {
                 .await
                 .map_err(fail)?;
             transaction.commit().await.map_err(fail)?;
-            return Ok(Some(Claimed { record }));
+            return Ok(Some(Claimed {
+                record,
+                time_limit_s,
+            }));
         }
     }
 

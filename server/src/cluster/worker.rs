@@ -35,7 +35,7 @@ use super::{
 use crate::{
     error::ApiError,
     job::{IMAGE_FILES, JobFailure, JobRecord, JobState, Progress, now_rfc3339},
-    job_process::{self, JobTask},
+    job_process::{self, JobPart, JobTask},
     runner::{self, References},
     service::{GpuInfo, plan_for, requeue_stopped, with_lighting},
     store::Writer,
@@ -93,7 +93,8 @@ pub struct WorkerConfig {
     pub max_attempts: u32,
 
     /// Seconds a job may run on this worker before it stops and fails (`time_limit`); 0: no
-    /// limit.
+    /// limit. The API server's own `--job-time-limit-s` travels with each job, and the lower
+    /// of the two applies.
     #[arg(long, env = "GI_SERVER_JOB_TIME_LIMIT_S", default_value_t = 3600)]
     pub job_time_limit_s: u64,
 
@@ -322,7 +323,10 @@ impl Worker {
                 )
                 .await;
             match claimed {
-                Ok(Some(Claimed { record })) => self.clone().run_job(record, asked).await,
+                Ok(Some(Claimed {
+                    record,
+                    time_limit_s,
+                })) => self.clone().run_job(record, asked, time_limit_s).await,
                 Ok(None) => tokio::time::sleep(poll).await,
                 Err(error) => {
                     tracing::warn!("{}", error.message);
@@ -350,8 +354,14 @@ impl Worker {
         lapsed
     }
 
-    /// Runs a job this worker took (`claimed` before it asked for it) and stores its end.
-    async fn run_job(self: Arc<Self>, mut record: JobRecord, claimed: Instant) {
+    /// Runs a job this worker took (`claimed` before it asked for it) and stores its end. It
+    /// may run the lower of this worker's time limit and `job_limit_s`, its API server's.
+    async fn run_job(
+        self: Arc<Self>,
+        mut record: JobRecord,
+        claimed: Instant,
+        job_limit_s: Option<u64>,
+    ) {
         let id = record.id;
         let lost = Arc::new(AtomicBool::new(false));
         *self.lock_current() = Some(Current {
@@ -361,8 +371,15 @@ impl Worker {
             renewed: claimed,
         });
         tracing::info!(job = id, scene = %record.spec.scene, tier = %record.spec.tier, "running");
-        let deadline = (self.config.job_time_limit_s > 0)
-            .then(|| Instant::now() + Duration::from_secs(self.config.job_time_limit_s));
+        let own = Some(self.config.job_time_limit_s).filter(|&s| s > 0);
+        let limit = [
+            own.map(|s| (s, "this worker's")),
+            job_limit_s.map(|s| (s, "the service's")),
+        ]
+        .into_iter()
+        .flatten()
+        .min_by_key(|&(seconds, _)| seconds);
+        let deadline = limit.map(|(seconds, _)| Instant::now() + Duration::from_secs(seconds));
         let started = Instant::now();
         let outcome = self.clone().render(&record, lost.clone(), deadline).await;
         *self.lock_current() = None;
@@ -378,13 +395,13 @@ impl Worker {
                 return;
             }
             Ok(None) if past(deadline) => {
+                let (seconds, whose) = limit.unwrap_or_default();
                 fail(
                     &mut record,
                     "time_limit",
                     format!(
-                        "the job ran longer than this worker's limit of {} s \
-                         (--job-time-limit-s)",
-                        self.config.job_time_limit_s
+                        "the job ran longer than {whose} limit of {seconds} s \
+                         (--job-time-limit-s)"
                     ),
                 );
             }
@@ -467,6 +484,7 @@ impl Worker {
             no_gpu: self.config.no_gpu,
             cache_dir: self.cache_dir.clone(),
             out_dir: dir.clone(),
+            part: JobPart::Whole,
         };
         let rendered = job_process::run(&task, |p| self.set_progress(p), stop).await;
         let stored = match &rendered {

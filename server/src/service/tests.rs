@@ -254,7 +254,9 @@ async fn higher_priorities_are_queued_first_and_equal_ones_in_submission_order()
         .iter()
         .map(|work| match work {
             super::CpuWork::Render(id) => *id,
-            super::CpuWork::Compare(_) => panic!("no comparison was queued"),
+            super::CpuWork::Compare(_) | super::CpuWork::CompareRendered(..) => {
+                panic!("no comparison was queued")
+            }
         })
         .collect();
     // 100, then the two 5s in order, the two 0s in order, then -3.

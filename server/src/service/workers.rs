@@ -15,9 +15,10 @@ use super::{Comparing, CpuWork, Inner, Lane, STORE_RETRY, Service, lock, with_li
 use crate::{
     error::{ApiError, is_disk_full},
     job::{
-        IMAGE_FILES, JobFailure, JobRecord, JobResult, JobSpec, JobState, Progress, now_rfc3339,
+        Comparison, IMAGE_FILES, JobFailure, JobRecord, JobResult, JobSpec, JobState, Progress,
+        now_rfc3339,
     },
-    job_process::{self, JobTask},
+    job_process::{self, JobPart, JobTask},
     runner::{self, PreparedJob, TierOutput},
 };
 
@@ -35,6 +36,7 @@ impl Service {
             match work {
                 CpuWork::Render(id) => self.run_tier(id, Lane::Cpu).await,
                 CpuWork::Compare(comparing) => self.run_compare(*comparing).await,
+                CpuWork::CompareRendered(id, rendered) => self.compare_rendered(id, rendered).await,
             }
         }
     }
@@ -119,8 +121,33 @@ impl Service {
                 return;
             }
         };
-        if lane == Lane::Cpu && !self.config.in_process && job_process::available() {
-            return self.run_job_process(id, &spec, cancel, deadline).await;
+        if !self.config.in_process && job_process::available() {
+            // A GPU job compares in a process of its own on the CPU pool, the GPU free for
+            // the next job meanwhile.
+            let part = match lane {
+                Lane::Gpu if spec.reference_spp.is_some() => JobPart::Render,
+                _ => JobPart::Whole,
+            };
+            let started = Instant::now();
+            let result = self
+                .run_job_process(id, &spec, part, cancel, deadline)
+                .await;
+            if lane == Lane::Gpu {
+                self.metrics.add_gpu_busy(started.elapsed().as_secs_f64());
+            }
+            let Some(result) = result else {
+                return;
+            };
+            self.metrics.add_render(&result.tier, result.render_seconds);
+            if result.comparison.is_none() && spec.reference_spp.is_some() {
+                // Ahead of new renders: this job already holds its tier's image.
+                lock(&self.inner)
+                    .cpu_queue
+                    .push_front(CpuWork::CompareRendered(id, Box::new(result)));
+                self.work_ready.notify_waiters();
+                return;
+            }
+            return self.completed(id, result).await;
         }
         let prepared = match self.prepare(&spec).await {
             Ok(prepared) => Arc::new(prepared),
@@ -174,15 +201,58 @@ impl Service {
         }
     }
 
-    /// Renders job `id` and its comparison in a process of its own, which writes the images
-    /// into the job's folder; stopping the job ends that process at once.
+    /// Compares, in a process of its own, the image job `id` rendered in one (`rendered`: its
+    /// result), and stores the job's end.
+    async fn compare_rendered(self: &Arc<Self>, id: u64, rendered: Box<JobResult>) {
+        let Some((spec, cancel, deadline)) = lock(&self.inner)
+            .jobs
+            .get(&id)
+            .filter(|e| e.record.state == JobState::Running)
+            .map(|e| (e.record.spec.clone(), e.cancel.clone(), e.deadline))
+        else {
+            // Cancelled while it waited: its rendered image serves no one.
+            for file in IMAGE_FILES {
+                let _ = std::fs::remove_file(self.store.job_dir(id).join(file));
+            }
+            return;
+        };
+        let part = JobPart::Compare { rendered };
+        if let Some(result) = self
+            .run_job_process(id, &spec, part, cancel, deadline)
+            .await
+        {
+            self.completed(id, result).await;
+        }
+    }
+
+    /// Counts a finished comparison's reference in the metrics and stores the job's end.
+    async fn completed(self: &Arc<Self>, id: u64, result: JobResult) {
+        if let Some(comparison) = &result.comparison {
+            self.count_reference(comparison);
+        }
+        self.complete(id, result).await;
+    }
+
+    /// Counts whether a comparison's reference came from the cache.
+    fn count_reference(&self, comparison: &Comparison) {
+        if comparison.reference_cached {
+            self.metrics.reference_cache_hits.inc();
+        } else {
+            self.metrics.reference_cache_misses.inc();
+        }
+    }
+
+    /// Runs `part` of job `id` in a process of its own, which writes the images into the
+    /// job's folder; stopping the job ends that process at once. Answers the result; `None`
+    /// when the job failed or stopped (its end then stored, its images removed).
     async fn run_job_process(
         self: &Arc<Self>,
         id: u64,
         spec: &JobSpec,
+        part: JobPart,
         cancel: Arc<AtomicBool>,
         deadline: Option<Instant>,
-    ) {
+    ) -> Option<JobResult> {
         let dir = self.store.job_dir(id);
         let task = match self.plan(spec).and_then(|(plan, _)| {
             Ok(JobTask {
@@ -195,10 +265,14 @@ impl Service {
                 no_gpu: self.config.no_gpu,
                 cache_dir: self.cache_dir.clone(),
                 out_dir: dir.clone(),
+                part,
             })
         }) {
             Ok(task) => task,
-            Err(error) => return self.fail(id, error.code, error.message).await,
+            Err(error) => {
+                self.fail(id, error.code, error.message).await;
+                return None;
+            }
         };
         let service = self.clone();
         let stop =
@@ -209,20 +283,13 @@ impl Service {
             for file in IMAGE_FILES {
                 let _ = std::fs::remove_file(dir.join(file));
             }
-            return match rendered {
+            match rendered {
                 Err(failure) => self.fail(id, &failure.code, failure.message).await,
                 _ => self.stopped(id, deadline).await,
-            };
-        };
-        self.metrics.add_render(&result.tier, result.render_seconds);
-        if let Some(comparison) = &result.comparison {
-            if comparison.reference_cached {
-                self.metrics.reference_cache_hits.inc();
-            } else {
-                self.metrics.reference_cache_misses.inc();
             }
-        }
-        self.complete(id, result).await;
+            return None;
+        };
+        Some(result)
     }
 
     async fn run_compare(self: &Arc<Self>, comparing: Comparing) {
@@ -269,11 +336,7 @@ impl Service {
             Ok(Err(message)) => self.fail(id, "compare_failed", message).await,
             Ok(Ok(None)) => self.stopped(id, deadline).await,
             Ok(Ok(Some(compared))) => {
-                if compared.comparison.reference_cached {
-                    self.metrics.reference_cache_hits.inc();
-                } else {
-                    self.metrics.reference_cache_misses.inc();
-                }
+                self.count_reference(&compared.comparison);
                 let mut output = comparing.output;
                 output.result.comparison = Some(compared.comparison);
                 let compared = (compared.reference, compared.flip);

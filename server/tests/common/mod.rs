@@ -368,6 +368,23 @@ impl std::ops::DerefMut for ServerProcess {
     }
 }
 
+/// The `gi-server` binary on a free port in its embedded mode (no database), its data and
+/// reference cache in `dir`, with `extra` flags; the process and its address.
+pub fn spawn_embedded<S: AsRef<OsStr>>(
+    dir: &std::path::Path,
+    extra: impl IntoIterator<Item = S>,
+) -> (ServerProcess, std::net::SocketAddr) {
+    let mut args: Vec<std::ffi::OsString> = vec!["--bind".into(), "127.0.0.1:0".into()];
+    args.extend(extra.into_iter().map(|arg| arg.as_ref().to_os_string()));
+    args.extend([
+        "--data-dir".into(),
+        dir.join("data").into(),
+        "--cache-dir".into(),
+        dir.join("cache").into(),
+    ]);
+    spawn_server(args)
+}
+
 /// Starts the `gi-server` binary with `args`; the process and the address it prints once
 /// listening.
 pub fn spawn_server(
