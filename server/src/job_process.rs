@@ -9,14 +9,15 @@
 //!
 //! The worker starts its own executable with [`JOB_PROCESS_ARG`] as the only argument, in a
 //! process group of its own (a terminal's Ctrl-C reaches the worker, which then stops the
-//! job itself). The child reads a [`JobTask`] (one line of JSON) from its stdin, writes the
-//! job's images into the task's folder, and reports on its stdout, one JSON [`Report`] a line:
-//! its progress while it works, then its end. Its logs go to the worker's stderr. The worker
-//! keeps the child's stdin open: when it closes, the worker is gone (even by `kill -9`), and
-//! the child exits too instead of rendering for no one.
+//! job itself), and keeps it for its next jobs ([`JobHost`]): it reads [`JobTask`]s (one line
+//! of JSON each) from its stdin, writes each job's images into the task's folder, and reports
+//! on its stdout, one JSON [`Report`] a line: a job's progress while it works, then its end.
+//! Its logs go to the worker's stderr. Stopping a job kills the process; the next job starts a
+//! fresh one. When its stdin closes the worker is gone (even by `kill -9`) or done with it, and
+//! the process exits instead of rendering for no one.
 
 use std::{
-    io::{BufRead, Read, Write},
+    io::{BufRead, Write},
     path::PathBuf,
     process::{ExitCode, Stdio},
     sync::{
@@ -155,122 +156,160 @@ pub(crate) fn preparing() -> Progress {
     }
 }
 
-/// Runs `task` in a child process of this executable. Answers the job's result (its images
-/// in `task.out_dir`), `Ok(None)` when `stop` answered true first (the child is then killed and
-/// waited for), or why the job failed, a crash of the child included.
-pub(crate) async fn run(
-    task: &JobTask,
-    on_progress: impl Fn(Progress),
-    stop: impl Fn() -> bool,
-) -> Result<Option<JobResult>, JobFailure> {
-    let internal = |message: String| JobFailure {
+/// A job process kept for the jobs of one worker slot (the GPU lane, one CPU worker, a
+/// scale-out worker): started for its first job, it renders one job after another, keeping its
+/// GPU device and compiled pipelines, until a job of its is stopped or it dies; the next job
+/// then starts a fresh one. Dropping the host ends its process.
+#[derive(Default)]
+pub(crate) struct JobHost {
+    process: Option<HostProcess>,
+}
+
+struct HostProcess {
+    child: tokio::process::Child,
+    stdin: tokio::process::ChildStdin,
+    lines: tokio::io::Lines<tokio::io::BufReader<tokio::process::ChildStdout>>,
+}
+
+fn internal(message: String) -> JobFailure {
+    JobFailure {
         code: "internal".to_string(),
         message,
-    };
-    let exe = std::env::current_exe()
-        .map_err(|e| internal(format!("finding this program to run the job: {e}")))?;
-    let mut input = serde_json::to_vec(task).map_err(|e| internal(e.to_string()))?;
-    input.push(b'\n');
-    let mut command = tokio::process::Command::new(exe);
-    #[cfg(unix)]
-    command.process_group(0);
-    let mut child = command
-        .arg(JOB_PROCESS_ARG)
-        .stdin(Stdio::piped())
-        .stdout(Stdio::piped())
-        .stderr(Stdio::inherit())
-        .kill_on_drop(true)
-        .spawn()
-        .map_err(|e| internal(format!("starting the job's process: {e}")))?;
-    let (Some(mut stdin), Some(stdout)) = (child.stdin.take(), child.stdout.take()) else {
-        return Err(internal("the job's process has no pipes".to_string()));
-    };
-    // The task is small; the child reads its line before it starts. The pipe stays open
-    // until the job ends (see the module's docs).
-    let written = async {
-        stdin.write_all(&input).await?;
-        stdin.flush().await
-    };
-    if let Err(error) = written.await {
-        let _ = child.kill().await;
-        return Err(internal(format!("sending the job to its process: {error}")));
     }
-    let mut lines = tokio::io::BufReader::new(stdout).lines();
-    let mut end = None;
-    let mut poll = tokio::time::interval(STOP_POLL);
-    loop {
-        tokio::select! {
-            line = lines.next_line() => match line {
-                Ok(Some(line)) => match serde_json::from_str::<Report>(&line) {
-                    Ok(Report::Progress { stage, done, total, fraction }) => {
-                        let stage = STAGES
-                            .iter()
-                            .find(|known| **known == stage)
-                            .copied()
-                            .unwrap_or("frames");
-                        on_progress(Progress { stage, done, total, fraction });
-                    }
-                    Ok(Report::Done { result }) => end = Some(Ok(*result)),
-                    Ok(Report::Failed { code, message }) => {
-                        end = Some(Err(JobFailure { code, message }));
-                    }
-                    Err(error) => {
-                        tracing::warn!(job = task.id, "the job's process wrote {line:?}: {error}");
-                    }
+}
+
+impl HostProcess {
+    fn start() -> Result<Self, JobFailure> {
+        let exe = std::env::current_exe()
+            .map_err(|e| internal(format!("finding this program to run the job: {e}")))?;
+        let mut command = tokio::process::Command::new(exe);
+        #[cfg(unix)]
+        command.process_group(0);
+        let mut child = command
+            .arg(JOB_PROCESS_ARG)
+            .stdin(Stdio::piped())
+            .stdout(Stdio::piped())
+            .stderr(Stdio::inherit())
+            .kill_on_drop(true)
+            .spawn()
+            .map_err(|e| internal(format!("starting the job's process: {e}")))?;
+        let (Some(stdin), Some(stdout)) = (child.stdin.take(), child.stdout.take()) else {
+            return Err(internal("the job's process has no pipes".to_string()));
+        };
+        Ok(Self {
+            child,
+            stdin,
+            lines: tokio::io::BufReader::new(stdout).lines(),
+        })
+    }
+
+    async fn send(&mut self, line: &[u8]) -> std::io::Result<()> {
+        self.stdin.write_all(line).await?;
+        self.stdin.flush().await
+    }
+}
+
+impl JobHost {
+    /// Runs `task` in this host's process (started if there is none). Answers the job's
+    /// result (its images in `task.out_dir`), `Ok(None)` when `stop` answered true first (the
+    /// process is then killed and waited for), or why the job failed, a crash of the process
+    /// included.
+    pub(crate) async fn run(
+        &mut self,
+        task: &JobTask,
+        on_progress: impl Fn(Progress),
+        stop: impl Fn() -> bool,
+    ) -> Result<Option<JobResult>, JobFailure> {
+        let mut input = serde_json::to_vec(task).map_err(|e| internal(e.to_string()))?;
+        input.push(b'\n');
+        // A kept process may have died while it waited: then a fresh one takes the job. A
+        // fresh one that cannot take it has crashed (its end is read below).
+        if let Some(kept) = self.process.as_mut()
+            && kept.send(&input).await.is_err()
+        {
+            self.end().await;
+        }
+        if self.process.is_none() {
+            let mut fresh = HostProcess::start()?;
+            let _ = fresh.send(&input).await;
+            self.process = Some(fresh);
+        }
+        let Some(process) = self.process.as_mut() else {
+            return Err(internal("the job's process is gone".to_string()));
+        };
+        let mut poll = tokio::time::interval(STOP_POLL);
+        loop {
+            tokio::select! {
+                line = process.lines.next_line() => match line {
+                    Ok(Some(line)) => match serde_json::from_str::<Report>(&line) {
+                        Ok(Report::Progress { stage, done, total, fraction }) => {
+                            let stage = STAGES
+                                .iter()
+                                .find(|known| **known == stage)
+                                .copied()
+                                .unwrap_or("frames");
+                            on_progress(Progress { stage, done, total, fraction });
+                        }
+                        Ok(Report::Done { result }) => return Ok(Some(*result)),
+                        Ok(Report::Failed { code, message }) => {
+                            return Err(JobFailure { code, message });
+                        }
+                        Err(error) => {
+                            tracing::warn!(job = task.id, "the job's process wrote {line:?}: {error}");
+                        }
+                    },
+                    Ok(None) | Err(_) => break,
                 },
-                Ok(None) | Err(_) => break,
-            },
-            _ = poll.tick() => {
-                if stop() {
-                    let _ = child.kill().await;
-                    return Ok(None);
+                _ = poll.tick() => {
+                    if stop() {
+                        self.end().await;
+                        return Ok(None);
+                    }
                 }
             }
         }
-    }
-    drop(stdin);
-    let status = child
-        .wait()
-        .await
-        .map_err(|e| internal(format!("waiting for the job's process: {e}")))?;
-    match end {
-        Some(Ok(result)) if status.success() => Ok(Some(result)),
-        Some(Err(failure)) => Err(failure),
-        // Stopped meanwhile: the child may have been ended by the same cause (a shutdown's
-        // signal reaches the whole process group).
-        _ if stop() => Ok(None),
-        _ => Err(JobFailure {
+        // The process ended without the job's end.
+        let status = match self.process.take() {
+            Some(mut process) => process.child.wait().await.map(|s| s.to_string()),
+            None => Ok("gone".to_string()),
+        };
+        let status = status.unwrap_or_else(|e| format!("not known: {e}"));
+        if stop() {
+            // Stopped meanwhile: the process may have been ended by the same cause.
+            return Ok(None);
+        }
+        Err(JobFailure {
             code: "render_crashed".to_string(),
             message: format!(
                 "the job's render process ended without a result ({status}); nothing else \
                  was affected"
             ),
-        }),
+        })
+    }
+
+    /// Ends this host's process, if any, and waits for it.
+    async fn end(&mut self) {
+        if let Some(mut process) = self.process.take() {
+            let _ = process.child.kill().await;
+        }
     }
 }
 
-/// The child's side: reads its task from stdin, runs it, reports on stdout. Only a task that
-/// cannot be read fails the exit status; a job's failure is a report.
+/// The child's side: reads tasks from stdin, one line each, runs them one after another and
+/// reports on stdout. The end of stdin (the worker is done with it, or gone) ends the process,
+/// even in the middle of a job.
 fn child_main() -> ExitCode {
     crate::init_logging();
-    let mut input = String::new();
-    if let Err(error) = std::io::stdin().lock().read_line(&mut input) {
-        eprintln!("error: reading the job from stdin: {error}");
-        return ExitCode::FAILURE;
-    }
-    // The rest of stdin is the worker's liveness: its end means the worker is gone.
-    std::thread::spawn(|| {
-        let _ = std::io::stdin().lock().read_to_end(&mut Vec::new());
-        eprintln!("the worker is gone: the job's process stops");
-        std::process::exit(2);
-    });
-    let task: JobTask = match serde_json::from_str(&input) {
-        Ok(task) => task,
-        Err(error) => {
-            eprintln!("error: the job on stdin: {error}");
-            return ExitCode::FAILURE;
+    let (send, tasks) = std::sync::mpsc::channel::<String>();
+    std::thread::spawn(move || {
+        for line in std::io::stdin().lock().lines() {
+            let Ok(line) = line else { break };
+            if send.send(line).is_err() {
+                break;
+            }
         }
-    };
+        std::process::exit(0);
+    });
     let stdout = std::sync::Mutex::new(std::io::stdout());
     let report = |report: Report| {
         let Ok(mut line) = serde_json::to_vec(&report) else {
@@ -281,13 +320,18 @@ fn child_main() -> ExitCode {
         // A worker that is gone no longer reads: the job is over either way.
         let _ = out.write_all(&line).and_then(|()| out.flush());
     };
-    let end = match execute(&task, &|progress| report(Report::progress(progress))) {
-        Ok(result) => Report::Done {
-            result: Box::new(result),
-        },
-        Err(failure) => Report::failed(&failure.code, failure.message),
-    };
-    report(end);
+    for line in tasks {
+        let end = match serde_json::from_str::<JobTask>(&line) {
+            Err(error) => Report::failed("internal", format!("the job's task: {error}")),
+            Ok(task) => match execute(&task, &|progress| report(Report::progress(progress))) {
+                Ok(result) => Report::Done {
+                    result: Box::new(result),
+                },
+                Err(failure) => Report::failed(&failure.code, failure.message),
+            },
+        };
+        report(end);
+    }
     ExitCode::SUCCESS
 }
 

@@ -735,7 +735,17 @@ fn the_embedded_default_s_gpu_jobs_render_and_compare_in_processes_of_their_own(
         return;
     }
     let dir = tempfile::tempdir().unwrap();
-    let (server, addr) = spawn_embedded(dir.path(), [] as [&str; 0]);
+    let (server, addr) = spawn_embedded(dir.path(), ["--reference-pool", "1"]);
+    // The GPU lane's job process dies; the next job starts a fresh one.
+    let doomed = submit(
+        addr,
+        &json!({"scene": "cornell-box", "tier": "path", "width": 64, "height": 48,
+                "spp": 4096, "compare": false}),
+    );
+    wait_for(addr, &doomed, Duration::from_secs(60), |job| {
+        job["state"] == "running" && job["progress"].is_object()
+    });
+    kill_the_job_process(addr, server.id(), &doomed);
     let compared = submit(
         addr,
         &json!({"scene": "cornell-box", "tier": "path", "width": 32, "height": 24, "spp": 4,
@@ -753,16 +763,23 @@ fn the_embedded_default_s_gpu_jobs_render_and_compare_in_processes_of_their_own(
         assert_eq!(image.status, 200, "{file}");
         assert_eq!(png_size(&image.body), (32, 24), "{file}");
     }
-
-    let doomed = submit(
+    // The GPU lane's and the CPU worker's job processes are kept for the next jobs.
+    let sorted = |mut pids: Vec<u32>| {
+        pids.sort_unstable();
+        pids
+    };
+    let kept = sorted(children_of(server.id()));
+    assert_eq!(kept.len(), 2, "{kept:?}");
+    let again = submit(
         addr,
-        &json!({"scene": "cornell-box", "tier": "path", "width": 64, "height": 48,
-                "spp": 4096, "compare": false}),
+        &json!({"scene": "cornell-box", "tier": "path", "width": 32, "height": 24, "spp": 2,
+                "compare": true, "reference_spp": 16}),
     );
-    wait_for(addr, &doomed, Duration::from_secs(60), |job| {
-        job["state"] == "running" && job["progress"].is_object()
-    });
-    kill_the_job_process(addr, server.id(), &doomed);
+    assert_eq!(
+        wait_final(addr, &again, Duration::from_secs(120))["state"],
+        "done"
+    );
+    assert_eq!(sorted(children_of(server.id())), kept);
 }
 
 /// A TCP relay to the database that the test can cut, as a network partition would: its open

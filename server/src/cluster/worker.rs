@@ -35,7 +35,7 @@ use super::{
 use crate::{
     error::ApiError,
     job::{IMAGE_FILES, JobFailure, JobRecord, JobState, Progress, now_rfc3339},
-    job_process::{self, JobPart, JobTask},
+    job_process::{self, JobHost, JobPart, JobTask},
     runner::{self, References},
     service::{GpuInfo, plan_for, requeue_stopped, with_lighting},
     store::Writer,
@@ -311,6 +311,7 @@ impl Worker {
             &[Lane::Any]
         };
         let poll = Duration::from_millis(self.config.poll_ms);
+        let mut host = JobHost::default();
         while !self.is_stopping() {
             let asked = Instant::now();
             let claimed = self
@@ -326,7 +327,11 @@ impl Worker {
                 Ok(Some(Claimed {
                     record,
                     time_limit_s,
-                })) => self.clone().run_job(record, asked, time_limit_s).await,
+                })) => {
+                    (self.clone())
+                        .run_job(record, asked, time_limit_s, &mut host)
+                        .await
+                }
                 Ok(None) => tokio::time::sleep(poll).await,
                 Err(error) => {
                     tracing::warn!("{}", error.message);
@@ -361,6 +366,7 @@ impl Worker {
         mut record: JobRecord,
         claimed: Instant,
         job_limit_s: Option<u64>,
+        host: &mut JobHost,
     ) {
         let id = record.id;
         let lost = Arc::new(AtomicBool::new(false));
@@ -381,7 +387,9 @@ impl Worker {
         .min_by_key(|&(seconds, _)| seconds);
         let deadline = limit.map(|(seconds, _)| Instant::now() + Duration::from_secs(seconds));
         let started = Instant::now();
-        let outcome = self.clone().render(&record, lost.clone(), deadline).await;
+        let outcome = (self.clone())
+            .render(&record, lost.clone(), deadline, host)
+            .await;
         *self.lock_current() = None;
         match outcome {
             Ok(Some(result)) => {
@@ -450,6 +458,7 @@ impl Worker {
         record: &JobRecord,
         lost: Arc<AtomicBool>,
         deadline: Option<Instant>,
+        host: &mut JobHost,
     ) -> Result<Option<crate::job::JobResult>, JobFailure> {
         let spec = &record.spec;
         let (plan, _) = plan_for(spec, self.gpu.as_ref(), self.config.no_gpu)?;
@@ -486,7 +495,7 @@ impl Worker {
             out_dir: dir.clone(),
             part: JobPart::Whole,
         };
-        let rendered = job_process::run(&task, |p| self.set_progress(p), stop).await;
+        let rendered = host.run(&task, |p| self.set_progress(p), stop).await;
         let stored = match &rendered {
             Ok(Some(_)) => self.put_images(record.id, &dir).await,
             _ => Ok(()),

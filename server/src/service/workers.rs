@@ -18,25 +18,29 @@ use crate::{
         Comparison, IMAGE_FILES, JobFailure, JobRecord, JobResult, JobSpec, JobState, Progress,
         now_rfc3339,
     },
-    job_process::{self, JobPart, JobTask},
+    job_process::{self, JobHost, JobPart, JobTask},
     runner::{self, PreparedJob, TierOutput},
 };
 
 impl Service {
     /// The GPU worker: one job at a time.
     pub async fn gpu_worker(self: Arc<Self>) {
+        let mut host = JobHost::default();
         while let Some(id) = self.next_work(|inner| inner.gpu_queue.pop_front()).await {
-            self.run_tier(id, Lane::Gpu).await;
+            self.run_tier(id, Lane::Gpu, &mut host).await;
         }
     }
 
     /// One worker of the CPU pool.
     pub async fn cpu_worker(self: Arc<Self>) {
+        let mut host = JobHost::default();
         while let Some(work) = self.next_work(|inner| inner.cpu_queue.pop_front()).await {
             match work {
-                CpuWork::Render(id) => self.run_tier(id, Lane::Cpu).await,
+                CpuWork::Render(id) => self.run_tier(id, Lane::Cpu, &mut host).await,
                 CpuWork::Compare(comparing) => self.run_compare(*comparing).await,
-                CpuWork::CompareRendered(id, rendered) => self.compare_rendered(id, rendered).await,
+                CpuWork::CompareRendered(id, rendered) => {
+                    self.compare_rendered(id, rendered, &mut host).await
+                }
             }
         }
     }
@@ -98,7 +102,7 @@ impl Service {
     }
 
     /// Renders job `id`'s tier, then finishes it or hands it to the CPU pool to compare.
-    async fn run_tier(self: &Arc<Self>, id: u64, lane: Lane) {
+    async fn run_tier(self: &Arc<Self>, id: u64, lane: Lane, host: &mut JobHost) {
         let Started {
             spec,
             cancel,
@@ -130,7 +134,7 @@ impl Service {
             };
             let started = Instant::now();
             let result = self
-                .run_job_process(id, &spec, part, cancel, deadline)
+                .run_job_process(host, id, &spec, part, cancel, deadline)
                 .await;
             if lane == Lane::Gpu {
                 self.metrics.add_gpu_busy(started.elapsed().as_secs_f64());
@@ -203,7 +207,12 @@ impl Service {
 
     /// Compares, in a process of its own, the image job `id` rendered in one (`rendered`: its
     /// result), and stores the job's end.
-    async fn compare_rendered(self: &Arc<Self>, id: u64, rendered: Box<JobResult>) {
+    async fn compare_rendered(
+        self: &Arc<Self>,
+        id: u64,
+        rendered: Box<JobResult>,
+        host: &mut JobHost,
+    ) {
         let Some((spec, cancel, deadline)) = lock(&self.inner)
             .jobs
             .get(&id)
@@ -218,7 +227,7 @@ impl Service {
         };
         let part = JobPart::Compare { rendered };
         if let Some(result) = self
-            .run_job_process(id, &spec, part, cancel, deadline)
+            .run_job_process(host, id, &spec, part, cancel, deadline)
             .await
         {
             self.completed(id, result).await;
@@ -242,11 +251,12 @@ impl Service {
         }
     }
 
-    /// Runs `part` of job `id` in a process of its own, which writes the images into the
+    /// Runs `part` of job `id` in the job process of `host`, which writes the images into the
     /// job's folder; stopping the job ends that process at once. Answers the result; `None`
     /// when the job failed or stopped (its end then stored, its images removed).
     async fn run_job_process(
         self: &Arc<Self>,
+        host: &mut JobHost,
         id: u64,
         spec: &JobSpec,
         part: JobPart,
@@ -277,7 +287,7 @@ impl Service {
         let service = self.clone();
         let stop =
             move || cancel.load(Ordering::SeqCst) || service.is_shutting_down() || past(deadline);
-        let rendered = job_process::run(&task, |p| self.set_progress(id, p), stop).await;
+        let rendered = host.run(&task, |p| self.set_progress(id, p), stop).await;
         let Ok(Some(result)) = rendered else {
             // What did get written serves no one.
             for file in IMAGE_FILES {
