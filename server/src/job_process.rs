@@ -320,10 +320,15 @@ fn child_main() -> ExitCode {
         // A worker that is gone no longer reads: the job is over either way.
         let _ = out.write_all(&line).and_then(|()| out.flush());
     };
+    let mut references = None;
     for line in tasks {
         let end = match serde_json::from_str::<JobTask>(&line) {
             Err(error) => Report::failed("internal", format!("the job's task: {error}")),
-            Ok(task) => match execute(&task, &|progress| report(Report::progress(progress))) {
+            Ok(task) => match execute(
+                &task,
+                &|progress| report(Report::progress(progress)),
+                &mut references,
+            ) {
                 Ok(result) => Report::Done {
                     result: Box::new(result),
                 },
@@ -335,8 +340,19 @@ fn child_main() -> ExitCode {
     ExitCode::SUCCESS
 }
 
+/// The references of a job process's comparisons, kept for its next jobs (its engine holds a
+/// GPU device and the path tier's pipelines when it renders on the GPU).
+struct KeptReferences {
+    key: (EngineChoice, bool, PathBuf),
+    references: References,
+}
+
 /// Renders the task in this process: scene, tier, comparison, images.
-fn execute(task: &JobTask, progress: &(dyn Fn(Progress) + Sync)) -> Result<JobResult, JobFailure> {
+fn execute(
+    task: &JobTask,
+    progress: &(dyn Fn(Progress) + Sync),
+    kept: &mut Option<KeptReferences>,
+) -> Result<JobResult, JobFailure> {
     let failure = |code: &str, message: String| JobFailure {
         code: code.to_string(),
         message,
@@ -373,24 +389,33 @@ fn execute(task: &JobTask, progress: &(dyn Fn(Progress) + Sync)) -> Result<JobRe
     let compared = match reference_spp {
         None => None,
         Some(reference_spp) => {
-            let engine: Arc<dyn ReferenceEngine> = if task.no_gpu {
-                Arc::new(CpuEngine)
-            } else {
-                gi_tiers::reference_engine(task.reference_engine).map_err(|e| {
-                    failure(
-                        "compare_failed",
-                        format!("--reference-engine {}: {e}", task.reference_engine),
-                    )
-                })?
+            let key = (task.reference_engine, task.no_gpu, task.cache_dir.clone());
+            if !matches!(kept, Some(k) if k.key == key) {
+                let engine: Arc<dyn ReferenceEngine> = if task.no_gpu {
+                    Arc::new(CpuEngine)
+                } else {
+                    gi_tiers::reference_engine(task.reference_engine).map_err(|e| {
+                        failure(
+                            "compare_failed",
+                            format!("--reference-engine {}: {e}", task.reference_engine),
+                        )
+                    })?
+                };
+                let cache = ReferenceCache::new(task.cache_dir.clone())
+                    .with_engine(engine, task.reference_engine);
+                *kept = Some(KeptReferences {
+                    key,
+                    references: References::new(cache),
+                });
+            }
+            let Some(KeptReferences { references, .. }) = kept.as_ref() else {
+                return Err(failure("internal", "no reference engine".to_string()));
             };
-            let cache = ReferenceCache::new(task.cache_dir.clone())
-                .with_engine(engine, task.reference_engine);
-            let references = References::new(cache);
             let compared = runner::compare(
                 &job,
                 &output,
                 reference_spp,
-                &references,
+                references,
                 progress,
                 &|| false,
                 0.5,
