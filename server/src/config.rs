@@ -134,10 +134,10 @@ pub struct Config {
     #[arg(long, env = "GI_SERVER_JOB_TIME_LIMIT_S", default_value_t = 3600)]
     pub job_time_limit_s: u64,
 
-    /// Render every job inside the server. By default every job renders in processes of
-    /// its own (a GPU job's comparison in a second one, on the CPU pool): a cancellation, the
-    /// time limit or a shutdown ends it at once, inside its scene's import and BVH build too,
-    /// and a crash fails only that job.
+    /// Render every job inside the server. By default jobs render in job processes (one for
+    /// the GPU lane, one for each CPU worker, kept from job to job; a GPU job's comparison in a
+    /// CPU worker's): a cancellation, the time limit or a shutdown kills the job's process at
+    /// once, inside its scene's import and BVH build too, and a crash fails only that job.
     #[arg(long, env = "GI_SERVER_IN_PROCESS")]
     pub in_process: bool,
 

@@ -98,10 +98,10 @@ pub struct WorkerConfig {
     #[arg(long, env = "GI_SERVER_JOB_TIME_LIMIT_S", default_value_t = 3600)]
     pub job_time_limit_s: u64,
 
-    /// Render jobs inside the worker instead of in a process of their own. That saves the
-    /// process's start (its GPU device, its scene's import) for every job, but a job then
-    /// stops only between its frames and passes: a cancellation, the time limit or a shutdown
-    /// waits for its scene's import and BVH builds; and a render that crashes ends the worker.
+    /// Render jobs inside the worker instead of in its job process (kept from job to job,
+    /// restarted after a job of it was stopped). A job then stops only between its frames and
+    /// passes: a cancellation, the time limit or a shutdown waits for its scene's import and
+    /// BVH builds; and a render that crashes ends the worker.
     #[arg(long, env = "GI_WORKER_IN_PROCESS")]
     pub in_process: bool,
 
