@@ -94,6 +94,21 @@ fn build_cwbvh_over<T: Boundable>(
     bvh2_to_cwbvh(&bvh2, params.max_prims_per_leaf.clamp(1, 3), true, false)
 }
 
+/// Depth of the deepest internal node of `bvh`, walking child links from the root (an
+/// explicit stack, so a degenerate BVH cannot overflow the host's).
+pub fn cwbvh_depth(bvh: &CwBvh) -> u32 {
+    let mut deepest = 0;
+    let mut pending = vec![(0usize, 0u32)];
+    while let Some((index, depth)) = pending.pop() {
+        deepest = deepest.max(depth);
+        let node = &bvh.nodes[index];
+        for slot in (0..8).filter(|&slot| !node.is_leaf(slot)) {
+            pending.push((node.child_node_index(slot) as usize, depth + 1));
+        }
+    }
+    deepest
+}
+
 /// A closest-hit result.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Hit {
@@ -404,34 +419,25 @@ mod tests {
     fn build_cwbvh_breaks_ties_and_keeps_exact_bounds() {
         let coincident: Vec<Triangle> = (0..400).flat_map(|_| unit_box(0.0)).collect();
         let params = BvhBuildParams::medium_build();
-        // The tree's depth, and its primitives, each checked inside its leaf's box.
-        let walk = |bvh: &CwBvh| {
-            let mut deepest = 0;
+        // The tree's primitives, each checked inside its leaf's box.
+        let held = |bvh: &CwBvh| {
             let mut held = Vec::new();
-            let mut pending = vec![(0usize, 0u32)];
-            while let Some((index, depth)) = pending.pop() {
-                deepest = deepest.max(depth);
-                let node = &bvh.nodes[index];
-                for slot in 0..8 {
-                    if !node.is_leaf(slot) {
-                        pending.push((node.child_node_index(slot) as usize, depth + 1));
-                    } else if !node.is_child_empty(slot) {
-                        let (first, count) = node.child_primitives(slot);
-                        let aabb = node.child_aabb(slot);
-                        for &primitive in &bvh.primitive_indices[first as usize..][..count as usize]
-                        {
-                            let bounds = coincident[primitive as usize].aabb();
-                            assert!(aabb.min.cmple(bounds.min).all(), "{primitive}");
-                            assert!(aabb.max.cmpge(bounds.max).all(), "{primitive}");
-                            held.push(primitive);
-                        }
+            for node in &bvh.nodes {
+                for slot in (0..8).filter(|&s| node.is_leaf(s) && !node.is_child_empty(s)) {
+                    let (first, count) = node.child_primitives(slot);
+                    let aabb = node.child_aabb(slot);
+                    for &primitive in &bvh.primitive_indices[first as usize..][..count as usize] {
+                        let bounds = coincident[primitive as usize].aabb();
+                        assert!(aabb.min.cmple(bounds.min).all(), "{primitive}");
+                        assert!(aabb.max.cmpge(bounds.max).all(), "{primitive}");
+                        held.push(primitive);
                     }
                 }
             }
             held.sort_unstable();
-            (deepest, held)
+            held
         };
-        let depth = |bvh: &CwBvh| walk(bvh).0;
+        let depth = cwbvh_depth;
         let exact: Vec<Aabb> = coincident.iter().map(Boundable::aabb).collect();
         let tied = build_cwbvh_over(&coincident, &exact, params);
         let broken = build_cwbvh(&coincident, params);
@@ -442,7 +448,7 @@ mod tests {
             depth(&tied)
         );
         let all: Vec<u32> = (0..coincident.len() as u32).collect();
-        assert_eq!(walk(&broken).1, all);
+        assert_eq!(held(&broken), all);
         assert_eq!(broken.nodes[0].p, Vec3::ZERO);
         assert_eq!(tied.nodes[0].p, Vec3::ZERO);
     }

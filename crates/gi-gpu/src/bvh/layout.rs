@@ -209,7 +209,7 @@ impl PackedBvh {
                 depth: 0,
             });
         }
-        let depth = max_depth(bvh);
+        let depth = gi_scene::cwbvh_depth(bvh);
         if depth > BVH_STACK_SIZE {
             return Err(BvhError::TooDeep { depth });
         }
@@ -240,23 +240,6 @@ impl PackedBvh {
             depth,
         })
     }
-}
-
-/// Depth of the deepest internal node, walking child links from the root (an explicit stack, so
-/// a degenerate BVH cannot overflow the host's).
-pub(super) fn max_depth(bvh: &CwBvh) -> u32 {
-    let mut deepest = 0;
-    let mut pending = vec![(0usize, 0u32)];
-    while let Some((index, depth)) = pending.pop() {
-        deepest = deepest.max(depth);
-        let node = &bvh.nodes[index];
-        for slot in 0..8 {
-            if !node.is_leaf(slot) {
-                pending.push((node.child_node_index(slot) as usize, depth + 1));
-            }
-        }
-    }
-    deepest
 }
 
 #[cfg(test)]

@@ -682,7 +682,7 @@ impl BottomLevels {
             };
             // Coincident instances tie exactly, as coincident triangles do.
             let bvh = gi_scene::build_cwbvh(&boxes, params);
-            let depth = super::layout::max_depth(&bvh);
+            let depth = gi_scene::cwbvh_depth(&bvh);
             let nodes = bvh.nodes.iter().map(GpuCwBvhNode::from).collect();
             let instances = bvh
                 .primitive_indices
