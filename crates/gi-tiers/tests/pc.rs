@@ -12,8 +12,8 @@ use gi_image::Image;
 use gi_reference::{Mode, Reference, RenderSettings, brdf::specular_albedo};
 use gi_scene::{CameraView, Scene, SceneFrame, Sky, Texture, TextureEncoding, TextureRef};
 use gi_tiers::pc::{
-    GpuReservoir, GpuSpecularSample, GpuSurface, HitLights, PC_OPTIONAL_STAGES, PC_STAGES,
-    PcConfig, PcFrameData, PcUniforms, TraceMode,
+    GpuGradientSample, GpuReservoir, GpuSpecularSample, GpuSurface, HitLights, PC_OPTIONAL_STAGES,
+    PC_STAGES, PcConfig, PcFrameData, PcUniforms, TraceMode,
 };
 use gi_tiers::{FrameInput, PcTier, Tier, TierError};
 use glam::{Vec3, Vec4};
@@ -129,8 +129,24 @@ fn shared_structs_match_their_wgsl_layout() {
             probe_ray_m,
             shade_contact_ratio,
             specular_diffuse_from,
+            gradient_stratum,
+            gradient_strata_x,
+            gradient_strata_y,
+            gradient_gain,
         }),
         size_of::<PcUniforms>(),
+    );
+    check(
+        "GradientSample",
+        rust_field_offsets!(GpuGradientSample {
+            origin,
+            normal,
+            seen,
+            trace_index,
+            frame_index,
+            pad,
+        }),
+        size_of::<GpuGradientSample>(),
     );
     check(
         "StoredReservoir",

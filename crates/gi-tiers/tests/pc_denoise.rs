@@ -10,7 +10,7 @@ use gi_gpu::{
 };
 use gi_tiers::pc::denoise::{
     AtrousKernel, DenoiseConfig, DenoiseInputs, DenoisePipelines, DenoiseSources, DenoiseUniforms,
-    Denoiser,
+    Denoiser, GradientGrid, GradientSource,
 };
 use glam::Vec3;
 use rand::RngExt as _;
@@ -88,10 +88,17 @@ struct Harness {
     motion: wgpu::Buffer,
     denoiser: Denoiser,
     timer: GpuTimer,
+    /// The temporal gradients' lambda per stratum (z), with [`Harness::with_gradients`].
+    gradients: Option<wgpu::Buffer>,
 }
 
 impl Harness {
     fn new(ctx: GpuContext) -> Self {
+        Self::with_gradients(ctx, None)
+    }
+
+    /// A denoiser that reads temporal gradients over `grid` ([`Harness::set_lambda`]).
+    fn with_gradients(ctx: GpuContext, grid: Option<GradientGrid>) -> Self {
         let pipelines = DenoisePipelines::new(&ctx, &ShaderLibrary::new()).unwrap();
         let usage = wgpu::BufferUsages::STORAGE
             | wgpu::BufferUsages::COPY_SRC
@@ -103,11 +110,19 @@ impl Harness {
         let depth = buffer("test.depth", 4);
         let normal = buffer("test.normal", 4);
         let motion = buffer("test.motion", 8);
+        let gradients = grid.map(|grid| {
+            let strata = u64::from(grid.strata.0 * grid.strata.1);
+            ctx.create_buffer("test.gradients", strata * 16, usage)
+        });
         let sources = DenoiseSources {
             noisy: &noisy,
             depth: &depth,
             normal: &normal,
             motion: &motion,
+            gradients: grid.zip(gradients.as_ref()).map(|(grid, buffer)| GradientSource {
+                buffer,
+                grid,
+            }),
         };
         let denoiser = Denoiser::new(&ctx, &pipelines, SIZE, &sources);
         let timer = GpuTimer::new(&ctx, "test.denoise", 16);
@@ -119,7 +134,17 @@ impl Harness {
             motion,
             denoiser,
             timer,
+            gradients,
         }
+    }
+
+    /// Sets the gradients' lambda of every stratum, row-major.
+    fn set_lambda(&self, lambda: &[f32]) {
+        let entries: Vec<[f32; 4]> = lambda.iter().map(|&l| [0.0, 0.0, l, 0.0]).collect();
+        let buffer = self.gradients.as_ref().expect("made with gradients");
+        self.ctx
+            .queue
+            .write_buffer(buffer, 0, bytemuck::cast_slice(&entries));
     }
 
     /// Denoises `frame` and returns the output.
@@ -217,6 +242,10 @@ fn uniforms_match_their_wgsl_layout() {
         luminance_sigma,
         feedback,
         short_clamp_sigma,
+        gradient_scale,
+        gradient_strata_x,
+        gradient_strata_y,
+        pad,
     });
     assert_eq!(wgsl.members, rust);
     assert_eq!(wgsl.size as usize, size_of::<DenoiseUniforms>());
@@ -688,8 +717,9 @@ fn memory_is_counted_and_released() {
     };
     let harness = Harness::new(ctx);
     let bytes = harness.denoiser.memory_bytes();
-    // 44 bytes per pixel (see the module docs) and nine 256-byte uniform slots.
-    assert_eq!(bytes, 44 * PIXELS as u64 + 9 * 256);
+    // 44 bytes per pixel (see the module docs), nine 256-byte uniform slots and, without
+    // temporal gradients, the 16-byte buffer bound in their place.
+    assert_eq!(bytes, 44 * PIXELS as u64 + 9 * 256 + 16);
     assert_eq!(harness.ctx.memory().bytes_with_prefix("pc.denoise."), bytes);
     harness.denoiser.release(&harness.ctx);
     assert_eq!(harness.ctx.memory().bytes_with_prefix("pc.denoise."), 0);
@@ -755,5 +785,49 @@ fn feedback_compounds_the_blur_and_is_off_by_default() {
     assert!(
         mean > 4.0 * sd / n.sqrt(),
         "feedback did not blur more: {mean} vs {sd}"
+    );
+}
+
+/// The temporal gradients' lambda drops the history where the light changed and keeps it
+/// elsewhere: after 24 frames of a lit surface the light goes out; where lambda is 1 the
+/// very next frame shows the dark input, where it is 0 the histories fall at their own rate
+/// (the short one by 1 / short_history a frame, the long one clamped into its box).
+#[test]
+fn lambda_drops_the_history_where_the_light_changed() {
+    let Some(ctx) = GpuContext::new_or_skip("lambda_drops_the_history_where_the_light_changed")
+    else {
+        return;
+    };
+    let grid = GradientGrid {
+        scale: 4,
+        strata: (SIZE.0 / 4, SIZE.1 / 4),
+    };
+    let mut harness = Harness::with_gradients(ctx, Some(grid));
+    let config = DenoiseConfig {
+        atrous_iterations: 0,
+        ..DenoiseConfig::default()
+    };
+    let strata = (grid.strata.0 * grid.strata.1) as usize;
+    harness.set_lambda(&vec![0.0; strata]);
+    let lit = Frame::flat([1.0; 3], 4.0, Vec3::Z);
+    for _ in 0..24 {
+        harness.run(&lit, &config);
+    }
+    // The left half's strata changed, the right half's did not.
+    let lambda: Vec<f32> = (0..strata)
+        .map(|s| f32::from(u8::from((s as u32 % grid.strata.0) < grid.strata.0 / 2)))
+        .collect();
+    harness.set_lambda(&lambda);
+    let dark = Frame::flat([0.0; 3], 4.0, Vec3::Z);
+    let output = harness.run(&dark, &config);
+    // Away from the middle, where lambda is interpolated between the halves.
+    let (left, _) = stats(&output, 1, |p| column(p) < SIZE.0 / 2 - grid.scale);
+    let (right, _) = stats(&output, 1, |p| column(p) >= SIZE.0 / 2 + grid.scale);
+    eprintln!("after the light went out: left (lambda 1) {left}, right (lambda 0) {right}");
+    assert!(left.abs() < 1e-6, "the changed half kept history: {left}");
+    let short = 1.0 - 1.0 / config.short_history as f64;
+    assert!(
+        right > 0.9 * short,
+        "the unchanged half lost its history: {right}"
     );
 }

@@ -35,7 +35,7 @@ const TEMPORAL_WRITE: u32 = 0u;
 const VARIANCE_WRITE: u32 = 1u;
 const FIRST_ATROUS_WRITE: u32 = 2u;
 
-// Mirror of `gi_tiers::pc::denoise::DenoiseUniforms`, 64 bytes.
+// Mirror of `gi_tiers::pc::denoise::DenoiseUniforms`, 80 bytes.
 struct DenoiseUniforms {
     size_px: vec2<u32>,
     // Pixels between a-trous taps (2^iteration).
@@ -58,6 +58,13 @@ struct DenoiseUniforms {
     // Half-width of the short history's clamp box in sigmas of the noisy 3 x 3 neighbourhood
     // (0: off).
     short_clamp_sigma: f32,
+    // Full-resolution pixels per side of a temporal-gradient stratum; 0: no gradients (lambda
+    // 0 everywhere).
+    gradient_scale: u32,
+    // Strata per row and per column of `gradients`.
+    gradient_strata_x: u32,
+    gradient_strata_y: u32,
+    pad: u32,
 }
 
 // Group 0.
@@ -84,6 +91,9 @@ struct DenoiseUniforms {
 // the reprojected long history between `temporal_short` and `temporal` (`Reprojected`), then
 // the full-precision filter buffer, and the result after the last pass.
 @group(0) @binding(10) var<storage, read_write> output: array<vec4<u32>>;
+// Per temporal-gradient stratum, lambda in z (`pc/restir/gradient.wgsl`): how much of the
+// light changed since the last frame.
+@group(0) @binding(11) var<storage, read> gradients: array<vec4<f32>>;
 
 // Group 1.
 // Named `uniforms`, not `u`: the passes import it, and naga_oil would rewrite the `u` suffix
@@ -204,4 +214,25 @@ fn normal_weight(n: vec3<f32>, m: vec3<f32>, power: f32) -> f32 {
         return 0.0;
     }
     return pow(cos_angle, power);
+}
+
+// The temporal gradient's lambda at `pixel` (0: the light did not change; 1: it all changed),
+// bilinear between the centres of the strata around it.
+fn gradient_lambda(pixel: vec2<i32>) -> f32 {
+    let scale = uniforms.gradient_scale;
+    if scale == 0u {
+        return 0.0;
+    }
+    let strata = vec2<i32>(i32(uniforms.gradient_strata_x), i32(uniforms.gradient_strata_y));
+    let at = (vec2<f32>(pixel) + 0.5) / f32(scale) - 0.5;
+    let base = floor(at);
+    let f = at - base;
+    var lambda = 0.0;
+    for (var corner = 0u; corner < 4u; corner++) {
+        let c = vec2(corner & 1u, corner >> 1u);
+        let q = clamp(vec2<i32>(base) + vec2<i32>(c), vec2(0), strata - 1);
+        let w = select(1.0 - f, f, c == vec2(1u));
+        lambda += w.x * w.y * gradients[u32(q.y * strata.x + q.x)].z;
+    }
+    return lambda;
 }

@@ -7,6 +7,9 @@
 //                   blend this frame's noisy irradiance into the short history
 //                   with alpha = max(1 / (age + 1), 1 / short_history), and leave the
 //                   reprojected long history (color, luminance moments, age) in `output`;
+//                   where the temporal gradient's lambda (`gradient_lambda`) says the light
+//                   changed, both alphas first become mix(alpha, 1, lambda), the long one
+//                   through the age it stores;
 //   temporal        clamp the reprojected long color into mean +- clamp_sigma sigma of this
 //                   frame's short history over the 5 x 5 neighbourhood and blend with
 //                   alpha = max(1 / (age + 1), 1 / long_history); store the long history
@@ -21,7 +24,7 @@
 #import gi::pc::denoise::{
     noisy_at, depth, normal, motion, previous_depth, previous_normal, short_in, short_out, output,
     uniforms, load_history, store_history, load_moments, store_moments, store_filter, is_sky,
-    pixel_index, inside, depth_at, depth_derivative, TEMPORAL_WRITE
+    pixel_index, inside, depth_at, depth_derivative, gradient_lambda, TEMPORAL_WRITE
 }
 
 // Most error of an RGB9E5 channel relative to the largest channel (half a mantissa step).
@@ -131,7 +134,11 @@ fn temporal_short(@builtin(global_invocation_id) id: vec3<u32>) {
             previous_moments += w * load_moments(t);
         }
         previous_age = previous_long.w / total;
-        let alpha = max(1.0 / (previous_age + 1.0), 1.0 / f32(uniforms.short_history));
+        // Where the light changed the histories weigh less (A-SVGF: alpha' = mix(alpha, 1,
+        // lambda)); the long one through its age, which `temporal` turns into its alpha.
+        let lambda = gradient_lambda(pixel);
+        previous_age = 1.0 / mix(1.0 / (previous_age + 1.0), 1.0, lambda) - 1.0;
+        let alpha = max(1.0 / (previous_age + 1.0), mix(1.0 / f32(uniforms.short_history), 1.0, lambda));
         var reprojected_short = previous_short / total;
         if uniforms.short_clamp_sigma > 0.0 {
             let box = neighbourhood(pixel, 1, true);

@@ -10,6 +10,7 @@
 #define_import_path gi::pc::restir::common
 
 #import gi::camera::{Camera, camera_ray}
+#import gi::sampling::{sampler_new, sampler_next_u32}
 #import gi::math::luminance
 #import gi::sky::Sky
 #import gi::packing::{
@@ -94,11 +95,47 @@ struct PcUniforms {
     // Roughness above which the reused reflection blends linearly to the irradiance over pi,
     // reached at roughness 1 (1: no blend).
     specular_diffuse_from: f32,
+    // Trace pixels per side of a temporal-gradient stratum (`PcConfig::gradients`); 0: no
+    // gradients.
+    gradient_stratum: u32,
+    // Strata per row and per column.
+    gradient_strata_x: u32,
+    gradient_strata_y: u32,
+    // The gradient's gain: the history's weight falls by `min(gain * lambda, 1)`.
+    gradient_gain: f32,
 }
 
 // Binding 0 of bind group 0 in every pass. Named `uniforms`, not `u`: an entry file imports
 // it, and naga_oil would rewrite the `u` suffix of integer literals into an imported `u`.
 @group(0) @binding(0) var<uniform> uniforms: PcUniforms;
+
+// Mirror of `gi_tiers::pc::GpuGradientSample`, 32 bytes: the BVH ray candidate one trace pixel
+// of a temporal-gradient stratum drew in frame `frame_index`, which `gradient` draws again
+// (A-SVGF's forward-projected sample, Schied et al. 2018): the receiver's offset origin and
+// packed normal give the ray again with the random numbers of that frame and trace pixel, and
+// `seen` is the luminance of what it found then.
+struct GradientSample {
+    origin: vec3<f32>,
+    normal: u32,
+    seen: f32,
+    // `GRADIENT_NONE`: the stratum kept no sample (sky, or gradients off).
+    trace_index: u32,
+    frame_index: u32,
+    pad: u32,
+}
+
+const GRADIENT_NONE: u32 = 0xffffffffu;
+
+// The trace pixel of `stratum` whose ray is kept for the gradient in frame `frame`, chosen
+// anew each frame (A-SVGF picks one pixel per stratum at random); outside the image when the
+// stratum, at the image's edge, has no such pixel.
+fn gradient_pick(stratum: vec2<u32>, frame: u32) -> vec2<u32> {
+    let side = uniforms.gradient_stratum;
+    let index = stratum.y * uniforms.gradient_strata_x + stratum.x;
+    var sampler = sampler_new(uniforms.seed ^ vec2(0x68e31da4u, 0u), index, frame);
+    let o = sampler_next_u32(&sampler) % (side * side);
+    return stratum * side + vec2(o % side, o / side);
+}
 
 // One trace pixel's receiver: the G-buffer surface of the full-resolution pixel it picked
 // this frame. `depth` 0: no surface (every pixel of its block shows the sky).

@@ -8,7 +8,7 @@
 
 #import gi::pc::restir::common::{
     uniforms, Surface, StoredSurface, StoredReservoir, SpecularSample, stored_surface,
-    surface_seen_by
+    surface_seen_by, GradientSample, GRADIENT_NONE, gradient_pick
 }
 
 // Shadow rays stop short of their target by this share of the distance.
@@ -30,6 +30,11 @@ const SHADOW_MARGIN: f32 = 1e-3;
 @group(0) @binding(15) var<storage, read> gbuffer_metallic_roughness: array<vec2<f32>>;
 // Per trace pixel: the specular ray (written by `specular_trace`).
 @group(0) @binding(16) var<storage, read_write> specular_samples: array<SpecularSample>;
+// Per temporal-gradient stratum: the ray candidate `trace` kept for the next frame's gradient.
+@group(0) @binding(17) var<storage, read_write> gradient_samples: array<GradientSample>;
+// Per stratum: the change `gradient` measured (x: new minus old luminance, y: the larger of
+// the two), and `gradient_filter`'s lambda (z) over the strata around it.
+@group(0) @binding(18) var<storage, read_write> gradients: array<vec4<f32>>;
 
 // This frame's receiver of trace pixel `index`.
 fn load_surface(index: u32) -> Surface {
@@ -45,4 +50,32 @@ fn store_surface(index: u32, s: Surface) {
 fn offset_origin(p: vec3<f32>, n: vec3<f32>) -> vec3<f32> {
     let a = abs(p);
     return p + n * (1e-4 * (1.0 + max(max(a.x, a.y), a.z)));
+}
+
+// Keeps the ray candidate of trace pixel `t` (index `index`) for the next frame's gradient
+// when `t` is its stratum's pick this frame: its receiver's offset origin and packed normal,
+// and the luminance it found.
+fn store_gradient_sample(t: vec2<u32>, index: u32, origin: vec3<f32>, normal: u32, luminance: f32) {
+    if uniforms.gradient_stratum == 0u {
+        return;
+    }
+    let stratum = t / uniforms.gradient_stratum;
+    if any(gradient_pick(stratum, uniforms.frame_index) != t) {
+        return;
+    }
+    let s = stratum.y * uniforms.gradient_strata_x + stratum.x;
+    gradient_samples[s] = GradientSample(origin, normal, luminance, index, uniforms.frame_index, 0u);
+}
+
+// Marks the stratum of trace pixel `t` as keeping no sample this frame when `t` is its pick.
+fn clear_gradient_sample(t: vec2<u32>) {
+    if uniforms.gradient_stratum == 0u {
+        return;
+    }
+    let stratum = t / uniforms.gradient_stratum;
+    if any(gradient_pick(stratum, uniforms.frame_index) != t) {
+        return;
+    }
+    let s = stratum.y * uniforms.gradient_strata_x + stratum.x;
+    gradient_samples[s].trace_index = GRADIENT_NONE;
 }

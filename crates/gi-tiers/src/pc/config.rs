@@ -31,6 +31,56 @@ pub struct PcConfig {
     /// Where the diffuse rays' hits get the punctual lights' (the sun's, point and spot
     /// lights') direct light: see [`HitLights`].
     pub hit_lights: HitLights,
+    /// Temporal gradients, which shorten the denoiser's histories where the light changed.
+    pub gradients: GradientConfig,
+}
+
+/// Temporal gradients (Schied, Peters and Dachsbacher 2018, "Gradient Estimation for Real-Time
+/// Adaptive Temporal Filtering", A-SVGF): each frame one trace pixel per stratum keeps its
+/// diffuse ray, and the next frame draws that ray again (same receiver, direction and random
+/// numbers) before tracing its own. The change of what it finds is the change of the scene's
+/// light and geometry, free of sampling noise; over the 3 x 3 strata around each,
+/// `lambda = min(gain |sum of changes| / sum of the larger luminances, 1)`, and the denoiser
+/// blends with `alpha' = mix(alpha, 1, lambda)` instead of its history's alpha. Cost: one more
+/// diffuse ray (with its hit's shadow rays) per stratum.
+#[derive(Clone, Debug, PartialEq)]
+pub struct GradientConfig {
+    /// Measure the gradients. Off, the histories follow a change at their own rate only.
+    pub enabled: bool,
+    /// Trace pixels per side of a stratum (A-SVGF: 3 pixels).
+    pub stratum: u32,
+    /// Scale of lambda: higher drops more history for a smaller change, and more of it for
+    /// the cache's frame-to-frame noise.
+    pub gain: f32,
+}
+
+impl Default for GradientConfig {
+    fn default() -> Self {
+        Self {
+            enabled: true,
+            stratum: 3,
+            gain: 1.0,
+        }
+    }
+}
+
+impl GradientConfig {
+    /// Checks every field; the error names the first bad one.
+    pub fn validate(&self) -> Result<(), String> {
+        if !(1..=8).contains(&self.stratum) {
+            return Err(format!(
+                "gradient stratum must be within 1..=8 trace pixels, not {}",
+                self.stratum
+            ));
+        }
+        if !(self.gain.is_finite() && self.gain > 0.0) {
+            return Err(format!(
+                "gradient gain must be positive and finite, not {}",
+                self.gain
+            ));
+        }
+        Ok(())
+    }
 }
 
 /// Where the hits of the PC tier's diffuse rays get the punctual lights' direct light. The
@@ -95,6 +145,7 @@ impl Default for PcConfig {
             specular: SpecularConfig::default(),
             material_occlusion: false,
             hit_lights: HitLights::ShadowRays,
+            gradients: GradientConfig::default(),
         }
     }
 }
@@ -151,7 +202,8 @@ pub const PC_OPTIONAL_STAGES: [&str; 1] = ["temporal"];
 
 /// The stages [`PcConfig::without`] can switch off, for ablations. Temporal reuse and its
 /// boiling filter are off by default ([`PC_OPTIONAL_STAGES`]).
-pub const PC_STAGES: [&str; 7] = [
+pub const PC_STAGES: [&str; 8] = [
+    "gradients",
     "spatial",
     "shadow",
     "multi-sample",
@@ -169,7 +221,8 @@ impl PcConfig {
     /// (temporal accumulation and the a-trous passes). `specular` traces no specular rays: the
     /// smooth surfaces reflect the irradiance over pi through their split-sum specular albedo.
     /// `rough-specular` does not reuse the diffuse samples for the rough surfaces' reflection:
-    /// they reflect the irradiance over pi.
+    /// they reflect the irradiance over pi. `gradients` measures no temporal gradients: the
+    /// histories follow a change of the light at their own rate.
     pub fn without(stage: &str) -> Result<Self, String> {
         let mut config = Self::default();
         let r = &mut config.restir;
@@ -188,6 +241,7 @@ impl PcConfig {
                 config.denoise.atrous_iterations = 0;
             }
             "specular" => config.specular.traced = false,
+            "gradients" => config.gradients.enabled = false,
             "rough-specular" => config.specular.reuse_diffuse = false,
             "restir" => {
                 r.spatial = false;
@@ -246,6 +300,7 @@ impl PcConfig {
         }
         self.restir.validate()?;
         self.denoise.validate()?;
+        self.gradients.validate()?;
         self.specular.validate()
     }
 }

@@ -248,7 +248,7 @@ impl DenoiseConfig {
     }
 }
 
-/// Mirror of `DenoiseUniforms` in `shaders/pc/denoise/shared.wgsl`, 64 bytes.
+/// Mirror of `DenoiseUniforms` in `shaders/pc/denoise/shared.wgsl`, 80 bytes.
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
 pub struct DenoiseUniforms {
@@ -274,12 +274,22 @@ pub struct DenoiseUniforms {
     pub feedback: u32,
     /// [`DenoiseConfig::short_clamp_sigma`]; 0: off.
     pub short_clamp_sigma: f32,
+    /// Full-resolution pixels per side of a temporal-gradient stratum ([`GradientGrid`]); 0:
+    /// no gradients.
+    pub gradient_scale: u32,
+    pub gradient_strata_x: u32,
+    pub gradient_strata_y: u32,
+    pub pad: u32,
 }
 
 impl DenoiseUniforms {
     /// The uniforms of `config` for an image of `size` pixels, with no a-trous step yet.
     pub fn new(config: &DenoiseConfig, size: (u32, u32), history_valid: bool) -> Self {
         Self {
+            gradient_scale: 0,
+            gradient_strata_x: 0,
+            gradient_strata_y: 0,
+            pad: 0,
             size_px: [size.0, size.1],
             step_px: 1,
             atrous_iterations: config.atrous_iterations.min(MAX_ATROUS_ITERATIONS),
@@ -318,8 +328,8 @@ impl DenoisePipelines {
     pub fn new(ctx: &GpuContext, shaders: &ShaderLibrary) -> Result<Self, GpuError> {
         // The inputs and the previous depth are read-only; the previous normal and short
         // history double as a filter buffer.
-        let frame_entries: Vec<_> = (0..=10)
-            .map(|binding| storage_entry(binding, binding < 5))
+        let frame_entries: Vec<_> = (0..=11)
+            .map(|binding| storage_entry(binding, binding < 5 || binding == 11))
             .collect();
         let frame_layout = ctx
             .device
@@ -370,6 +380,26 @@ pub struct DenoiseSources<'a> {
     /// `array<vec2<f32>>`: previous pixel position minus this pixel's center, pixels
     /// (`gbuffer.motion`).
     pub motion: &'a wgpu::Buffer,
+    /// Temporal gradients that shorten the histories where the light changed; `None`: the
+    /// histories keep their lengths.
+    pub gradients: Option<GradientSource<'a>>,
+}
+
+/// Where the denoiser reads the temporal gradients (`pc/restir/gradient.wgsl`).
+pub struct GradientSource<'a> {
+    /// `array<vec4<f32>>`, one entry per stratum, row-major, lambda in z: 0 where the light
+    /// did not change since the last frame, up to 1 where all of it did.
+    pub buffer: &'a wgpu::Buffer,
+    pub grid: GradientGrid,
+}
+
+/// The strata of the temporal gradients over the image.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct GradientGrid {
+    /// Full-resolution pixels per side of a stratum.
+    pub scale: u32,
+    /// Strata per row and per column.
+    pub strata: (u32, u32),
 }
 
 /// The denoiser of one image size: its histories and output (labels `pc.denoise.*`) and the
@@ -396,6 +426,9 @@ pub struct Denoiser {
     moments: wgpu::Buffer,
     /// The reprojected long history, then the full-precision filter buffer, then the result.
     output: wgpu::Buffer,
+    /// The stand-in for the gradients when there are none.
+    no_gradients: Option<wgpu::Buffer>,
+    gradient_grid: Option<GradientGrid>,
     /// Group 0 of each side of `short_history`, swapped with it.
     frame_groups: PingPong<wgpu::BindGroup>,
     /// Group 1 of each uniform slot.
@@ -507,6 +540,18 @@ impl Denoiser {
         let history = buffer("pc.denoise.history", 8);
         let moments = buffer("pc.denoise.moments", 4);
         let output = buffer("pc.denoise.output", 16);
+        // Without gradients lambda is never read: a binding's least size stands in.
+        let no_gradients = sources
+            .gradients
+            .is_none()
+            .then(|| ctx.create_buffer("pc.denoise.no_gradients", 16, wgpu::BufferUsages::STORAGE));
+        let gradients = sources
+            .gradients
+            .as_ref()
+            .map(|g| g.buffer)
+            .or(no_gradients.as_ref())
+            .expect("one of the two");
+        let gradient_grid = sources.gradients.as_ref().map(|g| g.grid);
 
         let frame_group = |write: usize| {
             let (short_in, short_out) = short_history.read_write(write);
@@ -527,6 +572,7 @@ impl Denoiser {
                         &history,
                         &moments,
                         &output,
+                        gradients,
                     ],
                 ),
             })
@@ -561,6 +607,8 @@ impl Denoiser {
             history,
             moments,
             output,
+            no_gradients,
+            gradient_grid,
             frame_groups,
             uniform_groups,
             has_history: false,
@@ -569,7 +617,11 @@ impl Denoiser {
 
     /// Writes slot 0 (temporal, variance) and one slot per a-trous iteration.
     fn write_uniforms(&self, ctx: &GpuContext, config: &DenoiseConfig) {
-        let base = DenoiseUniforms::new(config, self.size, config.temporal && self.has_history);
+        let mut base = DenoiseUniforms::new(config, self.size, config.temporal && self.has_history);
+        if let Some(grid) = self.gradient_grid {
+            base.gradient_scale = grid.scale;
+            (base.gradient_strata_x, base.gradient_strata_y) = grid.strata;
+        }
         let mut slots = vec![0u8; self.uniforms.size() as usize];
         for slot in 0..=MAX_ATROUS_ITERATIONS {
             let uniforms = match slot {
@@ -626,6 +678,7 @@ impl Denoiser {
         ]
         .into_iter()
         .chain(self.short_history.both())
+        .chain(self.no_gradients.as_ref())
     }
 
     /// Stops counting and destroys the buffers it owns (not the sources).

@@ -6,6 +6,8 @@
 //! tier's), `pc/trace` (one BVH ray per trace pixel, shaded at the hit with exact direct light,
 //! one sample of the emitters included, and the cache's bounced light; the tier's cache keeps
 //! its emitted part apart for that, [`gi_cache::CacheConfig::keep_emitted`]),
+//! with `pc/gradient` before it (last frame's kept rays drawn again: the temporal gradients
+//! that shorten the denoiser's histories where the light changed, [`GradientConfig`]),
 //! `pc/specular_trace` (one GGX VNDF ray per trace pixel on surfaces smoother than
 //! [`SpecularConfig::max_roughness`]), `pc/temporal` (only with temporal reuse, off by default:
 //! [`RestirConfig::temporal`]), `pc/spatial`, `pc/shadow` (the reservoir passes), `pc/shade`
@@ -23,7 +25,8 @@ pub mod denoise;
 mod restir;
 
 pub use config::{
-    HitLights, PC_OPTIONAL_STAGES, PC_STAGES, PcConfig, RestirConfig, SpecularConfig, TraceMode,
+    GradientConfig, HitLights, PC_OPTIONAL_STAGES, PC_STAGES, PcConfig, RestirConfig,
+    SpecularConfig, TraceMode,
 };
 
 use bytemuck::{Pod, Zeroable};
@@ -84,6 +87,30 @@ pub struct PcUniforms {
     pub shade_contact_ratio: f32,
     /// Roughness above which the reused rough reflection blends to the irradiance over pi.
     pub specular_diffuse_from: f32,
+    /// Trace pixels per side of a temporal-gradient stratum; 0: no gradients.
+    pub gradient_stratum: u32,
+    pub gradient_strata_x: u32,
+    pub gradient_strata_y: u32,
+    /// [`GradientConfig::gain`].
+    pub gradient_gain: f32,
+}
+
+/// Mirror of `GradientSample` in `shaders/pc/restir/common.wgsl`, 32 bytes: the BVH ray
+/// candidate one trace pixel of a temporal-gradient stratum drew, kept for the next frame's
+/// `pc/gradient` to draw again.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
+pub struct GpuGradientSample {
+    /// The receiver's offset ray origin.
+    pub origin: [f32; 3],
+    /// The receiver's packed normal.
+    pub normal: u32,
+    /// Luminance of what the ray found.
+    pub seen: f32,
+    /// The trace pixel (row-major), `u32::MAX`: no sample.
+    pub trace_index: u32,
+    pub frame_index: u32,
+    pub pad: u32,
 }
 
 /// Mirror of `StoredReservoir` in `shaders/pc/restir/common.wgsl`, 32 bytes: a ReSTIR GI
@@ -338,6 +365,7 @@ impl PcTier {
         let r = &self.config.restir;
         let prepared = self.prepared.as_ref().expect("prepared before uniforms");
         let trace_size = prepared.restir.buffers.trace_size;
+        let gradient_grid = prepared.restir.buffers.gradient_grid;
         let mut bits = 0;
         for (on, bit) in [
             (r.temporal, flags::TEMPORAL),
@@ -392,6 +420,10 @@ impl PcTier {
             },
             shade_contact_ratio: r.shade_contact_ratio,
             specular_diffuse_from: self.config.specular.diffuse_from,
+            gradient_stratum: gradient_grid.map_or(0, |_| self.config.gradients.stratum),
+            gradient_strata_x: gradient_grid.map_or(0, |g| g.strata.0),
+            gradient_strata_y: gradient_grid.map_or(0, |g| g.strata.1),
+            gradient_gain: self.config.gradients.gain,
         }
     }
 
@@ -428,6 +460,10 @@ impl PcTier {
             size,
             self.config.trace_scale,
             self.config.restir.temporal,
+            self.config
+                .gradients
+                .enabled
+                .then_some(self.config.gradients.stratum),
         );
         let gbuffer = self.gbuffer.outputs();
         let denoiser = Denoiser::new(
@@ -439,6 +475,7 @@ impl PcTier {
                 depth: gbuffer.depth,
                 normal: gbuffer.normal,
                 motion: gbuffer.motion,
+                gradients: restir.buffers.gradient_source(),
             },
         );
         self.prepared = Some(Prepared {

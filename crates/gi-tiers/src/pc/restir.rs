@@ -11,7 +11,8 @@ use gi_gpu::{
     TEXTURE_BIND_GROUP, Technique, wgpu,
 };
 
-use super::{GpuReservoir, GpuSpecularSample, GpuSurface, PcConfig, PcUniforms};
+use super::denoise::{GradientGrid, GradientSource};
+use super::{GpuGradientSample, GpuReservoir, GpuSpecularSample, GpuSurface, PcConfig, PcUniforms};
 
 /// Pixels per side of every pass's workgroups (`@workgroup_size(8, 8)`).
 const TILE: u32 = 8;
@@ -31,6 +32,8 @@ pub(super) struct RestirPipelines {
     specular_trace: wgpu::ComputePipeline,
     specular_resolve: wgpu::ComputePipeline,
     specular_temporal: wgpu::ComputePipeline,
+    gradient: wgpu::ComputePipeline,
+    gradient_filter: wgpu::ComputePipeline,
 }
 
 impl RestirPipelines {
@@ -58,20 +61,26 @@ impl RestirPipelines {
         trace_groups[BVH_BIND_GROUP as usize] = Some(&bvh_layout);
         trace_groups[CacheBuffers::BIND_GROUP as usize] = Some(&cache_layout);
         trace_groups[TEXTURE_BIND_GROUP as usize] = Some(&texture_layout);
-        // The passes that trace BVH rays, from `pc/restir/{entry}.wgsl`, with the alpha test.
-        let traced = |entry: &str| -> Result<_, GpuError> {
-            let module = shaders.create_module(
+        // The passes that trace BVH rays, from `pc/restir/{file}.wgsl`, with the alpha test.
+        let traced_module = |file: &str| {
+            shaders.create_module(
                 ctx,
-                &format!("pc/restir/{entry}.wgsl"),
+                &format!("pc/restir/{file}.wgsl"),
                 &[gi_gpu::ALPHA_TEST],
-            )?;
-            Ok(ctx.create_compute_pipeline_with_layouts(
+            )
+        };
+        let traced_pipeline = |module: &wgpu::ShaderModule, entry: &str| {
+            ctx.create_compute_pipeline_with_layouts(
                 &format!("pc/{entry}"),
-                &module,
+                module,
                 entry,
                 &trace_groups,
-            ))
+            )
         };
+        let traced = |entry: &str| -> Result<_, GpuError> {
+            Ok(traced_pipeline(&traced_module(entry)?, entry))
+        };
+        let gradient = traced_module("gradient")?;
         let mut restir_groups: Vec<Option<&wgpu::BindGroupLayout>> =
             vec![None; CacheBuffers::BIND_GROUP as usize + 1];
         restir_groups[0] = Some(&restir_layout);
@@ -96,6 +105,8 @@ impl RestirPipelines {
             compose: reused("compose")?,
             specular_resolve: reused("specular_resolve")?,
             specular_temporal: reused("specular_temporal")?,
+            gradient: traced_pipeline(&gradient, "gradient"),
+            gradient_filter: traced_pipeline(&gradient, "gradient_filter"),
             trace_layout,
             restir_layout,
         })
@@ -118,6 +129,10 @@ gi_gpu::storage_bindings! {
         gbuffer_base_color: read,
         gbuffer_metallic_roughness: read,
         specular_samples: read_write,
+        /// The ray candidates kept for the next frame's gradient, one per stratum.
+        gradient_samples: read_write,
+        /// The gradients and their lambda, one per stratum.
+        gradients: read_write,
     }
 }
 
@@ -187,6 +202,12 @@ pub(super) struct RestirBuffers {
     pub(super) specular_samples: wgpu::Buffer,
     /// Per pixel: the resolved specular radiance (`pack_color64`: rgb and a validity flag).
     pub(super) specular_noisy: wgpu::Buffer,
+    /// The temporal gradients' strata; `None`: gradients off.
+    pub(super) gradient_grid: Option<GradientGrid>,
+    /// Per stratum: the ray candidate `trace` keeps for the next frame's gradient.
+    gradient_samples: wgpu::Buffer,
+    /// Per stratum: the gradient and its lambda (`vec4<f32>`).
+    pub(super) gradients: wgpu::Buffer,
     /// Whether `frames.history()` holds the previous frame's surfaces and reservoirs.
     pub(super) history: bool,
 }
@@ -198,8 +219,14 @@ impl RestirBuffers {
         size: (u32, u32),
         trace_scale: u32,
         temporal: bool,
+        gradient_stratum: Option<u32>,
     ) -> Self {
         let trace_size = (size.0.div_ceil(trace_scale), size.1.div_ceil(trace_scale));
+        let gradient_grid = gradient_stratum.map(|side| GradientGrid {
+            scale: side * trace_scale,
+            strata: (trace_size.0.div_ceil(side), trace_size.1.div_ceil(side)),
+        });
+        let strata = gradient_grid.map_or(1, |g| u64::from(g.strata.0) * u64::from(g.strata.1));
         let traced = u64::from(trace_size.0) * u64::from(trace_size.1);
         let pixels = u64::from(size.0) * u64::from(size.1);
         let storage = wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC;
@@ -229,8 +256,22 @@ impl RestirBuffers {
                 traced * size_of::<GpuSpecularSample>() as u64,
             ),
             specular_noisy: buffer("pc.specular_noisy", pixels * 8),
+            gradient_grid,
+            gradient_samples: buffer(
+                "pc.gradient_samples",
+                strata * size_of::<GpuGradientSample>() as u64,
+            ),
+            gradients: buffer("pc.gradients", strata * 16),
             history: false,
         }
+    }
+
+    /// The temporal gradients for the denoiser; `None` when they are off.
+    pub(super) fn gradient_source(&self) -> Option<GradientSource<'_>> {
+        self.gradient_grid.map(|grid| GradientSource {
+            buffer: &self.gradients,
+            grid,
+        })
     }
 
     /// Ends a frame: its surfaces, reservoirs and specular history become the next frame's
@@ -252,6 +293,8 @@ impl RestirBuffers {
             &self.output,
             &self.specular_samples,
             &self.specular_noisy,
+            &self.gradient_samples,
+            &self.gradients,
         ] {
             ctx.release_buffer(buffer);
         }
@@ -323,6 +366,8 @@ impl RestirBuffers {
                 gbuffer_base_color: g.base_color,
                 gbuffer_metallic_roughness: g.metallic_roughness,
                 specular_samples: &b.specular_samples,
+                gradient_samples: &b.gradient_samples,
+                gradients: &b.gradients,
             }
             .entries(),
         );
@@ -403,10 +448,11 @@ impl Restir {
         size: (u32, u32),
         trace_scale: u32,
         temporal: bool,
+        gradient_stratum: Option<u32>,
     ) -> Self {
         Self {
             pipelines: pipelines.clone(),
-            buffers: RestirBuffers::new(ctx, size, trace_scale, temporal),
+            buffers: RestirBuffers::new(ctx, size, trace_scale, temporal, gradient_stratum),
             recorded: None,
         }
     }
@@ -444,7 +490,8 @@ impl Technique for Restir {
     /// denoising, which the denoiser was made over ([`super::denoise::DenoiseSources`]).
     type Outputs<'o> = ();
 
-    /// Records the passes before the denoiser, each under its name, in order: `pc/trace`
+    /// Records the passes before the denoiser, each under its name, in order: `pc/gradient`
+    /// (with temporal gradients: last frame's kept ray candidates drawn again), `pc/trace`
     /// (a diffuse ray per trace pixel, its hit shaded from the brick cache),
     /// `pc/specular_trace`, `pc/temporal` and `pc/spatial` (ReSTIR GI reuse), `pc/shadow` (the
     /// chosen samples' visibility), `pc/shade` (multi-sample shading into `irradiance`),
@@ -481,6 +528,20 @@ impl Technique for Restir {
             steps.push(("pc/specular_temporal", &p.specular_temporal, false, false));
         }
         let scene = inputs.scene;
+        if let Some(grid) = self.buffers.gradient_grid {
+            // Both dispatches in one scope: wgpu orders them with a barrier.
+            let groups_of = (grid.strata.0.div_ceil(TILE), grid.strata.1.div_ceil(TILE));
+            rec.compute_pass("pc/gradient", |pass| {
+                pass.set_bind_group(0, &groups.trace, &[]);
+                pass.set_bind_group(BVH_BIND_GROUP, &scene.bvh.bind_group, &[]);
+                scene.set_texture_bind_group(pass);
+                pass.set_bind_group(CacheBuffers::BIND_GROUP, inputs.cache, &[]);
+                for pipeline in [&p.gradient, &p.gradient_filter] {
+                    pass.set_pipeline(pipeline);
+                    pass.dispatch_workgroups(groups_of.0, groups_of.1, 1);
+                }
+            });
+        }
         for (name, pipeline, traces, per_trace_pixel) in steps {
             rec.compute_pass(name, |pass| {
                 pass.set_pipeline(pipeline);
@@ -514,7 +575,8 @@ mod tests {
     use gi_gpu::binding::{Access, check_declared, wgsl_storage_bindings};
 
     /// The passes of `shaders/pc/restir/`, each in its own file.
-    const PASSES: [&str; 9] = [
+    const PASSES: [&str; 10] = [
+        "gradient",
         "trace",
         "shadow",
         "specular_trace",
