@@ -328,6 +328,13 @@ enum Command {
         /// the default). Only the PC tier reads it.
         #[arg(long)]
         pc_short_clamp_sigma: Option<f32>,
+        /// A PC tier stage to switch off (`PcConfig::without`, e.g. `gradients`). Only the PC
+        /// tier reads it.
+        #[arg(long)]
+        pc_without: Option<String>,
+        /// The PC tier's temporal-gradient gain (`GradientConfig::gain`).
+        #[arg(long)]
+        pc_gradient_gain: Option<f32>,
         /// Frames rendered after the light turns.
         #[arg(long, default_value_t = 160)]
         settle_frames: u32,
@@ -569,6 +576,8 @@ fn main() -> anyhow::Result<()> {
             move_by,
             no_flicker,
             pc_short_clamp_sigma,
+            pc_without,
+            pc_gradient_gain,
             settle_frames,
             converged_frames,
             settle_k,
@@ -606,9 +615,17 @@ fn main() -> anyhow::Result<()> {
                 move_by,
                 flicker: !no_flicker,
                 pc_config: {
-                    let mut config = gi_tiers::PcConfig::default();
+                    let mut config = match pc_without {
+                        Some(stage) => {
+                            gi_tiers::PcConfig::without(&stage).map_err(anyhow::Error::msg)?
+                        }
+                        None => gi_tiers::PcConfig::default(),
+                    };
                     if let Some(sigma) = pc_short_clamp_sigma {
                         config.denoise.short_clamp_sigma = sigma;
+                    }
+                    if let Some(gain) = pc_gradient_gain {
+                        config.gradients.gain = gain;
                     }
                     config.validate().map_err(anyhow::Error::msg)?;
                     config

@@ -144,7 +144,7 @@ fn shared_structs_match_their_wgsl_layout() {
             seen,
             trace_index,
             frame_index,
-            pad,
+            total,
         }),
         size_of::<GpuGradientSample>(),
     );

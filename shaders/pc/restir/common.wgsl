@@ -112,8 +112,9 @@ struct PcUniforms {
 // Mirror of `gi_tiers::pc::GpuGradientSample`, 32 bytes: the BVH ray candidate one trace pixel
 // of a temporal-gradient stratum drew in frame `frame_index`, which `gradient` draws again
 // (A-SVGF's forward-projected sample, Schied et al. 2018): the receiver's offset origin and
-// packed normal give the ray again with the random numbers of that frame and trace pixel, and
-// `seen` is the luminance of what it found then.
+// packed normal give the ray again with the random numbers of that frame and trace pixel.
+// `seen` is the luminance of what it found then that does not come from the brick cache
+// (`gradient_seen`), `total` the luminance of all of it.
 struct GradientSample {
     origin: vec3<f32>,
     normal: u32,
@@ -121,10 +122,21 @@ struct GradientSample {
     // `GRADIENT_NONE`: the stratum kept no sample (sky, or gradients off).
     trace_index: u32,
     frame_index: u32,
-    pad: u32,
+    total: f32,
 }
 
 const GRADIENT_NONE: u32 = 0xffffffffu;
+
+// The part of a ray candidate `r` the gradient compares: all but the brick cache's light, so
+// the same ray drawn again finds the same value unless the scene changed (the hit's emission
+// and direct light, whose shadow rays and emitter sample are drawn again alike, or the sky).
+// The cache's light changes every frame by its updates' noise, and lags a change anyway.
+fn gradient_seen(r: Reservoir) -> f32 {
+    if (r.flags & SAMPLE_SKY) != 0u {
+        return luminance(unpack_rgb9e5(r.radiance));
+    }
+    return luminance(unpack_rgb9e5(r.fixed_radiance));
+}
 
 // The trace pixel of `stratum` whose ray is kept for the gradient in frame `frame`, chosen
 // anew each frame (A-SVGF picks one pixel per stratum at random); outside the image when the

@@ -5,8 +5,10 @@
 //   gradient         draws again the BVH ray candidate that one trace pixel of the stratum drew
 //                    last frame (`trace` kept it, `store_gradient_sample`): the same receiver,
 //                    direction and random numbers, so what differs is the scene's light and
-//                    geometry, not the noise; stores the change of its luminance and the
-//                    larger of the two luminances;
+//                    geometry, not the noise; stores the change of the luminance it finds
+//                    outside the brick cache (`gradient_seen`: the cache's light changes by
+//                    its updates' noise every frame) and the larger of the two luminances of
+//                    all it finds;
 //   gradient_filter  lambda = min(gain * |sum of changes| / sum of the larger luminances, 1)
 //                    over the 3 x 3 strata around each: signed changes of noise cancel in the
 //                    sum, a change of the light adds up.
@@ -22,7 +24,7 @@
 #import gi::math::luminance
 #import gi::sampling::{sampler_new, sampler_next_2d, cosine_hemisphere, frame_from_normal, frame_to_world}
 #import gi::packing::{unpack_unit_vector, unpack_rgb9e5}
-#import gi::pc::restir::common::{uniforms, FLAG_HISTORY, GRADIENT_NONE, gradient_pick}
+#import gi::pc::restir::common::{uniforms, FLAG_HISTORY, GRADIENT_NONE, gradient_pick, gradient_seen}
 #import gi::pc::restir::rays::{gradient_samples, gradients}
 #import gi::pc::restir::candidate::ray_candidate
 
@@ -47,8 +49,8 @@ fn gradient(@builtin(global_invocation_id) id: vec3<u32>) {
         let local = cosine_hemisphere(sampler_next_2d(&sampler));
         let dir = frame_to_world(frame_from_normal(n), local);
         let candidate = ray_candidate(kept.origin, dir, n, &sampler);
-        let now = luminance(unpack_rgb9e5(candidate.sample.radiance));
-        change = vec4(now - kept.seen, max(now, kept.seen), 0.0, 0.0);
+        let total = luminance(unpack_rgb9e5(candidate.sample.radiance));
+        change = vec4(gradient_seen(candidate.sample) - kept.seen, max(total, kept.total), 0.0, 0.0);
     }
     gradients[s] = change;
 }

@@ -54,8 +54,8 @@ fn offset_origin(p: vec3<f32>, n: vec3<f32>) -> vec3<f32> {
 
 // Keeps the ray candidate of trace pixel `t` (index `index`) for the next frame's gradient
 // when `t` is its stratum's pick this frame: its receiver's offset origin and packed normal,
-// and the luminance it found.
-fn store_gradient_sample(t: vec2<u32>, index: u32, origin: vec3<f32>, normal: u32, luminance: f32) {
+// and the luminances `gradient_seen` and all that it found.
+fn store_gradient_sample(t: vec2<u32>, index: u32, origin: vec3<f32>, normal: u32, seen: f32, total: f32) {
     if uniforms.gradient_stratum == 0u {
         return;
     }
@@ -64,7 +64,7 @@ fn store_gradient_sample(t: vec2<u32>, index: u32, origin: vec3<f32>, normal: u3
         return;
     }
     let s = stratum.y * uniforms.gradient_strata_x + stratum.x;
-    gradient_samples[s] = GradientSample(origin, normal, luminance, index, uniforms.frame_index, 0u);
+    gradient_samples[s] = GradientSample(origin, normal, seen, index, uniforms.frame_index, total);
 }
 
 // Marks the stratum of trace pixel `t` as keeping no sample this frame when `t` is its pick.

@@ -18,7 +18,8 @@
 #import gi::sampling::{sampler_new, sampler_next_f32, sampler_next_2d, cosine_hemisphere, frame_from_normal, frame_to_world}
 #import gi::packing::{pack_unit_vector, unpack_unit_vector, pack_rgb9e5, unpack_rgb9e5}
 #import gi::pc::restir::common::{
-    uniforms, Surface, empty_reservoir, is_sky_depth, has_surface, pixel_point, store_reservoir, FAR
+    uniforms, Surface, empty_reservoir, is_sky_depth, has_surface, pixel_point, store_reservoir, FAR,
+    gradient_seen
 }
 #import gi::pc::restir::rays::{
     gbuffer_depth, gbuffer_normal, store_surface, initial, offset_origin, store_gradient_sample,
@@ -86,7 +87,8 @@ fn trace(@builtin(global_invocation_id) id: vec3<u32>) {
     if pdf_cos > 0.0 {
         let candidate = ray_candidate(origin, dir, n, &sampler);
         let r = candidate.sample;
-        store_gradient_sample(id.xy, index, origin, s.normal, luminance(unpack_rgb9e5(r.radiance)));
+        let seen = gradient_seen(r);
+        store_gradient_sample(id.xy, index, origin, s.normal, seen, luminance(unpack_rgb9e5(r.radiance)));
         let p = luminance(unpack_rgb9e5(r.radiance)) * local.z;
         let w = p / (pdf_cos + candidate.pdf_emit);
         if w > 0.0 && w < FAR {

@@ -38,9 +38,10 @@ pub struct PcConfig {
 /// Temporal gradients (Schied, Peters and Dachsbacher 2018, "Gradient Estimation for Real-Time
 /// Adaptive Temporal Filtering", A-SVGF): each frame one trace pixel per stratum keeps its
 /// diffuse ray, and the next frame draws that ray again (same receiver, direction and random
-/// numbers) before tracing its own. The change of what it finds is the change of the scene's
-/// light and geometry, free of sampling noise; over the 3 x 3 strata around each,
-/// `lambda = min(gain |sum of changes| / sum of the larger luminances, 1)`, and the denoiser
+/// numbers) before tracing its own. The change of what it finds outside the brick cache (the
+/// hit's emission and direct light, or the sky) is the change of the scene's light and
+/// geometry, free of sampling noise and of the cache's update noise; over the 3 x 3 strata
+/// around each, `lambda = min(gain |sum of changes| / sum of the larger luminances, 1)`, and the denoiser
 /// blends with `alpha' = mix(alpha, 1, lambda)` instead of its history's alpha. Cost: one more
 /// diffuse ray (with its hit's shadow rays) per stratum.
 #[derive(Clone, Debug, PartialEq)]
@@ -49,8 +50,11 @@ pub struct GradientConfig {
     pub enabled: bool,
     /// Trace pixels per side of a stratum (A-SVGF: 3 pixels).
     pub stratum: u32,
-    /// Scale of lambda: higher drops more history for a smaller change, and more of it for
-    /// the cache's frame-to-frame noise.
+    /// Scale of lambda: higher drops more history for a smaller change. A hit's direct light is
+    /// typically half of what it sends, so 3 drops all history where a light it saw went out
+    /// (measured on lavapipe at 64 x 48, atrium's sun switched off: 51% of the change left
+    /// after 4 frames with 1, 37% with 3, 34% with 8, 74% without gradients; the still
+    /// camera's flicker 0.92% with 3 as without).
     pub gain: f32,
 }
 
@@ -59,7 +63,7 @@ impl Default for GradientConfig {
         Self {
             enabled: true,
             stratum: 3,
-            gain: 1.0,
+            gain: 3.0,
         }
     }
 }

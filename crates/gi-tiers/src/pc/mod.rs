@@ -105,12 +105,14 @@ pub struct GpuGradientSample {
     pub origin: [f32; 3],
     /// The receiver's packed normal.
     pub normal: u32,
-    /// Luminance of what the ray found.
+    /// Luminance of what the ray found outside the brick cache (its hit's emission and
+    /// direct light, or the sky).
     pub seen: f32,
     /// The trace pixel (row-major), `u32::MAX`: no sample.
     pub trace_index: u32,
     pub frame_index: u32,
-    pub pad: u32,
+    /// Luminance of all the ray found.
+    pub total: f32,
 }
 
 /// Mirror of `StoredReservoir` in `shaders/pc/restir/common.wgsl`, 32 bytes: a ReSTIR GI
