@@ -106,8 +106,9 @@ pub struct ViewArgs {
     /// svgf, restir (all reuse off: one sample per trace pixel, the same denoiser), specular
     /// (no specular rays: the smooth surfaces reflect the irradiance over pi) or
     /// rough-specular (the rough surfaces reflect the irradiance over pi, not the diffuse
-    /// samples weighted by their lobe); temporal and boiling are off by default. Only the PC
-    /// tier reads it.
+    /// samples weighted by their lobe) or gradients (no temporal gradients: the denoiser's
+    /// histories follow a change of the light at their own rate); temporal and boiling are off
+    /// by default. Only the PC tier reads it.
     #[arg(long, value_name = "STAGE", conflicts_with = "pc_with")]
     pc_without: Option<String>,
     /// Switch one stage of the PC tier on that is off by default, for ablations: temporal

@@ -508,6 +508,56 @@ fn a_sunlit_walls_bounce_is_the_same_with_the_hits_lit_from_the_cache() {
     }
 }
 
+/// The temporal gradients (`pc/gradient`) see a light go out and nothing else: the wall of
+/// [`wall_beside_an_emitter`] lit by a sun instead; after 10 frames the sun goes out, and the
+/// strata whose kept rays hit the wall measure lambda 1, while in a still view (the sun on)
+/// every ray drawn again finds exactly what it found a frame before, cache or no cache, and
+/// lambda is 0 everywhere.
+#[test]
+fn the_gradients_see_a_light_go_out_and_nothing_in_a_still_view() {
+    let Some(ctx) = GpuContext::new_or_skip("the_gradients_see_a_light_go_out") else {
+        return;
+    };
+    let mut scene = unlit_ground("pc-gradients", 4.0);
+    scene.add_diffuse_quad(Vec3::new(1.0, 1.0, 0.0), Vec3::Z * 1.5, Vec3::Y, 0.8);
+    scene.lights.push(gi_scene::Light {
+        name: "sun".into(),
+        kind: gi_scene::LightKind::Directional,
+        color: Vec3::ONE,
+        intensity: 3.0,
+        range: None,
+    });
+    scene.nodes.push(gi_scene::Node {
+        light: Some(scene.lights.len() - 1),
+        rotation: glam::Quat::from_rotation_y(-std::f32::consts::FRAC_PI_2),
+        ..gi_scene::Node::default()
+    });
+    let camera = CameraView::look_at(Vec3::new(-2.0, 2.0, 0.0), Vec3::new(1.0, 0.5, 0.0), 1.0);
+    let mut tier = run(ctx, &scene, PcConfig::default(), (48, 36), 10, Some(camera));
+    let lambda = |tier: &PcTier| tier.frame_data().unwrap().gradient_lambda.unwrap().1;
+    let still = lambda(&tier);
+    assert!(still.iter().all(|&l| l == 0.0), "a still view: {still:?}");
+
+    let mut dark = scene.clone();
+    dark.lights[0].intensity = 0.0;
+    let frame = dark.evaluate(0.0, Some(camera));
+    tier.advance(&FrameInput {
+        scene: &dark,
+        frame: &frame,
+        index: 10,
+        progress: None,
+    })
+    .unwrap();
+    let changed = lambda(&tier);
+    let full = changed.iter().filter(|&&l| l >= 0.999).count();
+    println!(
+        "the sun went out: {full} of {} strata at lambda 1, largest {}",
+        changed.len(),
+        changed.iter().copied().fold(0.0, f32::max)
+    );
+    assert!(full > 0, "no stratum saw the sun go out: {changed:?}");
+}
+
 /// A black ground and sky, a white wall at x = 1 facing -x, and an emitter at x = 0.2 facing
 /// it (+x); returns the scene and the wall's node.
 fn wall_beside_an_emitter(name: &str) -> (Scene, usize) {

@@ -119,10 +119,9 @@ impl Harness {
             depth: &depth,
             normal: &normal,
             motion: &motion,
-            gradients: grid.zip(gradients.as_ref()).map(|(grid, buffer)| GradientSource {
-                buffer,
-                grid,
-            }),
+            gradients: grid
+                .zip(gradients.as_ref())
+                .map(|(grid, buffer)| GradientSource { buffer, grid }),
         };
         let denoiser = Denoiser::new(&ctx, &pipelines, SIZE, &sources);
         let timer = GpuTimer::new(&ctx, "test.denoise", 16);

@@ -208,6 +208,9 @@ pub struct PcFrameData {
     /// The trace pixels' resolved reservoirs (row-major, `trace_size`).
     pub reservoirs: Vec<GpuReservoir>,
     pub trace_size: (u32, u32),
+    /// The temporal gradients' strata per row and column, and each one's lambda (row-major):
+    /// the share of history the denoiser dropped there this frame. `None` without gradients.
+    pub gradient_lambda: Option<((u32, u32), Vec<f32>)>,
     /// Per pixel, from the G-buffer: distance along the pixel's unit ray, `+inf` for sky.
     pub depth: Vec<f32>,
     /// Per pixel, from the G-buffer: previous pixel position minus this pixel's center, in
@@ -219,7 +222,7 @@ pub struct PcFrameData {
 
 /// What the PC tier with `config` needs of an adapter at `settings`' resolution. The passes
 /// after the rays bind the most storage buffers: 23 of their own and the brick cache's 7 (the
-/// trace passes: the scene's 7, 10 of their own, the BVH's 4 and the cache's 7); the cache
+/// trace passes: the scene's 7, 11 of their own, the BVH's 4 and the cache's 7); the cache
 /// passes as for mobile. The largest binding is an image buffer or
 /// the reservoirs, surfaces or specular samples of every trace pixel.
 pub fn requirements(settings: &TierSettings, config: &PcConfig) -> Requirements {
@@ -356,6 +359,10 @@ impl PcTier {
             irradiance: read(prepared.denoiser.output()),
             reservoirs: ctx.read_buffer(&buffers.resolved),
             trace_size: buffers.trace_size,
+            gradient_lambda: buffers.gradient_grid.map(|grid| {
+                let entries: Vec<[f32; 4]> = ctx.read_buffer(&buffers.gradients);
+                (grid.strata, entries.iter().map(|g| g[2]).collect())
+            }),
             depth: gbuffer.depth,
             motion: gbuffer.motion,
             dynamic,
