@@ -1,7 +1,7 @@
 # Issue 37: the PC tier's temporal gradients on (the default) and off (`--pc-without gradients`),
 # one build: `gi-bench stability --change off|turn` at 1920x1080 on one scene (atrium: its sun;
 # Sponza: its lighting file's sun), the light-off runs with their contact strips.
-# Usage: bash stability.sh atrium | .gpu/scenes/Sponza/Sponza.gltf
+# Usage: bash stability.sh atrium | .gpu/scenes/Sponza/glTF/Sponza.gltf
 . .gpu/setup.sh 2>/dev/null
 R=/tmp/res; mkdir -p $R/strips-on $R/strips-off; sc=$1; n=$(basename $sc .gltf)
 for c in off turn; do for v in on off; do
