@@ -4,13 +4,18 @@
 // cache beyond the ray's BVH segment).
 #define_import_path gi::pc::restir::candidate
 
-#import gi::sampling::Sampler
+#import gi::math::luminance
+#import gi::sampling::{Sampler, sampler_new, sampler_next_2d, cosine_hemisphere, frame_from_normal, frame_to_world}
 #import gi::bvh::{Ray, trace_closest, BVH_MISS}
 #import gi::lights::{sky_radiance, emitter_pdf}
-#import gi::packing::{pack_unit_vector, pack_rgb9e5}
+#import gi::packing::{pack_unit_vector, unpack_unit_vector, pack_rgb9e5, unpack_rgb9e5}
 #import gi::cache::data::cache
 #import gi::cache::trace::{CacheHit, cache_miss, cache_trace_from, cache_hit_radiance, cache_hit_normal}
-#import gi::pc::restir::common::{uniforms, Reservoir, empty_reservoir, SAMPLE_SKY, FAR}
+#import gi::pc::restir::common::{
+    uniforms, Reservoir, empty_reservoir, SAMPLE_SKY, FAR, FLAG_HISTORY, GRADIENT_NONE,
+    gradient_pick, gradient_seen
+}
+#import gi::pc::restir::rays::{gradient_samples, gradients, kept_sample_slot}
 #import gi::pc::restir::hit::shade_hit
 #import gi::pc::restir::hit_cache::hit_lights_from_cache
 
@@ -81,4 +86,36 @@ fn ray_candidate(origin: vec3<f32>, dir: vec3<f32>, n: vec3<f32>, sampler: ptr<f
         }
     }
     return RayCandidate(r, pdf_emit);
+}
+
+// The temporal gradient of `stratum` (`pc/restir/gradient.wgsl` explains them): draws again
+// the ray candidate one of its trace pixels kept last frame, with that frame's random numbers
+// (the same direction, emitter sample and shadow rays), and stores the change of what it
+// finds outside the brick cache (`gradient_seen`) and the larger of the two luminances of all
+// it finds. `trace` runs it in extra workgroups of its own dispatch, where the other rays hide
+// its latency.
+fn draw_gradient(stratum: vec2<u32>) {
+    if any(stratum >= vec2(uniforms.gradient_strata_x, uniforms.gradient_strata_y)) {
+        return;
+    }
+    let s = stratum.y * uniforms.gradient_strata_x + stratum.x;
+    var change = vec4(0.0);
+    let previous = uniforms.frame_index - 1u;
+    let kept = gradient_samples[kept_sample_slot(stratum, previous)];
+    // The sample must be last frame's pick of this stratum (a stratum whose pick fell outside
+    // the image, or showed the sky, kept none).
+    let t = gradient_pick(stratum, previous);
+    let picked = all(t < uniforms.trace_px) && kept.trace_index == t.y * uniforms.trace_px.x + t.x;
+    if (uniforms.flags & FLAG_HISTORY) != 0u && kept.trace_index != GRADIENT_NONE
+        && kept.frame_index == previous && picked {
+        // `trace`'s random numbers of that frame and trace pixel, in its order.
+        var sampler = sampler_new(uniforms.seed, kept.trace_index, previous);
+        let n = unpack_unit_vector(kept.normal);
+        let local = cosine_hemisphere(sampler_next_2d(&sampler));
+        let dir = frame_to_world(frame_from_normal(n), local);
+        let candidate = ray_candidate(kept.origin, dir, n, &sampler);
+        let total = luminance(unpack_rgb9e5(candidate.sample.radiance));
+        change = vec4(gradient_seen(candidate.sample) - kept.seen, max(total, kept.total), 0.0, 0.0);
+    }
+    gradients[s] = change;
 }

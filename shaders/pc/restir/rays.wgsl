@@ -30,7 +30,9 @@ const SHADOW_MARGIN: f32 = 1e-3;
 @group(0) @binding(15) var<storage, read> gbuffer_metallic_roughness: array<vec2<f32>>;
 // Per trace pixel: the specular ray (written by `specular_trace`).
 @group(0) @binding(16) var<storage, read_write> specular_samples: array<SpecularSample>;
-// Per temporal-gradient stratum: the ray candidate `trace` kept for the next frame's gradient.
+// Per temporal-gradient stratum, in two halves by frame parity: the ray candidate `trace` kept
+// for the next frame's gradient (`kept_sample_slot`). `trace` draws last frame's again in the
+// same dispatch, so this frame's go to the other half.
 @group(0) @binding(17) var<storage, read_write> gradient_samples: array<GradientSample>;
 // Per stratum: the change `gradient` measured (x: new minus old luminance, y: the larger of
 // the two), and `gradient_filter`'s lambda (z) over the strata around it.
@@ -63,7 +65,7 @@ fn store_gradient_sample(t: vec2<u32>, index: u32, origin: vec3<f32>, normal: u3
     if any(gradient_pick(stratum, uniforms.frame_index) != t) {
         return;
     }
-    let s = stratum.y * uniforms.gradient_strata_x + stratum.x;
+    let s = kept_sample_slot(stratum, uniforms.frame_index);
     gradient_samples[s] = GradientSample(origin, normal, seen, index, uniforms.frame_index, total);
 }
 
@@ -76,6 +78,13 @@ fn clear_gradient_sample(t: vec2<u32>) {
     if any(gradient_pick(stratum, uniforms.frame_index) != t) {
         return;
     }
-    let s = stratum.y * uniforms.gradient_strata_x + stratum.x;
+    let s = kept_sample_slot(stratum, uniforms.frame_index);
     gradient_samples[s].trace_index = GRADIENT_NONE;
+}
+
+// Where frame `frame` keeps the sample of `stratum`: the half of `gradient_samples` of the
+// frame's parity.
+fn kept_sample_slot(stratum: vec2<u32>, frame: u32) -> u32 {
+    let strata = uniforms.gradient_strata_x * uniforms.gradient_strata_y;
+    return (frame & 1u) * strata + stratum.y * uniforms.gradient_strata_x + stratum.x;
 }

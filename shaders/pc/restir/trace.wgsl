@@ -26,7 +26,7 @@
     clear_gradient_sample
 }
 #import gi::pc::restir::hit::visible_emitter_sample
-#import gi::pc::restir::candidate::ray_candidate
+#import gi::pc::restir::candidate::{ray_candidate, draw_gradient}
 
 // The receiver of trace pixel `t`: the first pixel of its block, starting at a per-frame
 // jittered one, that shows a surface.
@@ -58,9 +58,17 @@ fn pick_receiver(t: vec2<u32>, index: u32) -> Surface {
 // emitter that lights the receiver directly is found by every pixel instead of by the rare ray
 // that hits it). Candidate y_i gets the weight p(y_i) / (p_cos(y_i) + p_emit(y_i)); the kept
 // one has W = (sum of weights) / p(kept). The BVH ray's candidate of one trace pixel per
-// temporal-gradient stratum is kept for `gradient` to draw again next frame.
+// temporal-gradient stratum is kept to be drawn again next frame (`draw_gradient`, in the
+// dispatch's extra rows of workgroups).
 @compute @workgroup_size(8, 8)
 fn trace(@builtin(global_invocation_id) id: vec3<u32>) {
+    // The workgroup rows below the trace pixels' draw last frame's kept rays again, one per
+    // temporal-gradient stratum.
+    let trace_rows = (uniforms.trace_px.y + 7u) / 8u * 8u;
+    if id.y >= trace_rows {
+        draw_gradient(vec2(id.x, id.y - trace_rows));
+        return;
+    }
     if any(id.xy >= uniforms.trace_px) {
         return;
     }

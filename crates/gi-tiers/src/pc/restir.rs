@@ -32,7 +32,6 @@ pub(super) struct RestirPipelines {
     specular_trace: wgpu::ComputePipeline,
     specular_resolve: wgpu::ComputePipeline,
     specular_temporal: wgpu::ComputePipeline,
-    gradient: wgpu::ComputePipeline,
     gradient_filter: wgpu::ComputePipeline,
 }
 
@@ -105,7 +104,6 @@ impl RestirPipelines {
             compose: reused("compose")?,
             specular_resolve: reused("specular_resolve")?,
             specular_temporal: reused("specular_temporal")?,
-            gradient: traced_pipeline(&gradient, "gradient"),
             gradient_filter: traced_pipeline(&gradient, "gradient_filter"),
             trace_layout,
             restir_layout,
@@ -204,7 +202,8 @@ pub(super) struct RestirBuffers {
     pub(super) specular_noisy: wgpu::Buffer,
     /// The temporal gradients' strata; `None`: gradients off.
     pub(super) gradient_grid: Option<GradientGrid>,
-    /// Per stratum: the ray candidate `trace` keeps for the next frame's gradient.
+    /// Per stratum, in two halves by frame parity: the ray candidate `trace` keeps for the next
+    /// frame's gradient.
     gradient_samples: wgpu::Buffer,
     /// Per stratum: the gradient and its lambda (`vec4<f32>`).
     pub(super) gradients: wgpu::Buffer,
@@ -259,7 +258,7 @@ impl RestirBuffers {
             gradient_grid,
             gradient_samples: buffer(
                 "pc.gradient_samples",
-                strata * size_of::<GpuGradientSample>() as u64,
+                2 * strata * size_of::<GpuGradientSample>() as u64,
             ),
             gradients: buffer("pc.gradients", strata * 16),
             history: false,
@@ -490,9 +489,10 @@ impl Technique for Restir {
     /// denoising, which the denoiser was made over ([`super::denoise::DenoiseSources`]).
     type Outputs<'o> = ();
 
-    /// Records the passes before the denoiser, each under its name, in order: `pc/gradient`
-    /// (with temporal gradients: last frame's kept ray candidates drawn again), `pc/trace`
-    /// (a diffuse ray per trace pixel, its hit shaded from the brick cache),
+    /// Records the passes before the denoiser, each under its name, in order: `pc/trace`
+    /// (a diffuse ray per trace pixel, its hit shaded from the brick cache; with temporal
+    /// gradients also last frame's kept ray candidates drawn again), `pc/gradient` (their
+    /// lambda),
     /// `pc/specular_trace`, `pc/temporal` and `pc/spatial` (ReSTIR GI reuse), `pc/shadow` (the
     /// chosen samples' visibility), `pc/shade` (multi-sample shading into `irradiance`),
     /// `pc/specular_resolve` and `pc/specular_temporal`, each as the config switches it on.
@@ -528,20 +528,10 @@ impl Technique for Restir {
             steps.push(("pc/specular_temporal", &p.specular_temporal, false, false));
         }
         let scene = inputs.scene;
-        if let Some(grid) = self.buffers.gradient_grid {
-            // Both dispatches in one scope: wgpu orders them with a barrier.
-            let groups_of = (grid.strata.0.div_ceil(TILE), grid.strata.1.div_ceil(TILE));
-            rec.compute_pass("pc/gradient", |pass| {
-                pass.set_bind_group(0, &groups.trace, &[]);
-                pass.set_bind_group(BVH_BIND_GROUP, &scene.bvh.bind_group, &[]);
-                scene.set_texture_bind_group(pass);
-                pass.set_bind_group(CacheBuffers::BIND_GROUP, inputs.cache, &[]);
-                for pipeline in [&p.gradient, &p.gradient_filter] {
-                    pass.set_pipeline(pipeline);
-                    pass.dispatch_workgroups(groups_of.0, groups_of.1, 1);
-                }
-            });
-        }
+        // `trace` also draws last frame's kept rays again, one per gradient stratum, in rows of
+        // workgroups below its own: the other rays hide their latency.
+        let grid = self.buffers.gradient_grid;
+        let gradient_rows = grid.map_or(0, |g| g.strata.1.div_ceil(TILE));
         for (name, pipeline, traces, per_trace_pixel) in steps {
             rec.compute_pass(name, |pass| {
                 pass.set_pipeline(pipeline);
@@ -553,13 +543,29 @@ impl Technique for Restir {
                     pass.set_bind_group(0, &groups.restir, &[]);
                 }
                 pass.set_bind_group(CacheBuffers::BIND_GROUP, inputs.cache, &[]);
-                let groups = if per_trace_pixel {
-                    trace_workgroups
-                } else {
-                    full_workgroups
+                let groups = match (per_trace_pixel, name) {
+                    (true, "pc/trace") => (trace_workgroups.0, trace_workgroups.1 + gradient_rows),
+                    (true, _) => trace_workgroups,
+                    (false, _) => full_workgroups,
                 };
                 pass.dispatch_workgroups(groups.0, groups.1, 1);
             });
+            if name == "pc/trace"
+                && let Some(grid) = grid
+            {
+                rec.compute_pass("pc/gradient", |pass| {
+                    pass.set_pipeline(&p.gradient_filter);
+                    pass.set_bind_group(0, &groups.trace, &[]);
+                    pass.set_bind_group(BVH_BIND_GROUP, &scene.bvh.bind_group, &[]);
+                    scene.set_texture_bind_group(pass);
+                    pass.set_bind_group(CacheBuffers::BIND_GROUP, inputs.cache, &[]);
+                    pass.dispatch_workgroups(
+                        grid.strata.0.div_ceil(TILE),
+                        grid.strata.1.div_ceil(TILE),
+                        1,
+                    );
+                });
+            }
         }
         self.recorded = Some(RecordedFrame {
             groups,
