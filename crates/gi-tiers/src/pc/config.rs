@@ -38,7 +38,7 @@ pub struct PcConfig {
 /// Temporal gradients (Schied, Peters and Dachsbacher 2018, "Gradient Estimation for Real-Time
 /// Adaptive Temporal Filtering", A-SVGF): each frame one trace pixel per stratum keeps its
 /// diffuse ray, and the next frame draws that ray again (same receiver, direction and random
-/// numbers) before tracing its own. The change of what it finds outside the brick cache (the
+/// numbers) beside its own, in the same dispatch. The change of what it finds outside the brick cache (the
 /// hit's emission and direct light, or the sky) is the change of the scene's light and
 /// geometry, free of sampling noise and of the cache's update noise; over the 3 x 3 strata
 /// around each, `lambda = min(gain |sum of changes| / sum of the larger luminances, 1)`, and the denoiser

@@ -6,8 +6,9 @@
 //! tier's), `pc/trace` (one BVH ray per trace pixel, shaded at the hit with exact direct light,
 //! one sample of the emitters included, and the cache's bounced light; the tier's cache keeps
 //! its emitted part apart for that, [`gi_cache::CacheConfig::keep_emitted`]),
-//! with `pc/gradient` before it (last frame's kept rays drawn again: the temporal gradients
-//! that shorten the denoiser's histories where the light changed, [`GradientConfig`]),
+//! last frame's kept rays drawn again in the same dispatch and `pc/gradient` after it (the
+//! temporal gradients that shorten the denoiser's histories where the light changed,
+//! [`GradientConfig`]),
 //! `pc/specular_trace` (one GGX VNDF ray per trace pixel on surfaces smoother than
 //! [`SpecularConfig::max_roughness`]), `pc/temporal` (only with temporal reuse, off by default:
 //! [`RestirConfig::temporal`]), `pc/spatial`, `pc/shadow` (the reservoir passes), `pc/shade`
