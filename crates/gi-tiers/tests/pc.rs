@@ -481,23 +481,7 @@ fn a_sunlit_walls_bounce_is_the_same_with_the_hits_lit_from_the_cache() {
         return;
     };
     drop(ctx);
-    let mut scene = unlit_ground("pc-sunlit-wall", 4.0);
-    scene.add_diffuse_quad(Vec3::new(1.0, 1.0, 0.0), Vec3::Z * 1.5, Vec3::Y, 0.8);
-    scene.lights.push(gi_scene::Light {
-        name: "sun".into(),
-        kind: gi_scene::LightKind::Directional,
-        color: Vec3::ONE,
-        intensity: 3.0,
-        range: None,
-    });
-    // -z turned to +x: the light travels along +x, level with the ground, so that it lights
-    // the wall square on and not the ground, whose irradiance (the reference's) is then the
-    // wall's bounce alone, as in the tier's GI.
-    scene.nodes.push(gi_scene::Node {
-        light: Some(scene.lights.len() - 1),
-        rotation: glam::Quat::from_rotation_y(-std::f32::consts::FRAC_PI_2),
-        ..gi_scene::Node::default()
-    });
+    let scene = sunlit_wall("pc-sunlit-wall");
     for hit_lights in [HitLights::ShadowRays, HitLights::Cache] {
         println!("hit lights {}", hit_lights.name());
         let config = PcConfig {
@@ -506,6 +490,27 @@ fn a_sunlit_walls_bounce_is_the_same_with_the_hits_lit_from_the_cache() {
         };
         check_the_bounce_off_the_wall(&scene, config);
     }
+}
+
+/// The wall of [`wall_beside_an_emitter`] lit by a sun instead: -z turned to +x, the light
+/// travels along +x, level with the ground, so that it lights the wall square on and not the
+/// ground, whose irradiance (the reference's) is then the wall's bounce alone.
+fn sunlit_wall(name: &str) -> Scene {
+    let mut scene = unlit_ground(name, 4.0);
+    scene.add_diffuse_quad(Vec3::new(1.0, 1.0, 0.0), Vec3::Z * 1.5, Vec3::Y, 0.8);
+    scene.lights.push(gi_scene::Light {
+        name: "sun".into(),
+        kind: gi_scene::LightKind::Directional,
+        color: Vec3::ONE,
+        intensity: 3.0,
+        range: None,
+    });
+    scene.nodes.push(gi_scene::Node {
+        light: Some(scene.lights.len() - 1),
+        rotation: glam::Quat::from_rotation_y(-std::f32::consts::FRAC_PI_2),
+        ..gi_scene::Node::default()
+    });
+    scene
 }
 
 /// The temporal gradients (`pc/gradient`) see a light go out and nothing else: the wall of
@@ -518,20 +523,7 @@ fn the_gradients_see_a_light_go_out_and_nothing_in_a_still_view() {
     let Some(ctx) = GpuContext::new_or_skip("the_gradients_see_a_light_go_out") else {
         return;
     };
-    let mut scene = unlit_ground("pc-gradients", 4.0);
-    scene.add_diffuse_quad(Vec3::new(1.0, 1.0, 0.0), Vec3::Z * 1.5, Vec3::Y, 0.8);
-    scene.lights.push(gi_scene::Light {
-        name: "sun".into(),
-        kind: gi_scene::LightKind::Directional,
-        color: Vec3::ONE,
-        intensity: 3.0,
-        range: None,
-    });
-    scene.nodes.push(gi_scene::Node {
-        light: Some(scene.lights.len() - 1),
-        rotation: glam::Quat::from_rotation_y(-std::f32::consts::FRAC_PI_2),
-        ..gi_scene::Node::default()
-    });
+    let scene = sunlit_wall("pc-gradients");
     let camera = CameraView::look_at(Vec3::new(-2.0, 2.0, 0.0), Vec3::new(1.0, 0.5, 0.0), 1.0);
     let mut tier = run(ctx, &scene, PcConfig::default(), (48, 36), 10, Some(camera));
     let lambda = |tier: &PcTier| tier.frame_data().unwrap().gradient_lambda.unwrap().1;

@@ -71,15 +71,7 @@ fn store_gradient_sample(t: vec2<u32>, index: u32, origin: vec3<f32>, normal: u3
 
 // Marks the stratum of trace pixel `t` as keeping no sample this frame when `t` is its pick.
 fn clear_gradient_sample(t: vec2<u32>) {
-    if uniforms.gradient_stratum == 0u {
-        return;
-    }
-    let stratum = t / uniforms.gradient_stratum;
-    if any(gradient_pick(stratum, uniforms.frame_index) != t) {
-        return;
-    }
-    let s = kept_sample_slot(stratum, uniforms.frame_index);
-    gradient_samples[s].trace_index = GRADIENT_NONE;
+    store_gradient_sample(t, GRADIENT_NONE, vec3(0.0), 0u, 0.0, 0.0);
 }
 
 // Where frame `frame` keeps the sample of `stratum`: the half of `gradient_samples` of the
