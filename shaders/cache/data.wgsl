@@ -37,6 +37,11 @@ const CACHE_STATE_DYNAMIC: u32 = 256u;
 // the voxel's geometry, and its steps per voxel edge.
 const CACHE_STATE_BOX_SHIFT: u32 = 9u;
 const CACHE_BOX_STEPS: u32 = 8u;
+// `gi_cache::layout::STATE_CHANGE_SHIFT` and `CHANGE_LEVELS`: where the state holds the share
+// of the voxel's reflected light that changed lately (`cache_voxel_change`), in steps of
+// 1 / CACHE_CHANGE_LEVELS.
+const CACHE_STATE_CHANGE_SHIFT: u32 = 27u;
+const CACHE_CHANGE_LEVELS: u32 = 31u;
 const CACHE_INV_PI: f32 = 0.3183098861837907;
 
 // One level's window: world brick coordinate of its lowest corner and its voxel edge.
@@ -57,7 +62,8 @@ struct CacheUniforms {
 }
 
 // Mirror of `gi_cache::VoxelSurface`: albedo rgb + coverage a (unorm8), packed unit normal,
-// RGB9E5 emission, state (bits 0-7 age, bit 8 dynamic, bits 9-26 the geometry box).
+// RGB9E5 emission, state (bits 0-7 age, bit 8 dynamic, bits 9-26 the geometry box, bits 27-31
+// the measured change of its light).
 struct VoxelSurface {
     albedo: u32,
     normal: u32,
@@ -222,6 +228,21 @@ fn cache_voxel_emission(s: VoxelSurface) -> vec3<f32> {
 
 fn cache_voxel_age(s: VoxelSurface) -> u32 {
     return s.state & 0xffu;
+}
+
+// The share (0 to 1) of the voxel's reflected light that changed lately, as the lighting
+// measured it (`gi_cache::lighting`'s "measured change"): `cache/inject` raises it where a
+// side's direct light changed, `cache/propagate` sets it from the change its rays found. Exactly
+// 0 while nothing in the scene changes.
+fn cache_voxel_change(s: VoxelSurface) -> f32 {
+    return f32(s.state >> CACHE_STATE_CHANGE_SHIFT) / f32(CACHE_CHANGE_LEVELS);
+}
+
+// `state` with its change bits set to `change` (0 to 1, to the nearest step).
+fn cache_state_with_change(state: u32, change: f32) -> u32 {
+    let steps = u32(round(clamp(change, 0.0, 1.0) * f32(CACHE_CHANGE_LEVELS)));
+    let keep = (1u << CACHE_STATE_CHANGE_SHIFT) - 1u;
+    return (state & keep) | (steps << CACHE_STATE_CHANGE_SHIFT);
 }
 
 // Irradiance (direct + indirect) that side `side` of voxel `v` receives.

@@ -9,9 +9,12 @@
 // of the side's normal, with one exact shadow ray through the BVH each: `WorldLight::incident`
 // times the cosine, as the reference evaluates punctual lights. Emissive surfaces and the sky
 // reach voxels through `cache/propagate`. Both sides are always lit: a side facing into solid
-// geometry finds it with its shadow rays. A side whose direct light changed by more than
-// LIGHT_CHANGE (a light moved or switched) pulls its voxel's age down to CHANGED_AGE, so its
-// indirect light follows quickly.
+// geometry finds it with its shadow rays. Where a side's direct light changed (a light moved,
+// turned or was switched), the share of the side's reflected light that changed is measured
+// against the light it had: the voxel's change (`cache_voxel_change`) is raised to it, and
+// `cache/propagate` weighs the voxel's next update, and those of its neighbours that see it,
+// by that measured change rather than by the voxel's age. The shadow rays are exact, so in a
+// still scene the direct light is the same to the bit and the change stays 0.
 //
 // Bind group 0: `gi::cache::lighting`; 1: the BVH (`gi::bvh`); 2: the cache (`gi::cache::data`).
 
@@ -21,8 +24,8 @@
 #import gi::packing::{pack_rgb9e5, unpack_rgb9e5}
 #import gi::math::luminance
 #import gi::cache::data::{
-    cache_voxels, cache_direct, cache_voxel_index, cache_side_slot, cache_side_normal,
-    cache_voxel_age, CACHE_SIDE_COUNT
+    cache_voxels, cache_direct, cache_indirect, cache_voxel_index, cache_side_slot,
+    cache_side_normal, cache_voxel_age, cache_voxel_change, cache_state_with_change, CACHE_SIDE_COUNT
 }
 #import gi::cache::lighting::{lighting, scheduled_voxel, scheduled_voxel_occupied, side_point}
 
@@ -30,10 +33,6 @@
 // reference's `shadow_distance`).
 const SHADOW_MARGIN: f32 = 1e-4;
 const FAR: f32 = 3.40282347e38;
-// Relative change of a side's direct luminance that counts as "the lighting changed".
-const LIGHT_CHANGE: f32 = 0.25;
-// Age a changed voxel is pulled down to: its next indirect updates weigh 1/3, 1/4, ...
-const CHANGED_AGE: u32 = 2u;
 
 // Irradiance from every punctual light at `x` on a surface of normal `n`, shadow rays from `x`.
 fn punctual_irradiance(x: vec3<f32>, n: vec3<f32>) -> vec3<f32> {
@@ -65,20 +64,28 @@ fn inject(
         return;
     }
     let lit = scheduled_voxel(group.x, bit);
-    var changed = false;
+    // The largest share of a side's reflected light (direct + indirect irradiance) that the
+    // new direct light changed.
+    var change = 0.0;
     for (var side = 0u; side < CACHE_SIDE_COUNT; side++) {
         let slot = cache_side_slot(lit.v, side);
         let n_side = cache_side_normal(lit.n, side);
-        let irradiance = punctual_irradiance(side_point(lit.center, lit.size_m, n_side), n_side);
-        let new_luminance = luminance(irradiance);
+        let packed = pack_rgb9e5(punctual_irradiance(side_point(lit.center, lit.size_m, n_side), n_side));
+        // Compared as stored, so that the same light gives exactly no change.
+        let new_luminance = luminance(unpack_rgb9e5(packed));
         let old_luminance = luminance(unpack_rgb9e5(cache_direct[slot]));
-        let scale = max(new_luminance, old_luminance);
-        if abs(new_luminance - old_luminance) > LIGHT_CHANGE * scale && scale > 1e-6 {
-            changed = true;
+        let indirect = luminance(unpack_rgb9e5(cache_indirect[slot]));
+        let scale = max(new_luminance, old_luminance) + indirect;
+        if scale > 0.0 {
+            change = max(change, abs(new_luminance - old_luminance) / scale);
         }
-        cache_direct[slot] = pack_rgb9e5(irradiance);
+        cache_direct[slot] = packed;
     }
-    if changed && cache_voxel_age(lit.surface) > CHANGED_AGE {
-        cache_voxels[cache_voxel_index(lit.v)].state = (lit.surface.state & ~0xffu) | CHANGED_AGE;
+    // Kept until `cache/propagate` has followed it (this frame's, when the brick is scheduled;
+    // a later one after `cache/inject_all`): the larger of the two where it was not yet. A voxel
+    // never lit before (age 0: new, or lit during a fill) had no light to change.
+    let measured = lighting.change_gain > 0.0 && cache_voxel_age(lit.surface) > 0u;
+    if measured && change > cache_voxel_change(lit.surface) {
+        cache_voxels[cache_voxel_index(lit.v)].state = cache_state_with_change(lit.surface.state, change);
     }
 }

@@ -11,9 +11,11 @@
 //              probabilities, punctual lights (the texture arrays are bind group 3)
 //   binding 8: `scheduled_bricks` array<ScheduledBrick>, one workgroup each
 //   binding 9: `propagate_scratch` array<u32>, per scheduled brick * 128 + voxel bit * 2 + side:
-//              the side's new RGB9E5 indirect irradiance, followed by its emitted part when the
-//              cache keeps it (`propagate_scratch_slot`), written by `cache/propagate` and copied
-//              into `cache_indirect` (and `cache_emitted`) by `cache/propagate_resolve`
+//              the side's new RGB9E5 indirect irradiance, its new age and measured change (in
+//              the state's bits), then its emitted part when the cache keeps it
+//              (`propagate_scratch_slot`), written by `cache/propagate` and stored into
+//              `cache_indirect`, the voxel's state (and `cache_emitted`) by
+//              `cache/propagate_resolve`
 #define_import_path gi::cache::lighting
 
 #import gi::sky::Sky
@@ -46,6 +48,12 @@ struct LightingUniforms {
     emitter_count: u32,
     // Index of the default material in `gi::scene::materials`.
     default_material: u32,
+    // `CacheConfig::change_gain`: how strongly a measured change of the light a voxel side
+    // sees raises its update's weight above 1 / age; 0 weighs by age alone.
+    change_gain: f32,
+    pad_a: u32,
+    pad_b: u32,
+    pad_c: u32,
 }
 
 // Mirror of `gi_cache::lighting::GpuScheduledBrick`: a brick whose lighting is updated.
@@ -119,15 +127,15 @@ fn scheduled_voxel(scheduled: u32, bit: u32) -> ScheduledVoxel {
 }
 
 // Index in `propagate_scratch` of side `side` of voxel `bit` of the `scheduled`-th brick: its
-// indirect irradiance, and at the next index its emitted part when the cache keeps that.
+// indirect irradiance; at the next index its new age and change (`VoxelSurface::state`'s bits
+// 0-7 and 27-31, the rest 0), then its emitted part when the cache keeps that.
 fn propagate_scratch_slot(scheduled: u32, bit: u32, side: u32) -> u32 {
-    let stride = select(1u, 2u, cache_keeps_emitted());
+    let stride = select(2u, 3u, cache_keeps_emitted());
     return ((scheduled * 64u + bit) * 2u + side) * stride;
 }
 
-// Age of voxel `lit` after this frame's propagation: one update older, at most its brick's
-// cap. Both `cache/propagate` (for the accumulation weight) and `cache/propagate_resolve` (to
-// store it) compute it from the same unchanged state.
+// Age of voxel `lit` after this frame's propagation by age alone: one update older, at most its
+// brick's cap (`cache/propagate` lowers it where it measured a change).
 fn propagated_age(lit: ScheduledVoxel) -> u32 {
     return min(cache_voxel_age(lit.surface) + 1u, lit.max_age);
 }

@@ -23,6 +23,16 @@
 // surface point (the PC tier at its rays' hits) takes `cache_indirect - cache_emitted`, the
 // light that arrives after a bounce.
 //
+// Measured change (temporal gradients for the cache, after A-SVGF, Schied et al. 2018): each ray
+// also brings the change of the voxel it hits (`cache_voxel_change`: raised by `cache/inject`
+// where the direct light changed, set by this pass from what a voxel's own rays found), and the
+// side's gathered change g is the changed share of its new irradiance. The update weighs
+// max(1 / age, min(change_gain max(g, own change), 1)) instead of 1 / age alone, the voxel's
+// age is lowered to match (so the updates after it weigh more too, and the smoothing grows
+// back), and the voxel's new change is half the larger of its own and g times the indirect
+// share of its light: a change passes on through the bounces it travels and fades by half at
+// each, and in a still scene every change is exactly 0, so nothing is weighed differently.
+//
 // A gather from last frame's lighting (HSGI's and SmartGI's "previous frame" bounce): this pass
 // writes nothing the cache's rays read. The accumulated value goes to `propagate_scratch` and
 // the voxel's age stays as it was; `cache/propagate_resolve`, the next pass, copies both into
@@ -38,9 +48,11 @@
 #import gi::lights::{sky_radiance, sample_emitter}
 #import gi::bvh::{Ray, trace_any}
 #import gi::packing::{pack_rgb9e5, unpack_rgb9e5}
+#import gi::math::luminance
 #import gi::cache::data::{
-    cache_indirect, cache_emitted, cache_keeps_emitted, cache_side_slot, cache_side_normal,
-    CACHE_SIDE_COUNT
+    cache_voxels, cache_direct, cache_indirect, cache_emitted, cache_keeps_emitted,
+    cache_side_slot, cache_side_normal, cache_voxel_index, cache_voxel_change,
+    cache_state_with_change, CACHE_SIDE_COUNT
 }
 #import gi::cache::trace::{cache_trace, cache_hit_radiance}
 #import gi::cache::lighting::{
@@ -53,20 +65,22 @@ const FAR: f32 = 3.0e38;
 // `shadow_distance`).
 const SHADOW_MARGIN: f32 = 1e-4;
 
-// Radiance arriving along `dir` at `origin` after at least one bounce: the cache's reflected
-// side radiance (emission is sampled directly), or the sky where the ray leaves the cache.
-// During a fill (`max_age` 0, `gi_cache::lighting::FILL_FRACTION`) a ray that finds nothing may
-// have passed where a wall is still queued, so it brings nothing: the fill's lighting starts
-// dark and the updates after it add the sky, rather than leaking it indoors.
-fn bounced_radiance(origin: vec3<f32>, dir: vec3<f32>) -> vec3<f32> {
+// Radiance arriving along `dir` at `origin` after at least one bounce (rgb): the cache's
+// reflected side radiance (emission is sampled directly), or the sky where the ray leaves the
+// cache; and the hit voxel's measured change (w; 0 for the sky). During a fill (`max_age` 0,
+// `gi_cache::lighting::FILL_FRACTION`) a ray that finds nothing may have passed where a wall is
+// still queued, so it brings nothing: the fill's lighting starts dark and the updates after it
+// add the sky, rather than leaking it indoors.
+fn bounced_radiance(origin: vec3<f32>, dir: vec3<f32>) -> vec4<f32> {
     let hit = cache_trace(origin, dir, FAR);
     if hit.hit {
-        return cache_hit_radiance(hit, false);
+        let change = cache_voxel_change(cache_voxels[cache_voxel_index(hit.voxel)]);
+        return vec4(cache_hit_radiance(hit, false), change);
     }
     if lighting.max_age == 0u {
-        return vec3(0.0);
+        return vec4(0.0);
     }
-    return sky_radiance(lighting.sky, dir);
+    return vec4(sky_radiance(lighting.sky, dir), 0.0);
 }
 
 // One next-event sample of the emissive triangles for a surface of normal `n` at `surface`:
@@ -108,9 +122,9 @@ const RAY_LANES: u32 = 4u;
 const GROUP_SIDES: u32 = 16u;
 const PROPAGATE_ROWS: u32 = 8u;
 
-// Each thread's share of its side's irradiance sum (bounced x pi + emitted), and of its emitted
-// part, by thread index.
-var<workgroup> lane_sums: array<vec3<f32>, 64>;
+// Each thread's share of its side's irradiance sum (bounced x pi + emitted, rgb; in w the
+// luminance of its changed part), and of its emitted part, by thread index.
+var<workgroup> lane_sums: array<vec4<f32>, 64>;
 var<workgroup> lane_emitted: array<vec3<f32>, 64>;
 
 // The random sequence of lane `lane` of side `side` of world voxel `voxel` at `level` for this
@@ -155,6 +169,7 @@ fn propagate(
     let side = entry & 1u;
     let rays = max(lighting.rays_per_side, 1u);
     var sum = vec3<f32>(0.0);
+    var changed = 0.0;
     var emitted = vec3<f32>(0.0);
     if listed {
         let lit = scheduled_voxel(scheduled, bit);
@@ -170,19 +185,21 @@ fn propagate(
         var sampler = side_sampler(lit.level, lit.voxel, side, lane);
         for (var i = lane; i < rays; i += RAY_LANES) {
             let dir = frame_to_world(frame, cosine_hemisphere(sampler_next_2d(&sampler)));
-            sum += bounced_radiance(x, dir) * PI;
+            let bounced = bounced_radiance(x, dir);
+            sum += bounced.rgb * PI;
+            changed += bounced.w * luminance(bounced.rgb) * PI;
             if lighting.emitter_count > 0u {
                 emitted += emitter_irradiance(surface, x, n_side, &sampler);
             }
         }
     }
-    lane_sums[thread] = sum + emitted;
+    lane_sums[thread] = vec4(sum + emitted, changed);
     lane_emitted[thread] = emitted;
     workgroupBarrier();
     if !listed || lane != 0u {
         return;
     }
-    var total = vec3<f32>(0.0);
+    var total = vec4<f32>(0.0);
     var total_emitted = vec3<f32>(0.0);
     for (var l = 0u; l < RAY_LANES; l++) {
         total += lane_sums[slot_in_group + GROUP_SIDES * l];
@@ -190,16 +207,28 @@ fn propagate(
     }
     let lit = scheduled_voxel(scheduled, bit);
     let age = propagated_age(lit);
+    // The changed share of what the rays found, and the weight it asks for.
+    let found = luminance(total.rgb);
+    let gathered = select(0.0, min(total.w / found, 1.0), found > 0.0);
+    let own = cache_voxel_change(lit.surface);
+    let lambda = min(lighting.change_gain * max(gathered, own), 1.0);
     // Age 0 (max_age 0, during a fill) replaces without keeping history.
-    let weight = 1.0 / f32(max(age, 1u));
+    let weight = max(1.0 / f32(max(age, 1u)), lambda);
+    // The age whose weight this was (so the next update weighs 1 / (that + 1)); a fill's 0 stays.
+    let new_age = min(age, max(u32(round(1.0 / weight)), 1u));
     let slot = cache_side_slot(lit.v, side);
-    let irradiance = total / f32(rays);
+    let irradiance = total.rgb / f32(rays);
     let history = unpack_rgb9e5(cache_indirect[slot]);
+    let indirect = mix(history, irradiance, weight);
     let scratch = propagate_scratch_slot(scheduled, bit, side);
-    propagate_scratch[scratch] = pack_rgb9e5(mix(history, irradiance, weight));
+    propagate_scratch[scratch] = pack_rgb9e5(indirect);
+    // The share of the side's reflected light that changed through its gather.
+    let light = luminance(unpack_rgb9e5(cache_direct[slot]) + indirect);
+    let passed_on = select(0.0, gathered * luminance(indirect) / light, light > 0.0);
+    propagate_scratch[scratch + 1u] = cache_state_with_change(new_age, 0.5 * max(own, passed_on));
     if cache_keeps_emitted() {
         let emitted_history = unpack_rgb9e5(cache_emitted[slot]);
-        propagate_scratch[scratch + 1u] =
+        propagate_scratch[scratch + 2u] =
             pack_rgb9e5(mix(emitted_history, total_emitted / f32(rays), weight));
     }
 }

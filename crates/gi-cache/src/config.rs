@@ -96,6 +96,12 @@ pub struct CacheConfig {
     /// Cap of the temporal accumulation weight `1 / min(age, max_age)`: higher values converge
     /// to a smoother result but follow lighting changes more slowly.
     pub max_age: u32,
+    /// How strongly a measured change of the light raises a voxel side's update weight above
+    /// `1 / age` ([`crate::lighting`]'s measured change): an update weighs
+    /// `max(1 / age, min(change_gain * change, 1))`, where `change` is the share of the light
+    /// the side's rays found (or its own direct light) that changed. 0 weighs by age alone; in
+    /// a still scene every change is 0 and this has no effect.
+    pub change_gain: f32,
     /// Also keep, per voxel side, the part of the indirect irradiance that the emissive
     /// triangles give directly (`cache.emitted`, 512 bytes per brick more), so that a caller
     /// that samples the emitters itself can read the bounced light alone
@@ -122,6 +128,7 @@ impl Default for CacheConfig {
             near_levels: 3,
             gather_rays_per_side: 4,
             max_age: 32,
+            change_gain: 3.0,
             keep_emitted: false,
         }
     }
@@ -195,6 +202,13 @@ impl CacheConfig {
             if value == 0 {
                 return invalid(field, value.to_string(), "must be at least 1");
             }
+        }
+        if !(self.change_gain.is_finite() && (0.0..=1000.0).contains(&self.change_gain)) {
+            return invalid(
+                "change_gain",
+                self.change_gain.to_string(),
+                "must be between 0 and 1000",
+            );
         }
         if self.gather_rays_per_side > MAX_GATHER_RAYS_PER_SIDE {
             return invalid(

@@ -121,8 +121,9 @@ pub struct VoxelSurface {
     pub emission: u32,
     /// Bits 0-7: age (lighting updates accumulated, saturating at `max_age`); bit 8: the voxel
     /// holds a dynamic (moving) object's surface; bits 9-26: the box around the voxel's
-    /// geometry ([`geometry_box_bits`]; all zero is the whole voxel); bits 27-31 reserved
-    /// (zero).
+    /// geometry ([`geometry_box_bits`]; all zero is the whole voxel); bits 27-31: the share of
+    /// its reflected light that changed lately, in steps of `1 / CHANGE_LEVELS`
+    /// ([`STATE_CHANGE_SHIFT`], set by the lighting passes; 0 for a new voxel).
     pub state: u32,
 }
 
@@ -179,6 +180,18 @@ pub fn box_cross_section(state: u32, n: glam::Vec3, s: f32) -> f32 {
     let e = (hi - lo).as_vec3() * (s / BOX_STEPS as f32);
     let a = n.abs();
     a.x * e.y * e.z + a.y * e.x * e.z + a.z * e.x * e.y
+}
+
+/// First `VoxelSurface::state` bit of the voxel's measured change (`cache_voxel_change` in
+/// `shaders/cache/data.wgsl`).
+pub const STATE_CHANGE_SHIFT: u32 = 27;
+/// Steps of the measured change: `state >> STATE_CHANGE_SHIFT` of `CHANGE_LEVELS` is all of
+/// the voxel's light.
+pub const CHANGE_LEVELS: u32 = 31;
+
+/// The measured change (0 to 1) that `state` holds.
+pub fn state_change(state: u32) -> f32 {
+    (state >> STATE_CHANGE_SHIFT) as f32 / CHANGE_LEVELS as f32
 }
 
 /// `VoxelSurface::state` bit of voxels that hold part of a moving object.

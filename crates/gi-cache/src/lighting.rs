@@ -149,7 +149,7 @@ impl GpuSky {
     }
 }
 
-/// Uniforms of the lighting passes (`gi::cache::lighting::LightingUniforms`, 96 bytes).
+/// Uniforms of the lighting passes (`gi::cache::lighting::LightingUniforms`, 112 bytes).
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
 pub struct GpuLightingUniforms {
@@ -172,6 +172,11 @@ pub struct GpuLightingUniforms {
     pub emitter_count: u32,
     /// Index of the default material in the scene's materials.
     pub default_material: u32,
+    /// [`CacheConfig::change_gain`].
+    pub change_gain: f32,
+    pub pad_a: u32,
+    pub pad_b: u32,
+    pub pad_c: u32,
 }
 
 /// One brick to relight (`gi::cache::lighting::ScheduledBrick`, 32 bytes).
@@ -547,10 +552,20 @@ impl<'a> LightingInputs<'a> {
     }
 }
 
-/// Bytes of `cache.lighting.scratch` per scheduled brick: 64 voxels x 2 sides, one RGB9E5
-/// irradiance each (the age needs no room: the resolve recomputes it from the unchanged state);
-/// twice that with [`CacheConfig::keep_emitted`] (the emitted part too).
-pub const SCRATCH_BYTES_PER_BRICK: u64 = 64 * 2 * 4;
+/// Bytes of `cache.lighting.scratch` per scheduled brick: 64 voxels x 2 sides, each an RGB9E5
+/// irradiance and its new age and measured change (one u32 each); with
+/// [`CacheConfig::keep_emitted`] a third u32 per side, the emitted part
+/// ([`scratch_bytes_per_brick`]).
+pub const SCRATCH_BYTES_PER_BRICK: u64 = 64 * 2 * 2 * 4;
+
+/// Bytes of `cache.lighting.scratch` per scheduled brick for a cache of `config`.
+pub fn scratch_bytes_per_brick(config: &CacheConfig) -> u64 {
+    if config.keep_emitted {
+        SCRATCH_BYTES_PER_BRICK / 2 * 3
+    } else {
+        SCRATCH_BYTES_PER_BRICK
+    }
+}
 
 /// Bytes of `cache.lighting.list` per scheduled brick: an entry (u32) per voxel side.
 pub const LIST_BYTES_PER_BRICK: u64 = 64 * CACHE_SIDES * 4;
@@ -565,12 +580,12 @@ const LIGHTING_STORAGE_BUFFERS: u32 = 21;
 
 /// The cache's lighting technique: the `cache/inject`, `cache/propagate` and
 /// `cache/propagate_resolve` pipelines, the schedule, the per-frame brick list and the
-/// propagation's scratch. Memory: the uniforms (96 bytes) and, per brick of the schedule's
+/// propagation's scratch. Memory: the uniforms (112 bytes) and, per brick of the schedule's
 /// largest frame ([`ScheduleBudget::max_bricks`]: [`CacheConfig::light_bricks_per_frame`] plus
-/// the settling budget), 32 bytes of brick list, [`SCRATCH_BYTES_PER_BRICK`] (512; 1024 with
+/// the settling budget), 32 bytes of brick list, [`SCRATCH_BYTES_PER_BRICK`] (1024; 1536 with
 /// [`CacheConfig::keep_emitted`]) of scratch and [`LIST_BYTES_PER_BRICK`] (512) of propagation
-/// list, counted under `cache.lighting.*` (the default 2048 bricks: 2.2 MB; 3.3 MB keeping the
-/// emitted part).
+/// list, counted under `cache.lighting.*` (the default 2048 bricks: 3.2 MB; 4.3 MB keeping
+/// the emitted part).
 pub struct CacheLighting {
     /// Entry point `inject` of `cache/inject.wgsl`.
     inject: wgpu::ComputePipeline,
@@ -733,8 +748,7 @@ impl CacheLighting {
         let scratch = ctx.create_buffer(
             "cache.lighting.scratch",
             u64::from(ScheduleBudget::new(config).max_bricks().max(1))
-                * SCRATCH_BYTES_PER_BRICK
-                * if config.keep_emitted { 2 } else { 1 },
+                * scratch_bytes_per_brick(config),
             wgpu::BufferUsages::STORAGE,
         );
         let list = ctx.create_buffer(
@@ -883,6 +897,8 @@ impl CacheLighting {
             seed: GATHER_SEED,
             emitter_count: inputs.scene.emitter_count,
             default_material: inputs.scene.default_material,
+            change_gain: self.config.change_gain,
+            ..Default::default()
         };
         ctx.queue
             .write_buffer(&self.uniforms, 0, bytemuck::bytes_of(&uniforms));
