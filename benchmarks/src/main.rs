@@ -335,6 +335,10 @@ enum Command {
         /// The PC tier's temporal-gradient gain (`GradientConfig::gain`).
         #[arg(long)]
         pc_gradient_gain: Option<f32>,
+        /// Both tiers' brick cache's measured-change gain (`CacheConfig::change_gain`; 0: the
+        /// cache's updates weigh by age alone).
+        #[arg(long)]
+        cache_change_gain: Option<f32>,
         /// Frames rendered after the light turns.
         #[arg(long, default_value_t = 160)]
         settle_frames: u32,
@@ -578,6 +582,7 @@ fn main() -> anyhow::Result<()> {
             pc_short_clamp_sigma,
             pc_without,
             pc_gradient_gain,
+            cache_change_gain,
             settle_frames,
             converged_frames,
             settle_k,
@@ -614,6 +619,7 @@ fn main() -> anyhow::Result<()> {
                 move_node,
                 move_by,
                 flicker: !no_flicker,
+                cache_change_gain,
                 pc_config: {
                     let mut config = match pc_without {
                         Some(stage) => {
@@ -626,6 +632,9 @@ fn main() -> anyhow::Result<()> {
                     }
                     if let Some(gain) = pc_gradient_gain {
                         config.gradients.gain = gain;
+                    }
+                    if let Some(gain) = cache_change_gain {
+                        config.cache.change_gain = gain;
                     }
                     config.validate().map_err(anyhow::Error::msg)?;
                     config

@@ -50,7 +50,17 @@ pub fn mobile_renderer(
     mode: ScreenProbeMode,
     camera: CameraMode,
 ) -> anyhow::Result<Renderer> {
-    let tier = MobileTier::open(crate::pc::bench_settings(size), config_for(mode))?;
+    mobile_renderer_with(scene, size, config_for(mode), camera)
+}
+
+/// [`mobile_renderer`] with the mobile tier configured as `config`.
+pub fn mobile_renderer_with(
+    scene: gi_scene::Scene,
+    size: (u32, u32),
+    config: MobileConfig,
+    camera: CameraMode,
+) -> anyhow::Result<Renderer> {
+    let tier = MobileTier::open(crate::pc::bench_settings(size), config)?;
     Ok(Renderer::with_tier(scene, Box::new(tier), camera))
 }
 

@@ -49,7 +49,7 @@ use gi_scene::LightKind;
 use gi_tiers::{CameraMode, PcConfig, PcTier, Renderer, mobile::ScreenProbeMode};
 use glam::{Quat, Vec3};
 
-use crate::mobile::{mobile, mobile_renderer};
+use crate::mobile::{mobile, mobile_renderer_with};
 use crate::pc::pc_renderer;
 use crate::settle::{Settled, gi_ms};
 use crate::stability::{
@@ -84,6 +84,9 @@ pub struct StabilityOptions {
     pub flicker: bool,
     /// The PC tier's configuration (its runs only).
     pub pc_config: PcConfig,
+    /// The mobile tier's brick cache's `CacheConfig::change_gain`; `None`: the default. (The PC
+    /// tier's is in `pc_config`.)
+    pub cache_change_gain: Option<f32>,
     /// Frames rendered after the light turns.
     pub settle_frames: u32,
     /// The last frames, whose mean is the converged value.
@@ -258,7 +261,13 @@ impl Variant {
     ) -> anyhow::Result<Renderer> {
         let size = options.size;
         match self {
-            Variant::Mobile(mode) => mobile_renderer(scene.clone(), size, mode, camera),
+            Variant::Mobile(mode) => {
+                let mut config = crate::mobile::config_for(mode);
+                if let Some(gain) = options.cache_change_gain {
+                    config.cache.change_gain = gain;
+                }
+                mobile_renderer_with(scene.clone(), size, config, camera)
+            }
             Variant::Pc => pc_renderer(scene.clone(), size, options.pc_config.clone(), camera),
         }
     }

@@ -91,6 +91,10 @@ fn shared_structs_match_their_wgsl_layout() {
             normal_cos,
             ray_offset_voxels,
             flags,
+            change_gain,
+            pad_a,
+            pad_b,
+            pad_c,
         }),
         size_of::<ScreenUniforms>(),
     );

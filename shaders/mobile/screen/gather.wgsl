@@ -4,7 +4,10 @@
 // of the four nearest 2 x 2 groups; the probe volume serves dynamic pixels and pixels where
 // every probe fails (which marks the tile for an extra probe next frame); then a temporal
 // filter: reprojection through the motion vectors, a depth test, history of dynamic pixels
-// discarded, age-based convergence.
+// discarded, age-based convergence, shortened where the brick cache measured its light change
+// at the pixel's surface (A-SVGF's rule, Schied et al. 2018, with the cache's measured change
+// as the gradient: `alpha = max(1 / age, min(change_gain * change, 1))`, the age lowered to
+// match; in a still scene the change is exactly 0).
 //
 // Bind group 0: `gi::mobile::screen`'s; 1: the probe volume (`gi::mobile::volume`); 2: the
 // brick cache (`gi::cache::data`).
@@ -12,7 +15,7 @@
 #import gi::packing::{pack_rgb9e5, unpack_rgb9e5, unpack_unit_vector}
 #import gi::mobile::lite::{lite_is_dynamic, lite_normal}
 #import gi::mobile::volume::volume_irradiance
-#import gi::cache::trace::cache_irradiance
+#import gi::cache::trace::{cache_irradiance, cache_surface_change}
 #import gi::mobile::screen::{
     uniforms, gbuffer_depth, gbuffer_motion, lite, probes, probe_radiance, tile_marks,
     history_in, history_out, is_sky, pixel_ray, fresh_tile, history_age_depth, half_source,
@@ -148,7 +151,13 @@ fn gather(@builtin(global_invocation_id) id: vec3<u32>) {
             if age_depth.x > 0.0 && age_depth.y > 0.0
                 && abs(age_depth.y - expected) < HISTORY_DEPTH_TOLERANCE * expected {
                 age = min(age_depth.x + 1.0, f32(uniforms.max_age));
-                irradiance = mix(unpack_rgb9e5(entry.x), current, 1.0 / age);
+                var alpha = 1.0 / age;
+                if uniforms.change_gain > 0.0 {
+                    let lambda = min(uniforms.change_gain * cache_surface_change(p, n), 1.0);
+                    alpha = max(alpha, lambda);
+                    age = min(age, max(round(1.0 / alpha), 1.0));
+                }
+                irradiance = mix(unpack_rgb9e5(entry.x), current, alpha);
             }
         }
     }

@@ -48,6 +48,12 @@ struct ScreenUniforms {
     // FLAG_SMARTGI: SmartGI (2 x 2 groups, reprojection), else HSGI (every tile traced every
     // frame); FLAG_MATERIAL_OCCLUSION: the occlusion map darkens the gathered diffuse light.
     flags: u32,
+    // The brick cache's `CacheConfig::change_gain`: how strongly the change the cache measured
+    // at a pixel's surface shortens its temporal history (`mobile/gather`); 0: not at all.
+    change_gain: f32,
+    pad_a: u32,
+    pad_b: u32,
+    pad_c: u32,
 }
 
 const FLAG_SMARTGI: u32 = 1u;

@@ -10,7 +10,7 @@
 #import gi::lights::{sky_radiance, emitter_pdf}
 #import gi::packing::{pack_unit_vector, unpack_unit_vector, pack_rgb9e5, unpack_rgb9e5}
 #import gi::cache::data::cache
-#import gi::cache::trace::{CacheHit, cache_miss, cache_trace_from, cache_hit_radiance, cache_hit_normal}
+#import gi::cache::trace::{CacheHit, cache_miss, cache_trace_from, cache_hit_radiance, cache_hit_normal, cache_change}
 #import gi::pc::restir::common::{
     uniforms, Reservoir, empty_reservoir, SAMPLE_SKY, FAR, FLAG_HISTORY, GRADIENT_NONE,
     gradient_pick, gradient_seen
@@ -91,9 +91,11 @@ fn ray_candidate(origin: vec3<f32>, dir: vec3<f32>, n: vec3<f32>, sampler: ptr<f
 // The temporal gradient of `stratum` (`pc/restir/gradient.wgsl` explains them): draws again
 // the ray candidate one of its trace pixels kept last frame, with that frame's random numbers
 // (the same direction, emitter sample and shadow rays), and stores the change of what it
-// finds outside the brick cache (`gradient_seen`) and the larger of the two luminances of all
-// it finds. `trace` runs it in extra workgroups of its own dispatch, where the other rays hide
-// its latency.
+// finds outside the brick cache (`gradient_seen`, x), the larger of the two luminances of all
+// it finds (y) and the part of the cache's light it finds that the cache measured changed
+// (w: `cache_change` at the hit times the luminance the cache gives there; exactly 0 while the
+// cache measures no change, so its updates' noise stays out). `trace` runs it in extra
+// workgroups of its own dispatch, where the other rays hide its latency.
 fn draw_gradient(stratum: vec2<u32>) {
     if any(stratum >= vec2(uniforms.gradient_strata_x, uniforms.gradient_strata_y)) {
         return;
@@ -114,8 +116,17 @@ fn draw_gradient(stratum: vec2<u32>) {
         let local = cosine_hemisphere(sampler_next_2d(&sampler));
         let dir = frame_to_world(frame_from_normal(n), local);
         let candidate = ray_candidate(kept.origin, dir, n, &sampler);
-        let total = luminance(unpack_rgb9e5(candidate.sample.radiance));
-        change = vec4(gradient_seen(candidate.sample) - kept.seen, max(total, kept.total), 0.0, 0.0);
+        let found = candidate.sample;
+        let total = luminance(unpack_rgb9e5(found.radiance));
+        let seen = gradient_seen(found);
+        var cached_change = 0.0;
+        if (found.flags & SAMPLE_SKY) == 0u {
+            // The cache's light at the hit: all of a far-field hit's (no albedo: the cache gave
+            // all of it, and `gradient_seen` counts it too), the rest of a shaded hit's.
+            let cached = select(max(total - seen, 0.0), total, found.albedo == 0u);
+            cached_change = cache_change(found.position, unpack_unit_vector(found.normal)) * cached;
+        }
+        change = vec4(seen - kept.seen, max(total, kept.total), 0.0, cached_change);
     }
     gradients[s] = change;
 }

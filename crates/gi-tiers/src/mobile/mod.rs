@@ -387,6 +387,7 @@ impl MobileTier {
         if blend_layer {
             uniforms.flags |= screen::FLAG_BLEND_LAYER;
         }
+        uniforms.change_gain = config.cache.change_gain;
         screen.begin_frame(ctx, uniforms);
         let cache = &cache_buffers.bind_group;
         screen.record(

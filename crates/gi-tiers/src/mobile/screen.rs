@@ -46,6 +46,12 @@ pub struct ScreenUniforms {
     /// darkens the gathered diffuse light ([`ScreenConfig::material_occlusion`]); bit 2
     /// (`FLAG_BLEND_LAYER`): `gbuffer.blend_layer` holds a blended layer per pixel.
     pub flags: u32,
+    /// The brick cache's `CacheConfig::change_gain`: how strongly the change the cache measured
+    /// at a pixel's surface shortens the gather's temporal history; 0: not at all.
+    pub change_gain: f32,
+    pub pad_a: u32,
+    pub pad_b: u32,
+    pub pad_c: u32,
 }
 
 /// [`ScreenUniforms::flags`] bit: the G-buffer found blended layers (the scene has alpha-`BLEND`
@@ -435,6 +441,8 @@ pub fn screen_uniforms(
             ScreenProbeMode::Hsgi => 0,
             ScreenProbeMode::SmartGi => 1,
         } | if config.material_occlusion { 2 } else { 0 },
+        change_gain: 0.0,
+        ..Default::default()
     }
 }
 
