@@ -25,7 +25,7 @@ use gi_gpu::{
 };
 
 /// Passes a frame can record: `gbuffer/primary` and the five cache passes, with room to spare.
-const TIMER_SCOPES: u32 = 8;
+const TIMER_SCOPES: u32 = 12;
 
 /// The cache passes reported, in frame order.
 pub const CACHE_PASSES: [&str; 5] = [

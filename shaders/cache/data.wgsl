@@ -37,11 +37,14 @@ const CACHE_STATE_DYNAMIC: u32 = 256u;
 // the voxel's geometry, and its steps per voxel edge.
 const CACHE_STATE_BOX_SHIFT: u32 = 9u;
 const CACHE_BOX_STEPS: u32 = 8u;
-// `gi_cache::layout::STATE_CHANGE_SHIFT` and `CHANGE_LEVELS`: where the state holds the share
-// of the voxel's reflected light that changed lately (`cache_voxel_change`), in steps of
-// 1 / CACHE_CHANGE_LEVELS.
+// `gi_cache::layout::STATE_CHANGE_SHIFT`, `CHANGE_LEVELS` and `STATE_CHANGE_FRAMES_SHIFT`:
+// where the state holds the share of the voxel's reflected light that changed lately
+// (`cache_voxel_change`), in steps of 1 / CACHE_CHANGE_LEVELS, and the frames since that change
+// was measured (`cache/change_age` counts them, up to CACHE_CHANGE_FRAMES_MAX).
 const CACHE_STATE_CHANGE_SHIFT: u32 = 27u;
-const CACHE_CHANGE_LEVELS: u32 = 31u;
+const CACHE_CHANGE_LEVELS: u32 = 7u;
+const CACHE_STATE_CHANGE_FRAMES_SHIFT: u32 = 30u;
+const CACHE_CHANGE_FRAMES_MAX: u32 = 3u;
 const CACHE_INV_PI: f32 = 0.3183098861837907;
 
 // One level's window: world brick coordinate of its lowest corner and its voxel edge.
@@ -62,8 +65,8 @@ struct CacheUniforms {
 }
 
 // Mirror of `gi_cache::VoxelSurface`: albedo rgb + coverage a (unorm8), packed unit normal,
-// RGB9E5 emission, state (bits 0-7 age, bit 8 dynamic, bits 9-26 the geometry box, bits 27-31
-// the measured change of its light).
+// RGB9E5 emission, state (bits 0-7 age, bit 8 dynamic, bits 9-26 the geometry box, bits 27-29
+// the measured change of its light, bits 30-31 the frames since it was measured).
 struct VoxelSurface {
     albedo: u32,
     normal: u32,
@@ -233,12 +236,24 @@ fn cache_voxel_age(s: VoxelSurface) -> u32 {
 // The share (0 to 1) of the voxel's reflected light that changed lately, as the lighting
 // measured it (`gi_cache::lighting`'s "measured change"): `cache/inject` raises it where a
 // side's direct light changed, `cache/propagate` sets it from the change its rays found. Exactly
-// 0 while nothing in the scene changes.
+// 0 while nothing in the scene changes. It lasts until the voxel's next update, which weighs
+// it: the cache's own passes read it.
 fn cache_voxel_change(s: VoxelSurface) -> f32 {
-    return f32(s.state >> CACHE_STATE_CHANGE_SHIFT) / f32(CACHE_CHANGE_LEVELS);
+    return f32((s.state >> CACHE_STATE_CHANGE_SHIFT) & CACHE_CHANGE_LEVELS) / f32(CACHE_CHANGE_LEVELS);
 }
 
-// `state` with its change bits set to `change` (0 to 1, to the nearest step).
+// `cache_voxel_change` where it was measured in this frame's lighting update or the last one,
+// else 0: what has just changed in the voxel's light. The passes that read the cache's light on
+// screen read this: a change measured frames ago (a voxel waits for its next update) has long
+// reached them.
+fn cache_voxel_recent_change(s: VoxelSurface) -> f32 {
+    if (s.state >> CACHE_STATE_CHANGE_FRAMES_SHIFT) > 1u {
+        return 0.0;
+    }
+    return cache_voxel_change(s);
+}
+
+// `state` with its change set to `change` (0 to 1, to the nearest step), measured this frame.
 fn cache_state_with_change(state: u32, change: f32) -> u32 {
     let steps = u32(round(clamp(change, 0.0, 1.0) * f32(CACHE_CHANGE_LEVELS)));
     let keep = (1u << CACHE_STATE_CHANGE_SHIFT) - 1u;

@@ -29,7 +29,7 @@
     cache_voxel_normal, cache_side_radiance, cache_side_seen_by_ray,
     cache_side_normal, cache_side_slot, cache_direct, cache_indirect, cache_emitted,
     cache_keeps_emitted, CACHE_SIDE_FRONT, CACHE_SIDE_BACK, CACHE_STATE_BOX_SHIFT, CACHE_BOX_STEPS,
-    cache_geometry_box, cache_voxel_change
+    cache_geometry_box, cache_voxel_recent_change
 }
 #import gi::packing::{unpack_rgb9e5, unpack_unit_vector}
 #import gi::math::INV_PI
@@ -379,16 +379,18 @@ fn cache_blend_layer_gi(layer: vec4<f32>, origin: vec3<f32>, dir: vec3<f32>, beh
     return mix(behind, albedo_sqrt * albedo_sqrt * e * INV_PI, layer.w);
 }
 
-// The measured change of the cache's light at surface point `p` with unit normal `n`
-// (`cache_voxel_change`: the share of the voxels' reflected light that changed lately),
-// interpolated over the voxels `cache_irradiance` reads there; 0 where the cache has none.
+// The change the cache just measured in its light at surface point `p` with unit normal `n`
+// (`cache_voxel_recent_change`: the share of the voxels' reflected light that changed in this
+// frame's lighting update or the last), interpolated over the voxels `cache_irradiance` reads
+// there; 0 where the cache has none.
 fn cache_change(p: vec3<f32>, n: vec3<f32>) -> f32 {
     return cache_irradiance_of(p, n, CACHE_PART_CHANGE).x;
 }
 
-// The measured change of the voxel holding the surface at `p` (unit normal `n`: the voxel half
-// a voxel behind `p`) at the finest level whose window holds `p`: one lookup, for passes that
-// ask at every pixel; 0 where that voxel is empty.
+// The change the cache just measured (`cache_voxel_recent_change`) of the voxel holding the
+// surface at `p` (unit normal `n`: the voxel half a voxel behind `p`) at the finest level whose
+// window holds `p`: one lookup, for passes that ask at every pixel; 0 where that voxel is
+// empty.
 fn cache_surface_change(p: vec3<f32>, n: vec3<f32>) -> f32 {
     let level = cache_level_of_point(p);
     if level >= cache.level_count {
@@ -399,7 +401,7 @@ fn cache_surface_change(p: vec3<f32>, n: vec3<f32>) -> f32 {
     if v.brick_id == 0u {
         return 0.0;
     }
-    return cache_voxel_change(cache_voxels[cache_voxel_index(v)]);
+    return cache_voxel_recent_change(cache_voxels[cache_voxel_index(v)]);
 }
 
 // Which part of the cached irradiance a lookup returns.
@@ -418,7 +420,7 @@ const CACHE_PART_CHANGE: u32 = 4u;
 // difference differs from the bounced light only by their rounding.
 fn cache_side_irradiance_of(v: VoxelRef, side: u32, part: u32) -> vec3<f32> {
     if part == CACHE_PART_CHANGE {
-        return vec3(cache_voxel_change(cache_voxels[cache_voxel_index(v)]));
+        return vec3(cache_voxel_recent_change(cache_voxels[cache_voxel_index(v)]));
     }
     let slot = cache_side_slot(v, side);
     let indirect = unpack_rgb9e5(cache_indirect[slot]);

@@ -121,9 +121,10 @@ pub struct VoxelSurface {
     pub emission: u32,
     /// Bits 0-7: age (lighting updates accumulated, saturating at `max_age`); bit 8: the voxel
     /// holds a dynamic (moving) object's surface; bits 9-26: the box around the voxel's
-    /// geometry ([`geometry_box_bits`]; all zero is the whole voxel); bits 27-31: the share of
+    /// geometry ([`geometry_box_bits`]; all zero is the whole voxel); bits 27-29: the share of
     /// its reflected light that changed lately, in steps of `1 / CHANGE_LEVELS`
-    /// ([`STATE_CHANGE_SHIFT`], set by the lighting passes; 0 for a new voxel).
+    /// ([`STATE_CHANGE_SHIFT`], set by the lighting passes; 0 for a new voxel); bits 30-31: the
+    /// frames since that change was measured, up to 3 ([`STATE_CHANGE_FRAMES_SHIFT`]).
     pub state: u32,
 }
 
@@ -185,13 +186,20 @@ pub fn box_cross_section(state: u32, n: glam::Vec3, s: f32) -> f32 {
 /// First `VoxelSurface::state` bit of the voxel's measured change (`cache_voxel_change` in
 /// `shaders/cache/data.wgsl`).
 pub const STATE_CHANGE_SHIFT: u32 = 27;
-/// Steps of the measured change: `state >> STATE_CHANGE_SHIFT` of `CHANGE_LEVELS` is all of
-/// the voxel's light.
-pub const CHANGE_LEVELS: u32 = 31;
+/// Steps of the measured change (also the mask of its bits): `CHANGE_LEVELS` is all of the
+/// voxel's light.
+pub const CHANGE_LEVELS: u32 = 7;
+/// First `VoxelSurface::state` bit of the frames since the change was measured.
+pub const STATE_CHANGE_FRAMES_SHIFT: u32 = 30;
 
 /// The measured change (0 to 1) that `state` holds.
 pub fn state_change(state: u32) -> f32 {
-    (state >> STATE_CHANGE_SHIFT) as f32 / CHANGE_LEVELS as f32
+    ((state >> STATE_CHANGE_SHIFT) & CHANGE_LEVELS) as f32 / CHANGE_LEVELS as f32
+}
+
+/// The frames since the change `state` holds was measured (0 to 3, 3 meaning 3 or more).
+pub fn state_change_frames(state: u32) -> u32 {
+    state >> STATE_CHANGE_FRAMES_SHIFT
 }
 
 /// `VoxelSurface::state` bit of voxels that hold part of a moving object.

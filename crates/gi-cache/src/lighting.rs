@@ -589,6 +589,8 @@ const LIGHTING_STORAGE_BUFFERS: u32 = 21;
 pub struct CacheLighting {
     /// Entry point `inject` of `cache/inject.wgsl`.
     inject: wgpu::ComputePipeline,
+    /// Entry point `change_age` of `cache/change_age.wgsl` (with a change gain only).
+    change_age: wgpu::ComputePipeline,
     /// Entry point `propagate_list` of `cache/propagate_list.wgsl`.
     propagate_list: wgpu::ComputePipeline,
     /// Entry point `propagate` of `cache/propagate.wgsl`.
@@ -724,6 +726,11 @@ impl CacheLighting {
                 Some(&texture_layout),
             ],
         )?;
+        let change_age = pipeline(
+            "change_age",
+            "cache/change_age.wgsl",
+            &[None, None, Some(cache_layout)],
+        )?;
         let propagate_resolve = pipeline(
             "propagate_resolve",
             "cache/propagate_resolve.wgsl",
@@ -778,6 +785,7 @@ impl CacheLighting {
         );
         Ok(Self {
             inject,
+            change_age,
             propagate_list,
             propagate,
             propagate_resolve,
@@ -830,6 +838,9 @@ impl CacheLighting {
         // A change of the lights or the sky caps the accumulation for `max_age` updates, so
         // history that no longer holds fades within a few updates; ages then grow back by one
         // per update, and so does the smoothing.
+        if self.config.change_gain > 0.0 {
+            self.record_change_age(ctx, timer, encoder, inputs.cache_bind_group);
+        }
         let key = light_key(inputs.lights, inputs.sky);
         let lights_changed = key != self.light_key && self.updates > 0;
         if lights_changed {
@@ -955,6 +966,23 @@ impl CacheLighting {
             pass.dispatch_workgroups(workgroups, 1, 1);
         });
         counts
+    }
+
+    /// Records `cache/change_age` over every brick ID of the pool (`shaders/cache/change_age.wgsl`).
+    fn record_change_age(
+        &self,
+        ctx: &GpuContext,
+        timer: &mut GpuTimer,
+        encoder: &mut wgpu::CommandEncoder,
+        cache_bind_group: &wgpu::BindGroup,
+    ) {
+        const ROW: u32 = 65_535;
+        let bricks = self.config.pool_bricks;
+        timer.compute_pass(ctx, encoder, "cache/change_age", |pass| {
+            pass.set_pipeline(&self.change_age);
+            pass.set_bind_group(2, cache_bind_group, &[]);
+            pass.dispatch_workgroups(bricks.min(ROW), bricks.div_ceil(ROW), 1);
+        });
     }
 
     /// Records `cache/inject_all`: the direct light of every resident brick (up to

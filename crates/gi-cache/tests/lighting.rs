@@ -167,7 +167,7 @@ impl LitCache {
             buffers,
             gpu_scene,
             lighting,
-            timer: GpuTimer::new(ctx, "cache.lighting.test", 4),
+            timer: GpuTimer::new(ctx, "cache.lighting.test", 8),
             bricks,
             lights: frame.lights.clone(),
             frames: 0,
@@ -1369,7 +1369,7 @@ fn radiance_cache_frames(ctx: &GpuContext, name: &str, frames: u32) -> (PassTimi
     let gpu_scene = GpuScene::upload(ctx, &scene, &frame).unwrap();
     let mut cache = RadianceCache::new(ctx, &CacheConfig::default()).unwrap();
     CacheLighting::attach(ctx, &ShaderLibrary::new(), &mut cache).unwrap();
-    let mut timer = GpuTimer::new(ctx, "cache.lighting.test", 8);
+    let mut timer = GpuTimer::new(ctx, "cache.lighting.test", 12);
     let mut timings = Vec::new();
     for i in 0..frames {
         let mut rec = Recorder::new(ctx, &mut timer, "cache.lighting.test");

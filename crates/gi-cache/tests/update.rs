@@ -19,7 +19,7 @@ fn update(
     camera: Vec3,
 ) -> CacheUpdateStats {
     let gpu_scene = GpuScene::upload(ctx, scene, frame).unwrap();
-    let mut timer = GpuTimer::new(ctx, "cache test", 8);
+    let mut timer = GpuTimer::new(ctx, "cache test", 12);
     let mut rec = Recorder::new(ctx, &mut timer, "cache test");
     let stats = cache
         .record(

@@ -98,7 +98,7 @@ pub fn run(args: &DebugCacheArgs) -> anyhow::Result<()> {
     let gpu_scene = GpuScene::upload(&ctx, &scene, &frame)?;
     let mut cache = RadianceCache::new(&ctx, &config)?;
     CacheLighting::attach(&ctx, &shaders, &mut cache)?;
-    let mut timer = GpuTimer::new(&ctx, "debug_cache.timer", 8);
+    let mut timer = GpuTimer::new(&ctx, "debug_cache.timer", 12);
     let started = Instant::now();
     let mut last = PassTimings::default();
     for _ in 0..args.frames {

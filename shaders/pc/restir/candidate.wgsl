@@ -91,11 +91,12 @@ fn ray_candidate(origin: vec3<f32>, dir: vec3<f32>, n: vec3<f32>, sampler: ptr<f
 // The temporal gradient of `stratum` (`pc/restir/gradient.wgsl` explains them): draws again
 // the ray candidate one of its trace pixels kept last frame, with that frame's random numbers
 // (the same direction, emitter sample and shadow rays), and stores the change of what it
-// finds outside the brick cache (`gradient_seen`, x), the larger of the two luminances of all
-// it finds (y) and the part of the cache's light it finds that the cache measured changed
-// (w: `cache_change` at the hit times the luminance the cache gives there; exactly 0 while the
-// cache measures no change, so its updates' noise stays out). `trace` runs it in extra
-// workgroups of its own dispatch, where the other rays hide its latency.
+// finds (x) and the larger of the two luminances of all it finds (y). The change counts what it
+// finds outside the brick cache (`gradient_seen`), and the cache's light only where the cache
+// measured a change at the hit in this lighting update or the last (`cache_change`): the
+// cache's light changes every frame by its updates' noise, which must not cut history in a
+// still scene, where every measured change is exactly 0. `trace` runs it in extra workgroups
+// of its own dispatch, where the other rays hide its latency.
 fn draw_gradient(stratum: vec2<u32>) {
     if any(stratum >= vec2(uniforms.gradient_strata_x, uniforms.gradient_strata_y)) {
         return;
@@ -119,14 +120,15 @@ fn draw_gradient(stratum: vec2<u32>) {
         let found = candidate.sample;
         let total = luminance(unpack_rgb9e5(found.radiance));
         let seen = gradient_seen(found);
-        var cached_change = 0.0;
-        if (found.flags & SAMPLE_SKY) == 0u {
-            // The cache's light at the hit: all of a far-field hit's (no albedo: the cache gave
-            // all of it, and `gradient_seen` counts it too), the rest of a shaded hit's.
-            let cached = select(max(total - seen, 0.0), total, found.albedo == 0u);
-            cached_change = cache_change(found.position, unpack_unit_vector(found.normal)) * cached;
+        // The cache's light the ray found, new minus old, where the cache measured a change at
+        // the hit in this update or the last. A shaded hit's is all but `gradient_seen`; a
+        // far-field hit (no albedo) is all cache, and `gradient_seen` already compares it.
+        var cached = 0.0;
+        let shaded_hit = (found.flags & SAMPLE_SKY) == 0u && found.albedo != 0u;
+        if shaded_hit && cache_change(found.position, unpack_unit_vector(found.normal)) > 0.0 {
+            cached = (total - seen) - (kept.total - kept.seen);
         }
-        change = vec4(seen - kept.seen, max(total, kept.total), 0.0, cached_change);
+        change = vec4(seen - kept.seen + cached, max(total, kept.total), 0.0, 0.0);
     }
     gradients[s] = change;
 }

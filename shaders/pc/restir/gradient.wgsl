@@ -8,14 +8,13 @@
 //                    direction and random numbers, so what differs is the scene's light and
 //                    geometry, not the noise; stores the change of the luminance it finds
 //                    outside the brick cache (`gradient_seen`: the cache's light changes by
-//                    its updates' noise every frame), the larger of the two luminances of
-//                    all it finds, and the part of the cache's light it finds that the cache
-//                    measured changed (`gi_cache::lighting`'s measured change: the cache
-//                    follows a change over a few of its updates, and tells where it does);
-//   gradient_filter  (this pass, after `trace`) lambda = min(gain * (|sum of changes| + sum of
-//                    the cache's changed parts) / sum of the larger luminances, 1) over the
-//                    3 x 3 strata around each: signed changes of noise cancel in the sum, a
-//                    change of the light adds up.
+//                    its updates' noise every frame) plus the change of the cache's light
+//                    where the cache measured one at the hit (`gi_cache::lighting`'s measured
+//                    change: the cache follows a change over a few of its updates, and tells
+//                    where it just did), and the larger of the two luminances of all it finds;
+//   gradient_filter  (this pass, after `trace`) lambda = min(gain * |sum of changes| / sum of the larger luminances, 1)
+//                    over the 3 x 3 strata around each: signed changes of noise cancel in the
+//                    sum, a change of the light adds up.
 //
 // The denoiser and the specular history weigh their history by 1 - lambda more than they
 // would (`alpha' = mix(alpha, 1, lambda)`, A-SVGF's rule): where the light changed, the image
@@ -36,7 +35,6 @@ fn gradient_filter(@builtin(global_invocation_id) id: vec3<u32>) {
     }
     var delta = 0.0;
     var total = 0.0;
-    var cached = 0.0;
     for (var dy = -1; dy <= 1; dy++) {
         for (var dx = -1; dx <= 1; dx++) {
             let q = vec2<i32>(id.xy) + vec2(dx, dy);
@@ -46,13 +44,12 @@ fn gradient_filter(@builtin(global_invocation_id) id: vec3<u32>) {
             let g = gradients[u32(q.y) * strata.x + u32(q.x)];
             delta += g.x;
             total += g.y;
-            cached += g.w;
         }
     }
     var lambda = 0.0;
     if total > 0.0 {
-        lambda = min(uniforms.gradient_gain * (abs(delta) + cached) / total, 1.0);
+        lambda = min(uniforms.gradient_gain * abs(delta) / total, 1.0);
     }
-    // Only this invocation writes z; its neighbours read x, y and w.
+    // Only this invocation writes z; its neighbours read x and y.
     gradients[id.y * strata.x + id.x].z = lambda;
 }

@@ -34,10 +34,9 @@ const SHADOW_MARGIN: f32 = 1e-3;
 // for the next frame's gradient (`kept_sample_slot`). `trace` draws last frame's again in the
 // same dispatch, so this frame's go to the other half.
 @group(0) @binding(17) var<storage, read_write> gradient_samples: array<GradientSample>;
-// Per stratum: the change `draw_gradient` measured (x: new minus old luminance outside the
-// cache, y: the larger of the two luminances of all the ray found, w: the part of the cache's
-// light found that the cache measured changed), and `gradient_filter`'s lambda (z) over the
-// strata around it.
+// Per stratum: the change `draw_gradient` measured (x: new minus old luminance, outside the
+// cache and where the cache measured a change, y: the larger of the two luminances of all the
+// ray found), and `gradient_filter`'s lambda (z) over the strata around it.
 @group(0) @binding(18) var<storage, read_write> gradients: array<vec4<f32>>;
 
 // This frame's receiver of trace pixel `index`.

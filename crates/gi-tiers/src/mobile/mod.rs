@@ -49,7 +49,7 @@ pub const H100_COST: FrameCost = FrameCost {
 };
 
 /// Most timed passes in one frame (G-buffer, the cache's passes, the mobile passes, direct).
-const TIMER_SCOPES: u32 = 32;
+const TIMER_SCOPES: u32 = 40;
 
 /// GPU memory of the mobile tier by what it scales with.
 pub type MobileMemory = crate::realtime::GiMemory;

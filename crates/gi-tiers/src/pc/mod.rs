@@ -48,7 +48,7 @@ use denoise::{DenoiseInputs, DenoisePipelines, DenoiseSources, Denoiser};
 use restir::{Restir, RestirInputs, RestirPipelines};
 
 /// Most timed passes in one frame.
-const TIMER_SCOPES: u32 = 48;
+const TIMER_SCOPES: u32 = 56;
 
 /// Mirror of `PcUniforms` in `shaders/pc/restir/common.wgsl`, 304 bytes.
 #[repr(C)]
