@@ -253,9 +253,10 @@ fn cache_voxel_recent_change(s: VoxelSurface) -> f32 {
     return cache_voxel_change(s);
 }
 
-// `state` with its change set to `change` (0 to 1, to the nearest step), measured this frame.
+// `state` with its change set to `change` (0 to 1, rounded down to a step: a change below one
+// step, such as the tail of one passed on through several bounces, ends), measured this frame.
 fn cache_state_with_change(state: u32, change: f32) -> u32 {
-    let steps = u32(round(clamp(change, 0.0, 1.0) * f32(CACHE_CHANGE_LEVELS)));
+    let steps = u32(floor(clamp(change, 0.0, 1.0) * f32(CACHE_CHANGE_LEVELS)));
     let keep = (1u << CACHE_STATE_CHANGE_SHIFT) - 1u;
     return (state & keep) | (steps << CACHE_STATE_CHANGE_SHIFT);
 }
