@@ -4,7 +4,7 @@
 # runs with their contact strips.
 # Usage: bash lag.sh atrium | .gpu/scenes/Sponza/glTF/Sponza.gltf
 . .gpu/setup.sh 2>/dev/null
-R=/tmp/res; mkdir -p $R/strips-3 $R/strips-0; sc=$1; n=$(basename $sc .gltf)
+sc=$1; n=$(basename $sc .gltf); R=/tmp/res-$n; mkdir -p $R/strips-3 $R/strips-0
 for c in off turn; do for t in pc mobile; do for g in 3 0; do
   s=""; [ $c = off ] && s="--strip-dir $R/strips-$g"
   timeout 100 gi-bench stability --tier $t --size 1920x1080 --no-flicker --settle-scene $sc \

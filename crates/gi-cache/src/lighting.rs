@@ -15,7 +15,22 @@
 //!   bounces.
 //! - `cache/propagate_resolve` (`shaders/cache/propagate_resolve.wgsl`): copies the scratch into
 //!   `cache_indirect` (and, with `CacheConfig::keep_emitted`, the emitter samples' part of it
-//!   into `cache_emitted`) and advances the voxels' ages.
+//!   into `cache_emitted`) and sets the voxels' ages and measured changes.
+//! - `cache/change_age` (`shaders/cache/change_age.wgsl`, first in every update, with a
+//!   [`CacheConfig::change_gain`]): counts the frames since each voxel's change was measured.
+//!
+//! Measured change (temporal gradients for the cache, after A-SVGF, Schied et al. 2018): each
+//! voxel's state keeps the share of its reflected light that changed lately (3 bits) and the
+//! frames since it was measured (2 bits). `cache/inject` raises it where a side's new direct
+//! light differs from the one it had (exact shadow rays: in a still scene the same to the bit,
+//! so the change stays 0); `cache/propagate` gathers, with its rays, the changed share g of
+//! the light they find, weighs its update `max(1 / age, min(change_gain * max(g, own change),
+//! 1))`, lowers the age to match, and passes on half of the larger of its own change and g
+//! times the indirect share of its light. A light switched off thus leaves a voxel within a few
+//! of its updates however old its history (`a_measured_change_drops_the_old_bounce...` in the
+//! tests: 1% of a wall's bounced light left after 4 updates, 12% weighed by age alone). The
+//! screen passes that read the cache (the PC tier's gradients, the mobile tier's gather) count a
+//! change only in the frame it was measured and the next (`cache_voxel_recent_change`).
 //!
 //! Propagation gathers from last frame's lighting: `cache/propagate` writes nothing that its own
 //! rays read (neither `cache_indirect` nor the ages), so every workgroup sees the cache as the
