@@ -6,7 +6,7 @@ mod common;
 
 use common::{
     check_glass_blends, check_occlusion_scaling, ground_behind_glass, open_ground, settings,
-    with_occlusion,
+    sunlit_wall, with_occlusion,
 };
 use gi_gpu::{GpuContext, ShaderLibrary, rust_field_offsets, wgpu, wgsl_struct_layout};
 use gi_image::Image;
@@ -485,6 +485,80 @@ fn history_of_dynamic_pixels_is_discarded() {
         static_kept * 10 >= static_total * 9,
         "{static_kept}/{static_total}"
     );
+}
+
+/// The gather's temporal history follows the brick cache's measured change: in a still view no
+/// sample's history shortens, and when the sun of a [`sunlit_wall`] goes out the samples whose
+/// surface's voxels measured the change restart it, where with the cache's change gain at 0
+/// they keep it (and the cache's lag with it). The wall's voxels measure it in the change's
+/// frame (`cache/inject_all`); the ground's only when their brick is relit, which for the
+/// far ground's many level-0 bricks takes longer than the budget of that frame: a quarter of
+/// the long histories at least restart (measured 648 of 1460).
+#[test]
+fn the_gather_restarts_its_history_where_the_cache_measured_a_change() {
+    let (width, height) = (48usize, 36usize);
+    let camera = CameraView::look_at(Vec3::new(-2.0, 2.0, 0.0), Vec3::new(1.0, 0.5, 0.0), 1.0);
+    let scene = sunlit_wall("mobile-measured-change");
+    let mut dark = scene.clone();
+    dark.lights[0].intensity = 0.0;
+    let mut restarted = Vec::new();
+    for gain in [3.0, 0.0] {
+        let Some(ctx) = GpuContext::new_or_skip("the_gather_restarts_its_history") else {
+            return;
+        };
+        let mut config = MobileConfig::default();
+        config.cache.change_gain = gain;
+        let max_age = config.screen.max_age;
+        let frames = 40;
+        let (mut tier, _) = run(
+            ctx,
+            &scene,
+            config,
+            (width as u32, height as u32),
+            frames,
+            Some(camera),
+        );
+        let mut next = |scene: &Scene, index: u32| {
+            let frame = scene.evaluate(0.0, Some(camera));
+            tier.render(&FrameInput {
+                scene,
+                frame: &frame,
+                index,
+                progress: None,
+            })
+            .unwrap();
+            tier.frame_data().unwrap()
+        };
+        let before = next(&scene, frames);
+        let still = next(&scene, frames + 1);
+        let after = next(&dark, frames + 2);
+        let (mut old, mut restart) = (0, 0);
+        for i in 0..width * height {
+            // Age 0: the half-resolution sample nearest the pixel shows the sky.
+            if before.history_age[i] == 0 {
+                continue;
+            }
+            let grown = (before.history_age[i] + 1).min(max_age as u8);
+            assert!(
+                still.history_age[i] >= grown,
+                "gain {gain}: pixel {i}'s history shortened in a still view: {} -> {}",
+                before.history_age[i],
+                still.history_age[i]
+            );
+            if still.history_age[i] >= 16 {
+                old += 1;
+                restart += usize::from(after.history_age[i] <= 2);
+            }
+        }
+        println!("gain {gain}: {restart} of {old} samples with a long history restarted");
+        assert!(
+            old * 4 >= width * height,
+            "{old} samples with a long history"
+        );
+        restarted.push(restart as f32 / old as f32);
+    }
+    assert!(restarted[0] >= 0.25, "{restarted:?}");
+    assert_eq!(restarted[1], 0.0, "{restarted:?}");
 }
 
 #[test]

@@ -5,7 +5,7 @@ mod common;
 
 use common::{
     check_glass_blends, check_occlusion_scaling, ground_behind_glass, open_ground, settings,
-    with_occlusion,
+    sunlit_wall, unlit_ground, with_occlusion,
 };
 use gi_gpu::{GpuContext, ShaderLibrary, rust_field_offsets, wgsl_struct_layout};
 use gi_image::Image;
@@ -334,15 +334,6 @@ fn blended_glass_is_composited_over_the_gi_behind_it() {
     );
 }
 
-/// A black ground of half-size `half_m` under a black sky: what lights it, the test adds.
-fn unlit_ground(name: &str, half_m: f32) -> Scene {
-    let mut scene = open_ground(name, half_m, 0.0);
-    scene.sky = Sky::Constant {
-        radiance: Vec3::ZERO,
-    };
-    scene
-}
-
 /// A black ground under a small square emitter and a black sky: the irradiance of every
 /// ground point is the emitter's radiance integrated over its solid angle, cos-weighted,
 /// which the test sums on the CPU over a fine grid of the emitter. Without reuse the tier's
@@ -492,29 +483,8 @@ fn a_sunlit_walls_bounce_is_the_same_with_the_hits_lit_from_the_cache() {
     }
 }
 
-/// The wall of [`wall_beside_an_emitter`] lit by a sun instead: -z turned to +x, the light
-/// travels along +x, level with the ground, so that it lights the wall square on and not the
-/// ground, whose irradiance (the reference's) is then the wall's bounce alone.
-fn sunlit_wall(name: &str) -> Scene {
-    let mut scene = unlit_ground(name, 4.0);
-    scene.add_diffuse_quad(Vec3::new(1.0, 1.0, 0.0), Vec3::Z * 1.5, Vec3::Y, 0.8);
-    scene.lights.push(gi_scene::Light {
-        name: "sun".into(),
-        kind: gi_scene::LightKind::Directional,
-        color: Vec3::ONE,
-        intensity: 3.0,
-        range: None,
-    });
-    scene.nodes.push(gi_scene::Node {
-        light: Some(scene.lights.len() - 1),
-        rotation: glam::Quat::from_rotation_y(-std::f32::consts::FRAC_PI_2),
-        ..gi_scene::Node::default()
-    });
-    scene
-}
-
-/// The temporal gradients (`pc/gradient`) see a light go out and nothing else: the wall of
-/// [`wall_beside_an_emitter`] lit by a sun instead; after 10 frames the sun goes out, and the
+/// The temporal gradients (`pc/gradient`) see a light go out and nothing else: the
+/// [`sunlit_wall`]; after 10 frames the sun goes out, and the
 /// strata whose kept rays hit the wall measure lambda 1, while in a still view (the sun on)
 /// every ray drawn again finds exactly what it found a frame before, cache or no cache, and
 /// lambda is 0 everywhere.

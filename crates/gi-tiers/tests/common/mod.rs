@@ -199,3 +199,33 @@ pub fn check_glass_blends(
     );
     count
 }
+
+/// A black ground of half-size `half_m` under a black sky: what lights it, the test adds.
+pub fn unlit_ground(name: &str, half_m: f32) -> Scene {
+    let mut scene = open_ground(name, half_m, 0.0);
+    scene.sky = Sky::Constant {
+        radiance: Vec3::ZERO,
+    };
+    scene
+}
+
+/// A white wall at x = 1 facing -x on an [`unlit_ground`], lit by a sun: -z turned to +x, the
+/// light travels along +x, level with the ground, so that it lights the wall square on and not
+/// the ground, whose irradiance is then the wall's bounce alone.
+pub fn sunlit_wall(name: &str) -> Scene {
+    let mut scene = unlit_ground(name, 4.0);
+    scene.add_diffuse_quad(Vec3::new(1.0, 1.0, 0.0), Vec3::Z * 1.5, Vec3::Y, 0.8);
+    scene.lights.push(gi_scene::Light {
+        name: "sun".into(),
+        kind: gi_scene::LightKind::Directional,
+        color: Vec3::ONE,
+        intensity: 3.0,
+        range: None,
+    });
+    scene.nodes.push(gi_scene::Node {
+        light: Some(scene.lights.len() - 1),
+        rotation: glam::Quat::from_rotation_y(-std::f32::consts::FRAC_PI_2),
+        ..gi_scene::Node::default()
+    });
+    scene
+}
