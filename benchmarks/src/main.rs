@@ -633,9 +633,6 @@ fn main() -> anyhow::Result<()> {
                     if let Some(gain) = pc_gradient_gain {
                         config.gradients.gain = gain;
                     }
-                    if let Some(gain) = cache_change_gain {
-                        config.cache.change_gain = gain;
-                    }
                     config.validate().map_err(anyhow::Error::msg)?;
                     config
                 },

@@ -84,8 +84,7 @@ pub struct StabilityOptions {
     pub flicker: bool,
     /// The PC tier's configuration (its runs only).
     pub pc_config: PcConfig,
-    /// The mobile tier's brick cache's `CacheConfig::change_gain`; `None`: the default. (The PC
-    /// tier's is in `pc_config`.)
+    /// Both tiers' brick cache's `CacheConfig::change_gain`; `None`: each tier's default.
     pub cache_change_gain: Option<f32>,
     /// Frames rendered after the light turns.
     pub settle_frames: u32,
@@ -268,7 +267,13 @@ impl Variant {
                 }
                 mobile_renderer_with(scene.clone(), size, config, camera)
             }
-            Variant::Pc => pc_renderer(scene.clone(), size, options.pc_config.clone(), camera),
+            Variant::Pc => {
+                let mut config = options.pc_config.clone();
+                if let Some(gain) = options.cache_change_gain {
+                    config.cache.change_gain = gain;
+                }
+                pc_renderer(scene.clone(), size, config, camera)
+            }
         }
     }
 }

@@ -104,18 +104,7 @@ pub fn check_occlusion_scaling(
 /// view's center. Returns the scene and the frame index of the square's first triangle.
 pub fn ground_behind_glass(camera: &gi_scene::CameraView, alpha: f32) -> (Scene, usize) {
     let mut scene = open_ground("glass-over-ground", 20.0, 0.5);
-    scene.lights.push(gi_scene::Light {
-        name: "sun".into(),
-        kind: gi_scene::LightKind::Directional,
-        color: Vec3::ONE,
-        intensity: 3.0,
-        range: None,
-    });
-    scene.nodes.push(gi_scene::Node {
-        light: Some(scene.lights.len() - 1),
-        rotation: glam::Quat::from_rotation_x(-1.1),
-        ..gi_scene::Node::default()
-    });
+    add_sun(&mut scene, glam::Quat::from_rotation_x(-1.1));
     let first = scene.evaluate(0.0, Some(*camera)).triangles.len();
     scene.add_diffuse_quad(
         camera.position + camera.forward * 0.5,
@@ -215,6 +204,15 @@ pub fn unlit_ground(name: &str, half_m: f32) -> Scene {
 pub fn sunlit_wall(name: &str) -> Scene {
     let mut scene = unlit_ground(name, 4.0);
     scene.add_diffuse_quad(Vec3::new(1.0, 1.0, 0.0), Vec3::Z * 1.5, Vec3::Y, 0.8);
+    add_sun(
+        &mut scene,
+        glam::Quat::from_rotation_y(-std::f32::consts::FRAC_PI_2),
+    );
+    scene
+}
+
+/// Adds a sun of intensity 3 to `scene`, shining along `rotation` applied to -z.
+pub fn add_sun(scene: &mut Scene, rotation: glam::Quat) {
     scene.lights.push(gi_scene::Light {
         name: "sun".into(),
         kind: gi_scene::LightKind::Directional,
@@ -224,8 +222,7 @@ pub fn sunlit_wall(name: &str) -> Scene {
     });
     scene.nodes.push(gi_scene::Node {
         light: Some(scene.lights.len() - 1),
-        rotation: glam::Quat::from_rotation_y(-std::f32::consts::FRAC_PI_2),
+        rotation,
         ..gi_scene::Node::default()
     });
-    scene
 }
