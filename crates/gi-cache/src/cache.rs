@@ -8,7 +8,9 @@
 //!    else moves in memory);
 //! 2. queues the bricks around every dynamic node that moved (its old and new bounds), to be
 //!    voxelized again in place or released when empty; a skinned node moves when one of its
-//!    joints does, even where its own transform stays put;
+//!    joints does, even where its own transform stays put; and the allocated bricks that the
+//!    triangles of an edited material touch ([`SceneFrame::material_revision`]), so their
+//!    albedo and emission are voxelized again;
 //! 3. queues again bricks that were dropped for lack of pool, when IDs are free;
 //! 4. takes up to [`CacheConfig::voxelize_bricks_per_frame`] queued bricks, finer levels and
 //!    nearer bricks first, as long as binning them scans at most
@@ -112,6 +114,7 @@ impl Technique for RadianceCache {
         self.move_windows(&mut index, inputs.camera_position, &mut stats);
         stats.cpu.windows_ms = clock.lap();
         self.queue_moved_dynamic_nodes(&scene, &mut index, &mut stats);
+        self.queue_edited_materials(&scene, &mut stats);
         self.requeue_dropped(inputs.camera_position, &mut stats);
         stats.cpu.dynamic_ms = clock.lap();
         let (jobs, new_bricks) =
@@ -157,6 +160,7 @@ impl Technique for RadianceCache {
             };
             lighting.record(ctx, timer, encoder, &frame);
             stats.converging = stats.filling || lighting.converging();
+            stats.lights_changed = lighting.lights_changed();
             self.lighting = Some(lighting);
         }
         stats.cpu.lighting_ms = clock.lap();
@@ -216,6 +220,13 @@ pub trait CacheLightingHook: Send {
         false
     }
 
+    /// Whether the last update found the lights, the sky or the materials changed since the
+    /// one before: what was gathered from the cache before holds light that is gone. False
+    /// unless the hook says otherwise.
+    fn lights_changed(&self) -> bool {
+        false
+    }
+
     /// Wall-clock milliseconds of the last `record` spent choosing what to record (for
     /// [`CpuSteps::schedule_ms`]); 0 unless the hook says otherwise.
     fn schedule_ms(&self) -> f64 {
@@ -236,6 +247,8 @@ pub struct CacheUpdateStats {
     pub queued_entering: u32,
     /// Bricks queued around moved dynamic nodes.
     pub queued_dynamic: u32,
+    /// Bricks queued because the material of some of their triangles was edited.
+    pub queued_edited: u32,
     /// Bricks voxelized.
     pub voxelized: u32,
     /// Triangle list entries binning scanned for them ([`CacheConfig::voxelize_scan_per_frame`]).
@@ -263,6 +276,10 @@ pub struct CacheUpdateStats {
     /// ([`CacheLightingHook::converging`]): temporal filters that read the cache should keep
     /// short histories.
     pub converging: bool,
+    /// The lights, the sky or the materials changed at this update
+    /// ([`CacheLightingHook::lights_changed`]): temporal filters that read the cache should
+    /// restart what they averaged from it (the cache follows within a few updates).
+    pub lights_changed: bool,
     /// Wall-clock milliseconds of the update's CPU steps.
     pub cpu: CpuSteps,
 }
@@ -274,7 +291,8 @@ pub struct CpuSteps {
     pub index_ms: f64,
     /// Moving the windows and queuing entering slabs (step 1).
     pub windows_ms: f64,
-    /// Queuing around moved dynamic nodes and dropped bricks (steps 2 and 3).
+    /// Queuing around moved dynamic nodes, edited materials and dropped bricks (steps 2 and
+    /// 3).
     pub dynamic_ms: f64,
     /// Choosing the bricks to fill within the budgets (step 4).
     pub select_ms: f64,
@@ -331,6 +349,10 @@ pub struct RadianceCache {
     previous_node_bounds: Vec<Option<(Vec3, Vec3)>>,
     /// The geometry revision those were taken from (0: none).
     previous_revision: u64,
+    /// The scene's materials at the last update, and the frame's material revision then: an
+    /// edit shows as another revision, and the materials that differ are the edited ones.
+    materials: Vec<gi_scene::Material>,
+    material_revision: u64,
     /// The previous update's triangles and grids, reused while the triangles stand still.
     triangle_index: Option<TriangleIndex>,
     frame_index: u32,
@@ -396,6 +418,8 @@ impl RadianceCache {
             previous_frame: None,
             previous_node_bounds: Vec::new(),
             previous_revision: 0,
+            materials: Vec::new(),
+            material_revision: 0,
             triangle_index: None,
             frame_index: 0,
             dropped_for_pool: 0,
@@ -583,6 +607,57 @@ impl RadianceCache {
         self.previous_frame = Some(scene.frame.without_geometry());
         self.previous_node_bounds = bounds;
         self.previous_revision = revision;
+    }
+
+    /// Queues, at every level, the allocated bricks that the triangles of each material edited
+    /// since the last update touch (their boxes padded by half a voxel), to be voxelized again
+    /// with the material's new albedo and emission. Bricks not allocated read the materials
+    /// when they are filled. A pass over the frame's triangles, in the update after an edit
+    /// only.
+    fn queue_edited_materials(&mut self, scene: &CacheScene<'_>, stats: &mut CacheUpdateStats) {
+        let materials = &scene.scene.materials;
+        let revision = scene.frame.material_revision;
+        if self.materials.len() != materials.len() {
+            // The first update (or another scene): what it voxelizes reads these materials.
+            self.materials = materials.clone();
+            self.material_revision = revision;
+            return;
+        }
+        if revision == self.material_revision {
+            return;
+        }
+        self.material_revision = revision;
+        let edited: Vec<bool> = (self.materials.iter().zip(materials))
+            .map(|(before, now)| before != now)
+            .collect();
+        self.materials.clone_from(materials);
+        if !edited.contains(&true) {
+            return;
+        }
+        let windows = self.windows.clone().expect("placed by move_windows");
+        for (index, attributes) in scene.frame.attributes.iter().enumerate() {
+            // Indices out of range take the default material, which is never edited.
+            if !edited
+                .get(attributes.material as usize)
+                .copied()
+                .unwrap_or(false)
+            {
+                continue;
+            }
+            let [a, b, c] = scene.vertices(index as u32);
+            let (lo, hi) = (a.min(b).min(c), a.max(b).max(c));
+            for level in 0..self.config.levels {
+                let size = self.config.brick_size_at(level);
+                let pad = Vec3::splat(size / 8.0);
+                let region = BrickBox::from_world(lo - pad, hi + pad, size)
+                    .intersection(&windows.window(level));
+                for brick in region.bricks() {
+                    if self.structure.brick_id(level, brick) != NO_BRICK {
+                        stats.queued_edited += u32::from(self.enqueue(level, brick));
+                    }
+                }
+            }
+        }
     }
 
     /// Queues again, finest levels and nearest bricks first, as many bricks that lost their place

@@ -644,7 +644,7 @@ pub struct CacheLighting {
     /// Whether the last update left the lighting converging
     /// ([`CacheLightingHook::converging`]).
     converging: bool,
-    /// The lights and sky of the last update, as bits ([`light_key`]).
+    /// The lights, sky and material revision of the last update, as bits ([`light_key`]).
     light_key: Vec<u32>,
     /// Updates left with the accumulation capped at [`CHANGED_MAX_AGE`].
     fast_updates_left: u32,
@@ -856,7 +856,7 @@ impl CacheLighting {
         if self.config.change_gain > 0.0 {
             self.record_change_age(ctx, timer, encoder, inputs.cache_bind_group);
         }
-        let key = light_key(inputs.lights, inputs.sky);
+        let key = light_key(inputs.lights, inputs.sky, inputs.scene.material_revision());
         let lights_changed = key != self.light_key && self.updates > 0;
         if lights_changed {
             self.fast_updates_left = self.config.max_age;
@@ -1086,7 +1086,7 @@ impl CacheLighting {
 
 /// Every number that defines what the lights and the sky deliver, as bits: equal keys mean
 /// unchanged lighting.
-fn light_key(lights: &[WorldLight], sky: &Sky) -> Vec<u32> {
+fn light_key(lights: &[WorldLight], sky: &Sky, material_revision: u64) -> Vec<u32> {
     let mut key = Vec::new();
     for light in lights {
         let (kind, inner, outer) = match light.kind {
@@ -1105,6 +1105,9 @@ fn light_key(lights: &[WorldLight], sky: &Sky) -> Vec<u32> {
         key.extend(values.map(f32::to_bits));
     }
     key.extend(bytemuck::cast_slice::<GpuSky, u32>(&[GpuSky::new(sky)]));
+    // An edited material may have switched an emitter on or off, or changed what surfaces
+    // reflect: a change of the light as much as a lamp's.
+    key.extend(bytemuck::cast_slice::<u64, u32>(&[material_revision]));
     key
 }
 
@@ -1128,6 +1131,10 @@ impl CacheLightingHook for CacheLighting {
 
     fn converging(&self) -> bool {
         self.converging
+    }
+
+    fn lights_changed(&self) -> bool {
+        self.lights_were_changing
     }
 
     fn schedule_ms(&self) -> f64 {

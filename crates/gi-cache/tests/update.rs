@@ -522,3 +522,75 @@ fn morphed_object_is_revoxelized_when_its_weights_change() {
     assert_eq!(frame0.world_from_node, frame1.world_from_node);
     check_deforming_arm(&ctx, &scene, arm);
 }
+
+/// Switching cornell-box's light panel off (its material's emission to 0) voxelizes again the
+/// bricks its triangles touch, and those only: afterwards no voxel emits, while a frame of a
+/// new revision with the same materials queues nothing.
+#[test]
+fn an_edited_material_is_voxelized_again_where_its_triangles_are() {
+    let Some(ctx) =
+        GpuContext::new_or_skip("an_edited_material_is_voxelized_again_where_its_triangles_are")
+    else {
+        return;
+    };
+    let mut scene = gi_scene::load("cornell-box").unwrap();
+    let config = CacheConfig {
+        levels: 3,
+        voxelize_bricks_per_frame: 100_000,
+        voxelize_scan_per_frame: u32::MAX,
+        ..Default::default()
+    };
+    let mut cache = RadianceCache::new(&ctx, &config).unwrap();
+    let mut frame = scene.evaluate(0.0, None);
+    let camera = frame.camera.position;
+    let first = update(&ctx, &mut cache, &scene, &frame, camera);
+    assert_eq!(first.queued_edited, 0);
+    let emitting = |cache: &RadianceCache| {
+        (cache.buffers().read_voxels(&ctx).iter())
+            .filter(|v| gi_cache::packing::unpack_rgb9e5(v.emission) != Vec3::ZERO)
+            .count()
+    };
+    let lit = emitting(&cache);
+    assert!(lit > 0, "the panel's voxels emit");
+
+    // A new revision whose materials are the same: nothing to voxelize again.
+    frame.material_revision = 1;
+    let same = update(&ctx, &mut cache, &scene, &frame, camera);
+    assert_eq!((same.queued_edited, same.voxelized), (0, 0));
+
+    let light = (scene.materials.iter())
+        .position(|m| m.emissive != Vec3::ZERO)
+        .expect("cornell-box has an emitter");
+    scene.materials[light].emissive = Vec3::ZERO;
+    frame.material_revision = 2;
+    let edited = update(&ctx, &mut cache, &scene, &frame, camera);
+    // The bricks the panel's triangles (padded by half a voxel) touch, at every level.
+    let windows = cache.windows().unwrap();
+    let mut near = std::collections::HashSet::new();
+    for (index, attributes) in frame.attributes.iter().enumerate() {
+        if attributes.material as usize != light {
+            continue;
+        }
+        let t = &frame.triangles[index];
+        let (a, b, c) = (Vec3::from(t.v0), Vec3::from(t.v1), Vec3::from(t.v2));
+        for level in 0..config.levels {
+            let size = config.brick_size_at(level);
+            let pad = Vec3::splat(size / 8.0);
+            let region =
+                gi_cache::BrickBox::from_world(a.min(b).min(c) - pad, a.max(b).max(c) + pad, size)
+                    .intersection(&windows.window(level));
+            near.extend(region.bricks().map(|brick| (level, brick)));
+        }
+    }
+    eprintln!(
+        "{lit} voxels emitted; {} bricks queued, {} voxelized of {} ({} near the panel)",
+        edited.queued_edited,
+        edited.voxelized,
+        first.voxelized,
+        near.len()
+    );
+    assert!(edited.queued_edited > 0 && edited.voxelized == edited.queued_edited);
+    assert!(edited.voxelized as usize <= near.len());
+    assert!(edited.voxelized * 2 < first.voxelized);
+    assert_eq!(emitting(&cache), 0, "voxels still emit after the edit");
+}

@@ -258,8 +258,12 @@ pub struct GpuScene {
     /// Per node, whether it is skinned on the GPU ([`crate::gpu_skinned_nodes`] at the upload):
     /// the nodes whose shading a frame may leave out.
     gpu_skinned: Vec<bool>,
-    /// Whether a changing triangle emits light: only then can the emitter table change.
+    /// Whether a changing triangle emits light: then the emitter table changes with the
+    /// frame.
     changing_emitters: bool,
+    /// The [`SceneFrame::material_revision`] whose materials the material and emitter tables
+    /// hold.
+    material_revision: u64,
     /// Whether a material is alpha `BLEND` (the real-time tiers then composite a blended
     /// layer over the surface behind it: `gi_gpu::gbuffer`).
     pub has_blend: bool,
@@ -568,6 +572,7 @@ impl GpuScene {
                 .any(|m| m.alpha_mode == AlphaMode::Blend),
             has_deforming: scene.deforming_nodes().contains(&true),
             changing_emitters: emits(scene, frame, &changing),
+            material_revision: frame.material_revision,
             changing,
             cpu_changing,
             skinning,
@@ -586,7 +591,9 @@ impl GpuScene {
     /// tangents or a second texture coordinate set). Static triangles are the same in every
     /// evaluation and stay as uploaded (a frame of a scene with more triangles is uploaded
     /// whole, from `frame`). The emitter table is built again only when a
-    /// moving or deforming triangle emits light. A camera move alone needs no update at all.
+    /// moving or deforming triangle emits light or the materials were edited
+    /// ([`SceneFrame::material_revision`]; the material table is then uploaded again). A camera
+    /// move alone needs no update at all.
     ///
     /// Returns true when a buffer had to be replaced (an emitter table that grew), so bind
     /// groups made over [`GpuScene::buffers`] must be made again. A frame that leaves out the
@@ -676,8 +683,23 @@ impl GpuScene {
         let mut write = |buffer: &mut wgpu::Buffer, label: &str, bytes: &[u8]| {
             replaced |= write_at(ctx, buffer, label, 0, bytes);
         };
-        // Static emitters keep their power: the table changes only when an emitter moves.
-        if self.changing_emitters || !fits {
+        // An edited material: the table of materials again (the texture references are the
+        // same, `Material::check_edit`, so the reference table stays), and the emitters'
+        // power with it.
+        let materials_edited = frame.material_revision != self.material_revision;
+        if materials_edited {
+            let materials = gpu_materials(scene, &mut self.textures);
+            write(
+                &mut self.materials,
+                "scene.materials",
+                bytemuck::cast_slice(&materials),
+            );
+            self.changing_emitters = emits(scene, frame, &self.changing);
+            self.material_revision = frame.material_revision;
+        }
+        // Static emitters keep their power: the table changes only when an emitter moves or
+        // a material is edited.
+        if self.changing_emitters || !fits || materials_edited {
             let table = EmitterTable::build(scene, frame);
             write(
                 &mut self.emitters,
@@ -705,6 +727,12 @@ impl GpuScene {
     /// nodes), as sorted, disjoint ranges; the others hold the same data in every frame.
     pub fn changing_ranges(&self) -> &[Range<usize>] {
         &self.changing
+    }
+
+    /// The [`SceneFrame::material_revision`] whose materials the material and emitter tables
+    /// hold (the last update's frame's).
+    pub fn material_revision(&self) -> u64 {
+        self.material_revision
     }
 
     /// Vertices and triangles skinned on the GPU at each update (skinned meshes whose joints

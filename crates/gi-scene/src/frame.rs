@@ -183,6 +183,11 @@ pub struct SceneFrame {
     /// (zero in `attributes`; positions, texture coordinates, material and node are there).
     /// Empty when the frame is complete, as [`Scene::evaluate`] makes it.
     pub positions_only: Vec<bool>,
+    /// Which edit of the scene's materials the frame shows: 0 as loaded, raised by every
+    /// material edit a renderer makes between frames (`Renderer::set_material` in gi-tiers), so
+    /// that what a tier prepared from the materials (the GPU's material table and emitter
+    /// table, the brick cache's voxels) is made again. [`Scene::evaluate`] leaves it 0.
+    pub material_revision: u64,
 }
 
 /// What [`Scene::evaluate_with`] evaluates.
@@ -216,15 +221,17 @@ impl SceneFrame {
             morph_weights: self.morph_weights.clone(),
             geometry_revision: 0,
             positions_only: Vec::new(),
+            material_revision: self.material_revision,
         }
     }
 
     /// Whether the scene's content differs from `previous` (a frame of the same scene, whole or
     /// [`SceneFrame::without_geometry`]): a node moved (by its animation or by the caller), a
-    /// morph weight, a light or the sky changed. The camera and the time are not compared:
-    /// a renderer that accumulates restarts on those itself.
+    /// morph weight, a light, the sky or a material changed. The camera and the time are not
+    /// compared: a renderer that accumulates restarts on those itself.
     pub fn content_changed_from(&self, previous: &SceneFrame) -> bool {
-        self.world_from_node != previous.world_from_node
+        self.material_revision != previous.material_revision
+            || self.world_from_node != previous.world_from_node
             || self.morph_weights != previous.morph_weights
             || self.lights != previous.lights
             || self.sky != previous.sky
@@ -416,6 +423,7 @@ impl Scene {
             morph_weights,
             geometry_revision: next_geometry_revision(),
             positions_only,
+            material_revision: 0,
         }
     }
 }
@@ -713,6 +721,7 @@ impl Scene {
             morph_weights: morph_weights.clone(),
             geometry_revision: 0,
             positions_only: Vec::new(),
+            material_revision: frame.material_revision,
         };
         let changed: Vec<usize> = (0..jobs.len())
             .filter(|&j| self.node_geometry_changed(jobs[j].node_index, frame, &next))

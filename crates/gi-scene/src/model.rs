@@ -327,7 +327,7 @@ pub fn blend_coverage_hash(triangle: u32, b1: f32, b2: f32) -> f32 {
 ///
 /// BRDF (ARCHITECTURE.md): glTF 2.0's `mix(dielectric, metal, metallic)`; see
 /// `gi_reference::brdf`.
-#[derive(Clone, Debug)]
+#[derive(Clone, Debug, PartialEq)]
 pub struct Material {
     pub name: String,
     /// Linear RGBA factor; multiplied by the base color texture when present. Alpha is the
@@ -418,6 +418,79 @@ impl Material {
     /// True when some rays may pass through the surface (alpha `MASK` or `BLEND`).
     pub fn alpha_tested(&self) -> bool {
         self.alpha_mode != AlphaMode::Opaque
+    }
+
+    /// Whether `edited` may replace this material in a scene that is being rendered: the
+    /// same texture references and the same kind of alpha mode (a renderer built its texture
+    /// table and its ray queries' alpha tests from them), and every factor finite and within
+    /// glTF's range (what the importer clamps to). The cutoff, colors, emission, roughness,
+    /// metallic, the specular layer, the normal and occlusion strengths and double-sidedness
+    /// may change. The message names what may not.
+    pub fn check_edit(&self, edited: &Material) -> Result<(), String> {
+        let textures = |m: &Material| {
+            [
+                m.base_color_texture,
+                m.metallic_roughness_texture,
+                m.emissive_texture,
+                m.normal_texture,
+                m.occlusion_texture,
+                m.specular_texture,
+                m.specular_color_texture,
+            ]
+        };
+        if textures(self) != textures(edited) {
+            return Err(
+                "its texture references changed: only factors may be edited; load \
+                        the scene again to change textures"
+                    .to_string(),
+            );
+        }
+        if std::mem::discriminant(&self.alpha_mode) != std::mem::discriminant(&edited.alpha_mode) {
+            return Err(format!(
+                "its alpha mode changed from {:?} to {:?}: only the MASK cutoff may be edited",
+                self.alpha_mode, edited.alpha_mode
+            ));
+        }
+        let unit = |x: f32| (0.0..=1.0).contains(&x);
+        let checks = [
+            (
+                "base color",
+                edited.base_color.to_array().into_iter().all(unit),
+                "in [0, 1]",
+            ),
+            ("metallic", unit(edited.metallic), "in [0, 1]"),
+            ("roughness", unit(edited.roughness), "in [0, 1]"),
+            ("specular", unit(edited.specular), "in [0, 1]"),
+            (
+                "occlusion strength",
+                unit(edited.occlusion_strength),
+                "in [0, 1]",
+            ),
+            (
+                "emissive",
+                edited.emissive.is_finite() && edited.emissive.min_element() >= 0.0,
+                "finite and not negative",
+            ),
+            (
+                "specular color",
+                edited.specular_color.is_finite() && edited.specular_color.min_element() >= 0.0,
+                "finite and not negative",
+            ),
+            ("ior", edited.ior.is_finite(), "finite"),
+            ("normal scale", edited.normal_scale.is_finite(), "finite"),
+            (
+                "alpha cutoff",
+                match edited.alpha_mode {
+                    AlphaMode::Mask { cutoff } => cutoff.is_finite(),
+                    _ => true,
+                },
+                "finite",
+            ),
+        ];
+        match checks.iter().find(|(_, ok, _)| !ok) {
+            Some((what, _, range)) => Err(format!("its {what} must be {range}")),
+            None => Ok(()),
+        }
     }
 }
 
@@ -839,5 +912,59 @@ mod tests {
         assert!(!scene.animations[0].channels[0].is_constant());
         assert!(scene.is_animated());
         assert_eq!(scene.moving_nodes(), vec![true, true]);
+    }
+
+    #[test]
+    fn material_edits_keep_textures_and_alpha_mode_and_stay_in_range() {
+        let texture = Some(TextureRef::new(0));
+        let material = Material {
+            base_color_texture: texture,
+            alpha_mode: AlphaMode::Mask { cutoff: 0.5 },
+            ..Material::default()
+        };
+        let edit = |change: &dyn Fn(&mut Material)| {
+            let mut edited = material.clone();
+            change(&mut edited);
+            material.check_edit(&edited)
+        };
+        // Factors, the cutoff and double-sidedness may change.
+        assert_eq!(edit(&|m| m.emissive = Vec3::new(5.0, 0.0, 2.0)), Ok(()));
+        assert_eq!(
+            edit(&|m| m.base_color = Vec4::new(0.2, 0.3, 0.4, 0.9)),
+            Ok(())
+        );
+        assert_eq!(
+            edit(&|m| {
+                m.alpha_mode = AlphaMode::Mask { cutoff: 0.8 };
+                m.double_sided = true;
+                m.roughness = 0.1;
+            }),
+            Ok(())
+        );
+        // Textures and the kind of alpha mode may not.
+        for refused in [
+            edit(&|m| m.base_color_texture = None),
+            edit(&|m| m.emissive_texture = texture),
+            edit(&|m| m.alpha_mode = AlphaMode::Blend),
+            edit(&|m| m.alpha_mode = AlphaMode::Opaque),
+        ] {
+            assert!(refused.is_err(), "{refused:?}");
+        }
+        // Nor factors outside glTF's ranges, or not finite.
+        type Edit<'a> = &'a dyn Fn(&mut Material);
+        let out_of_range: [(&str, Edit); 6] = [
+            ("base color", &|m| m.base_color.x = 1.5),
+            ("metallic", &|m| m.metallic = -0.1),
+            ("roughness", &|m| m.roughness = f32::NAN),
+            ("emissive", &|m| m.emissive = Vec3::new(1.0, -1.0, 0.0)),
+            ("emissive", &|m| m.emissive = Vec3::splat(f32::INFINITY)),
+            ("alpha cutoff", &|m| {
+                m.alpha_mode = AlphaMode::Mask { cutoff: f32::NAN }
+            }),
+        ];
+        for (what, change) in out_of_range {
+            let message = edit(change).unwrap_err();
+            assert!(message.contains(what), "{what}: {message}");
+        }
     }
 }

@@ -3,7 +3,7 @@
 
 use std::any::Any;
 
-use gi_scene::{CameraView, Evaluation, Light, Scene, SceneFrame};
+use gi_scene::{CameraView, Evaluation, Light, Material, Scene, SceneFrame};
 use glam::{Mat4, Quat, Vec3};
 
 use gi_gpu::{GpuContext, TextureOptions, wgpu};
@@ -279,6 +279,9 @@ pub struct Renderer {
     /// The caller changed a light since the last frame ([`Renderer::light_mut`]): the next
     /// frame evaluates the lights again though nothing else moved.
     lights_stale: bool,
+    /// Edits of the materials so far ([`Renderer::set_material`]): every frame carries it as
+    /// its [`SceneFrame::material_revision`].
+    material_revision: u64,
     /// The textures of the last frame, made at the first [`Renderer::output_textures`].
     output: Option<OutputTextures>,
 }
@@ -432,6 +435,7 @@ impl Renderer {
             selection: None,
             last_frame: None,
             lights_stale: false,
+            material_revision: 0,
             output: None,
         }
     }
@@ -445,8 +449,8 @@ impl Renderer {
     /// what it prepared from earlier frames ([`Tier::render`]): geometry always, and the CPU
     /// and path tiers their whole prepared scene until the camera or the animation time
     /// changes. So an edit reaches the image only through a tier that reads it per frame;
-    /// meshes, materials and the node count must not change (render another scene with a new
-    /// `Renderer`).
+    /// meshes and the node count must not change (render another scene with a new
+    /// `Renderer`), and materials change through [`Renderer::set_material`].
     pub fn scene_mut(&mut self) -> &mut Scene {
         self.last_frame = None;
         self.framing_stale = true;
@@ -492,6 +496,33 @@ impl Renderer {
     pub fn light_mut(&mut self, index: usize) -> Option<&mut Light> {
         self.lights_stale = true;
         self.scene.lights.get_mut(index)
+    }
+
+    /// Replaces material `index` for the next frames: its colors, emission, roughness,
+    /// metallic, specular layer, cutoff and the like (a lamp switched off, a surface
+    /// repainted). Its texture references and the kind of its alpha mode stay as loaded
+    /// ([`gi_scene::Material::check_edit`]). Every tier takes the edit from the next frame:
+    /// the GPU tiers upload the material and emitter tables again, and the brick cache
+    /// voxelizes the bricks of the material's triangles again and follows the light it
+    /// changed as it follows a light's change; the CPU and path tiers prepare the scene again.
+    pub fn set_material(&mut self, index: usize, material: Material) -> Result<(), TierError> {
+        let count = self.scene.materials.len();
+        let current = self.scene.materials.get(index).ok_or_else(|| {
+            TierError::InvalidRequest(format!(
+                "material {index} does not exist ({count} materials)"
+            ))
+        })?;
+        current.check_edit(&material).map_err(|reason| {
+            TierError::InvalidRequest(format!(
+                "material {index} ('{}') cannot be edited so: {reason}",
+                current.name
+            ))
+        })?;
+        if *current != material {
+            self.scene.materials[index] = material;
+            self.material_revision += 1;
+        }
+        Ok(())
     }
 
     pub fn tier(&self) -> TierKind {
@@ -758,6 +789,7 @@ impl Renderer {
             frame.lights = self.scene.world_lights(&frame.world_from_node);
             self.lights_stale = false;
         }
+        frame.material_revision = self.material_revision;
         frame
     }
 

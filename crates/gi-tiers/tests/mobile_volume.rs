@@ -176,6 +176,7 @@ fn run(
             camera_position: camera,
             sky: &sky,
             frame_index: frame,
+            restart: false,
         };
         volume.record(&mut rec, &inputs);
         let encoder = rec.into_encoder();

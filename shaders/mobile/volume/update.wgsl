@@ -82,6 +82,11 @@ struct UpdateUniforms {
     seed: u32,
     // Slots of all levels.
     slot_count: u32,
+    // 1: every face's running mean restarts (`VolumeInputs::restart`).
+    restart: u32,
+    pad_a: u32,
+    pad_b: u32,
+    pad_c: u32,
 }
 
 @group(0) @binding(0) var<uniform> update: UpdateUniforms;
@@ -248,6 +253,13 @@ fn classify_probes(@builtin(global_invocation_id) id: vec3<u32>) {
     var state = volume_probes[slot];
     if (state.flags & PROBE_INITIALIZED) == 0u || any(state.coord != coord) {
         state = volume_reset(slot, coord);
+    }
+    if update.restart != 0u {
+        // The light changed: the faces' next samples replace what they hold (the depth
+        // moments, which describe geometry, are kept).
+        for (var face = 0u; face < VOLUME_FACES; face++) {
+            volume_faces[slot * VOLUME_FACES + face].w = 0.0;
+        }
     }
     let s = volume.levels[level].spacing_m;
     let grid = volume_probe_position(level, coord, vec3(0.0));

@@ -388,6 +388,15 @@ impl MobileTier {
             uniforms.flags |= screen::FLAG_BLEND_LAYER;
         }
         uniforms.change_gain = config.cache.change_gain;
+        // While the cache's light converges (after a fill, a jump or a change of the lights or
+        // materials), the probe volume, which takes one ray per probe a frame, still holds the
+        // old light: the gather reads the cache's surfels instead, and keeps a history no longer
+        // than the cache's own while it follows a change.
+        let (converging, lights_changed) = (cache.stats.converging, cache.stats.lights_changed);
+        if converging {
+            uniforms.flags |= screen::FLAG_CONVERGING;
+            uniforms.max_age = uniforms.max_age.min(gi_cache::lighting::CHANGED_MAX_AGE);
+        }
         screen.begin_frame(ctx, uniforms);
         let cache = &cache_buffers.bind_group;
         screen.record(
@@ -405,6 +414,7 @@ impl MobileTier {
                 camera_position: frame.camera.position,
                 sky: &frame.sky,
                 frame_index: *frame_index,
+                restart: lights_changed,
             },
         );
         for step in [ScreenStep::Probes, ScreenStep::Gather] {

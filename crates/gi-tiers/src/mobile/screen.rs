@@ -57,6 +57,8 @@ pub struct ScreenUniforms {
 /// [`ScreenUniforms::flags`] bit: the G-buffer found blended layers (the scene has alpha-`BLEND`
 /// materials), which compose blends over the GI behind them.
 pub const FLAG_BLEND_LAYER: u32 = 4;
+/// `FLAG_CONVERGING`: the cache's light is following a change ([`gi_cache::CacheUpdateStats::converging`]).
+pub const FLAG_CONVERGING: u32 = 8;
 
 /// Mirror of `ScreenProbe` in the shader, 32 bytes.
 #[repr(C)]

@@ -89,7 +89,7 @@ pub struct GpuProbeState {
     pub pad_b: u32,
 }
 
-/// Uniforms of the update passes (`UpdateUniforms` in `mobile/volume/update.wgsl`, 80 bytes).
+/// Uniforms of the update passes (`UpdateUniforms` in `mobile/volume/update.wgsl`, 96 bytes).
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
 pub struct GpuUpdateUniforms {
@@ -101,6 +101,11 @@ pub struct GpuUpdateUniforms {
     pub seed: u32,
     /// Slots of all levels.
     pub slot_count: u32,
+    /// 1 when every face's samples restart ([`VolumeInputs::restart`]).
+    pub restart: u32,
+    pub pad_a: u32,
+    pub pad_b: u32,
+    pub pad_c: u32,
 }
 
 /// What the volume cannot be made with.
@@ -206,6 +211,10 @@ pub struct VolumeInputs<'a> {
     pub sky: &'a gi_scene::Sky,
     /// Indexes every probe's random sequence.
     pub frame_index: u32,
+    /// The light changed ([`gi_cache::CacheUpdateStats::lights_changed`]): every face's running
+    /// mean restarts, so that its next samples replace the old light instead of joining up to
+    /// `max_age` samples of it. The faces keep their values until then.
+    pub restart: bool,
 }
 
 /// What one update of the probe volume produced.
@@ -234,6 +243,7 @@ impl Technique for ProbeVolume {
             camera_position,
             sky,
             frame_index,
+            restart,
         } = *inputs;
         let ctx = rec.ctx;
         let uniforms = self.uniforms_at(camera_position);
@@ -245,6 +255,8 @@ impl Technique for ProbeVolume {
             rays_per_probe: self.config.rays_per_probe,
             seed: RAY_SEED,
             slot_count: self.slot_count,
+            restart: u32::from(restart),
+            ..Default::default()
         };
         ctx.queue
             .write_buffer(&self.update_uniforms, 0, bytemuck::bytes_of(&update));
@@ -629,7 +641,11 @@ mod tests {
                 frame_index,
                 rays_per_probe,
                 seed,
-                slot_count
+                slot_count,
+                restart,
+                pad_a,
+                pad_b,
+                pad_c
             }),
             size_of::<GpuUpdateUniforms>(),
         );
