@@ -40,6 +40,16 @@ fn update(
     stats
 }
 
+/// Three levels, every queued brick voxelized in the update that queued it.
+fn three_levels_at_once() -> CacheConfig {
+    CacheConfig {
+        levels: 3,
+        voxelize_bricks_per_frame: 100_000,
+        voxelize_scan_per_frame: u32::MAX,
+        ..Default::default()
+    }
+}
+
 /// `(level, brick) -> id` of every allocated brick.
 fn residents(cache: &RadianceCache) -> HashMap<(u32, IVec3), u32> {
     cache
@@ -327,12 +337,7 @@ fn dynamic_object_is_revoxelized_locally_and_exactly() {
         return;
     };
     let scene = gi_scene::load("dynamic").unwrap();
-    let config = CacheConfig {
-        levels: 3,
-        voxelize_bricks_per_frame: 100_000,
-        voxelize_scan_per_frame: u32::MAX,
-        ..Default::default()
-    };
+    let config = three_levels_at_once();
     let mut cache = RadianceCache::new(&ctx, &config).unwrap();
     let frame0 = scene.evaluate(0.0, None);
     let camera = frame0.camera.position;
@@ -534,12 +539,7 @@ fn an_edited_material_is_voxelized_again_where_its_triangles_are() {
         return;
     };
     let mut scene = gi_scene::load("cornell-box").unwrap();
-    let config = CacheConfig {
-        levels: 3,
-        voxelize_bricks_per_frame: 100_000,
-        voxelize_scan_per_frame: u32::MAX,
-        ..Default::default()
-    };
+    let config = three_levels_at_once();
     let mut cache = RadianceCache::new(&ctx, &config).unwrap();
     let mut frame = scene.evaluate(0.0, None);
     let camera = frame.camera.position;
