@@ -307,8 +307,9 @@ enum Command {
         #[arg(long, default_value = "atrium")]
         settle_scene: String,
         /// What changes in the settle scene: its first punctual light turns (by
-        /// --light-turn-deg), is switched off, or on (off through the warm-up, then on), or
-        /// --move-node moves away (`move`; figures over the pixels it leaves).
+        /// --light-turn-deg), is switched off, or on (off through the warm-up, then on),
+        /// --move-node moves away (`move`; figures over the pixels it leaves), or its brightest
+        /// emissive material stops emitting (`emissive-off`).
         #[arg(long, default_value = "turn")]
         change: tier_stability::SettleChange,
         /// How far the light turns about the world vertical, degrees.

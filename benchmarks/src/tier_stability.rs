@@ -15,9 +15,11 @@
 //! Settle: the settle scene (static, with a punctual light) warms up, then its first punctual
 //! light changes ([`SettleChange`]: it turns by `light_turn_deg` about the world vertical (a
 //! directional or spot light's direction; a point light's position about the vertical axis
-//! through the origin), is switched off, or, off through the warm-up, is switched on), or one
-//! of its nodes moves away (`move`: `move_node`, made movable before the renderer, by
-//! `move_by`), and `settle_frames` still frames follow. For a move every figure is taken over
+//! through the origin), is switched off, or, off through the warm-up, is switched on), its
+//! brightest emissive material stops emitting (`emissive-off`, through
+//! `Renderer::set_material`: a lamp's shade or a screen switched off), or one of its nodes
+//! moves away (`move`: `move_node`, made movable before the renderer, by `move_by`), and
+//! `settle_frames` still frames follow. For a move every figure is taken over
 //! the pixels the node covered before it and no longer covers after it (where it leaves a
 //! trail), not over the whole image: the share left after 4 frames is the trail's. The converged value is the mean of the last
 //! `converged_frames`, the noise their mean frame-to-frame change, the threshold `k` times the
@@ -31,9 +33,9 @@
 //! change; the error floor (the 90th percentile of the later frames' errors) and the frames
 //! until the error first reaches it measure the change alone. Two figures follow a game's
 //! view of lag: the share of the change still left after 4 and after 8 frames (error over the
-//! light change: for a light switched off, the share of its bounced light still shown), and the
-//! share of the resolvable part (the light change down to the error floor) resolved within 8
-//! frames.
+//! light change: for a light or emitter switched off, the share of its light still shown), and
+//! the share of the resolvable part (the light change down to the error floor) resolved within
+//! 8 frames.
 //!
 //! Cost of the change, in a run of its own on a fresh renderer of the settle scene (the
 //! settle case reads every frame back, and the idle GPU between frames lets its clock fall, by
@@ -104,7 +106,7 @@ pub struct StabilityOptions {
 const STRIP_FRAMES: [usize; 4] = [1, 2, 4, 8];
 
 /// What the settle case changes after the warm-up: the settle scene's first punctual light,
-/// or where one of its nodes is.
+/// its brightest emissive material, or where one of its nodes is.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum SettleChange {
     /// The light turns by `light_turn_deg` about the world vertical.
@@ -115,10 +117,13 @@ pub enum SettleChange {
     On,
     /// `move_node` moves by `move_by`.
     Move,
+    /// The emissive material that emits the most power ([`brightest_emitter`]) stops emitting
+    /// (`Renderer::set_material`).
+    EmissiveOff,
 }
 
 impl SettleChange {
-    pub const NAMES: [&str; 4] = ["turn", "off", "on", "move"];
+    pub const NAMES: [&str; 5] = ["turn", "off", "on", "move", "emissive-off"];
 
     pub fn name(self) -> &'static str {
         match self {
@@ -126,6 +131,7 @@ impl SettleChange {
             Self::Off => "off",
             Self::On => "on",
             Self::Move => "move",
+            Self::EmissiveOff => "emissive-off",
         }
     }
 }
@@ -139,6 +145,7 @@ impl std::str::FromStr for SettleChange {
             "off" => Ok(Self::Off),
             "on" => Ok(Self::On),
             "move" => Ok(Self::Move),
+            "emissive-off" => Ok(Self::EmissiveOff),
             other => Err(format!(
                 "unknown light change '{other}' (expected {})",
                 Self::NAMES.join(", ")
@@ -312,11 +319,17 @@ pub fn run(options: &StabilityOptions) -> anyhow::Result<StabilityReport> {
         "the settle scene must be static; {} is animated (try atrium or thin-wall)",
         settle_scene.name
     );
-    if options.change == SettleChange::Move {
-        let node = moved_node(&settle_scene, options)?;
-        settle_scene.nodes[node].movable = true;
-    } else {
-        first_light_node(&settle_scene)?;
+    match options.change {
+        SettleChange::Move => {
+            let node = moved_node(&settle_scene, options)?;
+            settle_scene.nodes[node].movable = true;
+        }
+        SettleChange::EmissiveOff => {
+            brightest_emitter(&settle_scene)?;
+        }
+        SettleChange::Turn | SettleChange::Off | SettleChange::On => {
+            first_light_node(&settle_scene)?;
+        }
     }
     anyhow::ensure!(!options.variants.is_empty(), "nothing to measure");
     let mut runs = Vec::new();
@@ -489,7 +502,7 @@ fn moved_translation(
 /// Readies the settle scene for `change` before its warm-up: a light to switch on is off until
 /// then. Returns the light's intensity in the scene as loaded (0 for a move).
 fn prepare_change(scene: &mut gi_scene::Scene, change: SettleChange) -> anyhow::Result<f32> {
-    if change == SettleChange::Move {
+    if matches!(change, SettleChange::Move | SettleChange::EmissiveOff) {
         return Ok(0.0);
     }
     let light = scene.nodes[first_light_node(scene)?]
@@ -517,6 +530,13 @@ fn apply_change(
         renderer.set_node_transform(node, translation, rotation, scale)?;
         return Ok(());
     }
+    if change == SettleChange::EmissiveOff {
+        let index = brightest_emitter(renderer.scene())?;
+        let mut material = renderer.scene().materials[index].clone();
+        material.emissive = Vec3::ZERO;
+        renderer.set_material(index, material)?;
+        return Ok(());
+    }
     let scene = renderer.scene_mut();
     let light = scene.nodes[first_light_node(scene)?]
         .light
@@ -525,9 +545,36 @@ fn apply_change(
         SettleChange::Turn => turn_first_light(scene, options.light_turn_deg)?,
         SettleChange::Off => scene.lights[light].intensity = 0.0,
         SettleChange::On => scene.lights[light].intensity = intensity,
-        SettleChange::Move => unreachable!("handled above"),
+        SettleChange::Move | SettleChange::EmissiveOff => unreachable!("handled above"),
     }
     Ok(())
+}
+
+/// The material of `scene` whose triangles emit the most power at time 0 (exitance times
+/// area); an error when nothing emits.
+pub fn brightest_emitter(scene: &gi_scene::Scene) -> anyhow::Result<usize> {
+    let exitance = gi_scene::EmitterDistribution::exitance(&scene.materials, &scene.textures);
+    let frame = scene.evaluate(0.0, None);
+    let mut power = vec![0.0f64; scene.materials.len()];
+    for (triangle, attributes) in frame.triangles.iter().zip(&frame.attributes) {
+        let material = attributes.material as usize;
+        if let Some(&e) = exitance.get(material).filter(|&&e| e > 0.0) {
+            let area = 0.5 * (triangle.v1 - triangle.v0).cross(triangle.v2 - triangle.v0).length();
+            power[material] += f64::from(e * area);
+        }
+    }
+    power
+        .iter()
+        .enumerate()
+        .filter(|&(_, &p)| p > 0.0)
+        .max_by(|a, b| a.1.total_cmp(b.1))
+        .map(|(index, _)| index)
+        .with_context(|| {
+            format!(
+                "{} has no emissive material (try cornell-box or glossy)",
+                scene.name
+            )
+        })
 }
 
 /// Turns the scene's first punctual light about the world vertical by `degrees`.
@@ -720,6 +767,9 @@ impl StabilityReport {
                     "unchanged, node '{}' moved away (figures over the pixels it left)",
                     o.move_node.as_deref().unwrap_or("")
                 ),
+                SettleChange::EmissiveOff => {
+                    "unchanged, the brightest emissive material switched off".to_owned()
+                }
             },
             o.settle_frames,
             o.converged_frames,

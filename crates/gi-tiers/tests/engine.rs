@@ -356,3 +356,72 @@ fn a_gpu_tier_renders_a_moved_node_as_a_scene_built_with_it_there() {
         );
     }
 }
+
+/// The square of [`ground_with_a_movable_square`] repainted and made to glow: its material's
+/// base color and emission edited.
+fn repainted(material: &gi_scene::Material) -> gi_scene::Material {
+    gi_scene::Material {
+        base_color: glam::Vec4::new(0.9, 0.2, 0.1, 1.0),
+        emissive: Vec3::new(2.0, 1.0, 0.5),
+        ..material.clone()
+    }
+}
+
+#[test]
+fn a_material_edit_reaches_the_next_frame_as_a_scene_built_with_it() {
+    let (scene, square) = ground_with_a_movable_square();
+    let material = scene.meshes[scene.nodes[square].mesh.unwrap()].primitives[0].material;
+    let request = FrameRequest::at(0.0).with_camera(camera());
+    let mut built = scene.clone();
+    built.materials[material] = repainted(&scene.materials[material]);
+    let expected = reference_image(&built, camera(), &CPU_SETTINGS);
+
+    let mut renderer = reference_renderer(scene.clone());
+    let before = renderer.render(&request).unwrap();
+    // The same material again is no edit.
+    (renderer.set_material(material, scene.materials[material].clone())).unwrap();
+    assert_eq!(renderer.render(&request).unwrap().image.pixels, before.image.pixels);
+    (renderer.set_material(material, repainted(&scene.materials[material]))).unwrap();
+    let after = renderer.render(&request).unwrap();
+    assert_ne!(after.image.pixels, before.image.pixels);
+    assert_eq!(after.image.pixels, expected.pixels);
+}
+
+#[test]
+fn a_gpu_tier_renders_an_edited_material_as_a_scene_built_with_it() {
+    let Some(engine) = engine_device() else {
+        return;
+    };
+    let (scene, square) = ground_with_a_movable_square();
+    let material = scene.meshes[scene.nodes[square].mesh.unwrap()].primitives[0].material;
+    let mut built = scene.clone();
+    built.materials[material] = repainted(&scene.materials[material]);
+    let request = FrameRequest::at(0.0).with_camera(camera());
+    let render = |scene: Scene, ctx: GpuContext, edits: bool| {
+        let mut renderer = Renderer::builder(scene)
+            .tier(TierKind::Path)
+            .size(24, 16)
+            .spp(4)
+            .context(ctx)
+            .build()
+            .unwrap();
+        let first = renderer.render(&request).unwrap().image;
+        if edits {
+            let edited = repainted(&renderer.scene().materials[material]);
+            renderer.set_material(material, edited).unwrap();
+        }
+        (first, renderer.render(&request).unwrap().image)
+    };
+    let (before, after) = render(scene, engine.share(), true);
+    // The edit restarts the accumulation with the new material and emitter tables: the frame
+    // after it holds the first samples of a renderer of the edited scene.
+    let (built_with_it, _) = render(built, engine.share(), false);
+    assert_ne!(before.pixels, after.pixels, "the edit did not show");
+    for (i, (a, b)) in after.pixels.iter().zip(&built_with_it.pixels).enumerate() {
+        let bound = a.abs().max(b.abs()) * 1e-4 + Vec3::splat(1e-6);
+        assert!(
+            (*a - *b).abs().cmple(bound).all(),
+            "pixel {i}: {a} against {b}"
+        );
+    }
+}
