@@ -380,7 +380,10 @@ fn a_material_edit_reaches_the_next_frame_as_a_scene_built_with_it() {
     let before = renderer.render(&request).unwrap();
     // The same material again is no edit.
     (renderer.set_material(material, scene.materials[material].clone())).unwrap();
-    assert_eq!(renderer.render(&request).unwrap().image.pixels, before.image.pixels);
+    assert_eq!(
+        renderer.render(&request).unwrap().image.pixels,
+        before.image.pixels
+    );
     (renderer.set_material(material, repainted(&scene.materials[material]))).unwrap();
     let after = renderer.render(&request).unwrap();
     assert_ne!(after.image.pixels, before.image.pixels);

@@ -19,7 +19,7 @@
 #import gi::mobile::screen::{
     uniforms, gbuffer_depth, gbuffer_motion, lite, probes, probe_radiance, tile_marks,
     history_in, history_out, is_sky, pixel_ray, fresh_tile, history_age_depth, half_source,
-    PROBE_TEXELS, SLOTS_PER_TILE, FLAG_SMARTGI, FLAG_CONVERGING
+    PROBE_TEXELS, SLOTS_PER_TILE, FLAG_SMARTGI, FLAG_VOLUME_STALE
 }
 
 // Relative depth difference a reprojected history sample may have from the distance of the
@@ -86,10 +86,10 @@ fn interpolate_probes(p: vec3<f32>, n: vec3<f32>, depth: f32, source: vec2<u32>,
 }
 
 // Irradiance from the world-space structures: the probe volume, or the cache's own surfels
-// where no probe covers the point.
+// where no probe covers the point or the volume is stale (FLAG_VOLUME_STALE).
 fn world_irradiance(p: vec3<f32>, n: vec3<f32>) -> vec3<f32> {
     let volume = volume_irradiance(p, n);
-    if volume.w > 0.0 && (uniforms.flags & FLAG_CONVERGING) == 0u {
+    if volume.w > 0.0 && (uniforms.flags & FLAG_VOLUME_STALE) == 0u {
         return volume.xyz;
     }
     return cache_irradiance(p, n).xyz;

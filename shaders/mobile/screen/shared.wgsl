@@ -60,7 +60,9 @@ const FLAG_SMARTGI: u32 = 1u;
 const FLAG_MATERIAL_OCCLUSION: u32 = 2u;
 // `gbuffer_blend_layer` holds the blended layer in front of each pixel.
 const FLAG_BLEND_LAYER: u32 = 4u;
-const FLAG_CONVERGING: u32 = 8u;
+// The lights changed lately and the probe volume still holds their old light: the gather reads
+// the cache's surfels where it would read the volume.
+const FLAG_VOLUME_STALE: u32 = 8u;
 // `ScreenProbe.flags`: bit 0 the probe sits on a dynamic object; bit 1 it was reprojected from
 // the previous frame, whose slot is in bits 8 and up.
 const PROBE_DYNAMIC: u32 = 1u;

@@ -110,6 +110,9 @@ pub struct MobileTier {
     volume: ProbeVolume,
     prepared: Option<Prepared>,
     frame_index: u32,
+    /// Cache updates since the last one that found the lights, sky or materials changed
+    /// ([`gi_cache::CacheUpdateStats::lights_changed`]); `u32::MAX` before any.
+    since_light_change: u32,
 }
 
 /// What the tier uploaded for its scene.
@@ -158,6 +161,7 @@ impl MobileTier {
             volume,
             prepared: None,
             frame_index: 0,
+            since_light_change: u32::MAX,
         })
     }
 
@@ -361,6 +365,7 @@ impl MobileTier {
             config,
             settings,
             frame_index,
+            since_light_change,
             ..
         } = self;
         let Prepared { state, screen, .. } = prepared.as_mut().expect("prepared above");
@@ -388,13 +393,18 @@ impl MobileTier {
             uniforms.flags |= screen::FLAG_BLEND_LAYER;
         }
         uniforms.change_gain = config.cache.change_gain;
-        // While the cache's light converges (after a fill, a jump or a change of the lights or
-        // materials), the probe volume, which takes one ray per probe a frame, still holds the
-        // old light: the gather reads the cache's surfels instead, and keeps a history no longer
-        // than the cache's own while it follows a change.
-        let (converging, lights_changed) = (cache.stats.converging, cache.stats.lights_changed);
-        if converging {
-            uniforms.flags |= screen::FLAG_CONVERGING;
+        // For the cache's `max_age` updates after a change of the lights or materials (those in
+        // which the cache follows it with a short accumulation, `CHANGED_MAX_AGE`), the probe
+        // volume, which takes one ray per probe a frame, still holds the old light: the gather
+        // reads the cache's surfels instead, and keeps a history no longer than the cache's.
+        let lights_changed = cache.stats.lights_changed;
+        *since_light_change = if lights_changed {
+            0
+        } else {
+            since_light_change.saturating_add(1)
+        };
+        if *since_light_change < config.cache.max_age {
+            uniforms.flags |= screen::FLAG_VOLUME_STALE;
             uniforms.max_age = uniforms.max_age.min(gi_cache::lighting::CHANGED_MAX_AGE);
         }
         screen.begin_frame(ctx, uniforms);

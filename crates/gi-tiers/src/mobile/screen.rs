@@ -57,8 +57,9 @@ pub struct ScreenUniforms {
 /// [`ScreenUniforms::flags`] bit: the G-buffer found blended layers (the scene has alpha-`BLEND`
 /// materials), which compose blends over the GI behind them.
 pub const FLAG_BLEND_LAYER: u32 = 4;
-/// `FLAG_CONVERGING`: the cache's light is following a change ([`gi_cache::CacheUpdateStats::converging`]).
-pub const FLAG_CONVERGING: u32 = 8;
+/// `FLAG_VOLUME_STALE`: the lights changed lately and the probe volume still holds their old
+/// light, so the gather reads the cache where it would read the volume.
+pub const FLAG_VOLUME_STALE: u32 = 8;
 
 /// Mirror of `ScreenProbe` in the shader, 32 bytes.
 #[repr(C)]
