@@ -559,7 +559,10 @@ pub fn brightest_emitter(scene: &gi_scene::Scene) -> anyhow::Result<usize> {
     for (triangle, attributes) in frame.triangles.iter().zip(&frame.attributes) {
         let material = attributes.material as usize;
         if let Some(&e) = exitance.get(material).filter(|&&e| e > 0.0) {
-            let area = 0.5 * (triangle.v1 - triangle.v0).cross(triangle.v2 - triangle.v0).length();
+            let area = 0.5
+                * (triangle.v1 - triangle.v0)
+                    .cross(triangle.v2 - triangle.v0)
+                    .length();
             power[material] += f64::from(e * area);
         }
     }
