@@ -55,6 +55,7 @@ fn compare(name: &str, part_triangles: u32) {
                 brick: b.brick,
                 id: b.id,
                 triangles: bins[&b.brick].clone(),
+                changed: false,
             });
         }
     }
