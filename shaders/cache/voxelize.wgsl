@@ -8,9 +8,7 @@
 // normal, albedo from the material at the closest triangle point to the voxel center,
 // emission as the emitted power of the clipped triangles over the cross-section of their box
 // along the normal, the box around the clipped triangles in the state
-// (`gi_cache::layout::geometry_box_bits`). The voxel's sides and age start at 0; its measured
-// change at 0, or, in a brick voxelized again in place (JOB_CHANGED), at the largest, measured
-// this frame.
+// (`gi_cache::layout::geometry_box_bits`). The voxel's sides and age start at 0.
 //
 // A brick's triangle list is cut into parts (`gi_cache::voxelize`), so that a coarse brick
 // listing a hundred thousand triangles runs on many workgroups instead of one. Four entry
@@ -26,8 +24,7 @@
 
 #import gi::cache::data::{
     cache, cache_brick_masks, cache_voxels, cache_direct, cache_indirect, cache_emitted,
-    cache_keeps_emitted, cache_mask_cell, cache_state_with_change, VoxelSurface,
-    CACHE_STATE_DYNAMIC, CACHE_SIDE_COUNT,
+    cache_keeps_emitted, cache_mask_cell, VoxelSurface, CACHE_STATE_DYNAMIC, CACHE_SIDE_COUNT,
     CACHE_STATE_BOX_SHIFT, CACHE_BOX_STEPS, cache_geometry_box
 }
 #import gi::scene::{triangles, emission, material_of, geometric_normal, tex_coords, material_brdf, surface_coverage}
@@ -49,12 +46,8 @@ struct VoxelizeJob {
     brick_id: u32,
     first_part: u32,
     part_count: u32,
-    // JOB_CHANGED: the brick is voxelized again in place and its light changed.
-    flags: u32,
+    pad: u32,
 }
-
-// `gi_cache::voxelize::JOB_CHANGED`.
-const JOB_CHANGED: u32 = 1u;
 
 // Mirror of `gi_cache::voxelize::GpuVoxelizePart`: a run of a brick's triangle list.
 struct VoxelizePart {
@@ -565,9 +558,6 @@ fn finish(@builtin(workgroup_id) workgroup: vec3<u32>, @builtin(local_invocation
             pack_rgb9e5(sums.xyz / box_cross_section(box_bits, normal, 2.0 * half)),
             select(0u, CACHE_STATE_DYNAMIC, (merged.flags & DYNAMIC) != 0u) | box_bits,
         );
-        if (job.flags & JOB_CHANGED) != 0u {
-            surface.state = cache_state_with_change(surface.state, 1.0);
-        }
         atomicOr(&occupancy[bit >> 5u], 1u << (bit & 31u));
     }
     let voxel_index = job.brick_id * 64u + bit;

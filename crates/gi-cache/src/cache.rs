@@ -782,7 +782,6 @@ impl RadianceCache {
                     continue;
                 };
                 let mut id = self.structure.brick_id(level, brick);
-                let changed = id != NO_BRICK && self.config.change_gain > 0.0;
                 if id == NO_BRICK {
                     id = match self.allocate(level, camera, &mut victims, wanted, stats) {
                         Some(id) => id,
@@ -819,7 +818,6 @@ impl RadianceCache {
                     brick,
                     id,
                     triangles,
-                    changed,
                 });
             }
             stats.cpu.allocate_ms += clock.lap();

@@ -60,13 +60,8 @@ pub struct GpuVoxelizeJob {
     pub first_part: u32,
     /// Its parts (at least one, also for an empty list).
     pub part_count: u32,
-    /// [`JOB_CHANGED`] or 0.
-    pub flags: u32,
+    pub pad: u32,
 }
-
-/// [`GpuVoxelizeJob::flags`]: the brick's light changed ([`VoxelizeJob::changed`]): its
-/// occupied voxels start with the largest measured change, measured this frame.
-pub const JOB_CHANGED: u32 = 1;
 
 /// A run of a brick's triangle list (`VoxelizePart` in WGSL), 16 bytes.
 #[repr(C)]
@@ -136,7 +131,7 @@ impl VoxelizePlan {
                 brick_id: job.id,
                 first_part,
                 part_count: plan.parts.len() as u32 - first_part,
-                flags: if job.changed { JOB_CHANGED } else { 0 },
+                pad: 0,
             });
         }
         plan
@@ -153,12 +148,6 @@ pub struct VoxelizeJob {
     pub id: u32,
     /// Binned triangle references ([`crate::binning`]).
     pub triangles: Vec<u32>,
-    /// The brick held voxels before and is voxelized again in place (an object moved in or
-    /// out of it, or one of its materials was edited): the light its voxels had no longer
-    /// holds, so they start with the largest measured change (`crate::lighting`'s measured
-    /// change: the screen passes drop their history there, the voxels' neighbours weigh their
-    /// next updates by it). New bricks had no light to change.
-    pub changed: bool,
 }
 
 /// The voxelization pass: its pipelines and its growing buffers.
@@ -369,7 +358,6 @@ mod tests {
             brick: IVec3::new(id as i32, 0, 0),
             id,
             triangles: (0..triangles).map(|t| id * 1000 + t).collect(),
-            changed: false,
         }
     }
 

@@ -50,26 +50,6 @@ fn three_levels_at_once() -> CacheConfig {
     }
 }
 
-/// Allocated bricks with a voxel whose light changed this frame (the largest measured change,
-/// 0 frames ago: a brick voxelized again in place), and voxels with any measured change.
-fn changed_bricks(ctx: &GpuContext, cache: &RadianceCache) -> (usize, usize) {
-    use gi_cache::layout::{state_change, state_change_frames};
-    let voxels = cache.buffers().read_voxels(ctx);
-    let bricks = (cache.resident_bricks().iter())
-        .filter(|b| {
-            let brick = &voxels[b.brick_id as usize * 64..][..64];
-            brick
-                .iter()
-                .any(|v| state_change(v.state) == 1.0 && state_change_frames(v.state) == 0)
-        })
-        .count();
-    let voxels = voxels
-        .iter()
-        .filter(|v| state_change(v.state) > 0.0)
-        .count();
-    (bricks, voxels)
-}
-
 /// `(level, brick) -> id` of every allocated brick.
 fn residents(cache: &RadianceCache) -> HashMap<(u32, IVec3), u32> {
     cache
@@ -363,18 +343,10 @@ fn dynamic_object_is_revoxelized_locally_and_exactly() {
     let camera = frame0.camera.position;
     let first = update(&ctx, &mut cache, &scene, &frame0, camera);
     assert_eq!(first.dropped_for_pool, 0);
-    // New bricks had no light to change.
-    assert_eq!(changed_bricks(&ctx, &cache), (0, 0));
 
     let frame1 = scene.evaluate(0.25, None);
     let stats = update(&ctx, &mut cache, &scene, &frame1, camera);
     assert_eq!(stats.levels_moved, 0);
-    // The bricks voxelized again start with the largest change (those left empty are released).
-    let (changed, _) = changed_bricks(&ctx, &cache);
-    assert!(
-        changed > 0 && changed <= stats.voxelized as usize,
-        "{changed} changed bricks"
-    );
     // Only bricks inside the moving nodes' old and new bounds were touched.
     let cache_scene = CacheScene::new(&scene, &frame1);
     let (bounds0, bounds1) = (
@@ -621,6 +593,4 @@ fn an_edited_material_is_voxelized_again_where_its_triangles_are() {
     assert!(edited.voxelized as usize <= near.len());
     assert!(edited.voxelized * 2 < first.voxelized);
     assert_eq!(emitting(&cache), 0, "voxels still emit after the edit");
-    // Their light changed: every brick voxelized again starts with the largest change.
-    assert_eq!(changed_bricks(&ctx, &cache).0, edited.voxelized as usize);
 }

@@ -55,7 +55,6 @@ fn compare(name: &str, part_triangles: u32) {
                 brick: b.brick,
                 id: b.id,
                 triangles: bins[&b.brick].clone(),
-                changed: false,
             });
         }
     }
