@@ -110,9 +110,12 @@ pub struct MobileTier {
     volume: ProbeVolume,
     prepared: Option<Prepared>,
     frame_index: u32,
-    /// Cache updates since the last one that found the lights, sky or materials changed
-    /// ([`gi_cache::CacheUpdateStats::lights_changed`]); `u32::MAX` before any.
+    /// Cache updates since the last one that found the lights, sky or materials changed after
+    /// an update that found them as before ([`gi_cache::CacheUpdateStats::lights_changed`]: a
+    /// change after stillness); `u32::MAX` before any.
     since_light_change: u32,
+    /// Whether the last update found the lights changed.
+    lights_were_changing: bool,
 }
 
 /// What the tier uploaded for its scene.
@@ -162,6 +165,7 @@ impl MobileTier {
             prepared: None,
             frame_index: 0,
             since_light_change: u32::MAX,
+            lights_were_changing: false,
         })
     }
 
@@ -366,6 +370,7 @@ impl MobileTier {
             settings,
             frame_index,
             since_light_change,
+            lights_were_changing,
             ..
         } = self;
         let Prepared { state, screen, .. } = prepared.as_mut().expect("prepared above");
@@ -393,12 +398,18 @@ impl MobileTier {
             uniforms.flags |= screen::FLAG_BLEND_LAYER;
         }
         uniforms.change_gain = config.cache.change_gain;
-        // For the cache's `max_age` updates after a change of the lights or materials (those in
-        // which the cache follows it with a short accumulation, `CHANGED_MAX_AGE`), the probe
-        // volume, which takes one ray per probe a frame, still holds the old light: the gather
-        // reads the cache's surfels instead, and keeps a history no longer than the cache's.
-        let lights_changed = cache.stats.lights_changed;
-        *since_light_change = if lights_changed {
+        // For the cache's `max_age` updates after the lights or materials change from standing
+        // still (a light switched, a lamp's material edited: the cache follows with a short
+        // accumulation, `CHANGED_MAX_AGE`), the probe volume, which takes one ray per probe a
+        // frame, still holds the old light: it restarts its faces' means, and the gather reads
+        // the cache's surfels instead and keeps a history no longer than the cache's. A light
+        // that keeps moving starts this once: restarting every frame would leave the volume one
+        // sample deep and the whole screen's history 4 frames long for as long as it moves (on
+        // `dynamic`, whose light circles the room, that tripled the flicker of still pixels);
+        // the measured change (`cache_surface_change`) follows it where its light changed.
+        let started = cache.stats.lights_changed && !*lights_were_changing;
+        *lights_were_changing = cache.stats.lights_changed;
+        *since_light_change = if started {
             0
         } else {
             since_light_change.saturating_add(1)
@@ -424,7 +435,7 @@ impl MobileTier {
                 camera_position: frame.camera.position,
                 sky: &frame.sky,
                 frame_index: *frame_index,
-                restart: lights_changed,
+                restart: started,
             },
         );
         for step in [ScreenStep::Probes, ScreenStep::Gather] {

@@ -3,7 +3,7 @@
 # faces after a change), alternated: atrium's sun off, on and turned 30 degrees, Sponza's
 # (lighting file) off and turned; then the still-camera flicker of both builds (gi-bench
 # stability's default flicker cases, mobile).
-. benchmarks/results/h100-2026-12-07-material-edits/common.sh
+. benchmarks/results/h200-2026-12-07-material-edits/common.sh
 S=.gpu/scenes/Sponza/glTF/Sponza.gltf
 {
 for sc in atrium $S; do for c in off turn; do for b in old new; do

@@ -1,7 +1,7 @@
 # One device call: the runs of sun.sh, emitters.sh and trail.sh that fit in about 9 minutes,
 # most wanted first; each run starts only while under $BUDGET seconds (default 500), and the
 # results are packed whatever ran.
-. benchmarks/results/h100-2026-12-07-material-edits/common.sh
+. benchmarks/results/h200-2026-12-07-material-edits/common.sh
 BUDGET=${BUDGET:-500}
 S=.gpu/scenes/Sponza/glTF/Sponza.gltf; T=.gpu/scenes/ToyCar/glTF/ToyCar.gltf
 go() { [ $SECONDS -lt $BUDGET ] && run "$@" || echo "skipped (time): $*"; }

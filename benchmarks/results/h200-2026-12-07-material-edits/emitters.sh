@@ -2,7 +2,7 @@
 # the build before could not edit materials): cornell-box's ceiling panel (its only light),
 # glossy's softbox, ToyCar's emissive material (under its lighting file's sun), both GPU tiers,
 # with contact strips; then the PC tier's still-camera flicker.
-. benchmarks/results/h100-2026-12-07-material-edits/common.sh
+. benchmarks/results/h200-2026-12-07-material-edits/common.sh
 T=.gpu/scenes/ToyCar/glTF/ToyCar.gltf
 {
 for sc in cornell-box glossy $T; do for t in pc mobile; do
