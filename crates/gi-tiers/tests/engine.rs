@@ -326,29 +326,37 @@ fn a_gpu_tier_renders_a_moved_node_as_a_scene_built_with_it_there() {
     let mut moved_scene = scene.clone();
     moved_scene.nodes[square].translation = place.0;
     moved_scene.nodes[square].rotation = place.1;
-    let request = FrameRequest::at(0.0).with_camera(camera());
-    let render = |scene: Scene, ctx: GpuContext, moves: bool| {
-        let mut renderer = Renderer::builder(scene)
-            .tier(TierKind::Path)
-            .size(24, 16)
-            .spp(4)
-            .context(ctx)
-            .build()
-            .unwrap();
-        let first = renderer.render(&request).unwrap().image;
-        if moves {
-            (renderer.set_node_transform(square, place.0, place.1, Vec3::ONE)).unwrap();
-        }
-        (first, renderer.render(&request).unwrap().image)
-    };
-    let (before, after) = render(scene, engine.share(), true);
+    let (before, after) = path_frames(scene, engine.share(), |renderer| {
+        (renderer.set_node_transform(square, place.0, place.1, Vec3::ONE)).unwrap();
+    });
     // The move restarts the accumulation: the frame after it holds the first samples again,
     // as the first frame of a renderer of the moved scene does.
-    let (built_there, _) = render(moved_scene, engine.share(), false);
+    let (built_there, _) = path_frames(moved_scene, engine.share(), |_| {});
     assert_ne!(before.pixels, after.pixels, "the move did not show");
     // The same rays hit the same triangles, through a refitted BVH or a fresh one: f32
     // rounding apart, the images agree.
-    for (i, (a, b)) in after.pixels.iter().zip(&built_there.pixels).enumerate() {
+    assert_within_rounding(&after, &built_there);
+}
+
+/// On the GPU path tier (24 x 16, 4 spp, on `ctx`): the first frame of `scene` through the
+/// test camera, then `edit` applied to the renderer, then the next frame.
+fn path_frames(scene: Scene, ctx: GpuContext, edit: impl FnOnce(&mut Renderer)) -> (Image, Image) {
+    let request = FrameRequest::at(0.0).with_camera(camera());
+    let mut renderer = Renderer::builder(scene)
+        .tier(TierKind::Path)
+        .size(24, 16)
+        .spp(4)
+        .context(ctx)
+        .build()
+        .unwrap();
+    let first = renderer.render(&request).unwrap().image;
+    edit(&mut renderer);
+    (first, renderer.render(&request).unwrap().image)
+}
+
+/// `a` and `b` agree pixel by pixel up to f32 rounding (relative 1e-4).
+fn assert_within_rounding(a: &Image, b: &Image) {
+    for (i, (a, b)) in a.pixels.iter().zip(&b.pixels).enumerate() {
         let bound = a.abs().max(b.abs()) * 1e-4 + Vec3::splat(1e-6);
         assert!(
             (*a - *b).abs().cmple(bound).all(),
@@ -399,32 +407,13 @@ fn a_gpu_tier_renders_an_edited_material_as_a_scene_built_with_it() {
     let material = scene.meshes[scene.nodes[square].mesh.unwrap()].primitives[0].material;
     let mut built = scene.clone();
     built.materials[material] = repainted(&scene.materials[material]);
-    let request = FrameRequest::at(0.0).with_camera(camera());
-    let render = |scene: Scene, ctx: GpuContext, edits: bool| {
-        let mut renderer = Renderer::builder(scene)
-            .tier(TierKind::Path)
-            .size(24, 16)
-            .spp(4)
-            .context(ctx)
-            .build()
-            .unwrap();
-        let first = renderer.render(&request).unwrap().image;
-        if edits {
-            let edited = repainted(&renderer.scene().materials[material]);
-            renderer.set_material(material, edited).unwrap();
-        }
-        (first, renderer.render(&request).unwrap().image)
-    };
-    let (before, after) = render(scene, engine.share(), true);
+    let (before, after) = path_frames(scene, engine.share(), |renderer| {
+        let edited = repainted(&renderer.scene().materials[material]);
+        renderer.set_material(material, edited).unwrap();
+    });
     // The edit restarts the accumulation with the new material and emitter tables: the frame
     // after it holds the first samples of a renderer of the edited scene.
-    let (built_with_it, _) = render(built, engine.share(), false);
+    let (built_with_it, _) = path_frames(built, engine.share(), |_| {});
     assert_ne!(before.pixels, after.pixels, "the edit did not show");
-    for (i, (a, b)) in after.pixels.iter().zip(&built_with_it.pixels).enumerate() {
-        let bound = a.abs().max(b.abs()) * 1e-4 + Vec3::splat(1e-6);
-        assert!(
-            (*a - *b).abs().cmple(bound).all(),
-            "pixel {i}: {a} against {b}"
-        );
-    }
+    assert_within_rounding(&after, &built_with_it);
 }
