@@ -318,6 +318,15 @@ fn cache_hit_normal(hit: CacheHit) -> vec3<f32> {
     return cache_side_normal(cache_voxel_normal(cache_voxels[cache_voxel_index(hit.voxel)]), hit.side);
 }
 
+// The change the cache just measured (`cache_voxel_recent_change`) in the light of the voxel a
+// ray hit; 0 on a miss.
+fn cache_hit_change(hit: CacheHit) -> f32 {
+    if !hit.hit {
+        return 0.0;
+    }
+    return cache_voxel_recent_change(cache_voxels[cache_voxel_index(hit.voxel)]);
+}
+
 // Least agreement |n_voxel . n| of a voxel's surfel with a query's normal for the voxel to count
 // in `cache_irradiance`: voxels of a crossing surface (a wall meeting the floor, at 0) stay out,
 // voxels whose normal is averaged over the edge between them (at about 0.71) count.

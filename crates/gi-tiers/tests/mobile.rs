@@ -5,8 +5,8 @@
 mod common;
 
 use common::{
-    check_glass_blends, check_occlusion_scaling, ground_behind_glass, open_ground, settings,
-    sunlit_wall, with_occlusion,
+    add_sun, check_glass_blends, check_occlusion_scaling, ground_behind_glass, open_ground,
+    settings, sunlit_wall, with_occlusion,
 };
 use gi_gpu::{GpuContext, ShaderLibrary, rust_field_offsets, wgpu, wgsl_struct_layout};
 use gi_image::Image;
@@ -558,6 +558,79 @@ fn the_gather_restarts_its_history_where_the_cache_measured_a_change() {
         restarted.push(restart as f32 / old as f32);
     }
     assert!(restarted[0] >= 0.25, "{restarted:?}");
+    assert_eq!(restarted[1], 0.0, "{restarted:?}");
+}
+
+/// The gather's history also restarts where the light its probes find changed while the
+/// surface's own light did not: a ground lit from straight above by a strong sun, which sees a
+/// wall lit by a second sun off screen. When the wall's sun goes out the ground's own light
+/// changes by under 4% (the wall's bounce against the overhead sun's irradiance of 30), below
+/// the cache's smallest step of change, so only the probes' rays, which meet the darkened wall,
+/// see it.
+#[test]
+fn the_gather_restarts_its_history_where_the_light_its_probes_find_changed() {
+    let (width, height) = (48usize, 36usize);
+    // Looking down at the ground beside the wall, which is out of view.
+    let camera = CameraView::look_at(Vec3::new(-0.5, 3.0, 0.0), Vec3::ZERO, 0.6);
+    let mut scene = sunlit_wall("mobile-probe-change");
+    add_sun(
+        &mut scene,
+        glam::Quat::from_rotation_x(-std::f32::consts::FRAC_PI_2),
+    );
+    scene.lights[1].intensity = 30.0;
+    let mut dark = scene.clone();
+    dark.lights[0].intensity = 0.0;
+    let mut restarted = Vec::new();
+    for gain in [3.0, 0.0] {
+        let Some(ctx) = GpuContext::new_or_skip("the_gather_restarts_its_history_where_the_light")
+        else {
+            return;
+        };
+        let mut config = MobileConfig::default();
+        config.cache.change_gain = gain;
+        // 3 x 3 tiles: every pixel has probes around it.
+        config.screen.tile_px = 16;
+        let frames = 40;
+        let (mut tier, _) = run(
+            ctx,
+            &scene,
+            config,
+            (width as u32, height as u32),
+            frames,
+            Some(camera),
+        );
+        let mut next = |scene: &Scene, index: u32| {
+            let frame = scene.evaluate(0.0, Some(camera));
+            tier.render(&FrameInput {
+                scene,
+                frame: &frame,
+                index,
+                progress: None,
+            })
+            .unwrap();
+            tier.frame_data().unwrap()
+        };
+        let before = next(&scene, frames);
+        let after = next(&dark, frames + 1);
+        // The pixels the wall lights: a tenth of the brightest irradiance or more.
+        let lum = |i: usize| before.irradiance.pixels[i].dot(Vec3::new(0.2126, 0.7152, 0.0722));
+        let brightest = (0..width * height).map(lum).fold(0.0f32, f32::max);
+        let (mut lit, mut restart) = (0, 0);
+        for i in 0..width * height {
+            if before.history_age[i] >= 16 && lum(i) >= 0.1 * brightest {
+                lit += 1;
+                restart += usize::from(after.history_age[i] <= 2);
+            }
+        }
+        println!("gain {gain}: {restart} of {lit} lit samples with a long history restarted");
+        assert!(
+            lit * 4 >= width * height,
+            "{lit} lit samples with a long history"
+        );
+        restarted.push(restart as f32 / lit as f32);
+    }
+    // Every lit sample's probes meet the wall and nothing else that emits or reflects.
+    assert!(restarted[0] >= 0.9, "{restarted:?}");
     assert_eq!(restarted[1], 0.0, "{restarted:?}");
 }
 

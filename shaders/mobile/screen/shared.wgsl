@@ -22,6 +22,7 @@
 
 #import gi::camera::{Camera, camera_ray}
 #import gi::sky::Sky
+#import gi::packing::{oct_encode, oct_decode}
 
 const PROBE_TEXELS: u32 = 16u;
 const SLOTS_PER_TILE: u32 = 2u;
@@ -96,7 +97,8 @@ struct ScreenProbe {
 @group(0) @binding(8) var<storage, read_write> lite: array<u32>;
 // SLOTS_PER_TILE probes per tile: the regular probe, then the extra one of marked tiles.
 @group(0) @binding(9) var<storage, read_write> probes: array<ScreenProbe>;
-// PROBE_TEXELS texels per probe slot: x = RGB9E5 of L / pdf, y = the packed ray direction.
+// PROBE_TEXELS texels per probe slot: x = RGB9E5 of L / pdf, y = the ray's direction and the
+// change the cache measured at its hit (`pack_probe_ray`).
 @group(0) @binding(10) var<storage, read_write> probe_radiance: array<vec2<u32>>;
 // The previous frame's probes and texels (ping-pong with the two above).
 @group(0) @binding(16) var<storage, read> probes_prev: array<ScreenProbe>;
@@ -138,6 +140,34 @@ fn fresh_tile(group: vec2<u32>) -> vec2<u32> {
 
 fn is_fresh(tile_xy: vec2<u32>) -> bool {
     return (uniforms.flags & FLAG_SMARTGI) == 0u || all(fresh_tile(tile_xy / 2u) == tile_xy);
+}
+
+// Steps of a probe texel's direction coordinates (12 bits each; an angular step below 0.05
+// degrees) and of its hit's change (8 bits).
+const PROBE_RAY_DIR_STEPS: f32 = 4095.0;
+const PROBE_RAY_CHANGE_STEPS: f32 = 255.0;
+
+// A probe texel's unit ray direction (octahedral, two 12-bit unorms in bits 8 and up) and the
+// change the brick cache just measured in the light the ray found (`cache_voxel_recent_change`
+// of the hit voxel, 0 to 1; 0 for the sky and for copied texels) in bits 0 to 7.
+fn pack_probe_ray(dir: vec3<f32>, change: f32) -> u32 {
+    let e = vec2<u32>(round((oct_encode(dir) * 0.5 + 0.5) * PROBE_RAY_DIR_STEPS));
+    let c = u32(round(clamp(change, 0.0, 1.0) * PROBE_RAY_CHANGE_STEPS));
+    return (e.x << 20u) | (e.y << 8u) | c;
+}
+
+fn probe_ray_dir(bits: u32) -> vec3<f32> {
+    let e = vec2<f32>(vec2(bits >> 20u, (bits >> 8u) & 0xfffu)) / PROBE_RAY_DIR_STEPS;
+    return oct_decode(e * 2.0 - 1.0);
+}
+
+fn probe_ray_change(bits: u32) -> f32 {
+    return f32(bits & 0xffu) / PROBE_RAY_CHANGE_STEPS;
+}
+
+// `bits` with its change cleared: a texel copied into a later frame brings no new change.
+fn probe_ray_unchanged(bits: u32) -> u32 {
+    return bits & ~0xffu;
 }
 
 // (age, signed depth) of a history entry.

@@ -1,19 +1,20 @@
 // Pass `mobile/probe_trace` of the mobile tier's screen-space passes (`gi::mobile::screen`):
 // each fresh probe's 4 x 4-texel hemisphere map: one ray per texel, jittered inside the texel,
 // traced through the brick cache (visibility rays instead of VSM); a reprojected probe copies
-// its history texels.
+// its history texels. Each texel keeps the change the cache just measured at its ray's hit
+// (the gather's temporal gradient).
 //
 // Bind group 0: `gi::mobile::screen`'s; 2: the brick cache (`gi::cache::data`).
 
 #import gi::lights::sky_radiance
-#import gi::packing::{pack_rgb9e5, pack_unit_vector}
+#import gi::packing::pack_rgb9e5
 #import gi::sampling::{sampler_new, sampler_next_2d, frame_from_normal, frame_to_world}
 #import gi::cache::data::{cache, cache_level_of_point}
-#import gi::cache::trace::cache_hit_radiance
+#import gi::cache::trace::{cache_hit_radiance, cache_hit_change}
 #import gi::cache::trace_shared::{cache_trace_shared, CACHE_LANES}
 #import gi::mobile::screen::{
     uniforms, ScreenProbe, probes, probe_radiance, probe_radiance_prev, PROBE_TEXELS,
-    SLOTS_PER_TILE, FAR, PROBE_REPROJECTED, PROBE_SOURCE_SHIFT
+    SLOTS_PER_TILE, FAR, PROBE_REPROJECTED, PROBE_SOURCE_SHIFT, pack_probe_ray, probe_ray_unchanged
 }
 
 // The direction of hemisphere-map point `s` in [-1, 1]^2 in the probe's local frame (z up),
@@ -59,7 +60,8 @@ fn trace(
         probe_radiance[out] = vec2(0u);
     } else if (probe.flags & PROBE_REPROJECTED) != 0u {
         let source = probe.flags >> PROBE_SOURCE_SHIFT;
-        probe_radiance[out] = probe_radiance_prev[source * PROBE_TEXELS + texel];
+        let copied = probe_radiance_prev[source * PROBE_TEXELS + texel];
+        probe_radiance[out] = vec2(copied.x, probe_ray_unchanged(copied.y));
     } else {
         var radiance: vec3<f32>;
         if shared_hit.hit.hit {
@@ -67,6 +69,7 @@ fn trace(
         } else {
             radiance = sky_radiance(uniforms.sky, dir);
         }
-        probe_radiance[out] = vec2(pack_rgb9e5(radiance / pdf), pack_unit_vector(dir));
+        let change = cache_hit_change(shared_hit.hit);
+        probe_radiance[out] = vec2(pack_rgb9e5(radiance / pdf), pack_probe_ray(dir, change));
     }
 }
