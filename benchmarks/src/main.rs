@@ -340,6 +340,11 @@ enum Command {
         /// cache's updates weigh by age alone).
         #[arg(long)]
         cache_change_gain: Option<f32>,
+        /// The mobile tier without its light window (`ScreenConfig::light_window`: after a
+        /// switch of the lights, the cache's surfels where the gather reads the probe volume,
+        /// short histories, the volume restarted).
+        #[arg(long)]
+        mobile_without_light_window: bool,
         /// Frames rendered after the light turns.
         #[arg(long, default_value_t = 160)]
         settle_frames: u32,
@@ -584,6 +589,7 @@ fn main() -> anyhow::Result<()> {
             pc_without,
             pc_gradient_gain,
             cache_change_gain,
+            mobile_without_light_window,
             settle_frames,
             converged_frames,
             settle_k,
@@ -621,6 +627,7 @@ fn main() -> anyhow::Result<()> {
                 move_by,
                 flicker: !no_flicker,
                 cache_change_gain,
+                mobile_light_window: !mobile_without_light_window,
                 pc_config: {
                     let mut config = match pc_without {
                         Some(stage) => {

@@ -88,6 +88,8 @@ pub struct StabilityOptions {
     pub pc_config: PcConfig,
     /// Both tiers' brick cache's `CacheConfig::change_gain`; `None`: each tier's default.
     pub cache_change_gain: Option<f32>,
+    /// The mobile tier's `ScreenConfig::light_window`.
+    pub mobile_light_window: bool,
     /// Frames rendered after the light turns.
     pub settle_frames: u32,
     /// The last frames, whose mean is the converged value.
@@ -272,6 +274,7 @@ impl Variant {
                 if let Some(gain) = options.cache_change_gain {
                     config.cache.change_gain = gain;
                 }
+                config.screen.light_window = options.mobile_light_window;
                 mobile_renderer_with(scene.clone(), size, config, camera)
             }
             Variant::Pc => {

@@ -169,6 +169,11 @@ pub struct ScreenConfig {
     /// reference rose from 1.69 to 2.87 rmse_srgb8 on an H100); on for maps baked from detail
     /// the geometry lacks.
     pub material_occlusion: bool,
+    /// After a switch of the lights or materials, read the brick cache's surfels where the
+    /// gather reads the probe volume, with short histories, and restart the volume (the tier's
+    /// `LightWindow`). On by default; off keeps the volume and the histories as they are (for
+    /// comparisons: `gi-bench stability --mobile-without-light-window`).
+    pub light_window: bool,
 }
 
 impl Default for ScreenConfig {
@@ -181,6 +186,7 @@ impl Default for ScreenConfig {
             normal_cos: 0.8,
             ray_offset_voxels: 1.5,
             material_occlusion: false,
+            light_window: true,
         }
     }
 }

@@ -114,14 +114,46 @@ pub struct MobileTier {
     /// from [`gi_cache::CacheUpdateStats::lights_changed`]); `u32::MAX` before any, `max_age`
     /// or more once a change turned out to be a moving light.
     since_light_change: u32,
-    /// Whether the last update found the lights changed.
+    /// Whether the last update found the lights' power changed.
     lights_were_changing: bool,
+    /// The last frame's [`LightPower`]; `None` before the first.
+    light_power: Option<LightPower>,
+}
+
+/// What a frame's lights give, but not where they are: each punctual light's kind, intensity
+/// and range, the sky, and the materials' edit count (an emitter switched off). A change of
+/// it is a switch, dimming or edit that opens the [`LightWindow`]; a light that is only turned
+/// or moved keeps the probe volume and the histories (measured on an H100 at 1920x1080: with
+/// the window after atrium's sun turned 30 degrees, 83% of the change was left after 4 frames
+/// and 26% of its resolvable part resolved within 8, without it 73% and 55%; on Sponza 67% and
+/// 50% against 58% and 62%), while a light switched off leaves the volume's old light behind
+/// without it (atrium's sun off: the error floor 0.0052 without, 0.0037 with).
+#[derive(Clone, Debug, PartialEq)]
+struct LightPower {
+    lights: Vec<(gi_scene::LightKind, glam::Vec3, Option<f32>)>,
+    sky: gi_scene::Sky,
+    material_revision: u64,
+}
+
+impl LightPower {
+    fn of(frame: &gi_scene::SceneFrame) -> Self {
+        Self {
+            lights: frame
+                .lights
+                .iter()
+                .map(|light| (light.kind, light.intensity, light.range))
+                .collect(),
+            sky: frame.sky,
+            material_revision: frame.material_revision,
+        }
+    }
 }
 
 /// What the mobile tier does after its cache found the lights, sky or materials changed.
 ///
-/// After a *switch* (a change after stillness that stops there: a light switched, a lamp's
-/// material edited), the cache follows with a short accumulation for its `max_age` updates
+/// After a *switch* (a change of the lights' power after stillness that stops there: a light
+/// switched or dimmed, a lamp's material edited, the sky changed; see [`LightPower`]), the cache
+/// follows with a short accumulation for its `max_age` updates
 /// (`CHANGED_MAX_AGE`), but the probe volume, which takes one ray per probe a frame, holds the
 /// old light for hundreds of frames. So the gather reads the cache's surfels where it would read
 /// the volume:
@@ -151,6 +183,13 @@ struct LightWindow {
 }
 
 impl LightWindow {
+    /// No window: the volume and the histories as they are.
+    const CLOSED: Self = Self {
+        changed: false,
+        open: false,
+        restart_volume: false,
+    };
+
     /// Advances the state (`were_changing`: the last update found the lights changed; `since`:
     /// updates since the switch, `u32::MAX` before any) by an update that found them
     /// `changed`, for a cache of `max_age`.
@@ -225,6 +264,7 @@ impl MobileTier {
             frame_index: 0,
             since_light_change: u32::MAX,
             lights_were_changing: false,
+            light_power: None,
         })
     }
 
@@ -430,6 +470,7 @@ impl MobileTier {
             frame_index,
             since_light_change,
             lights_were_changing,
+            light_power,
             ..
         } = self;
         let Prepared { state, screen, .. } = prepared.as_mut().expect("prepared above");
@@ -459,12 +500,20 @@ impl MobileTier {
         uniforms.change_gain = config.cache.change_gain;
         // A switch of the lights or materials: the gather leaves the probe volume, which still
         // holds the old light, for the cache's while it converges (`LightWindow`).
-        let window = LightWindow::follow(
-            cache.stats.lights_changed,
-            lights_were_changing,
-            since_light_change,
-            config.cache.max_age,
-        );
+        // The cache found the lights changed; the window follows changes of their power only.
+        let power = LightPower::of(frame);
+        let power_changed = light_power.as_ref().is_some_and(|last| *last != power);
+        *light_power = Some(power);
+        let window = if config.screen.light_window {
+            LightWindow::follow(
+                cache.stats.lights_changed && power_changed,
+                lights_were_changing,
+                since_light_change,
+                config.cache.max_age,
+            )
+        } else {
+            LightWindow::CLOSED
+        };
         if window.open {
             uniforms.flags |= screen::FLAG_VOLUME_STALE;
             uniforms.max_age = uniforms.max_age.min(gi_cache::lighting::CHANGED_MAX_AGE);
@@ -526,7 +575,36 @@ impl MobileTier {
 
 #[cfg(test)]
 mod tests {
-    use super::LightWindow;
+    use super::{LightPower, LightWindow};
+
+    #[test]
+    fn a_turned_or_moved_light_keeps_its_power_and_a_switch_or_edit_does_not() {
+        let mut scene = gi_scene::Scene::default();
+        scene.lights.push(gi_scene::Light {
+            name: "sun".into(),
+            kind: gi_scene::LightKind::Directional,
+            color: glam::Vec3::ONE,
+            intensity: 3.0,
+            range: None,
+        });
+        scene.nodes.push(gi_scene::Node {
+            light: Some(0),
+            ..gi_scene::Node::default()
+        });
+        let power = |scene: &gi_scene::Scene| LightPower::of(&scene.evaluate(0.0, None));
+        let before = power(&scene);
+        assert_eq!(before.lights.len(), 1);
+        let mut turned = scene.clone();
+        turned.nodes[0].rotation = glam::Quat::from_rotation_y(0.5);
+        turned.nodes[0].translation = glam::Vec3::new(1.0, 2.0, 3.0);
+        assert_eq!(power(&turned), before, "turned and moved");
+        let mut dimmed = scene.clone();
+        dimmed.lights[0].intensity = 0.0;
+        assert_ne!(power(&dimmed), before, "switched off");
+        let mut edited = scene.evaluate(0.0, None);
+        edited.material_revision += 1;
+        assert_ne!(LightPower::of(&edited), before, "a material edited");
+    }
 
     /// The windows of consecutive updates that found the lights changed or not.
     fn windows(changes: &[bool], max_age: u32) -> Vec<LightWindow> {
