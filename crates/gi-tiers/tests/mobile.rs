@@ -46,6 +46,34 @@ fn run(
     (tier, last.expect("at least one frame"))
 }
 
+/// Frame data of the frames after a still warm-up: `warmup` frames of `scene` seen by `camera`,
+/// then one frame of each of `then`, in order; `None` without an adapter.
+fn frames_after_warmup(
+    name: &str,
+    scene: &Scene,
+    then: &[&Scene],
+    config: MobileConfig,
+    size: (u32, u32),
+    warmup: u32,
+    camera: CameraView,
+) -> Option<Vec<MobileFrameData>> {
+    let ctx = GpuContext::new_or_skip(name)?;
+    let (mut tier, _) = run(ctx, scene, config, size, warmup, Some(camera));
+    let mut data = Vec::with_capacity(then.len());
+    for (index, scene) in (warmup..).zip(then) {
+        let frame = scene.evaluate(0.0, Some(camera));
+        tier.render(&FrameInput {
+            scene,
+            frame: &frame,
+            index,
+            progress: None,
+        })
+        .unwrap();
+        data.push(tier.frame_data().unwrap());
+    }
+    Some(data)
+}
+
 /// The default configuration with the brick cache's lighting cut to a trickle, for tests whose
 /// checks do not depend on the cache's light: an open ground under the sky (the probe rays
 /// meet the sky, not the cache), probe scheduling, history rejection, finite output and
@@ -503,35 +531,23 @@ fn the_gather_restarts_its_history_where_the_cache_measured_a_change() {
     dark.lights[0].intensity = 0.0;
     let mut restarted = Vec::new();
     for gain in [3.0, 0.0] {
-        let Some(ctx) = GpuContext::new_or_skip("the_gather_restarts_its_history") else {
-            return;
-        };
         let mut config = MobileConfig::default();
         config.cache.change_gain = gain;
         let max_age = config.screen.max_age;
-        let frames = 40;
-        let (mut tier, _) = run(
-            ctx,
+        let Some(data) = frames_after_warmup(
+            "the_gather_restarts_its_history",
             &scene,
+            &[&scene, &scene, &dark],
             config,
             (width as u32, height as u32),
-            frames,
-            Some(camera),
-        );
-        let mut next = |scene: &Scene, index: u32| {
-            let frame = scene.evaluate(0.0, Some(camera));
-            tier.render(&FrameInput {
-                scene,
-                frame: &frame,
-                index,
-                progress: None,
-            })
-            .unwrap();
-            tier.frame_data().unwrap()
+            40,
+            camera,
+        ) else {
+            return;
         };
-        let before = next(&scene, frames);
-        let still = next(&scene, frames + 1);
-        let after = next(&dark, frames + 2);
+        let [before, still, after] = &data[..] else {
+            unreachable!("three frames asked for")
+        };
         let (mut old, mut restart) = (0, 0);
         for i in 0..width * height {
             // Age 0: the half-resolution sample nearest the pixel shows the sky.
@@ -563,10 +579,10 @@ fn the_gather_restarts_its_history_where_the_cache_measured_a_change() {
 
 /// The gather's history also restarts where the light its probes find changed while the
 /// surface's own light did not: a ground lit from straight above by a strong sun, which sees a
-/// wall lit by a second sun off screen. When the wall's sun goes out the ground's own light
-/// changes by under 4% (the wall's bounce against the overhead sun's irradiance of 30), below
-/// the cache's smallest step of change, so only the probes' rays, which meet the darkened wall,
-/// see it.
+/// wall lit by a second sun off screen. When the wall's sun goes out the ground's own
+/// irradiance, which the cache measures, changes by under 4% (the wall's bounce against the
+/// overhead sun's 30), below the cache's smallest step of change, so only the probes' rays,
+/// which meet the darkened wall, see it.
 #[test]
 fn the_gather_restarts_its_history_where_the_light_its_probes_find_changed() {
     let (width, height) = (48usize, 36usize);
@@ -582,36 +598,24 @@ fn the_gather_restarts_its_history_where_the_light_its_probes_find_changed() {
     dark.lights[0].intensity = 0.0;
     let mut restarted = Vec::new();
     for gain in [3.0, 0.0] {
-        let Some(ctx) = GpuContext::new_or_skip("the_gather_restarts_its_history_where_the_light")
-        else {
-            return;
-        };
         let mut config = MobileConfig::default();
         config.cache.change_gain = gain;
         // 3 x 3 tiles: every pixel has probes around it.
         config.screen.tile_px = 16;
-        let frames = 40;
-        let (mut tier, _) = run(
-            ctx,
+        let Some(data) = frames_after_warmup(
+            "the_gather_restarts_its_history_where_the_light",
             &scene,
+            &[&scene, &dark],
             config,
             (width as u32, height as u32),
-            frames,
-            Some(camera),
-        );
-        let mut next = |scene: &Scene, index: u32| {
-            let frame = scene.evaluate(0.0, Some(camera));
-            tier.render(&FrameInput {
-                scene,
-                frame: &frame,
-                index,
-                progress: None,
-            })
-            .unwrap();
-            tier.frame_data().unwrap()
+            40,
+            camera,
+        ) else {
+            return;
         };
-        let before = next(&scene, frames);
-        let after = next(&dark, frames + 1);
+        let [before, after] = &data[..] else {
+            unreachable!("two frames asked for")
+        };
         // The pixels the wall lights: a tenth of the brightest irradiance or more.
         let lum = |i: usize| before.irradiance.pixels[i].dot(Vec3::new(0.2126, 0.7152, 0.0722));
         let brightest = (0..width * height).map(lum).fold(0.0f32, f32::max);

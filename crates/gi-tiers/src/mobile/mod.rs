@@ -147,6 +147,20 @@ impl LightPower {
             material_revision: frame.material_revision,
         }
     }
+
+    /// Whether `frame`'s lights give what these do (no allocation: asked every frame).
+    fn matches(&self, frame: &gi_scene::SceneFrame) -> bool {
+        self.sky == frame.sky
+            && self.material_revision == frame.material_revision
+            && self.lights.len() == frame.lights.len()
+            && self
+                .lights
+                .iter()
+                .zip(&frame.lights)
+                .all(|(&(kind, intensity, range), light)| {
+                    (kind, intensity, range) == (light.kind, light.intensity, light.range)
+                })
+    }
 }
 
 /// What the mobile tier does after its cache found the lights, sky or materials changed.
@@ -501,9 +515,13 @@ impl MobileTier {
         // A switch of the lights or materials: the gather leaves the probe volume, which still
         // holds the old light, for the cache's while it converges (`LightWindow`).
         // The cache found the lights changed; the window follows changes of their power only.
-        let power = LightPower::of(frame);
-        let power_changed = light_power.as_ref().is_some_and(|last| *last != power);
-        *light_power = Some(power);
+        let power_changed = match light_power {
+            Some(last) => !last.matches(frame),
+            None => false,
+        };
+        if power_changed || light_power.is_none() {
+            *light_power = Some(LightPower::of(frame));
+        }
         let window = if config.screen.light_window {
             LightWindow::follow(
                 cache.stats.lights_changed && power_changed,
@@ -598,12 +616,15 @@ mod tests {
         turned.nodes[0].rotation = glam::Quat::from_rotation_y(0.5);
         turned.nodes[0].translation = glam::Vec3::new(1.0, 2.0, 3.0);
         assert_eq!(power(&turned), before, "turned and moved");
+        assert!(before.matches(&turned.evaluate(0.0, None)));
         let mut dimmed = scene.clone();
         dimmed.lights[0].intensity = 0.0;
         assert_ne!(power(&dimmed), before, "switched off");
         let mut edited = scene.evaluate(0.0, None);
         edited.material_revision += 1;
         assert_ne!(LightPower::of(&edited), before, "a material edited");
+        assert!(!before.matches(&edited));
+        assert!(!before.matches(&dimmed.evaluate(0.0, None)));
     }
 
     /// The windows of consecutive updates that found the lights changed or not.
