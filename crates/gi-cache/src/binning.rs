@@ -6,7 +6,7 @@
 //! Triangles are referenced by their index in [`SceneFrame::triangles`] (the order `GpuScene`
 //! uploads them in), with bit 31 set when the triangle belongs to a dynamic node.
 
-use std::collections::HashMap;
+use foldhash::{HashMap, HashMapExt, HashSet};
 
 use gi_scene::{Scene, SceneFrame};
 use glam::{IVec3, Vec3};
@@ -93,6 +93,9 @@ impl<'a> CacheScene<'a> {
     }
 }
 
+/// Triangle lists per brick: what binning returns ([`bin_triangles`], [`TriangleIndex`]).
+pub type Bins = HashMap<IVec3, Vec<u32>>;
+
 /// Box of world brick `brick` at `level`: center and half edge in meters.
 pub fn brick_box(config: &CacheConfig, level: u32, brick: IVec3) -> (Vec3, f32) {
     let brick_size = config.brick_size_at(level);
@@ -109,9 +112,9 @@ pub fn bin_triangles(
     level: u32,
     region: &BrickBox,
     indices: impl IntoIterator<Item = u32>,
-) -> HashMap<IVec3, Vec<u32>> {
+) -> Bins {
     let brick_size = config.brick_size_at(level);
-    let mut bins: HashMap<IVec3, Vec<u32>> = HashMap::new();
+    let mut bins = Bins::new();
     for index in indices {
         let [a, b, c] = scene.vertices(index);
         if !(a.is_finite() && b.is_finite() && c.is_finite()) {
@@ -136,6 +139,36 @@ pub fn bin_triangles(
 /// List entries from which [`TriangleIndex::bin_bricks`] bins cells on all cores; below it,
 /// sharing the work costs more than it saves.
 const PARALLEL_BIN_ENTRIES: usize = 32_768;
+
+/// The place of a binned reference in frame order: its triangle index, without the dynamic
+/// flag.
+fn frame_order(reference: u32) -> u32 {
+    reference & !TRIANGLE_DYNAMIC_BIT
+}
+
+/// The references of `a` and `b`, both in frame order, merged in frame order (`a`'s first
+/// among equals).
+fn merge_in_frame_order(a: &[u32], b: &[u32]) -> Vec<u32> {
+    let mut merged = Vec::with_capacity(a.len() + b.len());
+    let (mut i, mut j) = (0, 0);
+    while i < a.len() && j < b.len() {
+        if frame_order(b[j]) < frame_order(a[i]) {
+            merged.push(b[j]);
+            j += 1;
+        } else {
+            merged.push(a[i]);
+            i += 1;
+        }
+    }
+    merged.extend_from_slice(&a[i..]);
+    merged.extend_from_slice(&b[j..]);
+    merged
+}
+
+/// The rank of bit `bit` among the set bits of `mask`: how many lower bits are set.
+fn rank_of(mask: u64, bit: u32) -> usize {
+    (mask & ((1u64 << bit) - 1)).count_ones() as usize
+}
 
 /// Calls `f` with every set bit of `mask`, lowest first.
 fn for_each_bit(mut mask: u64, mut f: impl FnMut(u32)) {
@@ -612,12 +645,7 @@ impl TriangleIndex {
 
     /// Tests `triangle` against the bricks of `region` its bounds touch; pushes its reference
     /// to the bins of those it overlaps.
-    fn bin_one(
-        brick_size_m: f32,
-        triangle: &PreparedTriangle,
-        region: &BrickBox,
-        bins: &mut HashMap<IVec3, Vec<u32>>,
-    ) {
+    fn bin_one(brick_size_m: f32, triangle: &PreparedTriangle, region: &BrickBox, bins: &mut Bins) {
         let bounds =
             BrickBox::from_world(triangle.lo, triangle.hi, brick_size_m).intersection(region);
         for brick in bounds.bricks() {
@@ -629,7 +657,7 @@ impl TriangleIndex {
     }
 
     /// Bins the large triangles of `level` (those kept out of the grid's cells) in `region`.
-    fn bin_large(&self, level: u32, region: &BrickBox, bins: &mut HashMap<IVec3, Vec<u32>>) {
+    fn bin_large(&self, level: u32, region: &BrickBox, bins: &mut Bins) {
         let brick_size_m = self.brick_size_m[level as usize];
         for entry in self.grids[level as usize].large_in(region) {
             Self::bin_one(brick_size_m, &self.triangles[entry as usize], region, bins);
@@ -639,7 +667,7 @@ impl TriangleIndex {
     /// The bins of `region` at `level`: for every brick of the region that some triangle
     /// overlaps, the references of those triangles in frame order (exactly what
     /// [`bin_triangles`] returns over every triangle).
-    pub fn bin_region(&self, level: u32, region: &BrickBox) -> HashMap<IVec3, Vec<u32>> {
+    pub fn bin_region(&self, level: u32, region: &BrickBox) -> Bins {
         let grid = &self.grids[level as usize];
         let mut bins = HashMap::new();
         if region.is_empty() {
@@ -669,47 +697,96 @@ impl TriangleIndex {
         bins
     }
 
-    /// The bins of `bricks` at `level` (bricks no triangle touches are absent): what
-    /// [`bin_triangles`] returns for a region holding them, restricted to them. Each cell's
-    /// list is scanned once for all of its bricks among `bricks`.
-    pub fn bin_bricks(&self, level: u32, bricks: &[IVec3]) -> HashMap<IVec3, Vec<u32>> {
+    /// The triangle lists of `bricks` at `level`, one per brick in the order given (empty for
+    /// a brick no triangle touches; a brick given twice gets its list twice): what
+    /// [`bin_triangles`] returns for a region holding them, restricted to them. Each cell's list
+    /// is scanned once for all of its bricks among `bricks`.
+    pub fn bin_bricks(&self, level: u32, bricks: &[IVec3]) -> Vec<Vec<u32>> {
         let grid = &self.grids[level as usize];
-        // Per cell, a mask of the bricks wanted (a cell has at most 4³ bricks).
-        let mut by_cell: HashMap<IVec3, u64> = HashMap::with_capacity(bricks.len());
-        for &brick in bricks {
-            let cell = grid.cell_of(brick);
-            *by_cell.entry(cell).or_default() |= 1 << grid.brick_bit(cell, brick);
-        }
-        let cells: Vec<(IVec3, u64)> = by_cell.into_iter().collect();
+        // The cells in order of first appearance, each with a mask of the bricks wanted (a
+        // cell has at most 4³ bricks), and each brick's cell and bit.
+        let mut slots: HashMap<IVec3, usize> = HashMap::with_capacity(bricks.len());
+        let mut cells: Vec<(IVec3, u64)> = Vec::new();
+        let places: Vec<(usize, u32)> = bricks
+            .iter()
+            .map(|&brick| {
+                let cell = grid.cell_of(brick);
+                let bit = grid.brick_bit(cell, brick);
+                let slot = *slots.entry(cell).or_insert_with(|| {
+                    cells.push((cell, 0));
+                    cells.len() - 1
+                });
+                cells[slot].1 |= 1 << bit;
+                (slot, bit)
+            })
+            .collect();
         let work: usize = cells.iter().map(|(cell, _)| grid.scan_cost(*cell)).sum();
         let bin_cell = |&(cell, wanted): &(IVec3, u64)| self.bin_cell(level, cell, wanted);
         // Cells are binned side by side on all cores when there is enough work to share.
-        let per_cell: Vec<Vec<(IVec3, Vec<u32>)>> = if work >= PARALLEL_BIN_ENTRIES {
+        let mut per_cell: Vec<Vec<Vec<u32>>> = if work >= PARALLEL_BIN_ENTRIES {
             cells.par_iter().map(bin_cell).collect()
         } else {
             cells.iter().map(bin_cell).collect()
         };
-        per_cell.into_iter().flatten().collect()
+        let mut taken = vec![0u64; cells.len()];
+        let mut lists: Vec<Vec<u32>> = Vec::with_capacity(bricks.len());
+        for (i, &(slot, bit)) in places.iter().enumerate() {
+            if taken[slot] & (1 << bit) != 0 {
+                // A brick given again (rare): its list once more.
+                let first = places[..i]
+                    .iter()
+                    .position(|&place| place == (slot, bit))
+                    .expect("a taken brick was given before");
+                lists.push(lists[first].clone());
+                continue;
+            }
+            taken[slot] |= 1 << bit;
+            let rank = rank_of(cells[slot].1, bit);
+            lists.push(std::mem::take(&mut per_cell[slot][rank]));
+        }
+        lists
     }
 
-    /// The bins of the bricks `wanted` (a mask of [`LevelGrid::brick_bit`]s) of cell `cell` at
-    /// `level`: the cell's list read through its masks, then the large triangles near it,
-    /// tested, each list in frame order.
-    fn bin_cell(&self, level: u32, cell: IVec3, wanted: u64) -> Vec<(IVec3, Vec<u32>)> {
+    /// The lists of the bricks `wanted` (a mask of [`LevelGrid::brick_bit`]s) of cell `cell`
+    /// at `level`, by the rank of their bit among the wanted ones ([`rank_of`]), empty where
+    /// no triangle touches: the cell's list read through its masks, then the large triangles
+    /// near it, tested, each list in frame order.
+    fn bin_cell(&self, level: u32, cell: IVec3, wanted: u64) -> Vec<Vec<u32>> {
         let brick_size_m = self.brick_size_m[level as usize];
         let grid = &self.grids[level as usize];
-        // A list per wanted brick, by the rank of its bit among the wanted ones.
-        let rank = |bit: u32| (wanted & ((1u64 << bit) - 1)).count_ones() as usize;
+        // A list per wanted brick, by the rank of its bit among the wanted ones, looked up in
+        // a table: the scan below asks for a rank per entry, and the baseline x86-64 target
+        // has no popcount instruction.
+        let mut ranks = [0u8; 64];
+        let mut next = 0u8;
+        for_each_bit(wanted, |bit| {
+            ranks[bit as usize] = next;
+            next += 1;
+        });
+        let rank = |bit: u32| usize::from(ranks[bit as usize & 63]);
         let mut lists: Vec<Vec<u32>> = vec![Vec::new(); wanted.count_ones() as usize];
         if let Some(list) = grid.cells.get(&cell) {
-            for (i, &reference) in list.references.iter().enumerate() {
-                let mask = list.mask(i) & wanted;
-                if mask != 0 {
-                    for_each_bit(mask, |bit| lists[rank(bit)].push(reference));
+            if list.masks.is_empty() {
+                // A cell of one brick: every entry overlaps it.
+                lists[0].extend_from_slice(&list.references);
+            } else {
+                // Sized first, so that long lists are not grown (and copied) push by push.
+                let mut counts = vec![0usize; lists.len()];
+                for &mask in &list.masks {
+                    for_each_bit(mask & wanted, |bit| counts[rank(bit)] += 1);
+                }
+                for (list, count) in lists.iter_mut().zip(counts) {
+                    list.reserve_exact(count);
+                }
+                for (&reference, &mask) in list.references.iter().zip(&list.masks) {
+                    for_each_bit(mask & wanted, |bit| lists[rank(bit)].push(reference));
                 }
             }
         }
-        let mut appended = false;
+        // The large triangles' hits per wanted brick, merged into the lists in frame order
+        // afterwards: sorting whole lists of thousands for a few large hits cost more than the
+        // scan.
+        let mut large_hits: Vec<Vec<u32>> = Vec::new();
         let cell_box = grid.cell_box(cell);
         for large in grid.large_near(cell) {
             for &entry in large {
@@ -723,27 +800,21 @@ impl TriangleIndex {
                     }
                     let center = (brick.as_vec3() + 0.5) * brick_size_m;
                     if overlaps_brick(triangle, center, 0.5 * brick_size_m) {
-                        lists[rank(bit)].push(triangle.reference);
-                        appended = true;
+                        if large_hits.is_empty() {
+                            large_hits.resize(lists.len(), Vec::new());
+                        }
+                        large_hits[rank(bit)].push(triangle.reference);
                     }
                 }
             }
         }
-        if appended {
-            // The large triangles went last; frame order is reference order without the flag.
-            for list in &mut lists {
-                list.sort_unstable_by_key(|reference| reference & !TRIANGLE_DYNAMIC_BIT);
+        for (list, mut hits) in lists.iter_mut().zip(large_hits) {
+            if !hits.is_empty() {
+                hits.sort_unstable_by_key(|&reference| frame_order(reference));
+                *list = merge_in_frame_order(list, &hits);
             }
         }
-        let mut bins = Vec::with_capacity(lists.len());
-        let mut lists = lists.into_iter();
-        for_each_bit(wanted, |bit| {
-            let list = lists.next().expect("a list per wanted bit");
-            if !list.is_empty() {
-                bins.push((grid.brick_of_bit(cell, bit), list));
-            }
-        });
-        bins
+        lists
     }
 
     /// Entries [`TriangleIndex::bin_bricks`] scans for a brick at `level` whose cell it has
@@ -777,7 +848,7 @@ impl TriangleIndex {
             // Large triangles are tested exactly: their bounds may span the whole region.
             let mut bins = HashMap::new();
             self.bin_large(level, region, &mut bins);
-            let listed: std::collections::HashSet<IVec3> = bricks.iter().copied().collect();
+            let listed: HashSet<IVec3> = bricks.iter().copied().collect();
             bricks.extend(bins.into_keys().filter(|brick| !listed.contains(brick)));
         }
         bricks
@@ -857,9 +928,23 @@ mod tests {
             }
         }
         assert!(scan.len() > 1000, "{}", scan.len());
-        let chosen: Vec<IVec3> = scan.keys().copied().step_by(5).collect();
-        let wanted: HashMap<IVec3, Vec<u32>> =
-            chosen.iter().map(|b| (*b, scan[b].clone())).collect();
+        // Every fifth occupied brick and some empty ones, each list in the order asked.
+        let mut chosen: Vec<IVec3> = scan.keys().copied().step_by(5).collect();
+        let empty: Vec<IVec3> = region
+            .bricks()
+            .filter(|b| !scan.contains_key(b))
+            .step_by(97)
+            .take(50)
+            .collect();
+        assert_eq!(empty.len(), 50);
+        chosen.extend(empty);
+        // A brick asked twice gets its list twice.
+        chosen.push(chosen[0]);
+        chosen.sort_by_key(|b| (b.x * 7 + b.y * 13 + b.z * 3, b.x));
+        let wanted: Vec<Vec<u32>> = chosen
+            .iter()
+            .map(|b| scan.get(b).cloned().unwrap_or_default())
+            .collect();
         for (name, index) in [("all", &all), ("some", &some), ("none", &none)] {
             assert_eq!(index.bin_region(0, &region), scan, "{name}: region");
             assert_eq!(

@@ -25,7 +25,7 @@
 //!    resident bricks not voxelized in this update ([`crate::screen_inject`]);
 //! 7. records the lighting passes, when a [`CacheLightingHook`] is set.
 
-use std::collections::HashSet;
+use foldhash::{HashSet, HashSetExt};
 
 use gi_gpu::{GpuContext, GpuError, GpuScene, GpuTimer, Recorder, ShaderLibrary, Technique, wgpu};
 use gi_scene::{Scene, SceneFrame};
@@ -36,6 +36,7 @@ use crate::binning::{CacheScene, FillKey, TriangleIndex, fill_key};
 use crate::buffers::{CacheBuffers, cache_uniforms};
 use crate::clipmap::{BrickBox, ClipmapWindows};
 use crate::config::{CacheConfig, ConfigError};
+use crate::fill_queue::FillQueue;
 use crate::layout::NO_BRICK;
 use crate::screen_inject::{ScreenInjectCounts, ScreenInjector, ScreenInputs, select_bricks};
 use crate::structure::CacheStructure;
@@ -337,8 +338,7 @@ pub struct RadianceCache {
     windows: Option<ClipmapWindows>,
     /// Level and brick of each allocated ID (`owner[id]`).
     owner: Vec<Option<(u32, IVec3)>>,
-    queue: Vec<(u32, IVec3)>,
-    queued: HashSet<(u32, IVec3)>,
+    queue: FillQueue,
     /// Bricks with geometry that lost their place for lack of pool (dropped or evicted), queued
     /// again when IDs are free (`requeue_dropped`).
     dropped: HashSet<(u32, IVec3)>,
@@ -412,8 +412,7 @@ impl RadianceCache {
             allocator: BrickAllocator::new(config.pool_bricks),
             windows: None,
             owner: vec![None; config.pool_bricks as usize + 1],
-            queue: Vec::new(),
-            queued: HashSet::new(),
+            queue: FillQueue::new(config.levels),
             dropped: HashSet::new(),
             previous_frame: None,
             previous_node_bounds: Vec::new(),
@@ -529,11 +528,7 @@ impl RadianceCache {
     }
 
     fn enqueue(&mut self, level: u32, brick: IVec3) -> bool {
-        let fresh = self.queued.insert((level, brick));
-        if fresh {
-            self.queue.push((level, brick));
-        }
-        fresh
+        self.queue.push((level, brick))
     }
 
     /// Empties the slot of `brick` and frees its ID; false when it held none.
@@ -675,7 +670,7 @@ impl RadianceCache {
         let mut candidates: Vec<(u32, IVec3)> = self
             .dropped
             .iter()
-            .filter(|entry| !self.queued.contains(entry))
+            .filter(|entry| !self.queue.contains(entry))
             .copied()
             .collect();
         candidates.sort_by_cached_key(|&entry| fill_key(config, camera, entry));
@@ -696,38 +691,11 @@ impl RadianceCache {
         let mut clock = StepClock::start();
         let windows = self.windows.clone().expect("placed by move_windows");
         // Bricks whose window moved away are dropped from the queue.
-        let queued = &mut self.queued;
-        self.queue.retain(|entry| {
-            let inside = windows.window(entry.0).contains(entry.1);
-            if !inside {
-                queued.remove(entry);
-            }
-            inside
-        });
-        // The nearest bricks, in fill order: selected in linear time rather than sorting the
-        // whole queue every frame (it holds thousands of bricks while the camera flies). The
-        // order is total, so the batch does not depend on the queue's order.
-        // Each entry's key (a distance) is computed once, not at every comparison.
-        let config = &self.config;
-        let mut keyed = std::mem::take(&mut self.keyed);
-        keyed.clear();
-        keyed.extend(
-            self.queue
-                .drain(..)
-                .map(|entry| (fill_key(config, camera, entry), entry)),
-        );
-        let take = (config.voxelize_bricks_per_frame as usize)
-            .min(self.voxelizer.max_jobs())
-            .min(keyed.len());
-        if take < keyed.len() {
-            keyed.select_nth_unstable_by_key(take, |(key, _)| *key);
-        }
-        self.queue
-            .extend(keyed[take..].iter().map(|(_, entry)| *entry));
-        keyed.truncate(take);
-        keyed.sort_unstable_by_key(|(key, _)| *key);
-        let batch: Vec<(u32, IVec3)> = keyed.iter().map(|(_, entry)| *entry).collect();
-        self.keyed = keyed;
+        self.queue.retain_inside(&windows);
+        let take = (self.config.voxelize_bricks_per_frame as usize).min(self.voxelizer.max_jobs());
+        let batch = self
+            .queue
+            .take_first(&self.config, camera, take, &mut self.keyed);
         // Nearest first, then within the scan budget: a cell's list is scanned once for all of
         // its bricks taken, and bricks whose cell does not fit go back to the queue.
         let budget = self.config.voxelize_scan_per_frame as usize;
@@ -751,11 +719,8 @@ impl RadianceCache {
             kept.push((level, brick));
         }
         stats.scanned_triangles = scanned as u64;
-        self.queue.extend(returned);
+        self.queue.put_back(returned);
         let batch = kept;
-        for entry in &batch {
-            self.queued.remove(entry);
-        }
 
         stats.cpu.select_ms = clock.lap();
         let wanted = batch.len();
@@ -772,15 +737,15 @@ impl RadianceCache {
                 continue;
             }
             clock.lap();
-            let mut bins = index.bin_bricks(level, &bricks);
+            let bins = index.bin_bricks(level, &bricks);
             stats.cpu.binning_ms += clock.lap();
-            for brick in bricks {
-                let Some(triangles) = bins.remove(&brick) else {
+            for (brick, triangles) in bricks.into_iter().zip(bins) {
+                if triangles.is_empty() {
                     if self.release(level, brick) {
                         stats.released_empty += 1;
                     }
                     continue;
-                };
+                }
                 let mut id = self.structure.brick_id(level, brick);
                 if id == NO_BRICK {
                     id = match self.allocate(level, camera, &mut victims, wanted, stats) {

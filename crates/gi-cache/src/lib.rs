@@ -28,6 +28,7 @@ pub mod config;
 pub mod cpu_cache;
 pub mod cpu_voxelize;
 pub mod debug;
+pub mod fill_queue;
 pub mod layout;
 pub mod lighting;
 pub mod packing;
