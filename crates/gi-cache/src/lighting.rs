@@ -1226,6 +1226,50 @@ mod tests {
         assert!(visits[1..].iter().all(|&v| v > 0));
     }
 
+    /// The resident list in pool-ID order (as the cache gives it) and the
+    /// same bricks in another order pick the same bricks frame after frame, while bricks are
+    /// released and voxelized anew.
+    #[test]
+    fn the_order_of_the_resident_list_changes_nothing() {
+        let all = bricks(&[(0, 40), (2, 40), (4, 60)]);
+        let budget = ScheduleBudget {
+            bricks: 12,
+            near_levels: 3,
+            settle_bricks: 9,
+            settle_updates: 3,
+        };
+        let (mut sorted, mut shuffled) = (LightSchedule::default(), LightSchedule::default());
+        for frame in 0..40usize {
+            // Every seventh frame a different tenth of the bricks is away (released), and
+            // comes back voxelized anew the frame after.
+            let away = |b: &ResidentBrick| frame % 7 == 0 && b.brick_id as usize % 10 == frame % 10;
+            let resident: Vec<ResidentBrick> = all.iter().filter(|b| !away(b)).copied().collect();
+            let new: Vec<ResidentBrick> = if frame % 7 == 1 {
+                all.iter()
+                    .filter(|b| b.brick_id as usize % 10 == (frame - 1) % 10)
+                    .copied()
+                    .collect()
+            } else {
+                Vec::new()
+            };
+            let mut reordered = resident.clone();
+            reordered.reverse();
+            reordered.rotate_left(frame % 13);
+            let filling = frame == 0;
+            let (a, counts_a) = sorted.pick(&budget, &new, &resident, filling);
+            let (b, counts_b) = shuffled.pick(&budget, &new, &reordered, filling);
+            assert_eq!(a, b, "frame {frame}");
+            assert_eq!(counts_a, counts_b, "frame {frame}");
+            for brick in &all {
+                assert_eq!(
+                    sorted.settling(brick.brick_id),
+                    shuffled.settling(brick.brick_id),
+                    "frame {frame}"
+                );
+            }
+        }
+    }
+
     #[test]
     fn young_bricks_get_the_settling_budget_until_settled() {
         // 100 near and 100 far bricks, 10 per frame and 30 more for young ones, settled after
