@@ -33,6 +33,14 @@ const DISPATCH_WIDTH: u32 = 32_768;
 /// Bytes of the records of one part or one brick: 64 voxels of 64 bytes (`VoxelPartial`).
 const RECORD_BYTES: u64 = 64 * 64;
 
+/// Bytes of a [`GpuVoxelizeJob`] and a [`GpuVoxelizePart`].
+const JOB_BYTES: u64 = size_of::<GpuVoxelizeJob>() as u64;
+const PART_BYTES: u64 = size_of::<GpuVoxelizePart>() as u64;
+
+/// Most records [`Voxelizer::reserve`] sets aside ahead of use (16 MiB); a batch beyond it grows
+/// the buffer when it comes.
+const RESERVED_RECORDS_MAX: u64 = 4096;
+
 /// Uniforms of `cache/voxelize` (`VoxelizeUniforms` in WGSL), 16 bytes.
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
@@ -243,6 +251,41 @@ impl Voxelizer {
     /// within the device's largest storage binding (16,383 at 128 MiB), and a dispatch's rows.
     pub fn max_jobs(&self) -> usize {
         (self.max_records / 2).min(u64::from(DISPATCH_WIDTH) * 1024) as usize
+    }
+
+    /// Grows the buffers to hold a batch of `bricks` bricks with `references` triangle
+    /// references in all (at most [`RESERVED_RECORDS_MAX`] records' worth), so that batches
+    /// within the cache's per-frame budgets never create a buffer mid-flight: a buffer created
+    /// while flying cost a frame 4-6 ms of CPU (H100, 2026-12-07), the worst of the run.
+    pub fn reserve(&mut self, ctx: &GpuContext, bricks: u64, references: u64) {
+        let size = u64::from(self.part_triangles);
+        let references = references.min(RESERVED_RECORDS_MAX * size);
+        let bricks = bricks.min(self.max_jobs() as u64).min(RESERVED_RECORDS_MAX);
+        // Each brick has at least one part, and a record per part and per brick.
+        let parts = references.div_ceil(size) + bricks;
+        let records = (parts + bricks)
+            .min(RESERVED_RECORDS_MAX)
+            .min(self.max_records);
+        for (buffer, label, bytes) in [
+            (&mut self.jobs, "cache.voxelize_jobs", bricks * JOB_BYTES),
+            (
+                &mut self.triangles,
+                "cache.voxelize_triangles",
+                references * 4,
+            ),
+            (&mut self.parts, "cache.voxelize_parts", parts * PART_BYTES),
+            (
+                &mut self.records,
+                "cache.voxelize_records",
+                records * RECORD_BYTES,
+            ),
+        ] {
+            if bytes > buffer.size() {
+                let usage = buffer.usage();
+                ctx.release_buffer(buffer);
+                *buffer = ctx.create_buffer(label, bytes.next_power_of_two(), usage);
+            }
+        }
     }
 
     fn storage(ctx: &GpuContext, label: &str, bytes: u64) -> wgpu::Buffer {

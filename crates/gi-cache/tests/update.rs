@@ -594,3 +594,57 @@ fn an_edited_material_is_voxelized_again_where_its_triangles_are() {
     assert!(edited.voxelized * 2 < first.voxelized);
     assert_eq!(emitting(&cache), 0, "voxels still emit after the edit");
 }
+
+/// With the default per-frame budgets, a fill that leaves bricks queued grows the
+/// voxelization's buffers to a full batch at once, so flying through the scene afterwards creates
+/// no buffer mid-flight (a buffer created then cost a frame milliseconds of CPU); a scene that
+/// fills at once keeps them small.
+#[test]
+fn batches_within_the_budgets_create_no_buffer() {
+    let Some(ctx) = GpuContext::new_or_skip("batches_within_the_budgets_create_no_buffer") else {
+        return;
+    };
+    let labels = [
+        "cache.voxelize_jobs",
+        "cache.voxelize_triangles",
+        "cache.voxelize_parts",
+        "cache.voxelize_records",
+    ];
+    let sizes = |ctx: &GpuContext| labels.map(|label| ctx.memory().bytes(label));
+    let config = CacheConfig::default();
+
+    let scene = gi_scene::load("open-world").unwrap();
+    let frame = scene.evaluate(0.0, None);
+    let mut cache = RadianceCache::new(&ctx, &config).unwrap();
+    let fill = update(&ctx, &mut cache, &scene, &frame, frame.camera.position);
+    assert!(fill.queued_remaining > 0, "{fill:?}");
+    let reserved = sizes(&ctx);
+    // A full batch: 512 bricks and 65,536 references in 1,024 parts of 64, at least one part
+    // per brick, and a record per part and per brick, in buffers of powers of two.
+    assert_eq!(
+        reserved,
+        [512 * 32, 65_536 * 4, 2048 * 16, 2048 * 4096],
+        "{reserved:?}"
+    );
+    let mut voxelized = 0;
+    let mut triangles = 0;
+    for step in 1..6 {
+        let camera = frame.camera.position + Vec3::new(6.0 * step as f32, 0.0, 0.0);
+        let stats = update(&ctx, &mut cache, &scene, &frame, camera);
+        voxelized += stats.voxelized;
+        triangles = triangles.max(stats.voxelized_triangles);
+        assert_eq!(sizes(&ctx), reserved, "update {step}");
+    }
+    // The updates did voxelize full batches.
+    assert!(voxelized >= 5 * 256, "{voxelized}");
+    assert!(triangles > 2048, "{triangles}");
+    cache.release_buffers(&ctx);
+
+    let scene = gi_scene::load("cornell-box").unwrap();
+    let frame = scene.evaluate(0.0, None);
+    let mut cache = RadianceCache::new(&ctx, &config).unwrap();
+    let fill = update(&ctx, &mut cache, &scene, &frame, frame.camera.position);
+    assert_eq!(fill.queued_remaining, 0);
+    let records = ctx.memory().bytes("cache.voxelize_records");
+    assert!(records < reserved[3], "{records}");
+}
