@@ -328,7 +328,7 @@ pub struct LightSchedule {
     /// frame.
     near: Vec<ResidentBrick>,
     far: Vec<ResidentBrick>,
-    young: Vec<(u32, ResidentBrick)>,
+    young: Vec<(u128, ResidentBrick)>,
 }
 
 /// [`LightSchedule::class`]: not resident this frame.
@@ -432,30 +432,31 @@ impl LightSchedule {
             }
             let mut young = std::mem::take(&mut self.young);
             young.clear();
+            // Near field first, then fewest updates, finest level, pool ID, as one integer
+            // made once per brick (not at every comparison of the selection and the sort).
+            let near_levels = budget.near_levels;
+            let key = |n: u32, b: &ResidentBrick| {
+                u128::from(b.level >= near_levels) << 96
+                    | u128::from(n) << 64
+                    | u128::from(b.level) << 32
+                    | u128::from(b.brick_id)
+            };
             for field in [&near, &far] {
                 for b in field.iter() {
                     let id = b.brick_id as usize;
                     let n = self.updates[id];
                     if n < settled && self.class[id] & PICKED == 0 {
-                        young.push((n, *b));
+                        young.push((key(n, b), *b));
                     }
                 }
             }
             let take = (budget.settle_bricks as usize).min(young.len());
             if take > 0 {
-                let near_levels = budget.near_levels;
-                // Near field first, then fewest updates, finest level, pool ID, as one integer.
-                let key = |&(n, b): &(u32, ResidentBrick)| {
-                    u128::from(b.level >= near_levels) << 96
-                        | u128::from(n) << 64
-                        | u128::from(b.level) << 32
-                        | u128::from(b.brick_id)
-                };
                 if take < young.len() {
-                    young.select_nth_unstable_by_key(take - 1, key);
+                    young.select_nth_unstable_by_key(take - 1, |&(key, _)| key);
                     young.truncate(take);
                 }
-                young.sort_unstable_by_key(key);
+                young.sort_unstable_by_key(|&(key, _)| key);
                 picked.extend(young.iter().map(|&(_, b)| b));
                 counts.settle = take as u32;
             }
