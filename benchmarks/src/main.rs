@@ -340,6 +340,11 @@ enum Command {
         /// cache's updates weigh by age alone).
         #[arg(long)]
         cache_change_gain: Option<f32>,
+        /// Both tiers' brick cache's bricks relit per frame on top of the round-robin while the
+        /// lights' change settles (`CacheConfig::relight_bricks_per_frame`; the settling budget
+        /// is raised to it where lower).
+        #[arg(long)]
+        cache_relight_bricks: Option<u32>,
         /// The mobile tier without its light window (`ScreenConfig::light_window`: after a
         /// switch of the lights, the cache's surfels where the gather reads the probe volume,
         /// short histories, the volume restarted).
@@ -589,6 +594,7 @@ fn main() -> anyhow::Result<()> {
             pc_without,
             pc_gradient_gain,
             cache_change_gain,
+            cache_relight_bricks,
             mobile_without_light_window,
             settle_frames,
             converged_frames,
@@ -627,6 +633,7 @@ fn main() -> anyhow::Result<()> {
                 move_by,
                 flicker: !no_flicker,
                 cache_change_gain,
+                cache_relight_bricks,
                 mobile_light_window: !mobile_without_light_window,
                 pc_config: {
                     let mut config = match pc_without {

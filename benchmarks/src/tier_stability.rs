@@ -88,6 +88,9 @@ pub struct StabilityOptions {
     pub pc_config: PcConfig,
     /// Both tiers' brick cache's `CacheConfig::change_gain`; `None`: each tier's default.
     pub cache_change_gain: Option<f32>,
+    /// Both tiers' brick cache's `CacheConfig::relight_bricks_per_frame` (the settling budget
+    /// raised to it where lower); `None`: each tier's default.
+    pub cache_relight_bricks: Option<u32>,
     /// The mobile tier's `ScreenConfig::light_window`.
     pub mobile_light_window: bool,
     /// Frames rendered after the light turns.
@@ -271,19 +274,28 @@ impl Variant {
         match self {
             Variant::Mobile(mode) => {
                 let mut config = crate::mobile::config_for(mode);
-                if let Some(gain) = options.cache_change_gain {
-                    config.cache.change_gain = gain;
-                }
+                options.apply_to_cache(&mut config.cache);
                 config.screen.light_window = options.mobile_light_window;
                 mobile_renderer_with(scene.clone(), size, config, camera)
             }
             Variant::Pc => {
                 let mut config = options.pc_config.clone();
-                if let Some(gain) = options.cache_change_gain {
-                    config.cache.change_gain = gain;
-                }
+                options.apply_to_cache(&mut config.cache);
                 pc_renderer(scene.clone(), size, config, camera)
             }
+        }
+    }
+}
+
+impl StabilityOptions {
+    /// The cache overrides of these options applied to a tier's cache configuration.
+    fn apply_to_cache(&self, cache: &mut gi_cache::CacheConfig) {
+        if let Some(gain) = self.cache_change_gain {
+            cache.change_gain = gain;
+        }
+        if let Some(bricks) = self.cache_relight_bricks {
+            cache.relight_bricks_per_frame = bricks;
+            cache.settle_bricks_per_frame = cache.settle_bricks_per_frame.max(bricks);
         }
     }
 }
