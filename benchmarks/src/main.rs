@@ -280,100 +280,7 @@ enum Command {
     /// animated and along a camera path) and settle time after a light turns (frames until
     /// within k x the converged noise of the converged image).
     #[command(alias = "mobile-stability")]
-    Stability {
-        /// The tier: mobile or pc (the PC tier at its defaults).
-        #[arg(long, default_value = "mobile", value_parser = ["mobile", "pc"])]
-        tier: String,
-        /// Image size, WIDTHxHEIGHT. Every frame is read back, so keep it small.
-        #[arg(long, default_value = "320x240", value_parser = parse_size)]
-        size: (u32, u32),
-        /// Still warm-up frames before each case (default: the tier's own, 63).
-        #[arg(long)]
-        warmup: Option<u32>,
-        /// Measured frames of each flicker case.
-        #[arg(long, default_value_t = 32)]
-        frames: u32,
-        /// The mobile tier's screen probes: hsgi, smartgi or both (one run each; default
-        /// hsgi).
-        #[arg(long, value_parser = mobile::parse_modes)]
-        screen_probes: Option<ModeList>,
-        /// Scene of the still and animated flicker cases, seen by its still default camera.
-        #[arg(long, default_value = "dynamic")]
-        still_scene: String,
-        /// Scene of the camera-path flicker case (it needs a camera path).
-        #[arg(long, default_value = "atrium")]
-        path_scene: String,
-        /// Static scene whose first punctual light turns for the settle measurement.
-        #[arg(long, default_value = "atrium")]
-        settle_scene: String,
-        /// What changes in the settle scene: its first punctual light turns (by
-        /// --light-turn-deg), is switched off, or on (off through the warm-up, then on),
-        /// --move-node moves away (`move`; figures over the pixels it leaves), or its brightest
-        /// emissive material stops emitting (`emissive-off`).
-        #[arg(long, default_value = "turn")]
-        change: tier_stability::SettleChange,
-        /// How far the light turns about the world vertical, degrees.
-        #[arg(long, default_value_t = 30.0)]
-        light_turn_deg: f32,
-        /// The node `--change move` moves (by name, e.g. "Tall block" in cornell-box).
-        #[arg(long)]
-        move_node: Option<String>,
-        /// How far it moves, X,Y,Z metres in its parent's space (default: its width along x
-        /// plus 10%, along x).
-        #[arg(long, value_parser = parse_vec3)]
-        move_by: Option<glam::Vec3>,
-        /// Skip the flicker cases: only the settle case and its cost.
-        #[arg(long)]
-        no_flicker: bool,
-        /// The PC denoiser's short-history clamp (`DenoiseConfig::short_clamp_sigma`; 0: off,
-        /// the default). Only the PC tier reads it.
-        #[arg(long)]
-        pc_short_clamp_sigma: Option<f32>,
-        /// A PC tier stage to switch off (`PcConfig::without`, e.g. `gradients`). Only the PC
-        /// tier reads it.
-        #[arg(long)]
-        pc_without: Option<String>,
-        /// The PC tier's temporal-gradient gain (`GradientConfig::gain`).
-        #[arg(long)]
-        pc_gradient_gain: Option<f32>,
-        /// Both tiers' brick cache's measured-change gain (`CacheConfig::change_gain`; 0: the
-        /// cache's updates weigh by age alone).
-        #[arg(long)]
-        cache_change_gain: Option<f32>,
-        /// Both tiers' brick cache's bricks relit per frame on top of the round-robin while the
-        /// lights' change settles (`CacheConfig::relight_bricks_per_frame`; the settling budget
-        /// is raised to it where lower).
-        #[arg(long)]
-        cache_relight_bricks: Option<u32>,
-        /// The mobile tier without its light window (`ScreenConfig::light_window`: after a
-        /// switch of the lights, the cache's surfels where the gather reads the probe volume,
-        /// short histories, the volume restarted).
-        #[arg(long)]
-        mobile_without_light_window: bool,
-        /// Frames rendered after the light turns.
-        #[arg(long, default_value_t = 160)]
-        settle_frames: u32,
-        /// The last frames, whose mean is the converged image and whose frame-to-frame change
-        /// is the noise.
-        #[arg(long, default_value_t = 10)]
-        converged_frames: u32,
-        /// Settled means within this many times the converged noise of the converged image.
-        #[arg(long, default_value_t = 2.0)]
-        settle_k: f64,
-        /// Seconds of still frames for the GPU's clock to settle before the light turns, so
-        /// that the GI times around the change compare (as `--settle-s` for `pc`); 0 times at
-        /// once.
-        #[arg(long, default_value_t = 2.0, value_parser = parse_settle)]
-        clock_settle_s: f64,
-        /// Also write each run's contact strip of the settle case into this folder
-        /// (`<scene>-<change>-<tier>.png`: the GI term before the change, 1, 2, 4 and 8
-        /// frames after it, and converged).
-        #[arg(long)]
-        strip_dir: Option<PathBuf>,
-        /// Also write the results as JSON to this file.
-        #[arg(long)]
-        json: Option<PathBuf>,
-    },
+    Stability(Box<StabilityArgs>),
     /// Creates renderers one after another in one process, as the render service does job
     /// after job: each round opens a GPU context, creates the tier, renders its frames and
     /// drops them. Reports each creation's time, resident memory, and the round that failed
@@ -405,6 +312,103 @@ enum Command {
     /// One scene of the suite, in its own process (the suite starts these).
     #[command(hide = true)]
     SuiteScene(suite::SceneArgs),
+}
+
+/// The arguments of `gi-bench stability` (boxed in [`Command`]: they are many).
+#[derive(clap::Args)]
+struct StabilityArgs {
+    /// The tier: mobile or pc (the PC tier at its defaults).
+    #[arg(long, default_value = "mobile", value_parser = ["mobile", "pc"])]
+    tier: String,
+    /// Image size, WIDTHxHEIGHT. Every frame is read back, so keep it small.
+    #[arg(long, default_value = "320x240", value_parser = parse_size)]
+    size: (u32, u32),
+    /// Still warm-up frames before each case (default: the tier's own, 63).
+    #[arg(long)]
+    warmup: Option<u32>,
+    /// Measured frames of each flicker case.
+    #[arg(long, default_value_t = 32)]
+    frames: u32,
+    /// The mobile tier's screen probes: hsgi, smartgi or both (one run each; default
+    /// hsgi).
+    #[arg(long, value_parser = mobile::parse_modes)]
+    screen_probes: Option<ModeList>,
+    /// Scene of the still and animated flicker cases, seen by its still default camera.
+    #[arg(long, default_value = "dynamic")]
+    still_scene: String,
+    /// Scene of the camera-path flicker case (it needs a camera path).
+    #[arg(long, default_value = "atrium")]
+    path_scene: String,
+    /// Static scene whose first punctual light turns for the settle measurement.
+    #[arg(long, default_value = "atrium")]
+    settle_scene: String,
+    /// What changes in the settle scene: its first punctual light turns (by
+    /// --light-turn-deg), is switched off, or on (off through the warm-up, then on),
+    /// --move-node moves away (`move`; figures over the pixels it leaves), or its brightest
+    /// emissive material stops emitting (`emissive-off`).
+    #[arg(long, default_value = "turn")]
+    change: tier_stability::SettleChange,
+    /// How far the light turns about the world vertical, degrees.
+    #[arg(long, default_value_t = 30.0)]
+    light_turn_deg: f32,
+    /// The node `--change move` moves (by name, e.g. "Tall block" in cornell-box).
+    #[arg(long)]
+    move_node: Option<String>,
+    /// How far it moves, X,Y,Z metres in its parent's space (default: its width along x
+    /// plus 10%, along x).
+    #[arg(long, value_parser = parse_vec3)]
+    move_by: Option<glam::Vec3>,
+    /// Skip the flicker cases: only the settle case and its cost.
+    #[arg(long)]
+    no_flicker: bool,
+    /// The PC denoiser's short-history clamp (`DenoiseConfig::short_clamp_sigma`; 0: off,
+    /// the default). Only the PC tier reads it.
+    #[arg(long)]
+    pc_short_clamp_sigma: Option<f32>,
+    /// A PC tier stage to switch off (`PcConfig::without`, e.g. `gradients`). Only the PC
+    /// tier reads it.
+    #[arg(long)]
+    pc_without: Option<String>,
+    /// The PC tier's temporal-gradient gain (`GradientConfig::gain`).
+    #[arg(long)]
+    pc_gradient_gain: Option<f32>,
+    /// Both tiers' brick cache's measured-change gain (`CacheConfig::change_gain`; 0: the
+    /// cache's updates weigh by age alone).
+    #[arg(long)]
+    cache_change_gain: Option<f32>,
+    /// Both tiers' brick cache's bricks relit per frame on top of the round-robin while the
+    /// lights' change settles (`CacheConfig::relight_bricks_per_frame`; the settling budget
+    /// is raised to it where lower).
+    #[arg(long)]
+    cache_relight_bricks: Option<u32>,
+    /// The mobile tier without its light window (`ScreenConfig::light_window`: after a
+    /// switch of the lights, the cache's surfels where the gather reads the probe volume,
+    /// short histories, the volume restarted).
+    #[arg(long)]
+    mobile_without_light_window: bool,
+    /// Frames rendered after the light turns.
+    #[arg(long, default_value_t = 160)]
+    settle_frames: u32,
+    /// The last frames, whose mean is the converged image and whose frame-to-frame change
+    /// is the noise.
+    #[arg(long, default_value_t = 10)]
+    converged_frames: u32,
+    /// Settled means within this many times the converged noise of the converged image.
+    #[arg(long, default_value_t = 2.0)]
+    settle_k: f64,
+    /// Seconds of still frames for the GPU's clock to settle before the light turns, so
+    /// that the GI times around the change compare (as `--settle-s` for `pc`); 0 times at
+    /// once.
+    #[arg(long, default_value_t = 2.0, value_parser = parse_settle)]
+    clock_settle_s: f64,
+    /// Also write each run's contact strip of the settle case into this folder
+    /// (`<scene>-<change>-<tier>.png`: the GI term before the change, 1, 2, 4 and 8
+    /// frames after it, and converged).
+    #[arg(long)]
+    strip_dir: Option<PathBuf>,
+    /// Also write the results as JSON to this file.
+    #[arg(long)]
+    json: Option<PathBuf>,
 }
 
 /// Screen-probe modes of a run (clap needs a named type for a parsed list).
@@ -576,33 +580,34 @@ fn main() -> anyhow::Result<()> {
             out!("{}", report.table());
             write_json(json, &report.json())
         }
-        Command::Stability {
-            tier,
-            size,
-            warmup,
-            frames,
-            screen_probes,
-            still_scene,
-            path_scene,
-            settle_scene,
-            change,
-            light_turn_deg,
-            move_node,
-            move_by,
-            no_flicker,
-            pc_short_clamp_sigma,
-            pc_without,
-            pc_gradient_gain,
-            cache_change_gain,
-            cache_relight_bricks,
-            mobile_without_light_window,
-            settle_frames,
-            converged_frames,
-            settle_k,
-            clock_settle_s,
-            strip_dir,
-            json,
-        } => {
+        Command::Stability(args) => {
+            let StabilityArgs {
+                tier,
+                size,
+                warmup,
+                frames,
+                screen_probes,
+                still_scene,
+                path_scene,
+                settle_scene,
+                change,
+                light_turn_deg,
+                move_node,
+                move_by,
+                no_flicker,
+                pc_short_clamp_sigma,
+                pc_without,
+                pc_gradient_gain,
+                cache_change_gain,
+                cache_relight_bricks,
+                mobile_without_light_window,
+                settle_frames,
+                converged_frames,
+                settle_k,
+                clock_settle_s,
+                strip_dir,
+                json,
+            } = *args;
             if let Some(dir) = &strip_dir {
                 std::fs::create_dir_all(dir)
                     .map_err(|e| anyhow::anyhow!("creating {}: {e}", dir.display()))?;
