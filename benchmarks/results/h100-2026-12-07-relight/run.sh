@@ -2,7 +2,8 @@
 # frame while the change settles: `gi-bench stability --change off --cache-relight-bricks N`
 # (1024 is the default; more relights every young brick sooner at a higher cost per frame),
 # atrium and Sponza, both tiers, 1920x1080, one build. Runs start only while under $BUDGET
-# seconds (default 420); tables beside it.
+# seconds (default 420); tables beside it. BRICKS and SCENES choose the budgets (default
+# "1024 8192") and the scenes (default "atrium Sponza").
 . .gpu/setup.sh 2>/dev/null
 R=/tmp/res-relight; mkdir -p $R; BUDGET=${BUDGET:-420}
 S=.gpu/scenes/Sponza/glTF/Sponza.gltf
@@ -14,9 +15,9 @@ run() {
     --cache-relight-bricks $n --json $R/$name-$tier-$n.json > $R/$name-$tier-$n.md 2>&1
   echo "$name $tier relight $n: $(grep -E "^\| (mobile|pc)" $R/$name-$tier-$n.md | tr -s ' ' | tr '\n' ' ')"
 }
-{
-  for tier in pc mobile; do for n in 1024 8192; do run atrium $tier $n; done; done
-  for tier in pc mobile; do for n in 1024 8192; do run $S $tier $n; done; done
-} 2>&1 | tee $R/summary.txt
+for scene in ${SCENES:-atrium Sponza}; do
+  [ $scene = Sponza ] && scene=$S
+  for tier in pc mobile; do for n in ${BRICKS:-1024 8192}; do run $scene $tier $n; done; done
+done 2>&1 | tee $R/summary.txt
 cp benchmarks/results/h100-2026-12-07-relight/run.sh $R/
 cd $R && tar cJf $OUT/relight.tar.xz .
