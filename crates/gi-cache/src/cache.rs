@@ -120,10 +120,13 @@ impl Technique for RadianceCache {
         stats.cpu.dynamic_ms = clock.lap();
         let (jobs, new_bricks) =
             self.fill_from_queue(&mut index, inputs.camera_position, &mut stats);
+        self.triangle_index = Some(index);
+        clock.lap();
         if !self.voxelize_reserved && !self.queue.is_empty() {
             // Bricks wait: full batches follow, so the voxelization's buffers grow to a full
             // batch now rather than step by step in later frames (a buffer created while
             // flying cost a frame 4-6 ms of CPU). A scene that fills at once keeps them small.
+            // Counted in the record step.
             self.voxelizer.reserve(
                 ctx,
                 self.config.voxelize_bricks_per_frame.into(),
@@ -131,8 +134,6 @@ impl Technique for RadianceCache {
             );
             self.voxelize_reserved = true;
         }
-        self.triangle_index = Some(index);
-        clock.lap();
 
         self.buffers.upload_structure(ctx, &mut self.structure);
         let windows = self.windows.as_ref().expect("placed by move_windows");
