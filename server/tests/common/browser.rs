@@ -3,7 +3,8 @@
 //! line and passes, unless `GI_REQUIRE_BROWSER=1` (as CI sets) makes their absence a failure.
 
 use std::{
-    net::{SocketAddr, TcpListener},
+    io::{Read, Write},
+    net::{SocketAddr, TcpListener, TcpStream},
     path::PathBuf,
     process::{Child, Command, Stdio},
     time::{Duration, Instant},
@@ -37,34 +38,70 @@ impl Drop for Driver {
 }
 
 impl Driver {
+    /// Starts chromedriver on a free port and waits until it is ready. Another test may have
+    /// taken the port between its choice and chromedriver's bind (the driver then exits):
+    /// that start is retried on another port.
     fn start(program: &PathBuf) -> Self {
-        let port = TcpListener::bind("127.0.0.1:0")
-            .unwrap()
-            .local_addr()
-            .unwrap()
-            .port();
-        let child = Command::new(program)
-            .arg(format!("--port={port}"))
-            .stdout(Stdio::null())
-            .stderr(Stdio::null())
-            .spawn()
-            .expect("chromedriver starts");
-        let driver = Self {
-            child,
-            addr: SocketAddr::from(([127, 0, 0, 1], port)),
-        };
-        let started = Instant::now();
-        loop {
-            if std::net::TcpStream::connect(driver.addr).is_ok()
-                && driver.call("GET", "/status", None)["ready"] == true
-            {
-                return driver;
+        for _ in 0..5 {
+            let port = TcpListener::bind("127.0.0.1:0")
+                .unwrap()
+                .local_addr()
+                .unwrap()
+                .port();
+            let child = Command::new(program)
+                .arg(format!("--port={port}"))
+                .stdout(Stdio::null())
+                .stderr(Stdio::null())
+                .spawn()
+                .expect("chromedriver starts");
+            let mut driver = Self {
+                child,
+                addr: SocketAddr::from(([127, 0, 0, 1], port)),
+            };
+            let started = Instant::now();
+            loop {
+                if driver.ready() {
+                    return driver;
+                }
+                if driver.child.try_wait().ok().flatten().is_some() {
+                    break;
+                }
+                assert!(
+                    started.elapsed() < Duration::from_secs(20),
+                    "chromedriver is not ready"
+                );
+                std::thread::sleep(Duration::from_millis(100));
             }
-            assert!(
-                started.elapsed() < Duration::from_secs(20),
-                "chromedriver is not ready"
-            );
-            std::thread::sleep(Duration::from_millis(100));
+        }
+        panic!("chromedriver exited at every start");
+    }
+
+    /// Whether chromedriver answers `GET /status` with `"ready": true`. False while it starts,
+    /// also when it accepts the connection but answers nothing yet.
+    fn ready(&self) -> bool {
+        let Ok(mut stream) = TcpStream::connect(self.addr) else {
+            return false;
+        };
+        let _ = stream.set_read_timeout(Some(Duration::from_secs(2)));
+        let head = format!(
+            "GET /status HTTP/1.1\r\nHost: {}\r\nConnection: close\r\n\r\n",
+            self.addr
+        );
+        if stream.write_all(head.as_bytes()).is_err() {
+            return false;
+        }
+        // chromedriver may keep the connection open: read until the answer says ready.
+        let mut raw = Vec::new();
+        let mut buffer = [0u8; 4096];
+        loop {
+            let text = String::from_utf8_lossy(&raw).replace(' ', "");
+            if text.contains("\"ready\":true") {
+                return true;
+            }
+            match stream.read(&mut buffer) {
+                Ok(0) | Err(_) => return false,
+                Ok(n) => raw.extend_from_slice(&buffer[..n]),
+            }
         }
     }
 
