@@ -38,6 +38,7 @@ use crate::clipmap::{BrickBox, ClipmapWindows};
 use crate::config::{CacheConfig, ConfigError};
 use crate::fill_queue::FillQueue;
 use crate::layout::NO_BRICK;
+use crate::residency::Residency;
 use crate::screen_inject::{ScreenInjectCounts, ScreenInjector, ScreenInputs, select_bricks};
 use crate::structure::CacheStructure;
 use crate::voxelize::{VoxelizeJob, Voxelizer};
@@ -146,15 +147,18 @@ impl Technique for RadianceCache {
                 .record(ctx, encoder, timer, inputs.gpu_scene, &self.buffers, &jobs);
         stats.voxelize_parts = plan.parts.len() as u32;
         stats.cpu.record_ms = clock.lap();
-        let mut resident = std::mem::take(&mut self.resident);
-        list_resident(&self.owner, &mut resident);
-        stats.cpu.screen_select_ms = clock.lap();
-        stats.filling = crate::lighting::is_filling(new_bricks.len(), resident.len());
+        stats.filling = crate::lighting::is_filling(new_bricks.len(), self.residency.len());
         if let Some(screen) = &inputs.gbuffer {
             let budget = self.config.screen_inject_bricks_per_frame.min(65_535);
-            let bricks =
-                select_bricks(&self.config, &resident, &screen.camera, &new_bricks, budget);
-            stats.cpu.screen_select_ms += clock.lap();
+            let bricks = select_bricks(
+                &self.config,
+                &self.structure,
+                windows,
+                &screen.camera,
+                &new_bricks,
+                budget,
+            );
+            stats.cpu.screen_select_ms = clock.lap();
             stats.screen_injected = bricks.len() as u32;
             self.screen_injector
                 .record(ctx, encoder, timer, &self.buffers, screen, &bricks);
@@ -168,7 +172,7 @@ impl Technique for RadianceCache {
                 buffers: &self.buffers,
                 inputs,
                 new_bricks: &new_bricks,
-                resident: &resident,
+                resident: &self.residency,
                 frame_index: self.frame_index,
             };
             lighting.record(ctx, timer, encoder, &frame);
@@ -181,7 +185,6 @@ impl Technique for RadianceCache {
             stats.cpu.schedule_ms = lighting.schedule_ms().min(stats.cpu.lighting_ms);
             stats.cpu.lighting_ms -= stats.cpu.schedule_ms;
         }
-        self.resident = resident;
         stats.queued_remaining = self.queue.len() as u32;
         CacheOutputs {
             stats,
@@ -208,7 +211,7 @@ pub struct CacheFrame<'a> {
     /// Bricks voxelized by this update (their sides' lighting was reset to 0).
     pub new_bricks: &'a [ResidentBrick],
     /// Every allocated brick.
-    pub resident: &'a [ResidentBrick],
+    pub resident: &'a Residency,
     /// Updates so far, this one included.
     pub frame_index: u32,
 }
@@ -315,7 +318,7 @@ pub struct CpuSteps {
     pub allocate_ms: f64,
     /// Uploading the structure and recording `cache/voxelize` (step 5).
     pub record_ms: f64,
-    /// Listing the resident bricks and choosing those `cache/screen_inject` corrects (step 6).
+    /// Choosing the bricks `cache/screen_inject` corrects (step 6).
     pub screen_select_ms: f64,
     /// Recording `cache/screen_inject` (step 6).
     pub screen_ms: f64,
@@ -348,12 +351,12 @@ pub struct RadianceCache {
     allocator: BrickAllocator,
     /// `None` until the first update places the windows.
     windows: Option<ClipmapWindows>,
-    /// Level and brick of each allocated ID (`owner[id]`).
-    owner: Vec<Option<(u32, IVec3)>>,
+    /// Level and brick of each allocated ID, and the IDs of each level.
+    residency: Residency,
     queue: FillQueue,
     /// Bricks with geometry that lost their place for lack of pool (dropped or evicted), queued
-    /// again when IDs are free (`requeue_dropped`).
-    dropped: HashSet<(u32, IVec3)>,
+    /// again in fill order when IDs are free (`requeue_dropped`).
+    dropped: FillQueue,
     /// Node transforms and morph weights of the previous update (its frame without geometry),
     /// to find moved and reshaped dynamic nodes.
     previous_frame: Option<SceneFrame>,
@@ -369,9 +372,8 @@ pub struct RadianceCache {
     triangle_index: Option<TriangleIndex>,
     frame_index: u32,
     dropped_for_pool: u64,
-    /// The resident bricks of the last update and the queue's fill keys, kept between updates
-    /// so that their memory (hundreds of kilobytes at a full pool) is not mapped anew.
-    resident: Vec<ResidentBrick>,
+    /// The queue's fill keys, kept between updates so that their memory (hundreds of
+    /// kilobytes at a full pool) is not mapped anew.
     keyed: Vec<(FillKey, (u32, IVec3))>,
     /// Whether the voxelization's buffers were grown to a full batch ([`Voxelizer::reserve`]).
     voxelize_reserved: bool,
@@ -425,9 +427,9 @@ impl RadianceCache {
             structure: CacheStructure::new(config),
             allocator: BrickAllocator::new(config.pool_bricks),
             windows: None,
-            owner: vec![None; config.pool_bricks as usize + 1],
+            residency: Residency::new(config.pool_bricks, config.levels),
             queue: FillQueue::new(config.levels),
-            dropped: HashSet::new(),
+            dropped: FillQueue::new(config.levels),
             previous_frame: None,
             previous_node_bounds: Vec::new(),
             previous_revision: 0,
@@ -437,7 +439,6 @@ impl RadianceCache {
             frame_index: 0,
             dropped_for_pool: 0,
             lighting: None,
-            resident: Vec::new(),
             keyed: Vec::new(),
             voxelize_reserved: false,
         })
@@ -471,16 +472,13 @@ impl RadianceCache {
 
     /// Every allocated brick, in ID order.
     pub fn resident_bricks(&self) -> Vec<ResidentBrick> {
-        let mut resident = Vec::new();
-        list_resident(&self.owner, &mut resident);
-        resident
+        self.residency.iter().collect()
     }
 
     pub fn stats(&self) -> CacheStats {
-        let mut bricks_per_level = vec![0; self.config.levels as usize];
-        for (level, _) in self.owner.iter().flatten() {
-            bricks_per_level[*level as usize] += 1;
-        }
+        let bricks_per_level = (0..self.config.levels)
+            .map(|level| self.residency.level_len(level) as u32)
+            .collect();
         CacheStats {
             allocated_bricks: self.allocator.allocated_count(),
             free_bricks: self.allocator.free_count(),
@@ -552,7 +550,7 @@ impl RadianceCache {
         if id == NO_BRICK {
             return false;
         }
-        self.owner[id as usize] = None;
+        self.residency.remove(id);
         // The structure and the allocator change together, so the ID is allocated here.
         self.allocator
             .free(id)
@@ -675,23 +673,20 @@ impl RadianceCache {
     /// forgets those whose window moved away (their slab is queued again when it re-enters).
     fn requeue_dropped(&mut self, camera: Vec3, stats: &mut CacheUpdateStats) {
         let windows = self.windows.as_ref().expect("placed by move_windows");
-        self.dropped
-            .retain(|(level, brick)| windows.window(*level).contains(*brick));
+        if stats.levels_moved > 0 {
+            self.dropped.retain_inside(windows);
+        }
         let free = self.allocator.free_count() as usize;
         if free == 0 || self.dropped.is_empty() {
             return;
         }
-        let config = &self.config;
-        let mut candidates: Vec<(u32, IVec3)> = self
+        // The first in fill order, keyed from the finest levels only. One queued already (a
+        // dynamic node's move queued it before it was evicted) stays queued and takes a place.
+        let batch = self
             .dropped
-            .iter()
-            .filter(|entry| !self.queue.contains(entry))
-            .copied()
-            .collect();
-        candidates.sort_by_cached_key(|&entry| fill_key(config, camera, entry));
-        for entry in candidates.into_iter().take(free) {
-            self.dropped.remove(&entry);
-            stats.requeued_dropped += u32::from(self.enqueue(entry.0, entry.1));
+            .take_first(&self.config, camera, free, &mut self.keyed);
+        for (level, brick) in batch {
+            stats.requeued_dropped += u32::from(self.enqueue(level, brick));
         }
     }
 
@@ -705,8 +700,11 @@ impl RadianceCache {
     ) -> (Vec<VoxelizeJob>, Vec<ResidentBrick>) {
         let mut clock = StepClock::start();
         let windows = self.windows.clone().expect("placed by move_windows");
-        // Bricks whose window moved away are dropped from the queue.
-        self.queue.retain_inside(&windows);
+        // Bricks whose window moved away are dropped from the queue. Everything queued lies in
+        // the windows it was queued in, so only a move leaves bricks outside.
+        if stats.levels_moved > 0 {
+            self.queue.retain_inside(&windows);
+        }
         let take = (self.config.voxelize_bricks_per_frame as usize).min(self.voxelizer.max_jobs());
         let batch = self
             .queue
@@ -780,12 +778,16 @@ impl RadianceCache {
                             }
                             stats.dropped_for_pool += 1;
                             self.dropped_for_pool += 1;
-                            self.dropped.insert((level, brick));
+                            self.dropped.push((level, brick));
                             continue;
                         }
                     };
                     self.structure.set_brick(level, brick, id);
-                    self.owner[id as usize] = Some((level, brick));
+                    self.residency.insert(ResidentBrick {
+                        level,
+                        brick,
+                        brick_id: id,
+                    });
                     self.dropped.remove(&(level, brick));
                 }
                 new_bricks.push(ResidentBrick {
@@ -830,9 +832,9 @@ impl RadianceCache {
         let mut rebuilt = false;
         loop {
             let config = &self.config;
-            let owner = &self.owner;
-            let list =
-                victims.get_or_insert_with(|| eviction_candidates(config, camera, owner, wanted));
+            let residency = &self.residency;
+            let list = victims
+                .get_or_insert_with(|| eviction_candidates(config, camera, residency, wanted));
             let Some(&victim) = list.last() else {
                 // Candidates used up (some were released as empty): look again once.
                 if rebuilt {
@@ -848,7 +850,7 @@ impl RadianceCache {
             list.pop();
             // A candidate released since (found empty in this update) frees no ID now.
             if self.release(victim.0, victim.1) {
-                self.dropped.insert(victim);
+                self.dropped.push(victim);
                 stats.evicted += 1;
                 return self.allocator.alloc();
             }
@@ -868,31 +870,28 @@ impl RadianceCache {
     }
 }
 
-/// The `wanted` last allocated bricks of `owner` in fill order ([`fill_key`] from `camera`),
+/// The `wanted` last resident bricks in fill order ([`fill_key`] from `camera`),
 /// the very last at the end: the eviction candidates of an update.
 fn eviction_candidates(
     config: &CacheConfig,
     camera: Vec3,
-    owner: &[Option<(u32, IVec3)>],
+    residency: &Residency,
     wanted: usize,
 ) -> Vec<(u32, IVec3)> {
     // Fill order goes by level first, so the `wanted` last bricks lie in the coarsest levels
     // that hold that many: only those are keyed, each once.
-    let mut per_level = vec![0usize; config.levels as usize];
-    for &(level, _) in owner.iter().flatten() {
-        per_level[level as usize] += 1;
-    }
-    let mut finest = per_level.len();
+    let mut finest = residency.levels();
     let mut held = 0;
     while finest > 0 && held < wanted {
         finest -= 1;
-        held += per_level[finest];
+        held += residency.level_len(finest);
     }
-    let mut keyed: Vec<(FillKey, (u32, IVec3))> = owner
-        .iter()
-        .flatten()
-        .filter(|(level, _)| *level as usize >= finest)
-        .map(|&entry| (fill_key(config, camera, entry), entry))
+    let mut keyed: Vec<(FillKey, (u32, IVec3))> = (finest..residency.levels())
+        .flat_map(|level| residency.iter_level(level))
+        .map(|b| {
+            let entry = (b.level, b.brick);
+            (fill_key(config, camera, entry), entry)
+        })
         .collect();
     let first = keyed.len().saturating_sub(wanted);
     if first > 0 && first < keyed.len() {
@@ -901,18 +900,6 @@ fn eviction_candidates(
     let mut last = keyed.split_off(first);
     last.sort_unstable_by_key(|(key, _)| *key);
     last.into_iter().map(|(_, entry)| entry).collect()
-}
-
-/// Replaces `resident` with the allocated bricks of `owner` (by pool ID), in pool-ID order.
-fn list_resident(owner: &[Option<(u32, IVec3)>], resident: &mut Vec<ResidentBrick>) {
-    resident.clear();
-    resident.extend(owner.iter().enumerate().filter_map(|(id, owner)| {
-        owner.map(|(level, brick)| ResidentBrick {
-            level,
-            brick,
-            brick_id: id as u32,
-        })
-    }));
 }
 
 /// Milliseconds between laps.
@@ -942,24 +929,26 @@ mod tests {
     fn eviction_candidates_are_the_last_in_fill_order() {
         let config = CacheConfig::default();
         let camera = Vec3::new(0.3, -0.2, 1.7);
-        let mut owner = Vec::new();
+        let mut bricks = Vec::new();
+        let mut id = 1;
         for level in 0..4u32 {
             for i in 0..(40 - 7 * level as i32) {
-                owner.push(Some((
+                bricks.push(ResidentBrick {
                     level,
-                    IVec3::new(i % 5 - 2, i / 5 % 3 - 1, i / 15 - 1),
-                )));
-                if i % 4 == 0 {
-                    owner.push(None);
-                }
+                    brick: IVec3::new(i % 5 - 2, i / 5 % 3 - 1, i / 15 - 1),
+                    brick_id: id,
+                });
+                // Some IDs free between them.
+                id += if i % 4 == 0 { 2 } else { 1 };
             }
         }
-        let mut all: Vec<(u32, IVec3)> = owner.iter().flatten().copied().collect();
+        let residency = Residency::from_bricks(config.levels, &bricks);
+        let mut all: Vec<(u32, IVec3)> = bricks.iter().map(|b| (b.level, b.brick)).collect();
         all.sort_by_key(|&entry| fill_key(&config, camera, entry));
         for wanted in [0, 1, 5, 19, 20, 45, 60, all.len(), all.len() + 3] {
             let expected = all[all.len() - wanted.min(all.len())..].to_vec();
             assert_eq!(
-                eviction_candidates(&config, camera, &owner, wanted),
+                eviction_candidates(&config, camera, &residency, wanted),
                 expected,
                 "wanted {wanted}"
             );

@@ -18,6 +18,11 @@ pub const MAX_LIT_BRICKS: u32 = 65_535;
 /// far more). More rays per update buy less noise than the same rays over more frames.
 pub const MAX_GATHER_RAYS_PER_SIDE: u32 = 64;
 
+/// Most updates [`CacheConfig::settle_updates`] may ask for: the lighting schedule keeps a set
+/// of brick IDs for each count below it (1.5 KiB each at the default pool), and a brick settled
+/// after 255 updates is settled by the round-robin long before.
+pub const MAX_SETTLE_UPDATES: u32 = 255;
+
 /// How the cache is shaped and how much work it does per frame.
 ///
 /// Defaults: 7 levels of 32 x 16 x 32 bricks (128 x 64 x 128 voxels) each, finest voxels of
@@ -86,7 +91,8 @@ pub struct CacheConfig {
     /// Updates after which a brick counts as settled (see
     /// [`CacheConfig::settle_bricks_per_frame`]). A young brick's updates are also weighed at
     /// least 1/2 ([`crate::lighting::SETTLE_MAX_AGE`]) so that its light follows the bounces it
-    /// gains; 0 turns settling off altogether.
+    /// gains; 0 turns settling off altogether. At most [`MAX_SETTLE_UPDATES`] (the schedule
+    /// keeps a set of brick IDs per count).
     pub settle_updates: u32,
     /// Levels counted as near field for the update schedule.
     pub near_levels: u32,
@@ -216,6 +222,15 @@ impl CacheConfig {
                 self.gather_rays_per_side.to_string(),
                 &format!(
                     "must be at most {MAX_GATHER_RAYS_PER_SIDE} (each update's work per thread is bounded)"
+                ),
+            );
+        }
+        if self.settle_updates > MAX_SETTLE_UPDATES {
+            return invalid(
+                "settle_updates",
+                self.settle_updates.to_string(),
+                &format!(
+                    "must be at most {MAX_SETTLE_UPDATES} (the schedule keeps a set of bricks per count)"
                 ),
             );
         }
@@ -357,6 +372,10 @@ mod tests {
                 gather_rays_per_side: MAX_GATHER_RAYS_PER_SIDE + 1,
                 ..Default::default()
             },
+            CacheConfig {
+                settle_updates: MAX_SETTLE_UPDATES + 1,
+                ..Default::default()
+            },
         ];
         let fields = [
             "voxel_size_m",
@@ -365,6 +384,7 @@ mod tests {
             "pool_bricks",
             "max_age",
             "gather_rays_per_side",
+            "settle_updates",
         ];
         for (config, field) in bad.iter().zip(fields) {
             let err = config.validate().unwrap_err().to_string();

@@ -1,7 +1,7 @@
 //! [`FillQueue`]: the bricks waiting to be voxelized, kept per level so that choosing a
 //! frame's batch reads only the levels it takes from.
 
-use foldhash::{HashSet, HashSetExt};
+use foldhash::{HashMap, HashMapExt};
 use glam::{IVec3, Vec3};
 
 use crate::binning::{FillKey, fill_key};
@@ -21,8 +21,13 @@ pub type QueuedBrick = (u32, IVec3);
 pub struct FillQueue {
     /// Per level, its queued bricks.
     levels: Vec<Vec<IVec3>>,
-    /// Every queued brick, for the test of membership.
-    members: HashSet<QueuedBrick>,
+    /// Every queued brick and its place in its level's list, where `placed` says the places
+    /// are current.
+    members: HashMap<QueuedBrick, u32>,
+    /// Per level, whether its places in `members` are current: taking and retaining reorder a
+    /// list without updating them, and the first removal after that places its level anew
+    /// (a queue that never removes never pays for them).
+    placed: Vec<bool>,
 }
 
 impl FillQueue {
@@ -30,7 +35,8 @@ impl FillQueue {
     pub fn new(levels: u32) -> Self {
         Self {
             levels: vec![Vec::new(); levels as usize],
-            members: HashSet::new(),
+            members: HashMap::new(),
+            placed: vec![true; levels as usize],
         }
     }
 
@@ -45,7 +51,7 @@ impl FillQueue {
 
     /// Whether `entry` is queued.
     pub fn contains(&self, entry: &QueuedBrick) -> bool {
-        self.members.contains(entry)
+        self.members.contains_key(entry)
     }
 
     /// Queues `entry`; false when it was queued already (or its level is out of range).
@@ -53,11 +59,35 @@ impl FillQueue {
         let Some(list) = self.levels.get_mut(entry.0 as usize) else {
             return false;
         };
-        let fresh = self.members.insert(entry);
-        if fresh {
-            list.push(entry.1);
+        if self.members.contains_key(&entry) {
+            return false;
         }
-        fresh
+        self.members.insert(entry, list.len() as u32);
+        list.push(entry.1);
+        true
+    }
+
+    /// Removes `entry`; false when it was not queued.
+    pub fn remove(&mut self, entry: &QueuedBrick) -> bool {
+        if !self.members.contains_key(entry) {
+            return false;
+        }
+        let level = entry.0 as usize;
+        let list = &mut self.levels[level];
+        if !self.placed[level] {
+            for (place, &brick) in list.iter().enumerate() {
+                if let Some(slot) = self.members.get_mut(&(entry.0, brick)) {
+                    *slot = place as u32;
+                }
+            }
+            self.placed[level] = true;
+        }
+        let place = self.members.remove(entry).expect("queued");
+        list.swap_remove(place as usize);
+        if let Some(&moved) = list.get(place as usize) {
+            self.members.insert((entry.0, moved), place);
+        }
+        true
     }
 
     /// Queues every brick of `entries` (bricks taken but not voxelized after all).
@@ -72,6 +102,7 @@ impl FillQueue {
         for (level, list) in self.levels.iter_mut().enumerate() {
             let window = windows.window(level as u32);
             let members = &mut self.members;
+            let before = list.len();
             list.retain(|&brick| {
                 let inside = window.contains(brick);
                 if !inside {
@@ -79,6 +110,9 @@ impl FillQueue {
                 }
                 inside
             });
+            if list.len() != before {
+                self.placed[level] = false;
+            }
         }
     }
 
@@ -110,6 +144,7 @@ impl FillQueue {
                 scratch.select_nth_unstable_by_key(wanted, |(key, _)| *key);
                 list.extend(scratch[wanted..].iter().map(|(_, (_, brick))| *brick));
                 scratch.truncate(wanted);
+                self.placed[level as usize] = false;
             }
             scratch.sort_unstable_by_key(|(key, _)| *key);
             for &(_, entry) in scratch.iter() {
@@ -126,7 +161,7 @@ mod tests {
     use super::*;
 
     /// The batch is the first bricks of a sort of the whole queue in fill order, whichever
-    /// level the count ends in, and the rest stay queued.
+    /// level the count ends in, and the rest stay queued; removed bricks are not taken.
     #[test]
     fn takes_the_first_bricks_of_a_full_sort() {
         let config = CacheConfig::default();
@@ -158,6 +193,14 @@ mod tests {
                 !queue.push(entries[0]),
                 "a queued brick is not queued twice"
             );
+            // Removed bricks leave the queue, whatever their place in their level.
+            let removed: Vec<QueuedBrick> = unique.iter().step_by(7).copied().collect();
+            for entry in &removed {
+                assert!(queue.remove(entry));
+                assert!(!queue.remove(entry), "removed twice");
+            }
+            unique.retain(|entry| !removed.contains(entry));
+            assert_eq!(queue.len(), unique.len());
             unique.sort_by_key(|&entry| fill_key(&config, camera, entry));
             let batch = queue.take_first(&config, camera, count, &mut Vec::new());
             let expected = &unique[..count.min(unique.len())];
@@ -166,6 +209,21 @@ mod tests {
             for entry in &unique {
                 assert_eq!(queue.contains(entry), !batch.contains(entry));
             }
+            // What stays can still be removed one by one, each from its place.
+            let left: Vec<QueuedBrick> = unique
+                .iter()
+                .filter(|entry| !batch.contains(entry))
+                .copied()
+                .collect();
+            for entry in left.iter().rev() {
+                assert!(queue.remove(entry), "count {count}");
+            }
+            assert!(queue.is_empty());
+            assert!(
+                queue
+                    .take_first(&config, camera, 10, &mut Vec::new())
+                    .is_empty()
+            );
         }
     }
 }

@@ -66,6 +66,7 @@ use gi_scene::{LightKind, Sky, WorldLight};
 use crate::buffers::CacheBuffers;
 use crate::cache::{CacheFrame, CacheLightingHook, RadianceCache, ResidentBrick};
 use crate::config::CacheConfig;
+use crate::residency::{IdSet, Residency, bits};
 
 /// How many times more often a near-field brick is relit than a far-field one when the budget
 /// is short: HSGI refreshes its near field every 9 frames and its far field every 121
@@ -299,122 +300,105 @@ impl ScheduleBudget {
 /// bricks that come and go between frames neither reset nor stall it.
 ///
 /// Settling: the schedule counts each brick's updates since it was voxelized or the lights
-/// last changed ([`LightSchedule::unsettle`]), up to [`ScheduleBudget::settle_updates`]. Every update adds a bounce, so a brick with few updates
-/// still misses light that a converged one has; up to [`ScheduleBudget::settle_bricks`] such
-/// young bricks are relit on top of the round-robin: near-field ones first, then the
-/// fewest-updated, then finer levels (whose lighting the tiers read near the camera), then by
-/// pool ID. Updates during a fill do not count, since the next update replaces their lighting
-/// (see [`FILL_FRACTION`]), but they do spend the settling budget: each of their gathers still
-/// carries the light one bounce further for the next.
+/// last changed ([`LightSchedule::unsettle`]), up to [`ScheduleBudget::settle_updates`]. Every
+/// update adds a bounce, so a brick with few updates still misses light that a converged one
+/// has; up to [`ScheduleBudget::settle_bricks`] such young bricks are relit on top of the
+/// round-robin: near-field ones first, then the fewest-updated, then finer levels (whose
+/// lighting the tiers read near the camera), then by pool ID. Updates during a fill do not
+/// count, since the next update replaces their lighting (see [`FILL_FRACTION`]), but they do
+/// spend the settling budget: each of their gathers still carries the light one bounce further
+/// for the next.
+///
+/// Cost: the schedule keeps, besides the counts, the IDs of each count below
+/// `settle_updates` as a bitset ([`IdSet`]), and reads the resident bricks through the
+/// [`Residency`]'s bitsets of levels, so a frame costs a few passes of a word per 64 pool IDs
+/// and the bricks it picks, not passes over every resident brick (12,288 at the default pool).
 #[derive(Clone, Debug, Default)]
 pub struct LightSchedule {
     near_cursor: Option<u32>,
     far_cursor: Option<u32>,
     far_credit: f64,
-    /// Updates of each resident brick, by pool ID, since it was voxelized or the lights last
-    /// changed, up to `settle_updates`; 0 for a brick with none and for an ID not resident.
-    /// Pool IDs are dense (below the pool's size), so these are arrays indexed by ID: the
-    /// schedule runs every frame over every resident brick (12,288 at the default pool).
+    /// Updates of each brick, by pool ID, since it was voxelized or the lights last changed,
+    /// up to `settle_updates`. A released ID keeps its count until it is voxelized anew
+    /// (every pass reads the counts through the residency's levels).
     updates: Vec<u32>,
-    /// Whether each brick (by pool ID) of the last [`LightSchedule::pick`] was young when
-    /// picked.
-    settling: Vec<bool>,
-    /// Scratch of [`LightSchedule::pick`], by pool ID: what the frame's lists made of it.
-    class: Vec<u8>,
-    /// Scratch of [`LightSchedule::pick`], by pool ID: the brick's place in `resident`.
-    place: Vec<u32>,
-    /// Scratch of [`LightSchedule::pick`]: the near and far fields and the young bricks, kept
-    /// between frames so that their memory (hundreds of kilobytes) is not mapped anew each
-    /// frame.
-    near: Vec<ResidentBrick>,
-    far: Vec<ResidentBrick>,
-    young: Vec<(u128, ResidentBrick)>,
+    /// `young[n]`: the IDs whose count is `n`, for each `n` below `settled`.
+    young: Vec<IdSet>,
+    /// Members of each of `young`.
+    young_counts: Vec<usize>,
+    /// The `settle_updates` that `young` was made for.
+    settled: u32,
+    /// The IDs of the last [`LightSchedule::pick`] that were young when picked.
+    settling: IdSet,
+    /// Scratch of [`LightSchedule::pick`]: the new bricks picked first, and every pick.
+    fresh: IdSet,
+    picked: IdSet,
 }
 
-/// [`LightSchedule::class`]: not resident this frame.
-const ABSENT: u8 = 0;
-/// [`LightSchedule::class`]: a new brick picked first.
-const FRESH: u8 = 1;
-/// [`LightSchedule::class`]: a resident near-field brick.
-const NEAR: u8 = 2;
-/// [`LightSchedule::class`]: a resident far-field brick.
-const FAR: u8 = 3;
-/// Flag of [`LightSchedule::class`]: picked this frame.
-const PICKED: u8 = 0x80;
-
 impl LightSchedule {
-    /// This frame's bricks: `new_bricks` (voxelized this frame) first, then resident bricks
-    /// from `resident` (every allocated brick, in any order; new ones are skipped there), at
-    /// most `budget.bricks`, then up to `budget.settle_bricks` young ones; none twice. While
+    /// This frame's bricks: `new_bricks` (voxelized this frame) first, then bricks of
+    /// `resident` (every allocated brick; new ones are skipped there), at most
+    /// `budget.bricks`, then up to `budget.settle_bricks` young ones; none twice. While
     /// `filling` the updates are not counted.
     pub fn pick(
         &mut self,
         budget: &ScheduleBudget,
         new_bricks: &[ResidentBrick],
-        resident: &[ResidentBrick],
+        resident: &Residency,
         filling: bool,
     ) -> (Vec<ResidentBrick>, ScheduleCounts) {
         let total = budget.bricks as usize;
         let ids = new_bricks
             .iter()
-            .chain(resident)
             .map(|b| b.brick_id as usize + 1)
             .max()
             .unwrap_or(0)
+            .max(resident.id_bound())
             .max(self.updates.len());
         self.updates.resize(ids, 0);
-        self.settling.resize(ids, false);
-        self.class.clear();
-        self.class.resize(ids, ABSENT);
-        self.place.resize(ids, 0);
+        let settled = budget.settle_updates;
+        if settled != self.settled || self.young.len() != settled as usize {
+            self.rebuild_young(settled);
+        }
 
         let mut picked: Vec<ResidentBrick> = new_bricks.iter().take(total).copied().collect();
         for b in new_bricks {
-            self.updates[b.brick_id as usize] = 0;
+            self.set_updates(b.brick_id, 0);
         }
+        // The fields hold the resident bricks not picked as new.
+        let near_levels = budget.near_levels.min(resident.levels());
+        let (mut near_fresh, mut far_fresh) = (0, 0);
+        self.fresh.clear();
         for b in &picked {
-            self.class[b.brick_id as usize] = FRESH;
-        }
-        let fresh = picked.len();
-        for (i, b) in resident.iter().enumerate() {
-            let id = b.brick_id as usize;
-            if self.class[id] == ABSENT {
-                self.class[id] = if b.level < budget.near_levels {
-                    NEAR
-                } else {
-                    FAR
-                };
-                self.place[id] = i as u32;
+            if self.fresh.contains(b.brick_id) {
+                continue;
+            }
+            self.fresh.insert(b.brick_id);
+            match resident.get(b.brick_id) {
+                Some(r) if r.level < near_levels => near_fresh += 1,
+                Some(_) => far_fresh += 1,
+                None => {}
             }
         }
-        // Both fields in pool-ID order, each brick once; bricks released since the last frame
-        // (not resident now) are forgotten.
-        let mut near = std::mem::take(&mut self.near);
-        let mut far = std::mem::take(&mut self.far);
-        near.clear();
-        far.clear();
-        for (id, class) in self.class.iter().enumerate() {
-            match *class {
-                NEAR => near.push(resident[self.place[id] as usize]),
-                FAR => far.push(resident[self.place[id] as usize]),
-                ABSENT => self.updates[id] = 0,
-                _ => {}
-            }
-        }
+        let field_len = |levels: std::ops::Range<u32>| -> usize {
+            levels.map(|level| resident.level_len(level)).sum()
+        };
+        let near_len = field_len(0..near_levels) - near_fresh;
+        let far_len = field_len(near_levels..resident.levels()) - far_fresh;
 
         let remaining = total - picked.len();
-        let near_demand = f64::from(NEAR_REFRESH_RATIO) * near.len() as f64;
-        let far_demand = far.len() as f64;
+        let near_demand = f64::from(NEAR_REFRESH_RATIO) * near_len as f64;
+        let far_demand = far_len as f64;
         let mut far_count = 0;
-        if far.is_empty() {
+        if far_len == 0 {
             self.far_credit = 0.0;
         } else if remaining > 0 {
             self.far_credit += remaining as f64 * far_demand / (near_demand + far_demand);
-            far_count = (self.far_credit.floor() as usize).min(far.len());
-            self.far_credit = (self.far_credit - far_count as f64).min(far.len() as f64);
+            far_count = (self.far_credit.floor() as usize).min(far_len);
+            self.far_credit = (self.far_credit - far_count as f64).min(far_len as f64);
         }
-        let near_count = (remaining - far_count).min(near.len());
-        far_count = (remaining - near_count).min(far.len());
+        let near_count = (remaining - far_count).min(near_len);
+        far_count = (remaining - near_count).min(far_len);
 
         let mut counts = ScheduleCounts {
             new: picked.len() as u32,
@@ -423,63 +407,73 @@ impl LightSchedule {
             settle: 0,
             young: 0,
         };
-        round_robin(&near, &mut self.near_cursor, near_count, &mut picked);
-        round_robin(&far, &mut self.far_cursor, far_count, &mut picked);
-        let settled = budget.settle_updates;
-        if budget.settle_bricks > 0 {
+        let fields = [0..near_levels, near_levels..resident.levels()];
+        let field = Field {
+            resident,
+            levels: fields[0].clone(),
+            skip: &self.fresh,
+        };
+        field.round_robin(&mut self.near_cursor, near_count, &mut picked);
+        let field = Field {
+            levels: fields[1].clone(),
+            ..field
+        };
+        field.round_robin(&mut self.far_cursor, far_count, &mut picked);
+
+        let words = resident.id_bound().div_ceil(64);
+        if budget.settle_bricks > 0 && settled > 0 {
+            self.picked.clear();
             for b in &picked {
-                self.class[b.brick_id as usize] |= PICKED;
+                self.picked.insert(b.brick_id);
             }
-            let mut young = std::mem::take(&mut self.young);
-            young.clear();
-            // Near field first, then fewest updates, finest level, pool ID, as one integer
-            // made once per brick (not at every comparison of the selection and the sort).
-            let near_levels = budget.near_levels;
-            let key = |n: u32, b: &ResidentBrick| {
-                u128::from(b.level >= near_levels) << 96
-                    | u128::from(n) << 64
-                    | u128::from(b.level) << 32
-                    | u128::from(b.brick_id)
-            };
-            for field in [&near, &far] {
-                for b in field.iter() {
-                    let id = b.brick_id as usize;
-                    let n = self.updates[id];
-                    if n < settled && self.class[id] & PICKED == 0 {
-                        young.push((key(n, b), *b));
+            // Near field first, then fewest updates, finest level, pool ID.
+            let mut left = budget.settle_bricks as usize;
+            'fields: for levels in fields {
+                for (young, &members) in self.young.iter().zip(&self.young_counts) {
+                    if members == 0 {
+                        continue;
+                    }
+                    for level in levels.clone() {
+                        let set = resident.level(level);
+                        for w in 0..words {
+                            let word = set.word(w) & young.word(w) & !self.picked.word(w);
+                            for id in bits(word, w) {
+                                picked.push(resident.get(id).expect("a member of a level"));
+                                counts.settle += 1;
+                                left -= 1;
+                                if left == 0 {
+                                    break 'fields;
+                                }
+                            }
+                        }
                     }
                 }
             }
-            let take = (budget.settle_bricks as usize).min(young.len());
-            if take > 0 {
-                if take < young.len() {
-                    young.select_nth_unstable_by_key(take - 1, |&(key, _)| key);
-                    young.truncate(take);
-                }
-                young.sort_unstable_by_key(|&(key, _)| key);
-                picked.extend(young.iter().map(|&(_, b)| b));
-                counts.settle = take as u32;
-            }
-            self.young = young;
         }
-        self.settling.fill(false);
+        self.settling.clear();
         for b in &picked {
-            let id = b.brick_id as usize;
-            if self.updates[id] < settled {
-                self.settling[id] = true;
+            let id = b.brick_id;
+            let n = self.updates[id as usize];
+            if n < settled {
+                self.settling.insert(id);
                 if !filling {
-                    self.updates[id] += 1;
+                    self.set_updates(id, n + 1);
                 }
             }
         }
-        // Only resident bricks have updates counted.
+        // Resident bricks with fewer than `settled` updates.
         if settled > 0 {
-            let settled_bricks = self.updates.iter().filter(|&&n| n >= settled).count();
-            let resident_bricks = fresh + near.len() + far.len();
-            counts.young = resident_bricks.saturating_sub(settled_bricks) as u32;
+            counts.young = (0..words)
+                .map(|w| {
+                    let all =
+                        (0..resident.levels()).fold(0, |all, l| all | resident.level(l).word(w));
+                    self.young
+                        .iter()
+                        .map(|young| (young.word(w) & all).count_ones())
+                        .sum::<u32>()
+                })
+                .sum();
         }
-        self.near = near;
-        self.far = far;
         (picked, counts)
     }
 
@@ -490,15 +484,40 @@ impl LightSchedule {
     /// round-robin's visits at `1/age`.
     pub fn unsettle(&mut self) {
         self.updates.fill(0);
+        self.rebuild_young(self.settled);
     }
 
     /// Whether brick `brick_id` was young (fewer than `settle_updates` updates) when the last
     /// [`LightSchedule::pick`] picked it.
     pub fn settling(&self, brick_id: u32) -> bool {
-        self.settling
-            .get(brick_id as usize)
-            .copied()
-            .unwrap_or(false)
+        self.settling.contains(brick_id)
+    }
+
+    /// Sets the count of `id` (below `updates.len()`), moving it between the young sets.
+    fn set_updates(&mut self, id: u32, n: u32) {
+        let old = std::mem::replace(&mut self.updates[id as usize], n);
+        if let Some(set) = self.young.get_mut(old as usize) {
+            set.remove(id);
+            self.young_counts[old as usize] -= 1;
+        }
+        if let Some(set) = self.young.get_mut(n as usize) {
+            set.insert(id);
+            self.young_counts[n as usize] += 1;
+        }
+    }
+
+    /// Makes the young sets anew from the counts, for `settled` updates to settle.
+    fn rebuild_young(&mut self, settled: u32) {
+        self.settled = settled;
+        let ids = self.updates.len();
+        self.young = vec![IdSet::with_ids(ids); settled as usize];
+        self.young_counts = vec![0; settled as usize];
+        for (id, &n) in self.updates.iter().enumerate() {
+            if let Some(set) = self.young.get_mut(n as usize) {
+                set.insert(id as u32);
+                self.young_counts[n as usize] += 1;
+            }
+        }
     }
 
     /// Resident bricks (of `resident`) relit fewer than `settle_updates` times since they were
@@ -514,22 +533,55 @@ impl LightSchedule {
     }
 }
 
-/// Appends `count` bricks of `sorted` (by pool ID) starting after the ID `cursor`, wrapping
-/// around, and moves the cursor to the last one taken.
-fn round_robin(
-    sorted: &[ResidentBrick],
-    cursor: &mut Option<u32>,
-    count: usize,
-    out: &mut Vec<ResidentBrick>,
-) {
-    if count == 0 || sorted.is_empty() {
-        return;
+/// The resident bricks of some levels, less those in `skip`: one of the schedule's fields.
+#[derive(Clone)]
+struct Field<'a> {
+    resident: &'a Residency,
+    levels: std::ops::Range<u32>,
+    skip: &'a IdSet,
+}
+
+impl Field<'_> {
+    /// The members of pool-ID word `w`.
+    fn word(&self, w: usize) -> u64 {
+        let members = self
+            .levels
+            .clone()
+            .fold(0, |all, level| all | self.resident.level(level).word(w));
+        members & !self.skip.word(w)
     }
-    let start = cursor.map_or(0, |c| sorted.partition_point(|b| b.brick_id <= c));
-    for i in 0..count.min(sorted.len()) {
-        let b = sorted[(start + i) % sorted.len()];
-        out.push(b);
-        *cursor = Some(b.brick_id);
+
+    /// Appends `count` bricks (at most the field's) in pool-ID order, starting after the ID
+    /// `cursor` and wrapping around, and moves the cursor to the last one taken.
+    fn round_robin(&self, cursor: &mut Option<u32>, count: usize, out: &mut Vec<ResidentBrick>) {
+        let words = self.resident.id_bound().div_ceil(64);
+        if count == 0 || words == 0 {
+            return;
+        }
+        let mut start = cursor.map_or(0, |c| c as usize + 1);
+        if start >= words * 64 {
+            start = 0;
+        }
+        let (start_word, start_bit) = (start / 64, start % 64);
+        let mut taken = 0;
+        // The start word's IDs from the start on first, its IDs before it last.
+        for step in 0..=words {
+            let w = (start_word + step) % words;
+            let mut word = self.word(w);
+            if step == 0 {
+                word &= !0 << start_bit;
+            } else if step == words {
+                word &= (1 << start_bit) - 1;
+            }
+            for id in bits(word, w) {
+                out.push(self.resident.get(id).expect("a member of a level"));
+                *cursor = Some(id);
+                taken += 1;
+                if taken == count {
+                    return;
+                }
+            }
+        }
     }
 }
 
@@ -549,7 +601,7 @@ pub struct LightingInputs<'a> {
     /// Bricks voxelized this frame (relit first, whatever their level).
     pub new_bricks: &'a [ResidentBrick],
     /// Every allocated brick.
-    pub resident: &'a [ResidentBrick],
+    pub resident: &'a Residency,
 }
 
 impl<'a> LightingInputs<'a> {
@@ -1018,7 +1070,7 @@ impl CacheLighting {
             .resident
             .iter()
             .take(crate::config::MAX_LIT_BRICKS as usize)
-            .map(|b| scheduled_brick(b, uniforms.max_age))
+            .map(|b| scheduled_brick(&b, uniforms.max_age))
             .collect();
         if all.is_empty() {
             return;
@@ -1180,9 +1232,10 @@ mod tests {
     #[test]
     fn new_bricks_come_first_and_nothing_repeats_within_a_frame() {
         let resident = bricks(&[(0, 10), (4, 10)]);
+        let pool = Residency::from_bricks(8, &resident);
         let new = vec![resident[3], resident[15]];
         let mut schedule = LightSchedule::default();
-        let (picked, counts) = schedule.pick(&round_robin_only(8), &new, &resident, false);
+        let (picked, counts) = schedule.pick(&round_robin_only(8), &new, &pool, false);
         println!("{counts:?}");
         assert_eq!(&picked[..2], &new[..]);
         assert_eq!(picked.len(), 8);
@@ -1190,7 +1243,7 @@ mod tests {
         let unique: HashSet<u32> = picked.iter().map(|b| b.brick_id).collect();
         assert_eq!(unique.len(), picked.len());
         // A budget larger than the cache lights everything once.
-        let (all, _) = schedule.pick(&round_robin_only(100), &[], &resident, false);
+        let (all, _) = schedule.pick(&round_robin_only(100), &[], &pool, false);
         assert_eq!(all.len(), resident.len());
     }
 
@@ -1199,11 +1252,12 @@ mod tests {
         // 100 near and 1000 far bricks, 40 per frame: every brick is visited, and the refresh
         // periods keep HSGI's near/far ratio.
         let resident = bricks(&[(0, 50), (2, 50), (3, 500), (6, 500)]);
+        let pool = Residency::from_bricks(8, &resident);
         let mut schedule = LightSchedule::default();
         let mut visits = vec![0u32; resident.len() + 1];
         let frames = 2000;
         for _ in 0..frames {
-            let (picked, counts) = schedule.pick(&round_robin_only(40), &[], &resident, false);
+            let (picked, counts) = schedule.pick(&round_robin_only(40), &[], &pool, false);
             assert_eq!(counts.total(), 40);
             for b in picked {
                 visits[b.brick_id as usize] += 1;
@@ -1227,20 +1281,140 @@ mod tests {
         assert!(visits[1..].iter().all(|&v| v > 0));
     }
 
-    /// The resident list in pool-ID order (as the cache gives it) and the
-    /// same bricks in another order pick the same bricks frame after frame, while bricks are
-    /// released and voxelized anew.
+    /// The schedule written plainly over a list of the resident bricks, sorting where
+    /// [`LightSchedule`] walks bitsets: the oracle of `picks_match_a_plain_sort`.
+    #[derive(Default)]
+    struct ListSchedule {
+        near_cursor: Option<u32>,
+        far_cursor: Option<u32>,
+        far_credit: f64,
+        updates: Vec<u32>,
+        settling: HashSet<u32>,
+    }
+
+    impl ListSchedule {
+        fn pick(
+            &mut self,
+            budget: &ScheduleBudget,
+            new: &[ResidentBrick],
+            resident: &[ResidentBrick],
+            filling: bool,
+        ) -> (Vec<ResidentBrick>, ScheduleCounts) {
+            let total = budget.bricks as usize;
+            let settled = budget.settle_updates;
+            let mut picked: Vec<ResidentBrick> = new.iter().take(total).copied().collect();
+            let fresh: HashSet<u32> = picked.iter().map(|b| b.brick_id).collect();
+            let resident_ids: HashSet<u32> = resident.iter().map(|b| b.brick_id).collect();
+            self.updates.resize(1000, 0);
+            for b in new {
+                self.updates[b.brick_id as usize] = 0;
+            }
+            for id in 0..1000u32 {
+                if !resident_ids.contains(&id) && !fresh.contains(&id) {
+                    self.updates[id as usize] = 0;
+                }
+            }
+            let mut sorted = resident.to_vec();
+            sorted.sort_by_key(|b| b.brick_id);
+            let field = |near: bool| -> Vec<ResidentBrick> {
+                sorted
+                    .iter()
+                    .filter(|b| !fresh.contains(&b.brick_id))
+                    .filter(|b| (b.level < budget.near_levels) == near)
+                    .copied()
+                    .collect()
+            };
+            let (near, far) = (field(true), field(false));
+            let remaining = total - picked.len();
+            let mut far_count = 0;
+            if far.is_empty() {
+                self.far_credit = 0.0;
+            } else if remaining > 0 {
+                let near_demand = f64::from(NEAR_REFRESH_RATIO) * near.len() as f64;
+                self.far_credit +=
+                    remaining as f64 * far.len() as f64 / (near_demand + far.len() as f64);
+                far_count = (self.far_credit.floor() as usize).min(far.len());
+                self.far_credit = (self.far_credit - far_count as f64).min(far.len() as f64);
+            }
+            let near_count = (remaining - far_count).min(near.len());
+            far_count = (remaining - near_count).min(far.len());
+            let mut counts = ScheduleCounts {
+                new: picked.len() as u32,
+                near: near_count as u32,
+                far: far_count as u32,
+                ..Default::default()
+            };
+            for (list, cursor, count) in [
+                (&near, &mut self.near_cursor, near_count),
+                (&far, &mut self.far_cursor, far_count),
+            ] {
+                if count == 0 {
+                    continue;
+                }
+                let start = cursor.map_or(0, |c| list.partition_point(|b| b.brick_id <= c));
+                for i in 0..count {
+                    let b = list[(start + i) % list.len()];
+                    picked.push(b);
+                    *cursor = Some(b.brick_id);
+                }
+            }
+            let taken: HashSet<u32> = picked.iter().map(|b| b.brick_id).collect();
+            let mut young: Vec<ResidentBrick> = near
+                .iter()
+                .chain(&far)
+                .filter(|b| self.updates[b.brick_id as usize] < settled)
+                .filter(|b| !taken.contains(&b.brick_id))
+                .copied()
+                .collect();
+            young.sort_by_key(|b| {
+                (
+                    b.level >= budget.near_levels,
+                    self.updates[b.brick_id as usize],
+                    b.level,
+                    b.brick_id,
+                )
+            });
+            young.truncate(budget.settle_bricks as usize);
+            counts.settle = young.len() as u32;
+            picked.extend(young);
+            self.settling.clear();
+            for b in &picked {
+                let n = &mut self.updates[b.brick_id as usize];
+                if *n < settled {
+                    self.settling.insert(b.brick_id);
+                    if !filling {
+                        *n += 1;
+                    }
+                }
+            }
+            if settled > 0 {
+                counts.young = resident
+                    .iter()
+                    .filter(|b| self.updates[b.brick_id as usize] < settled)
+                    .count() as u32;
+            }
+            (picked, counts)
+        }
+    }
+
+    /// The schedule picks, counts and marks as settling exactly what the plain sort does,
+    /// frame after frame, while bricks are released and voxelized anew, a fill runs, the
+    /// lights change and the budgets change.
     #[test]
-    fn the_order_of_the_resident_list_changes_nothing() {
-        let all = bricks(&[(0, 40), (2, 40), (4, 60)]);
-        let budget = ScheduleBudget {
-            bricks: 12,
-            near_levels: 3,
-            settle_bricks: 9,
-            settle_updates: 3,
-        };
-        let (mut sorted, mut shuffled) = (LightSchedule::default(), LightSchedule::default());
-        for frame in 0..40usize {
+    fn picks_match_a_plain_sort() {
+        let all = bricks(&[(0, 40), (1, 25), (2, 40), (4, 60), (6, 30)]);
+        let (mut fast, mut plain) = (LightSchedule::default(), ListSchedule::default());
+        for frame in 0..120usize {
+            let budget = ScheduleBudget {
+                bricks: [12, 30, 5][frame % 3],
+                near_levels: if frame < 60 { 3 } else { 2 },
+                settle_bricks: if frame % 11 == 5 {
+                    0
+                } else {
+                    9 + frame as u32 % 4
+                },
+                settle_updates: if frame < 90 { 3 } else { 5 },
+            };
             // Every seventh frame a different tenth of the bricks is away (released), and
             // comes back voxelized anew the frame after.
             let away = |b: &ResidentBrick| frame % 7 == 0 && b.brick_id as usize % 10 == frame % 10;
@@ -1253,18 +1427,20 @@ mod tests {
             } else {
                 Vec::new()
             };
-            let mut reordered = resident.clone();
-            reordered.reverse();
-            reordered.rotate_left(frame % 13);
-            let filling = frame == 0;
-            let (a, counts_a) = sorted.pick(&budget, &new, &resident, filling);
-            let (b, counts_b) = shuffled.pick(&budget, &new, &reordered, filling);
+            if frame == 40 {
+                fast.unsettle();
+                plain.updates.fill(0);
+            }
+            let filling = frame < 2;
+            let pool = Residency::from_bricks(8, &resident);
+            let (a, counts_a) = fast.pick(&budget, &new, &pool, filling);
+            let (b, counts_b) = plain.pick(&budget, &new, &resident, filling);
             assert_eq!(a, b, "frame {frame}");
             assert_eq!(counts_a, counts_b, "frame {frame}");
             for brick in &all {
                 assert_eq!(
-                    sorted.settling(brick.brick_id),
-                    shuffled.settling(brick.brick_id),
+                    fast.settling(brick.brick_id),
+                    plain.settling.contains(&brick.brick_id),
                     "frame {frame}"
                 );
             }
@@ -1277,6 +1453,7 @@ mod tests {
         // 3 updates: 600 updates settle them all, which takes 20 frames from the settling
         // budget alone and no fewer than 15 with the round-robin's help.
         let resident = bricks(&[(0, 50), (2, 50), (4, 100)]);
+        let pool = Residency::from_bricks(8, &resident);
         let budget = ScheduleBudget {
             bricks: 10,
             near_levels: 3,
@@ -1285,7 +1462,7 @@ mod tests {
         };
         let mut schedule = LightSchedule::default();
         // A fill spends the settling budget, but its updates do not count.
-        let (picked, counts) = schedule.pick(&budget, &resident[..10], &resident, true);
+        let (picked, counts) = schedule.pick(&budget, &resident[..10], &pool, true);
         assert_eq!((picked.len(), counts.new, counts.settle), (40, 10, 30));
         assert_eq!(schedule.young_bricks(&resident, 3), 200);
         assert_eq!(counts.young, 200);
@@ -1293,7 +1470,7 @@ mod tests {
         let mut updates = vec![0u32; resident.len() + 1];
         let mut frames = 0;
         while schedule.young_bricks(&resident, 3) > 0 {
-            let (picked, counts) = schedule.pick(&budget, &[], &resident, false);
+            let (picked, counts) = schedule.pick(&budget, &[], &pool, false);
             frames += 1;
             assert!(frames <= 20, "still young after {frames} frames");
             assert_eq!(counts.young as usize, schedule.young_bricks(&resident, 3));
@@ -1317,16 +1494,16 @@ mod tests {
         assert!(frames >= 15, "{frames}");
         assert!(updates[1..].iter().all(|&n| n >= 3), "{updates:?}");
         // Settled: only the round-robin's budget is spent.
-        let (picked, counts) = schedule.pick(&budget, &[], &resident, false);
+        let (picked, counts) = schedule.pick(&budget, &[], &pool, false);
         assert_eq!((picked.len(), counts.settle), (10, 0));
 
         // A brick voxelized again (a dynamic object moved) is young again: lit as new, then
         // from the settling budget until it has its 3 updates.
         let moved = [resident[150]];
-        let (_, counts) = schedule.pick(&budget, &moved, &resident, false);
+        let (_, counts) = schedule.pick(&budget, &moved, &pool, false);
         assert_eq!((counts.new, counts.settle), (1, 0));
         for expected in [1, 1, 0] {
-            let (picked, counts) = schedule.pick(&budget, &[], &resident, false);
+            let (picked, counts) = schedule.pick(&budget, &[], &pool, false);
             assert_eq!(counts.settle, expected);
             if expected == 1 {
                 assert_eq!(picked.last(), Some(&moved[0]));
@@ -1337,7 +1514,7 @@ mod tests {
         // settling budget until it has its 3 updates, as after the fill.
         schedule.unsettle();
         assert_eq!(schedule.young_bricks(&resident, 3), 200);
-        let (picked, counts) = schedule.pick(&budget, &[], &resident, false);
+        let (picked, counts) = schedule.pick(&budget, &[], &pool, false);
         assert_eq!((picked.len(), counts.settle, counts.young), (40, 30, 200));
         assert!(picked.iter().all(|b| schedule.settling(b.brick_id)));
     }

@@ -38,7 +38,11 @@ use glam::{IVec3, Vec3, Vec4};
 
 use crate::buffers::CacheBuffers;
 use crate::cache::ResidentBrick;
+use crate::clipmap::ClipmapWindows;
 use crate::config::CacheConfig;
+use crate::layout::{GROUP_BRICKS, mask_cell};
+use crate::residency::{IdSet, bits};
+use crate::structure::CacheStructure;
 
 /// Least `|cos|` between the G-buffer normal and a voxel's normal for an update: a voxel whose
 /// surface turns (an edge or a corner of the geometry) keeps its own normal.
@@ -214,63 +218,78 @@ impl BrickFrustum {
     }
 }
 
-/// The bricks `cache/screen_inject` corrects this update: those of `resident` inside the
-/// frustum of `camera` and not in `skip`, finer levels first, then nearer, at most `budget`.
+/// The bricks `cache/screen_inject` corrects this update: the resident bricks (linked in
+/// `structure`, inside `windows`) inside the frustum of `camera` and not in `skip`, finer
+/// levels first, then nearer, at most `budget`.
+///
+/// A level's bricks are found through its groups of 4 x 4 x 4 bricks: a group whose box (grown
+/// by a thousandth of its edge against rounding) misses the frustum is skipped whole, and the
+/// bricks of the others come from their group masks and are tested one by one, so the choice
+/// costs a test per group of the window (256 a level by default) and per brick of the visible
+/// groups, rather than one per resident brick.
 pub fn select_bricks(
     config: &CacheConfig,
-    resident: &[ResidentBrick],
+    structure: &CacheStructure,
+    windows: &ClipmapWindows,
     camera: &GpuCamera,
     skip: &[ResidentBrick],
     budget: u32,
 ) -> Vec<ResidentBrick> {
     let position = Vec3::from(camera.position);
     let frustum = Frustum::new(camera);
-    // Skipped pool IDs as flags: a lookup per resident brick, thousands per frame.
-    let ids = resident
-        .iter()
-        .map(|b| b.brick_id as usize + 1)
-        .max()
-        .unwrap_or(0);
-    let mut skipped = vec![false; ids];
+    let mut skipped = IdSet::default();
     for b in skip {
-        if let Some(flag) = skipped.get_mut(b.brick_id as usize) {
-            *flag = true;
-        }
+        skipped.insert(b.brick_id);
     }
     // Finer levels first, then nearer, then by pool ID: levels are taken whole in order
     // until the budget is reached, so coarser levels are not even tested; the last level's
-    // share is selected in linear time before its bricks are sorted. The unskipped bricks
-    // grouped by level (their places in `resident`):
-    let mut by_level: Vec<Vec<u32>> = vec![Vec::new(); config.levels as usize];
-    for (i, b) in resident.iter().enumerate() {
-        if !skipped[b.brick_id as usize]
-            && let Some(list) = by_level.get_mut(b.level as usize)
-        {
-            list.push(i as u32);
-        }
-    }
+    // share is selected in linear time before its bricks are sorted.
     let budget = budget as usize;
-    let mut selected = Vec::with_capacity(budget.min(resident.len()));
+    let mut selected = Vec::with_capacity(budget);
     let mut visible: Vec<(u64, ResidentBrick)> = Vec::new();
-    for (level, places) in by_level.iter().enumerate() {
+    let group_bricks = GROUP_BRICKS as i32;
+    for level in 0..config.levels {
         if selected.len() >= budget {
             break;
         }
-        let size = config.brick_size_at(level as u32);
+        let size = config.brick_size_at(level);
+        let group_size = size * GROUP_BRICKS as f32;
+        let margin = Vec3::splat(group_size * 1e-3);
         let bricks = frustum.for_bricks(size);
+        let window = windows.window(level);
         // Distance bits order like the distances (non-negative floats), then the pool ID.
         visible.clear();
-        visible.extend(places.iter().filter_map(|&i| {
-            let b = resident[i as usize];
-            bricks.touches(b.brick).then(|| {
-                let center = (b.brick.as_vec3() + 0.5) * size;
-                let distance = (center - position).length();
-                (
-                    (u64::from(distance.to_bits()) << 32) | u64::from(b.brick_id),
-                    b,
-                )
-            })
-        }));
+        let (first, last) = (window.min / group_bricks, (window.max - 1) / group_bricks);
+        for z in first.z..=last.z {
+            for y in first.y..=last.y {
+                for x in first.x..=last.x {
+                    let group = IVec3::new(x, y, z);
+                    let lo = group.as_vec3() * group_size;
+                    if !frustum.touches(lo - margin, lo + Vec3::splat(group_size) + margin) {
+                        continue;
+                    }
+                    let origin = group * group_bricks;
+                    let mask = structure.group_mask(level, origin);
+                    for bit in bits(mask, 0) {
+                        let brick = origin + mask_cell(bit).as_ivec3();
+                        let id = structure.brick_id(level, brick);
+                        if skipped.contains(id) || !bricks.touches(brick) {
+                            continue;
+                        }
+                        let center = (brick.as_vec3() + 0.5) * size;
+                        let distance = (center - position).length();
+                        visible.push((
+                            (u64::from(distance.to_bits()) << 32) | u64::from(id),
+                            ResidentBrick {
+                                level,
+                                brick,
+                                brick_id: id,
+                            },
+                        ));
+                    }
+                }
+            }
+        }
         let take = (budget - selected.len()).min(visible.len());
         if take < visible.len() {
             visible.select_nth_unstable_by_key(take, |(key, _)| *key);
@@ -462,6 +481,8 @@ mod tests {
         let config = CacheConfig::default();
         let view = CameraView::look_at(Vec3::new(0.3, 1.1, 0.2), Vec3::new(-0.4, 0.1, -1.0), 1.0);
         let camera = GpuCamera::new(&view, (160, 90));
+        let windows = ClipmapWindows::new(&config, view.position);
+        let mut structure = CacheStructure::new(&config);
         let mut resident = Vec::new();
         let mut id = 0;
         for level in 0..config.levels {
@@ -470,10 +491,14 @@ mod tests {
                     for x in -6..6 {
                         // Pool IDs in no particular order, some levels sparse.
                         if (x + 2 * y + 3 * z + level as i32).rem_euclid(3) != 0 {
+                            let brick = IVec3::new(x, y, z);
+                            assert!(windows.window(level).contains(brick));
+                            let brick_id = ((id + 1) * 7919) % 100_003;
+                            structure.set_brick(level, brick, brick_id);
                             resident.push(ResidentBrick {
                                 level,
-                                brick: IVec3::new(x, y, z),
-                                brick_id: (id * 7919) % 100_003,
+                                brick,
+                                brick_id,
                             });
                             id += 1;
                         }
@@ -497,10 +522,11 @@ mod tests {
         let levels_seen: std::collections::HashSet<u32> = expected.iter().map(|e| e.0).collect();
         assert!(levels_seen.len() >= 3, "the view sees too few levels");
         for budget in [0, 1, 17, 150, 400, expected.len() as u32, 100_000] {
-            let selected: Vec<u32> = select_bricks(&config, &resident, &camera, &skip, budget)
-                .iter()
-                .map(|b| b.brick_id)
-                .collect();
+            let selected: Vec<u32> =
+                select_bricks(&config, &structure, &windows, &camera, &skip, budget)
+                    .iter()
+                    .map(|b| b.brick_id)
+                    .collect();
             let want: Vec<u32> = expected.iter().take(budget as usize).map(|e| e.2).collect();
             assert_eq!(selected, want, "budget {budget}");
         }

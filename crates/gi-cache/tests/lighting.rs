@@ -15,7 +15,7 @@ use gi_cache::lighting::{
 use gi_cache::packing::{unpack_rgb9e5, unpack_unit_vector};
 use gi_cache::{
     CacheBuffers, CacheConfig, CacheInputs, CacheLighting, CacheLightingHook, CacheTracer,
-    CpuCache, LightingInputs, RadianceCache, ResidentBrick, ScheduleCounts,
+    CpuCache, LightingInputs, RadianceCache, Residency, ResidentBrick, ScheduleCounts,
 };
 use gi_gpu::{
     GpuContext, GpuScene, GpuTimer, PassTimings, Recorder, ShaderLibrary, Technique,
@@ -137,6 +137,7 @@ struct LitCache {
     lighting: CacheLighting,
     timer: GpuTimer,
     bricks: Vec<ResidentBrick>,
+    residency: Residency,
     lights: Vec<WorldLight>,
     frames: u32,
 }
@@ -153,7 +154,7 @@ impl LitCache {
             &CacheBuffers::bind_group_layout(ctx),
         )
         .unwrap();
-        let bricks = cpu
+        let bricks: Vec<ResidentBrick> = cpu
             .bricks
             .iter()
             .map(|b| ResidentBrick {
@@ -162,6 +163,7 @@ impl LitCache {
                 brick_id: b.id,
             })
             .collect();
+        let residency = Residency::from_bricks(config.levels, &bricks);
         Self {
             cpu,
             buffers,
@@ -169,6 +171,7 @@ impl LitCache {
             lighting,
             timer: GpuTimer::new(ctx, "cache.lighting.test", 8),
             bricks,
+            residency,
             lights: frame.lights.clone(),
             frames: 0,
         }
@@ -185,7 +188,7 @@ impl LitCache {
             bvh: &self.gpu_scene.bvh,
             cache_bind_group: &self.buffers.bind_group,
             new_bricks: new,
-            resident: &self.bricks,
+            resident: &self.residency,
         };
         let counts = self
             .lighting
