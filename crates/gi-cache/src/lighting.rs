@@ -426,17 +426,24 @@ impl LightSchedule {
             for b in &picked {
                 self.picked.insert(b.brick_id);
             }
-            // Near field first, then fewest updates, finest level, pool ID.
+            // Near field first, then fewest updates, finest level, pool ID. The words where a
+            // count has unpicked members are found once per count, and each level reads those.
             let mut left = budget.settle_bricks as usize;
+            let mut candidates: Vec<(usize, u64)> = Vec::new();
             'fields: for levels in fields {
                 for (young, &members) in self.young.iter().zip(&self.young_counts) {
                     if members == 0 {
                         continue;
                     }
+                    candidates.clear();
+                    candidates.extend((0..words).filter_map(|w| {
+                        let word = young.word(w) & !self.picked.word(w);
+                        (word != 0).then_some((w, word))
+                    }));
                     for level in levels.clone() {
                         let set = resident.level(level);
-                        for w in 0..words {
-                            let word = set.word(w) & young.word(w) & !self.picked.word(w);
+                        for &(w, young_word) in &candidates {
+                            let word = set.word(w) & young_word;
                             for id in bits(word, w) {
                                 picked.push(resident.get(id).expect("a member of a level"));
                                 counts.settle += 1;
