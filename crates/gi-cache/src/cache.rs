@@ -24,6 +24,11 @@
 //! 6. when [`CacheInputs::gbuffer`] is set, records `cache/screen_inject` over the visible
 //!    resident bricks not voxelized in this update ([`crate::screen_inject`]);
 //! 7. records the lighting passes, when a [`CacheLightingHook`] is set.
+//!
+//! The allocated bricks are kept in a [`Residency`] (each pool ID's brick, a bitset of IDs per
+//! level) as they are allocated and released, so no step lists or scans the whole pool: the
+//! lighting's schedule walks the bitsets, screen injection the windows' group masks, eviction
+//! the coarsest levels' members.
 
 use foldhash::{HashSet, HashSetExt};
 

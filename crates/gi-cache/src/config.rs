@@ -57,6 +57,10 @@ pub struct CacheConfig {
     /// triangles, which `cache/voxelize` reads, are among them, so this bounds the CPU's and
     /// the GPU's work per frame where coarse bricks hold tens of thousands of triangles each;
     /// the first cell of a frame is taken whatever its cost, so the fill always advances.
+    /// 32,768 by default: flying through Sponza at 1920x1080 on an H100, 65,536 let 13 of 478
+    /// frames of the fill's tail spend more than 2 ms of GPU on the cache (up to 2.15 ms);
+    /// 32,768 kept every frame within 1.96 ms and drained the queue 12 frames later (46
+    /// frames after the first instead of 34; `benchmarks/RESULTS.md`, "Scale").
     pub voxelize_scan_per_frame: u32,
     /// Triangle list entries `cache/voxelize` gives one workgroup at most: a brick's list is
     /// cut into parts of this size, voxelized side by side and merged in list order
@@ -124,7 +128,7 @@ impl Default for CacheConfig {
             level_bricks: [32, 16, 32],
             pool_bricks: 12288,
             voxelize_bricks_per_frame: 512,
-            voxelize_scan_per_frame: 65_536,
+            voxelize_scan_per_frame: 32_768,
             voxelize_part_triangles: 64,
             screen_inject_bricks_per_frame: 2048,
             light_bricks_per_frame: 512,

@@ -619,11 +619,20 @@ fn batches_within_the_budgets_create_no_buffer() {
     let fill = update(&ctx, &mut cache, &scene, &frame, frame.camera.position);
     assert!(fill.queued_remaining > 0, "{fill:?}");
     let reserved = sizes(&ctx);
-    // A full batch: 512 bricks and 65,536 references in 1,024 parts of 64, at least one part
-    // per brick, and a record per part and per brick, in buffers of powers of two.
+    // A full batch: the default 512 bricks and 32,768 references in 512 parts of 64, at least
+    // one part per brick (1,024 parts), and a record per part and per brick (1,536), in
+    // buffers of powers of two.
+    assert_eq!(
+        (
+            config.voxelize_bricks_per_frame,
+            config.voxelize_scan_per_frame,
+            config.voxelize_part_triangles
+        ),
+        (512, 32_768, 64)
+    );
     assert_eq!(
         reserved,
-        [512 * 32, 65_536 * 4, 2048 * 16, 2048 * 4096],
+        [512 * 32, 32_768 * 4, 1024 * 16, 2048 * 4096],
         "{reserved:?}"
     );
     let mut voxelized = 0;
