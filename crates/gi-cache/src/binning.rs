@@ -588,7 +588,9 @@ impl LevelGrid {
 impl TriangleIndex {
     /// Prepares the triangles of `scene` for binning at the levels of `config`.
     pub fn new(config: &CacheConfig, scene: &CacheScene<'_>) -> Self {
+        // On all cores, like the grids: 4.2 million triangles took 0.1 s on one.
         let triangles: Vec<PreparedTriangle> = (0..scene.frame.triangles.len() as u32)
+            .into_par_iter()
             .filter_map(|index| {
                 let vertices = scene.vertices(index);
                 let [a, b, c] = vertices;
@@ -603,13 +605,20 @@ impl TriangleIndex {
         let brick_size_m: Vec<f32> = (0..config.levels)
             .map(|level| config.brick_size_at(level))
             .collect();
-        let grids = brick_size_m
-            .par_iter()
-            .map(|&size| LevelGrid::build(size, &triangles))
-            .collect();
+        // The copy kept to find changed geometry (hundreds of megabytes at millions of
+        // triangles) is made beside the grids.
+        let (grids, source) = rayon::join(
+            || {
+                brick_size_m
+                    .par_iter()
+                    .map(|&size| LevelGrid::build(size, &triangles))
+                    .collect()
+            },
+            || scene.frame.triangles.clone(),
+        );
         Self {
             brick_size_m,
-            source: scene.frame.triangles.clone(),
+            source,
             revision: scene.frame.geometry_revision,
             dynamic_node: scene.dynamic_node.clone(),
             triangles,
