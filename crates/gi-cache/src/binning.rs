@@ -340,9 +340,6 @@ struct LevelGrid {
     /// The large triangles whose bounds span more than [`LARGE_TRIANGLE_CELLS`] blocks (or
     /// are not gridded), which binning any cell tests.
     huge: Vec<u32>,
-    /// Per cell, the bricks ([`LevelGrid::brick_bit`]) that the cell's triangles overlap
-    /// (the exact test of the bins), read without testing a triangle again.
-    occupied: HashMap<IVec3, u64>,
 }
 
 /// The triangles of one grid cell that overlap at least one of its bricks.
@@ -354,6 +351,9 @@ struct CellList {
     /// Per entry, the bricks it overlaps ([`LevelGrid::brick_bit`]); empty when the cell is
     /// one brick, which every entry then overlaps.
     masks: Vec<u64>,
+    /// The bricks that some entry overlaps (the exact test of the bins), read without
+    /// testing a triangle again.
+    occupied: u64,
 }
 
 impl CellList {
@@ -361,6 +361,7 @@ impl CellList {
     fn extend(&mut self, other: CellList) {
         self.references.extend(other.references);
         self.masks.extend(other.masks);
+        self.occupied |= other.occupied;
     }
 
     /// The bricks entry `i` overlaps.
@@ -449,7 +450,6 @@ impl LevelGrid {
             large: Vec::new(),
             large_blocks: HashMap::new(),
             huge: Vec::new(),
-            occupied: HashMap::new(),
         };
         let chunks = triangles.len().div_ceil(BUILD_CHUNK).max(1) as u64;
         let parts: Vec<Self> = triangles
@@ -473,9 +473,6 @@ impl LevelGrid {
                 grid.large_blocks.entry(block).or_default().extend(entries);
             }
             grid.huge.extend(part.huge);
-            for (cell, mask) in part.occupied {
-                *grid.occupied.entry(cell).or_default() |= mask;
-            }
         }
         grid
     }
@@ -539,7 +536,7 @@ impl LevelGrid {
                 if self.cell_bricks > 1 {
                     list.masks.push(mask);
                 }
-                *self.occupied.entry(cell).or_default() |= mask;
+                list.occupied |= mask;
             }
         }
     }
@@ -844,7 +841,7 @@ impl TriangleIndex {
             return bricks;
         }
         for cell in grid.cells_of(region).bricks() {
-            let Some(&mask) = grid.occupied.get(&cell) else {
+            let Some(mask) = grid.cells.get(&cell).map(|list| list.occupied) else {
                 continue;
             };
             for brick in grid.cell_box(cell).intersection(region).bricks() {
