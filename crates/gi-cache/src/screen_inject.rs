@@ -40,7 +40,7 @@ use crate::buffers::CacheBuffers;
 use crate::cache::ResidentBrick;
 use crate::clipmap::ClipmapWindows;
 use crate::config::CacheConfig;
-use crate::layout::{GROUP_BRICKS, mask_cell};
+use crate::layout::{GROUP_BRICKS, group_of_brick, mask_cell};
 use crate::residency::{IdSet, bits};
 use crate::structure::CacheStructure;
 
@@ -259,7 +259,10 @@ pub fn select_bricks(
         let window = windows.window(level);
         // Distance bits order like the distances (non-negative floats), then the pool ID.
         visible.clear();
-        let (first, last) = (window.min / group_bricks, (window.max - 1) / group_bricks);
+        let (first, last) = (
+            group_of_brick(window.min),
+            group_of_brick(window.max - IVec3::ONE),
+        );
         for z in first.z..=last.z {
             for y in first.y..=last.y {
                 for x in first.x..=last.x {
@@ -479,56 +482,72 @@ mod tests {
     #[test]
     fn selection_is_the_finest_nearest_visible_bricks() {
         let config = CacheConfig::default();
-        let view = CameraView::look_at(Vec3::new(0.3, 1.1, 0.2), Vec3::new(-0.4, 0.1, -1.0), 1.0);
-        let camera = GpuCamera::new(&view, (160, 90));
-        let windows = ClipmapWindows::new(&config, view.position);
-        let mut structure = CacheStructure::new(&config);
-        let mut resident = Vec::new();
-        let mut id = 0;
-        for level in 0..config.levels {
-            for z in -6..6 {
-                for y in -2..3 {
-                    for x in -6..6 {
-                        // Pool IDs in no particular order, some levels sparse.
-                        if (x + 2 * y + 3 * z + level as i32).rem_euclid(3) != 0 {
-                            let brick = IVec3::new(x, y, z);
-                            assert!(windows.window(level).contains(brick));
-                            let brick_id = ((id + 1) * 7919) % 100_003;
-                            structure.set_brick(level, brick, brick_id);
-                            resident.push(ResidentBrick {
-                                level,
-                                brick,
-                                brick_id,
-                            });
-                            id += 1;
+        // Near the origin, and far on the negative side of every axis and on the positive
+        // side of one (windows whose groups have negative coordinates), looking along +x.
+        for origin in [
+            Vec3::new(0.3, 1.1, 0.2),
+            Vec3::new(-403.7, -51.9, -287.4),
+            Vec3::new(517.2, -33.3, 20.8),
+        ] {
+            let view = CameraView::look_at(origin, origin + Vec3::new(1.0, -0.3, 0.2), 1.0);
+            let camera = GpuCamera::new(&view, (160, 90));
+            let windows = ClipmapWindows::new(&config, view.position);
+            let mut structure = CacheStructure::new(&config);
+            let mut resident = Vec::new();
+            let mut id = 0;
+            for level in 0..config.levels {
+                let center = (origin / config.brick_size_at(level)).floor().as_ivec3();
+                let window = windows.window(level);
+                // Bricks around the camera, and the window's first group along x (behind the
+                // camera), whose link slots a group past the window's far end would share.
+                let near = (-6..6).map(move |x| center.x + x);
+                let edge = window.min.x..window.min.x + 4;
+                for x in near.chain(edge) {
+                    for y in -2..3 {
+                        for z in -6..6 {
+                            // Pool IDs in no particular order, some levels sparse.
+                            let local = IVec3::new(x - center.x, y, z);
+                            if (local.x + 2 * y + 3 * z + level as i32).rem_euclid(3) != 0 {
+                                let brick = IVec3::new(x, center.y + y, center.z + z);
+                                assert!(windows.window(level).contains(brick));
+                                let brick_id = ((id + 1) * 7919) % 100_003;
+                                structure.set_brick(level, brick, brick_id);
+                                resident.push(ResidentBrick {
+                                    level,
+                                    brick,
+                                    brick_id,
+                                });
+                                id += 1;
+                            }
                         }
                     }
                 }
             }
-        }
-        let skip: Vec<ResidentBrick> = resident.iter().step_by(5).copied().collect();
-        let mut expected: Vec<(u32, f32, u32)> = resident
-            .iter()
-            .filter(|b| !skip.contains(b))
-            .filter_map(|b| {
-                let size = config.brick_size_at(b.level);
-                let lo = b.brick.as_vec3() * size;
-                let hi = lo + Vec3::splat(size);
-                let distance = ((lo + hi) * 0.5 - view.position).length();
-                box_in_frustum(&camera, lo, hi).then_some((b.level, distance, b.brick_id))
-            })
-            .collect();
-        expected.sort_by(|a, b| a.0.cmp(&b.0).then(a.1.total_cmp(&b.1)).then(a.2.cmp(&b.2)));
-        let levels_seen: std::collections::HashSet<u32> = expected.iter().map(|e| e.0).collect();
-        assert!(levels_seen.len() >= 3, "the view sees too few levels");
-        for budget in [0, 1, 17, 150, 400, expected.len() as u32, 100_000] {
-            let selected: Vec<u32> =
-                select_bricks(&config, &structure, &windows, &camera, &skip, budget)
-                    .iter()
-                    .map(|b| b.brick_id)
-                    .collect();
-            let want: Vec<u32> = expected.iter().take(budget as usize).map(|e| e.2).collect();
-            assert_eq!(selected, want, "budget {budget}");
+            let skip: Vec<ResidentBrick> = resident.iter().step_by(5).copied().collect();
+            let mut expected: Vec<(u32, f32, u32)> = resident
+                .iter()
+                .filter(|b| !skip.contains(b))
+                .filter_map(|b| {
+                    let size = config.brick_size_at(b.level);
+                    let lo = b.brick.as_vec3() * size;
+                    let hi = lo + Vec3::splat(size);
+                    let distance = ((lo + hi) * 0.5 - view.position).length();
+                    box_in_frustum(&camera, lo, hi).then_some((b.level, distance, b.brick_id))
+                })
+                .collect();
+            expected.sort_by(|a, b| a.0.cmp(&b.0).then(a.1.total_cmp(&b.1)).then(a.2.cmp(&b.2)));
+            let levels_seen: std::collections::HashSet<u32> =
+                expected.iter().map(|e| e.0).collect();
+            assert!(levels_seen.len() >= 3, "the view sees too few levels");
+            for budget in [0, 1, 17, 150, 400, expected.len() as u32, 100_000] {
+                let selected: Vec<u32> =
+                    select_bricks(&config, &structure, &windows, &camera, &skip, budget)
+                        .iter()
+                        .map(|b| b.brick_id)
+                        .collect();
+                let want: Vec<u32> = expected.iter().take(budget as usize).map(|e| e.2).collect();
+                assert_eq!(selected, want, "camera at {origin}, budget {budget}");
+            }
         }
     }
 
