@@ -186,32 +186,16 @@ impl Residency {
         self.level_counts.get(level as usize).copied().unwrap_or(0) as usize
     }
 
-    /// Level and brick of each pool ID (`None` where free), indexed by ID.
-    pub fn owners(&self) -> &[Option<(u32, IVec3)>] {
-        &self.owner
-    }
-
     /// Every resident brick in pool-ID order.
     pub fn iter(&self) -> impl Iterator<Item = ResidentBrick> + '_ {
-        self.owner.iter().enumerate().filter_map(|(id, owner)| {
-            owner.map(|(level, brick)| ResidentBrick {
-                level,
-                brick,
-                brick_id: id as u32,
-            })
-        })
+        (0..self.owner.len() as u32).filter_map(|id| self.get(id))
     }
 
     /// The resident bricks of `level` in pool-ID order.
     pub fn iter_level(&self, level: u32) -> impl Iterator<Item = ResidentBrick> + '_ {
-        self.level(level).iter().map(|id| {
-            let (level, brick) = self.owner[id as usize].expect("a member of a level is resident");
-            ResidentBrick {
-                level,
-                brick,
-                brick_id: id,
-            }
-        })
+        self.level(level)
+            .iter()
+            .map(|id| self.get(id).expect("a member of a level is resident"))
     }
 }
 
