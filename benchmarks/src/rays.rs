@@ -8,7 +8,8 @@
 //! traced at the last of those frames.
 //!
 //! Three kinds of rays, `count` of each:
-//! - primary: camera rays over a pixel grid (coherent; closest hit),
+//! - primary: camera rays over a pixel grid in 8 x 8 tiles, as the tiers' G-buffer casts them
+//!   (coherent; closest hit),
 //! - shadow: from the primary hits towards the scene's lights, or towards random points in the
 //!   scene bounds when it has no punctual lights (any hit, finite segments),
 //! - incoherent: cosine-distributed bounces off the primary hits (closest hit).
@@ -171,14 +172,26 @@ pub fn run(
     Ok(report)
 }
 
-/// Camera rays through the pixel centers of a 4:3 grid of about `count` pixels, row by row.
+/// Side of the square pixel tiles primary rays are ordered in: the tiers' ray-cast G-buffer
+/// (`gbuffer/primary`) runs 8 x 8 workgroups, so a 64-ray workgroup here covers the same
+/// pixels as one there.
+const TILE: usize = 8;
+
+/// Camera rays through the pixel centers of a 4:3 grid of about `count` pixels (its sides
+/// multiples of [`TILE`]), tile by tile in rows of tiles, each tile row by row; the first
+/// `count` of them.
 fn primary_rays(frame: &SceneFrame, count: usize) -> Vec<GpuRay> {
     let aspect = 4.0 / 3.0;
-    let width = ((count as f32 * aspect).sqrt().ceil() as usize).max(1);
-    let height = count.div_ceil(width);
+    let width = ((count as f32 * aspect).sqrt().ceil() as usize)
+        .max(1)
+        .next_multiple_of(TILE);
+    let height = count.div_ceil(width).next_multiple_of(TILE);
+    let tiles_x = width / TILE;
     (0..count)
         .map(|i| {
-            let (x, y) = (i % width, i / width);
+            let (tile, within) = (i / (TILE * TILE), i % (TILE * TILE));
+            let x = (tile % tiles_x) * TILE + within % TILE;
+            let y = (tile / tiles_x) * TILE + within / TILE;
             let u = (x as f32 + 0.5) / width as f32;
             let v = (y as f32 + 0.5) / height as f32;
             let dir = frame.camera.ray_direction(u, v, aspect);

@@ -11,6 +11,7 @@ use obvhs::{
     cwbvh::{CwBvh, bvh2_to_cwbvh::bvh2_to_cwbvh},
     ploc::PlocBuilder,
     ray::Ray,
+    splits::split_aabbs_preset,
     traverse,
     triangle::Triangle,
 };
@@ -61,6 +62,51 @@ pub fn tie_breaking_bounds<T: Boundable>(primitives: &[T]) -> Vec<Aabb> {
 /// and the conversion as obvhs' `build_cwbvh` (`params.pre_split` is ignored, as there).
 pub fn build_cwbvh<T: Boundable>(primitives: &[T], params: BvhBuildParams) -> CwBvh {
     build_cwbvh_over(primitives, &tie_breaking_bounds(primitives), params)
+}
+
+/// The build the traversal-heavy BVHs use (the GPU's static levels and [`SceneBvh`]): obvhs'
+/// `medium_build` with large triangles pre-split ([`build_triangle_cwbvh`]).
+pub const fn traversal_build() -> BvhBuildParams {
+    BvhBuildParams {
+        pre_split: true,
+        ..BvhBuildParams::medium_build()
+    }
+}
+
+/// [`build_cwbvh`] over triangles, honouring `params.pre_split`: a triangle whose box is large
+/// against the average (a floor, a wall) is cut into pieces along its box's longest axis with
+/// obvhs' `split_aabbs_preset` (Dammertz and Keller's early split clipping: each piece's box is
+/// the box of the triangle's part on its side of the cut), the tree is built over the pieces,
+/// and a leaf names the triangle of each piece it holds. A triangle may then sit in several
+/// leaves; a ray tests it whole wherever it meets it, so hits are unchanged and only the boxes
+/// are tighter. A cut piece's box is grown by a few ulps of its coordinates, since the points
+/// where the cut crosses an edge are rounded.
+pub fn build_triangle_cwbvh(triangles: &[Triangle], params: BvhBuildParams) -> CwBvh {
+    if !params.pre_split || triangles.is_empty() {
+        return build_cwbvh(triangles, params);
+    }
+    let mut pieces: Vec<Aabb> = triangles.iter().map(Boundable::aabb).collect();
+    let half_areas = pieces.iter().map(Aabb::half_area);
+    let largest = half_areas.clone().fold(0.0f32, f32::max);
+    let average = half_areas.sum::<f32>() / triangles.len() as f32;
+    let mut owners: Vec<u32> = (0..triangles.len() as u32).collect();
+    split_aabbs_preset(&mut pieces, &mut owners, triangles, average, largest);
+    let mut cut = vec![false; triangles.len()];
+    for &owner in &owners[triangles.len()..] {
+        cut[owner as usize] = true;
+    }
+    for (piece, &owner) in pieces.iter_mut().zip(&owners) {
+        if cut[owner as usize] {
+            let distance = piece.min.abs().max(piece.max.abs()).max_element();
+            let grow = distance * 1e-6 + 1e-30;
+            *piece = Aabb::new(piece.min - grow, piece.max + grow);
+        }
+    }
+    let mut bvh = build_cwbvh_over(&pieces, &tie_breaking_bounds(&pieces), params);
+    for index in &mut bvh.primitive_indices {
+        *index = owners[*index as usize];
+    }
+    bvh
 }
 
 /// [`build_cwbvh`] with its tree built on `bounds` (one per primitive).
@@ -176,15 +222,15 @@ struct Nearest {
 }
 
 impl SceneBvh {
-    /// Builds with obvhs' `medium_build` preset (a good trade-off for static scenes).
+    /// Builds with [`traversal_build`] (a good trade-off for static scenes).
     pub fn build(triangles: &[Triangle]) -> Self {
-        Self::build_with(triangles, BvhBuildParams::medium_build())
+        Self::build_with(triangles, traversal_build())
     }
 
     /// Builds with explicit obvhs parameters.
     pub fn build_with(triangles: &[Triangle], params: BvhBuildParams) -> Self {
         let start = Instant::now();
-        let bvh = build_cwbvh(triangles, params);
+        let bvh = build_triangle_cwbvh(triangles, params);
         let leaf_triangles = LeafTriangles::new(triangles, &bvh.primitive_indices);
         Self {
             bvh,
@@ -290,8 +336,7 @@ impl SceneBvh {
         t_min: f32,
         t_max: f32,
     ) -> bool {
-        debug_assert_eq!(triangles.len(), self.leaf_triangles.len());
-        if triangles.is_empty() {
+        if triangles.is_empty() || self.leaf_triangles.is_empty() {
             return false;
         }
         let ray = Ray::new(Vec3A::from(origin), canonical_direction(dir), t_min, t_max);
@@ -451,6 +496,95 @@ mod tests {
         assert_eq!(held(&broken), all);
         assert_eq!(broken.nodes[0].p, Vec3::ZERO);
         assert_eq!(tied.nodes[0].p, Vec3::ZERO);
+    }
+
+    /// `traversal_build` cuts long slivers lying across a row of boxes into pieces: the tree
+    /// has more leaf entries than triangles, every triangle is in a leaf whose box holds one
+    /// of its pieces, and rays aimed at points of the slivers (near their edges too, where
+    /// the cuts' rounded crossings lie) and rays at random find the same nearest triangle and
+    /// distance, and the same blockers, as a test of every triangle.
+    #[test]
+    fn pre_split_builds_find_every_hit_of_a_brute_force_test() {
+        let mut triangles: Vec<Triangle> = (0..24).flat_map(|i| unit_box(i as f32 * 2.0)).collect();
+        let slivers = triangles.len();
+        for k in 0..6 {
+            let y = 0.15 * k as f32 + 0.1;
+            triangles.push(Triangle {
+                v0: Vec3A::new(-1.0, y, -0.5),
+                v1: Vec3A::new(48.0, y + 0.8, 1.7),
+                v2: Vec3A::new(47.5, y + 0.9, 1.2 + 0.1 * k as f32),
+            });
+        }
+        let bvh = SceneBvh::build(&triangles);
+        assert!(
+            bvh.bvh.primitive_indices.len() > triangles.len(),
+            "no triangle was cut"
+        );
+        let mut held = vec![false; triangles.len()];
+        for &i in &bvh.bvh.primitive_indices {
+            held[i as usize] = true;
+        }
+        assert!(held.iter().all(|&h| h));
+        // A small deterministic sequence in [0, 1).
+        let mut state = 0x2545_f491_u32;
+        let mut next = move || {
+            state ^= state << 13;
+            state ^= state >> 17;
+            state ^= state << 5;
+            (state >> 8) as f32 / (1u32 << 24) as f32
+        };
+        let brute = |origin: Vec3, dir: Vec3, t_max: f32| {
+            let ray = Ray::new(Vec3A::from(origin), canonical_direction(dir), 0.0, t_max);
+            let mut hits: Vec<(f32, u32)> = (triangles.iter().enumerate())
+                .map(|(i, tri)| (tri.intersect(&ray), i as u32))
+                .filter(|&(t, _)| t.is_finite() && t < t_max)
+                .collect();
+            hits.sort_by(|a, b| a.0.total_cmp(&b.0));
+            hits
+        };
+        let mut compared = 0;
+        for r in 0..3000 {
+            let origin = Vec3::new(next() * 60.0 - 6.0, next() * 6.0 - 2.0, next() * 8.0 - 3.0);
+            let target = if r % 3 == 0 {
+                Vec3::new(next() * 50.0 - 1.0, next() * 2.0, next() * 2.0)
+            } else {
+                // A point of a sliver, one weight within 1e-3 of zero on every other ray.
+                let tri = &triangles[slivers + r % 6];
+                let (mut u, mut v) = (next(), next());
+                if u + v > 1.0 {
+                    (u, v) = (1.0 - u, 1.0 - v);
+                }
+                if r % 2 == 0 {
+                    v *= 1e-3;
+                }
+                Vec3::from(tri.v0 + (tri.v1 - tri.v0) * u + (tri.v2 - tri.v0) * v)
+            };
+            let dir = (target - origin).normalize();
+            let expected = brute(origin, dir, 1e3);
+            let found = bvh.closest_triangle(origin, dir, 0.0, 1e3);
+            match (expected.first(), found) {
+                (None, None) => {}
+                (Some(&(t, triangle)), Some((found_t, found_triangle))) => {
+                    assert!(
+                        (found_t - t).abs() <= 1e-4 * t.max(1.0),
+                        "ray {r}: {found_t} vs {t}"
+                    );
+                    // The same triangle unless another lies within rounding of it.
+                    let tied = expected
+                        .iter()
+                        .filter(|h| (h.0 - t).abs() <= 1e-4 * t.max(1.0));
+                    assert!(
+                        tied.clone().any(|h| h.1 == found_triangle),
+                        "ray {r}: {found_triangle} vs {triangle}"
+                    );
+                    compared += 1;
+                    let t_max = t * 1.01;
+                    assert!(bvh.occluded(&triangles, origin, dir, 0.0, t_max), "ray {r}");
+                }
+                (expected, found) => panic!("ray {r}: {found:?} vs {expected:?}"),
+            }
+        }
+        assert!(compared > 1500, "only {compared} rays hit");
     }
 
     /// A large right triangle (area 8): the weights must not scale with its area, and the hit

@@ -21,7 +21,10 @@ pub use bundled::{
     BUNDLED_SCENES, LoadedScene, bundled_scene_dir, import_with_lighting, load, load_with_lighting,
     resolve,
 };
-pub use bvh::{Hit, SceneBvh, WideBvh, build_cwbvh, cwbvh_depth, tie_breaking_bounds};
+pub use bvh::{
+    Hit, SceneBvh, WideBvh, build_cwbvh, build_triangle_cwbvh, cwbvh_depth, tie_breaking_bounds,
+    traversal_build,
+};
 pub use emitters::{EmitterDistribution, luminance};
 pub use error::SceneError;
 pub use export::write_gltf;

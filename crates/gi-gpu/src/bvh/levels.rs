@@ -3,8 +3,9 @@
 //!
 //! Static geometry (mesh nodes whose world transform never changes: neither they nor an
 //! ancestor have an animation channel) goes into one world-space bottom level, built with
-//! obvhs's `medium_build` for the best traversal quality; its primitives carry their frame
-//! triangle index and its instance has the identity transform. Each mesh used by a moving node
+//! `gi_scene::traversal_build` (obvhs's `medium_build`, large triangles pre-split) for the
+//! best traversal quality; its primitives carry their frame triangle index and its instance
+//! has the identity transform. Each mesh used by a moving node
 //! gets one bottom level in the mesh's object space, shared by every moving node that uses it;
 //! an instance per moving node carries its `object_from_world` and the first index of its
 //! triangle range in the frame. The top level is an obvhs CWBVH over the instances' world
@@ -563,7 +564,7 @@ impl BottomLevels {
         }
     }
 
-    /// Builds and appends a level over `triangles` with obvhs's `medium_build`;
+    /// Builds and appends a level over `triangles` with `gi_scene::traversal_build`;
     /// `frame_indices[i]` replaces primitive `i`'s stored index when given, `alpha[i]` flags
     /// triangle `i` as alpha-tested. `None` for an empty list.
     fn add_blas(
@@ -572,12 +573,7 @@ impl BottomLevels {
         frame_indices: Option<&[u32]>,
         alpha: &[bool],
     ) -> Result<Option<usize>, BvhError> {
-        self.add_blas_with(
-            triangles,
-            frame_indices,
-            alpha,
-            BvhBuildParams::medium_build(),
-        )
+        self.add_blas_with(triangles, frame_indices, alpha, gi_scene::traversal_build())
     }
 
     /// [`BottomLevels::add_blas`] with the given build parameters.
@@ -592,7 +588,7 @@ impl BottomLevels {
             return Ok(None);
         }
         // The tree on tie-breaking bounds, the boxes exact (as the CPU's SceneBvh).
-        let bvh = gi_scene::build_cwbvh(triangles, params);
+        let bvh = gi_scene::build_triangle_cwbvh(triangles, params);
         let mut packed = PackedBvh::new(&bvh, triangles)?;
         for tri in &mut packed.triangles {
             if alpha.get(tri.triangle as usize).copied().unwrap_or(false) {

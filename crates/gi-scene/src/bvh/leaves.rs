@@ -49,10 +49,6 @@ impl LeafTriangles {
         self.len == 0
     }
 
-    pub(super) fn len(&self) -> usize {
-        self.len
-    }
-
     pub(super) fn memory_bytes(&self) -> usize {
         self.components
             .iter()
