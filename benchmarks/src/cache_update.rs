@@ -23,6 +23,7 @@ use gi_gpu::{
     GBuffer, GBufferInputs, GpuContext, GpuScene, GpuTimer, PassTimings, Recorder, ShaderLibrary,
     Technique, wgpu,
 };
+use gi_scene::Evaluation;
 
 /// Passes a frame can record: `gbuffer/primary` and the five cache passes, with room to spare.
 const TIMER_SCOPES: u32 = 12;
@@ -126,7 +127,10 @@ pub fn run(options: &CacheUpdateOptions) -> anyhow::Result<CacheUpdateReport> {
         scene.evaluate(time_s, Some(scene.path_view(time_s)))
     };
     // As the renderer does: a scene without animation is evaluated once and then only gets
-    // each frame's time and camera, and the last frame is kept without its triangles.
+    // each frame's time and camera; an animated one's last frame is moved to the next time in
+    // place (`Scene::evaluate_into`: its revision changes only where geometry did, so the
+    // cache's triangle index costs nothing while the animated nodes hold still). The last
+    // frame is kept without its triangles.
     let mut frame = view_at(0);
     let mut previous = frame.without_geometry();
     let mut gpu_scene = GpuScene::upload(&ctx, &scene, &frame)?;
@@ -151,7 +155,9 @@ pub fn run(options: &CacheUpdateOptions) -> anyhow::Result<CacheUpdateReport> {
     for index in 0..options.frames {
         if index > 0 {
             if scene.is_animated() {
-                frame = view_at(index);
+                let time_s = scene.frame_time(index);
+                let camera = Some(scene.path_view(time_s));
+                scene.evaluate_into(&mut frame, time_s, camera, &Evaluation::default());
             } else {
                 frame.time_s = scene.frame_time(index);
                 frame.camera = scene.path_view(frame.time_s);

@@ -24,9 +24,8 @@ pub const TRIANGLE_DYNAMIC_BIT: u32 = 1 << 31;
 /// node deforms (skinned with a moving joint, or morphed by animated weights;
 /// [`Scene::deforming_nodes`]), so its triangles may move from frame to frame.
 pub fn dynamic_nodes(scene: &Scene) -> Vec<bool> {
-    let deforming = scene.deforming_nodes();
-    scene
-        .moving_nodes()
+    let (moving, deforming) = scene.moving_and_deforming_nodes();
+    moving
         .into_iter()
         .zip(deforming)
         .map(|(moving, deforming)| moving || deforming)

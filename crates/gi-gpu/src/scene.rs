@@ -324,7 +324,7 @@ fn write_at(
 /// disjoint ranges: a node's triangles are contiguous in a frame, and the others are the same
 /// in every evaluation.
 fn changing_ranges(scene: &Scene, frame: &SceneFrame) -> Vec<Range<usize>> {
-    let (moving, deforming) = (scene.moving_nodes(), scene.deforming_nodes());
+    let (moving, deforming) = scene.moving_and_deforming_nodes();
     let changes = |node: u32| {
         let node = node as usize;
         moving.get(node).copied().unwrap_or(true) || deforming.get(node).copied().unwrap_or(true)

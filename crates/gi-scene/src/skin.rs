@@ -21,6 +21,44 @@ use crate::frame::par_map_index;
 use crate::model::{Primitive, Scene, Skin};
 use crate::morph::MorphedVertices;
 
+/// `result[node]`: `flagged` is set for the node or one of its ancestors (`parent_of` walks
+/// up). Each node is walked once: a walk stops at the first node already answered and answers
+/// every node it passed. A parent index outside the nodes ends a walk unflagged; so does a
+/// cycle without a flagged node, after one trip around it (a hand-built hierarchy cannot
+/// hang).
+fn moves_with_ancestors(flagged: &[bool], parent_of: impl Fn(usize) -> Option<usize>) -> Vec<bool> {
+    const UNKNOWN: u8 = 0;
+    const STILL: u8 = 1;
+    const MOVES: u8 = 2;
+    let count = flagged.len();
+    let mut state = vec![UNKNOWN; count];
+    let mut path = Vec::new();
+    for node in 0..count {
+        let mut current = Some(node);
+        let mut moves = false;
+        for _ in 0..=count {
+            let Some(index) = current.filter(|&i| i < count) else {
+                break;
+            };
+            if state[index] != UNKNOWN {
+                moves = state[index] == MOVES;
+                break;
+            }
+            path.push(index);
+            if flagged[index] {
+                moves = true;
+                break;
+            }
+            current = parent_of(index);
+        }
+        for &index in &path {
+            state[index] = if moves { MOVES } else { STILL };
+        }
+        path.clear();
+    }
+    state.into_iter().map(|s| s == MOVES).collect()
+}
+
 /// A primitive's vertices placed in world space by its skin.
 pub(crate) struct SkinnedVertices {
     pub positions: Vec<Vec3>,
@@ -46,22 +84,15 @@ impl Scene {
                 *flag = true;
             }
         }
-        (0..self.nodes.len())
-            .map(|node| {
-                // Bounded walk up the parents, so a cyclic hand-built hierarchy cannot hang.
-                let mut current = Some(node);
-                for _ in 0..=self.nodes.len() {
-                    let Some(index) = current.filter(|&i| i < self.nodes.len()) else {
-                        return false;
-                    };
-                    if animated[index] {
-                        return true;
-                    }
-                    current = self.nodes[index].parent;
-                }
-                false
-            })
-            .collect()
+        moves_with_ancestors(&animated, |node| self.nodes[node].parent)
+    }
+
+    /// [`Scene::moving_nodes`] and [`Scene::deforming_nodes`] together, the first computed
+    /// once (a renderer or the cache asks for both every frame).
+    pub fn moving_and_deforming_nodes(&self) -> (Vec<bool>, Vec<bool>) {
+        let moving = self.moving_nodes();
+        let deforming = self.deforming_given(&moving);
+        (moving, deforming)
     }
 
     /// The skin that deforms node `node`'s mesh: the node has a mesh with at least one skinned
@@ -86,7 +117,11 @@ impl Scene {
     /// A skinned node whose joints stand still, and a still node with constant weights, are
     /// static geometry, deformed once by every evaluation.
     pub fn deforming_nodes(&self) -> Vec<bool> {
-        let moving = self.moving_nodes();
+        self.deforming_given(&self.moving_nodes())
+    }
+
+    /// [`Scene::deforming_nodes`] given [`Scene::moving_nodes`].
+    fn deforming_given(&self, moving: &[bool]) -> Vec<bool> {
         let moves = |node: usize| moving.get(node).copied().unwrap_or(false);
         let morph_animated = self.morph_animated_nodes();
         (0..self.nodes.len())
@@ -246,5 +281,63 @@ pub(crate) fn skin_primitive(
         normals,
         tangents,
         mirrored,
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::moves_with_ancestors;
+
+    /// The walk of every node up to the root, as `moving_nodes` did it before answers were
+    /// shared: at most one trip around a cycle.
+    fn walked(flagged: &[bool], parents: &[Option<usize>]) -> Vec<bool> {
+        (0..flagged.len())
+            .map(|node| {
+                let mut current = Some(node);
+                for _ in 0..=flagged.len() {
+                    let Some(index) = current.filter(|&i| i < flagged.len()) else {
+                        return false;
+                    };
+                    if flagged[index] {
+                        return true;
+                    }
+                    current = parents[index];
+                }
+                false
+            })
+            .collect()
+    }
+
+    /// Random forests with cycles, self-parents and parents outside the nodes: the shared
+    /// answers equal every node's own walk.
+    #[test]
+    fn shared_walks_answer_as_each_nodes_own() {
+        let mut state = 0x9e37_79b9_u32;
+        let mut next = move |below: u32| {
+            state ^= state << 13;
+            state ^= state >> 17;
+            state ^= state << 5;
+            state % below
+        };
+        let mut flagged_total = 0;
+        for round in 0..400 {
+            let count = 1 + next(40) as usize;
+            let parents: Vec<Option<usize>> = (0..count)
+                .map(|_| match next(10) {
+                    0..=2 => None,
+                    3 => Some(count + next(3) as usize),
+                    _ => Some(next(count as u32) as usize),
+                })
+                .collect();
+            let flagged: Vec<bool> = (0..count).map(|_| next(8) == 0).collect();
+            let shared = moves_with_ancestors(&flagged, |node| parents[node]);
+            assert_eq!(
+                shared,
+                walked(&flagged, &parents),
+                "round {round}: {parents:?}"
+            );
+            flagged_total += shared.iter().filter(|&&m| m).count();
+        }
+        assert!(flagged_total > 1000, "{flagged_total}");
     }
 }
