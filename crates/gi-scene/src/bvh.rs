@@ -336,7 +336,11 @@ impl SceneBvh {
         t_min: f32,
         t_max: f32,
     ) -> bool {
-        if triangles.is_empty() || self.leaf_triangles.is_empty() {
+        // A pre-split build holds some triangles more than once, never fewer than all.
+        debug_assert!(
+            self.leaf_triangles.is_empty() || self.bvh.primitive_indices.len() >= triangles.len()
+        );
+        if self.leaf_triangles.is_empty() {
             return false;
         }
         let ray = Ray::new(Vec3A::from(origin), canonical_direction(dir), t_min, t_max);

@@ -5,8 +5,8 @@
 //! ancestor have an animation channel) goes into one world-space bottom level, built with
 //! `gi_scene::traversal_build` (obvhs's `medium_build`, large triangles pre-split) for the
 //! best traversal quality; its primitives carry their frame triangle index and its instance
-//! has the identity transform. Each mesh used by a moving node
-//! gets one bottom level in the mesh's object space, shared by every moving node that uses it;
+//! has the identity transform. Each mesh used by a moving node gets one bottom level in the
+//! mesh's object space, shared by every moving node that uses it;
 //! an instance per moving node carries its `object_from_world` and the first index of its
 //! triangle range in the frame. The top level is an obvhs CWBVH over the instances' world
 //! boxes: hundreds of moving objects stay logarithmic to traverse, and rebuilding it is a PLOC
@@ -587,7 +587,8 @@ impl BottomLevels {
         if triangles.is_empty() {
             return Ok(None);
         }
-        // The tree on tie-breaking bounds, the boxes exact (as the CPU's SceneBvh).
+        // The tree on tie-breaking bounds, the boxes exact but for cut pieces' few ulps (as the
+        // CPU's SceneBvh).
         let bvh = gi_scene::build_triangle_cwbvh(triangles, params);
         let mut packed = PackedBvh::new(&bvh, triangles)?;
         for tri in &mut packed.triangles {
