@@ -182,7 +182,8 @@ pub(crate) fn read_image(ctx: &GpuContext, buffer: &wgpu::Buffer, size: (u32, u3
     }
 }
 
-/// An image of `size` read back from a buffer of `pack_color64` pixels (stalls the GPU).
+/// An image of `size` read back from a buffer of `pack_color64` pixels, its first
+/// `width x height` (the buffer may be larger; stalls the GPU).
 pub(crate) fn read_packed_image(
     ctx: &GpuContext,
     buffer: &wgpu::Buffer,
@@ -192,7 +193,7 @@ pub(crate) fn read_packed_image(
     Image {
         width: size.0,
         height: size.1,
-        pixels: (texels.iter())
+        pixels: (texels.iter().take(size.0 as usize * size.1 as usize))
             .map(|&t| gi_cache::packing::unpack_color64(t).truncate())
             .collect(),
     }

@@ -20,7 +20,8 @@ const SIZE: (u32, u32) = (64, 64);
 const PIXELS: usize = (SIZE.0 * SIZE.1) as usize;
 /// Most error of one store of a color in 64 bits (16-bit mantissas sharing an exponent),
 /// relative to the largest channel: half a step of 2^-16 of the exponent's power of two. The
-/// long history, its reprojection and the packed filter buffer are stored so.
+/// long history, its reprojection and the filter buffers (the output among them) are stored
+/// so.
 const COLOR64_ERROR: f32 = 1.0 / 131072.0;
 /// The same for RGB9E5 (9-bit mantissas): the short history, which places the clamp box.
 const RGB9E5_ERROR: f32 = 1.0 / 512.0;
@@ -122,6 +123,7 @@ impl Harness {
             gradients: grid
                 .zip(gradients.as_ref())
                 .map(|(grid, buffer)| GradientSource { buffer, grid }),
+            lent: None,
         };
         let denoiser = Denoiser::new(&ctx, &pipelines, SIZE, &sources);
         let timer = GpuTimer::new(&ctx, "test.denoise", 16);
@@ -162,7 +164,11 @@ impl Harness {
         let timings = self.timer.finish(&self.ctx, encoder);
         let expected = 1 + u32::from(config.atrous_iterations > 0) + config.atrous_iterations;
         assert_eq!(timings.0.len() as u32, expected, "{timings:?}");
-        self.ctx.read_buffer(self.denoiser.output())
+        let packed: Vec<[u32; 2]> = self.ctx.read_buffer(self.denoiser.output());
+        packed
+            .iter()
+            .map(|&p| unpack_color64(p).to_array())
+            .collect()
     }
 }
 
@@ -300,10 +306,10 @@ fn constant_input_stays_constant_under_every_config() {
     }
     for (name, config) in configs() {
         // Errors relative to the pixel's largest channel. The input is rounded once (stored
-        // in 64 bits). Without history only the packed filter buffer rounds (once: a constant
-        // stays what it was rounded to). With history the long history is also rounded when
-        // stored and when reprojected; the clamp box is widened by the short history's RGB9E5
-        // rounding, which therefore does not show.
+        // in 64 bits). Without history only the filter buffers (the output among them) round
+        // (once: a constant stays what it was rounded to). With history the long history is
+        // also rounded when stored and when reprojected; the clamp box is widened by the short
+        // history's RGB9E5 rounding, which therefore does not show.
         let stores = 1.0 + if config.temporal { 3.0 } else { 1.0 };
         let bound = stores * COLOR64_ERROR + ARITHMETIC_ERROR;
         harness.denoiser.reset_history();
@@ -702,9 +708,9 @@ fn history_follows_the_motion_vectors() {
             true
         }));
     }
-    // The history is rounded when stored and when reprojected (no packed filter buffer
-    // without a-trous iterations).
-    let bound = 2.0 * COLOR64_ERROR + ARITHMETIC_ERROR;
+    // The history is rounded when stored and when reprojected, the output when stored (the
+    // only filter write without a-trous iterations).
+    let bound = 3.0 * COLOR64_ERROR + ARITHMETIC_ERROR;
     eprintln!("moving stripes: worst relative error {worst:e} (bound {bound:e})");
     assert!(worst <= bound, "moving stripes: {worst}");
 }
@@ -716,9 +722,10 @@ fn memory_is_counted_and_released() {
     };
     let harness = Harness::new(ctx);
     let bytes = harness.denoiser.memory_bytes();
-    // 44 bytes per pixel (see the module docs), nine 256-byte uniform slots and, without
-    // temporal gradients, the 16-byte buffer bound in their place.
-    assert_eq!(bytes, 44 * PIXELS as u64 + 9 * 256 + 16);
+    // 40 bytes per pixel with its own output and reprojected moments (see the module docs),
+    // nine 256-byte uniform slots and, without temporal gradients, the 16-byte buffer bound in
+    // their place.
+    assert_eq!(bytes, 40 * PIXELS as u64 + 9 * 256 + 16);
     assert_eq!(harness.ctx.memory().bytes_with_prefix("pc.denoise."), bytes);
     harness.denoiser.release(&harness.ctx);
     assert_eq!(harness.ctx.memory().bytes_with_prefix("pc.denoise."), 0);

@@ -10,16 +10,18 @@
 // Pixels are one storage-buffer entry each, row-major. Sky pixels (depth +inf) pass their
 // input through every pass, keep no history and never mix into their neighbours.
 //
-// Memory, 44 bytes per pixel (`gi_tiers::pc::denoise` explains the choice): the histories are
-// packed (short color RGB9E5; long color and age `pack_color64`; moments f16), and the filter
-// passes ping-pong between `output` (f32) and a `pack_color64` pair of buffers that are dead by
-// then: the previous short history (reprojected by `temporal_short`) and the previous normals
-// (read only by `temporal_short`, copied anew after the last pass). Which one a pass writes
-// follows from the parity of its place in the chain (`writes_full`), so that the last pass
-// writes `output`.
+// Memory, 40 bytes per pixel (`gi_tiers::pc::denoise` explains the choice; 28 of its own when
+// the caller lends `output` and `reprojected_moments`): the histories are packed (short color
+// RGB9E5; long color and age `pack_color64`; moments f16), and the filter passes ping-pong
+// between `output` and a pair of buffers that are dead by then: the previous short history
+// (reprojected by `temporal_short`) and the previous normals (read only by `temporal_short`,
+// copied anew after the last pass), both in `pack_color64` (rgb, and the luminance variance
+// as the value). Which one a pass writes follows from the parity of its place in the chain
+// (`writes_output`), so that the last pass writes `output`.
 //
 // Bind group 0: the frame's inputs, the histories and the filter buffers
-// (`gi_tiers::pc::denoise::Denoiser`); group 1: this dispatch's uniforms.
+// (`DenoiseBindings` in `gi_tiers::pc::denoise`, in its order); group 1: this dispatch's
+// uniforms.
 #define_import_path gi::pc::denoise
 
 #import gi::packing::{pack_half2, unpack_half2, pack_color64, unpack_color64}
@@ -87,13 +89,16 @@ struct DenoiseUniforms {
 @group(0) @binding(8) var<storage, read_write> history: array<vec2<u32>>;
 // f16 (mean luminance, luminance variance) of the long history.
 @group(0) @binding(9) var<storage, read_write> moments: array<u32>;
-// `array<vec4<f32>>` for the caller (rgb irradiance, w its variance), kept as raw bits here:
-// the reprojected long history between `temporal_short` and `temporal` (`Reprojected`), then
-// the full-precision filter buffer, and the result after the last pass.
-@group(0) @binding(10) var<storage, read_write> output: array<vec4<u32>>;
+// `pack_color64`: the reprojected long history's color and age between `temporal_short` and
+// `temporal` (`Reprojected`), then a filter buffer (rgb irradiance, its luminance variance as
+// the value), and the result after the last pass.
+@group(0) @binding(10) var<storage, read_write> output: array<vec2<u32>>;
 // Per temporal-gradient stratum, lambda in z (`pc/restir/gradient.wgsl`): how much of the
 // light changed since the last frame.
 @group(0) @binding(11) var<storage, read> gradients: array<vec4<f32>>;
+// f16 mean luminance and luminance variance of the reprojected long history, from
+// `temporal_short` to `temporal`; unused after.
+@group(0) @binding(12) var<storage, read_write> reprojected_moments: array<u32>;
 
 // Group 1.
 // Named `uniforms`, not `u`: the passes import it, and naga_oil would rewrite the `u` suffix
@@ -137,25 +142,25 @@ fn last_write() -> u32 {
     return select(FIRST_ATROUS_WRITE + uniforms.atrous_iterations - 1u, TEMPORAL_WRITE, uniforms.atrous_iterations == 0u);
 }
 
-// Whether filter write `place` goes to `output` (full precision), else to the packed pair.
-// They alternate so that each pass reads the other one, and the last write is `output`.
-fn writes_full(place: u32) -> bool {
+// Whether filter write `place` goes to `output`, else to the pair. They alternate so that
+// each pass reads the other one, and the last write is `output`.
+fn writes_output(place: u32) -> bool {
     return ((last_write() - place) & 1u) == 0u;
 }
 
 // Filter data (rgb, luminance variance) of pixel `index` as written by filter write `place`.
 fn load_filter(place: u32, index: u32) -> vec4<f32> {
-    if writes_full(place) {
-        return bitcast<vec4<f32>>(output[index]);
+    if writes_output(place) {
+        return unpack_color64(output[index]);
     }
     return unpack_color64(vec2(short_in[index], previous_normal[index]));
 }
 
 fn store_filter(place: u32, index: u32, value: vec4<f32>) {
-    if writes_full(place) {
-        output[index] = bitcast<vec4<u32>>(value);
+    let packed = pack_color64(value.rgb, value.w);
+    if writes_output(place) {
+        output[index] = packed;
     } else {
-        let packed = pack_color64(value.rgb, value.w);
         short_in[index] = packed.x;
         previous_normal[index] = packed.y;
     }

@@ -6,7 +6,8 @@
 //                   mean +- short_clamp_sigma sigma of the noisy input's 3 x 3 neighbourhood;
 //                   blend this frame's noisy irradiance into the short history
 //                   with alpha = max(1 / (age + 1), 1 / short_history), and leave the
-//                   reprojected long history (color, luminance moments, age) in `output`;
+//                   reprojected long history in `output` (color, age) and
+//                   `reprojected_moments`;
 //                   where the temporal gradient's lambda (`gradient_lambda`) says the light
 //                   changed, both alphas first become mix(alpha, 1, lambda), the long one
 //                   through the age it stores;
@@ -23,7 +24,7 @@
 #import gi::math::luminance
 #import gi::pc::denoise::{
     noisy_at, depth, normal, motion, previous_depth, previous_normal, short_in, short_out, output,
-    uniforms, load_history, store_history, load_moments, store_moments, store_filter, is_sky,
+    reprojected_moments, uniforms, load_history, store_history, load_moments, store_moments, store_filter, is_sky,
     pixel_index, inside, depth_at, depth_derivative, gradient_lambda, TEMPORAL_WRITE
 }
 
@@ -33,12 +34,12 @@ const RGB9E5_ERROR: f32 = 1.0 / 512.0;
 // reference implementation's threshold).
 const MIN_REPROJECTION_WEIGHT: f32 = 0.01;
 
-// The long history reprojected by `temporal_short` for `temporal`, in `output`.
+// The long history reprojected by `temporal_short` for `temporal`, in `output` and
+// `reprojected_moments`.
 struct Reprojected {
-    // Whether enough taps were kept (else the history is dropped).
-    valid: bool,
     color: vec3<f32>,
-    // Frames accumulated including this one.
+    // Frames accumulated including this one; 1 where no history was kept (then the history's
+    // weight, 1 - 1 / age, is 0).
     age: f32,
     // Mean luminance and mean squared luminance.
     moments: vec2<f32>,
@@ -46,15 +47,14 @@ struct Reprojected {
 
 fn store_reprojected(index: u32, r: Reprojected) {
     let variance = max(r.moments.y - r.moments.x * r.moments.x, 0.0);
-    let color = pack_color64(r.color, r.age);
-    output[index] = vec4(color, pack_half2(vec2(r.moments.x, variance)), u32(r.valid));
+    output[index] = pack_color64(r.color, r.age);
+    reprojected_moments[index] = pack_half2(vec2(r.moments.x, variance));
 }
 
 fn load_reprojected(index: u32) -> Reprojected {
-    let packed = output[index];
-    let color = unpack_color64(packed.xy);
-    let m = unpack_half2(packed.z);
-    return Reprojected(packed.w != 0u, color.rgb, color.w, vec2(m.x, m.y + m.x * m.x));
+    let color = unpack_color64(output[index]);
+    let m = unpack_half2(reprojected_moments[index]);
+    return Reprojected(color.rgb, color.w, vec2(m.x, m.y + m.x * m.x));
 }
 
 // The bilinear taps of the previous frame that a pixel reprojects to; a tap whose previous
@@ -112,7 +112,7 @@ fn temporal_short(@builtin(global_invocation_id) id: vec3<u32>) {
     let index = pixel_index(pixel);
     let x = noisy_at(index);
     let z = depth[index];
-    var long = Reprojected(false, vec3(0.0), 0.0, vec2(0.0));
+    var long = Reprojected(vec3(0.0), 0.0, vec2(0.0));
     if is_sky(z) {
         short_out[index] = pack_rgb9e5(x);
         store_reprojected(index, long);
@@ -146,7 +146,6 @@ fn temporal_short(@builtin(global_invocation_id) id: vec3<u32>) {
             reprojected_short = clamp(reprojected_short, box.mean - half_width, box.mean + half_width);
         }
         short_color = mix(reprojected_short, x, alpha);
-        long.valid = true;
         long.color = previous_long.rgb / total;
         long.moments = previous_moments / total;
     }
@@ -204,7 +203,8 @@ fn temporal(@builtin(global_invocation_id) id: vec3<u32>) {
     let previous = load_reprojected(index);
     var color = x;
     var m = vec2(l, l * l);
-    if !is_sky(z) && previous.valid {
+    // An age of 1: no history kept (alpha 1 would take `x` alone).
+    if !is_sky(z) && previous.age > 1.0 {
         let box = neighbourhood(pixel, 2, false);
         // Widened by the short history's RGB9E5 rounding, so that a noise-free history is not
         // pulled off by it.

@@ -19,17 +19,20 @@
 // Per trace pixel: this frame's receivers and the previous frame's.
 @group(0) @binding(13) var<storage, read> surfaces: array<StoredSurface>;
 @group(0) @binding(14) var<storage, read> surfaces_prev: array<StoredSurface>;
-@group(0) @binding(15) var<storage, read> initial: array<StoredReservoir>;
+// Per trace pixel: this frame's new reservoirs (`trace`). `initial`, `specular_noisy` and
+// `denoised` are one buffer in turn (`RestirBuffers::transient`), so all three are read_write:
+// a dispatch may not bind one buffer both read-only and writable.
+@group(0) @binding(15) var<storage, read_write> initial: array<StoredReservoir>;
 // Per trace pixel: this frame's temporal reservoirs (the next frame's history) and the
 // previous frame's; the resolved reservoirs, which `spatial` writes and the shadow pass
 // (`shadow`) then updates in place, and which `shade` reads.
 @group(0) @binding(16) var<storage, read_write> temporal_out: array<StoredReservoir>;
 @group(0) @binding(17) var<storage, read> temporal_prev: array<StoredReservoir>;
 @group(0) @binding(18) var<storage, read_write> resolved: array<StoredReservoir>;
-// Per pixel: the multi-sample shading's irradiance (rgb, `pack_color64`), the denoised one,
-// the direct light's running mean, the output image.
+// Per pixel: the multi-sample shading's irradiance and the denoised one (rgb,
+// `pack_color64`), the direct light's running mean, the output image.
 @group(0) @binding(19) var<storage, read_write> irradiance: array<vec2<u32>>;
-@group(0) @binding(20) var<storage, read> denoised: array<vec4<f32>>;
+@group(0) @binding(20) var<storage, read_write> denoised: array<vec2<u32>>;
 @group(0) @binding(21) var<storage, read> direct_mean: array<vec4<f32>>;
 @group(0) @binding(22) var<storage, read_write> output: array<vec4<f32>>;
 // Per trace pixel: this frame's specular rays (`specular_trace`).

@@ -12,7 +12,7 @@
 #import gi::math::INV_PI
 #import gi::brdf::{gbuffer_brdf, brdf_split_sum_albedos}
 #import gi::camera::camera_ray
-#import gi::packing::unpack_unit_vector
+#import gi::packing::{unpack_unit_vector, unpack_color64}
 #import gi::cache::trace::cache_blend_layer_gi
 #import gi::pc::restir::bindings::{
     gbuffer_depth, gbuffer_normal, gbuffer_base_color, gbuffer_metallic_roughness, denoised,
@@ -46,7 +46,7 @@ fn compose(@builtin(global_invocation_id) id: vec3<u32>) {
     let albedos = brdf_split_sum_albedos(gbuffer_brdf(gbuffer_base_color[pixel], mr), max(dot(n, v), 0.0));
     let diffuse = albedos.diffuse;
     let specular = albedos.specular;
-    let e = max(denoised[pixel].xyz, vec3(0.0));
+    let e = unpack_color64(denoised[pixel]).rgb;
     var reflected = e * INV_PI;
     let max_roughness = uniforms.specular_max_roughness;
     let kind = specular_kind(uniforms.flags, max_roughness, depth, mr.y);

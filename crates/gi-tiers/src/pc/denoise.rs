@@ -30,7 +30,8 @@
 //! camera): a camera closing in on a surface faster than
 //! [`DenoiseConfig::reprojection_depth_tolerance`] of its distance per frame loses the history.
 //!
-//! Memory: 44 bytes per pixel (about 91 MB at 1920 x 1080; 120 before packing):
+//! Memory: 40 bytes per pixel (about 83 MB at 1920 x 1080; 120 before packing), 28 of them
+//! its own when the caller lends the output and the reprojected moments:
 //!
 //! - the previous depth (`f32`, 4: the reprojection test needs its precision) and normal
 //!   (octahedral `u32`, 4);
@@ -41,22 +42,25 @@
 //!   128; ages stop growing at 256, so `long_history` above 256 acts as 256);
 //! - the luminance moments (4): f16 mean and variance (the variance keeps its precision in
 //!   f16, the mean square would swamp small variances);
-//! - the output (`vec4<f32>`, 16).
+//! - the output (8) in the long history's 64-bit format (the luminance variance in place of
+//!   the age: an 11-bit float, at most `2^-7` of itself off), and the reprojected moments
+//!   (4, f16), both its own or lent by the caller ([`DenoiseSources::lent`]: the PC tier
+//!   lends buffers that its passes before the denoiser use).
 //!
 //! Nothing else is allocated: reprojecting every history once in `temporal_short` lets the
-//! long history and moments be updated in place (no ping-pong), the output holds the
-//! reprojected long history until `temporal` replaces it with its result, and the filter
-//! passes alternate between the output and a packed buffer (the long history's 64-bit format,
-//! the variance in place of the age) made of the previous short history and the previous
-//! normal, both dead once `temporal_short` has run (the normal is copied anew after the last
-//! pass). Which one a pass writes follows from the parity of its place in the chain, so that
-//! the last pass writes the output. Packed colors are non-negative and clamped to 65535
-//! (RGB9E5: 65408), f16 values to 65504.
+//! long history and moments be updated in place (no ping-pong), the output and the
+//! reprojected moments hold the reprojected long history until `temporal` replaces it with
+//! its result, and the filter passes alternate between the output and a pair of buffers in
+//! the same format made of the previous short history and the previous normal, both dead
+//! once `temporal_short` has run (the normal is copied anew after the last pass). Which one a
+//! pass writes follows from the parity of its place in the chain, so that the last pass
+//! writes the output. Packed colors are non-negative and clamped to 65535 (RGB9E5: 65408),
+//! f16 values to 65504.
 
 use std::num::NonZeroU64;
 
 use bytemuck::{Pod, Zeroable};
-use gi_gpu::binding::{buffer_entries, storage_entry, uniform_entry};
+use gi_gpu::binding::uniform_entry;
 use gi_gpu::{GpuContext, GpuError, PingPong, Recorder, ShaderLibrary, Technique, wgpu};
 
 /// Most a-trous iterations (the last one's taps are 256 pixels apart).
@@ -326,11 +330,7 @@ pub struct DenoisePipelines {
 
 impl DenoisePipelines {
     pub fn new(ctx: &GpuContext, shaders: &ShaderLibrary) -> Result<Self, GpuError> {
-        // The inputs and the previous depth are read-only; the previous normal and short
-        // history double as a filter buffer.
-        let frame_entries: Vec<_> = (0..=11)
-            .map(|binding| storage_entry(binding, binding < 5 || binding == 11))
-            .collect();
+        let frame_entries = DenoiseBindings::layout_entries();
         let frame_layout = ctx
             .device
             .create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
@@ -383,6 +383,46 @@ pub struct DenoiseSources<'a> {
     /// Temporal gradients that shorten the histories where the light changed; `None`: the
     /// histories keep their lengths.
     pub gradients: Option<GradientSource<'a>>,
+    /// Buffers lent for the output and the reprojected moments, so that a caller can lend
+    /// ones its own passes use earlier in the frame; `None`: the denoiser makes its own
+    /// (`pc.denoise.output`, `pc.denoise.reprojected_moments`).
+    pub lent: Option<LentBuffers<'a>>,
+}
+
+/// Buffers a caller lends the denoiser ([`DenoiseSources::lent`]), each free for it from its
+/// first pass of a frame until what it names is no longer needed.
+pub struct LentBuffers<'a> {
+    /// The output ([`Denoiser::output`]), at least 8 bytes per pixel: free until the output
+    /// has been read.
+    pub output: &'a wgpu::Buffer,
+    /// At least 4 bytes per pixel: free until the `pc/denoise_temporal` passes have run.
+    pub reprojected_moments: &'a wgpu::Buffer,
+}
+
+/// Bytes per pixel of [`LentBuffers::output`].
+pub const OUTPUT_PIXEL_BYTES: u64 = 8;
+/// Bytes per pixel of [`LentBuffers::reprojected_moments`].
+pub const REPROJECTED_MOMENTS_PIXEL_BYTES: u64 = 4;
+
+gi_gpu::storage_bindings! {
+    /// The buffers of the denoise passes' group 0 (`shaders/pc/denoise/shared.wgsl`). The
+    /// sources and the previous depth are read-only; the previous normal and the previous
+    /// short history double as a filter buffer.
+    struct DenoiseBindings from 0 {
+        noisy: read,
+        depth: read,
+        normal: read,
+        motion: read,
+        previous_depth: read,
+        previous_normal: read_write,
+        short_in: read_write,
+        short_out: read_write,
+        history: read_write,
+        moments: read_write,
+        output: read_write,
+        gradients: read,
+        reprojected_moments: read_write,
+    }
 }
 
 /// Where the denoiser reads the temporal gradients (`pc/restir/gradient.wgsl`).
@@ -424,8 +464,13 @@ pub struct Denoiser {
     history: wgpu::Buffer,
     /// f16 mean luminance and luminance variance of the long history.
     moments: wgpu::Buffer,
-    /// The reprojected long history, then the full-precision filter buffer, then the result.
+    /// The reprojected long history's color and age, then a filter buffer, then the result.
     output: wgpu::Buffer,
+    /// The reprojected long history's moments.
+    reprojected_moments: wgpu::Buffer,
+    /// Whether `output` and `reprojected_moments` are the denoiser's own, else lent by the
+    /// caller ([`DenoiseSources::lent`]).
+    owns_lent: bool,
     /// The stand-in for the gradients when there are none.
     no_gradients: Option<wgpu::Buffer>,
     gradient_grid: Option<GradientGrid>,
@@ -539,7 +584,30 @@ impl Denoiser {
         let short_history = PingPong::from_fn(|_| buffer("pc.denoise.short_history", 4));
         let history = buffer("pc.denoise.history", 8);
         let moments = buffer("pc.denoise.moments", 4);
-        let output = buffer("pc.denoise.output", 16);
+        let owns_lent = sources.lent.is_none();
+        let (output, reprojected_moments) = match &sources.lent {
+            Some(lent) => {
+                for (buffer, bytes_per_pixel) in [
+                    (lent.output, OUTPUT_PIXEL_BYTES),
+                    (lent.reprojected_moments, REPROJECTED_MOMENTS_PIXEL_BYTES),
+                ] {
+                    assert!(
+                        buffer.size() >= pixels * bytes_per_pixel,
+                        "a lent buffer holds {} bytes, the denoiser needs {}",
+                        buffer.size(),
+                        pixels * bytes_per_pixel
+                    );
+                }
+                (lent.output.clone(), lent.reprojected_moments.clone())
+            }
+            None => (
+                buffer("pc.denoise.output", OUTPUT_PIXEL_BYTES),
+                buffer(
+                    "pc.denoise.reprojected_moments",
+                    REPROJECTED_MOMENTS_PIXEL_BYTES,
+                ),
+            ),
+        };
         // Without gradients lambda is never read: a binding's least size stands in.
         let no_gradients = sources
             .gradients
@@ -558,23 +626,22 @@ impl Denoiser {
             ctx.device.create_bind_group(&wgpu::BindGroupDescriptor {
                 label: Some("pc/denoise.frame_group"),
                 layout: &pipelines.frame_layout,
-                entries: &buffer_entries(
-                    0,
-                    [
-                        sources.noisy,
-                        sources.depth,
-                        sources.normal,
-                        sources.motion,
-                        &previous_depth,
-                        &previous_normal,
-                        short_in,
-                        short_out,
-                        &history,
-                        &moments,
-                        &output,
-                        gradients,
-                    ],
-                ),
+                entries: &DenoiseBindings {
+                    noisy: sources.noisy,
+                    depth: sources.depth,
+                    normal: sources.normal,
+                    motion: sources.motion,
+                    previous_depth: &previous_depth,
+                    previous_normal: &previous_normal,
+                    short_in,
+                    short_out,
+                    history: &history,
+                    moments: &moments,
+                    output: &output,
+                    gradients,
+                    reprojected_moments: &reprojected_moments,
+                }
+                .entries(),
             })
         };
         let frame_groups = PingPong::from_fn(frame_group);
@@ -607,6 +674,8 @@ impl Denoiser {
             history,
             moments,
             output,
+            reprojected_moments,
+            owns_lent,
             no_gradients,
             gradient_grid,
             frame_groups,
@@ -638,9 +707,10 @@ impl Denoiser {
         ctx.queue.write_buffer(&self.uniforms, 0, &slots);
     }
 
-    /// The denoised irradiance, `array<vec4<f32>>` (rgb; w holds the filter's luminance
-    /// variance estimate), valid once the recorded passes ran and until the next
-    /// [`Technique::record`], which uses it as scratch.
+    /// The denoised irradiance, `array<vec2<u32>>` in `pack_color64` (rgb; the value holds the
+    /// filter's luminance variance estimate), valid once the recorded passes ran and until the next
+    /// [`Technique::record`], which uses it as scratch (a lent output, until its lender uses
+    /// it again).
     pub fn output(&self) -> &wgpu::Buffer {
         &self.output
     }
@@ -667,6 +737,7 @@ impl Denoiser {
         self.has_history = false;
     }
 
+    /// The buffers it owns.
     fn buffers(&self) -> impl Iterator<Item = &wgpu::Buffer> {
         [
             &self.uniforms,
@@ -674,9 +745,13 @@ impl Denoiser {
             &self.previous_normal,
             &self.history,
             &self.moments,
-            &self.output,
         ]
         .into_iter()
+        .chain(
+            [&self.output, &self.reprojected_moments]
+                .into_iter()
+                .filter(|_| self.owns_lent),
+        )
         .chain(self.short_history.both())
         .chain(self.no_gradients.as_ref())
     }
@@ -691,5 +766,31 @@ impl Denoiser {
     /// Bytes of the buffers it owns.
     pub fn memory_bytes(&self) -> u64 {
         self.buffers().map(wgpu::Buffer::size).sum()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use gi_gpu::binding::{check_declared, wgsl_storage_bindings};
+
+    #[test]
+    fn the_shaders_declare_the_named_buffers_at_their_bindings() {
+        let shaders = ShaderLibrary::new();
+        let file = "pc/denoise/shared.wgsl";
+        let source = shaders.source(file).expect("the shader is in the library");
+        check_declared(source, 0, DenoiseBindings::FIRST_BINDING, DenoiseBindings::SLOTS)
+            .unwrap_or_else(|e| panic!("{file}: {e}"));
+        assert_eq!(
+            wgsl_storage_bindings(source, 0).len(),
+            DenoiseBindings::SLOTS.len(),
+            "{file} declares every binding"
+        );
+        // The passes import group 0's buffers from the shared file.
+        for pass in ["temporal", "variance", "atrous"] {
+            let file = format!("pc/denoise/{pass}.wgsl");
+            let source = shaders.source(&file).expect("the pass is in the library");
+            assert_eq!(wgsl_storage_bindings(source, 0), [], "{file}");
+        }
     }
 }

@@ -44,7 +44,7 @@ use crate::requirements::{FrameCost, Requirements, image_bytes};
 use crate::scene_state::{SceneState, check_frame_settings, read_image, read_packed_image};
 use crate::tier::{FrameInput, TierError, TierKind, TierSettings};
 use crate::tracer::{DirectInputs, PathPipelines};
-use denoise::{DenoiseInputs, DenoisePipelines, DenoiseSources, Denoiser};
+use denoise::{DenoiseInputs, DenoisePipelines, DenoiseSources, Denoiser, LentBuffers};
 use restir::{Restir, RestirInputs, RestirPipelines};
 
 /// Most timed passes in one frame.
@@ -357,7 +357,7 @@ impl PcTier {
         Some(PcFrameData {
             gi,
             noisy_irradiance: read_packed_image(ctx, &buffers.irradiance, (width, height)),
-            irradiance: read(prepared.denoiser.output()),
+            irradiance: read_packed_image(ctx, prepared.denoiser.output(), (width, height)),
             reservoirs: ctx.read_buffer(&buffers.resolved),
             trace_size: buffers.trace_size,
             gradient_lambda: buffers.gradient_grid.map(|grid| {
@@ -486,6 +486,10 @@ impl PcTier {
                 normal: gbuffer.normal,
                 motion: gbuffer.motion,
                 gradients: restir.buffers.gradient_source(),
+                lent: Some(LentBuffers {
+                    output: &restir.buffers.transient,
+                    reprojected_moments: &restir.buffers.specular_samples,
+                }),
             },
         );
         self.prepared = Some(Prepared {

@@ -11,11 +11,15 @@ use gi_gpu::{
     TEXTURE_BIND_GROUP, Technique, wgpu,
 };
 
-use super::denoise::{GradientGrid, GradientSource};
+use super::denoise::{
+    GradientGrid, GradientSource, OUTPUT_PIXEL_BYTES, REPROJECTED_MOMENTS_PIXEL_BYTES,
+};
 use super::{GpuGradientSample, GpuReservoir, GpuSpecularSample, GpuSurface, PcConfig, PcUniforms};
 
 /// Pixels per side of every pass's workgroups (`@workgroup_size(8, 8)`).
 const TILE: u32 = 8;
+/// Bytes per pixel of `specular_noisy` (`pack_color64`).
+const SPECULAR_NOISY_PIXEL_BYTES: u64 = 8;
 
 /// The compute pipelines of `shaders/pc/restir/`, each from its pass's file, and their
 /// layouts, compiled once per tier; cloning shares them.
@@ -147,12 +151,14 @@ gi_gpu::storage_bindings! {
         gbuffer_motion: read,
         surfaces: read,
         surfaces_prev: read,
-        initial: read,
+        /// `initial`, `specular_noisy` and `denoised` are one buffer
+        /// ([`RestirBuffers::transient`]).
+        initial: read_write,
         temporal_out: read_write,
         temporal_prev: read,
         resolved: read_write,
         irradiance: read_write,
-        denoised: read,
+        denoised: read_write,
         direct_mean: read,
         output: read_write,
         specular_samples: read,
@@ -168,7 +174,8 @@ gi_gpu::storage_bindings! {
 
 /// What one frame of the PC tier writes and the next reads as its history.
 struct FrameBuffers {
-    /// Receivers, one per trace pixel.
+    /// Receivers, one per trace pixel. Without temporal reuse, the only pass that reads the
+    /// previous frame's, both sides are one buffer.
     surfaces: wgpu::Buffer,
     /// Temporal reservoirs, one per trace pixel (one in all without temporal reuse: never
     /// read then).
@@ -191,15 +198,23 @@ pub(super) struct RestirBuffers {
     pub(super) uniforms: wgpu::Buffer,
     /// This frame's and the previous frame's, swapped at the end of a frame.
     frames: PingPong<FrameBuffers>,
-    pub(super) initial: wgpu::Buffer,
+    /// One buffer in three roles whose lives within a frame do not overlap (`pc.transient`),
+    /// bound under each role's name: `initial`, the trace pixels' new reservoirs (from
+    /// `pc/trace` to the last pass that reads them, `pc/shadow` at the latest); then
+    /// `specular_noisy`, per pixel the resolved specular radiance (`pack_color64`: rgb and a
+    /// validity flag; from `pc/shade` to `pc/specular_temporal`); then the denoiser's output
+    /// (`LentBuffers::output`: from its first pass until `pc/compose` and the frame's
+    /// read-back). The names bound to it are all `read_write`: a dispatch may not bind one
+    /// buffer both read-only and writable. Sized for the largest role.
+    pub(super) transient: wgpu::Buffer,
     /// Per trace pixel: the spatial reuse's result, then the shadow pass's (in place).
     pub(super) resolved: wgpu::Buffer,
     pub(super) irradiance: wgpu::Buffer,
     pub(super) output: wgpu::Buffer,
-    /// Per trace pixel: this frame's specular ray.
+    /// Per trace pixel: this frame's specular ray, until `pc/specular_resolve`; then the
+    /// denoiser's reprojected moments (`LentBuffers::reprojected_moments`, at least 4 bytes per
+    /// pixel).
     pub(super) specular_samples: wgpu::Buffer,
-    /// Per pixel: the resolved specular radiance (`pack_color64`: rgb and a validity flag).
-    pub(super) specular_noisy: wgpu::Buffer,
     /// The temporal gradients' strata; `None`: gradients off.
     pub(super) gradient_grid: Option<GradientGrid>,
     /// Per stratum, in two halves by frame parity: the ray candidate `trace` keeps for the next
@@ -234,6 +249,7 @@ impl RestirBuffers {
         // A binding holds at least one element.
         let one = size_of::<GpuReservoir>() as u64;
         let surfaces = traced * size_of::<GpuSurface>() as u64;
+        let shared_surfaces = (!temporal).then(|| buffer("pc.surfaces", surfaces));
         Self {
             trace_size,
             uniforms: ctx.create_buffer(
@@ -242,19 +258,26 @@ impl RestirBuffers {
                 wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
             ),
             frames: PingPong::from_fn(|_| FrameBuffers {
-                surfaces: buffer("pc.surfaces", surfaces),
+                surfaces: shared_surfaces
+                    .clone()
+                    .unwrap_or_else(|| buffer("pc.surfaces", surfaces)),
                 temporal: buffer("pc.temporal", if temporal { reservoirs } else { one }),
                 specular_history: buffer("pc.specular_history", pixels * 8),
             }),
-            initial: buffer("pc.initial", reservoirs),
+            transient: buffer(
+                "pc.transient",
+                reservoirs
+                    .max(pixels * SPECULAR_NOISY_PIXEL_BYTES)
+                    .max(pixels * OUTPUT_PIXEL_BYTES),
+            ),
             resolved: buffer("pc.resolved", reservoirs),
             irradiance: buffer("pc.irradiance", pixels * 8),
             output: buffer("pc.output", pixels * 16),
             specular_samples: buffer(
                 "pc.specular_samples",
-                traced * size_of::<GpuSpecularSample>() as u64,
+                (traced * size_of::<GpuSpecularSample>() as u64)
+                    .max(pixels * REPROJECTED_MOMENTS_PIXEL_BYTES),
             ),
-            specular_noisy: buffer("pc.specular_noisy", pixels * 8),
             gradient_grid,
             gradient_samples: buffer(
                 "pc.gradient_samples",
@@ -286,12 +309,11 @@ impl RestirBuffers {
         }
         for buffer in [
             &self.uniforms,
-            &self.initial,
+            &self.transient,
             &self.resolved,
             &self.irradiance,
             &self.output,
             &self.specular_samples,
-            &self.specular_noisy,
             &self.gradient_samples,
             &self.gradients,
         ] {
@@ -359,7 +381,7 @@ impl RestirBuffers {
                 gbuffer_depth: g.depth,
                 gbuffer_normal: g.normal,
                 surfaces: &frame.surfaces,
-                initial: &b.initial,
+                initial: &b.transient,
                 temporal: &frame.temporal,
                 resolved: &b.resolved,
                 gbuffer_base_color: g.base_color,
@@ -396,7 +418,7 @@ impl RestirBuffers {
                 gbuffer_motion: g.motion,
                 surfaces: &frame.surfaces,
                 surfaces_prev: &previous.surfaces,
-                initial: &b.initial,
+                initial: &b.transient,
                 temporal_out: &frame.temporal,
                 temporal_prev: &previous.temporal,
                 resolved: &b.resolved,
@@ -405,7 +427,7 @@ impl RestirBuffers {
                 direct_mean: inputs.direct,
                 output: &b.output,
                 specular_samples: &b.specular_samples,
-                specular_noisy: &b.specular_noisy,
+                specular_noisy: &b.transient,
                 specular_history: &frame.specular_history,
                 specular_history_prev: &previous.specular_history,
                 gbuffer_emissive: g.emissive,
