@@ -35,8 +35,9 @@
 @group(0) @binding(20) var<storage, read_write> denoised: array<vec2<u32>>;
 @group(0) @binding(21) var<storage, read> direct_mean: array<vec4<f32>>;
 @group(0) @binding(22) var<storage, read_write> output: array<vec4<f32>>;
-// Per trace pixel: this frame's specular rays (`specular_trace`).
-@group(0) @binding(23) var<storage, read> specular_samples: array<SpecularSample>;
+// Per trace pixel: this frame's specular rays (`specular_trace`). `specular_samples` and
+// `irradiance` are one buffer in turn (`RestirBuffers::rays`), both read_write.
+@group(0) @binding(23) var<storage, read_write> specular_samples: array<SpecularSample>;
 // Per pixel: the specular input of this frame (`shade` writes the reused reflection's ratio
 // of rough pixels; `specular_resolve` the traced radiance of smooth ones) and the history of
 // either (`specular_temporal`).

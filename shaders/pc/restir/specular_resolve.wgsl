@@ -28,7 +28,7 @@ fn specular_resolve(@builtin(global_invocation_id) id: vec3<u32>) {
     }
     let pixel = id.y * uniforms.size_px.x + id.x;
     let depth = gbuffer_depth[pixel];
-    // `shade` wrote the other pixels' input.
+    // `shade`, the next pass, writes the other pixels' input.
     if kind_of(pixel, depth) != SPECULAR_TRACED {
         return;
     }

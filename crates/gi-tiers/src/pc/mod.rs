@@ -11,11 +11,11 @@
 //! [`GradientConfig`]),
 //! `pc/specular_trace` (one GGX VNDF ray per trace pixel on surfaces smoother than
 //! [`SpecularConfig::max_roughness`]), `pc/temporal` (only with temporal reuse, off by default:
-//! [`RestirConfig::temporal`]), `pc/spatial`, `pc/shadow` (the reservoir passes), `pc/shade`
-//! (multi-sample shading to full resolution), `pc/denoise_*` (temporal supersampling and SVGF:
-//! [`denoise`]), `pc/specular_resolve` and `pc/specular_temporal` (the specular rays to a
-//! per-pixel reflected radiance, and the rough surfaces' lobe ratio from `pc/shade` over
-//! time), `direct/trace` + `direct/resolve` (direct light, accumulated while the view holds
+//! [`RestirConfig::temporal`]), `pc/spatial`, `pc/shadow` (the reservoir passes),
+//! `pc/specular_resolve` (the specular rays to a per-pixel reflected radiance), `pc/shade`
+//! (multi-sample shading to full resolution, and the rough surfaces' lobe ratio),
+//! `pc/specular_temporal` (both specular inputs over time), `pc/denoise_*` (temporal
+//! supersampling and SVGF: [`denoise`]), `direct/trace` + `direct/resolve` (direct light, accumulated while the view holds
 //! still, as the mobile tier does) and `pc/compose`. The GI's cost is the `cache/*` and `pc/*`
 //! passes. Pass `pc/<pass>` is the file `shaders/pc/restir/<pass>.wgsl` (the hit shading of
 //! `pc/trace` and `pc/specular_trace` is `hit.wgsl` there), pass `pc/denoise_<pass>` the file
@@ -206,8 +206,10 @@ pub struct PcFrameData {
     pub noisy_irradiance: Image,
     /// The denoised irradiance.
     pub irradiance: Image,
-    /// The trace pixels' resolved reservoirs (row-major, `trace_size`).
-    pub reservoirs: Vec<GpuReservoir>,
+    /// With temporal reuse, the trace pixels' temporal reservoirs (row-major, `trace_size`):
+    /// what the next frame reuses. (The resolved reservoirs' buffer holds the denoiser's
+    /// scratch by the frame's end.)
+    pub temporal_reservoirs: Option<Vec<GpuReservoir>>,
     pub trace_size: (u32, u32),
     /// The temporal gradients' strata per row and column, and each one's lambda (row-major):
     /// the share of history the denoiser dropped there this frame. `None` without gradients.
@@ -356,9 +358,10 @@ impl PcTier {
             .collect();
         Some(PcFrameData {
             gi,
-            noisy_irradiance: read_packed_image(ctx, &buffers.irradiance, (width, height)),
+            noisy_irradiance: read_packed_image(ctx, &buffers.rays, (width, height)),
             irradiance: read_packed_image(ctx, prepared.denoiser.output(), (width, height)),
-            reservoirs: ctx.read_buffer(&buffers.resolved),
+            temporal_reservoirs: (self.config.restir.temporal)
+                .then(|| ctx.read_buffer(buffers.kept_temporal_reservoirs())),
             trace_size: buffers.trace_size,
             gradient_lambda: buffers.gradient_grid.map(|grid| {
                 let entries: Vec<[f32; 4]> = ctx.read_buffer(&buffers.gradients);
@@ -481,14 +484,14 @@ impl PcTier {
             &self.denoise_pipelines,
             size,
             &DenoiseSources {
-                noisy: &restir.buffers.irradiance,
+                noisy: &restir.buffers.rays,
                 depth: gbuffer.depth,
                 normal: gbuffer.normal,
                 motion: gbuffer.motion,
                 gradients: restir.buffers.gradient_source(),
                 lent: Some(LentBuffers {
                     output: &restir.buffers.transient,
-                    reprojected_moments: &restir.buffers.specular_samples,
+                    reprojected_moments: &restir.buffers.resolved,
                 }),
             },
         );

@@ -20,6 +20,8 @@ use super::{GpuGradientSample, GpuReservoir, GpuSpecularSample, GpuSurface, PcCo
 const TILE: u32 = 8;
 /// Bytes per pixel of `specular_noisy` (`pack_color64`).
 const SPECULAR_NOISY_PIXEL_BYTES: u64 = 8;
+/// Bytes per pixel of `irradiance` (`pack_color64`).
+const IRRADIANCE_PIXEL_BYTES: u64 = 8;
 
 /// The compute pipelines of `shaders/pc/restir/`, each from its pass's file, and their
 /// layouts, compiled once per tier; cloning shares them.
@@ -161,7 +163,8 @@ gi_gpu::storage_bindings! {
         denoised: read_write,
         direct_mean: read,
         output: read_write,
-        specular_samples: read,
+        /// `specular_samples` and `irradiance` are one buffer ([`RestirBuffers::rays`]).
+        specular_samples: read_write,
         specular_noisy: read_write,
         specular_history: read_write,
         specular_history_prev: read,
@@ -198,23 +201,27 @@ pub(super) struct RestirBuffers {
     pub(super) uniforms: wgpu::Buffer,
     /// This frame's and the previous frame's, swapped at the end of a frame.
     frames: PingPong<FrameBuffers>,
-    /// One buffer in three roles whose lives within a frame do not overlap (`pc.transient`),
-    /// bound under each role's name: `initial`, the trace pixels' new reservoirs (from
-    /// `pc/trace` to the last pass that reads them, `pc/shadow` at the latest); then
-    /// `specular_noisy`, per pixel the resolved specular radiance (`pack_color64`: rgb and a
-    /// validity flag; from `pc/shade` to `pc/specular_temporal`); then the denoiser's output
-    /// (`LentBuffers::output`: from its first pass until `pc/compose` and the frame's
-    /// read-back). The names bound to it are all `read_write`: a dispatch may not bind one
-    /// buffer both read-only and writable. Sized for the largest role.
+    /// The next three buffers each serve several roles whose lives within a frame do not
+    /// overlap, bound under each role's name; every name bound to one of them is `read_write`
+    /// (a dispatch may not bind a buffer both read-only and writable). Each is sized for its
+    /// largest role.
+    ///
+    /// `pc.transient`: `initial`, the trace pixels' new reservoirs (from `pc/trace` to the
+    /// last pass that reads them, `pc/shadow` at the latest); then `specular_noisy`, per pixel
+    /// the specular input (`pack_color64`: rgb and its kind; from `pc/specular_resolve` to
+    /// `pc/specular_temporal`); then the denoiser's output (`LentBuffers::output`: from its
+    /// first pass until `pc/compose` and the frame's read-back).
     pub(super) transient: wgpu::Buffer,
-    /// Per trace pixel: the spatial reuse's result, then the shadow pass's (in place).
+    /// `pc.rays`: `specular_samples`, this frame's specular ray per trace pixel (from
+    /// `pc/specular_trace` to `pc/specular_resolve`); then `irradiance`, per pixel the
+    /// multi-sample shading's irradiance (`pack_color64`; from `pc/shade` to the denoiser's
+    /// `pc/denoise_temporal` and the frame's read-back).
+    pub(super) rays: wgpu::Buffer,
+    /// `pc.resolved`: `resolved`, per trace pixel the spatial reuse's result, then the shadow
+    /// pass's (in place; until `pc/shade`); then the denoiser's reprojected moments
+    /// (`LentBuffers::reprojected_moments`, during `pc/denoise_temporal`).
     pub(super) resolved: wgpu::Buffer,
-    pub(super) irradiance: wgpu::Buffer,
     pub(super) output: wgpu::Buffer,
-    /// Per trace pixel: this frame's specular ray, until `pc/specular_resolve`; then the
-    /// denoiser's reprojected moments (`LentBuffers::reprojected_moments`, at least 4 bytes per
-    /// pixel).
-    pub(super) specular_samples: wgpu::Buffer,
     /// The temporal gradients' strata; `None`: gradients off.
     pub(super) gradient_grid: Option<GradientGrid>,
     /// Per stratum, in two halves by frame parity: the ray candidate `trace` keeps for the next
@@ -270,14 +277,16 @@ impl RestirBuffers {
                     .max(pixels * SPECULAR_NOISY_PIXEL_BYTES)
                     .max(pixels * OUTPUT_PIXEL_BYTES),
             ),
-            resolved: buffer("pc.resolved", reservoirs),
-            irradiance: buffer("pc.irradiance", pixels * 8),
-            output: buffer("pc.output", pixels * 16),
-            specular_samples: buffer(
-                "pc.specular_samples",
-                (traced * size_of::<GpuSpecularSample>() as u64)
-                    .max(pixels * REPROJECTED_MOMENTS_PIXEL_BYTES),
+            resolved: buffer(
+                "pc.resolved",
+                reservoirs.max(pixels * REPROJECTED_MOMENTS_PIXEL_BYTES),
             ),
+            rays: buffer(
+                "pc.rays",
+                (traced * size_of::<GpuSpecularSample>() as u64)
+                    .max(pixels * IRRADIANCE_PIXEL_BYTES),
+            ),
+            output: buffer("pc.output", pixels * 16),
             gradient_grid,
             gradient_samples: buffer(
                 "pc.gradient_samples",
@@ -303,6 +312,12 @@ impl RestirBuffers {
         self.history = true;
     }
 
+    /// The temporal reservoirs the last ended frame kept for the next one (one entry without
+    /// temporal reuse).
+    pub(super) fn kept_temporal_reservoirs(&self) -> &wgpu::Buffer {
+        &self.frames.history().temporal
+    }
+
     pub(super) fn release(&self, ctx: &GpuContext) {
         for frame in self.frames.both() {
             frame.release(ctx);
@@ -311,9 +326,8 @@ impl RestirBuffers {
             &self.uniforms,
             &self.transient,
             &self.resolved,
-            &self.irradiance,
+            &self.rays,
             &self.output,
-            &self.specular_samples,
             &self.gradient_samples,
             &self.gradients,
         ] {
@@ -386,7 +400,7 @@ impl RestirBuffers {
                 resolved: &b.resolved,
                 gbuffer_base_color: g.base_color,
                 gbuffer_metallic_roughness: g.metallic_roughness,
-                specular_samples: &b.specular_samples,
+                specular_samples: &b.rays,
                 gradient_samples: &b.gradient_samples,
                 gradients: &b.gradients,
             }
@@ -422,11 +436,11 @@ impl RestirBuffers {
                 temporal_out: &frame.temporal,
                 temporal_prev: &previous.temporal,
                 resolved: &b.resolved,
-                irradiance: &b.irradiance,
+                irradiance: &b.rays,
                 denoised: inputs.denoised,
                 direct_mean: inputs.direct,
                 output: &b.output,
-                specular_samples: &b.specular_samples,
+                specular_samples: &b.rays,
                 specular_noisy: &b.transient,
                 specular_history: &frame.specular_history,
                 specular_history_prev: &previous.specular_history,
@@ -516,8 +530,8 @@ impl Technique for Restir {
     /// gradients also last frame's kept ray candidates drawn again), `pc/gradient` (their
     /// lambda),
     /// `pc/specular_trace`, `pc/temporal` and `pc/spatial` (ReSTIR GI reuse), `pc/shadow` (the
-    /// chosen samples' visibility), `pc/shade` (multi-sample shading into `irradiance`),
-    /// `pc/specular_resolve` and `pc/specular_temporal`, each as the config switches it on.
+    /// chosen samples' visibility), `pc/specular_resolve`, `pc/shade` (multi-sample shading
+    /// into `irradiance`) and `pc/specular_temporal`, each as the config switches it on.
     fn record(&mut self, rec: &mut Recorder<'_>, inputs: &RestirInputs<'_>) {
         let groups = self.buffers.groups(rec.ctx, &self.pipelines, inputs);
         let (tw, th) = self.buffers.trace_size;
@@ -542,10 +556,12 @@ impl Technique for Restir {
             steps.push(("pc/spatial", &p.spatial, false, true));
         }
         steps.push(("pc/shadow", &p.shadow, true, true));
-        steps.push(("pc/shade", &p.shade, false, false));
+        // The specular rays are resolved before `shade` (each writes the specular input of
+        // pixels the other leaves alone), so that `shade`'s irradiance takes their buffer.
         if specular {
             steps.push(("pc/specular_resolve", &p.specular_resolve, false, false));
         }
+        steps.push(("pc/shade", &p.shade, false, false));
         if specular || config.specular.reuse_diffuse {
             steps.push(("pc/specular_temporal", &p.specular_temporal, false, false));
         }
