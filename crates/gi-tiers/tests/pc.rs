@@ -669,7 +669,10 @@ fn every_bundled_scene_renders_finite_and_accounts_its_memory() {
             assert!(data.dynamic.iter().all(|d| !d), "{name}: dynamic pixels");
         }
         // The temporal reservoirs' M is clamped.
-        let kept = data.temporal_reservoirs.as_ref().expect("temporal reuse is on");
+        let kept = data
+            .temporal_reservoirs
+            .as_ref()
+            .expect("temporal reuse is on");
         let most = kept.iter().map(|r| r.m()).fold(0.0, f32::max);
         assert!(most <= config.restir.m_clamp + 1.0, "{name}: M {most}");
         // The parts are summed from the buffers' labels: every byte the tier owns is in one

@@ -779,8 +779,13 @@ mod tests {
         let shaders = ShaderLibrary::new();
         let file = "pc/denoise/shared.wgsl";
         let source = shaders.source(file).expect("the shader is in the library");
-        check_declared(source, 0, DenoiseBindings::FIRST_BINDING, DenoiseBindings::SLOTS)
-            .unwrap_or_else(|e| panic!("{file}: {e}"));
+        check_declared(
+            source,
+            0,
+            DenoiseBindings::FIRST_BINDING,
+            DenoiseBindings::SLOTS,
+        )
+        .unwrap_or_else(|e| panic!("{file}: {e}"));
         assert_eq!(
             wgsl_storage_bindings(source, 0).len(),
             DenoiseBindings::SLOTS.len(),
