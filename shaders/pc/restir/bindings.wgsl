@@ -42,10 +42,11 @@
 // of rough pixels; `specular_resolve` the traced radiance of smooth ones) and the history of
 // either (`specular_temporal`).
 @group(0) @binding(24) var<storage, read_write> specular_noisy: array<vec2<u32>>;
-// Per pixel: radiance or ratio and history length (`pack_specular_history`); this frame's and
-// the previous frame's.
+// Per pixel: radiance or ratio and history length (`pack_specular_history`), one buffer
+// updated in place; and the history each pixel found in the previous frame, copied out first
+// (`specular_temporal`; one buffer with `resolved` in turn, `RestirBuffers::resolved`).
 @group(0) @binding(25) var<storage, read_write> specular_history: array<vec2<u32>>;
-@group(0) @binding(26) var<storage, read> specular_history_prev: array<vec2<u32>>;
+@group(0) @binding(26) var<storage, read_write> specular_reprojected: array<vec2<u32>>;
 // Per pixel: the G-buffer's emission and, in w, the material's occlusion factor.
 @group(0) @binding(27) var<storage, read> gbuffer_emissive: array<vec4<f32>>;
 // Per pixel with FLAG_BLEND_LAYER: the nearest blended surface in front (`gbuffer.blend_layer`).

@@ -10,17 +10,57 @@
 // bytes. `compose` multiplies the radiance by the split-sum specular albedo, and the
 // irradiance over pi by the ratio.
 //
+// Two dispatches, so that one history buffer serves both frames: `specular_reproject` copies
+// the history each pixel finds in the previous frame (checked, or none) into
+// `specular_reprojected`; then `specular_temporal` updates each pixel's history in place
+// from its own copy.
+//
 // Bind group 0: binding 0 `uniforms` (`gi::pc::restir::common`), then the buffers of
 // `gi::pc::restir::bindings`.
 
 #import gi::packing::{unpack_unit_vector, unpack_color64}
 #import gi::pc::restir::bindings::{
     gbuffer_depth, gbuffer_normal, gbuffer_motion, specular_noisy, specular_history,
-    specular_history_prev, previous_depth, previous_normal, kind_of, world_position
+    specular_reprojected, previous_depth, previous_normal, kind_of, world_position
 }
 #import gi::pc::restir::common::{
     uniforms, FLAG_HISTORY, SPECULAR_NONE, SPECULAR_REUSED, pack_specular_history,
     unpack_specular_history
+}
+
+// The history pixel `id` finds at its position in the previous frame (the surface's motion
+// vector; depth, normal and kind checked), copied into `specular_reprojected`; none (length 0)
+// where there is none. Pixels without a specular input are left alone.
+@compute @workgroup_size(8, 8)
+fn specular_reproject(@builtin(global_invocation_id) id: vec3<u32>) {
+    if any(id.xy >= uniforms.size_px) {
+        return;
+    }
+    let pixel = id.y * uniforms.size_px.x + id.x;
+    let depth = gbuffer_depth[pixel];
+    let kind = kind_of(pixel, depth);
+    if kind == SPECULAR_NONE {
+        return;
+    }
+    var found = vec2(0u);
+    let before = vec2<f32>(id.xy) + 0.5 + gbuffer_motion[pixel];
+    let q = vec2<i32>(floor(before));
+    if (uniforms.flags & FLAG_HISTORY) != 0u && all(q >= vec2(0)) && all(q < vec2<i32>(uniforms.size_px)) {
+        let qi = u32(q.y) * uniforms.size_px.x + u32(q.x);
+        let stored = unpack_specular_history(specular_history[qi]);
+        let x = world_position(id.xy, depth);
+        let n = unpack_unit_vector(gbuffer_normal[pixel]);
+        let expected = distance(x, uniforms.previous_camera.position);
+        // Sky's depth is infinite: never the same.
+        let same_depth = abs(previous_depth[qi] - expected) <= 0.05 * expected;
+        let same_normal = dot(unpack_unit_vector(previous_normal[qi]), n) > 0.9;
+        // A reused ratio's history is never mixed with radiance, nor the other way round.
+        let same_kind = stored.reused == (kind == SPECULAR_REUSED);
+        if same_kind && same_depth && same_normal {
+            found = specular_history[qi];
+        }
+    }
+    specular_reprojected[pixel] = found;
 }
 
 @compute @workgroup_size(8, 8)
@@ -35,8 +75,6 @@ fn specular_temporal(@builtin(global_invocation_id) id: vec3<u32>) {
         specular_history[pixel] = vec2(0u);
         return;
     }
-    let x = world_position(id.xy, depth);
-    let n = unpack_unit_vector(gbuffer_normal[pixel]);
     let current = unpack_color64(specular_noisy[pixel]);
 
     // The resolved neighbourhood's mean and standard deviation.
@@ -60,29 +98,18 @@ fn specular_temporal(@builtin(global_invocation_id) id: vec3<u32>) {
         }
     }
 
-    // The previous frame's history of this surface.
+    // The previous frame's history of this surface, as `specular_reproject` found it.
     var history = vec3(0.0);
     var length = 0.0;
-    let before = vec2<f32>(id.xy) + 0.5 + gbuffer_motion[pixel];
-    let q = vec2<i32>(floor(before));
-    if (uniforms.flags & FLAG_HISTORY) != 0u && all(q >= vec2(0)) && all(q < vec2<i32>(uniforms.size_px)) {
-        let qi = u32(q.y) * uniforms.size_px.x + u32(q.x);
-        let stored = unpack_specular_history(specular_history_prev[qi]);
-        let expected = distance(x, uniforms.previous_camera.position);
-        // Sky's depth is infinite: never the same.
-        let same_depth = abs(previous_depth[qi] - expected) <= 0.05 * expected;
-        let same_normal = dot(unpack_unit_vector(previous_normal[qi]), n) > 0.9;
-        // A reused ratio's history is never mixed with radiance, nor the other way round.
-        let same_kind = stored.reused == (kind == SPECULAR_REUSED);
-        if stored.length > 0.0 && same_kind && same_depth && same_normal {
-            history = stored.value;
-            length = stored.length;
-            if count > 0.0 {
-                let mean = m1 / count;
-                let sigma = sqrt(max(m2 / count - mean * mean, vec3(0.0)));
-                let k = uniforms.specular_clamp_sigma;
-                history = clamp(history, mean - k * sigma, mean + k * sigma);
-            }
+    let stored = unpack_specular_history(specular_reprojected[pixel]);
+    if stored.length > 0.0 {
+        history = stored.value;
+        length = stored.length;
+        if count > 0.0 {
+            let mean = m1 / count;
+            let sigma = sqrt(max(m2 / count - mean * mean, vec3(0.0)));
+            let k = uniforms.specular_clamp_sigma;
+            history = clamp(history, mean - k * sigma, mean + k * sigma);
         }
     }
     var radiance = history;

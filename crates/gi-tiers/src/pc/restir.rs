@@ -22,6 +22,8 @@ const TILE: u32 = 8;
 const SPECULAR_NOISY_PIXEL_BYTES: u64 = 8;
 /// Bytes per pixel of `irradiance` (`pack_color64`).
 const IRRADIANCE_PIXEL_BYTES: u64 = 8;
+/// Bytes per pixel of the specular history and `specular_reprojected` (`pack_color64`).
+const SPECULAR_HISTORY_PIXEL_BYTES: u64 = 8;
 
 /// The compute pipelines of `shaders/pc/restir/`, each from its pass's file, and their
 /// layouts, compiled once per tier; cloning shares them.
@@ -37,6 +39,7 @@ pub(super) struct RestirPipelines {
     compose: wgpu::ComputePipeline,
     specular_trace: wgpu::ComputePipeline,
     specular_resolve: wgpu::ComputePipeline,
+    specular_reproject: wgpu::ComputePipeline,
     specular_temporal: wgpu::ComputePipeline,
     gradient_filter: wgpu::ComputePipeline,
 }
@@ -90,9 +93,9 @@ impl RestirPipelines {
             vec![None; CacheBuffers::BIND_GROUP as usize + 1];
         restir_groups[0] = Some(&restir_layout);
         restir_groups[CacheBuffers::BIND_GROUP as usize] = Some(&cache_layout);
-        // The passes after the rays, from `pc/restir/{entry}.wgsl`.
-        let reused = |entry: &str| -> Result<_, GpuError> {
-            let module = shaders.create_module(ctx, &format!("pc/restir/{entry}.wgsl"), &[])?;
+        // The passes after the rays, entry `entry` of `pc/restir/{file}.wgsl`.
+        let reused_entry = |file: &str, entry: &str| -> Result<_, GpuError> {
+            let module = shaders.create_module(ctx, &format!("pc/restir/{file}.wgsl"), &[])?;
             Ok(ctx.create_compute_pipeline_with_layouts(
                 &format!("pc/{entry}"),
                 &module,
@@ -100,6 +103,7 @@ impl RestirPipelines {
                 &restir_groups,
             ))
         };
+        let reused = |entry: &str| reused_entry(entry, entry);
         Ok(Self {
             trace: traced("trace")?,
             shadow: traced("shadow")?,
@@ -109,6 +113,7 @@ impl RestirPipelines {
             shade: reused("shade")?,
             compose: reused("compose")?,
             specular_resolve: reused("specular_resolve")?,
+            specular_reproject: reused_entry("specular_temporal", "specular_reproject")?,
             specular_temporal: reused("specular_temporal")?,
             gradient_filter: traced_pipeline(&gradient, "gradient_filter"),
             trace_layout,
@@ -167,7 +172,9 @@ gi_gpu::storage_bindings! {
         specular_samples: read_write,
         specular_noisy: read_write,
         specular_history: read_write,
-        specular_history_prev: read,
+        /// The specular history each pixel finds in the previous frame, in the buffer of
+        /// `resolved` ([`RestirBuffers::resolved`]).
+        specular_reprojected: read_write,
         gbuffer_emissive: read,
         gbuffer_blend_layer: read,
         previous_depth: read,
@@ -183,13 +190,11 @@ struct FrameBuffers {
     /// Temporal reservoirs, one per trace pixel (one in all without temporal reuse: never
     /// read then).
     temporal: wgpu::Buffer,
-    /// Per pixel: the specular history (radiance or ratio and length, `pack_color64`).
-    specular_history: wgpu::Buffer,
 }
 
 impl FrameBuffers {
     fn release(&self, ctx: &GpuContext) {
-        for buffer in [&self.surfaces, &self.temporal, &self.specular_history] {
+        for buffer in [&self.surfaces, &self.temporal] {
             ctx.release_buffer(buffer);
         }
     }
@@ -218,9 +223,15 @@ pub(super) struct RestirBuffers {
     /// `pc/denoise_temporal` and the frame's read-back).
     pub(super) rays: wgpu::Buffer,
     /// `pc.resolved`: `resolved`, per trace pixel the spatial reuse's result, then the shadow
-    /// pass's (in place; until `pc/shade`); then the denoiser's reprojected moments
+    /// pass's (in place; until `pc/shade`); then `specular_reprojected`, per pixel the
+    /// specular history found in the previous frame (`pc/specular_temporal`'s first dispatch
+    /// to its second); then the denoiser's reprojected moments
     /// (`LentBuffers::reprojected_moments`, during `pc/denoise_temporal`).
     pub(super) resolved: wgpu::Buffer,
+    /// Per pixel: the specular history (radiance or ratio and length, `pack_color64`),
+    /// updated in place: `pc/specular_temporal` first copies what each pixel reprojects to
+    /// into `specular_reprojected`.
+    pub(super) specular_history: wgpu::Buffer,
     pub(super) output: wgpu::Buffer,
     /// The temporal gradients' strata; `None`: gradients off.
     pub(super) gradient_grid: Option<GradientGrid>,
@@ -269,7 +280,6 @@ impl RestirBuffers {
                     .clone()
                     .unwrap_or_else(|| buffer("pc.surfaces", surfaces)),
                 temporal: buffer("pc.temporal", if temporal { reservoirs } else { one }),
-                specular_history: buffer("pc.specular_history", pixels * 8),
             }),
             transient: buffer(
                 "pc.transient",
@@ -279,8 +289,11 @@ impl RestirBuffers {
             ),
             resolved: buffer(
                 "pc.resolved",
-                reservoirs.max(pixels * REPROJECTED_MOMENTS_PIXEL_BYTES),
+                reservoirs
+                    .max(pixels * SPECULAR_HISTORY_PIXEL_BYTES)
+                    .max(pixels * REPROJECTED_MOMENTS_PIXEL_BYTES),
             ),
+            specular_history: buffer("pc.specular_history", pixels * SPECULAR_HISTORY_PIXEL_BYTES),
             rays: buffer(
                 "pc.rays",
                 (traced * size_of::<GpuSpecularSample>() as u64)
@@ -305,8 +318,8 @@ impl RestirBuffers {
         })
     }
 
-    /// Ends a frame: its surfaces, reservoirs and specular history become the next frame's
-    /// history.
+    /// Ends a frame: its receivers and temporal reservoirs become the next frame's history
+    /// (the specular history is updated in place).
     pub(super) fn end_frame(&mut self) {
         self.frames.swap();
         self.history = true;
@@ -326,6 +339,7 @@ impl RestirBuffers {
             &self.uniforms,
             &self.transient,
             &self.resolved,
+            &self.specular_history,
             &self.rays,
             &self.output,
             &self.gradient_samples,
@@ -442,8 +456,8 @@ impl RestirBuffers {
                 output: &b.output,
                 specular_samples: &b.rays,
                 specular_noisy: &b.transient,
-                specular_history: &frame.specular_history,
-                specular_history_prev: &previous.specular_history,
+                specular_history: &b.specular_history,
+                specular_reprojected: &b.resolved,
                 gbuffer_emissive: g.emissive,
                 gbuffer_blend_layer: g.blend_layer,
                 previous_depth: inputs.previous_depth,
@@ -508,8 +522,8 @@ impl Restir {
         &self.buffers.output
     }
 
-    /// Ends a frame: its surfaces, reservoirs and specular history become the next frame's
-    /// history.
+    /// Ends a frame: its receivers and temporal reservoirs become the next frame's history
+    /// (the specular history is updated in place).
     pub(super) fn end_frame(&mut self) {
         self.buffers.end_frame();
     }
@@ -540,39 +554,47 @@ impl Technique for Restir {
         let full_workgroups = (size.0.div_ceil(TILE), size.1.div_ceil(TILE));
         let config = inputs.config;
         let p = &self.pipelines;
-        // Each pass: name, pipeline, whether it traces (BVH bound, the trace module's group 0)
-        // and whether it runs per trace pixel (else per pixel).
+        // Each pass: name, its pipelines (dispatched in turn over the same workgroups), whether
+        // it traces (BVH bound, the trace module's group 0) and whether it runs per trace pixel
+        // (else per pixel).
         let specular = config.specular.traced;
-        let mut steps = vec![("pc/trace", &p.trace, true, true)];
+        let mut steps = vec![("pc/trace", vec![&p.trace], true, true)];
         if specular {
-            steps.push(("pc/specular_trace", &p.specular_trace, true, true));
+            steps.push(("pc/specular_trace", vec![&p.specular_trace], true, true));
         }
         // Without temporal reuse the spatial reuse and the shadow pass read the initial
         // reservoirs.
         if config.restir.temporal {
-            steps.push(("pc/temporal", &p.temporal, false, true));
+            steps.push(("pc/temporal", vec![&p.temporal], false, true));
         }
         if config.restir.spatial {
-            steps.push(("pc/spatial", &p.spatial, false, true));
+            steps.push(("pc/spatial", vec![&p.spatial], false, true));
         }
-        steps.push(("pc/shadow", &p.shadow, true, true));
+        steps.push(("pc/shadow", vec![&p.shadow], true, true));
         // The specular rays are resolved before `shade` (each writes the specular input of
         // pixels the other leaves alone), so that `shade`'s irradiance takes their buffer.
         if specular {
-            steps.push(("pc/specular_resolve", &p.specular_resolve, false, false));
+            steps.push((
+                "pc/specular_resolve",
+                vec![&p.specular_resolve],
+                false,
+                false,
+            ));
         }
-        steps.push(("pc/shade", &p.shade, false, false));
+        steps.push(("pc/shade", vec![&p.shade], false, false));
         if specular || config.specular.reuse_diffuse {
-            steps.push(("pc/specular_temporal", &p.specular_temporal, false, false));
+            // Two dispatches: every pixel's history found in the previous frame is copied out
+            // before any pixel updates the one history buffer in place.
+            let passes = vec![&p.specular_reproject, &p.specular_temporal];
+            steps.push(("pc/specular_temporal", passes, false, false));
         }
         let scene = inputs.scene;
         // `trace` also draws last frame's kept rays again, one per gradient stratum, in rows of
         // workgroups below its own: the other rays hide their latency.
         let grid = self.buffers.gradient_grid;
         let gradient_rows = grid.map_or(0, |g| g.strata.1.div_ceil(TILE));
-        for (name, pipeline, traces, per_trace_pixel) in steps {
+        for (name, pipelines, traces, per_trace_pixel) in steps {
             rec.compute_pass(name, |pass| {
-                pass.set_pipeline(pipeline);
                 if traces {
                     pass.set_bind_group(0, &groups.trace, &[]);
                     pass.set_bind_group(BVH_BIND_GROUP, &scene.bvh.bind_group, &[]);
@@ -586,7 +608,10 @@ impl Technique for Restir {
                     (true, _) => trace_workgroups,
                     (false, _) => full_workgroups,
                 };
-                pass.dispatch_workgroups(groups.0, groups.1, 1);
+                for pipeline in pipelines {
+                    pass.set_pipeline(pipeline);
+                    pass.dispatch_workgroups(groups.0, groups.1, 1);
+                }
             });
             if name == "pc/trace"
                 && let Some(grid) = grid
