@@ -779,6 +779,29 @@ fn dynamic_pixels_follow_the_moving_objects() {
     assert_ne!(masks[0], masks[1], "the dynamic pixels did not move");
 }
 
+/// The screen buffers' budget: buffers whose roles do not live at once within a frame share
+/// memory (`RestirBuffers`), the histories are packed, and the whole stays within 66 bytes a
+/// pixel at the default trace scale (129 MiB at 1920x1080; 108 bytes, 214 MiB, before the
+/// sharing). A pass given a buffer of its own again, or a history unpacked, breaks it.
+#[test]
+fn the_screen_buffers_stay_within_66_bytes_a_pixel() {
+    let Some(ctx) = GpuContext::new_or_skip("the_screen_buffers_stay_within_66_bytes_a_pixel")
+    else {
+        return;
+    };
+    let scene = gi_scene::load("cornell-box").unwrap();
+    let size = (320, 180);
+    let tier = run(ctx, &scene, PcConfig::default(), size, 1, None);
+    let pixels = f64::from(size.0 * size.1);
+    let per_pixel = tier.memory().screen_bytes as f64 / pixels;
+    eprintln!("screen buffers: {per_pixel:.2} bytes a pixel");
+    assert!(
+        per_pixel <= 66.0,
+        "{per_pixel:.2} bytes a pixel: {:?}",
+        tier.context().memory().by_label
+    );
+}
+
 /// Temporal reuse is off by default: its two reservoir buffers then hold one reservoir each
 /// (they are never read), and switched on a reservoir per trace pixel each; the previous
 /// frame's receivers, which only it reads, take a buffer of their own only with it.
