@@ -128,3 +128,29 @@ fn unpack_color64(packed: vec2<u32>) -> vec4<f32> {
     let rgb = vec3<f32>(m) * power_of_two(exponent - 31);
     return vec4(rgb, half_value((packed.y >> 21u) << 4u));
 }
+
+// A G-buffer surface's depth and normal in 32 bits, as a history checks reprojected taps
+// against them: the depth as an f16 (low bits; at most 2^-11 of itself off, depths beyond
+// 65504 clamped to it, +inf for sky kept as the f16 infinity) and the normal as two 8-bit snorm
+// octahedral coordinates (high bits; under a degree off).
+fn pack_depth_normal(depth: f32, n: vec3<f32>) -> u32 {
+    var depth_bits = 0x7c00u;
+    if depth < 3.0e38 {
+        depth_bits = half_bits(depth);
+    }
+    return depth_bits | ((pack4x8snorm(vec4(oct_encode(n), 0.0, 0.0)) & 0xffffu) << 16u);
+}
+
+// The depth of `pack_depth_normal` (+inf for sky).
+fn unpack_depth(packed: u32) -> f32 {
+    let depth_bits = packed & 0xffffu;
+    if depth_bits == 0x7c00u {
+        return bitcast<f32>(0x7f800000u);
+    }
+    return half_value(depth_bits);
+}
+
+// The normal of `pack_depth_normal`.
+fn unpack_normal8(packed: u32) -> vec3<f32> {
+    return oct_decode(unpack4x8snorm(packed >> 16u).xy);
+}

@@ -1,11 +1,14 @@
 // Test kernel of the shared-module tests: runs `gi::packing` round trips and the
 // `gi::math` orthonormal basis on a batch of inputs so the CPU can check every result.
-// For input i (a unit vector n and a color c packed in two vec4s), writes three vec4s:
-// the unit-vector round trip, the RGB9E5 round trip of c, and basis checks
-// (x.y, x.n, y.n, det(basis)).
+// For input i (a unit vector n and a color c packed in two vec4s, a depth in c's w), writes
+// four vec4s: the unit-vector round trip, the RGB9E5 round trip of c, basis checks (x.y, x.n,
+// y.n, det(basis)), and the depth-and-normal round trip (normal, depth).
 
 #import gi::math::world_from_tangent
-#import gi::packing::{pack_unit_vector, unpack_unit_vector, pack_rgb9e5, unpack_rgb9e5}
+#import gi::packing::{
+    pack_unit_vector, unpack_unit_vector, pack_rgb9e5, unpack_rgb9e5, pack_depth_normal, unpack_depth,
+    unpack_normal8
+}
 
 @group(0) @binding(0) var<storage, read> inputs: array<vec4<f32>>;
 @group(0) @binding(1) var<storage, read_write> outputs: array<vec4<f32>>;
@@ -18,10 +21,13 @@ fn common_functions(@builtin(global_invocation_id) id: vec3<u32>) {
     }
     let n = inputs[2u * i].xyz;
     let color = inputs[2u * i + 1u].xyz;
-    outputs[3u * i] = vec4<f32>(unpack_unit_vector(pack_unit_vector(n)), 0.0);
-    outputs[3u * i + 1u] = vec4<f32>(unpack_rgb9e5(pack_rgb9e5(color)), 0.0);
+    let depth = inputs[2u * i + 1u].w;
+    outputs[4u * i] = vec4<f32>(unpack_unit_vector(pack_unit_vector(n)), 0.0);
+    outputs[4u * i + 1u] = vec4<f32>(unpack_rgb9e5(pack_rgb9e5(color)), 0.0);
+    let geometry = pack_depth_normal(depth, n);
+    outputs[4u * i + 3u] = vec4<f32>(unpack_normal8(geometry), unpack_depth(geometry));
     let basis = world_from_tangent(n);
-    outputs[3u * i + 2u] = vec4<f32>(
+    outputs[4u * i + 2u] = vec4<f32>(
         dot(basis[0], basis[1]),
         dot(basis[0], n),
         dot(basis[1], n),

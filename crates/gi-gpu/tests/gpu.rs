@@ -429,7 +429,7 @@ fn shared_packing_and_basis_functions_are_accurate() {
         return;
     };
     // A fixed pseudo-random batch: unit vectors in every octant (and the poles), colors over
-    // nine orders of magnitude.
+    // nine orders of magnitude, depths (the colors' w) over seven and the sky's +inf.
     let mut state = 0x2545_f491_u32;
     let mut next = move || {
         state = state.wrapping_mul(1_664_525).wrapping_add(1_013_904_223);
@@ -437,7 +437,7 @@ fn shared_packing_and_basis_functions_are_accurate() {
     };
     let mut inputs: Vec<[f32; 4]> = vec![
         [0.0, 0.0, 1.0, 0.0],
-        [1.0; 4],
+        [1.0, 1.0, 1.0, f32::INFINITY],
         [0.0, 0.0, -1.0, 0.0],
         [0.5; 4],
     ];
@@ -446,12 +446,13 @@ fn shared_packing_and_basis_functions_are_accurate() {
         let length = (v[0] * v[0] + v[1] * v[1] + v[2] * v[2]).sqrt().max(1e-3);
         inputs.push([v[0] / length, v[1] / length, v[2] / length, 0.0]);
         let scale = 10f32.powi(i % 9 - 4);
-        inputs.push([next() * scale, next() * scale, next() * scale, 0.0]);
+        let depth = (0.1 + next()) * 10f32.powi(i % 7 - 2);
+        inputs.push([next() * scale, next() * scale, next() * scale, depth]);
     }
     let count = inputs.len() / 2;
     let usage = wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC;
     let input_buffer = ctx.create_buffer_init("test.inputs", bytemuck::cast_slice(&inputs), usage);
-    let output_buffer = ctx.create_buffer("test.outputs", (count * 3 * 16) as u64, usage);
+    let output_buffer = ctx.create_buffer("test.outputs", (count * 4 * 16) as u64, usage);
     let module = ShaderLibrary::new()
         .create_module(&ctx, "test/common_functions.wgsl", &[])
         .unwrap();
@@ -486,14 +487,21 @@ fn shared_packing_and_basis_functions_are_accurate() {
 
     let mut worst_normal = 0f32;
     let mut worst_color = 0f32;
+    let mut worst_normal8 = 0f32;
+    let mut worst_depth = 0f32;
+    let distance =
+        |a: [f32; 4], b: [f32; 4]| (0..3).map(|k| (a[k] - b[k]).powi(2)).sum::<f32>().sqrt();
     for i in 0..count {
         let (n, color) = (inputs[2 * i], inputs[2 * i + 1]);
-        let [n_out, color_out, basis] = [outputs[3 * i], outputs[3 * i + 1], outputs[3 * i + 2]];
-        let normal_error = (0..3)
-            .map(|k| (n[k] - n_out[k]).powi(2))
-            .sum::<f32>()
-            .sqrt();
-        worst_normal = worst_normal.max(normal_error);
+        let [n_out, color_out, basis, geometry] = [0, 1, 2, 3].map(|k| outputs[4 * i + k]);
+        worst_normal = worst_normal.max(distance(n, n_out));
+        worst_normal8 = worst_normal8.max(distance(n, geometry));
+        let depth = color[3];
+        if depth.is_finite() {
+            worst_depth = worst_depth.max((geometry[3] - depth).abs() / depth);
+        } else {
+            assert_eq!(geometry[3], f32::INFINITY, "input {i}: the sky's depth");
+        }
         let max_channel = color[0].max(color[1]).max(color[2]);
         for k in 0..3 {
             // Nine mantissa bits relative to the largest channel, after rounding.
@@ -510,10 +518,17 @@ fn shared_packing_and_basis_functions_are_accurate() {
         );
     }
     eprintln!(
-        "worst unit-vector error {worst_normal:e}, worst relative color error {worst_color:e}"
+        "worst unit-vector error {worst_normal:e}, worst relative color error {worst_color:e}, \
+         worst 8-bit normal error {worst_normal8:e}, worst relative depth error {worst_depth:e}"
     );
     assert!(worst_normal < 1e-4, "unit vectors: {worst_normal}");
     assert!(worst_color <= 1.0 / 512.0, "colors: {worst_color}");
+    // Under a degree (a chord of 2 sin(0.5 degree)); an f16 rounds to 2^-11 of itself.
+    assert!(
+        worst_normal8 < 2.0 * 0.5f32.to_radians().sin(),
+        "8-bit normals: {worst_normal8}"
+    );
+    assert!(worst_depth <= 1.0 / 2048.0, "depths: {worst_depth}");
 }
 
 /// The median of `values` (the mean of the middle two for an even count).

@@ -10,14 +10,12 @@
 // Pixels are one storage-buffer entry each, row-major. Sky pixels (depth +inf) pass their
 // input through every pass, keep no history and never mix into their neighbours.
 //
-// Memory, 40 bytes per pixel (`gi_tiers::pc::denoise` explains the choice; 28 of its own when
-// the caller lends `output` and `reprojected_moments`): the histories are packed (short color
-// RGB9E5; long color and age `pack_color64`; moments f16), and the filter passes ping-pong
-// between `output` and a pair of buffers that are dead by then: the previous short history
-// (reprojected by `temporal_short`) and the previous normals (read only by `temporal_short`,
-// copied anew after the last pass), both in `pack_color64` (rgb, and the luminance variance
-// as the value). Which one a pass writes follows from the parity of its place in the chain
-// (`writes_output`), so that the last pass writes `output`.
+// Memory, 40 bytes per pixel (`gi_tiers::pc::denoise` explains the choice; 24 of its own when
+// the caller lends `output` and `scratch`): the histories are packed (short color RGB9E5; long
+// color and age `pack_color64`; moments f16; the previous depth and normal in one word), and
+// the filter passes ping-pong between `output` and `scratch`, both in `pack_color64` (rgb, and
+// the luminance variance as the value). Which one a pass writes follows from the parity of its
+// place in the chain (`writes_output`), so that the last pass writes `output`.
 //
 // Bind group 0: the frame's inputs, the histories and the filter buffers
 // (`DenoiseBindings` in `gi_tiers::pc::denoise`, in its order); group 1: this dispatch's
@@ -75,30 +73,27 @@ struct DenoiseUniforms {
 @group(0) @binding(1) var<storage, read> depth: array<f32>;
 @group(0) @binding(2) var<storage, read> normal: array<u32>;
 @group(0) @binding(3) var<storage, read> motion: array<vec2<f32>>;
-@group(0) @binding(4) var<storage, read> previous_depth: array<f32>;
-// Octahedral normals of the previous frame until `temporal_short` has run; then the second
-// word of the packed filter buffer (`store_filter`).
-@group(0) @binding(5) var<storage, read_write> previous_normal: array<u32>;
-// The previous frame's short history (RGB9E5) until `temporal_short` has run; then the first
-// word of the packed filter buffer.
-@group(0) @binding(6) var<storage, read_write> short_in: array<u32>;
-// This frame's short history, RGB9E5.
-@group(0) @binding(7) var<storage, read_write> short_out: array<u32>;
+// The previous frame's G-buffer depth and normal (`pack_depth_normal`), which the taps are
+// checked against, until `temporal_short` has run; `temporal` writes this frame's.
+@group(0) @binding(4) var<storage, read_write> previous_geometry: array<u32>;
+// The previous frame's short history and this frame's, RGB9E5.
+@group(0) @binding(5) var<storage, read> short_in: array<u32>;
+@group(0) @binding(6) var<storage, read_write> short_out: array<u32>;
 // The long history, `pack_color64` (rgb, age); age = frames accumulated including the current
 // one (0 for sky). Read through the taps only by `temporal_short`.
-@group(0) @binding(8) var<storage, read_write> history: array<vec2<u32>>;
+@group(0) @binding(7) var<storage, read_write> history: array<vec2<u32>>;
 // f16 (mean luminance, luminance variance) of the long history.
-@group(0) @binding(9) var<storage, read_write> moments: array<u32>;
+@group(0) @binding(8) var<storage, read_write> moments: array<u32>;
 // `pack_color64`: the reprojected long history's color and age between `temporal_short` and
 // `temporal` (`Reprojected`), then a filter buffer (rgb irradiance, its luminance variance as
 // the value), and the result after the last pass.
-@group(0) @binding(10) var<storage, read_write> output: array<vec2<u32>>;
+@group(0) @binding(9) var<storage, read_write> output: array<vec2<u32>>;
 // Per temporal-gradient stratum, lambda in z (`pc/restir/gradient.wgsl`): how much of the
 // light changed since the last frame.
-@group(0) @binding(11) var<storage, read> gradients: array<vec4<f32>>;
-// f16 mean luminance and luminance variance of the reprojected long history, from
-// `temporal_short` to `temporal`; unused after.
-@group(0) @binding(12) var<storage, read_write> reprojected_moments: array<u32>;
+@group(0) @binding(10) var<storage, read> gradients: array<vec4<f32>>;
+// From `temporal_short` to `temporal`: in x the f16 mean luminance and luminance variance of
+// the reprojected long history; then the other filter buffer (`pack_color64`).
+@group(0) @binding(11) var<storage, read_write> scratch: array<vec2<u32>>;
 
 // Group 1.
 // Named `uniforms`, not `u`: the passes import it, and naga_oil would rewrite the `u` suffix
@@ -153,7 +148,7 @@ fn load_filter(place: u32, index: u32) -> vec4<f32> {
     if writes_output(place) {
         return unpack_color64(output[index]);
     }
-    return unpack_color64(vec2(short_in[index], previous_normal[index]));
+    return unpack_color64(scratch[index]);
 }
 
 fn store_filter(place: u32, index: u32, value: vec4<f32>) {
@@ -161,8 +156,7 @@ fn store_filter(place: u32, index: u32, value: vec4<f32>) {
     if writes_output(place) {
         output[index] = packed;
     } else {
-        short_in[index] = packed.x;
-        previous_normal[index] = packed.y;
+        scratch[index] = packed;
     }
 }
 

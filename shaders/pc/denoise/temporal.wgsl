@@ -6,8 +6,8 @@
 //                   mean +- short_clamp_sigma sigma of the noisy input's 3 x 3 neighbourhood;
 //                   blend this frame's noisy irradiance into the short history
 //                   with alpha = max(1 / (age + 1), 1 / short_history), and leave the
-//                   reprojected long history in `output` (color, age) and
-//                   `reprojected_moments`;
+//                   reprojected long history in `output` (color, age) and `scratch`
+//                   (moments);
 //                   where the temporal gradient's lambda (`gradient_lambda`) says the light
 //                   changed, both alphas first become mix(alpha, 1, lambda), the long one
 //                   through the age it stores;
@@ -15,16 +15,19 @@
 //                   frame's short history over the 5 x 5 neighbourhood and blend with
 //                   alpha = max(1 / (age + 1), 1 / long_history); store the long history
 //                   (with `feedback`, as SVGF does, the first a-trous iteration replaces its
-//                   color).
+//                   color); keep this frame's depth and normal for the next frame's taps.
 //
 // Bind group 0: the frame's inputs, the histories and the filter buffers; group 1: this
 // dispatch's uniforms (`gi::pc::denoise`).
 
-#import gi::packing::{unpack_unit_vector, pack_rgb9e5, unpack_rgb9e5, pack_half2, unpack_half2, pack_color64, unpack_color64}
+#import gi::packing::{
+    unpack_unit_vector, pack_rgb9e5, unpack_rgb9e5, pack_half2, unpack_half2, pack_color64,
+    unpack_color64, pack_depth_normal, unpack_depth, unpack_normal8
+}
 #import gi::math::luminance
 #import gi::pc::denoise::{
-    noisy_at, depth, normal, motion, previous_depth, previous_normal, short_in, short_out, output,
-    reprojected_moments, uniforms, load_history, store_history, load_moments, store_moments, store_filter, is_sky,
+    noisy_at, depth, normal, motion, previous_geometry, short_in, short_out, output, scratch,
+    uniforms, load_history, store_history, load_moments, store_moments, store_filter, is_sky,
     pixel_index, inside, depth_at, depth_derivative, gradient_lambda, TEMPORAL_WRITE
 }
 
@@ -35,7 +38,7 @@ const RGB9E5_ERROR: f32 = 1.0 / 512.0;
 const MIN_REPROJECTION_WEIGHT: f32 = 0.01;
 
 // The long history reprojected by `temporal_short` for `temporal`, in `output` and
-// `reprojected_moments`.
+// `scratch`.
 struct Reprojected {
     color: vec3<f32>,
     // Frames accumulated including this one; 1 where no history was kept (then the history's
@@ -48,12 +51,12 @@ struct Reprojected {
 fn store_reprojected(index: u32, r: Reprojected) {
     let variance = max(r.moments.y - r.moments.x * r.moments.x, 0.0);
     output[index] = pack_color64(r.color, r.age);
-    reprojected_moments[index] = pack_half2(vec2(r.moments.x, variance));
+    scratch[index] = vec2(pack_half2(vec2(r.moments.x, variance)), 0u);
 }
 
 fn load_reprojected(index: u32) -> Reprojected {
     let color = unpack_color64(output[index]);
-    let m = unpack_half2(reprojected_moments[index]);
+    let m = unpack_half2(scratch[index].x);
     return Reprojected(color.rgb, color.w, vec2(m.x, m.y + m.x * m.x));
 }
 
@@ -86,11 +89,12 @@ fn reproject(pixel: vec2<i32>, index: u32, z: f32, n: vec3<f32>) -> Reprojection
             continue;
         }
         let t = pixel_index(tap);
-        let tap_depth = previous_depth[t];
+        let geometry = previous_geometry[t];
+        let tap_depth = unpack_depth(geometry);
         if is_sky(tap_depth) || abs(tap_depth - z) > tolerance {
             continue;
         }
-        if dot(unpack_unit_vector(previous_normal[t]), n) < uniforms.reprojection_normal_cos {
+        if dot(unpack_normal8(geometry), n) < uniforms.reprojection_normal_cos {
             continue;
         }
         taps.pixels[corner] = t;
@@ -220,4 +224,6 @@ fn temporal(@builtin(global_invocation_id) id: vec3<u32>) {
     // The first a-trous iteration, if any, replaces the color.
     store_history(index, color, previous.age);
     store_filter(TEMPORAL_WRITE, index, vec4(color, variance));
+    // `temporal_short`, the only reader of the previous geometry, has run.
+    previous_geometry[index] = pack_depth_normal(z, unpack_unit_vector(normal[index]));
 }

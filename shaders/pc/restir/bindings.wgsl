@@ -51,10 +51,9 @@
 @group(0) @binding(27) var<storage, read> gbuffer_emissive: array<vec4<f32>>;
 // Per pixel with FLAG_BLEND_LAYER: the nearest blended surface in front (`gbuffer.blend_layer`).
 @group(0) @binding(28) var<storage, read> gbuffer_blend_layer: array<vec4<f32>>;
-// Per pixel: the previous frame's G-buffer depth and normal (the denoiser's copies), which the
-// specular history's surface is checked against.
-@group(0) @binding(29) var<storage, read> previous_depth: array<f32>;
-@group(0) @binding(30) var<storage, read> previous_normal: array<u32>;
+// Per pixel: the previous frame's G-buffer depth and normal (the denoiser's,
+// `gi::packing::pack_depth_normal`), which the specular history's surface is checked against.
+@group(0) @binding(29) var<storage, read> previous_geometry: array<u32>;
 
 // Row-major index of trace pixel `t`.
 fn trace_index(t: vec2<u32>) -> u32 {

@@ -6,7 +6,7 @@
 // go through it too: their input is the lobe ratio of the reused diffuse samples (`shade`), and
 // neither the clamp's neighbourhood nor the history mixes the two kinds (a ratio's history
 // stores its length scaled, `pack_specular_history`). The history's surface is checked against
-// the previous frame's G-buffer depth and normal (the denoiser's copies), so an entry is 8
+// the previous frame's G-buffer depth and normal (the denoiser's), so an entry is 8
 // bytes. `compose` multiplies the radiance by the split-sum specular albedo, and the
 // irradiance over pi by the ratio.
 //
@@ -18,10 +18,10 @@
 // Bind group 0: binding 0 `uniforms` (`gi::pc::restir::common`), then the buffers of
 // `gi::pc::restir::bindings`.
 
-#import gi::packing::{unpack_unit_vector, unpack_color64}
+#import gi::packing::{unpack_unit_vector, unpack_color64, unpack_depth, unpack_normal8}
 #import gi::pc::restir::bindings::{
     gbuffer_depth, gbuffer_normal, gbuffer_motion, specular_noisy, specular_history,
-    specular_reprojected, previous_depth, previous_normal, kind_of, world_position
+    specular_reprojected, previous_geometry, kind_of, world_position
 }
 #import gi::pc::restir::common::{
     uniforms, FLAG_HISTORY, SPECULAR_NONE, SPECULAR_REUSED, pack_specular_history,
@@ -52,8 +52,9 @@ fn specular_reproject(@builtin(global_invocation_id) id: vec3<u32>) {
         let n = unpack_unit_vector(gbuffer_normal[pixel]);
         let expected = distance(x, uniforms.previous_camera.position);
         // Sky's depth is infinite: never the same.
-        let same_depth = abs(previous_depth[qi] - expected) <= 0.05 * expected;
-        let same_normal = dot(unpack_unit_vector(previous_normal[qi]), n) > 0.9;
+        let previous = previous_geometry[qi];
+        let same_depth = abs(unpack_depth(previous) - expected) <= 0.05 * expected;
+        let same_normal = dot(unpack_normal8(previous), n) > 0.9;
         // A reused ratio's history is never mixed with radiance, nor the other way round.
         let same_kind = stored.reused == (kind == SPECULAR_REUSED);
         if same_kind && same_depth && same_normal {

@@ -30,11 +30,15 @@
 //! camera): a camera closing in on a surface faster than
 //! [`DenoiseConfig::reprojection_depth_tolerance`] of its distance per frame loses the history.
 //!
-//! Memory: 40 bytes per pixel (about 83 MB at 1920 x 1080; 120 before packing), 28 of them
-//! its own when the caller lends the output and the reprojected moments:
+//! Memory: 40 bytes per pixel (about 83 MB at 1920 x 1080; 120 before packing), 24 of them
+//! its own when the caller lends the output and the scratch:
 //!
-//! - the previous depth (`f32`, 4: the reprojection test needs its precision) and normal
-//!   (octahedral `u32`, 4);
+//! - the previous frame's depth and normal in one word (4): the depth as an f16 (at most
+//!   `2^-11` of itself off, against a reprojection tolerance of
+//!   [`DenoiseConfig::reprojection_depth_tolerance`] of it; depths beyond 65504 clamped to
+//!   it) and the normal as two 8-bit octahedral coordinates (under a degree off, against the
+//!   26 degrees of [`DenoiseConfig::reprojection_normal_cos`]); `temporal` writes this
+//!   frame's once `temporal_short` has read them;
 //! - two short histories (4 each), RGB9E5: they only place the clamp box, which is widened by
 //!   their rounding (at most `2^-9` of the largest channel);
 //! - the long history (8): color as three 16-bit mantissas sharing a 5-bit exponent (at most
@@ -42,20 +46,18 @@
 //!   128; ages stop growing at 256, so `long_history` above 256 acts as 256);
 //! - the luminance moments (4): f16 mean and variance (the variance keeps its precision in
 //!   f16, the mean square would swamp small variances);
-//! - the output (8) in the long history's 64-bit format (the luminance variance in place of
-//!   the age: an 11-bit float, at most `2^-7` of itself off), and the reprojected moments
-//!   (4, f16), both its own or lent by the caller ([`DenoiseSources::lent`]: the PC tier
-//!   lends buffers that its passes before the denoiser use).
+//! - the output and the scratch (8 each) in the long history's 64-bit format (the luminance
+//!   variance in place of the age: an 11-bit float, at most `2^-7` of itself off), both its
+//!   own or lent by the caller ([`DenoiseSources::lent`]: the PC tier lends buffers that its
+//!   passes before the denoiser use).
 //!
 //! Nothing else is allocated: reprojecting every history once in `temporal_short` lets the
-//! long history and moments be updated in place (no ping-pong), the output and the
-//! reprojected moments hold the reprojected long history until `temporal` replaces it with
-//! its result, and the filter passes alternate between the output and a pair of buffers in
-//! the same format made of the previous short history and the previous normal, both dead
-//! once `temporal_short` has run (the normal is copied anew after the last pass). Which one a
-//! pass writes follows from the parity of its place in the chain, so that the last pass
-//! writes the output. Packed colors are non-negative and clamped to 65535 (RGB9E5: 65408),
-//! f16 values to 65504.
+//! long history and moments be updated in place (no ping-pong), the output and the scratch
+//! hold the reprojected long history (color and age; moments) until `temporal` replaces it
+//! with its result, and the filter passes alternate between the two. Which one a pass writes
+//! follows from the parity of its place in the chain, so that the last pass writes the
+//! output. Packed colors are non-negative and clamped to 65535 (RGB9E5: 65408), f16 values to
+//! 65504.
 
 use std::num::NonZeroU64;
 
@@ -368,7 +370,7 @@ impl DenoisePipelines {
 }
 
 /// The G-buffer and the noisy image the denoiser reads, one entry per pixel, row-major.
-/// `depth` and `normal` need `COPY_SRC`: the denoiser keeps a copy of each for the next frame.
+/// The denoiser keeps `depth` and `normal`, packed, for the next frame's reprojection.
 pub struct DenoiseSources<'a> {
     /// `array<vec2<u32>>`: noisy demodulated diffuse irradiance (rgb), non-negative, in
     /// `gi::packing::pack_color64` (`gi_cache::packing::pack_color64`; the value unused).
@@ -383,9 +385,9 @@ pub struct DenoiseSources<'a> {
     /// Temporal gradients that shorten the histories where the light changed; `None`: the
     /// histories keep their lengths.
     pub gradients: Option<GradientSource<'a>>,
-    /// Buffers lent for the output and the reprojected moments, so that a caller can lend
-    /// ones its own passes use earlier in the frame; `None`: the denoiser makes its own
-    /// (`pc.denoise.output`, `pc.denoise.reprojected_moments`).
+    /// Buffers lent for the output and the scratch, so that a caller can lend ones its own
+    /// passes use earlier in the frame; `None`: the denoiser makes its own
+    /// (`pc.denoise.output`, `pc.denoise.scratch`).
     pub lent: Option<LentBuffers<'a>>,
 }
 
@@ -395,33 +397,32 @@ pub struct LentBuffers<'a> {
     /// The output ([`Denoiser::output`]), at least 8 bytes per pixel: free until the output
     /// has been read.
     pub output: &'a wgpu::Buffer,
-    /// At least 4 bytes per pixel: free until the `pc/denoise_temporal` passes have run.
-    pub reprojected_moments: &'a wgpu::Buffer,
+    /// At least 8 bytes per pixel, free until the last denoise pass has run: the reprojected
+    /// moments, then the filter buffer the output alternates with.
+    pub scratch: &'a wgpu::Buffer,
 }
 
 /// Bytes per pixel of [`LentBuffers::output`].
 pub const OUTPUT_PIXEL_BYTES: u64 = 8;
-/// Bytes per pixel of [`LentBuffers::reprojected_moments`].
-pub const REPROJECTED_MOMENTS_PIXEL_BYTES: u64 = 4;
+/// Bytes per pixel of [`LentBuffers::scratch`].
+pub const SCRATCH_PIXEL_BYTES: u64 = 8;
 
 gi_gpu::storage_bindings! {
     /// The buffers of the denoise passes' group 0 (`shaders/pc/denoise/shared.wgsl`). The
-    /// sources and the previous depth are read-only; the previous normal and the previous
-    /// short history double as a filter buffer.
+    /// sources and the previous short history are read-only.
     struct DenoiseBindings from 0 {
         noisy: read,
         depth: read,
         normal: read,
         motion: read,
-        previous_depth: read,
-        previous_normal: read_write,
-        short_in: read_write,
+        previous_geometry: read_write,
+        short_in: read,
         short_out: read_write,
         history: read_write,
         moments: read_write,
         output: read_write,
         gradients: read,
-        reprojected_moments: read_write,
+        scratch: read_write,
     }
 }
 
@@ -448,16 +449,12 @@ pub struct Denoiser {
     /// The pipelines (shared with whoever compiled them).
     pipelines: DenoisePipelines,
     size: (u32, u32),
-    source_depth: wgpu::Buffer,
-    source_normal: wgpu::Buffer,
     /// Uniform slots: 0 for the temporal and variance passes, `1 + i` for a-trous iteration `i`.
     uniforms: wgpu::Buffer,
-    previous_depth: wgpu::Buffer,
-    /// The previous normal; from `temporal_short` to the end of the frame, the second word of
-    /// the packed filter buffer.
-    previous_normal: wgpu::Buffer,
-    /// RGB9E5 short history; the previous frame's, once reprojected, is the first word of the
-    /// packed filter buffer.
+    /// The previous frame's G-buffer depth (f16) and normal (8-bit octahedral) in one word,
+    /// written by `temporal` once `temporal_short` has read the previous one.
+    previous_geometry: wgpu::Buffer,
+    /// RGB9E5 short history, the previous frame's and this frame's.
     short_history: PingPong<wgpu::Buffer>,
     /// Long history color and age (`pack_color64` in the shader): the previous frame's first
     /// a-trous output, or the temporal output without a-trous.
@@ -466,10 +463,10 @@ pub struct Denoiser {
     moments: wgpu::Buffer,
     /// The reprojected long history's color and age, then a filter buffer, then the result.
     output: wgpu::Buffer,
-    /// The reprojected long history's moments.
-    reprojected_moments: wgpu::Buffer,
-    /// Whether `output` and `reprojected_moments` are the denoiser's own, else lent by the
-    /// caller ([`DenoiseSources::lent`]).
+    /// The reprojected long history's moments, then the other filter buffer.
+    scratch: wgpu::Buffer,
+    /// Whether `output` and `scratch` are the denoiser's own, else lent by the caller
+    /// ([`DenoiseSources::lent`]).
     owns_lent: bool,
     /// The stand-in for the gradients when there are none.
     no_gradients: Option<wgpu::Buffer>,
@@ -548,11 +545,6 @@ impl Technique for Denoiser {
                 });
             }
         }
-        // After the last pass: the previous normal was a filter buffer until now.
-        let bytes = self.previous_depth.size();
-        let encoder = rec.encoder();
-        encoder.copy_buffer_to_buffer(&self.source_depth, 0, &self.previous_depth, 0, bytes);
-        encoder.copy_buffer_to_buffer(&self.source_normal, 0, &self.previous_normal, 0, bytes);
         self.has_history = config.temporal;
         DenoiseOutputs {
             irradiance: &self.output,
@@ -579,17 +571,16 @@ impl Denoiser {
             UNIFORM_SLOT_BYTES * u64::from(1 + MAX_ATROUS_ITERATIONS),
             wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
         );
-        let previous_depth = buffer("pc.denoise.previous_depth", 4);
-        let previous_normal = buffer("pc.denoise.previous_normal", 4);
+        let previous_geometry = buffer("pc.denoise.previous_geometry", 4);
         let short_history = PingPong::from_fn(|_| buffer("pc.denoise.short_history", 4));
         let history = buffer("pc.denoise.history", 8);
         let moments = buffer("pc.denoise.moments", 4);
         let owns_lent = sources.lent.is_none();
-        let (output, reprojected_moments) = match &sources.lent {
+        let (output, scratch) = match &sources.lent {
             Some(lent) => {
                 for (buffer, bytes_per_pixel) in [
                     (lent.output, OUTPUT_PIXEL_BYTES),
-                    (lent.reprojected_moments, REPROJECTED_MOMENTS_PIXEL_BYTES),
+                    (lent.scratch, SCRATCH_PIXEL_BYTES),
                 ] {
                     assert!(
                         buffer.size() >= pixels * bytes_per_pixel,
@@ -598,14 +589,11 @@ impl Denoiser {
                         pixels * bytes_per_pixel
                     );
                 }
-                (lent.output.clone(), lent.reprojected_moments.clone())
+                (lent.output.clone(), lent.scratch.clone())
             }
             None => (
                 buffer("pc.denoise.output", OUTPUT_PIXEL_BYTES),
-                buffer(
-                    "pc.denoise.reprojected_moments",
-                    REPROJECTED_MOMENTS_PIXEL_BYTES,
-                ),
+                buffer("pc.denoise.scratch", SCRATCH_PIXEL_BYTES),
             ),
         };
         // Without gradients lambda is never read: a binding's least size stands in.
@@ -631,15 +619,14 @@ impl Denoiser {
                     depth: sources.depth,
                     normal: sources.normal,
                     motion: sources.motion,
-                    previous_depth: &previous_depth,
-                    previous_normal: &previous_normal,
+                    previous_geometry: &previous_geometry,
                     short_in,
                     short_out,
                     history: &history,
                     moments: &moments,
                     output: &output,
                     gradients,
-                    reprojected_moments: &reprojected_moments,
+                    scratch: &scratch,
                 }
                 .entries(),
             })
@@ -665,16 +652,13 @@ impl Denoiser {
         Self {
             pipelines: pipelines.clone(),
             size,
-            source_depth: sources.depth.clone(),
-            source_normal: sources.normal.clone(),
             uniforms,
-            previous_depth,
-            previous_normal,
+            previous_geometry,
             short_history,
             history,
             moments,
             output,
-            reprojected_moments,
+            scratch,
             owns_lent,
             no_gradients,
             gradient_grid,
@@ -715,16 +699,11 @@ impl Denoiser {
         &self.output
     }
 
-    /// The previous frame's G-buffer depth (`array<f32>`), as the sources' `depth`: valid
-    /// from the end of one recorded frame until the next frame's denoise passes.
-    pub fn previous_depth(&self) -> &wgpu::Buffer {
-        &self.previous_depth
-    }
-
-    /// The previous frame's G-buffer normal (`array<u32>`), valid as
-    /// [`Denoiser::previous_depth`] (the denoise passes use it as a filter buffer).
-    pub fn previous_normal(&self) -> &wgpu::Buffer {
-        &self.previous_normal
+    /// The previous frame's G-buffer depth and normal, `array<u32>` of
+    /// `gi::packing::pack_depth_normal` (f16 depth, +inf for sky; 8-bit octahedral normal):
+    /// valid from the end of one recorded frame until the next frame's `pc/denoise_temporal`.
+    pub fn previous_geometry(&self) -> &wgpu::Buffer {
+        &self.previous_geometry
     }
 
     /// The image size in pixels.
@@ -741,14 +720,13 @@ impl Denoiser {
     fn buffers(&self) -> impl Iterator<Item = &wgpu::Buffer> {
         [
             &self.uniforms,
-            &self.previous_depth,
-            &self.previous_normal,
+            &self.previous_geometry,
             &self.history,
             &self.moments,
         ]
         .into_iter()
         .chain(
-            [&self.output, &self.reprojected_moments]
+            [&self.output, &self.scratch]
                 .into_iter()
                 .filter(|_| self.owns_lent),
         )

@@ -491,7 +491,7 @@ impl PcTier {
                 gradients: restir.buffers.gradient_source(),
                 lent: Some(LentBuffers {
                     output: &restir.buffers.transient,
-                    reprojected_moments: &restir.buffers.resolved,
+                    scratch: &restir.buffers.resolved,
                 }),
             },
         );
@@ -568,8 +568,7 @@ impl PcTier {
                 gbuffer,
                 denoised: denoiser.output(),
                 direct: &state.direct.mean,
-                previous_depth: denoiser.previous_depth(),
-                previous_normal: denoiser.previous_normal(),
+                previous_geometry: denoiser.previous_geometry(),
                 config,
                 size,
             },

@@ -11,9 +11,7 @@ use gi_gpu::{
     TEXTURE_BIND_GROUP, Technique, wgpu,
 };
 
-use super::denoise::{
-    GradientGrid, GradientSource, OUTPUT_PIXEL_BYTES, REPROJECTED_MOMENTS_PIXEL_BYTES,
-};
+use super::denoise::{GradientGrid, GradientSource, OUTPUT_PIXEL_BYTES, SCRATCH_PIXEL_BYTES};
 use super::{GpuGradientSample, GpuReservoir, GpuSpecularSample, GpuSurface, PcConfig, PcUniforms};
 
 /// Pixels per side of every pass's workgroups (`@workgroup_size(8, 8)`).
@@ -177,8 +175,7 @@ gi_gpu::storage_bindings! {
         specular_reprojected: read_write,
         gbuffer_emissive: read,
         gbuffer_blend_layer: read,
-        previous_depth: read,
-        previous_normal: read,
+        previous_geometry: read,
     }
 }
 
@@ -225,8 +222,8 @@ pub(super) struct RestirBuffers {
     /// `pc.resolved`: `resolved`, per trace pixel the spatial reuse's result, then the shadow
     /// pass's (in place; until `pc/shade`); then `specular_reprojected`, per pixel the
     /// specular history found in the previous frame (`pc/specular_temporal`'s first dispatch
-    /// to its second); then the denoiser's reprojected moments
-    /// (`LentBuffers::reprojected_moments`, during `pc/denoise_temporal`).
+    /// to its second); then the denoiser's scratch (`LentBuffers::scratch`: from its first
+    /// pass to its last).
     pub(super) resolved: wgpu::Buffer,
     /// Per pixel: the specular history (radiance or ratio and length, `pack_color64`),
     /// updated in place: `pc/specular_temporal` first copies what each pixel reprojects to
@@ -291,7 +288,7 @@ impl RestirBuffers {
                 "pc.resolved",
                 reservoirs
                     .max(pixels * SPECULAR_HISTORY_PIXEL_BYTES)
-                    .max(pixels * REPROJECTED_MOMENTS_PIXEL_BYTES),
+                    .max(pixels * SCRATCH_PIXEL_BYTES),
             ),
             specular_history: buffer("pc.specular_history", pixels * SPECULAR_HISTORY_PIXEL_BYTES),
             rays: buffer(
@@ -362,10 +359,9 @@ pub(super) struct RestirInputs<'a> {
     pub denoised: &'a wgpu::Buffer,
     /// The direct light's mean (the compose pass adds the GI to it).
     pub direct: &'a wgpu::Buffer,
-    /// The previous frame's G-buffer depth and normal (the denoiser's copies, valid until the
+    /// The previous frame's G-buffer depth and normal (the denoiser's, valid until the
     /// denoiser records this frame), which the specular history is checked against.
-    pub previous_depth: &'a wgpu::Buffer,
-    pub previous_normal: &'a wgpu::Buffer,
+    pub previous_geometry: &'a wgpu::Buffer,
     /// Which passes run.
     pub config: &'a PcConfig,
     /// Image size in pixels.
@@ -460,8 +456,7 @@ impl RestirBuffers {
                 specular_reprojected: &b.resolved,
                 gbuffer_emissive: g.emissive,
                 gbuffer_blend_layer: g.blend_layer,
-                previous_depth: inputs.previous_depth,
-                previous_normal: inputs.previous_normal,
+                previous_geometry: inputs.previous_geometry,
             }
             .entries(),
         );
