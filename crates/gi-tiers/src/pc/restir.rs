@@ -530,8 +530,9 @@ impl Restir {
 
 impl Technique for Restir {
     type Inputs<'i> = RestirInputs<'i>;
-    /// The frame's result is `pc.irradiance`, the shaded diffuse irradiance per pixel before
-    /// denoising, which the denoiser was made over ([`super::denoise::DenoiseSources`]).
+    /// The frame's result is `irradiance` in `pc.rays`, the shaded diffuse irradiance per
+    /// pixel before denoising, which the denoiser was made over
+    /// ([`super::denoise::DenoiseSources`]).
     type Outputs<'o> = ();
 
     /// Records the passes before the denoiser, each under its name, in order: `pc/trace`
