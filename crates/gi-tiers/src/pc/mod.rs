@@ -224,9 +224,9 @@ pub struct PcFrameData {
 }
 
 /// What the PC tier with `config` needs of an adapter at `settings`' resolution. The passes
-/// after the rays bind the most storage buffers: 23 of their own and the brick cache's 7 (the
-/// trace passes: the scene's 7, 11 of their own, the BVH's 4 and the cache's 7); the cache
-/// passes as for mobile. The largest binding is an image buffer or
+/// after the rays bind the most storage buffers: 22 of their own and the brick cache's 7 (the
+/// trace passes as many: the scene's 7, 11 of their own, the BVH's 4 and the cache's 7; the
+/// denoiser 12); the cache passes as for mobile. The largest binding is an image buffer or
 /// the reservoirs, surfaces or specular samples of every trace pixel.
 pub fn requirements(settings: &TierSettings, config: &PcConfig) -> Requirements {
     let scale = config.trace_scale.max(1);
@@ -240,7 +240,7 @@ pub fn requirements(settings: &TierSettings, config: &PcConfig) -> Requirements 
     .into_iter()
     .max()
     .unwrap_or(0) as u64;
-    Requirements::compute(30, image_bytes(settings).max(traced * per_trace_pixel))
+    Requirements::compute(29, image_bytes(settings).max(traced * per_trace_pixel))
 }
 
 /// The PC tier's measured cost per frame on an H100, for [`crate::select`].
