@@ -123,7 +123,6 @@ impl Harness {
             gradients: grid
                 .zip(gradients.as_ref())
                 .map(|(grid, buffer)| GradientSource { buffer, grid }),
-            lent: None,
         };
         let denoiser = Denoiser::new(&ctx, &pipelines, SIZE, &sources);
         let timer = GpuTimer::new(&ctx, "test.denoise", 16);

@@ -137,7 +137,7 @@ fn last_write() -> u32 {
     return select(FIRST_ATROUS_WRITE + uniforms.atrous_iterations - 1u, TEMPORAL_WRITE, uniforms.atrous_iterations == 0u);
 }
 
-// Whether filter write `place` goes to `output`, else to the pair. They alternate so that
+// Whether filter write `place` goes to `output`, else to `scratch`. They alternate so that
 // each pass reads the other one, and the last write is `output`.
 fn writes_output(place: u32) -> bool {
     return ((last_write() - place) & 1u) == 0u;

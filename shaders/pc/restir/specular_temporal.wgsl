@@ -47,7 +47,8 @@ fn specular_reproject(@builtin(global_invocation_id) id: vec3<u32>) {
     let q = vec2<i32>(floor(before));
     if (uniforms.flags & FLAG_HISTORY) != 0u && all(q >= vec2(0)) && all(q < vec2<i32>(uniforms.size_px)) {
         let qi = u32(q.y) * uniforms.size_px.x + u32(q.x);
-        let stored = unpack_specular_history(specular_history[qi]);
+        let entry = specular_history[qi];
+        let stored = unpack_specular_history(entry);
         let x = world_position(id.xy, depth);
         let n = unpack_unit_vector(gbuffer_normal[pixel]);
         let expected = distance(x, uniforms.previous_camera.position);
@@ -58,7 +59,7 @@ fn specular_reproject(@builtin(global_invocation_id) id: vec3<u32>) {
         // A reused ratio's history is never mixed with radiance, nor the other way round.
         let same_kind = stored.reused == (kind == SPECULAR_REUSED);
         if same_kind && same_depth && same_normal {
-            found = specular_history[qi];
+            found = entry;
         }
     }
     specular_reprojected[pixel] = found;

@@ -48,8 +48,8 @@
 //!   f16, the mean square would swamp small variances);
 //! - the output and the scratch (8 each) in the long history's 64-bit format (the luminance
 //!   variance in place of the age: an 11-bit float, at most `2^-7` of itself off), both its
-//!   own or lent by the caller ([`DenoiseSources::lent`]: the PC tier lends buffers that its
-//!   passes before the denoiser use).
+//!   own, or lent by the PC tier ([`Denoiser::with_lent_buffers`]: buffers its passes before
+//!   the denoiser use).
 //!
 //! Nothing else is allocated: reprojecting every history once in `temporal_short` lets the
 //! long history and moments be updated in place (no ping-pong), the output and the scratch
@@ -385,15 +385,12 @@ pub struct DenoiseSources<'a> {
     /// Temporal gradients that shorten the histories where the light changed; `None`: the
     /// histories keep their lengths.
     pub gradients: Option<GradientSource<'a>>,
-    /// Buffers lent for the output and the scratch, so that a caller can lend ones its own
-    /// passes use earlier in the frame; `None`: the denoiser makes its own
-    /// (`pc.denoise.output`, `pc.denoise.scratch`).
-    pub lent: Option<LentBuffers<'a>>,
 }
 
-/// Buffers a caller lends the denoiser ([`DenoiseSources::lent`]), each free for it from its
-/// first pass of a frame until what it names is no longer needed.
-pub struct LentBuffers<'a> {
+/// Buffers the PC tier lends the denoiser ([`Denoiser::with_lent_buffers`]), each free for it
+/// from its first pass of a frame until what it names is no longer needed, and sized with
+/// [`OUTPUT_PIXEL_BYTES`] and [`SCRATCH_PIXEL_BYTES`].
+pub(crate) struct LentBuffers<'a> {
     /// The output ([`Denoiser::output`]), at least 8 bytes per pixel: free until the output
     /// has been read.
     pub output: &'a wgpu::Buffer,
@@ -403,9 +400,9 @@ pub struct LentBuffers<'a> {
 }
 
 /// Bytes per pixel of [`LentBuffers::output`].
-pub const OUTPUT_PIXEL_BYTES: u64 = 8;
+pub(crate) const OUTPUT_PIXEL_BYTES: u64 = 8;
 /// Bytes per pixel of [`LentBuffers::scratch`].
-pub const SCRATCH_PIXEL_BYTES: u64 = 8;
+pub(crate) const SCRATCH_PIXEL_BYTES: u64 = 8;
 
 gi_gpu::storage_bindings! {
     /// The buffers of the denoise passes' group 0 (`shaders/pc/denoise/shared.wgsl`). The
@@ -465,8 +462,8 @@ pub struct Denoiser {
     output: wgpu::Buffer,
     /// The reprojected long history's moments, then the other filter buffer.
     scratch: wgpu::Buffer,
-    /// Whether `output` and `scratch` are the denoiser's own, else lent by the caller
-    /// ([`DenoiseSources::lent`]).
+    /// Whether `output` and `scratch` are the denoiser's own, else lent
+    /// ([`Denoiser::with_lent_buffers`]).
     owns_lent: bool,
     /// The stand-in for the gradients when there are none.
     no_gradients: Option<wgpu::Buffer>,
@@ -553,11 +550,33 @@ impl Technique for Denoiser {
 }
 
 impl Denoiser {
+    /// The denoiser for images of `size` over `sources`, with buffers of its own.
     pub fn new(
         ctx: &GpuContext,
         pipelines: &DenoisePipelines,
         size: (u32, u32),
         sources: &DenoiseSources<'_>,
+    ) -> Self {
+        Self::build(ctx, pipelines, size, sources, None)
+    }
+
+    /// As [`Denoiser::new`], its output and scratch in buffers the caller lends.
+    pub(crate) fn with_lent_buffers(
+        ctx: &GpuContext,
+        pipelines: &DenoisePipelines,
+        size: (u32, u32),
+        sources: &DenoiseSources<'_>,
+        lent: LentBuffers<'_>,
+    ) -> Self {
+        Self::build(ctx, pipelines, size, sources, Some(lent))
+    }
+
+    fn build(
+        ctx: &GpuContext,
+        pipelines: &DenoisePipelines,
+        size: (u32, u32),
+        sources: &DenoiseSources<'_>,
+        lent: Option<LentBuffers<'_>>,
     ) -> Self {
         let pixels = u64::from(size.0) * u64::from(size.1);
         let storage = wgpu::BufferUsages::STORAGE
@@ -575,20 +594,11 @@ impl Denoiser {
         let short_history = PingPong::from_fn(|_| buffer("pc.denoise.short_history", 4));
         let history = buffer("pc.denoise.history", 8);
         let moments = buffer("pc.denoise.moments", 4);
-        let owns_lent = sources.lent.is_none();
-        let (output, scratch) = match &sources.lent {
+        let owns_lent = lent.is_none();
+        let (output, scratch) = match lent {
             Some(lent) => {
-                for (buffer, bytes_per_pixel) in [
-                    (lent.output, OUTPUT_PIXEL_BYTES),
-                    (lent.scratch, SCRATCH_PIXEL_BYTES),
-                ] {
-                    assert!(
-                        buffer.size() >= pixels * bytes_per_pixel,
-                        "a lent buffer holds {} bytes, the denoiser needs {}",
-                        buffer.size(),
-                        pixels * bytes_per_pixel
-                    );
-                }
+                debug_assert!(lent.output.size() >= pixels * OUTPUT_PIXEL_BYTES);
+                debug_assert!(lent.scratch.size() >= pixels * SCRATCH_PIXEL_BYTES);
                 (lent.output.clone(), lent.scratch.clone())
             }
             None => (
@@ -692,9 +702,9 @@ impl Denoiser {
     }
 
     /// The denoised irradiance, `array<vec2<u32>>` in `pack_color64` (rgb; the value holds the
-    /// filter's luminance variance estimate), valid once the recorded passes ran and until the next
-    /// [`Technique::record`], which uses it as scratch (a lent output, until its lender uses
-    /// it again).
+    /// filter's luminance variance estimate), valid once the recorded passes ran and until the
+    /// next [`Technique::record`], which uses it as scratch (a lent output, until its lender
+    /// uses it again).
     pub fn output(&self) -> &wgpu::Buffer {
         &self.output
     }

@@ -479,7 +479,7 @@ impl PcTier {
                 .then_some(self.config.gradients.stratum),
         );
         let gbuffer = self.gbuffer.outputs();
-        let denoiser = Denoiser::new(
+        let denoiser = Denoiser::with_lent_buffers(
             &self.ctx,
             &self.denoise_pipelines,
             size,
@@ -489,10 +489,10 @@ impl PcTier {
                 normal: gbuffer.normal,
                 motion: gbuffer.motion,
                 gradients: restir.buffers.gradient_source(),
-                lent: Some(LentBuffers {
-                    output: &restir.buffers.transient,
-                    scratch: &restir.buffers.resolved,
-                }),
+            },
+            LentBuffers {
+                output: &restir.buffers.transient,
+                scratch: &restir.buffers.resolved,
             },
         );
         self.prepared = Some(Prepared {
