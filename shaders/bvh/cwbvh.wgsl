@@ -337,10 +337,6 @@ fn traverse(ray: Ray, any_hit: bool) -> Hit {
             let bit = firstLeadingBit(node_group.y);
             let child = group_child(node_group, bit, state.oct_inv);
             node_group.y &= ~(1u << bit);
-            if (node_group.y & 0xff000000u) != 0u {
-                stack[stack_len] = node_group;
-                stack_len += 1u;
-            }
             var node: CwBvhNode;
             if instance_stack_len == BVH_IN_TOP {
                 node = bvh_top_nodes[child];
@@ -349,8 +345,17 @@ fn traverse(ray: Ray, any_hit: bool) -> Hit {
             }
             let hit_mask = intersect_node(node, state, t_max);
             let imask = node.e_imask >> 24u;
-            node_group = vec2(node.child_base_idx, (hit_mask & 0xff000000u) | imask);
             leaf_group = vec2(node.primitive_base_idx, hit_mask & 0x00ffffffu);
+            // The rest of this group is pushed only when the child has internal children to
+            // descend into (Ylitie et al.): a child with leaves alone, most nodes near the
+            // bottom, leaves it current, so no push is popped right back.
+            if (hit_mask & 0xff000000u) != 0u {
+                if (node_group.y & 0xff000000u) != 0u {
+                    stack[stack_len] = node_group;
+                    stack_len += 1u;
+                }
+                node_group = vec2(node.child_base_idx, (hit_mask & 0xff000000u) | imask);
+            }
         }
         if leaf_group.y == 0u && (node_group.y & 0xff000000u) == 0u {
             if stack_len == instance_stack_len {
