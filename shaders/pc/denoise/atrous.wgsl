@@ -7,6 +7,8 @@
 //   atrous_3x3      the same with 3 x 3 taps of the linear B-spline (1/4, 1/2, 1/4): 9 taps
 //                   instead of 25, each iteration reaching half as far
 //                   (`DenoiseConfig::atrous_kernel`).
+// Both weigh luminance by the center's variance prefiltered over its 3 x 3 neighbours (SVGF),
+// read from a tile of the workgroup's variances in workgroup memory.
 //
 // Bind group 0: the frame's inputs, the histories and the filter buffers; group 1: this
 // dispatch's uniforms (`gi::pc::denoise`).
@@ -34,21 +36,43 @@ fn kernel_tap(radius: i32, d: i32) -> f32 {
 }
 // Taps of the 3 x 3 Gaussian that prefilters the center variance, by distance 0, 1.
 const GAUSSIAN_3X3: array<f32, 2> = array<f32, 2>(0.5, 0.25);
+// The workgroup's pixels and a one-pixel border, row-major: the prefilter's taps.
+const TILE_SIDE: u32 = 10u;
+const WORKGROUP_SIDE: u32 = 8u;
+// The input's luminance variance over the workgroup's tile, -1 for sky and outside the image:
+// each pixel's 3 x 3 prefilter reads its nine taps here, loaded once per workgroup.
+var<workgroup> tile_variance: array<f32, 100>;
+
+// Fills `tile_variance` from filter write `input` for the workgroup at `group`; every
+// invocation of the workgroup calls it.
+fn load_variance_tile(input: u32, group: vec2<u32>, local_index: u32) {
+    let corner = vec2<i32>(group * WORKGROUP_SIDE) - 1;
+    for (var i = local_index; i < TILE_SIDE * TILE_SIDE; i += WORKGROUP_SIDE * WORKGROUP_SIDE) {
+        let q = corner + vec2(i32(i % TILE_SIDE), i32(i / TILE_SIDE));
+        var variance = -1.0;
+        if !is_sky(depth_at(q)) {
+            variance = load_filter(input, pixel_index(q)).w;
+        }
+        tile_variance[i] = variance;
+    }
+    workgroupBarrier();
+}
 
 // The center variance prefiltered with a 3 x 3 Gaussian over the non-sky pixels (SVGF: it
-// steadies the luminance weight against a noisy variance estimate); `input` is the filter
-// write to read.
-fn prefiltered_variance(input: u32, pixel: vec2<i32>) -> f32 {
+// steadies the luminance weight against a noisy variance estimate), from `tile_variance`
+// around the pixel at `local` in its workgroup.
+fn prefiltered_variance(local: vec2<u32>) -> f32 {
     var sum = 0.0;
     var weight_sum = 0.0;
     for (var dy = -1; dy <= 1; dy++) {
         for (var dx = -1; dx <= 1; dx++) {
-            let q = pixel + vec2(dx, dy);
-            if is_sky(depth_at(q)) {
+            let t = vec2<i32>(local) + 1 + vec2(dx, dy);
+            let variance = tile_variance[u32(t.y) * TILE_SIDE + u32(t.x)];
+            if variance < 0.0 {
                 continue;
             }
             let w = GAUSSIAN_3X3[abs(dx)] * GAUSSIAN_3X3[abs(dy)];
-            sum += w * load_filter(input, pixel_index(q)).w;
+            sum += w * variance;
             weight_sum += w;
         }
     }
@@ -56,32 +80,45 @@ fn prefiltered_variance(input: u32, pixel: vec2<i32>) -> f32 {
 }
 
 @compute @workgroup_size(8, 8)
-fn atrous(@builtin(global_invocation_id) id: vec3<u32>) {
-    filter_pixel(id.xy, 2);
+fn atrous(
+    @builtin(global_invocation_id) id: vec3<u32>,
+    @builtin(local_invocation_id) local: vec3<u32>,
+    @builtin(local_invocation_index) local_index: u32,
+    @builtin(workgroup_id) group: vec3<u32>,
+) {
+    filter_pixel(id.xy, local.xy, local_index, group.xy, 2);
 }
 
 @compute @workgroup_size(8, 8)
-fn atrous_3x3(@builtin(global_invocation_id) id: vec3<u32>) {
-    filter_pixel(id.xy, 1);
+fn atrous_3x3(
+    @builtin(global_invocation_id) id: vec3<u32>,
+    @builtin(local_invocation_id) local: vec3<u32>,
+    @builtin(local_invocation_index) local_index: u32,
+    @builtin(workgroup_id) group: vec3<u32>,
+) {
+    filter_pixel(id.xy, local.xy, local_index, group.xy, 1);
 }
 
-// One a-trous iteration at pixel `id` with taps out to `radius` (2: 5 x 5, 1: 3 x 3) steps.
-fn filter_pixel(id: vec2<u32>, radius: i32) {
+// One a-trous iteration at pixel `id` (`local` in workgroup `group`) with taps out to `radius`
+// (2: 5 x 5, 1: 3 x 3) steps.
+fn filter_pixel(id: vec2<u32>, local: vec2<u32>, local_index: u32, group: vec2<u32>, radius: i32) {
+    // Iteration i has step 2^i.
+    let place = FIRST_ATROUS_WRITE + firstTrailingBit(uniforms.step_px);
+    let input = place - 1u;
+    // Before any invocation leaves: the whole workgroup loads the tile.
+    load_variance_tile(input, group, local_index);
     if any(id >= uniforms.size_px) {
         return;
     }
     let pixel = vec2<i32>(id);
     let index = pixel_index(pixel);
-    // Iteration i has step 2^i.
-    let place = FIRST_ATROUS_WRITE + firstTrailingBit(uniforms.step_px);
-    let input = place - 1u;
     let center = load_filter(input, index);
     let z = depth[index];
     var result = center;
     if !is_sky(z) {
         let n = unpack_unit_vector(normal[index]);
         let l = luminance(center.rgb);
-        let phi_luminance = uniforms.luminance_sigma * sqrt(prefiltered_variance(input, pixel)) + LUMINANCE_EPSILON;
+        let phi_luminance = uniforms.luminance_sigma * sqrt(prefiltered_variance(local)) + LUMINANCE_EPSILON;
         let phi_depth = uniforms.depth_sigma * depth_derivative(pixel, z) * f32(uniforms.step_px);
         let step = i32(uniforms.step_px);
         // The center tap: every edge-stopping weight is 1.
