@@ -721,10 +721,10 @@ fn memory_is_counted_and_released() {
     };
     let harness = Harness::new(ctx);
     let bytes = harness.denoiser.memory_bytes();
-    // 40 bytes per pixel with its own output and reprojected moments (see the module docs),
+    // 36 bytes per pixel with its own output and scratch (see the module docs),
     // nine 256-byte uniform slots and, without temporal gradients, the 16-byte buffer bound in
     // their place.
-    assert_eq!(bytes, 40 * PIXELS as u64 + 9 * 256 + 16);
+    assert_eq!(bytes, 36 * PIXELS as u64 + 9 * 256 + 16);
     assert_eq!(harness.ctx.memory().bytes_with_prefix("pc.denoise."), bytes);
     harness.denoiser.release(&harness.ctx);
     assert_eq!(harness.ctx.memory().bytes_with_prefix("pc.denoise."), 0);

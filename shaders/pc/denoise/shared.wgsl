@@ -10,12 +10,14 @@
 // Pixels are one storage-buffer entry each, row-major. Sky pixels (depth +inf) pass their
 // input through every pass, keep no history and never mix into their neighbours.
 //
-// Memory, 40 bytes per pixel (`gi_tiers::pc::denoise` explains the choice; 24 of its own when
+// Memory, 36 bytes per pixel (`gi_tiers::pc::denoise` explains the choice; 20 of its own when
 // the caller lends `output` and `scratch`): the histories are packed (short color RGB9E5; long
-// color and age `pack_color64`; moments f16; the previous depth and normal in one word), and
-// the filter passes ping-pong between `output` and `scratch`, both in `pack_color64` (rgb, and
-// the luminance variance as the value). Which one a pass writes follows from the parity of its
-// place in the chain (`writes_output`), so that the last pass writes `output`.
+// color and age `pack_color64`; moments f16; the previous depth and normal in one word), each
+// updated in place, and the filter passes ping-pong between `output` and `scratch`, both in
+// `pack_color64` (rgb, and the luminance variance as the value). `temporal` writes `output`
+// (its neighbours still read this frame's short history in `scratch`); `variance` reads only
+// its own pixel, so it writes either buffer; the a-trous passes alternate from there, so
+// that the last pass writes `output` (`writes_output`).
 //
 // Bind group 0: the frame's inputs, the histories and the filter buffers
 // (`DenoiseBindings` in `gi_tiers::pc::denoise`, in its order); group 1: this dispatch's
@@ -76,24 +78,25 @@ struct DenoiseUniforms {
 // The previous frame's G-buffer depth and normal (`pack_depth_normal`), which the taps are
 // checked against, until `temporal_short` has run; `temporal` writes this frame's.
 @group(0) @binding(4) var<storage, read_write> previous_geometry: array<u32>;
-// The previous frame's short history and this frame's, RGB9E5.
-@group(0) @binding(5) var<storage, read> short_in: array<u32>;
-@group(0) @binding(6) var<storage, read_write> short_out: array<u32>;
+// The short history, RGB9E5: the previous frame's until `temporal_short` has run (which
+// leaves this frame's in `scratch`), then this frame's, which `temporal` copies back.
+@group(0) @binding(5) var<storage, read_write> short_history: array<u32>;
 // The long history, `pack_color64` (rgb, age); age = frames accumulated including the current
 // one (0 for sky). Read through the taps only by `temporal_short`.
-@group(0) @binding(7) var<storage, read_write> history: array<vec2<u32>>;
+@group(0) @binding(6) var<storage, read_write> history: array<vec2<u32>>;
 // f16 (mean luminance, luminance variance) of the long history.
-@group(0) @binding(8) var<storage, read_write> moments: array<u32>;
+@group(0) @binding(7) var<storage, read_write> moments: array<u32>;
 // `pack_color64`: the reprojected long history's color and age between `temporal_short` and
 // `temporal` (`Reprojected`), then a filter buffer (rgb irradiance, its luminance variance as
 // the value), and the result after the last pass.
-@group(0) @binding(9) var<storage, read_write> output: array<vec2<u32>>;
+@group(0) @binding(8) var<storage, read_write> output: array<vec2<u32>>;
 // Per temporal-gradient stratum, lambda in z (`pc/restir/gradient.wgsl`): how much of the
 // light changed since the last frame.
-@group(0) @binding(10) var<storage, read> gradients: array<vec4<f32>>;
+@group(0) @binding(9) var<storage, read> gradients: array<vec4<f32>>;
 // From `temporal_short` to `temporal`: in x the f16 mean luminance and luminance variance of
-// the reprojected long history; then the other filter buffer (`pack_color64`).
-@group(0) @binding(11) var<storage, read_write> scratch: array<vec2<u32>>;
+// the reprojected long history, in y this frame's short history (RGB9E5); then the other
+// filter buffer (`pack_color64`).
+@group(0) @binding(10) var<storage, read_write> scratch: array<vec2<u32>>;
 
 // Group 1.
 // Named `uniforms`, not `u`: the passes import it, and naga_oil would rewrite the `u` suffix
@@ -137,10 +140,12 @@ fn last_write() -> u32 {
     return select(FIRST_ATROUS_WRITE + uniforms.atrous_iterations - 1u, TEMPORAL_WRITE, uniforms.atrous_iterations == 0u);
 }
 
-// Whether filter write `place` goes to `output`, else to `scratch`. They alternate so that
-// each pass reads the other one, and the last write is `output`.
+// Whether filter write `place` goes to `output`, else to `scratch`. `temporal` writes
+// `output`; from `variance` on they alternate, so that each a-trous pass reads the other
+// buffer and the last write is `output` (`variance`, which reads only its own pixel, may
+// write where it reads).
 fn writes_output(place: u32) -> bool {
-    return ((last_write() - place) & 1u) == 0u;
+    return place == TEMPORAL_WRITE || ((last_write() - place) & 1u) == 0u;
 }
 
 // Filter data (rgb, luminance variance) of pixel `index` as written by filter write `place`.

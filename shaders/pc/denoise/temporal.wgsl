@@ -5,9 +5,9 @@
 //                   this pixel's): with `short_clamp_sigma`, clamp the short history into
 //                   mean +- short_clamp_sigma sigma of the noisy input's 3 x 3 neighbourhood;
 //                   blend this frame's noisy irradiance into the short history
-//                   with alpha = max(1 / (age + 1), 1 / short_history), and leave the
-//                   reprojected long history in `output` (color, age) and `scratch`
-//                   (moments);
+//                   with alpha = max(1 / (age + 1), 1 / short_history), and leave it in
+//                   `scratch` (y) and the reprojected long history in `output` (color,
+//                   age) and `scratch` (x: moments);
 //                   where the temporal gradient's lambda (`gradient_lambda`) says the light
 //                   changed, both alphas first become mix(alpha, 1, lambda), the long one
 //                   through the age it stores;
@@ -15,7 +15,8 @@
 //                   frame's short history over the 5 x 5 neighbourhood and blend with
 //                   alpha = max(1 / (age + 1), 1 / long_history); store the long history
 //                   (with `feedback`, as SVGF does, the first a-trous iteration replaces its
-//                   color); keep this frame's depth and normal for the next frame's taps.
+//                   color); keep this frame's short history, depth and normal for the next
+//                   frame's taps.
 //
 // Bind group 0: the frame's inputs, the histories and the filter buffers; group 1: this
 // dispatch's uniforms (`gi::pc::denoise`).
@@ -26,7 +27,7 @@
 }
 #import gi::math::luminance
 #import gi::pc::denoise::{
-    noisy_at, depth, normal, motion, previous_geometry, short_in, short_out, output, scratch,
+    noisy_at, depth, normal, motion, previous_geometry, short_history, output, scratch,
     uniforms, load_history, store_history, load_moments, store_moments, store_filter, is_sky,
     pixel_index, inside, depth_at, depth_derivative, gradient_lambda, TEMPORAL_WRITE
 }
@@ -38,7 +39,7 @@ const RGB9E5_ERROR: f32 = 1.0 / 512.0;
 const MIN_REPROJECTION_WEIGHT: f32 = 0.01;
 
 // The long history reprojected by `temporal_short` for `temporal`, in `output` and
-// `scratch`.
+// `scratch` (x), beside this frame's short history (`scratch`, y).
 struct Reprojected {
     color: vec3<f32>,
     // Frames accumulated including this one; 1 where no history was kept (then the history's
@@ -48,10 +49,10 @@ struct Reprojected {
     moments: vec2<f32>,
 }
 
-fn store_reprojected(index: u32, r: Reprojected) {
+fn store_reprojected(index: u32, r: Reprojected, short_color: vec3<f32>) {
     let variance = max(r.moments.y - r.moments.x * r.moments.x, 0.0);
     output[index] = pack_color64(r.color, r.age);
-    scratch[index] = vec2(pack_half2(vec2(r.moments.x, variance)), 0u);
+    scratch[index] = vec2(pack_half2(vec2(r.moments.x, variance)), pack_rgb9e5(short_color));
 }
 
 fn load_reprojected(index: u32) -> Reprojected {
@@ -118,8 +119,7 @@ fn temporal_short(@builtin(global_invocation_id) id: vec3<u32>) {
     let z = depth[index];
     var long = Reprojected(vec3(0.0), 0.0, vec2(0.0));
     if is_sky(z) {
-        short_out[index] = pack_rgb9e5(x);
-        store_reprojected(index, long);
+        store_reprojected(index, long, x);
         return;
     }
     let taps = reproject(pixel, index, z, unpack_unit_vector(normal[index]));
@@ -133,7 +133,7 @@ fn temporal_short(@builtin(global_invocation_id) id: vec3<u32>) {
         for (var k = 0u; k < 4u; k++) {
             let t = taps.pixels[k];
             let w = taps.weights[k];
-            previous_short += w * unpack_rgb9e5(short_in[t]);
+            previous_short += w * unpack_rgb9e5(short_history[t]);
             previous_long += w * load_history(t);
             previous_moments += w * load_moments(t);
         }
@@ -153,9 +153,8 @@ fn temporal_short(@builtin(global_invocation_id) id: vec3<u32>) {
         long.color = previous_long.rgb / total;
         long.moments = previous_moments / total;
     }
-    short_out[index] = pack_rgb9e5(short_color);
     long.age = min(previous_age + 1.0, f32(uniforms.long_history));
-    store_reprojected(index, long);
+    store_reprojected(index, long, short_color);
 }
 
 // Per-channel statistics of a neighbourhood.
@@ -181,7 +180,7 @@ fn neighbourhood(pixel: vec2<i32>, radius: i32, noisy: bool) -> ColorBox {
             if noisy {
                 s = noisy_at(pixel_index(q));
             } else {
-                s = unpack_rgb9e5(short_out[pixel_index(q)]);
+                s = unpack_rgb9e5(scratch[pixel_index(q)].y);
             }
             sum += s;
             sum_sq += s * s;
@@ -224,6 +223,7 @@ fn temporal(@builtin(global_invocation_id) id: vec3<u32>) {
     // The first a-trous iteration, if any, replaces the color.
     store_history(index, color, previous.age);
     store_filter(TEMPORAL_WRITE, index, vec4(color, variance));
-    // `temporal_short`, the only reader of the previous geometry, has run.
+    // `temporal_short`, the only reader of the previous short history and geometry, has run.
+    short_history[index] = scratch[index].y;
     previous_geometry[index] = pack_depth_normal(z, unpack_unit_vector(normal[index]));
 }

@@ -8,8 +8,9 @@
 //! 1. `pc/denoise_temporal`, two dispatches. `temporal_short` reprojects the histories
 //!    through the motion vectors (bilinear 2 x 2 taps, each kept only if its previous depth and
 //!    normal agree with the pixel's), blends the noisy input into the short one with
-//!    `alpha = max(1 / (age + 1), 1 / short_history)` and leaves the reprojected long history
-//!    (color, luminance moments, age) in the output buffer. `temporal` clamps the long
+//!    `alpha = max(1 / (age + 1), 1 / short_history)` and leaves it and the reprojected long
+//!    history (color, luminance moments, age) in the output and scratch buffers, so that every
+//!    history is updated in place. `temporal` clamps the long
 //!    history's color into `mean +- clamp_sigma sigma` of this frame's short history over the
 //!    5 x 5 neighbourhood, and blends with `alpha = max(1 / (age + 1), 1 / long_history)`.
 //!    Why the short history and not the noisy input for the clamp box: its neighbourhood is
@@ -30,7 +31,7 @@
 //! camera): a camera closing in on a surface faster than
 //! [`DenoiseConfig::reprojection_depth_tolerance`] of its distance per frame loses the history.
 //!
-//! Memory: 40 bytes per pixel (about 83 MB at 1920 x 1080; 120 before packing), 24 of them
+//! Memory: 36 bytes per pixel (about 75 MB at 1920 x 1080; 120 before packing), 20 of them
 //! its own when the caller lends the output and the scratch:
 //!
 //! - the previous frame's depth and normal in one word (4): the depth as an f16 (at most
@@ -39,8 +40,8 @@
 //!   it) and the normal as two 8-bit octahedral coordinates (under a degree off, against the
 //!   26 degrees of [`DenoiseConfig::reprojection_normal_cos`]); `temporal` writes this
 //!   frame's once `temporal_short` has read them;
-//! - two short histories (4 each), RGB9E5: they only place the clamp box, which is widened by
-//!   their rounding (at most `2^-9` of the largest channel);
+//! - the short history (4), RGB9E5: it only places the clamp box, which is widened by
+//!   its rounding (at most `2^-9` of the largest channel);
 //! - the long history (8): color as three 16-bit mantissas sharing a 5-bit exponent (at most
 //!   `2^-17` of the largest channel off) and the age as an 11-bit float (integers exact to
 //!   128; ages stop growing at 256, so `long_history` above 256 acts as 256);
@@ -52,18 +53,19 @@
 //!   the denoiser use).
 //!
 //! Nothing else is allocated: reprojecting every history once in `temporal_short` lets the
-//! long history and moments be updated in place (no ping-pong), the output and the scratch
-//! hold the reprojected long history (color and age; moments) until `temporal` replaces it
-//! with its result, and the filter passes alternate between the two. Which one a pass writes
-//! follows from the parity of its place in the chain, so that the last pass writes the
-//! output. Packed colors are non-negative and clamped to 65535 (RGB9E5: 65408), f16 values to
+//! histories be updated in place (no ping-pong): the output and the scratch hold the
+//! reprojected long history (color and age; moments) and this frame's short history (in the
+//! scratch, read around each pixel by `temporal`, which copies it back) until `temporal`
+//! writes its result to the output. The filter passes then alternate between the two:
+//! `variance` reads only its own pixel, so it writes the output again or the scratch, by the
+//! parity of the a-trous iterations, so that the last pass writes the output. Packed colors are non-negative and clamped to 65535 (RGB9E5: 65408), f16 values to
 //! 65504.
 
 use std::num::NonZeroU64;
 
 use bytemuck::{Pod, Zeroable};
 use gi_gpu::binding::uniform_entry;
-use gi_gpu::{GpuContext, GpuError, PingPong, Recorder, ShaderLibrary, Technique, wgpu};
+use gi_gpu::{GpuContext, GpuError, Recorder, ShaderLibrary, Technique, wgpu};
 
 /// Most a-trous iterations (the last one's taps are 256 pixels apart).
 pub const MAX_ATROUS_ITERATIONS: u32 = 8;
@@ -395,7 +397,8 @@ pub(crate) struct LentBuffers<'a> {
     /// has been read.
     pub output: &'a wgpu::Buffer,
     /// At least 8 bytes per pixel, free until the last denoise pass has run: the reprojected
-    /// moments, then the filter buffer the output alternates with.
+    /// moments and this frame's short history, then the filter buffer the output alternates
+    /// with.
     pub scratch: &'a wgpu::Buffer,
 }
 
@@ -406,15 +409,14 @@ pub(crate) const SCRATCH_PIXEL_BYTES: u64 = 8;
 
 gi_gpu::storage_bindings! {
     /// The buffers of the denoise passes' group 0 (`shaders/pc/denoise/shared.wgsl`). The
-    /// sources and the previous short history are read-only.
+    /// sources are read-only.
     struct DenoiseBindings from 0 {
         noisy: read,
         depth: read,
         normal: read,
         motion: read,
         previous_geometry: read_write,
-        short_in: read,
-        short_out: read_write,
+        short_history: read_write,
         history: read_write,
         moments: read_write,
         output: read_write,
@@ -451,8 +453,9 @@ pub struct Denoiser {
     /// The previous frame's G-buffer depth (f16) and normal (8-bit octahedral) in one word,
     /// written by `temporal` once `temporal_short` has read the previous one.
     previous_geometry: wgpu::Buffer,
-    /// RGB9E5 short history, the previous frame's and this frame's.
-    short_history: PingPong<wgpu::Buffer>,
+    /// RGB9E5 short history, updated in place: `temporal_short` leaves this frame's in the
+    /// scratch, `temporal` copies it back.
+    short_history: wgpu::Buffer,
     /// Long history color and age (`pack_color64` in the shader): the previous frame's first
     /// a-trous output, or the temporal output without a-trous.
     history: wgpu::Buffer,
@@ -460,7 +463,8 @@ pub struct Denoiser {
     moments: wgpu::Buffer,
     /// The reprojected long history's color and age, then a filter buffer, then the result.
     output: wgpu::Buffer,
-    /// The reprojected long history's moments, then the other filter buffer.
+    /// The reprojected long history's moments and this frame's short history, then the other
+    /// filter buffer.
     scratch: wgpu::Buffer,
     /// Whether `output` and `scratch` are the denoiser's own, else lent
     /// ([`Denoiser::with_lent_buffers`]).
@@ -468,8 +472,8 @@ pub struct Denoiser {
     /// The stand-in for the gradients when there are none.
     no_gradients: Option<wgpu::Buffer>,
     gradient_grid: Option<GradientGrid>,
-    /// Group 0 of each side of `short_history`, swapped with it.
-    frame_groups: PingPong<wgpu::BindGroup>,
+    /// Group 0.
+    frame_group: wgpu::BindGroup,
     /// Group 1 of each uniform slot.
     uniform_groups: Vec<wgpu::BindGroup>,
     has_history: bool,
@@ -492,8 +496,8 @@ impl Technique for Denoiser {
     type Outputs<'o> = DenoiseOutputs<'o>;
 
     /// Records this frame's denoise passes (timer scopes `pc/denoise_temporal`,
-    /// `pc/denoise_variance`, `pc/denoise_atrous`), then the copies of this
-    /// frame's depth and normal that the next frame reprojects against. The uniforms are
+    /// `pc/denoise_variance`, `pc/denoise_atrous`); `temporal` also keeps this frame's depth,
+    /// normal and short history for the next frame, in place. The uniforms are
     /// written through the queue: record at most one frame per submission. `config` should be
     /// valid ([`DenoiseConfig::validate`]); more a-trous iterations than
     /// [`MAX_ATROUS_ITERATIONS`] are cut to that.
@@ -507,13 +511,11 @@ impl Technique for Denoiser {
         debug_assert_eq!(config.validate(), Ok(()));
         let iterations = config.atrous_iterations.min(MAX_ATROUS_ITERATIONS);
         self.write_uniforms(ctx, config);
-        self.short_history.swap();
-        self.frame_groups.swap();
         let workgroups = [
             self.size.0.div_ceil(TILE_GROUP),
             self.size.1.div_ceil(TILE_GROUP),
         ];
-        let frame_group = self.frame_groups.current();
+        let frame_group = &self.frame_group;
         let dispatch =
             |pass: &mut wgpu::ComputePass<'_>, pipeline: &wgpu::ComputePipeline, slot: u32| {
                 pass.set_pipeline(pipeline);
@@ -591,7 +593,7 @@ impl Denoiser {
             wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
         );
         let previous_geometry = buffer("pc.denoise.previous_geometry", 4);
-        let short_history = PingPong::from_fn(|_| buffer("pc.denoise.short_history", 4));
+        let short_history = buffer("pc.denoise.short_history", 4);
         let history = buffer("pc.denoise.history", 8);
         let moments = buffer("pc.denoise.moments", 4);
         let owns_lent = lent.is_none();
@@ -619,29 +621,24 @@ impl Denoiser {
             .expect("one of the two");
         let gradient_grid = sources.gradients.as_ref().map(|g| g.grid);
 
-        let frame_group = |write: usize| {
-            let (short_in, short_out) = short_history.read_write(write);
-            ctx.device.create_bind_group(&wgpu::BindGroupDescriptor {
-                label: Some("pc/denoise.frame_group"),
-                layout: &pipelines.frame_layout,
-                entries: &DenoiseBindings {
-                    noisy: sources.noisy,
-                    depth: sources.depth,
-                    normal: sources.normal,
-                    motion: sources.motion,
-                    previous_geometry: &previous_geometry,
-                    short_in,
-                    short_out,
-                    history: &history,
-                    moments: &moments,
-                    output: &output,
-                    gradients,
-                    scratch: &scratch,
-                }
-                .entries(),
-            })
-        };
-        let frame_groups = PingPong::from_fn(frame_group);
+        let frame_group = ctx.device.create_bind_group(&wgpu::BindGroupDescriptor {
+            label: Some("pc/denoise.frame_group"),
+            layout: &pipelines.frame_layout,
+            entries: &DenoiseBindings {
+                noisy: sources.noisy,
+                depth: sources.depth,
+                normal: sources.normal,
+                motion: sources.motion,
+                previous_geometry: &previous_geometry,
+                short_history: &short_history,
+                history: &history,
+                moments: &moments,
+                output: &output,
+                gradients,
+                scratch: &scratch,
+            }
+            .entries(),
+        });
         let uniform_groups = (0..=MAX_ATROUS_ITERATIONS)
             .map(|slot| {
                 let binding = wgpu::BufferBinding {
@@ -672,7 +669,7 @@ impl Denoiser {
             owns_lent,
             no_gradients,
             gradient_grid,
-            frame_groups,
+            frame_group,
             uniform_groups,
             has_history: false,
         }
@@ -731,6 +728,7 @@ impl Denoiser {
         [
             &self.uniforms,
             &self.previous_geometry,
+            &self.short_history,
             &self.history,
             &self.moments,
         ]
@@ -740,7 +738,6 @@ impl Denoiser {
                 .into_iter()
                 .filter(|_| self.owns_lent),
         )
-        .chain(self.short_history.both())
         .chain(self.no_gradients.as_ref())
     }
 
