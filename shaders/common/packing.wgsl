@@ -54,6 +54,25 @@ fn pack_rgb9e5(rgb: vec3<f32>) -> u32 {
     return m.r | (m.g << 9u) | (m.b << 18u) | (u32(exponent) << 27u);
 }
 
+// `pack_rgb9e5` rounded stochastically: each mantissa is floor(x + u) for `u` uniform in
+// [0, 1), so the stored value is the input on average (round to nearest is not: a history
+// blended towards a value less than half a step away never moves). One step is at most
+// 2^-8 of the largest channel.
+fn pack_rgb9e5_dithered(rgb: vec3<f32>, u: f32) -> u32 {
+    let max_value = 65408.0;
+    let c = clamp(rgb, vec3<f32>(0.0), vec3<f32>(max_value));
+    let max_channel = max(max(c.r, c.g), c.b);
+    var exponent = max(-16, i32(floor(log2(max(max_channel, 1e-30))))) + 1 + 15;
+    var scale = exp2(f32(exponent - 15 - 9));
+    // No `u` may carry the largest mantissa to 512.
+    if max_channel / scale > 511.0 {
+        exponent += 1;
+        scale *= 2.0;
+    }
+    let m = min(vec3<u32>(floor(c / scale + u)), vec3(511u));
+    return m.r | (m.g << 9u) | (m.b << 18u) | (u32(exponent) << 27u);
+}
+
 // Inverse of `pack_rgb9e5`.
 fn unpack_rgb9e5(packed: u32) -> vec3<f32> {
     let exponent = i32(packed >> 27u);
@@ -127,6 +146,44 @@ fn unpack_color64(packed: vec2<u32>) -> vec4<f32> {
     let exponent = i32((packed.y >> 16u) & 0x1fu);
     let rgb = vec3<f32>(m) * power_of_two(exponent - 31);
     return vec4(rgb, half_value((packed.y >> 21u) << 4u));
+}
+
+// A color, its luminance variance and its age in 64 bits, as a denoiser's long history keeps
+// them (NRD's ReLAX keeps a history's second moment beside its color the same way): three
+// 14-bit mantissas sharing a 5-bit exponent (at most 2^-14 of the largest channel off,
+// channels clamped to 65504), the variance as an f16 cut to 5 mantissa bits (at most 2^-6 of
+// itself off, clamped to 65504) and the age as a 7-bit integer (rounded, clamped to 0-127).
+// x = r | g << 14 | (b & 15) << 28, y = b >> 4 | exponent << 10 | variance << 15 | age << 25.
+fn pack_history64(rgb: vec3<f32>, variance: f32, age: f32) -> vec2<u32> {
+    let c = clamp(rgb, vec3(0.0), vec3(F16_MAX));
+    let largest = max(max(c.r, c.g), c.b);
+    // As `pack_color64`: the mantissas hold [2^13, 2^14) for the largest channel, unless it
+    // rounds up to 2^14.
+    var exponent = max(i32(bitcast<u32>(largest) >> 23u) - 127, -16) + 16;
+    if round(largest * power_of_two(29 - exponent)) >= 16384.0 {
+        exponent += 1;
+    }
+    let m = vec3<u32>(round(c * power_of_two(29 - exponent)));
+    let short_half = (half_bits(clamp(variance, 0.0, F16_MAX)) + 16u) >> 5u;
+    let a = u32(round(clamp(age, 0.0, 127.0)));
+    return vec2(
+        m.r | (m.g << 14u) | ((m.b & 15u) << 28u),
+        (m.b >> 4u) | (u32(exponent) << 10u) | (short_half << 15u) | (a << 25u),
+    );
+}
+
+// `pack_history64`'s rgb, variance and age.
+struct History64 {
+    rgb: vec3<f32>,
+    variance: f32,
+    age: f32,
+}
+
+fn unpack_history64(packed: vec2<u32>) -> History64 {
+    let m = vec3(packed.x & 0x3fffu, (packed.x >> 14u) & 0x3fffu, (packed.x >> 28u) | ((packed.y & 0x3ffu) << 4u));
+    let exponent = i32((packed.y >> 10u) & 0x1fu);
+    let rgb = vec3<f32>(m) * power_of_two(exponent - 29);
+    return History64(rgb, half_value(((packed.y >> 15u) & 0x3ffu) << 5u), f32(packed.y >> 25u));
 }
 
 // A G-buffer surface's depth and normal in 32 bits, as a history checks reprojected taps

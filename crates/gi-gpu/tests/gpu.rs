@@ -452,7 +452,7 @@ fn shared_packing_and_basis_functions_are_accurate() {
     let count = inputs.len() / 2;
     let usage = wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC;
     let input_buffer = ctx.create_buffer_init("test.inputs", bytemuck::cast_slice(&inputs), usage);
-    let output_buffer = ctx.create_buffer("test.outputs", (count * 4 * 16) as u64, usage);
+    let output_buffer = ctx.create_buffer("test.outputs", (count * 6 * 16) as u64, usage);
     let module = ShaderLibrary::new()
         .create_module(&ctx, "test/common_functions.wgsl", &[])
         .unwrap();
@@ -489,11 +489,15 @@ fn shared_packing_and_basis_functions_are_accurate() {
     let mut worst_color = 0f32;
     let mut worst_normal8 = 0f32;
     let mut worst_depth = 0f32;
+    let mut worst_history = 0f32;
+    let mut worst_variance = 0f32;
+    let mut worst_dither = 0f32;
     let distance =
         |a: [f32; 4], b: [f32; 4]| (0..3).map(|k| (a[k] - b[k]).powi(2)).sum::<f32>().sqrt();
     for i in 0..count {
         let (n, color) = (inputs[2 * i], inputs[2 * i + 1]);
-        let [n_out, color_out, basis, geometry] = [0, 1, 2, 3].map(|k| outputs[4 * i + k]);
+        let [n_out, color_out, basis, geometry, history, age] =
+            [0, 1, 2, 3, 4, 5].map(|k| outputs[6 * i + k]);
         worst_normal = worst_normal.max(distance(n, n_out));
         worst_normal8 = worst_normal8.max(distance(n, geometry));
         let depth = color[3];
@@ -507,7 +511,21 @@ fn shared_packing_and_basis_functions_are_accurate() {
             // Nine mantissa bits relative to the largest channel, after rounding.
             let relative = (color[k] - color_out[k]).abs() / max_channel;
             worst_color = worst_color.max(relative);
+            // Fourteen for the long history.
+            worst_history = worst_history.max((color[k] - history[k]).abs() / max_channel);
+            // Dithered RGB9E5 is the value on average: over 64 evenly spaced offsets within
+            // 1/128 of a step (a step is at most 2^-8 of the largest channel).
+            worst_dither = worst_dither.max((color[k] - age[1 + k]).abs() / max_channel);
         }
+        // The variance (here the depth, +inf clamped to the largest f16) to 2^-6 of itself,
+        // the age exact (clamped to 127).
+        let variance = depth.min(65504.0);
+        worst_variance = worst_variance.max((history[3] - variance).abs() / variance);
+        assert_eq!(
+            age[0],
+            (i % 131).min(127) as f32,
+            "input {i}: the history's age"
+        );
         for (k, value) in basis[..3].iter().enumerate() {
             assert!(value.abs() < 1e-5, "input {i}: basis dot {k} = {value}");
         }
@@ -519,7 +537,9 @@ fn shared_packing_and_basis_functions_are_accurate() {
     }
     eprintln!(
         "worst unit-vector error {worst_normal:e}, worst relative color error {worst_color:e}, \
-         worst 8-bit normal error {worst_normal8:e}, worst relative depth error {worst_depth:e}"
+         worst 8-bit normal error {worst_normal8:e}, worst relative depth error {worst_depth:e}, \
+         worst relative history color error {worst_history:e}, worst relative variance error \
+         {worst_variance:e}, worst relative error of the dithered RGB9E5 mean {worst_dither:e}"
     );
     assert!(worst_normal < 1e-4, "unit vectors: {worst_normal}");
     assert!(worst_color <= 1.0 / 512.0, "colors: {worst_color}");
@@ -529,6 +549,18 @@ fn shared_packing_and_basis_functions_are_accurate() {
         "8-bit normals: {worst_normal8}"
     );
     assert!(worst_depth <= 1.0 / 2048.0, "depths: {worst_depth}");
+    assert!(
+        worst_history <= 1.0 / 16384.0,
+        "history colors: {worst_history}"
+    );
+    assert!(
+        worst_variance <= 1.0 / 64.0,
+        "history variances: {worst_variance}"
+    );
+    assert!(
+        worst_dither <= 1.0 / (256.0 * 128.0) + 1e-6,
+        "dithered RGB9E5 means: {worst_dither}"
+    );
 }
 
 /// The median of `values` (the mean of the middle two for an even count).

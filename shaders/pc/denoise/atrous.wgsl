@@ -153,7 +153,8 @@ fn filter_pixel(id: vec2<u32>, local: vec2<u32>, local_index: u32, group: vec2<u
     store_filter(place, index, result);
     if place == FIRST_ATROUS_WRITE && uniforms.feedback != 0u {
         // SVGF feeds the first iteration back as the long history's color; `temporal` wrote
-        // the age.
-        store_history(index, result.rgb, load_history(index).w);
+        // the variance and the age.
+        let kept = load_history(index);
+        store_history(index, result.rgb, kept.variance, kept.age);
     }
 }

@@ -10,11 +10,14 @@
 // Pixels are one storage-buffer entry each, row-major. Sky pixels (depth +inf) pass their
 // input through every pass, keep no history and never mix into their neighbours.
 //
-// Memory, 36 bytes per pixel (`gi_tiers::pc::denoise` explains the choice; 20 of its own when
+// Memory, 32 bytes per pixel (`gi_tiers::pc::denoise` explains the choice; 16 of its own when
 // the caller lends `output` and `scratch`): the histories are packed (short color RGB9E5; long
-// color and age `pack_color64`; moments f16; the previous depth and normal in one word), each
-// updated in place, and the filter passes ping-pong between `output` and `scratch`, both in
-// `pack_color64` (rgb, and the luminance variance as the value). `temporal` writes `output`
+// color with its luminance variance and age `pack_history64`; the previous depth and normal in
+// one word), each updated in place, and the filter passes ping-pong between `output` and
+// `scratch`, both in `pack_color64` (rgb, and the luminance variance as the value). The long
+// history's luminance moments are its color's luminance (the first) and the variance it keeps
+// (the second, central): updated with the same alpha as the color, that is SVGF's pair of
+// moments, exactly, where the clamp leaves the color alone. `temporal` writes `output`
 // (its neighbours still read this frame's short history in `scratch`); `variance` reads only
 // its own pixel, so it writes either buffer; the a-trous passes alternate from there, so
 // that the last pass writes `output` (`writes_output`).
@@ -24,7 +27,7 @@
 // uniforms.
 #define_import_path gi::pc::denoise
 
-#import gi::packing::{pack_half2, unpack_half2, pack_color64, unpack_color64}
+#import gi::packing::{pack_color64, unpack_color64, pack_history64, unpack_history64, History64}
 #import gi::math::{image_contains, image_index}
 
 const INFINITY_BITS: u32 = 0x7f800000u;
@@ -81,22 +84,21 @@ struct DenoiseUniforms {
 // The short history, RGB9E5: the previous frame's until `temporal_short` has run (which
 // leaves this frame's in `scratch`), then this frame's, which `temporal` copies back.
 @group(0) @binding(5) var<storage, read_write> short_history: array<u32>;
-// The long history, `pack_color64` (rgb, age); age = frames accumulated including the current
-// one (0 for sky). Read through the taps only by `temporal_short`.
+// The long history, `pack_history64`: rgb, the luminance variance about its luminance, and
+// age = frames accumulated including the current one (0 for sky). Read through the taps only
+// by `temporal_short`.
 @group(0) @binding(6) var<storage, read_write> history: array<vec2<u32>>;
-// f16 (mean luminance, luminance variance) of the long history.
-@group(0) @binding(7) var<storage, read_write> moments: array<u32>;
 // `pack_color64`: the reprojected long history's color and age between `temporal_short` and
 // `temporal` (`Reprojected`), then a filter buffer (rgb irradiance, its luminance variance as
 // the value), and the result after the last pass.
-@group(0) @binding(8) var<storage, read_write> output: array<vec2<u32>>;
+@group(0) @binding(7) var<storage, read_write> output: array<vec2<u32>>;
 // Per temporal-gradient stratum, lambda in z (`pc/restir/gradient.wgsl`): how much of the
 // light changed since the last frame.
-@group(0) @binding(9) var<storage, read> gradients: array<vec4<f32>>;
-// From `temporal_short` to `temporal`: in x the f16 mean luminance and luminance variance of
-// the reprojected long history, in y this frame's short history (RGB9E5); then the other
-// filter buffer (`pack_color64`).
-@group(0) @binding(10) var<storage, read_write> scratch: array<vec2<u32>>;
+@group(0) @binding(8) var<storage, read> gradients: array<vec4<f32>>;
+// From `temporal_short` to `temporal`: in x the reprojected long history's luminance
+// variance (f32 bits), in y this frame's short history (RGB9E5); then the other filter buffer
+// (`pack_color64`).
+@group(0) @binding(9) var<storage, read_write> scratch: array<vec2<u32>>;
 
 // Group 1.
 // Named `uniforms`, not `u`: the passes import it, and naga_oil would rewrite the `u` suffix
@@ -112,27 +114,13 @@ fn noisy_at(index: u32) -> vec3<f32> {
     return unpack_color64(noisy[index]).rgb;
 }
 
-// Long history of pixel `index`: rgb and age.
-fn load_history(index: u32) -> vec4<f32> {
-    return unpack_color64(history[index]);
+// Long history of pixel `index`: rgb, luminance variance and age.
+fn load_history(index: u32) -> History64 {
+    return unpack_history64(history[index]);
 }
 
-fn store_history(index: u32, color: vec3<f32>, age: f32) {
-    history[index] = pack_color64(color, age);
-}
-
-// Mean luminance and mean squared luminance of pixel `index`'s long history (stored as mean
-// and variance: the variance keeps its precision in f16, the squared mean would not).
-fn load_moments(index: u32) -> vec2<f32> {
-    let m = unpack_half2(moments[index]);
-    return vec2(m.x, m.y + m.x * m.x);
-}
-
-// Stores mean and mean squared luminance, returns the variance.
-fn store_moments(index: u32, m: vec2<f32>) -> f32 {
-    let variance = max(m.y - m.x * m.x, 0.0);
-    moments[index] = pack_half2(vec2(m.x, variance));
-    return variance;
+fn store_history(index: u32, color: vec3<f32>, variance: f32, age: f32) {
+    history[index] = pack_history64(color, variance, age);
 }
 
 // Index of this frame's last filter write: the last a-trous iteration, or `temporal` without.

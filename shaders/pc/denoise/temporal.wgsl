@@ -7,7 +7,7 @@
 //                   blend this frame's noisy irradiance into the short history
 //                   with alpha = max(1 / (age + 1), 1 / short_history), and leave it in
 //                   `scratch` (y) and the reprojected long history in `output` (color,
-//                   age) and `scratch` (x: moments);
+//                   age) and `scratch` (x: luminance variance);
 //                   where the temporal gradient's lambda (`gradient_lambda`) says the light
 //                   changed, both alphas first become mix(alpha, 1, lambda), the long one
 //                   through the age it stores;
@@ -22,13 +22,13 @@
 // dispatch's uniforms (`gi::pc::denoise`).
 
 #import gi::packing::{
-    unpack_unit_vector, pack_rgb9e5, unpack_rgb9e5, pack_half2, unpack_half2, pack_color64,
-    unpack_color64, pack_depth_normal, unpack_depth, unpack_normal8
+    unpack_unit_vector, pack_rgb9e5, unpack_rgb9e5, pack_color64, unpack_color64,
+    pack_depth_normal, unpack_depth, unpack_normal8
 }
 #import gi::math::luminance
 #import gi::pc::denoise::{
     noisy_at, depth, normal, motion, previous_geometry, short_history, output, scratch,
-    uniforms, load_history, store_history, load_moments, store_moments, store_filter, is_sky,
+    uniforms, load_history, store_history, store_filter, is_sky,
     pixel_index, inside, depth_at, depth_derivative, gradient_lambda, TEMPORAL_WRITE
 }
 
@@ -45,20 +45,18 @@ struct Reprojected {
     // Frames accumulated including this one; 1 where no history was kept (then the history's
     // weight, 1 - 1 / age, is 0).
     age: f32,
-    // Mean luminance and mean squared luminance.
-    moments: vec2<f32>,
+    // Luminance variance about the color's luminance.
+    variance: f32,
 }
 
 fn store_reprojected(index: u32, r: Reprojected, short_color: vec3<f32>) {
-    let variance = max(r.moments.y - r.moments.x * r.moments.x, 0.0);
     output[index] = pack_color64(r.color, r.age);
-    scratch[index] = vec2(pack_half2(vec2(r.moments.x, variance)), pack_rgb9e5(short_color));
+    scratch[index] = vec2(bitcast<u32>(r.variance), pack_rgb9e5(short_color));
 }
 
 fn load_reprojected(index: u32) -> Reprojected {
     let color = unpack_color64(output[index]);
-    let m = unpack_half2(scratch[index].x);
-    return Reprojected(color.rgb, color.w, vec2(m.x, m.y + m.x * m.x));
+    return Reprojected(color.rgb, color.w, bitcast<f32>(scratch[index].x));
 }
 
 // The bilinear taps of the previous frame that a pixel reprojects to; a tap whose previous
@@ -117,7 +115,7 @@ fn temporal_short(@builtin(global_invocation_id) id: vec3<u32>) {
     let index = pixel_index(pixel);
     let x = noisy_at(index);
     let z = depth[index];
-    var long = Reprojected(vec3(0.0), 0.0, vec2(0.0));
+    var long = Reprojected(vec3(0.0), 0.0, 0.0);
     if is_sky(z) {
         store_reprojected(index, long, x);
         return;
@@ -129,14 +127,22 @@ fn temporal_short(@builtin(global_invocation_id) id: vec3<u32>) {
     if total >= MIN_REPROJECTION_WEIGHT {
         var previous_short = vec3(0.0);
         var previous_long = vec4(0.0);
-        var previous_moments = vec2(0.0);
+        // Per tap its luminance, then about the taps' mean: the second moment of the taps
+        // together is the mean of theirs plus their luminances' spread.
+        var tap_luminance = vec4(0.0);
+        var previous_variance = 0.0;
         for (var k = 0u; k < 4u; k++) {
             let t = taps.pixels[k];
             let w = taps.weights[k];
             previous_short += w * unpack_rgb9e5(short_history[t]);
-            previous_long += w * load_history(t);
-            previous_moments += w * load_moments(t);
+            let h = load_history(t);
+            previous_long += w * vec4(h.rgb, h.age);
+            tap_luminance[k] = luminance(h.rgb);
+            previous_variance += w * h.variance;
         }
+        let mean_luminance = dot(taps.weights, tap_luminance) / total;
+        let spread = tap_luminance - mean_luminance;
+        previous_variance = (previous_variance + dot(taps.weights, spread * spread)) / total;
         previous_age = previous_long.w / total;
         // Where the light changed the histories weigh less (A-SVGF: alpha' = mix(alpha, 1,
         // lambda)); the long one through its age, which `temporal` turns into its alpha.
@@ -151,7 +157,7 @@ fn temporal_short(@builtin(global_invocation_id) id: vec3<u32>) {
         }
         short_color = mix(reprojected_short, x, alpha);
         long.color = previous_long.rgb / total;
-        long.moments = previous_moments / total;
+        long.variance = previous_variance;
     }
     long.age = min(previous_age + 1.0, f32(uniforms.long_history));
     store_reprojected(index, long, short_color);
@@ -205,7 +211,8 @@ fn temporal(@builtin(global_invocation_id) id: vec3<u32>) {
     // Only this pixel reads its reprojection, so its filter data may replace it.
     let previous = load_reprojected(index);
     var color = x;
-    var m = vec2(l, l * l);
+    // Without history the moments are this frame's alone: no variance.
+    var variance = 0.0;
     // An age of 1: no history kept (alpha 1 would take `x` alone).
     if !is_sky(z) && previous.age > 1.0 {
         let box = neighbourhood(pixel, 2, false);
@@ -217,11 +224,15 @@ fn temporal(@builtin(global_invocation_id) id: vec3<u32>) {
         // `temporal_short` stored the age including this frame: alpha = 1 / (previous + 1).
         let alpha = max(1.0 / previous.age, 1.0 / f32(uniforms.long_history));
         color = mix(clamped, x, alpha);
-        m = mix(previous.moments, m, alpha);
+        // The moments blended with the same alpha as the color, their mean being its
+        // luminance: the variance about the clamped history's luminance takes the
+        // exponentially weighted update (Finch 2009, "Incremental calculation of weighted
+        // mean and variance"), SVGF's mix of first and second moments rewritten.
+        let deviation = l - luminance(clamped);
+        variance = (1.0 - alpha) * (previous.variance + alpha * deviation * deviation);
     }
-    let variance = store_moments(index, m);
-    // The first a-trous iteration, if any, replaces the color.
-    store_history(index, color, previous.age);
+    // With `feedback` the first a-trous iteration replaces the color.
+    store_history(index, color, variance, previous.age);
     store_filter(TEMPORAL_WRITE, index, vec4(color, variance));
     // `temporal_short`, the only reader of the previous short history and geometry, has run.
     short_history[index] = scratch[index].y;

@@ -2,14 +2,16 @@
 //
 //   variance        SVGF's luminance variance: from the temporal moments once the history is
 //                   variance_min_age frames old, else from a 7 x 7 bilateral (depth, normal)
-//                   estimate of the moments around the pixel.
+//                   estimate of the moments around the pixel (each history's: its color's
+//                   luminance, and the variance it keeps about it plus that squared).
 //
 // Bind group 0: the frame's inputs, the histories and the filter buffers; group 1: this
 // dispatch's uniforms (`gi::pc::denoise`).
 
 #import gi::packing::unpack_unit_vector
+#import gi::math::luminance
 #import gi::pc::denoise::{
-    depth, normal, uniforms, load_history, load_moments, load_filter, store_filter, is_sky,
+    depth, normal, uniforms, load_history, load_filter, store_filter, is_sky,
     pixel_index, depth_at, depth_derivative, normal_weight, VARIANCE_WRITE
 }
 
@@ -26,7 +28,7 @@ fn variance(@builtin(global_invocation_id) id: vec3<u32>) {
         store_filter(VARIANCE_WRITE, index, vec4(center.rgb, 0.0));
         return;
     }
-    if load_history(index).w >= f32(uniforms.variance_min_age) {
+    if load_history(index).age >= f32(uniforms.variance_min_age) {
         store_filter(VARIANCE_WRITE, index, center);
         return;
     }
@@ -46,7 +48,9 @@ fn variance(@builtin(global_invocation_id) id: vec3<u32>) {
             let distance_px = length(vec2<f32>(vec2(dx, dy)));
             let w_depth = abs(q_depth - z) / (phi_depth * max(distance_px, 1.0));
             let w = normal_weight(n, unpack_unit_vector(normal[qi]), uniforms.normal_power) * exp(-w_depth);
-            sum += w * load_moments(qi);
+            let h = load_history(qi);
+            let mean = luminance(h.rgb);
+            sum += w * vec2(mean, h.variance + mean * mean);
             weight_sum += w;
         }
     }

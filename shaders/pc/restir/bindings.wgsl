@@ -42,10 +42,13 @@
 // of rough pixels; `specular_resolve` the traced radiance of smooth ones) and the history of
 // either (`specular_temporal`).
 @group(0) @binding(24) var<storage, read_write> specular_noisy: array<vec2<u32>>;
-// Per pixel: radiance or ratio and history length (`pack_specular_history`), one buffer
-// updated in place; and the history each pixel found in the previous frame, copied out first
-// (`specular_temporal`; one buffer with `resolved` in turn, `RestirBuffers::resolved`).
-@group(0) @binding(25) var<storage, read_write> specular_history: array<vec2<u32>>;
+// The specular history, one buffer updated in place, through `load_specular_history` and
+// `store_specular_history`: per pixel its radiance or ratio (RGB9E5), then from entry
+// `pixels` on a byte per pixel, four to a word, with its length and kind
+// (`pack_specular_history`). Atomic, since four pixels store their bytes into one word.
+// And the history each pixel found in the previous frame, copied out first (the whole entry;
+// `specular_temporal`; one buffer with `resolved` in turn, `RestirBuffers::resolved`).
+@group(0) @binding(25) var<storage, read_write> specular_history: array<atomic<u32>>;
 @group(0) @binding(26) var<storage, read_write> specular_reprojected: array<vec2<u32>>;
 // Per pixel: the G-buffer's emission and, in w, the material's occlusion factor.
 @group(0) @binding(27) var<storage, read> gbuffer_emissive: array<vec4<f32>>;
@@ -78,4 +81,22 @@ fn load_surface(index: u32) -> Surface {
 // The previous frame's receiver of trace pixel `index`.
 fn load_surface_prev(index: u32) -> Surface {
     return surface_seen_by(surfaces_prev[index], uniforms.previous_camera);
+}
+
+// Pixel `pixel`'s specular history entry (`pack_specular_history`).
+fn load_specular_history(pixel: u32) -> vec2<u32> {
+    let pixels = uniforms.size_px.x * uniforms.size_px.y;
+    let bytes = atomicLoad(&specular_history[pixels + pixel / 4u]);
+    return vec2(atomicLoad(&specular_history[pixel]), (bytes >> (8u * (pixel % 4u))) & 0xffu);
+}
+
+// Stores pixel `pixel`'s specular history entry; its word's other bytes are left as they are,
+// whatever order its four pixels store in.
+fn store_specular_history(pixel: u32, entry: vec2<u32>) {
+    let pixels = uniforms.size_px.x * uniforms.size_px.y;
+    atomicStore(&specular_history[pixel], entry.x);
+    let shift = 8u * (pixel % 4u);
+    let word = pixels + pixel / 4u;
+    atomicAnd(&specular_history[word], ~(0xffu << shift));
+    atomicOr(&specular_history[word], (entry.y & 0xffu) << shift);
 }

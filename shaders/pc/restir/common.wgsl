@@ -14,8 +14,8 @@
 #import gi::math::luminance
 #import gi::sky::Sky
 #import gi::packing::{
-    unpack_unit_vector, unpack_rgb9e5, pack_color64, unpack_color64, half_bits, half_value,
-    pack_half2, unpack_half2
+    unpack_unit_vector, unpack_rgb9e5, pack_rgb9e5_dithered, pack_color64, unpack_color64,
+    half_bits, half_value, pack_half2, unpack_half2
 }
 
 // Bits of `PcUniforms::flags`.
@@ -310,18 +310,23 @@ struct SpecularHistory {
     reused: bool,
 }
 
-// A reused ratio's length is stored divided by this, below 1, where a traced radiance's
-// length (at most 256 frames) is at least 1: the kind costs no bits of its own.
-const REUSED_LENGTH_SCALE: f32 = 512.0;
+// A specular history entry (`pack_specular_history`): x the value in RGB9E5, rounded
+// stochastically by `u` (`pack_rgb9e5_dithered`: unbiased, so that a history converging on a
+// value less than half a step away still reaches it on average), y a byte: the length in bits
+// 0-6 (lengths are at most 127 frames) and the kind in bit 7 (set: a reused ratio).
+const SPECULAR_REUSED_BIT: u32 = 0x80u;
 
-fn pack_specular_history(value: vec3<f32>, length: f32, reused: bool) -> vec2<u32> {
-    return pack_color64(value, select(length, length / REUSED_LENGTH_SCALE, reused));
+fn pack_specular_history(value: vec3<f32>, length: f32, reused: bool, u: f32) -> vec2<u32> {
+    let byte = u32(round(clamp(length, 0.0, 127.0))) | select(0u, SPECULAR_REUSED_BIT, reused);
+    return vec2(pack_rgb9e5_dithered(value, u), byte);
 }
 
 fn unpack_specular_history(packed: vec2<u32>) -> SpecularHistory {
-    let h = unpack_color64(packed);
-    let reused = h.w < 1.0;
-    return SpecularHistory(h.xyz, select(h.w, h.w * REUSED_LENGTH_SCALE, reused), reused);
+    return SpecularHistory(
+        unpack_rgb9e5(packed.x),
+        f32(packed.y & 0x7fu),
+        (packed.y & SPECULAR_REUSED_BIT) != 0u,
+    );
 }
 
 fn empty_reservoir() -> Reservoir {

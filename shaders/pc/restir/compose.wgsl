@@ -16,7 +16,7 @@
 #import gi::cache::trace::cache_blend_layer_gi
 #import gi::pc::restir::bindings::{
     gbuffer_depth, gbuffer_normal, gbuffer_base_color, gbuffer_metallic_roughness, denoised,
-    direct_mean, output, specular_history, gbuffer_emissive, gbuffer_blend_layer
+    direct_mean, output, load_specular_history, gbuffer_emissive, gbuffer_blend_layer
 }
 #import gi::pc::restir::common::{
     uniforms, is_sky_depth, specular_kind, FLAG_MATERIAL_OCCLUSION, FLAG_BLEND_LAYER,
@@ -51,7 +51,7 @@ fn compose(@builtin(global_invocation_id) id: vec3<u32>) {
     let max_roughness = uniforms.specular_max_roughness;
     let kind = specular_kind(uniforms.flags, max_roughness, depth, mr.y);
     if kind != SPECULAR_NONE {
-        let h = unpack_specular_history(specular_history[pixel]);
+        let h = unpack_specular_history(load_specular_history(pixel));
         if h.length > 0.0 && kind == SPECULAR_TRACED {
             let t = 1.0 - smoothstep(0.75 * max_roughness, max_roughness, mr.y);
             reflected = mix(reflected, h.value, t);

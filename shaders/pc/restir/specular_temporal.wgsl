@@ -5,9 +5,9 @@
 // neighbourhood's mean plus or minus `specular_clamp_sigma` standard deviations. Rough pixels
 // go through it too: their input is the lobe ratio of the reused diffuse samples (`shade`), and
 // neither the clamp's neighbourhood nor the history mixes the two kinds (a ratio's history
-// stores its length scaled, `pack_specular_history`). The history's surface is checked against
-// the previous frame's G-buffer depth and normal (the denoiser's), so an entry is 8
-// bytes. `compose` multiplies the radiance by the split-sum specular albedo, and the
+// keeps its kind, `pack_specular_history`). The history's surface is checked against the
+// previous frame's G-buffer depth and normal (the denoiser's), so an entry is 5 bytes: the
+// value in RGB9E5, rounded stochastically, and a byte with the length and the kind. `compose` multiplies the radiance by the split-sum specular albedo, and the
 // irradiance over pi by the ratio.
 //
 // Two dispatches, so that one history buffer serves both frames: `specular_reproject` copies
@@ -20,8 +20,8 @@
 
 #import gi::packing::{unpack_unit_vector, unpack_color64, unpack_depth, unpack_normal8}
 #import gi::pc::restir::bindings::{
-    gbuffer_depth, gbuffer_normal, gbuffer_motion, specular_noisy, specular_history,
-    specular_reprojected, previous_geometry, kind_of, world_position
+    gbuffer_depth, gbuffer_normal, gbuffer_motion, specular_noisy, load_specular_history,
+    store_specular_history, specular_reprojected, previous_geometry, kind_of, world_position
 }
 #import gi::pc::restir::common::{
     uniforms, FLAG_HISTORY, SPECULAR_NONE, SPECULAR_REUSED, pack_specular_history,
@@ -47,7 +47,7 @@ fn specular_reproject(@builtin(global_invocation_id) id: vec3<u32>) {
     let q = vec2<i32>(floor(before));
     if (uniforms.flags & FLAG_HISTORY) != 0u && all(q >= vec2(0)) && all(q < vec2<i32>(uniforms.size_px)) {
         let qi = u32(q.y) * uniforms.size_px.x + u32(q.x);
-        let entry = specular_history[qi];
+        let entry = load_specular_history(qi);
         let stored = unpack_specular_history(entry);
         let x = world_position(id.xy, depth);
         let n = unpack_unit_vector(gbuffer_normal[pixel]);
@@ -65,6 +65,14 @@ fn specular_reproject(@builtin(global_invocation_id) id: vec3<u32>) {
     specular_reprojected[pixel] = found;
 }
 
+// The PCG hash (Jarzynski and Olano 2020, "Hash Functions for GPU Rendering", JCGT): 32
+// well-mixed bits of `v`.
+fn pcg_hash(v: u32) -> u32 {
+    let state = v * 747796405u + 2891336453u;
+    let word = ((state >> ((state >> 28u) + 4u)) ^ state) * 277803737u;
+    return (word >> 22u) ^ word;
+}
+
 @compute @workgroup_size(8, 8)
 fn specular_temporal(@builtin(global_invocation_id) id: vec3<u32>) {
     if any(id.xy >= uniforms.size_px) {
@@ -74,7 +82,7 @@ fn specular_temporal(@builtin(global_invocation_id) id: vec3<u32>) {
     let depth = gbuffer_depth[pixel];
     let kind = kind_of(pixel, depth);
     if kind == SPECULAR_NONE {
-        specular_history[pixel] = vec2(0u);
+        store_specular_history(pixel, vec2(0u));
         return;
     }
     let current = unpack_color64(specular_noisy[pixel]);
@@ -119,5 +127,7 @@ fn specular_temporal(@builtin(global_invocation_id) id: vec3<u32>) {
         length = min(length + 1.0, uniforms.specular_history);
         radiance = mix(history, current.xyz, 1.0 / length);
     }
-    specular_history[pixel] = pack_specular_history(radiance, length, kind == SPECULAR_REUSED);
+    // The stochastic rounding's offset, new each frame and pixel.
+    let u = f32(pcg_hash(pixel ^ pcg_hash(uniforms.frame_index ^ uniforms.seed.x)) >> 8u) / 16777216.0;
+    store_specular_history(pixel, pack_specular_history(radiance, length, kind == SPECULAR_REUSED, u));
 }

@@ -340,9 +340,9 @@ pub struct SpecularConfig {
     /// (seeds 2 and 3: 3.66 / 3.62, 3.65 / 3.61), glossy 7.91 / 7.90, atrium 7.40 / 7.41,
     /// thin-wall 19.86 / 19.87 (benchmarks/RESULTS-history.md).
     pub diffuse_from: f32,
-    /// Most frames the specular history averages. Longer histories are smoother on still
-    /// views and lag more behind moving reflections (the history follows the surface's
-    /// motion, not the reflection's).
+    /// Most frames the specular history averages, from 1 to 127 (its length is kept in 7
+    /// bits). Longer histories are smoother on still views and lag more behind moving
+    /// reflections (the history follows the surface's motion, not the reflection's).
     pub history: f32,
     /// The history is clamped to the resolved samples' 3 x 3 mean plus or minus this many
     /// standard deviations: smaller values reject stale history sooner and keep more noise.
@@ -376,9 +376,9 @@ impl SpecularConfig {
                 self.diffuse_from
             ));
         }
-        if !(self.history.is_finite() && (1.0..=256.0).contains(&self.history)) {
+        if !(self.history.is_finite() && (1.0..=127.0).contains(&self.history)) {
             return Err(format!(
-                "specular history must be within 1..=256 frames, not {}",
+                "specular history must be within 1..=127 frames, not {}",
                 self.history
             ));
         }

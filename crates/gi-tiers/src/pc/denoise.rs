@@ -9,7 +9,7 @@
 //!    through the motion vectors (bilinear 2 x 2 taps, each kept only if its previous depth and
 //!    normal agree with the pixel's), blends the noisy input into the short one with
 //!    `alpha = max(1 / (age + 1), 1 / short_history)` and leaves it and the reprojected long
-//!    history (color, luminance moments, age) in the output and scratch buffers, so that every
+//!    history (color, luminance variance, age) in the output and scratch buffers, so that every
 //!    history is updated in place. `temporal` clamps the long
 //!    history's color into `mean +- clamp_sigma sigma` of this frame's short history over the
 //!    5 x 5 neighbourhood, and blends with `alpha = max(1 / (age + 1), 1 / long_history)`.
@@ -31,7 +31,7 @@
 //! camera): a camera closing in on a surface faster than
 //! [`DenoiseConfig::reprojection_depth_tolerance`] of its distance per frame loses the history.
 //!
-//! Memory: 36 bytes per pixel (about 75 MB at 1920 x 1080; 120 before packing), 20 of them
+//! Memory: 32 bytes per pixel (about 66 MB at 1920 x 1080; 120 before packing), 16 of them
 //! its own when the caller lends the output and the scratch:
 //!
 //! - the previous frame's depth and normal in one word (4): the depth as an f16 (at most
@@ -42,11 +42,16 @@
 //!   frame's once `temporal_short` has read them;
 //! - the short history (4), RGB9E5: it only places the clamp box, which is widened by
 //!   its rounding (at most `2^-9` of the largest channel);
-//! - the long history (8): color as three 16-bit mantissas sharing a 5-bit exponent (at most
-//!   `2^-17` of the largest channel off) and the age as an 11-bit float (integers exact to
-//!   128; ages stop growing at 256, so `long_history` above 256 acts as 256);
-//! - the luminance moments (4): f16 mean and variance (the variance keeps its precision in
-//!   f16, the mean square would swamp small variances);
+//! - the long history with its luminance moments (8, `gi::packing::pack_history64`): color as
+//!   three 14-bit mantissas sharing a 5-bit exponent (at most `2^-14` of the largest channel
+//!   off), the luminance variance as a 10-bit float (at most `2^-6` of itself off: it only
+//!   scales the a-trous luminance weight's sigma, by its square root) and the age as a 7-bit
+//!   integer (so `long_history` is at most [`MAX_LONG_HISTORY`]). The first moment is the
+//!   color's luminance and the second the variance about it, as NRD's ReLAX keeps a second
+//!   moment beside its history's color: blended with the color's alpha (the variance by the
+//!   exponentially weighted update, Finch 2009), they are SVGF's two moments exactly wherever
+//!   the clamp leaves the history's color alone, in four bytes less; a clamped color pulls
+//!   the mean with it, so the variance is then measured about the color the history keeps;
 //! - the output and the scratch (8 each) in the long history's 64-bit format (the luminance
 //!   variance in place of the age: an 11-bit float, at most `2^-7` of itself off), both its
 //!   own, or lent by the PC tier ([`Denoiser::with_lent_buffers`]: buffers its passes before
@@ -54,7 +59,7 @@
 //!
 //! Nothing else is allocated: reprojecting every history once in `temporal_short` lets the
 //! histories be updated in place (no ping-pong): the output and the scratch hold the
-//! reprojected long history (color and age; moments) and this frame's short history (in the
+//! reprojected long history (color and age; variance) and this frame's short history (in the
 //! scratch, read around each pixel by `temporal`, which copies it back) until `temporal`
 //! writes its result to the output. The filter passes then alternate between the two:
 //! `variance` reads only its own pixel, so it writes the output again or the scratch, by the
@@ -69,6 +74,9 @@ use gi_gpu::{GpuContext, GpuError, Recorder, ShaderLibrary, Technique, wgpu};
 
 /// Most a-trous iterations (the last one's taps are 256 pixels apart).
 pub const MAX_ATROUS_ITERATIONS: u32 = 8;
+/// Most frames [`DenoiseConfig::long_history`] may ask for: the long history stores its age in
+/// 7 bits.
+pub const MAX_LONG_HISTORY: u32 = 127;
 /// Frames of history from which the variance comes from the temporal moments rather than the
 /// spatial estimate (SVGF: 4).
 pub const VARIANCE_MIN_AGE: u32 = 4;
@@ -138,9 +146,8 @@ pub struct DenoiseConfig {
     /// iterations were cheaper still, 0.37-0.60 ms, and blurred less: atrium 5.23, thin-wall
     /// 18.17).
     pub atrous_kernel: AtrousKernel,
-    /// Most frames the long history averages (HSGI: 50): higher is smoother in static views
-    /// and slower to follow changes the clamp does not catch. Above 256 it acts as 256 (the
-    /// stored age's precision).
+    /// Most frames the long history averages (HSGI: 50), from 1 to [`MAX_LONG_HISTORY`]: higher
+    /// is smoother in static views and slower to follow changes the clamp does not catch.
     pub long_history: u32,
     /// Frames of the short history whose neighbourhood clamps the long one (HSGI: 10): lower
     /// follows lighting changes faster and clamps more noise into the result.
@@ -211,8 +218,11 @@ impl DenoiseConfig {
                 self.atrous_iterations
             ));
         }
-        if self.long_history == 0 {
-            return Err("long_history = 0: at least 1 frame".into());
+        if self.long_history == 0 || self.long_history > MAX_LONG_HISTORY {
+            return Err(format!(
+                "long_history = {}: from 1 to {MAX_LONG_HISTORY} frames",
+                self.long_history
+            ));
         }
         if self.short_history == 0 || self.short_history > self.long_history {
             return Err(format!(
@@ -397,7 +407,7 @@ pub(crate) struct LentBuffers<'a> {
     /// has been read.
     pub output: &'a wgpu::Buffer,
     /// At least 8 bytes per pixel, free until the last denoise pass has run: the reprojected
-    /// moments and this frame's short history, then the filter buffer the output alternates
+    /// variance and this frame's short history, then the filter buffer the output alternates
     /// with.
     pub scratch: &'a wgpu::Buffer,
 }
@@ -418,7 +428,6 @@ gi_gpu::storage_bindings! {
         previous_geometry: read_write,
         short_history: read_write,
         history: read_write,
-        moments: read_write,
         output: read_write,
         gradients: read,
         scratch: read_write,
@@ -456,14 +465,12 @@ pub struct Denoiser {
     /// RGB9E5 short history, updated in place: `temporal_short` leaves this frame's in the
     /// scratch, `temporal` copies it back.
     short_history: wgpu::Buffer,
-    /// Long history color and age (`pack_color64` in the shader): the previous frame's first
-    /// a-trous output, or the temporal output without a-trous.
+    /// Long history color, luminance variance and age (`pack_history64` in the shader): the
+    /// color of the previous frame's temporal blend (with feedback, its first a-trous output).
     history: wgpu::Buffer,
-    /// f16 mean luminance and luminance variance of the long history.
-    moments: wgpu::Buffer,
     /// The reprojected long history's color and age, then a filter buffer, then the result.
     output: wgpu::Buffer,
-    /// The reprojected long history's moments and this frame's short history, then the other
+    /// The reprojected long history's variance and this frame's short history, then the other
     /// filter buffer.
     scratch: wgpu::Buffer,
     /// Whether `output` and `scratch` are the denoiser's own, else lent
@@ -595,7 +602,6 @@ impl Denoiser {
         let previous_geometry = buffer("pc.denoise.previous_geometry", 4);
         let short_history = buffer("pc.denoise.short_history", 4);
         let history = buffer("pc.denoise.history", 8);
-        let moments = buffer("pc.denoise.moments", 4);
         let owns_lent = lent.is_none();
         let (output, scratch) = match lent {
             Some(lent) => {
@@ -632,7 +638,6 @@ impl Denoiser {
                 previous_geometry: &previous_geometry,
                 short_history: &short_history,
                 history: &history,
-                moments: &moments,
                 output: &output,
                 gradients,
                 scratch: &scratch,
@@ -663,7 +668,6 @@ impl Denoiser {
             previous_geometry,
             short_history,
             history,
-            moments,
             output,
             scratch,
             owns_lent,
@@ -730,7 +734,6 @@ impl Denoiser {
             &self.previous_geometry,
             &self.short_history,
             &self.history,
-            &self.moments,
         ]
         .into_iter()
         .chain(

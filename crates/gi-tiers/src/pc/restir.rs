@@ -20,8 +20,14 @@ const TILE: u32 = 8;
 const SPECULAR_NOISY_PIXEL_BYTES: u64 = 8;
 /// Bytes per pixel of `irradiance` (`pack_color64`).
 const IRRADIANCE_PIXEL_BYTES: u64 = 8;
-/// Bytes per pixel of the specular history and `specular_reprojected` (`pack_color64`).
-const SPECULAR_HISTORY_PIXEL_BYTES: u64 = 8;
+/// Bytes per pixel of `specular_reprojected`: a whole specular history entry (its RGB9E5 value
+/// and its byte of length and kind, `pack_specular_history`).
+const SPECULAR_REPROJECTED_PIXEL_BYTES: u64 = 8;
+/// Bytes of the specular history for `pixels` pixels: the values (RGB9E5), then the bytes of
+/// length and kind, four to a word.
+fn specular_history_bytes(pixels: u64) -> u64 {
+    4 * pixels + 4 * pixels.div_ceil(4)
+}
 
 /// The compute pipelines of `shaders/pc/restir/`, each from its pass's file, and their
 /// layouts, compiled once per tier; cloning shares them.
@@ -225,9 +231,10 @@ pub(super) struct RestirBuffers {
     /// to its second); then the denoiser's scratch (`LentBuffers::scratch`: from its first
     /// pass to its last).
     pub(super) resolved: wgpu::Buffer,
-    /// Per pixel: the specular history (radiance or ratio and length, `pack_color64`),
-    /// updated in place: `pc/specular_temporal` first copies what each pixel reprojects to
-    /// into `specular_reprojected`.
+    /// The specular history, 5 bytes a pixel: per pixel the radiance or ratio (RGB9E5,
+    /// rounded stochastically), then a byte per pixel with the length and the kind
+    /// (`pack_specular_history`), updated in place: `pc/specular_temporal` first copies what
+    /// each pixel reprojects to into `specular_reprojected`.
     pub(super) specular_history: wgpu::Buffer,
     pub(super) output: wgpu::Buffer,
     /// The temporal gradients' strata; `None`: gradients off.
@@ -287,10 +294,10 @@ impl RestirBuffers {
             resolved: buffer(
                 "pc.resolved",
                 reservoirs
-                    .max(pixels * SPECULAR_HISTORY_PIXEL_BYTES)
+                    .max(pixels * SPECULAR_REPROJECTED_PIXEL_BYTES)
                     .max(pixels * SCRATCH_PIXEL_BYTES),
             ),
-            specular_history: buffer("pc.specular_history", pixels * SPECULAR_HISTORY_PIXEL_BYTES),
+            specular_history: buffer("pc.specular_history", specular_history_bytes(pixels)),
             rays: buffer(
                 "pc.rays",
                 (traced * size_of::<GpuSpecularSample>() as u64)
