@@ -780,13 +780,13 @@ fn dynamic_pixels_follow_the_moving_objects() {
 }
 
 /// The screen buffers' budget: buffers whose roles do not live at once within a frame share
-/// memory (`RestirBuffers`), the histories are packed and updated in place, and the whole
-/// stays within 54 bytes a pixel at the default trace scale (105 MiB at 1920x1080; 108 bytes,
-/// 214 MiB, before the sharing). A pass given a buffer of its own again, a history unpacked or
-/// ping-ponged, breaks it.
+/// memory (`RestirBuffers`), the histories are packed and updated in place, the receivers are
+/// their pixels alone, and the whole stays within 48.5 bytes a pixel at the default trace
+/// scale (96 MiB at 1920x1080, 95.4 measured; 108 bytes, 214 MiB, before the sharing). A pass
+/// given a buffer of its own again, a history unpacked or ping-ponged, breaks it.
 #[test]
-fn the_screen_buffers_stay_within_54_bytes_a_pixel() {
-    let Some(ctx) = GpuContext::new_or_skip("the_screen_buffers_stay_within_54_bytes_a_pixel")
+fn the_screen_buffers_stay_within_96_mib_at_1080p() {
+    let Some(ctx) = GpuContext::new_or_skip("the_screen_buffers_stay_within_96_mib_at_1080p")
     else {
         return;
     };
@@ -797,15 +797,17 @@ fn the_screen_buffers_stay_within_54_bytes_a_pixel() {
     let per_pixel = tier.memory().screen_bytes as f64 / pixels;
     eprintln!("screen buffers: {per_pixel:.2} bytes a pixel");
     assert!(
-        per_pixel <= 54.0,
+        per_pixel <= 48.5,
         "{per_pixel:.2} bytes a pixel: {:?}",
         tier.context().memory().by_label
     );
 }
 
 /// Temporal reuse is off by default: its two reservoir buffers then hold one reservoir each
-/// (they are never read), and switched on a reservoir per trace pixel each; the previous
-/// frame's receivers, which only it reads, take a buffer of their own only with it.
+/// (they are never read), and switched on a reservoir per trace pixel each; the receivers kept
+/// whole for the next frame, which only it reads, take two buffers only with it (without, one
+/// buffer of a binding's least size, 16 bytes, stands in: this frame's receivers are their
+/// pixels alone).
 #[test]
 fn the_temporal_reservoirs_take_memory_only_with_temporal_reuse() {
     let Some(ctx) = GpuContext::new_or_skip("the_temporal_reservoirs_take_memory") else {
@@ -827,7 +829,7 @@ fn the_temporal_reservoirs_take_memory_only_with_temporal_reuse() {
     // The unused buffers hold one reservoir each (a binding's least size).
     assert_eq!(
         with - without,
-        2 * (trace_pixels - 1) * reservoir + trace_pixels * surface
+        2 * (trace_pixels - 1) * reservoir + 2 * trace_pixels * surface - 16
     );
 }
 

@@ -8,7 +8,7 @@
 
 #import gi::pc::restir::common::{
     uniforms, Surface, StoredSurface, StoredReservoir, SpecularSample, specular_kind,
-    pixel_point, surface_seen_by
+    pixel_point, surface_seen_by, receiver_at, NO_RECEIVER
 }
 
 @group(0) @binding(8) var<storage, read> gbuffer_depth: array<f32>;
@@ -16,8 +16,10 @@
 @group(0) @binding(10) var<storage, read> gbuffer_base_color: array<vec4<f32>>;
 @group(0) @binding(11) var<storage, read> gbuffer_metallic_roughness: array<vec2<f32>>;
 @group(0) @binding(12) var<storage, read> gbuffer_motion: array<vec2<f32>>;
-// Per trace pixel: this frame's receivers and the previous frame's.
-@group(0) @binding(13) var<storage, read> surfaces: array<StoredSurface>;
+// Per trace pixel: this frame's receiver's pixel (`receiver_entry`; its depth and normal are
+// the G-buffer's there), and the previous frame's receivers as `trace` kept them (with
+// temporal reuse only).
+@group(0) @binding(13) var<storage, read> receivers: array<u32>;
 @group(0) @binding(14) var<storage, read> surfaces_prev: array<StoredSurface>;
 // Per trace pixel: this frame's new reservoirs (`trace`). `initial`, `specular_noisy` and
 // `denoised` are one buffer in turn (`RestirBuffers::transient`), so all three are read_write:
@@ -75,7 +77,12 @@ fn world_position(p: vec2<u32>, depth: f32) -> vec3<f32> {
 
 // This frame's receiver of trace pixel `index`.
 fn load_surface(index: u32) -> Surface {
-    return surface_seen_by(surfaces[index], uniforms.camera);
+    let xy = receivers[index];
+    if xy == NO_RECEIVER {
+        return Surface(vec3(0.0), 0u, 0u, 0.0);
+    }
+    let pixel = (xy >> 16u) * uniforms.size_px.x + (xy & 0xffffu);
+    return receiver_at(xy, gbuffer_depth[pixel], gbuffer_normal[pixel]);
 }
 
 // The previous frame's receiver of trace pixel `index`.

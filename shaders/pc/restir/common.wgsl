@@ -182,6 +182,27 @@ fn stored_surface(s: Surface) -> StoredSurface {
     return StoredSurface((s.pixel % width) | ((s.pixel / width) << 16u), s.depth, s.normal);
 }
 
+// A trace pixel without a receiver, in the receivers' buffer (which holds pixels' x | y << 16).
+const NO_RECEIVER: u32 = 0xffffffffu;
+
+// The receivers' entry of `s`: its pixel's column and row, or NO_RECEIVER.
+fn receiver_entry(s: Surface) -> u32 {
+    if s.depth <= 0.0 {
+        return NO_RECEIVER;
+    }
+    let width = uniforms.size_px.x;
+    return (s.pixel % width) | ((s.pixel / width) << 16u);
+}
+
+// The receiver whose pixel's column and row are `xy` (x | y << 16), with this frame's G-buffer
+// depth and normal there (`receiver_entry`'s inverse; a receiver is this frame's G-buffer
+// surface at its pixel, so only the pixel is kept).
+fn receiver_at(xy: u32, depth: f32, normal: u32) -> Surface {
+    let p = vec2(xy & 0xffffu, xy >> 16u);
+    let pixel = p.y * uniforms.size_px.x + p.x;
+    return Surface(pixel_point(uniforms.camera, p, depth), normal, pixel, depth);
+}
+
 // The receiver `s` keeps, picked in a frame rendered through `camera`.
 fn surface_seen_by(s: StoredSurface, camera: Camera) -> Surface {
     let p = vec2(s.pixel_xy & 0xffffu, s.pixel_xy >> 16u);

@@ -8,7 +8,8 @@
 
 #import gi::pc::restir::common::{
     uniforms, Surface, StoredSurface, StoredReservoir, SpecularSample, stored_surface,
-    surface_seen_by, GradientSample, GRADIENT_NONE, gradient_pick
+    GradientSample, GRADIENT_NONE, gradient_pick, receiver_entry, receiver_at, NO_RECEIVER,
+    FLAG_TEMPORAL
 }
 
 // Shadow rays stop short of their target by this share of the distance.
@@ -16,8 +17,9 @@ const SHADOW_MARGIN: f32 = 1e-3;
 
 @group(0) @binding(8) var<storage, read> gbuffer_depth: array<f32>;
 @group(0) @binding(9) var<storage, read> gbuffer_normal: array<u32>;
-// Per trace pixel: this frame's receiver (written by `trace`).
-@group(0) @binding(10) var<storage, read_write> surfaces: array<StoredSurface>;
+// Per trace pixel: this frame's receiver's pixel (written by `trace`, `receiver_entry`; its
+// depth and normal are the G-buffer's there).
+@group(0) @binding(10) var<storage, read_write> receivers: array<u32>;
 // Per trace pixel: the initial reservoir (written by `trace`).
 @group(0) @binding(11) var<storage, read_write> initial: array<StoredReservoir>;
 // Per trace pixel: the temporal reuse's result (read by `shadow`).
@@ -38,14 +40,27 @@ const SHADOW_MARGIN: f32 = 1e-3;
 // cache and where the cache measured a change, y: the larger of the two luminances of all the
 // ray found), and `gradient_filter`'s lambda (z) over the strata around it.
 @group(0) @binding(18) var<storage, read_write> gradients: array<vec4<f32>>;
+// Per trace pixel with temporal reuse: this frame's receiver whole, kept for the next frame's
+// temporal reuse (the G-buffer will have moved on by then).
+@group(0) @binding(19) var<storage, read_write> surfaces: array<StoredSurface>;
 
 // This frame's receiver of trace pixel `index`.
 fn load_surface(index: u32) -> Surface {
-    return surface_seen_by(surfaces[index], uniforms.camera);
+    let xy = receivers[index];
+    if xy == NO_RECEIVER {
+        return Surface(vec3(0.0), 0u, 0u, 0.0);
+    }
+    let pixel = (xy >> 16u) * uniforms.size_px.x + (xy & 0xffffu);
+    return receiver_at(xy, gbuffer_depth[pixel], gbuffer_normal[pixel]);
 }
 
+// Keeps this frame's receiver of trace pixel `index`: its pixel, and with temporal reuse the
+// whole surface for the next frame.
 fn store_surface(index: u32, s: Surface) {
-    surfaces[index] = stored_surface(s);
+    receivers[index] = receiver_entry(s);
+    if (uniforms.flags & FLAG_TEMPORAL) != 0u {
+        surfaces[index] = stored_surface(s);
+    }
 }
 
 // `p` pushed off its surface along `n` by a margin relative to its magnitude (the reference's

@@ -133,8 +133,8 @@ gi_gpu::storage_bindings! {
     struct TraceBindings from 8 {
         gbuffer_depth: read,
         gbuffer_normal: read,
-        /// This frame's receivers, picked by `trace`.
-        surfaces: read_write,
+        /// This frame's receivers' pixels, picked by `trace`.
+        receivers: read_write,
         initial: read_write,
         /// The temporal reservoirs the shadow pass falls back to.
         temporal: read,
@@ -146,6 +146,8 @@ gi_gpu::storage_bindings! {
         gradient_samples: read_write,
         /// The gradients and their lambda, one per stratum.
         gradients: read_write,
+        /// This frame's receivers whole, kept for the next frame's temporal reuse.
+        surfaces: read_write,
     }
 }
 
@@ -160,7 +162,7 @@ gi_gpu::storage_bindings! {
         gbuffer_base_color: read,
         gbuffer_metallic_roughness: read,
         gbuffer_motion: read,
-        surfaces: read,
+        receivers: read,
         surfaces_prev: read,
         /// `initial`, `specular_noisy` and `denoised` are one buffer
         /// ([`RestirBuffers::transient`]).
@@ -187,8 +189,9 @@ gi_gpu::storage_bindings! {
 
 /// What one frame of the PC tier writes and the next reads as its history.
 struct FrameBuffers {
-    /// Receivers, one per trace pixel. Without temporal reuse, the only pass that reads the
-    /// previous frame's, both sides are one buffer.
+    /// Receivers whole (`GpuSurface`), one per trace pixel, kept for the next frame's temporal
+    /// reuse. Without it, the only pass that reads them, both sides are one buffer of one
+    /// entry, never written.
     surfaces: wgpu::Buffer,
     /// Temporal reservoirs, one per trace pixel (one in all without temporal reuse: never
     /// read then).
@@ -209,6 +212,9 @@ pub(super) struct RestirBuffers {
     pub(super) uniforms: wgpu::Buffer,
     /// This frame's and the previous frame's, swapped at the end of a frame.
     frames: PingPong<FrameBuffers>,
+    /// Per trace pixel: this frame's receiver's pixel (x | y << 16, `u32::MAX` for none); its
+    /// depth and normal are the G-buffer's there, so they are not kept.
+    receivers: wgpu::Buffer,
     /// The next three buffers each serve several roles whose lives within a frame do not
     /// overlap, bound under each role's name; every name bound to one of them is `read_write`
     /// (a dispatch may not bind a buffer both read-only and writable). Each is sized for its
@@ -271,7 +277,7 @@ impl RestirBuffers {
         // A binding holds at least one element.
         let one = size_of::<GpuReservoir>() as u64;
         let surfaces = traced * size_of::<GpuSurface>() as u64;
-        let shared_surfaces = (!temporal).then(|| buffer("pc.surfaces", surfaces));
+        let shared_surfaces = (!temporal).then(|| buffer("pc.surfaces", 0));
         Self {
             trace_size,
             uniforms: ctx.create_buffer(
@@ -285,6 +291,7 @@ impl RestirBuffers {
                     .unwrap_or_else(|| buffer("pc.surfaces", surfaces)),
                 temporal: buffer("pc.temporal", if temporal { reservoirs } else { one }),
             }),
+            receivers: buffer("pc.receivers", traced * 4),
             transient: buffer(
                 "pc.transient",
                 reservoirs
@@ -341,6 +348,7 @@ impl RestirBuffers {
         }
         for buffer in [
             &self.uniforms,
+            &self.receivers,
             &self.transient,
             &self.resolved,
             &self.specular_history,
@@ -411,7 +419,7 @@ impl RestirBuffers {
             TraceBindings {
                 gbuffer_depth: g.depth,
                 gbuffer_normal: g.normal,
-                surfaces: &frame.surfaces,
+                receivers: &b.receivers,
                 initial: &b.transient,
                 temporal: &frame.temporal,
                 resolved: &b.resolved,
@@ -420,6 +428,7 @@ impl RestirBuffers {
                 specular_samples: &b.rays,
                 gradient_samples: &b.gradient_samples,
                 gradients: &b.gradients,
+                surfaces: &frame.surfaces,
             }
             .entries(),
         );
@@ -447,7 +456,7 @@ impl RestirBuffers {
                 gbuffer_base_color: g.base_color,
                 gbuffer_metallic_roughness: g.metallic_roughness,
                 gbuffer_motion: g.motion,
-                surfaces: &frame.surfaces,
+                receivers: &b.receivers,
                 surfaces_prev: &previous.surfaces,
                 initial: &b.transient,
                 temporal_out: &frame.temporal,
