@@ -166,8 +166,10 @@ pub struct GpuSpecularSample {
 }
 
 /// Mirror of `StoredSurface` in `shaders/pc/restir/common.wgsl`, 12 bytes: one trace pixel's
-/// receiver. Its position is not kept: the shaders compute it from the pixel and the depth
-/// with the camera of the frame.
+/// receiver, kept whole only for the next frame's temporal reuse (this frame's receivers are
+/// their pixels alone, `pc.receivers`: their depth and normal are the G-buffer's there). Its
+/// position is not kept: the shaders compute it from the pixel and the depth with the camera
+/// of the frame.
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
 pub struct GpuSurface {
