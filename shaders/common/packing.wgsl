@@ -41,17 +41,7 @@ fn unpack_unit_vector(packed: u32) -> vec3<f32> {
 // Non-negative linear RGB in 32 bits: three 9-bit mantissas sharing a 5-bit exponent
 // (values clamp to 65408; relative precision about 1/512 of the largest channel).
 fn pack_rgb9e5(rgb: vec3<f32>) -> u32 {
-    let max_value = 65408.0;
-    let c = clamp(rgb, vec3<f32>(0.0), vec3<f32>(max_value));
-    let max_channel = max(max(c.r, c.g), c.b);
-    var exponent = max(-16, i32(floor(log2(max(max_channel, 1e-30))))) + 1 + 15;
-    var scale = exp2(f32(exponent - 15 - 9));
-    if u32(floor(max_channel / scale + 0.5)) == 512u {
-        exponent += 1;
-        scale *= 2.0;
-    }
-    let m = vec3<u32>(floor(c / scale + 0.5));
-    return m.r | (m.g << 9u) | (m.b << 18u) | (u32(exponent) << 27u);
+    return pack_rgb9e5_offset(rgb, 0.5, 0.5);
 }
 
 // `pack_rgb9e5` rounded stochastically: each mantissa is floor(x + u) for `u` uniform in
@@ -59,17 +49,23 @@ fn pack_rgb9e5(rgb: vec3<f32>) -> u32 {
 // blended towards a value less than half a step away never moves). One step is at most
 // 2^-8 of the largest channel.
 fn pack_rgb9e5_dithered(rgb: vec3<f32>, u: f32) -> u32 {
+    return pack_rgb9e5_offset(rgb, u, 1.0);
+}
+
+// RGB9E5 with each mantissa floor(x + offset); the exponent leaves room for the largest offset
+// any call may use (`largest_offset`: 0.5 rounds to nearest, 1 any offset in [0, 1)).
+fn pack_rgb9e5_offset(rgb: vec3<f32>, offset: f32, largest_offset: f32) -> u32 {
     let max_value = 65408.0;
     let c = clamp(rgb, vec3<f32>(0.0), vec3<f32>(max_value));
     let max_channel = max(max(c.r, c.g), c.b);
     var exponent = max(-16, i32(floor(log2(max(max_channel, 1e-30))))) + 1 + 15;
     var scale = exp2(f32(exponent - 15 - 9));
-    // No `u` may carry the largest mantissa to 512.
-    if max_channel / scale > 511.0 {
+    // No offset may carry the largest mantissa to 512.
+    if max_channel / scale + largest_offset >= 512.0 {
         exponent += 1;
         scale *= 2.0;
     }
-    let m = min(vec3<u32>(floor(c / scale + u)), vec3(511u));
+    let m = vec3<u32>(floor(c / scale + offset));
     return m.r | (m.g << 9u) | (m.b << 18u) | (u32(exponent) << 27u);
 }
 

@@ -8,7 +8,7 @@
 
 #import gi::pc::restir::common::{
     uniforms, Surface, StoredSurface, StoredReservoir, SpecularSample, specular_kind,
-    pixel_point, surface_seen_by, receiver_at, NO_RECEIVER
+    pixel_point, surface_seen_by, receiver_at, receiver_pixel, NO_RECEIVER
 }
 
 @group(0) @binding(8) var<storage, read> gbuffer_depth: array<f32>;
@@ -81,8 +81,8 @@ fn load_surface(index: u32) -> Surface {
     if xy == NO_RECEIVER {
         return Surface(vec3(0.0), 0u, 0u, 0.0);
     }
-    let pixel = (xy >> 16u) * uniforms.size_px.x + (xy & 0xffffu);
-    return receiver_at(xy, gbuffer_depth[pixel], gbuffer_normal[pixel]);
+    let pixel = receiver_pixel(xy);
+    return receiver_at(xy, pixel, gbuffer_depth[pixel], gbuffer_normal[pixel]);
 }
 
 // The previous frame's receiver of trace pixel `index`.

@@ -194,12 +194,16 @@ fn receiver_entry(s: Surface) -> u32 {
     return (s.pixel % width) | ((s.pixel / width) << 16u);
 }
 
-// The receiver whose pixel's column and row are `xy` (x | y << 16), with this frame's G-buffer
-// depth and normal there (`receiver_entry`'s inverse; a receiver is this frame's G-buffer
-// surface at its pixel, so only the pixel is kept).
-fn receiver_at(xy: u32, depth: f32, normal: u32) -> Surface {
+// The row-major index of the pixel whose column and row are `xy` (x | y << 16).
+fn receiver_pixel(xy: u32) -> u32 {
+    return (xy >> 16u) * uniforms.size_px.x + (xy & 0xffffu);
+}
+
+// The receiver at `xy` (x | y << 16; `pixel`, its `receiver_pixel`), with this frame's
+// G-buffer depth and normal there (`receiver_entry`'s inverse; a receiver is this frame's
+// G-buffer surface at its pixel, so only the pixel is kept).
+fn receiver_at(xy: u32, pixel: u32, depth: f32, normal: u32) -> Surface {
     let p = vec2(xy & 0xffffu, xy >> 16u);
-    let pixel = p.y * uniforms.size_px.x + p.x;
     return Surface(pixel_point(uniforms.camera, p, depth), normal, pixel, depth);
 }
 

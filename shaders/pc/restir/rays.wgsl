@@ -8,8 +8,8 @@
 
 #import gi::pc::restir::common::{
     uniforms, Surface, StoredSurface, StoredReservoir, SpecularSample, stored_surface,
-    GradientSample, GRADIENT_NONE, gradient_pick, receiver_entry, receiver_at, NO_RECEIVER,
-    FLAG_TEMPORAL
+    GradientSample, GRADIENT_NONE, gradient_pick, receiver_entry, receiver_at, receiver_pixel,
+    NO_RECEIVER, FLAG_TEMPORAL
 }
 
 // Shadow rays stop short of their target by this share of the distance.
@@ -50,8 +50,8 @@ fn load_surface(index: u32) -> Surface {
     if xy == NO_RECEIVER {
         return Surface(vec3(0.0), 0u, 0u, 0.0);
     }
-    let pixel = (xy >> 16u) * uniforms.size_px.x + (xy & 0xffffu);
-    return receiver_at(xy, gbuffer_depth[pixel], gbuffer_normal[pixel]);
+    let pixel = receiver_pixel(xy);
+    return receiver_at(xy, pixel, gbuffer_depth[pixel], gbuffer_normal[pixel]);
 }
 
 // Keeps this frame's receiver of trace pixel `index`: its pixel, and with temporal reuse the
